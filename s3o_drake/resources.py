@@ -1,0 +1,27 @@
+"""Where the project's model files live, and a Drake parser that finds them."""
+
+from pathlib import Path
+
+from pydrake.multibody.parsing import Parser
+
+PACKAGE_NAME = "s3o_drake"
+MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
+
+
+def models_dir() -> Path:
+    """The `models/` folder (with its package.xml) of this checkout."""
+    if not (MODELS_DIR / "package.xml").is_file():
+        raise FileNotFoundError(
+            f"models/package.xml not found at {MODELS_DIR}; install s3o_drake from its "
+            "repository with `pip install -e .` so that the model files are next to the package"
+        )
+    return MODELS_DIR
+
+
+def make_parser(plant, scene_graph=None) -> Parser:
+    """A Parser for `plant` that resolves package://s3o_drake/... URLs."""
+    parser = Parser(plant, scene_graph) if scene_graph is not None else Parser(plant)
+    packages = parser.package_map()
+    if not packages.Contains(PACKAGE_NAME):
+        packages.Add(PACKAGE_NAME, str(models_dir()))
+    return parser
