@@ -1,0 +1,137 @@
+"""Simulate a scenario in Drake and save what happened.
+
+    python -m s3o_drake.run scenarios/restaurant.yaml
+
+Loads and validates the scenario, builds the restaurant and the mobile manipulator in a
+Drake diagram (MultibodyPlant, SceneGraph, overhead RgbdSensor, Meshcat), and simulates
+it. Until the planner lands, the robot holds its start pose for `simulation.hold_time`
+simulated seconds.
+
+Outputs, in `out/<scenario file stem>/` unless --out or `outputs.directory` says otherwise:
+  playback.html   a self-contained Meshcat recording; open it in a browser
+  overhead.png    the overhead camera's colour image at the start
+
+Exit status: 0 on success, 2 on bad input (one line on stderr naming the field; nothing is
+written).
+"""
+
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+from pydrake.geometry import Meshcat
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource
+
+from s3o_drake.cli import ArgumentParser, doc_formatter, fail
+from s3o_drake.scenario import Scenario, ScenarioError, load_scenario, scenario_stem
+from s3o_drake.world import build_world_diagram, robot_hold_state
+
+DIAGRAMS_DIR = Path(__file__).resolve().parent.parent / "diagrams"
+
+
+def build_run_diagram(scenario: Scenario, *, meshcat: Meshcat | None) -> Diagram:
+    """The world with a source that holds the robot at its start pose ("s3o_run")."""
+    builder = DiagramBuilder()
+    world = builder.AddNamedSystem("world", build_world_diagram(scenario, meshcat=meshcat))
+    hold = builder.AddNamedSystem("robot_hold", ConstantVectorSource(robot_hold_state(scenario)))
+    builder.Connect(hold.get_output_port(), world.GetInputPort("robot_desired_state"))
+    diagram = builder.Build()
+    diagram.set_name("s3o_run")
+    return diagram
+
+
+def overhead_image(diagram: Diagram, context) -> np.ndarray:
+    """The overhead camera's colour image as an RGB array."""
+    world = diagram.GetSubsystemByName("world")
+    image = world.GetOutputPort("overhead_color_image").Eval(
+        world.GetMyContextFromRoot(context))
+    return np.array(image.data[:, :, :3], copy=True)
+
+
+def write_graphviz(diagram: Diagram, directory: Path, name: str) -> list[Path]:
+    """Writes the diagram's Graphviz source, and an SVG when `dot` is installed."""
+    directory.mkdir(parents=True, exist_ok=True)
+    dot = directory / f"{name}.dot"
+    dot.write_text(diagram.GetGraphvizString(max_depth=2))
+    written = [dot]
+    if shutil.which("dot"):
+        svg = dot.with_suffix(".svg")
+        subprocess.run(["dot", "-Tsvg", str(dot), "-o", str(svg)], check=True)
+        written.append(svg)
+    return written
+
+
+def simulate(scenario: Scenario, *, meshcat: Meshcat, realtime: bool = False) -> tuple:
+    """Builds and runs the diagram; returns (diagram, overhead image, playback HTML)."""
+    diagram = build_run_diagram(scenario, meshcat=meshcat)
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    simulator.Initialize()
+    image = overhead_image(diagram, context)
+    visualizer = diagram.GetSubsystemByName("world").GetSubsystemByName("meshcat_visualizer")
+    visualizer.StartRecording(set_transforms_while_recording=realtime)
+    if realtime:
+        simulator.set_target_realtime_rate(1.0)
+    simulator.AdvanceTo(scenario.simulation.hold_time)
+    visualizer.StopRecording()
+    visualizer.PublishRecording()
+    return diagram, image, meshcat.StaticHtml()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = ArgumentParser(prog="python -m s3o_drake.run", description=__doc__,
+                            formatter_class=doc_formatter())
+    parser.add_argument("scenario", help="the scenario YAML file")
+    parser.add_argument("--out", metavar="DIR",
+                        help="output folder (default: out/<scenario file stem>/)")
+    parser.add_argument("--meshcat", action="store_true",
+                        help="also serve a live Meshcat, print its URL and simulate in real "
+                             "time so that it can be watched")
+    parser.add_argument("--graphviz", action="store_true",
+                        help="write the diagram's Graphviz (.dot, and .svg when Graphviz is "
+                             f"installed) under {DIAGRAMS_DIR.name}/")
+    args = parser.parse_args(argv)
+
+    try:
+        scenario = load_scenario(args.scenario)
+    except ScenarioError as e:
+        fail(f"{args.scenario}: {e}")
+    out = Path(args.out or scenario.outputs.directory or Path("out") / scenario_stem(args.scenario))
+    if out.exists() and not out.is_dir():
+        fail(f"--out: {out} exists and is not a folder")
+
+    meshcat = Meshcat()
+    if args.meshcat:
+        print(f"Meshcat: {meshcat.web_url()}", flush=True)
+    start = time.perf_counter()
+    diagram, image, html = simulate(scenario, meshcat=meshcat, realtime=args.meshcat)
+    elapsed = time.perf_counter() - start
+
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    if scenario.outputs.overhead:
+        cv2.imwrite(str(out / "overhead.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+        written.append(out / "overhead.png")
+    if scenario.outputs.playback:
+        (out / "playback.html").write_text(html)
+        written.append(out / "playback.html")
+    if args.graphviz:
+        written += write_graphviz(diagram, DIAGRAMS_DIR, "run")
+
+    print(f"Simulated {scenario.simulation.hold_time:g} s of {scenario_stem(args.scenario)} "
+          f"in {elapsed:.1f} s wall time.")
+    for path in written:
+        print(f"  wrote {path}")
+    if args.meshcat and sys.stdin.isatty():
+        input("Meshcat is still serving; press Enter to exit.")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

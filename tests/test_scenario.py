@@ -1,0 +1,169 @@
+"""Scenario loading and validation: good files load, bad ones name the field."""
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+import yaml
+
+from s3o_drake.run import main as run_main
+from s3o_drake.scenario import (
+    METHODS,
+    ScenarioError,
+    dump_scenario,
+    load_scenario,
+    parse_scenario,
+)
+
+REPO = Path(__file__).resolve().parent.parent
+SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
+
+
+def test_restaurant_loads_with_the_papers_room():
+    scenario = load_scenario(REPO / "scenarios" / "restaurant.yaml")
+    assert len(scenario.tables) == 7
+    assert len(scenario.dishes) == 6
+    assert len(scenario.chairs) == 6
+    assert not any(chair.mapped for chair in scenario.chairs)
+    lengths = sorted(max(t.size[:2]) for t in scenario.tables)
+    assert lengths[-1] > 2 * lengths[-2]  # one long bar table
+    assert lengths[0] == lengths[3] < lengths[4] == lengths[5]  # four small, two mid-sized
+    p = scenario.planner
+    assert (p.delta, p.gamma, p.reward, p.speed, p.top_k) == (5.0, 20.0, 150.0, 0.4, 5)
+    assert (p.cma_generations, p.cma_population) == (20, 10)
+
+
+def test_defaults_fill_what_a_file_leaves_out():
+    scenario = parse_scenario("robot: {start: [1.5, 1.5, 0.0]}\n")
+    assert scenario.uncertainty.nav_xy_std == pytest.approx(0.10)
+    assert scenario.uncertainty.nav_yaw_std == pytest.approx(0.05)
+    assert scenario.uncertainty.reach_std == pytest.approx(0.01)
+    assert scenario.planner.method == "S3O-GROP*"
+    assert scenario.planner.method in METHODS
+
+
+def test_dump_round_trips():
+    scenario = load_scenario(SMALL)
+    again = parse_scenario(dump_scenario(scenario))
+    assert dataclasses.asdict(again) == dataclasses.asdict(scenario)
+
+
+def _mutated(mutate) -> str:
+    data = yaml.safe_load(SMALL.read_text())
+    mutate(data)
+    return yaml.safe_dump(data)
+
+
+def _set(*keys_and_value):
+    *keys, value = keys_and_value
+
+    def mutate(data):
+        node = data
+        for key in keys[:-1]:
+            node = node[key]
+        node[keys[-1]] = value
+    return mutate
+
+
+def _append(key, item):
+    def mutate(data):
+        data.setdefault(key, []).append(item)
+    return mutate
+
+
+# (id, mutation, expected field path, a word the message must hold)
+MALFORMED = [
+    ("negative size", _set("tables", 0, "size", [1.2, -0.8, 0.04]), "tables[0].size",
+     "expected 3 positive numbers, got [1.2, -0.8, 0.04]"),
+    ("two-number size", _set("tables", 0, "size", [1.2, 0.8]), "tables[0].size",
+     "expected 3 positive numbers"),
+    ("string for number", _set("tables", 0, "height", "tall"), "tables[0].height",
+     "expected a number"),
+    ("unknown field", _set("tables", 0, "colour", "red"), "tables[0].colour", "unknown field"),
+    ("unknown top-level field", _set("robots", {}), "robots", "unknown field"),
+    ("dish off its table", _set("dishes", 0, "position", [3.5, 0.5]), "dishes[0].position",
+     "not on table 'table'"),
+    ("dish over the edge", _set("dishes", 0, "position", [2.55, 2.3]), "dishes[0].position",
+     "not on table"),
+    ("unknown table", _set("dishes", 1, "table", "bar"), "dishes[1].table",
+     "no table named 'bar'"),
+    ("unknown dish kind", _set("dishes", 1, "kind", "teapot"), "dishes[1].kind",
+     "unknown kind 'teapot'"),
+    ("overlapping dishes", _set("dishes", 1, "position", [1.9, 2.3]), "dishes[1].position",
+     "overlaps"),
+    ("overlapping tables", _append("tables", {"name": "other", "center": [2.6, 2.5],
+                                              "size": [1.0, 1.0, 0.04]}), "tables[1]",
+     "overlaps table 'table'"),
+    ("chair through a table", _set("chairs", 0, "pose", [2.0, 2.8, 0.0]), "chairs[0].pose",
+     "overlaps table 'table'"),
+    ("robot starts in a table", _set("robot", "start", [2.0, 2.0, 0.0]), "robot.start",
+     "overlaps table 'table'"),
+    ("robot starts in a chair", _set("robot", "start", [2.3, 3.4, 0.0]), "robot.start",
+     "chair 'chair'"),
+    ("robot starts outside", _set("robot", "start", [-1.0, 1.0, 0.0]), "robot.start",
+     "outside the room"),
+    ("table outside the room", _set("tables", 0, "center", [3.8, 2.5]), "tables[0].center",
+     "outside the room"),
+    ("nan position", _set("dishes", 0, "position", [float("nan"), 2.3]),
+     "dishes[0].position[0]", "finite"),
+    ("inf yaw", _set("chairs", 0, "pose", [2.0, 3.35, float("inf")]), "chairs[0].pose[2]",
+     "finite"),
+    ("nan setting", _set("planner", {"speed": float("nan")}), "planner.speed", "finite"),
+    ("unknown method", _set("planner", {"method": "RRT"}), "planner.method",
+     "unknown method 'RRT'"),
+    ("zero speed", _set("planner", {"speed": 0.0}), "planner.speed", "greater than 0"),
+    ("negative noise", _set("uncertainty", {"nav_xy_std": -0.1}), "uncertainty.nav_xy_std",
+     "at least 0"),
+    ("float for int", _set("planner", {"top_k": 2.5}), "planner.top_k", "expected an integer"),
+    ("duplicate names", _set("dishes", 1, "name", "plate_a"), "dishes[1].name",
+     "duplicate name 'plate_a'"),
+    ("bad name", _set("tables", 0, "name", "my table"), "tables[0].name", "letters"),
+    ("tables not a list", _set("tables", {"name": "t"}), "tables", "expected a list"),
+    ("bad bounds", _set("room", "bounds", [0.0, 0.0, 4.0]), "room.bounds", "expected 4"),
+    ("camera below the tables", _set("camera", "height", 1.0), "camera.height", "above"),
+    ("bool for number", _set("simulation", "hold_time", True), "simulation.hold_time",
+     "expected a number"),
+    ("chair overlaps chair", _append("chairs", {"name": "chair_2", "pose": [2.1, 3.4, 0.0]}),
+     "chairs[1].pose", "overlaps chair 'chair'"),
+]
+
+
+@pytest.mark.parametrize(("mutation", "path", "words"),
+                         [m[1:] for m in MALFORMED], ids=[m[0] for m in MALFORMED])
+def test_malformed_scenarios_name_the_field(mutation, path, words, tmp_path, capsys):
+    text = _mutated(mutation)
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text)
+    assert info.value.path == path
+    assert words in str(info.value)
+
+    # The command line reports it as one line, exit status 2, and writes nothing.
+    scenario = tmp_path / "bad.yaml"
+    scenario.write_text(text)
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exit_info:
+        run_main([str(scenario), "--out", str(out)])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert f"{path}: " in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_not_yaml_names_the_line(tmp_path):
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario("room:\n  bounds: [0, 0, 4\n")
+    assert info.value.path.startswith("line ")
+
+
+def test_missing_file_is_bad_input(tmp_path, capsys):
+    with pytest.raises(SystemExit) as info:
+        run_main([str(tmp_path / "nope.yaml")])
+    assert info.value.code == 2
+    assert "no such scenario file" in capsys.readouterr().err
+
+
+def test_nan_is_caught_even_in_yaml_spelling():
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario("planner: {reach: .nan}\n")
+    assert info.value.path == "planner.reach"
