@@ -1,0 +1,57 @@
+"""The benchmark task generator: valid tasks by the paper's protocol, the same per seed."""
+
+import math
+from pathlib import Path
+
+import pytest
+
+from s3o_drake.generate import generate_task
+from s3o_drake.generate import main as generate_main
+from s3o_drake.scenario import load_scenario
+
+REPO = Path(__file__).resolve().parent.parent
+BASE = REPO / "scenarios" / "restaurant.yaml"
+
+
+def test_tasks_are_valid_and_follow_the_protocol(tmp_path):
+    assert generate_main(["--count", "8", "--seed", "0", "--out", str(tmp_path), "--quiet"]) == 0
+    base = load_scenario(BASE)
+    files = sorted(tmp_path.glob("task_*.yaml"))
+    assert [f.name for f in files] == [f"task_{i:03d}.yaml" for i in range(8)]
+    counts = set()
+    for f in files:
+        task = load_scenario(f)  # validates: dishes on tables, no overlaps, robot free
+        assert task.tables == base.tables
+        assert task.robot == base.robot
+        assert 5 <= len(task.dishes) <= 7
+        counts.add(len(task.dishes))
+        assert len(task.chairs) == len(task.dishes)
+        for dish, chair in zip(task.dishes, task.chairs, strict=True):
+            assert not chair.mapped
+            assert math.dist(dish.position, chair.pose[:2]) <= 1.0
+    assert len(counts) > 1  # the dish count varies
+
+
+def test_same_seed_same_files_other_seed_other_files(tmp_path):
+    a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
+    for out, seed in ((a, "3"), (b, "3"), (c, "4")):
+        generate_main(["--count", "3", "--seed", seed, "--out", str(out), "--quiet"])
+    for name in ("task_000.yaml", "task_001.yaml", "task_002.yaml"):
+        assert (a / name).read_bytes() == (b / name).read_bytes()
+    assert (a / "task_000.yaml").read_bytes() != (c / "task_000.yaml").read_bytes()
+
+
+def test_a_task_depends_only_on_seed_and_index():
+    base = load_scenario(BASE)
+    assert generate_task(base, 7, 5) == generate_task(base, 7, 5)
+    assert generate_task(base, 7, 5) != generate_task(base, 7, 6)
+
+
+@pytest.mark.parametrize("args", [["--count", "0"], ["--seed", "-1"], ["--count", "x"]])
+def test_bad_arguments_exit_2_and_write_nothing(args, tmp_path, capsys):
+    out = tmp_path / "tasks"
+    with pytest.raises(SystemExit) as info:
+        generate_main([*args, "--out", str(out)])
+    assert info.value.code == 2
+    assert capsys.readouterr().err.count("\n") == 1
+    assert not out.exists()
