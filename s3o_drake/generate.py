@@ -14,9 +14,7 @@ Existing files are overwritten; a file is written whole or not at all.
 """
 
 import math
-import os
 import sys
-import tempfile
 from dataclasses import replace
 from pathlib import Path
 
@@ -25,6 +23,7 @@ from tqdm import tqdm
 
 from s3o_drake.cli import ArgumentParser, doc_formatter, fail
 from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES, chair_footprint, table_footprint
+from s3o_drake.io import write_atomically
 from s3o_drake.robot import footprint_polygon
 from s3o_drake.scenario import (
     Chair,
@@ -121,13 +120,6 @@ def generate_task(base: Scenario, seed: int, index: int) -> Scenario:
     raise GenerationError(f"could not generate task {index} with seed {seed}")
 
 
-def _write_atomically(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m s3o_drake.generate", description=__doc__,
                             formatter_class=doc_formatter())
@@ -157,7 +149,7 @@ def main(argv: list[str] | None = None) -> int:
               f"from {Path(args.base).name}.\n")
     for i in tqdm(range(args.count), desc="tasks", unit="task", disable=args.quiet):
         task = generate_task(base, args.seed, i)
-        _write_atomically(out / f"task_{i:03d}.yaml", header + dump_scenario(task))
+        write_atomically(out / f"task_{i:03d}.yaml", header + dump_scenario(task))
     print(f"wrote {args.count} tasks to {out}/")
     return 0
 

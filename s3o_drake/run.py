@@ -15,6 +15,7 @@ Exit status: 0 on success, 2 on bad input (one line on stderr naming the field; 
 written).
 """
 
+import logging
 import shutil
 import subprocess
 import sys
@@ -29,6 +30,7 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
 from s3o_drake.cli import ArgumentParser, doc_formatter, fail
+from s3o_drake.io import write_atomically
 from s3o_drake.scenario import Scenario, ScenarioError, load_scenario, scenario_stem
 from s3o_drake.world import build_world_diagram, robot_hold_state
 
@@ -106,6 +108,8 @@ def main(argv: list[str] | None = None) -> int:
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} exists and is not a folder")
 
+    if not args.meshcat:  # the recording needs a Meshcat, but nobody is watching it live
+        logging.getLogger("drake").setLevel(logging.WARNING)
     meshcat = Meshcat()
     if args.meshcat:
         print(f"Meshcat: {meshcat.web_url()}", flush=True)
@@ -116,10 +120,11 @@ def main(argv: list[str] | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     written = []
     if scenario.outputs.overhead:
-        cv2.imwrite(str(out / "overhead.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+        _, png = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+        write_atomically(out / "overhead.png", png.tobytes())
         written.append(out / "overhead.png")
     if scenario.outputs.playback:
-        (out / "playback.html").write_text(html)
+        write_atomically(out / "playback.html", html)
         written.append(out / "playback.html")
     if args.graphviz:
         written += write_graphviz(diagram, DIAGRAMS_DIR, "run")
