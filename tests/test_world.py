@@ -8,9 +8,11 @@ from pydrake.geometry import Role
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.planning import RobotDiagramBuilder
+from pydrake.systems.analysis import Simulator
 
 from s3o_drake.camera import overhead_camera
 from s3o_drake.furniture import DISH_SHAPES
+from s3o_drake.run import build_run_diagram
 from s3o_drake.scenario import load_scenario
 from s3o_drake.world import build_world_diagram, populate_plant, robot_hold_state
 
@@ -136,3 +138,16 @@ def test_camera_maps_pixels_back_to_the_floor():
     u1, v1 = camera.pixel_of([4.0, 4.0, 0.0])
     assert 0 < u0 < u1 < camera.width and 0 < v1 < v0 < camera.height
     assert isinstance(camera.X_WC, RigidTransform)
+
+
+def test_robot_holds_its_start_pose_in_simulation():
+    scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
+    diagram = build_run_diagram(scenario, meshcat=None)
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo(0.5)
+    world = diagram.GetSubsystemByName("world")
+    x = world.GetOutputPort("robot_state").Eval(
+        world.GetMyContextFromRoot(simulator.get_context()))
+    hold = robot_hold_state(scenario)
+    np.testing.assert_allclose(x[:11], hold[:11], atol=1e-3)
+    np.testing.assert_allclose(x[11:], 0.0, atol=1e-3)
