@@ -1,0 +1,95 @@
+"""The world as the feasibility checks see it: a RobotDiagram and a collision checker.
+
+A `FeasibilityScene` holds the robot, the tables, the dishes and the chairs of a scenario in
+a `RobotDiagram` (plant + scene graph, no simulation), and a `SceneGraphCollisionChecker`
+over the robot's 11 positions with a padding between robot and environment. Which chairs it
+holds is the caller's choice: the scenario's own (ground truth, for labels) or the ones a
+perception system reported (what a planner may know), by passing a scenario whose `chairs`
+were replaced.
+"""
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import numpy as np
+from pydrake.math import RigidTransform
+from pydrake.planning import RobotDiagramBuilder, SceneGraphCollisionChecker
+
+from s3o_drake.robot import (
+    ARM_BASE_LINK,
+    ARM_MOUNT_XYZ,
+    ARM_STOW,
+    GRASP_FRAME,
+    GRIPPER_OPEN,
+    robot_positions,
+)
+from s3o_drake.scenario import Scenario
+from s3o_drake.world import populate_plant
+
+# Robot-environment clearance of a feasible configuration (m): the arm stays at least 1 cm
+# from every obstacle, and the base keeps the same small margin.
+ENVIRONMENT_PADDING = 0.01
+# Robot bodies that may touch the dish being grasped.
+GRIPPER_BODIES = ("gripper_base", "left_finger", "right_finger")
+# Collision checker edge step (rad or m); only used when checking motions.
+EDGE_STEP = 0.05
+
+
+class FeasibilityScene:
+    """Robot and environment for IK and collision queries, built once per scene."""
+
+    def __init__(self, scenario: Scenario, *, padding: float = ENVIRONMENT_PADDING):
+        self.scenario = scenario
+        builder = RobotDiagramBuilder(time_step=0.0)
+        self.models = populate_plant(builder.plant(), builder.scene_graph(), scenario)
+        builder.plant().Finalize()
+        self.diagram = builder.Build()
+        self.plant = self.diagram.plant()
+        self.robot = self.models.robot
+        self.checker = SceneGraphCollisionChecker(
+            model=self.diagram, robot_model_instances=[self.robot],
+            edge_step_size=EDGE_STEP, env_collision_padding=padding)
+        self.table_height = {t.name: t.height for t in scenario.tables}
+        self.dishes = {d.name: d for d in scenario.dishes}
+        self.grasp_frame = self.plant.GetFrameByName(GRASP_FRAME, self.robot)
+        self.arm_base_frame = self.plant.GetFrameByName(ARM_BASE_LINK, self.robot)
+
+    def q(self, base: np.ndarray, arm: np.ndarray = ARM_STOW,
+          gripper: np.ndarray = GRIPPER_OPEN) -> np.ndarray:
+        """The plant's positions (the robot's 11) for a base pose (x, y, yaw) and arm."""
+        return robot_positions(*base, arm=arm, gripper=gripper)
+
+    @staticmethod
+    def p_WA(base: np.ndarray) -> np.ndarray:
+        """Where the arm's base frame A is, for a base pose (x, y, yaw)."""
+        x, y, yaw = base
+        c, s = np.cos(yaw), np.sin(yaw)
+        mx, my, mz = ARM_MOUNT_XYZ
+        return np.array([x + c * mx - s * my, y + s * mx + c * my, mz])
+
+    def dish_p_WD(self, name: str) -> tuple[np.ndarray, float]:
+        """A dish's (x, y) and the height of the table top it stands on."""
+        dish = self.dishes[name]
+        return np.array(dish.position, dtype=float), self.table_height[dish.table]
+
+    def dish_body(self, name: str):
+        return self.plant.GetBodyByName("dish", self.models.dishes[name])
+
+    @contextmanager
+    def grasping(self, name: str) -> Iterator[None]:
+        """Within it, the gripper may touch the dish `name` (the one it grasps)."""
+        dish = self.dish_body(name)
+        bodies = [self.plant.GetBodyByName(b, self.robot) for b in GRIPPER_BODIES]
+        for body in bodies:
+            self.checker.SetCollisionFilteredBetween(body, dish, True)
+        try:
+            yield
+        finally:
+            for body in bodies:
+                self.checker.SetCollisionFilteredBetween(body, dish, False)
+
+    def grasp_pose(self, q: np.ndarray) -> RigidTransform:
+        """X_WG of the grasp frame at the robot positions q."""
+        context = self.plant.CreateDefaultContext()
+        self.plant.SetPositions(context, self.robot, q)
+        return self.grasp_frame.CalcPoseInWorld(context)
