@@ -33,6 +33,10 @@ OPENING_MARGIN = 0.03
 RIM_INSET = 0.01
 # Half the height of a finger pad seen from the side (m), for side grasps.
 PAD_HALF_HEIGHT = 0.015
+# Radius about the approach axis of what follows the grasp point along it (m): the gripper's
+# body (0.04) and the UR5e's wrist housings (0.045, models/robot). In a side grasp they pass
+# over the table top, so they set the lowest grasp height.
+WRIST_RADIUS = 0.045
 
 # Rotations of G in the frame whose x axis points along the bearing (z up).
 R_BEARING_TOP = RotationMatrix(np.array([[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]]).T)
@@ -68,7 +72,8 @@ def grasp_point_height(kind: str, table_height: float, grasp: str) -> float:
     if grasp == "top":
         fingertip_below_g = FINGERTIP_OFFSET - GRASP_OFFSET
         return table_height + max(0.6 * shape.height, fingertip_below_g + TABLE_CLEARANCE)
-    return table_height + max(0.5 * shape.height, PAD_HALF_HEIGHT + TABLE_CLEARANCE)
+    return table_height + max(0.5 * shape.height, PAD_HALF_HEIGHT + TABLE_CLEARANCE,
+                              WRIST_RADIUS + TABLE_CLEARANCE)
 
 
 def rotation_for(grasp: str, bearing: float) -> RotationMatrix:
