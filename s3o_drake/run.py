@@ -10,6 +10,8 @@ simulated seconds.
 Outputs, in `out/<scenario file stem>/` unless --out or `outputs.directory` says otherwise:
   playback.html   a self-contained Meshcat recording; open it in a browser
   overhead.png    the overhead camera's colour image at the start
+  feasibility.png each dish's Fea^m heatmap (4 m x 4 m, 64 x 64 cells, from the Drake
+                  feasibility check under the scenario's noise) over a top view of the room
 
 Exit status: 0 on success, 2 on bad input (one line on stderr naming the field; nothing is
 written).
@@ -29,11 +31,15 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
+from s3o_drake.camera import orthophoto, overhead_camera
 from s3o_drake.cli import ArgumentParser, doc_formatter, fail
+from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.io import write_atomically
+from s3o_drake.pictures import feasibility_figure
 from s3o_drake.scenario import Scenario, ScenarioError, load_scenario, scenario_stem
 from s3o_drake.world import build_world_diagram, robot_hold_state
 
+TOP_VIEW_CELL = 0.02  # m per pixel of the pictures' top view
 DIAGRAMS_DIR = Path(__file__).resolve().parent.parent / "diagrams"
 
 
@@ -48,12 +54,13 @@ def build_run_diagram(scenario: Scenario, *, meshcat: Meshcat | None) -> Diagram
     return diagram
 
 
-def overhead_image(diagram: Diagram, context) -> np.ndarray:
-    """The overhead camera's colour image as an RGB array."""
+def overhead_images(diagram: Diagram, context) -> tuple[np.ndarray, np.ndarray]:
+    """The overhead camera's colour (RGB) and depth (m) images."""
     world = diagram.GetSubsystemByName("world")
-    image = world.GetOutputPort("overhead_color_image").Eval(
-        world.GetMyContextFromRoot(context))
-    return np.array(image.data[:, :, :3], copy=True)
+    world_context = world.GetMyContextFromRoot(context)
+    color = world.GetOutputPort("overhead_color_image").Eval(world_context)
+    depth = world.GetOutputPort("overhead_depth_image").Eval(world_context)
+    return np.array(color.data[:, :, :3], copy=True), np.array(depth.data[:, :, 0], copy=True)
 
 
 def write_graphviz(diagram: Diagram, directory: Path, name: str) -> list[Path]:
@@ -70,12 +77,12 @@ def write_graphviz(diagram: Diagram, directory: Path, name: str) -> list[Path]:
 
 
 def simulate(scenario: Scenario, *, meshcat: Meshcat, realtime: bool = False) -> tuple:
-    """Builds and runs the diagram; returns (diagram, overhead image, playback HTML)."""
+    """Builds and runs the diagram; returns (diagram, (colour, depth) images, playback HTML)."""
     diagram = build_run_diagram(scenario, meshcat=meshcat)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     simulator.Initialize()
-    image = overhead_image(diagram, context)
+    images = overhead_images(diagram, context)
     visualizer = diagram.GetSubsystemByName("world").GetSubsystemByName("meshcat_visualizer")
     visualizer.StartRecording(set_transforms_while_recording=realtime)
     if realtime:
@@ -83,7 +90,7 @@ def simulate(scenario: Scenario, *, meshcat: Meshcat, realtime: bool = False) ->
     simulator.AdvanceTo(scenario.simulation.hold_time)
     visualizer.StopRecording()
     visualizer.PublishRecording()
-    return diagram, image, meshcat.StaticHtml()
+    return diagram, images, meshcat.StaticHtml()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -114,18 +121,27 @@ def main(argv: list[str] | None = None) -> int:
     if args.meshcat:
         print(f"Meshcat: {meshcat.web_url()}", flush=True)
     start = time.perf_counter()
-    diagram, image, html = simulate(scenario, meshcat=meshcat, realtime=args.meshcat)
+    diagram, (color, depth), html = simulate(scenario, meshcat=meshcat, realtime=args.meshcat)
     elapsed = time.perf_counter() - start
+    heatmaps = []
+    if scenario.outputs.feasibility and scenario.dishes:
+        heatmaps = compute_heatmaps(scenario, seed=scenario.seed,
+                                    workers=scenario.planner.workers)
 
     out.mkdir(parents=True, exist_ok=True)
     written = []
     if scenario.outputs.overhead:
-        _, png = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+        _, png = cv2.imencode(".png", cv2.cvtColor(color, cv2.COLOR_RGB2BGR))
         write_atomically(out / "overhead.png", png.tobytes())
         written.append(out / "overhead.png")
     if scenario.outputs.playback:
         write_atomically(out / "playback.html", html)
         written.append(out / "playback.html")
+    if heatmaps:
+        top_view = orthophoto(overhead_camera(scenario), color, depth, scenario.room.bounds,
+                              TOP_VIEW_CELL)
+        feasibility_figure(scenario, top_view, heatmaps, out / "feasibility.png")
+        written.append(out / "feasibility.png")
     if args.graphviz:
         written += write_graphviz(diagram, DIAGRAMS_DIR, "run")
 

@@ -146,6 +146,8 @@ class Outputs:
     """Output folder; empty means out/<scenario file stem>/."""
     playback: bool = True
     overhead: bool = True
+    feasibility: bool = True
+    """Draw each dish's Fea^m heatmap (feasibility.png)."""
 
 
 @dataclass

@@ -35,6 +35,8 @@ def test_run_writes_playback_and_overhead_picture(tmp_path, capsys):
     camera = overhead_camera(load_scenario(SMALL))
     assert image is not None and image.shape == (camera.height, camera.width, 3)
     assert image.std() > 10  # a picture, not a blank
+    picture = cv2.imread(str(out / "feasibility.png"))
+    assert picture is not None and picture.shape[0] > 300
 
 
 def test_help_explains_every_option():

@@ -1,0 +1,76 @@
+"""Fea^m heatmaps of many dishes, spread over worker processes, with a progress bar.
+
+Each worker builds its own scene and checker once (they hold Drake contexts that cannot
+cross processes) and then computes whole heatmaps. Dish i's noise comes from the
+generator seeded with (seed, i), so the maps are the same whatever the worker count.
+"""
+
+import multiprocessing
+from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE, FeasibilityOracle, Heatmap
+from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.scenario import Scenario
+
+_worker_oracle: FeasibilityOracle | None = None
+
+
+def make_oracle(scenario: Scenario, *, method: str = "map",
+                reachability: Path | None = None) -> FeasibilityOracle:
+    """Scene, checker and oracle for a scenario (ground-truth chairs: those it lists)."""
+    scene = FeasibilityScene(scenario)
+    rmap = ReachabilityMap.load(reachability) if method == "map" else None
+    return FeasibilityOracle(FeasibilityChecker(scene, rmap, method=method),
+                             scenario.uncertainty)
+
+
+def _init_worker(scenario: Scenario, method: str, reachability: Path | None) -> None:
+    global _worker_oracle
+    _worker_oracle = make_oracle(scenario, method=method, reachability=reachability)
+
+
+def _heatmap_job(job: tuple) -> Heatmap:
+    dish, index, seed, size, cells, samples, whole_room = job
+    rng = np.random.default_rng([seed, index])
+    if whole_room:
+        return _worker_oracle.room_heatmap(dish, rng=rng, cell=size, samples=samples)
+    return _worker_oracle.heatmap(dish, rng=rng, size=size, cells=cells, samples=samples)
+
+
+def compute_heatmaps(scenario: Scenario, dishes: Sequence[str] | None = None, *, seed: int,
+                     workers: int = 1, samples: int | None = None, size: float = CROP_SIZE,
+                     cells: int = CROP_CELLS, whole_room: bool = False,
+                     method: str = "map", reachability: Path | None = None,
+                     progress: bool = True) -> list[Heatmap]:
+    """Heatmaps of the dishes (default: all), in their order.
+
+    Crops of `size` metres at `cells` x `cells` around each dish, or, with
+    `whole_room=True`, the whole room at a cell of `size` metres.
+    """
+    names = list(dishes) if dishes is not None else [d.name for d in scenario.dishes]
+    index = {d.name: i for i, d in enumerate(scenario.dishes)}
+    jobs = [(name, index[name], seed, size, cells, samples, whole_room) for name in names]
+    bar = tqdm(total=len(jobs), desc="feasibility heatmaps", unit="dish", disable=not progress)
+    results: list[Heatmap] = []
+    if workers <= 1 or len(jobs) <= 1:
+        _init_worker(scenario, method, reachability)
+        for job in jobs:
+            results.append(_heatmap_job(job))
+            bar.update()
+    else:
+        # Spawned, not forked: a fork would copy Drake's thread pools mid-use and hang.
+        with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_init_worker,
+                                 initargs=(scenario, method, reachability),
+                                 mp_context=multiprocessing.get_context("spawn")) as pool:
+            for heatmap in pool.map(_heatmap_job, jobs):
+                results.append(heatmap)
+                bar.update()
+    bar.close()
+    return results

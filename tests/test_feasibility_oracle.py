@@ -1,0 +1,96 @@
+"""Fea^m under uncertainty: probabilities, heatmaps, determinism, the picture."""
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.feasibility.oracle import FeasibilityOracle, facing_yaw
+from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.robot import BASE_WIDTH
+from s3o_drake.scenario import Chair, load_scenario
+
+REPO = Path(__file__).resolve().parent.parent
+SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
+# plate_a stands 0.2 m inside the table's free south edge (y = 2.1); from here, facing
+# north, the base's front is 0.1 m from the edge and the dish 0.7 m ahead.
+OPEN_SPOT = np.array([1.85, 1.6])
+
+
+@pytest.fixture(scope="module")
+def rmap():
+    return ReachabilityMap.load()
+
+
+def _oracle(scenario, rmap) -> FeasibilityOracle:
+    return FeasibilityOracle(FeasibilityChecker(FeasibilityScene(scenario), rmap),
+                             scenario.uncertainty)
+
+
+def _with_chair_beside_open_spot(scenario, gap: float):
+    """A chair east of OPEN_SPOT, about `gap` metres beyond the base's padded side."""
+    # Facing away from the robot (yaw 0), the chair's rear legs stand 0.19 m behind the
+    # seat's centre, at the chassis' height; the 1 cm padding counts as contact.
+    x = OPEN_SPOT[0] + BASE_WIDTH / 2 + 0.01 + gap + 0.19
+    chair = Chair(name="close_chair", pose=[x, OPEN_SPOT[1], 0.0])
+    return dataclasses.replace(scenario, chairs=[*scenario.chairs, chair])
+
+
+def test_facing_yaw_points_at_the_dish():
+    assert facing_yaw(np.array([0.0, 0.0]), np.array([1.0, 1.0])) == pytest.approx(math.pi / 4)
+    yaws = facing_yaw(np.array([[0.0, 0.0], [2.0, 0.0]]), np.array([1.0, 0.0]))
+    np.testing.assert_allclose(yaws, [0.0, math.pi])
+
+
+def test_noise_lowers_the_probability_next_to_an_obstacle_not_in_the_open(rmap):
+    scenario = load_scenario(SMALL)
+    crowded = _with_chair_beside_open_spot(scenario, gap=0.05)
+    exact = dataclasses.replace(scenario.uncertainty, nav_xy_std=0.0, nav_yaw_std=0.0,
+                                reach_std=0.0)
+    for world, expect_drop in ((scenario, False), (crowded, True)):
+        oracle = _oracle(world, rmap)
+        p_noisy = oracle.probability(OPEN_SPOT, "plate_a", rng=np.random.default_rng(0),
+                                     samples=40)
+        oracle.noise = exact
+        p_exact = oracle.probability(OPEN_SPOT, "plate_a", rng=np.random.default_rng(0),
+                                     samples=4)
+        assert p_exact == 1.0
+        if expect_drop:
+            assert p_noisy < 0.8
+        else:
+            assert p_noisy >= 0.9
+
+
+def test_heatmap_is_a_probability_map_around_the_dish(rmap):
+    scenario = load_scenario(SMALL)
+    oracle = _oracle(scenario, rmap)
+    heatmap = oracle.heatmap("plate_a", rng=np.random.default_rng(3))
+    assert heatmap.values.shape == (64, 64)
+    assert heatmap.cell == pytest.approx(4.0 / 64)
+    assert np.all((heatmap.values >= 0) & (heatmap.values <= 1))
+    # Feasible in front of the dish, never beyond the arm's reach (about 1.35 m from the
+    # base's centre, with a side grasp) plus the navigation noise, never on the table.
+    assert heatmap.value_at(OPEN_SPOT) >= 0.6
+    dish = np.array(scenario.dishes[0].position)
+    far = np.linalg.norm(heatmap.centers() - dish, axis=-1) > 1.35 + 3 * 0.1
+    assert np.all(heatmap.values[far] == 0)
+    assert heatmap.value_at(dish) == 0
+    # Reproducible from the seed.
+    again = oracle.heatmap("plate_a", rng=np.random.default_rng(3))
+    np.testing.assert_array_equal(heatmap.values, again.values)
+
+
+def test_heatmaps_do_not_depend_on_the_worker_count():
+    scenario = load_scenario(SMALL)
+    kwargs = {"seed": 5, "cells": 16, "samples": 2, "progress": False}
+    one = compute_heatmaps(scenario, workers=1, **kwargs)
+    two = compute_heatmaps(scenario, workers=2, **kwargs)
+    assert [h.dish for h in one] == ["plate_a", "cup_b"]
+    for a, b in zip(one, two, strict=True):
+        np.testing.assert_array_equal(a.values, b.values)
+
