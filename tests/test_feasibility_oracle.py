@@ -94,3 +94,12 @@ def test_heatmaps_do_not_depend_on_the_worker_count():
     for a, b in zip(one, two, strict=True):
         np.testing.assert_array_equal(a.values, b.values)
 
+
+
+def test_benchmark_rejects_bad_arguments_in_one_line(capsys):
+    from s3o_drake.feasibility.benchmark import main as benchmark_main
+
+    with pytest.raises(SystemExit) as info:
+        benchmark_main(["--queries", "3"])
+    assert info.value.code == 2
+    assert capsys.readouterr().err.count("\n") == 1
