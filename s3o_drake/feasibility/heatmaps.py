@@ -5,6 +5,7 @@ cross processes) and then computes whole heatmaps. Dish i's noise comes from the
 generator seeded with (seed, i), so the maps are the same whatever the worker count.
 """
 
+import logging
 import multiprocessing
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -33,6 +34,7 @@ def make_oracle(scenario: Scenario, *, method: str = "map",
 
 def _init_worker(scenario: Scenario, method: str, reachability: Path | None) -> None:
     global _worker_oracle
+    logging.getLogger("drake").setLevel(logging.WARNING)  # one line per worker is noise
     _worker_oracle = make_oracle(scenario, method=method, reachability=reachability)
 
 
