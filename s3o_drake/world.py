@@ -39,7 +39,7 @@ from pydrake.systems.sensors import RgbdSensor
 from s3o_drake import furniture as fu
 from s3o_drake.camera import overhead_camera
 from s3o_drake.resources import make_parser, models_dir
-from s3o_drake.robot import ROBOT_JOINTS, add_robot, robot_positions
+from s3o_drake.robot import ROBOT_JOINTS, add_robot, robot_desired_state, robot_positions
 from s3o_drake.scenario import Chair, Dish, Scenario, Table
 
 RENDERER = "vtk"
@@ -221,5 +221,4 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None) -
 
 def robot_hold_state(scenario: Scenario) -> np.ndarray:
     """The robot's desired state that holds its start pose (positions, zero velocities)."""
-    q = robot_positions(*scenario.robot.start)
-    return np.concatenate([q, np.zeros_like(q)])
+    return robot_desired_state(robot_positions(*scenario.robot.start))
