@@ -1,7 +1,8 @@
-"""Pictures a person reads faster than numbers: heatmaps over the room's top view."""
+"""Pictures a person reads faster than numbers: heatmaps and state spaces over the top view."""
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -13,6 +14,9 @@ from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.io import write_atomically
 from s3o_drake.scenario import Scenario
 
+if TYPE_CHECKING:
+    from s3o_drake.abstraction.ranking import Abstraction
+
 
 def _figure_bytes(fig) -> bytes:
     import io
@@ -23,17 +27,9 @@ def _figure_bytes(fig) -> bytes:
     return buffer.getvalue()
 
 
-def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
-                       path: Path, *, title: str = "") -> None:
-    """Each dish's Fea^m heatmap over the top view of the room (the paper's Fig. 3, left).
-
-    `top_view` is an orthophoto of the room (row 0 north) spanning `scenario.room.bounds`.
-    Where two crops overlap, the larger probability shows.
-    """
+def _heatmap_layer(ax, scenario: Scenario, heatmaps: Sequence[Heatmap], *, alpha: float):
+    """Paints all crops into one room-sized layer, so that overlaps take the maximum."""
     x_min, y_min, x_max, y_max = scenario.room.bounds
-    fig, ax = plt.subplots(figsize=(10, 10 * (y_max - y_min) / (x_max - x_min)))
-    ax.imshow(top_view, extent=(x_min, x_max, y_min, y_max), origin="upper")
-    # Paint all crops into one room-sized layer so that overlaps take the maximum.
     cell = min(h.cell for h in heatmaps) if heatmaps else 0.05
     cols, rows = round((x_max - x_min) / cell), round((y_max - y_min) / cell)
     layer = np.zeros((rows, cols))
@@ -49,8 +45,21 @@ def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Seque
         values[inside] = heatmap.values[ii[inside], jj[inside]]
         layer = np.maximum(layer, values)
     shown = np.ma.masked_where(layer <= 0.0, layer)
-    image = ax.imshow(shown, extent=(x_min, x_max, y_min, y_max), origin="lower",
-                      cmap="plasma", vmin=0.0, vmax=1.0, alpha=0.75, interpolation="nearest")
+    return ax.imshow(shown, extent=(x_min, x_max, y_min, y_max), origin="lower",
+                     cmap="plasma", vmin=0.0, vmax=1.0, alpha=alpha, interpolation="nearest")
+
+
+def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
+                       path: Path, *, title: str = "") -> None:
+    """Each dish's Fea^m heatmap over the top view of the room (the paper's Fig. 3, left).
+
+    `top_view` is an orthophoto of the room (row 0 north) spanning `scenario.room.bounds`.
+    Where two crops overlap, the larger probability shows.
+    """
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    fig, ax = plt.subplots(figsize=(10, 10 * (y_max - y_min) / (x_max - x_min)))
+    ax.imshow(top_view, extent=(x_min, x_max, y_min, y_max), origin="upper")
+    image = _heatmap_layer(ax, scenario, heatmaps, alpha=0.75)
     fig.colorbar(image, ax=ax, fraction=0.03, pad=0.02, label="Fea$^m$ (probability of a pick)")
     for dish in scenario.dishes:
         ax.plot(*dish.position, marker="o", markersize=5, color="cyan", markeredgecolor="k")
@@ -62,4 +71,74 @@ def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Seque
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title(title or "Motion-level feasibility of each dish (base yaw facing the dish)")
+    write_atomically(path, _figure_bytes(fig))
+
+
+def state_space_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
+                       abstraction: "Abstraction", path: Path, *, rank: int = 0,
+                       title: str = "") -> None:
+    """A ranked state space over the top view and the heatmaps (the paper's Fig. 3, right).
+
+    Each location is filled in its own colour and outlined; inside a merged location the
+    Voronoi borders between its dishes' cells are dashed. Dishes are marked in their
+    location's colour; unreachable dishes (empty cells) get a red cross.
+    """
+    from shapely.plotting import plot_polygon
+
+    state = abstraction.ranked[rank]
+    partition = abstraction.partition
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    fig, ax = plt.subplots(figsize=(10, 10 * (y_max - y_min) / (x_max - x_min)))
+    ax.imshow(top_view, extent=(x_min, x_max, y_min, y_max), origin="upper")
+    if heatmaps:
+        image = _heatmap_layer(ax, scenario, heatmaps, alpha=0.45)
+        fig.colorbar(image, ax=ax, fraction=0.03, pad=0.02,
+                     label="Fea$^m$ (probability of a pick)")
+    colours = plt.get_cmap("tab10")
+    for k, group in enumerate(state.indices):
+        colour = colours(k % 10)
+        location = abstraction.location(state, k)
+        names = [partition.dishes[i] for i in group]
+        fea = ", ".join(f"{state.task_feasibility[n]:.2f}" for n in names)
+        label = f"l{k + 1}: {' + '.join(names)} (Fea$^t$ {fea})"
+        if not location.is_empty:
+            for polygon in getattr(location, "geoms", [location]):
+                if polygon.geom_type != "Polygon" or polygon.area <= 0:
+                    continue
+                plot_polygon(polygon, ax=ax, add_points=False, facecolor=(*colour[:3], 0.3),
+                             edgecolor=colour, linewidth=2.0, label=label)
+                label = None
+            if len(group) > 1:  # the merged cells' former borders
+                for i in group:
+                    cell = partition.cells[i]
+                    if not cell.is_empty:
+                        for polygon in getattr(cell, "geoms", [cell]):
+                            if polygon.geom_type == "Polygon":
+                                plot_polygon(polygon, ax=ax, add_points=False,
+                                             facecolor="none", edgecolor=colour,
+                                             linewidth=0.8, linestyle="--")
+        for i, name in zip(group, names, strict=True):
+            p = partition.p_WO[i]
+            unreachable = name in abstraction.unreachable
+            ax.plot(*p, marker="x" if unreachable else "o", markersize=7,
+                    color="red" if unreachable else colour, markeredgecolor="k"
+                    if not unreachable else "red", linestyle="none",
+                    label=label if label and location.is_empty else None)
+            ax.annotate(name, p, xytext=(4, 4), textcoords="offset points", fontsize=8,
+                        color="k", bbox={"boxstyle": "round,pad=0.15", "fc": "white",
+                                         "alpha": 0.7})
+    ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.08), fontsize=8, ncol=2,
+              frameon=False)
+    ax.set_xlim(x_min, x_max)
+    ax.set_ylim(y_min, y_max)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    search = "all candidates" if abstraction.exhaustive and abstraction.complete else \
+        "beam search"
+    top = abstraction.probabilities
+    p_rank = top[rank] if rank < len(top) else 0.0
+    locations = f"{len(state.groups)} location" + ("" if len(state.groups) == 1 else "s")
+    ax.set_title(title or f"State space ranked {rank + 1} of {abstraction.count} "
+                          f"({search}): {locations}, "
+                          f"Score {state.score:.2f}, p = {p_rank:.2f}")
     write_atomically(path, _figure_bytes(fig))

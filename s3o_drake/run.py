@@ -12,6 +12,9 @@ Outputs, in `out/<scenario file stem>/` unless --out or `outputs.directory` says
   overhead.png    the overhead camera's colour image at the start
   feasibility.png each dish's Fea^m heatmap (4 m x 4 m, 64 x 64 cells, from the Drake
                   feasibility check under the scenario's noise) over a top view of the room
+  state_space.png the top-ranked S3O state space (Voronoi cells of the free base positions,
+                  merged where that scores best) over the same heatmaps; the scenario's
+                  chairs count as perceived obstacles
 
 Exit status: 0 on success, 2 on bad input (one line on stderr naming the field; nothing is
 written).
@@ -31,11 +34,12 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
+from s3o_drake.abstraction import build_abstraction
 from s3o_drake.camera import orthophoto, overhead_camera
 from s3o_drake.cli import ArgumentParser, doc_formatter, fail
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.io import write_atomically
-from s3o_drake.pictures import feasibility_figure
+from s3o_drake.pictures import feasibility_figure, state_space_figure
 from s3o_drake.scenario import Scenario, ScenarioError, load_scenario, scenario_stem
 from s3o_drake.world import build_world_diagram, robot_hold_state
 
@@ -63,6 +67,15 @@ def overhead_images(diagram: Diagram, context) -> tuple[np.ndarray, np.ndarray]:
     return np.array(color.data[:, :, :3], copy=True), np.array(depth.data[:, :, 0], copy=True)
 
 
+def frame_room(meshcat: Meshcat, scenario: Scenario) -> None:
+    """Points Meshcat's camera at the room from above its south edge, so that the whole
+    restaurant is in view when the page opens (the default camera sits outside the walls)."""
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    center = np.array([(x_min + x_max) / 2, (y_min + y_max) / 2, 0.0])
+    span = max(x_max - x_min, y_max - y_min)
+    meshcat.SetCameraPose(center + np.array([0.0, -0.75 * span, 0.9 * span]), center)
+
+
 def write_graphviz(diagram: Diagram, directory: Path, name: str) -> list[Path]:
     """Writes the diagram's Graphviz source, and an SVG when `dot` is installed."""
     directory.mkdir(parents=True, exist_ok=True)
@@ -79,6 +92,7 @@ def write_graphviz(diagram: Diagram, directory: Path, name: str) -> list[Path]:
 def simulate(scenario: Scenario, *, meshcat: Meshcat, realtime: bool = False) -> tuple:
     """Builds and runs the diagram; returns (diagram, (colour, depth) images, playback HTML)."""
     diagram = build_run_diagram(scenario, meshcat=meshcat)
+    frame_room(meshcat, scenario)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     simulator.Initialize()
@@ -124,7 +138,8 @@ def main(argv: list[str] | None = None) -> int:
     diagram, (color, depth), html = simulate(scenario, meshcat=meshcat, realtime=args.meshcat)
     elapsed = time.perf_counter() - start
     heatmaps = []
-    if scenario.outputs.feasibility and scenario.dishes:
+    draw_state_space = scenario.outputs.state_space and bool(scenario.dishes)
+    if (scenario.outputs.feasibility or draw_state_space) and scenario.dishes:
         heatmaps = compute_heatmaps(scenario, seed=scenario.seed,
                                     workers=scenario.planner.workers)
 
@@ -140,8 +155,17 @@ def main(argv: list[str] | None = None) -> int:
     if heatmaps:
         top_view = orthophoto(overhead_camera(scenario), color, depth, scenario.room.bounds,
                               TOP_VIEW_CELL)
-        feasibility_figure(scenario, top_view, heatmaps, out / "feasibility.png")
-        written.append(out / "feasibility.png")
+        if scenario.outputs.feasibility:
+            feasibility_figure(scenario, top_view, heatmaps, out / "feasibility.png")
+            written.append(out / "feasibility.png")
+        if draw_state_space:
+            # Until perception lands, the planner "perceives" the scenario's chairs.
+            abstraction = build_abstraction(
+                scenario, heatmaps, perceived_chairs=[c.pose for c in scenario.chairs
+                                                      if not c.mapped])
+            state_space_figure(scenario, top_view, heatmaps, abstraction,
+                               out / "state_space.png")
+            written.append(out / "state_space.png")
     if args.graphviz:
         written += write_graphviz(diagram, DIAGRAMS_DIR, "run")
 

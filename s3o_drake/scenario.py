@@ -148,6 +148,8 @@ class Outputs:
     overhead: bool = True
     feasibility: bool = True
     """Draw each dish's Fea^m heatmap (feasibility.png)."""
+    state_space: bool = True
+    """Draw the top-ranked S3O state space over the heatmaps (state_space.png)."""
 
 
 @dataclass

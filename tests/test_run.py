@@ -37,6 +37,9 @@ def test_run_writes_playback_and_overhead_picture(tmp_path, capsys):
     assert image.std() > 10  # a picture, not a blank
     picture = cv2.imread(str(out / "feasibility.png"))
     assert picture is not None and picture.shape[0] > 300
+    picture = cv2.imread(str(out / "state_space.png"))
+    assert picture is not None and picture.shape[0] > 300
+    assert str(out / "state_space.png") in printed
 
 
 def test_help_explains_every_option():

@@ -1,0 +1,173 @@
+"""The Voronoi partition of the free base-position space: one cell per dish (DESIGN.md 2.2).
+
+Free space. A base position y is a candidate if the base standing there can be free of
+the room's walls, the tables and the chairs the planner knows (mapped chairs, plus the
+chairs it perceives, passed explicitly), and if some dish lies within `reach` of it.
+Obstacles and walls are inflated by `clearance`, by default the base's *inscribed*
+radius BASE_WIDTH / 2 = 0.28 m, not its circumscribed radius BASE_RADIUS = 0.418 m:
+
+- closer than the inscribed radius, every yaw of the rectangular footprint collides, so
+  nothing Fea^m could count is lost;
+- the base faces the dish, so at a table its front (BASE_LENGTH / 2 = 0.31 m ahead)
+  points at the edge; positions 0.31-0.42 m from the table are free and are among the
+  best ones for reaching (the oracle tests stand 0.5 m from the edge with 0.1 m to
+  spare). Inflating by BASE_RADIUS would cut that band away from every cell.
+
+Fea^m itself checks the real, rotated footprint, so positions in the 0.28-0.42 m band
+that do collide get probability 0 there and weigh nothing in Fea^t. Pass
+`clearance=BASE_RADIUS` for the conservative, yaw-independent reading of "inflated by
+the base radius".
+
+Cells. Dish o's cell is the free positions within `reach` of o that are closer to o than
+to any other dish. (A position closer to o than to a dish d within reach of it is also
+within reach of o, so "within reach of some dish" and "within reach of o" agree inside
+o's Voronoi region.) Cells are built with `shapely.voronoi_polygons` and clipped. Two
+cells are adjacent when they share a boundary longer than `ADJACENCY_MIN_LENGTH`. A dish
+whose cell is empty is kept, with an empty cell, and listed in `unreachable`.
+"""
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from shapely.geometry import MultiPoint, Point, Polygon
+from shapely.geometry.base import BaseGeometry
+from shapely.ops import unary_union
+
+from s3o_drake.furniture import chair_footprint, table_footprint
+from s3o_drake.robot import BASE_WIDTH
+from s3o_drake.scenario import Scenario
+from s3o_drake.validation import room_polygon
+
+INSCRIBED_RADIUS = BASE_WIDTH / 2
+"""The radius of the largest disc inside the base's footprint, whatever its yaw (m)."""
+ADJACENCY_MIN_LENGTH = 0.01
+"""Cells touching along less than this (m) are not adjacent (a corner is not a border)."""
+_EMPTY_AREA = 1e-9  # m^2; cells smaller than this are empty
+
+
+def mapped_chair_poses(scenario: Scenario) -> list[list[float]]:
+    """The poses [x, y, yaw] of the chairs on the robot's map."""
+    return [list(c.pose) for c in scenario.chairs if c.mapped]
+
+
+def free_space(scenario: Scenario, perceived_chairs: Sequence[Sequence[float]], *,
+               clearance: float = INSCRIBED_RADIUS) -> BaseGeometry:
+    """Base positions clear of walls, tables, mapped and the given perceived chairs.
+
+    `perceived_chairs` are poses [x, y, yaw]; unmapped chairs of the scenario are never
+    read here, because the planner only knows what its perception reports.
+    """
+    room = room_polygon(scenario).buffer(-clearance, join_style="mitre")
+    obstacles = [table_footprint(t.center, t.yaw, t.size) for t in scenario.tables]
+    poses = mapped_chair_poses(scenario) + [list(p) for p in perceived_chairs]
+    obstacles += [chair_footprint(p) for p in poses]
+    if not obstacles:
+        return room
+    return room.difference(unary_union(obstacles).buffer(clearance, quad_segs=16))
+
+
+@dataclass
+class VoronoiPartition:
+    """One cell per dish over the free, reachable base positions, and their adjacency."""
+
+    dishes: list[str]
+    p_WO: np.ndarray  # noqa: N815 (monogram notation)
+    """Dish positions in the world, shape (n, 2)."""
+    cells: list[BaseGeometry]
+    """Cell of each dish (possibly empty), in the order of `dishes`."""
+    free: BaseGeometry
+    """The free base-position space (before the reach limit)."""
+    reach: float
+    adjacency: list[set[int]] = field(default_factory=list)
+    """adjacency[i]: indices of the dishes whose cells share a border with cell i."""
+
+    @property
+    def unreachable(self) -> list[str]:
+        """Dishes that no free base position within reach serves: empty cells."""
+        return [d for d, c in zip(self.dishes, self.cells, strict=True) if c.area <= _EMPTY_AREA]
+
+    def reachable_free(self) -> BaseGeometry:
+        """Free positions within reach of some dish: the union of the cells."""
+        return unary_union(self.cells)
+
+    def edges(self) -> list[tuple[int, int]]:
+        """Adjacent pairs (i < j), sorted."""
+        return sorted((i, j) for i, js in enumerate(self.adjacency) for j in js if i < j)
+
+    def sym(self, p: Sequence[float]) -> int | None:
+        """Index of the dish whose cell holds position p, or None (not free or too far).
+
+        On a shared border the lower index wins, so every position has one answer.
+        """
+        point = Point(float(p[0]), float(p[1]))
+        for i, cell in enumerate(self.cells):
+            if cell.area > _EMPTY_AREA and cell.covers(point):
+                return i
+        return None
+
+    def sym_many(self, points: np.ndarray) -> np.ndarray:
+        """Vectorised Sym by nearest dish: cell index per point (m, 2), -1 where none.
+
+        Agrees with `sym` except on cell borders (measure zero).
+        """
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        if not self.dishes:
+            return np.full(len(points), -1)
+        distances = np.linalg.norm(points[:, None, :] - self.p_WO[None, :, :], axis=-1)
+        nearest = np.argmin(distances, axis=1)
+        near = distances[np.arange(len(points)), nearest] <= self.reach
+        free = shapely.contains_xy(self.free, points[:, 0], points[:, 1])
+        return np.where(near & free, nearest, -1)
+
+
+def _voronoi_regions(p_WO: np.ndarray, envelope: Polygon) -> list[BaseGeometry]:
+    """The Voronoi region of each point, clipped to `envelope`, in the points' order."""
+    if len(p_WO) == 1:
+        return [envelope]
+    regions = shapely.voronoi_polygons(MultiPoint([tuple(p) for p in p_WO]), extend_to=envelope)
+    polygons = list(regions.geoms)
+    result: list[BaseGeometry] = []
+    for p in p_WO:
+        point = Point(*p)
+        owner = next(poly for poly in polygons if poly.covers(point))
+        result.append(owner.intersection(envelope))
+    return result
+
+
+def _adjacency(cells: list[BaseGeometry]) -> list[set[int]]:
+    adjacency: list[set[int]] = [set() for _ in cells]
+    nonempty = [i for i, c in enumerate(cells) if c.area > _EMPTY_AREA]
+    for a_index, i in enumerate(nonempty):
+        for j in nonempty[a_index + 1:]:
+            if not cells[i].buffer(1e-6).intersects(cells[j]):
+                continue
+            shared = cells[i].boundary.intersection(cells[j].buffer(1e-6)).length
+            if shared > ADJACENCY_MIN_LENGTH:
+                adjacency[i].add(j)
+                adjacency[j].add(i)
+    return adjacency
+
+
+def voronoi_partition(scenario: Scenario, perceived_chairs: Sequence[Sequence[float]], *,
+                      dishes: Sequence[str] | None = None, clearance: float = INSCRIBED_RADIUS,
+                      reach: float | None = None) -> VoronoiPartition:
+    """The Voronoi cells of the scenario's dishes (default: all) over the free space.
+
+    `reach` defaults to `scenario.planner.reach`.
+    """
+    reach = scenario.planner.reach if reach is None else reach
+    by_name = {d.name: d for d in scenario.dishes}
+    names = list(dishes) if dishes is not None else list(by_name)
+    p_WO = np.array([by_name[n].position for n in names], dtype=float).reshape(-1, 2)
+    free = free_space(scenario, perceived_chairs, clearance=clearance)
+    envelope = room_polygon(scenario)
+    regions = _voronoi_regions(p_WO, envelope) if len(names) else []
+    cells = []
+    for p, region in zip(p_WO, regions, strict=True):
+        disc = Point(*p).buffer(reach, quad_segs=32)
+        cell = region.intersection(disc).intersection(free)
+        cells.append(cell if cell.area > _EMPTY_AREA else Polygon())
+    return VoronoiPartition(dishes=names, p_WO=p_WO, cells=cells, free=free, reach=reach,
+                            adjacency=_adjacency(cells))

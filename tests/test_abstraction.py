@@ -1,0 +1,290 @@
+"""S3O's state space: Voronoi cells, candidates, Fea^t, Score and ranking (issue 4)."""
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from shapely.geometry import Point
+from shapely.ops import unary_union
+
+from s3o_drake.abstraction import (
+    HeatmapFeasibility,
+    TaskFeasibility,
+    build_abstraction,
+    connected_partitions,
+    free_space,
+    top_k_distribution,
+    voronoi_partition,
+)
+from s3o_drake.abstraction.candidates import best_sums, connected_components
+from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.scenario import Dish, Room, Scenario, Table, load_scenario
+
+SMALL = Path(__file__).resolve().parent.parent / "scenarios" / "small"
+
+
+def _chairs(scenario: Scenario) -> list[list[float]]:
+    return [c.pose for c in scenario.chairs]
+
+
+@pytest.fixture(scope="module")
+def two_dishes():
+    scenario = load_scenario(SMALL / "two_dishes.yaml")
+    heatmaps = compute_heatmaps(scenario, seed=scenario.seed, cells=32, samples=2,
+                                progress=False)
+    return scenario, heatmaps
+
+
+@pytest.fixture(scope="module")
+def opposite_sides():
+    scenario = load_scenario(SMALL / "opposite_sides.yaml")
+    heatmaps = compute_heatmaps(scenario, seed=scenario.seed, cells=32, samples=2,
+                                progress=False)
+    return scenario, heatmaps
+
+
+def test_dishes_30_cm_apart_merge_in_the_top_ranked_state_space(two_dishes):
+    scenario, heatmaps = two_dishes
+    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
+    assert abstraction.partition.edges() == [(0, 1)]
+    assert abstraction.best.groups == (("plate_a", "cup_b"),)
+    assert all(v > 0.5 for v in abstraction.best.task_feasibility.values())
+    assert abstraction.complete and abstraction.exhaustive
+    assert len(abstraction.ranked) == 2  # the merge and plain Voronoi
+
+
+def test_dishes_on_opposite_sides_are_never_one_location(opposite_sides):
+    scenario, heatmaps = opposite_sides
+    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
+    assert abstraction.partition.edges() == []
+    assert all(len(s.groups) == 2 for s in abstraction.ranked)
+    assert abstraction.best.groups == (("bowl_north",), ("bowl_south",))
+
+
+@pytest.mark.parametrize("name", ["two_dishes", "opposite_sides"])
+def test_cell_areas_add_up_to_the_reachable_free_area(name):
+    scenario = load_scenario(SMALL / f"{name}.yaml")
+    partition = voronoi_partition(scenario, _chairs(scenario))
+    discs = unary_union([Point(*d.position).buffer(scenario.planner.reach, quad_segs=32)
+                         for d in scenario.dishes])
+    reachable_free = free_space(scenario, _chairs(scenario)).intersection(discs)
+    assert reachable_free.area > 0.5
+    assert sum(c.area for c in partition.cells) == pytest.approx(reachable_free.area, rel=1e-6)
+    # The cells do not overlap.
+    assert partition.cells[0].intersection(partition.cells[1]).area < 1e-9
+
+
+def test_sym_agrees_with_nearest_dish_on_random_points(two_dishes):
+    scenario, _ = two_dishes
+    partition = voronoi_partition(scenario, _chairs(scenario))
+    rng = np.random.default_rng(0)
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    points = rng.uniform([x_min, y_min], [x_max, y_max], (500, 2))
+    p_WO = partition.p_WO
+    free_border = partition.free.boundary
+    checked = 0
+    for p in points:
+        d = np.sort(np.linalg.norm(p_WO - p, axis=1))
+        # Skip points within a millimetre of a border (cells, reach circle, obstacles).
+        if d[1] - d[0] < 1e-3 or abs(d[0] - partition.reach) < 2e-3 or \
+                free_border.distance(Point(*p)) < 1e-3:
+            continue
+        nearest = int(np.argmin(np.linalg.norm(p_WO - p, axis=1)))
+        expected = nearest if d[0] <= partition.reach and partition.free.contains(Point(*p)) \
+            else None
+        assert partition.sym(p) == expected
+        assert partition.sym_many(p[None])[0] == (-1 if expected is None else expected)
+        checked += expected is not None
+    assert checked > 20  # some points did land in cells
+
+
+def test_sym_of_a_state_space_maps_to_the_merged_location(two_dishes):
+    scenario, heatmaps = two_dishes
+    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
+    merged, plain = abstraction.best, abstraction.plain_voronoi
+    for cell in abstraction.partition.cells:
+        p = cell.representative_point().coords[0]
+        assert abstraction.sym(merged, p) == 0
+        assert abstraction.sym(plain, p) == abstraction.partition.sym(p)
+    assert abstraction.sym(merged, (0.1, 3.9)) is None
+
+
+def test_ranking_is_the_same_on_a_second_run(two_dishes):
+    scenario, heatmaps = two_dishes
+    first = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
+    second = build_abstraction(scenario, list(heatmaps), perceived_chairs=_chairs(scenario))
+    assert [(s.groups, s.score, s.task_feasibility) for s in first.ranked] == \
+        [(s.groups, s.score, s.task_feasibility) for s in second.ranked]
+    np.testing.assert_array_equal(first.probabilities, second.probabilities)
+
+
+def _blocked_dish_scene() -> Scenario:
+    """A dish in the middle of a 2.4 m square table (1.2 m from every edge) and one that
+    stands at the edge of a small table."""
+    return Scenario(
+        seed=3, room=Room(bounds=[0.0, 0.0, 6.0, 4.0]),
+        tables=[Table(name="big", center=[1.7, 2.0], size=[2.4, 2.4, 0.04]),
+                Table(name="small", center=[4.8, 2.0], size=[0.8, 0.8, 0.04])],
+        dishes=[Dish(name="far", table="big", position=[1.7, 2.0], kind="plate"),
+                Dish(name="near", table="small", position=[4.8, 1.75], kind="cup")])
+
+
+def _ones(scenario: Scenario) -> list[Heatmap]:
+    """Fea^m = 1 everywhere: isolates the geometry from the feasibility source."""
+    return [Heatmap(d.name, np.ones((80, 120)), 0.0, 0.0, 0.05) for d in scenario.dishes]
+
+
+def test_a_dish_that_no_free_position_reaches_scores_0_and_is_reported():
+    scenario = _blocked_dish_scene()
+    abstraction = build_abstraction(scenario, _ones(scenario), perceived_chairs=[])
+    assert abstraction.unreachable == ["far"]
+    assert abstraction.infeasible == ["far"]
+    assert abstraction.partition.cells[0].is_empty
+    assert abstraction.partition.dishes == ["far", "near"]  # kept, not dropped
+    best = abstraction.best
+    assert best.groups == (("far",), ("near",))
+    assert best.task_feasibility == {"far": 0.0, "near": 1.0}
+    assert best.score == 1.0
+
+
+def _bell(n: int) -> int:
+    row = [1]
+    for _ in range(n - 1):
+        new = [row[-1]]
+        for value in row:
+            new.append(new[-1] + value)
+        row = new
+    return row[-1]
+
+
+@pytest.mark.parametrize("n", range(1, 9))
+def test_candidate_counts_match_the_connected_partitions_of_known_graphs(n):
+    path = [{j for j in (i - 1, i + 1) if 0 <= j < n} for i in range(n)]
+    assert sum(1 for _ in connected_partitions(n, path)) == 2 ** (n - 1)
+    complete = [set(range(n)) - {i} for i in range(n)]
+    assert sum(1 for _ in connected_partitions(n, complete)) == _bell(n)
+    if n >= 3:
+        cycle = [{(i - 1) % n, (i + 1) % n} for i in range(n)]
+        assert sum(1 for _ in connected_partitions(n, cycle)) == 2 ** n - n
+    partitions = list(connected_partitions(n, path))
+    assert partitions[0] == tuple((i,) for i in range(n))  # plain Voronoi first
+    assert len(set(partitions)) == len(partitions)
+
+
+def test_top_k_distribution_sums_to_1(two_dishes):
+    scenario, heatmaps = two_dishes
+    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
+    assert len(abstraction.top_k) <= scenario.planner.top_k
+    assert math.isclose(abstraction.probabilities.sum(), 1.0)
+    assert np.all(abstraction.probabilities >= 0)
+    np.testing.assert_allclose(top_k_distribution([0.0, 0.0]), [0.5, 0.5])
+    assert math.isclose(top_k_distribution([3.0, 1.0, 0.5]).sum(), 1.0)
+    rng = np.random.default_rng(0)
+    assert abstraction.sample(rng) in abstraction.top_k
+    assert abstraction.random_candidate(rng) in abstraction.ranked
+
+
+def test_beam_search_finds_the_exhaustive_best(two_dishes):
+    scenario, heatmaps = two_dishes
+    exhaustive = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
+    beam = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario),
+                             exhaustive_max_dishes=0)
+    assert not beam.exhaustive
+    assert beam.best.groups == exhaustive.best.groups
+
+
+def test_any_feasibility_source_with_values_works(two_dishes):
+    scenario, heatmaps = two_dishes
+
+    class Source:  # e.g. the learned model: anything with values(dish, points)
+        def __init__(self):
+            self.inner = HeatmapFeasibility(heatmaps)
+
+        def values(self, dish, points):
+            return self.inner.values(dish, points)
+
+    by_heatmaps = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
+    by_source = build_abstraction(scenario, Source(), perceived_chairs=_chairs(scenario))
+    assert [s.score for s in by_heatmaps.ranked] == [s.score for s in by_source.ranked]
+
+
+def test_unmapped_chairs_count_only_when_passed_as_perceived(two_dishes):
+    scenario, _ = two_dishes
+    assert not any(c.mapped for c in scenario.chairs)
+    without = free_space(scenario, [])
+    with_chair = free_space(scenario, _chairs(scenario))
+    assert with_chair.area < without.area - 0.1
+    mapped = replace(scenario, chairs=[replace(c, mapped=True) for c in scenario.chairs])
+    assert free_space(mapped, []).area == pytest.approx(with_chair.area)
+
+
+def test_paper_ranking_without_location_cost_still_keeps_scores(two_dishes):
+    scenario, heatmaps = two_dishes
+    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario),
+                                    location_cost=0.0)
+    scores = [s.score for s in abstraction.ranked]
+    assert scores == sorted(scores, reverse=True)
+
+
+def test_best_sums_matches_brute_force():
+    rng = np.random.default_rng(1)
+    a = sorted([(((i,),), float(v)) for i, v in enumerate(rng.uniform(0, 3, 12))],
+               key=lambda t: -t[1])
+    b = sorted([(((100 + i,),), float(v)) for i, v in enumerate(rng.uniform(0, 3, 9))],
+               key=lambda t: -t[1])
+    brute = sorted((x[1] + y[1] for x in a for y in b), reverse=True)[:20]
+    assert [v for _, v in best_sums(a, b, 20)] == pytest.approx(brute)
+    assert connected_components(5, [{1}, {0}, set(), {4}, {3}]) == [[0, 1], [2], [3, 4]]
+
+
+def _two_table_scene() -> tuple[Scenario, list[Heatmap]]:
+    """Two tables, two dishes each; Fea^m a ring 0.45-1.0 m around each dish."""
+    scenario = Scenario(
+        seed=5, room=Room(bounds=[0.0, 0.0, 8.0, 4.0]),
+        tables=[Table(name="west", center=[2.0, 2.0], size=[1.2, 0.8, 0.04]),
+                Table(name="east", center=[6.0, 2.0], size=[1.2, 0.8, 0.04])],
+        dishes=[Dish(name="w1", table="west", position=[1.8, 1.8], kind="cup"),
+                Dish(name="w2", table="west", position=[2.3, 2.2], kind="cup"),
+                Dish(name="e1", table="east", position=[5.7, 1.75], kind="cup"),
+                Dish(name="e2", table="east", position=[6.4, 2.25], kind="cup")])
+    heatmaps = []
+    for d in scenario.dishes:
+        grid = Heatmap(d.name, np.zeros((80, 160)), 0.0, 0.0, 0.05)
+        r = np.linalg.norm(grid.centers() - np.array(d.position), axis=-1)
+        values = np.clip(1.0 - np.abs(r - 0.75) / 0.3, 0.0, 1.0)
+        heatmaps.append(Heatmap(d.name, np.round(values * 4) / 4, 0.0, 0.0, 0.05))
+    return scenario, heatmaps
+
+
+def test_components_combined_rank_like_enumerating_the_whole_graph():
+    scenario, heatmaps = _two_table_scene()
+    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=[])
+    components = connected_components(4, abstraction.partition.adjacency)
+    assert len(components) == 2  # the two tables are far apart
+    cost = scenario.planner.gamma / scenario.planner.reward
+    task = TaskFeasibility(abstraction.partition, heatmaps, samples=100, seed=scenario.seed)
+    brute = sorted(task.score(p) - cost * len(p)
+                   for p in connected_partitions(4, abstraction.partition.adjacency))[::-1]
+    assert abstraction.count == len(brute)
+    assert [s.value for s in abstraction.ranked] == pytest.approx(brute)
+    assert abstraction.exhaustive and abstraction.complete
+    # S3O-Random: uniform over the product of the components' partitions.
+    rng = np.random.default_rng(0)
+    drawn = {abstraction.random_candidate(rng).indices for _ in range(400)}
+    assert drawn == {s.indices for s in abstraction.ranked}
+
+
+def test_benchmark_help_and_bad_input(tmp_path):
+    import subprocess
+    import sys
+
+    command = [sys.executable, "-m", "s3o_drake.abstraction.benchmark"]
+    result = subprocess.run([*command, "--help"], capture_output=True, text=True, check=True)
+    assert "--counts" in result.stdout and "<= 1 s" in result.stdout
+    for bad in (["--counts", "0"], ["--scenario", str(tmp_path / "nope.yaml")], ["--fast"]):
+        result = subprocess.run([*command, *bad], capture_output=True, text=True, cwd=tmp_path)
+        assert result.returncode == 2, bad
+        assert result.stderr.count("\n") == 1, result.stderr
