@@ -1,0 +1,1 @@
+"""Task and motion planning: the clingo task planner, navigation and the motion search."""

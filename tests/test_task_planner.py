@@ -1,0 +1,182 @@
+"""The clingo task planner: valid plans, optimal order, N-best, errors, time limit."""
+
+import itertools
+import time
+
+import numpy as np
+import pytest
+
+from s3o_drake.planning.task_planner import (
+    TaskPlanningError,
+    TaskProblem,
+    check_plan,
+    plan_problem,
+    plan_tasks,
+)
+
+
+def random_problem(m: int, seed: int = 0, dishes_per_location: float = 1.3) -> TaskProblem:
+    """Locations at random points, costs = straight-line distance x 10 (rounded)."""
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform(0, 10, (m + 1, 2))  # the last row is the start
+    locs = tuple(f"l{i}" for i in range(m))
+    costs = np.round(np.linalg.norm(pts[:, None] - pts[None], axis=2) * 10)
+    dishes = {f"d{i:02d}": locs[i % m] for i in range(round(m * dishes_per_location))}
+    return TaskProblem(locations=locs, dishes=dishes, costs=costs)
+
+
+def brute_force(problem: TaskProblem) -> int:
+    """The cheapest order over all permutations of the non-empty locations."""
+    locs = sorted({loc for loc in problem.dishes.values() if loc is not None})
+    best = None
+    for order in itertools.permutations(locs):
+        here, total = problem.start, 0
+        for loc in order:
+            total += round(problem.cost(here, loc))
+            here = loc
+        best = total if best is None else min(best, total)
+    return best
+
+
+def test_plans_are_valid_and_distinct():
+    problem = random_problem(5, seed=3)
+    result = plan_tasks(problem, n_plans=5)
+    assert len(result.plans) == 5 and result.complete
+    for plan in result.plans:
+        assert check_plan(problem, plan.actions) == plan.cost
+        assert plan.optimal
+    orders = [plan.gotos for plan in result.plans]
+    assert len(set(orders)) == 5
+    costs = [plan.cost for plan in result.plans]
+    assert costs == sorted(costs)
+
+
+def test_cheaper_order_wins_with_two_locations():
+    # start -> a is 10, start -> b is 50, a <-> b is 30: a first costs 40, b first costs 80.
+    costs = {("start", "a"): 10, ("start", "b"): 50, ("a", "b"): 30, ("b", "a"): 30}
+    problem = TaskProblem(locations=("a", "b"), dishes={"cup": "b", "plate": "a"}, costs=costs)
+    result = plan_tasks(problem, n_plans=3)
+    assert result.best.actions == (("goto", "a"), ("pickup", "plate"),
+                                   ("goto", "b"), ("pickup", "cup"))
+    assert result.best.cost == 40 and result.best.optimal
+    # only two visiting orders exist
+    assert [p.cost for p in result.plans] == [40, 80]
+    assert result.complete
+
+
+def test_merged_location_one_goto_many_pickups_in_name_order():
+    problem = TaskProblem(locations=("l0",), dishes={"c": "l0", "a": "l0", "b": "l0"},
+                          costs=lambda a, b: 7)
+    result = plan_tasks(problem, n_plans=3)
+    assert len(result.plans) == 1  # pickup order is canonical: no duplicates
+    assert result.best.actions == (("goto", "l0"), ("pickup", "a"), ("pickup", "b"),
+                                   ("pickup", "c"))
+    assert result.best.cost == 7
+
+
+def test_robot_starting_in_a_location_does_not_goto_it():
+    costs = {("l0", "l1"): 5, ("l1", "l0"): 5}
+    problem = TaskProblem(locations=("l0", "l1"), dishes={"a": "l0", "b": "l1"},
+                          costs=costs, start="l0")
+    plan = plan_tasks(problem).best
+    assert plan.actions == (("pickup", "a"), ("goto", "l1"), ("pickup", "b"))
+    assert plan.cost == 5
+
+
+def test_from_state_space_groups_and_unreachable_dish_is_reported():
+    groups = (("d0", "d1"), ("d2",), ("d3",))
+    result = plan_problem(groups, lambda a, b: 10, unreachable=["d3"], n_plans=2)
+    assert result.unreachable == ("d3",)
+    for plan in result.plans:
+        picked = {arg for name, arg in plan.actions if name == "pickup"}
+        assert picked == {"d0", "d1", "d2"}
+    with pytest.raises(TaskPlanningError, match="d3"):
+        plan_problem(groups, lambda a, b: 10, unreachable=["d3"], on_unreachable="raise")
+
+
+def test_infinite_cost_makes_a_location_unreachable():
+    costs = {("start", "a"): 10, ("start", "b"): float("inf"), ("a", "b"): None}
+    problem = TaskProblem(locations=("a", "b"), dishes={"x": "a", "y": "b"}, costs=costs)
+    with pytest.raises(TaskPlanningError, match=r"'y' \(location 'b'\)"):
+        plan_tasks(problem, on_unreachable="raise")
+    result = plan_tasks(problem)
+    assert result.unreachable == ("y",)
+    assert check_plan(problem, result.best.actions, dishes=["x"]) == 10
+
+
+def test_no_plan_at_all_is_a_clear_error():
+    problem = TaskProblem(locations=("a",), dishes={"x": "a", "y": "a"},
+                          costs=lambda a, b: 1, capacity=1)
+    with pytest.raises(TaskPlanningError, match="capacity"):
+        plan_tasks(problem)
+
+
+def test_capacity_with_depot_makes_trips():
+    costs = lambda a, b: 10  # noqa: E731
+    problem = TaskProblem(locations=("a", "b"), dishes={"x": "a", "y": "a", "z": "b"},
+                          costs=costs, capacity=2, depot="sink")
+    plan = plan_tasks(problem).best
+    assert check_plan(problem, plan.actions) == plan.cost
+    assert sum(1 for name, _ in plan.actions if name == "unload") == 2
+
+
+def test_time_limit_returns_quickly_on_a_large_problem():
+    problem = random_problem(12, seed=1)
+    start = time.perf_counter()
+    try:
+        result = plan_tasks(problem, n_plans=5, time_limit=0.05)
+    except TaskPlanningError as error:
+        assert "time limit" in str(error)
+    else:
+        assert result.plans
+        for plan in result.plans:
+            check_plan(problem, plan.actions)
+        assert not result.complete
+    assert time.perf_counter() - start < 0.5  # generous: shared machines
+
+
+def test_deterministic():
+    problem = random_problem(6, seed=5)
+    a = plan_tasks(problem, n_plans=4)
+    b = plan_tasks(problem, n_plans=4)
+    assert a.plans == b.plans
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_matches_brute_force(seed):
+    problem = random_problem(6, seed=seed, dishes_per_location=1.5)
+    result = plan_tasks(problem, time_limit=10)
+    assert result.best.optimal
+    assert result.best.cost == brute_force(problem)
+    assert check_plan(problem, result.best.actions) == result.best.cost
+
+
+def test_check_plan_rejects_violations():
+    problem = TaskProblem(locations=("a", "b"), dishes={"x": "a", "y": "b"},
+                          costs=lambda a, b: 1)
+    with pytest.raises(ValueError, match="pickup"):
+        check_plan(problem, [("pickup", "x")])
+    with pytest.raises(ValueError, match="goal"):
+        check_plan(problem, [("goto", "a"), ("pickup", "x")])
+    with pytest.raises(ValueError, match="already stands"):
+        check_plan(problem, [("goto", "a"), ("goto", "a")])
+
+
+def test_degenerate_problems():
+    # no dishes: the empty plan, once
+    empty = TaskProblem(locations=("a",), dishes={}, costs=lambda a, b: 1)
+    result = plan_tasks(empty, n_plans=3)
+    assert [p.actions for p in result.plans] == [()]
+    # already standing at the only location: pickups only, no second sequence
+    here = TaskProblem(locations=("a",), dishes={"y": "a", "x": "a"}, costs=lambda a, b: 1,
+                       start="a")
+    result = plan_tasks(here, n_plans=3)
+    assert [p.actions for p in result.plans] == [(("pickup", "x"), ("pickup", "y"))]
+
+
+def test_matrix_costs_follow_nodes_order():
+    problem = TaskProblem(locations=("a", "b"), dishes={"x": "a", "y": "b"},
+                          costs=[[0, 3, 99], [3, 0, 99], [20, 1, 0]])
+    assert problem.nodes == ("a", "b", "start")
+    plan = plan_tasks(problem).best
+    assert plan.gotos == ("b", "a") and plan.cost == 4
