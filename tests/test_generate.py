@@ -55,3 +55,12 @@ def test_bad_arguments_exit_2_and_write_nothing(args, tmp_path, capsys):
     assert info.value.code == 2
     assert capsys.readouterr().err.count("\n") == 1
     assert not out.exists()
+
+
+def test_shipped_benchmark_tasks_are_what_the_generator_makes(tmp_path):
+    """scenarios/generated holds `generate --count 100 --seed 0`; spot-check that it still is."""
+    shipped = REPO / "scenarios" / "generated"
+    assert len(list(shipped.glob("task_*.yaml"))) == 100
+    generate_main(["--count", "3", "--seed", "0", "--out", str(tmp_path), "--quiet"])
+    for name in ("task_000.yaml", "task_001.yaml", "task_002.yaml"):
+        assert (tmp_path / name).read_bytes() == (shipped / name).read_bytes()
