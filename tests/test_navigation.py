@@ -264,3 +264,16 @@ def test_every_free_position_near_the_dishes_is_reachable(restaurant):
         last = LineString(path[-2:])
         assert min(last.distance(nav.obstacles), last.distance(nav.room.exterior)) \
             >= INSCRIBED_RADIUS - INSCRIBED_TOLERANCE
+
+
+def test_a_full_endpoint_cache_starts_afresh_without_losing_the_batch(monkeypatch):
+    from s3o_drake.planning import navigation
+
+    monkeypatch.setattr(navigation, "_ENDPOINT_CACHE_SIZE", 4)
+    nav = NavigationMap(_room(), [])
+    P = np.array([[1.0, 1.0], [1.2, 1.0], [1.4, 1.0]])
+    Q = np.array([[2.0, 2.0], [2.0, 1.8], [2.0, 1.6]])
+    first = nav.path_lengths(P, Q)
+    again = nav.path_lengths(P + 0.01, Q)  # overflows the cache: keys of both batches
+    np.testing.assert_allclose(first, np.linalg.norm(P - Q, axis=1))
+    np.testing.assert_allclose(again, np.linalg.norm(P + 0.01 - Q, axis=1))

@@ -374,7 +374,9 @@ class NavigationMap:
         todo = sorted({k for k in keys if k not in self._endpoint_cache})
         if todo:
             if len(self._endpoint_cache) + len(todo) > _ENDPOINT_CACHE_SIZE:
+                # Start afresh; every key of this batch must then be computed.
                 self._endpoint_cache.clear()
+                todo = sorted(set(keys))
             for k, e in zip(todo, self._compute_endpoints(np.array(todo)), strict=True):
                 self._endpoint_cache[k] = e
         return [self._endpoint_cache[k] for k in keys]
