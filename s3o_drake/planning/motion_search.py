@@ -1,0 +1,397 @@
+"""Motion-level search: base positions for a task-level sequence (DESIGN.md 2.6).
+
+Given one task-level sequence (`TaskPlan.actions`: ("goto", location) / ("pickup", dish)),
+the motion search picks one base position (x, y) per `goto` inside that location's region
+and scores the whole sequence by its utility Σ R(a):
+
+    R(goto)   = -(len(y, y') / v + γ)      len: collision-free path length (NavigationMap)
+    R(pickup) = -δ + λ · Fea^m(y_r, y_o)    y_r: the position of the latest goto
+
+`Fea^m` is taken as it comes (`MotionFeasibility.values`): the heatmaps already include
+the navigation and reaching noise (T^n, T^m) by Monte-Carlo, so Fea^m is the expected
+pickup success and no further sampling of T^n is done here. A pickup before any goto is
+made from the start position.
+
+Two searches with the same budget (default `cma_generations x cma_population` = 200
+samples) and the same result type:
+
+- `grop_star` (GROP*): one CMA-ES (`cma`) over the stacked positions (2 x gotos
+  dimensions). Generation 0 is a greedy starting guess (`_RegionGrid.initial_point`)
+  plus population - 1 draws from the Fea^m heatmaps; CMA-ES's mean starts at the best of
+  them, so GROP* never ends below its own starting guess and starts in a good basin.
+- `grop` (GROP, the baseline): every sample draws each goto's position independently from
+  the location's Fea^m heatmap (grid cell centres, probability ∝ Fea^m), best kept.
+
+Regions and penalty. CMA-ES's proposals are resampled until every position lies in its
+region (cma's own constraint handling, as in `ask_and_eval`; rejected proposals cost no
+evaluation), up to MAX_RESAMPLING rounds per generation. Penalising outside samples alone
+(the paper code's way) was measured to stall: with 5 gotos and sigma ~0.4 m almost no
+joint sample lands in all five thin Voronoi cells, so every CMA-ES generation after the
+first was all-penalty and the search never improved on its start. A sample still outside
+after resampling, or whose legs cannot be driven (infinite path length), gets utility
+`-PENALTY - Σ distance to the regions - UNREACHABLE_STEP x unreachable legs`; the distance
+term slopes CMA-ES back into the regions. Only samples inside all their regions reach
+`nav`, in one `path_lengths` batch per generation.
+
+Predicted execution time: Σ len / v over the gotos plus `pickup_duration` per pickup.
+γ is a cost for starting to drive, not time, so it is not counted; `pickup_duration`
+defaults to δ read as seconds (the paper gives δ the units of len / v).
+
+Deterministic for a seed: CMA-ES gets its own seed (derived from `seed`), GROP draws from
+`numpy.random.default_rng(seed)`, and `nav` is deterministic.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import cma
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+from shapely.ops import unary_union
+
+from s3o_drake.abstraction.task_feasibility import MotionFeasibility
+from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.task_planner import Action
+from s3o_drake.scenario import Planner
+
+PENALTY = 1e4
+"""Utility offset of an invalid sample (outside a region or not drivable); any valid
+sample scores far above it (a real plan's utility is of order ±10^3)."""
+UNREACHABLE_STEP = 100.0
+"""Extra penalty per leg with an infinite path length, so fewer such legs rank higher."""
+GRID_CELL = 0.05
+"""Spacing (m) of the grid of candidate positions per region (initial points, GROP)."""
+SIGMA_FRACTION = 0.03
+"""CMA-ES's initial step size as a fraction of the mean region extent. Small on purpose:
+generation 0 already starts in a good basin; measured on the restaurant (5 gotos, ring
+heatmaps, 6 seeds) the median utility was 393 at 0.25, 412 at 0.05, 437 at 0.03."""
+MAX_RESAMPLING = 100
+"""Rounds of `popsize` CMA-ES draws per generation to find samples inside the regions."""
+MIN_SIGMA = 0.05
+"""Floor on the initial step size (m), for tiny regions."""
+
+
+@dataclass
+class MotionResult:
+    """The best sample of one motion search over one task-level sequence."""
+
+    method: str
+    """"GROP*" or "GROP"."""
+    actions: tuple[Action, ...]
+    locations: tuple[str, ...]
+    """The location of each goto, in order."""
+    positions: np.ndarray
+    """Base position (x, y) per goto (n_gotos, 2), m."""
+    utility: float
+    """Σ R(a) of `positions` (≤ -PENALTY + ... when no valid sample was found)."""
+    valid: bool
+    """True if every position lies in its region and every leg can be driven."""
+    predicted_time: float
+    """Σ len / v + pickup_duration per pickup (s); inf when not valid."""
+    leg_lengths: np.ndarray
+    """Path length of each goto's leg (n_gotos,), m (inf where not drivable)."""
+    feasibility: dict[str, float]
+    """Fea^m of each picked dish from the position it is picked at."""
+    samples: int
+    """Samples evaluated."""
+    elapsed: float
+    """Wall time of the search (s)."""
+    history: list[np.ndarray] = field(default_factory=list, repr=False)
+    """The samples of each generation (GROP: each batch of popsize), (pop, n_gotos, 2)."""
+    history_utility: list[np.ndarray] = field(default_factory=list, repr=False)
+    """Their utilities, (pop,) per generation."""
+
+    @property
+    def early(self) -> np.ndarray:
+        """Samples of the first generation (the paper's Fig. 4, left)."""
+        return self.history[0] if self.history else np.zeros((0, len(self.locations), 2))
+
+    @property
+    def late(self) -> np.ndarray:
+        """Samples of the last generation (the paper's Fig. 4, right)."""
+        return self.history[-1] if self.history else np.zeros((0, len(self.locations), 2))
+
+
+class _RegionGrid:
+    """Grid cell centres inside one region and their summed Fea^m for the dishes picked
+    there: the sampling distribution of GROP and the starting point of GROP*."""
+
+    def __init__(self, region: BaseGeometry, dishes: Sequence[str],
+                 feasibility: MotionFeasibility, cell: float):
+        self.region = region
+        x0, y0, x1, y1 = region.bounds
+        xs = np.arange(x0 + cell / 2, x1, cell)
+        ys = np.arange(y0 + cell / 2, y1, cell)
+        gx, gy = np.meshgrid(xs, ys, indexing="ij")
+        P = np.column_stack([gx.ravel(), gy.ravel()])
+        inside = shapely.contains_xy(region, P[:, 0], P[:, 1]) if len(P) else np.zeros(0, bool)
+        P = P[inside]
+        if len(P) == 0:  # a sliver thinner than a cell: its representative point
+            rp = region.representative_point()
+            P = np.array([[rp.x, rp.y]])
+        self.points = P
+        F = np.array([feasibility.values(d, P) for d in dishes]).reshape(len(dishes), len(P))
+        weight = F.sum(axis=0)
+        # A merged location counts a position only where every one of its dishes is
+        # feasible (the reference's rule, as in Fea^t), when there is such a position.
+        joint = (F > 0).all(axis=0)
+        if len(dishes) > 1 and joint.any():
+            weight = np.where(joint, weight, 0.0)
+        self.weight = weight
+        bx0, by0, bx1, by1 = region.bounds
+        self.extent = max(bx1 - bx0, by1 - by0)
+
+    def initial_point(self, previous: np.ndarray, reward: float, speed: float) -> np.ndarray:
+        """The grid point that maximises λ·ΣFea^m - |previous p| / v: the utility of this
+        goto with the straight line standing in for the path length (a cheap lower bound),
+        so that of two equally feasible spots the nearer one is the start. Ties go to the
+        point nearest the Fea^m-weighted centroid; an all-zero heatmap gives the region's
+        representative point."""
+        w = self.weight
+        if w.sum() <= 0:
+            rp = self.region.representative_point()
+            return np.array([rp.x, rp.y])
+        centroid = (w[:, None] * self.points).sum(axis=0) / w.sum()
+        score = reward * w - np.linalg.norm(self.points - previous, axis=1) / speed
+        best = np.flatnonzero(score >= score.max() - 1e-9)
+        k = best[np.argmin(np.linalg.norm(self.points[best] - centroid, axis=1))]
+        return self.points[k].copy()
+
+    def draw(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """n positions drawn ∝ Fea^m (uniformly over the grid if Fea^m is 0 everywhere)."""
+        w = self.weight
+        p = w / w.sum() if w.sum() > 0 else np.full(len(w), 1.0 / len(w))
+        return self.points[rng.choice(len(self.points), size=n, p=p)]
+
+
+class _Problem:
+    """One sequence prepared for evaluation: gotos, pickups, regions, costs."""
+
+    def __init__(self, sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
+                 feasibility: MotionFeasibility, nav: NavigationMap,
+                 start_xy: Sequence[float], planner: Planner, pickup_duration: float | None,
+                 grid_cell: float):
+        self.actions = tuple((str(a), str(b)) for a, b in sequence)
+        self.start = np.asarray(start_xy, dtype=float)[:2]
+        self.nav = nav
+        self.feasibility = feasibility
+        self.planner = planner
+        self.pickup_duration = planner.delta if pickup_duration is None else pickup_duration
+        locations: list[str] = []
+        picks: list[tuple[int, str]] = []  # (goto index, or -1 for the start; dish)
+        for name, arg in self.actions:
+            if name == "goto":
+                if arg not in regions:
+                    raise ValueError(f"goto {arg!r}: no region for this location")
+                locations.append(arg)
+            elif name == "pickup":
+                picks.append((len(locations) - 1, arg))
+            else:
+                raise ValueError(f"action {name!r} is not supported by the motion search")
+        self.locations = tuple(locations)
+        self.picks = picks
+        self.regions = [regions[loc] for loc in locations]
+        for region in self.regions:
+            shapely.prepare(region)
+        self.grids = [_RegionGrid(region, [d for g, d in picks if g == k], feasibility, grid_cell)
+                      for k, region in enumerate(self.regions)]
+
+    @property
+    def n(self) -> int:
+        return len(self.locations)
+
+    def inside(self, X: np.ndarray) -> np.ndarray:
+        """Whether every position of each sample X (m, n, 2) lies in its region (m,)."""
+        ok = np.ones(len(X), dtype=bool)
+        for k, region in enumerate(self.regions):
+            ok &= shapely.intersects_xy(region, X[:, k, 0], X[:, k, 1])
+        return ok
+
+    def evaluate(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Utilities (m,), leg lengths (m, n) and pickup Fea^m (m, pickups) of samples
+        X (m, n, 2), with one `nav.path_lengths` call for all valid samples."""
+        X = np.asarray(X, dtype=float).reshape(-1, self.n, 2)
+        m = len(X)
+        p = self.planner
+        outside = np.zeros((m, self.n))
+        for k, region in enumerate(self.regions):
+            hit = shapely.intersects_xy(region, X[:, k, 0], X[:, k, 1])
+            if (~hit).any():
+                outside[~hit, k] = shapely.distance(shapely.points(X[~hit, k]), region)
+                outside[~hit, k] = np.maximum(outside[~hit, k], 1e-9)
+        ok = (outside == 0).all(axis=1)
+        lengths = np.full((m, self.n), np.inf)
+        if ok.any() and self.n:
+            Y = X[ok]
+            prev = np.concatenate([np.broadcast_to(self.start, (len(Y), 1, 2)), Y[:, :-1]], axis=1)
+            lengths[ok] = self.nav.path_lengths(prev.reshape(-1, 2), Y.reshape(-1, 2)) \
+                .reshape(len(Y), self.n)
+        F = np.zeros((m, len(self.picks)))
+        for j, (g, dish) in enumerate(self.picks):
+            where = np.broadcast_to(self.start, (m, 2)) if g < 0 else X[:, g]
+            F[:, j] = self.feasibility.values(dish, where)
+        drivable = np.isfinite(lengths).all(axis=1)
+        goto_cost = np.where(np.isfinite(lengths), lengths, 0.0) / p.speed + p.gamma
+        utility = -goto_cost.sum(axis=1) + (-p.delta + p.reward * F).sum(axis=1)
+        bad = ~(ok & drivable)
+        unreachable = (~np.isfinite(lengths) & ok[:, None]).sum(axis=1)
+        utility[bad] = -PENALTY - outside[bad].sum(axis=1) - UNREACHABLE_STEP * unreachable[bad]
+        return utility, lengths, F
+
+    def result(self, method: str, x: np.ndarray, samples: int, elapsed: float,
+               history: list[np.ndarray], history_utility: list[np.ndarray]) -> MotionResult:
+        """The MotionResult of the sample x (n, 2), re-evaluated so that every number in it
+        comes from the same evaluation."""
+        x = np.asarray(x, dtype=float).reshape(self.n, 2)
+        u, lengths, F = self.evaluate(x[None])
+        legs = lengths[0]
+        valid = bool(u[0] > -PENALTY + 1e-9) if self.n else True
+        time_s = float(legs.sum() / self.planner.speed + self.pickup_duration * len(self.picks)) \
+            if valid else math.inf
+        feas = {dish: float(F[0, j]) for j, (_, dish) in enumerate(self.picks)}
+        return MotionResult(method=method, actions=self.actions, locations=self.locations,
+                            positions=x, utility=float(u[0]), valid=valid,
+                            predicted_time=time_s, leg_lengths=legs, feasibility=feas,
+                            samples=samples, elapsed=elapsed, history=history,
+                            history_utility=history_utility)
+
+
+def _ask_inside(es: cma.CMAEvolutionStrategy, problem: _Problem, population: int) -> list:
+    """`population` solutions from `es`, each resampled (up to MAX_RESAMPLING rounds) until
+    all its positions lie in their regions: cma's own constraint handling (`ask_and_eval`
+    resamples infeasible solutions), here vectorised and without evaluating anything.
+    Solutions still outside after the rounds fill the rest and get the penalty."""
+    inside: list = []
+    outside: list = []
+    for _ in range(MAX_RESAMPLING):
+        asked = es.ask(population)
+        ok = problem.inside(np.array(asked).reshape(len(asked), problem.n, 2))
+        inside += [x for x, good in zip(asked, ok, strict=True) if good]
+        if len(inside) >= population:
+            return inside[:population]
+        outside += [x for x, good in zip(asked, ok, strict=True) if not good]
+    return inside + outside[:population - len(inside)]
+
+
+def _seed_of(seed: int | None, rng: np.random.Generator | None) -> int:
+    """A seed in [1, 2^31): cma treats 0 (and None) as "seed from the clock"."""
+    if rng is not None:
+        return int(rng.integers(1, 2**31 - 1))
+    return int(seed if seed is not None else 0) % (2**31 - 2) + 1
+
+
+def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
+              feasibility: MotionFeasibility, nav: NavigationMap, start_xy: Sequence[float],
+              planner: Planner, *, seed: int | None = None,
+              rng: np.random.Generator | None = None, generations: int | None = None,
+              population: int | None = None, pickup_duration: float | None = None,
+              deadline: float | None = None, grid_cell: float = GRID_CELL) -> MotionResult:
+    """GROP*: CMA-ES over one base position per goto of `sequence` (DESIGN.md 2.6).
+
+    `regions` maps each location name to its region (shapely, e.g. the union of its dishes'
+    Voronoi cells). Budget: `generations` (default planner.cma_generations) x `population`
+    (default planner.cma_population) samples, each generation costed with one
+    `nav.path_lengths` batch. `deadline` (a `time.monotonic()` value) ends the search after
+    the generation during which it passes. `seed` or `rng` (rng wins) makes it
+    deterministic. Returns the best sample seen.
+    """
+    t0 = time.monotonic()
+    problem = _Problem(sequence, regions, feasibility, nav, start_xy, planner, pickup_duration,
+                       grid_cell)
+    generations = planner.cma_generations if generations is None else generations
+    population = planner.cma_population if population is None else population
+    if problem.n == 0:  # nothing to place: the sequence's utility is fixed
+        return problem.result("GROP*", np.zeros((0, 2)), 1, time.monotonic() - t0, [], [])
+    # Generation 0: the greedy initial point and population - 1 draws from the Fea^m
+    # heatmaps (GROP's proposal); CMA-ES then starts at the best of them. A local search
+    # started at one point cannot leave a good but far spot for an equally good near one
+    # separated by zero feasibility; these draws let it start in the right basin.
+    rng0 = np.random.default_rng(_seed_of(seed, rng))
+    x0, previous = [], problem.start
+    for g in problem.grids:
+        previous = g.initial_point(previous, planner.reward, planner.speed)
+        x0.append(previous)
+    X = np.stack([np.stack(x0)] * population)
+    if population > 1:
+        X[1:] = np.stack([g.draw(rng0, population - 1) for g in problem.grids], axis=1)
+    u, _, _ = problem.evaluate(X)
+    history: list[np.ndarray] = [X]
+    history_u: list[np.ndarray] = [u]
+    samples = len(X)
+    k = int(np.argmax(u))
+    best_u, best_x = float(u[k]), X[k].copy()
+    sigma = max(MIN_SIGMA, SIGMA_FRACTION * float(np.mean([g.extent for g in problem.grids])))
+    rest = generations - 1
+    options = {
+        "popsize": population, "seed": _seed_of(seed, rng) + 1, "verbose": -9,
+        "verb_log": 0, "verb_disp": 0, "maxiter": max(rest, 1),
+        # Spend the whole budget: flat (all-penalty) generations must not stop it early.
+        "tolflatfitness": math.inf, "tolfun": 0, "tolfunhist": 0, "tolx": 0,
+        "tolstagnation": generations + 1,
+    }
+    es = cma.CMAEvolutionStrategy(best_x.ravel(), sigma, options)
+    for _ in range(rest):
+        if deadline is not None and time.monotonic() >= deadline:
+            break
+        asked = _ask_inside(es, problem, population)
+        X = np.array(asked).reshape(len(asked), problem.n, 2)
+        u, _, _ = problem.evaluate(X)
+        samples += len(X)
+        history.append(X)
+        history_u.append(u)
+        k = int(np.argmax(u))
+        if u[k] > best_u:
+            best_u, best_x = float(u[k]), X[k].copy()
+        es.tell(asked, list(-u))  # cma minimises
+    return problem.result("GROP*", best_x, samples, time.monotonic() - t0, history, history_u)
+
+
+def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
+         feasibility: MotionFeasibility, nav: NavigationMap, start_xy: Sequence[float],
+         planner: Planner, *, seed: int | None = None, rng: np.random.Generator | None = None,
+         generations: int | None = None, population: int | None = None,
+         pickup_duration: float | None = None, deadline: float | None = None,
+         grid_cell: float = GRID_CELL) -> MotionResult:
+    """GROP (the baseline): the same budget as `grop_star`, each sample drawing every
+    goto's position from its location's Fea^m grid (∝ Fea^m, only where Fea^m > 0 unless
+    it is 0 everywhere), no adaptation; the best utility is kept. Batches of `population`
+    are costed together (one `path_lengths` call each) so `deadline` is checked as often
+    as in GROP*."""
+    t0 = time.monotonic()
+    problem = _Problem(sequence, regions, feasibility, nav, start_xy, planner, pickup_duration,
+                       grid_cell)
+    generations = planner.cma_generations if generations is None else generations
+    population = planner.cma_population if population is None else population
+    if problem.n == 0:
+        return problem.result("GROP", np.zeros((0, 2)), 1, time.monotonic() - t0, [], [])
+    rng = rng if rng is not None else np.random.default_rng(seed)
+    best_u, best_x = -math.inf, None
+    history: list[np.ndarray] = []
+    history_u: list[np.ndarray] = []
+    samples = 0
+    for _ in range(generations):
+        X = np.stack([g.draw(rng, population) for g in problem.grids], axis=1)
+        u, _, _ = problem.evaluate(X)
+        samples += len(X)
+        history.append(X)
+        history_u.append(u)
+        k = int(np.argmax(u))
+        if u[k] > best_u:
+            best_u, best_x = float(u[k]), X[k].copy()
+        if deadline is not None and time.monotonic() >= deadline:
+            break
+    return problem.result("GROP", best_x, samples, time.monotonic() - t0, history, history_u)
+
+
+def location_regions(groups: Sequence[Sequence[str]], cells: Mapping[str, BaseGeometry],
+                     names: Sequence[str] | None = None) -> dict[str, BaseGeometry]:
+    """Regions per location name ("l{k}" by default, as `plan_problem`) from the cells of
+    each dish (e.g. `dict(zip(partition.dishes, partition.cells))`)."""
+    names = list(names) if names is not None else [f"l{k}" for k in range(len(groups))]
+    return {name: unary_union([cells[d] for d in group])
+            for name, group in zip(names, groups, strict=True)}
