@@ -1,0 +1,121 @@
+"""V-PETLON, the baseline without feasibility (DESIGN.md section 2, methods list).
+
+PETLON plans in the plain Voronoi state space (one location per dish) and knows nothing
+about Fea^m: for each dish it takes a random obstacle-free base position near it (a
+uniform draw from the dish's Voronoi cell, i.e. free of mapped and perceived obstacles
+and within reach, and drivable from the start on the navigation map), and then the
+task-level order that is optimal for navigation (the clingo task planner with the path
+lengths between those positions as costs). Several such draws are made and the one with
+the least navigation cost is kept: PETLON optimises cost, never feasibility.
+
+Fea^m is used only to *score* the chosen plan, with the same utility as GROP*
+(`motion_search._Problem`, the code GROP* scores with), so the methods are comparable.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+
+from s3o_drake.abstraction.task_feasibility import MotionFeasibility
+from s3o_drake.planning.motion_search import GRID_CELL, MotionResult, _Problem
+from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.task_planner import START, TaskPlanResult, plan_problem
+from s3o_drake.scenario import Planner
+
+COST_SCALE = 10.0
+"""Task-planner costs are seconds x 10, rounded (clingo optimises integers)."""
+DRAWS_PER_POSITION = 100
+"""Rejection rounds (of 32 points each) to find a drivable point of a cell."""
+
+
+@dataclass
+class PetlonResult:
+    """The kept draw: its task plan and its motion result (utility scored with Fea^m)."""
+
+    motion: MotionResult
+    task: TaskPlanResult
+    positions: dict[str, np.ndarray]
+    """The drawn base position per location."""
+    navigation_cost: float
+    """Σ path length / v of the kept plan (s): what PETLON minimised."""
+    task_time: float
+    motion_time: float
+    draws: int
+
+
+def random_position(region: BaseGeometry, nav: NavigationMap, start: np.ndarray,
+                    rng: np.random.Generator) -> np.ndarray | None:
+    """A uniform point of `region` that the base can drive to from `start`, or None.
+
+    Uniform by rejection in the bounding box; a point the navigation map cannot reach
+    (e.g. in the band between the inscribed and the circumscribed radius with no straight
+    way out) is redrawn, as PETLON's goal sampler would discard an unreachable goal.
+    """
+    if region.is_empty or region.area <= 0:
+        return None
+    x0, y0, x1, y1 = region.bounds
+    for _ in range(DRAWS_PER_POSITION):
+        P = np.column_stack([rng.uniform(x0, x1, 32), rng.uniform(y0, y1, 32)])
+        P = P[shapely.contains_xy(region, P[:, 0], P[:, 1])]
+        if len(P) == 0:
+            continue
+        lengths = nav.path_lengths(np.broadcast_to(start, P.shape), P)
+        ok = np.flatnonzero(np.isfinite(lengths))
+        if len(ok):
+            return P[ok[0]].copy()
+    return None
+
+
+def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
+           feasibility: MotionFeasibility, nav: NavigationMap, start_xy: Sequence[float],
+           planner: Planner, *, rng: np.random.Generator, draws: int = 1,
+           unreachable: Sequence[str] = (), deadline: float | None = None) -> PetlonResult:
+    """V-PETLON over the state space `groups` (location k named "l{k}", its region in
+    `regions`): `draws` random position sets, each ordered optimally for navigation, the
+    cheapest kept. At least one draw is made; `deadline` (time.monotonic) stops further
+    draws. Raises `TaskPlanningError` if no dish can be planned."""
+    start = np.asarray(start_xy, dtype=float)[:2]
+    names = [f"l{k}" for k in range(len(groups))]
+    best: PetlonResult | None = None
+    task_time = motion_time = 0.0
+    done = 0
+    for i in range(max(draws, 1)):
+        if i and deadline is not None and time.monotonic() >= deadline:
+            break
+        t0 = time.monotonic()
+        points = {n: random_position(regions[n], nav, start, rng) for n in names}
+        nodes = [n for n in names if points[n] is not None]
+        P = np.array([points[n] for n in nodes] + [start]).reshape(-1, 2)
+        keys = [*nodes, START]
+        A = np.repeat(P, len(P), axis=0)
+        B = np.tile(P, (len(P), 1))
+        L = nav.path_lengths(A, B).reshape(len(P), len(P))
+        costs = {(a, b): L[i_a, i_b] / planner.speed * COST_SCALE
+                 for i_a, a in enumerate(keys) for i_b, b in enumerate(keys) if a != b}
+        lost = set(unreachable) | {d for n, g in zip(names, groups, strict=True)
+                                   if points[n] is None for d in g}
+        remaining = None if deadline is None else max(deadline - time.monotonic(), 0.5)
+        task = plan_problem(groups, costs, unreachable=sorted(lost), n_plans=1,
+                            time_limit=5.0 if remaining is None else min(5.0, remaining))
+        t1 = time.monotonic()
+        task_time += t1 - t0
+        sequence = task.best.actions
+        problem = _Problem(sequence, regions, feasibility, nav, start, planner, None, GRID_CELL)
+        X = np.array([points[loc] for loc in problem.locations]).reshape(-1, 2)
+        motion = problem.result("PETLON", X, 1, 0.0, [], [])
+        motion_time += time.monotonic() - t1
+        done += 1
+        cost = float(motion.leg_lengths.sum() / planner.speed) if motion.valid else math.inf
+        if best is None or cost < best.navigation_cost:
+            best = PetlonResult(motion=motion, task=task, positions=points, navigation_cost=cost,
+                                task_time=0.0, motion_time=0.0, draws=0)
+    assert best is not None
+    best.task_time, best.motion_time, best.draws = task_time, motion_time, done
+    return best

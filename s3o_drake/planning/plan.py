@@ -1,0 +1,173 @@
+"""The task-motion plan every method returns (DESIGN.md 2.5-2.7), and its JSON form.
+
+A `TaskMotionPlan` is what execution and the benchmark read: the state space it was
+planned in, the actions in order (each `goto` with the base pose it drives to and the
+collision-free path there, each `pickup` with its dish and Fea^m from where it is
+picked), the expected utility and predicted execution time, and where the planning time
+went. It is plain data so that a plan can be written by one process and executed or
+compared by another: `to_json`/`from_json` round-trip it exactly (Python's float repr is
+exact, tuples come back as tuples), and `write` writes it atomically.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from s3o_drake.io import write_atomically
+
+FORMAT = "s3o_drake.TaskMotionPlan/1"
+"""Tag of the JSON form, so that a reader can tell a plan file from another JSON file."""
+
+
+@dataclass(frozen=True)
+class Goto:
+    """Drive to `location`, ending at `pose`, along `path`."""
+
+    location: str
+    pose: tuple[float, float, float]
+    """Base pose (x, y, yaw) at the end: yaw faces the next dish to pick (m, m, rad)."""
+    path: tuple[tuple[float, float], ...]
+    """Waypoints from the previous pose's position to `pose`'s position (m)."""
+    length: float
+    """Collision-free path length (m), as the utility counted it."""
+
+
+@dataclass(frozen=True)
+class Pickup:
+    """Pick `dish` from where the latest goto (or the start) left the base."""
+
+    dish: str
+    location: str
+    """The location the robot stands in ("start" before any goto)."""
+    feasibility: float
+    """Fea^m of the pick from the goto's position: the expected success."""
+
+
+PlanAction = Goto | Pickup
+
+
+@dataclass(frozen=True)
+class TaskMotionPlan:
+    """One method's plan for one task (see the module docstring)."""
+
+    method: str
+    seed: int
+    groups: tuple[tuple[str, ...], ...]
+    """The state space: the dishes of each location, location k named `locations[k]`."""
+    locations: tuple[str, ...]
+    actions: tuple[PlanAction, ...]
+    utility: float
+    """Σ R(a) (DESIGN.md 2.6) of the plan: expected, with Fea^m as the pickup success."""
+    predicted_time: float
+    """Σ path length / v + δ per pickup (s), as the motion search predicts it."""
+    planning_time: float
+    """Wall time of `plan` (s), plus `timing["feasibility"]` if the caller passed it."""
+    timing: dict[str, float] = field(default_factory=dict)
+    """Breakdown of the planning time (s): feasibility, navigation, abstraction,
+    task_planning, motion_search."""
+    unreachable: tuple[str, ...] = ()
+    """Dishes no plan can pick (empty Voronoi cell or no drivable way there)."""
+    score: float | None = None
+    """The chosen state space's Score Σ Fea^t (None where a method does not score it)."""
+    searches: int = 0
+    """Motion searches run (one per task-level sequence searched)."""
+    samples: int = 0
+    """Base-pose samples evaluated over all searches."""
+    complete: bool = True
+    """False if the time budget cut the search short (the plan is the best so far)."""
+
+    @property
+    def gotos(self) -> tuple[Goto, ...]:
+        return tuple(a for a in self.actions if isinstance(a, Goto))
+
+    @property
+    def pickups(self) -> tuple[Pickup, ...]:
+        return tuple(a for a in self.actions if isinstance(a, Pickup))
+
+    @property
+    def task_actions(self) -> tuple[tuple[str, str], ...]:
+        """The task-level sequence (("goto", location) / ("pickup", dish)), as the task
+        planner writes it, for `check_plan`."""
+        return tuple(("goto", a.location) if isinstance(a, Goto) else ("pickup", a.dish)
+                     for a in self.actions)
+
+    @property
+    def feasibility(self) -> dict[str, float]:
+        """Fea^m per picked dish."""
+        return {a.dish: a.feasibility for a in self.pickups}
+
+    # ------------------------------------------------------------------------ JSON
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-able data (lists and dicts of str, float, int, bool, None)."""
+        actions: list[dict[str, Any]] = []
+        for a in self.actions:
+            if isinstance(a, Goto):
+                actions.append({"action": "goto", "location": a.location,
+                                "pose": list(a.pose), "path": [list(p) for p in a.path],
+                                "length": a.length})
+            else:
+                actions.append({"action": "pickup", "dish": a.dish, "location": a.location,
+                                "feasibility": a.feasibility})
+        return {
+            "format": FORMAT, "method": self.method, "seed": self.seed,
+            "groups": [list(g) for g in self.groups], "locations": list(self.locations),
+            "actions": actions, "utility": self.utility,
+            "predicted_time": self.predicted_time, "planning_time": self.planning_time,
+            "timing": dict(self.timing), "unreachable": list(self.unreachable),
+            "score": self.score, "searches": self.searches, "samples": self.samples,
+            "complete": self.complete,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> TaskMotionPlan:
+        if data.get("format") != FORMAT:
+            raise ValueError(f"not a task-motion plan (format {data.get('format')!r}, "
+                             f"expected {FORMAT!r})")
+        actions: list[PlanAction] = []
+        for a in data["actions"]:
+            if a["action"] == "goto":
+                actions.append(Goto(location=a["location"],
+                                    pose=tuple(float(v) for v in a["pose"]),
+                                    path=tuple((float(x), float(y)) for x, y in a["path"]),
+                                    length=float(a["length"])))
+            elif a["action"] == "pickup":
+                actions.append(Pickup(dish=a["dish"], location=a["location"],
+                                      feasibility=float(a["feasibility"])))
+            else:
+                raise ValueError(f"unknown action {a['action']!r} in a plan")
+        score = data.get("score")
+        return cls(method=data["method"], seed=int(data["seed"]),
+                   groups=tuple(tuple(g) for g in data["groups"]),
+                   locations=tuple(data["locations"]), actions=tuple(actions),
+                   utility=float(data["utility"]), predicted_time=float(data["predicted_time"]),
+                   planning_time=float(data["planning_time"]),
+                   timing={k: float(v) for k, v in data["timing"].items()},
+                   unreachable=tuple(data["unreachable"]),
+                   score=None if score is None else float(score),
+                   searches=int(data["searches"]), samples=int(data["samples"]),
+                   complete=bool(data["complete"]))
+
+    def to_json(self, indent: int | None = 1) -> str:
+        """Strict JSON (no NaN or Infinity: a plan's numbers are all finite)."""
+        return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
+
+    @classmethod
+    def from_json(cls, text: str) -> TaskMotionPlan:
+        return cls.from_dict(json.loads(text))
+
+    def write(self, path: str | Path) -> None:
+        write_atomically(Path(path), self.to_json() + "\n")
+
+    @classmethod
+    def read(cls, path: str | Path) -> TaskMotionPlan:
+        return cls.from_json(Path(path).read_text())
+
+
+def facing_yaw(position: tuple[float, float] | Any, target: tuple[float, float] | Any) -> float:
+    """Yaw (rad) of a base at `position` facing `target`; 0 when they coincide."""
+    dx, dy = float(target[0]) - float(position[0]), float(target[1]) - float(position[1])
+    return math.atan2(dy, dx) if (dx or dy) else 0.0

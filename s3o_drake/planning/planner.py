@@ -1,0 +1,306 @@
+"""The planner: every compared method by name, under one time budget (DESIGN.md 2.5-2.7).
+
+`plan(scenario, method=..., heatmaps=..., perceived_chairs=..., seed=...)` runs
+
+- **S3O-GROP*** : the top-K S3O state spaces, searched in an order drawn from the
+  normalised top-K scores (weighted sampling *without* replacement, so that each of them is
+  searched once and, when the budget cuts the search, the likelier ones were searched
+  first); per state space the clingo task planner gives `n_sequences` task-level
+  sequences and one GROP* (CMA-ES) runs per sequence;
+- **S3O-GROP**  : the same with GROP (Fea^m-weighted sampling) per sequence;
+- **V-GROP*** / **V-GROP**: the plain Voronoi state space (no merging), searched as many
+  times as S3O searches state spaces (K iterations, fresh seeds), so that every method
+  spends the same number of motion searches;
+- **V-PETLON**  : plain Voronoi, random obstacle-free positions, the navigation-optimal
+  order, K draws, the cheapest kept; Fea^m only scores it (`petlon.py`);
+- **S3O-Random**: K state spaces drawn uniformly among all candidates, GROP* on each.
+
+The plan of highest utility wins (V-PETLON: least navigation cost).
+
+Costs for the task planner. Location-to-location costs are the collision-free path lengths
+between the locations' representative points, divided by v, x10, as integers. A location's
+representative point is its best standing spot: the point of its 5 cm grid with the
+highest joint Fea^m (the grid GROP* starts from, `motion_search._RegionGrid`), among the
+20 best the first that can be driven to from the start. The motion search then moves the
+stops, so these costs only rank the visiting orders.
+
+Budget. `time_budget` (default `scenario.planner.time_budget`) is a cap, not a target:
+planning stops when every iteration is searched. One deadline is checked between stages,
+before every state space, sequence and PETLON draw, and inside GROP*/GROP between
+generations; clingo gets the remaining time as its limit. When it expires the best plan
+so far is returned with `complete=False`. If it expires before any plan exists a
+`PlanningTimeoutError` says in which stage. Stages that cannot be interrupted (building the
+navigation map, the Voronoi partition and Fea^t, clingo's grounding) may overrun a tiny
+budget by their own duration.
+
+Determinism. All randomness comes from generators seeded with (seed, purpose, iteration,
+sequence); with `workers=1` the same seed gives the same plan. `workers > 1` is accepted
+but searches still run in this process (parallel workers are future work).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from shapely.geometry.base import BaseGeometry
+
+from s3o_drake.abstraction import (
+    Abstraction,
+    StateSpace,
+    build_abstraction,
+    voronoi_partition,
+)
+from s3o_drake.abstraction.task_feasibility import MotionFeasibility, as_motion_feasibility
+from s3o_drake.abstraction.voronoi import VoronoiPartition
+from s3o_drake.planning.motion_search import (
+    GRID_CELL,
+    MotionResult,
+    _RegionGrid,
+    grop,
+    grop_star,
+    location_regions,
+)
+from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.petlon import COST_SCALE, petlon
+from s3o_drake.planning.plan import Goto, Pickup, PlanAction, TaskMotionPlan, facing_yaw
+from s3o_drake.planning.task_planner import START, TaskPlanResult, plan_problem
+from s3o_drake.scenario import Scenario
+
+METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random")
+"""The methods DESIGN.md section 2 compares, by name."""
+REPRESENTATIVE_CANDIDATES = 20
+"""Best grid points tried (by joint Fea^m) for a location's representative point."""
+TASK_TIME_LIMIT = 5.0
+"""Cap on one clingo call (s), below the remaining budget."""
+# Purposes mixed into seeds so that different draws never share a stream.
+_ORDER, _SEARCH, _PETLON = 1, 2, 3
+
+
+class PlanningError(RuntimeError):
+    """No plan could be made."""
+
+
+class PlanningTimeoutError(PlanningError, TimeoutError):
+    """The time budget expired before any plan was found."""
+
+
+@dataclass
+class _Best:
+    motion: MotionResult
+    groups: tuple[tuple[str, ...], ...]
+    regions: dict[str, BaseGeometry]
+    unreachable: tuple[str, ...]
+    score: float | None
+
+
+def _check_method(method: str) -> None:
+    if method not in METHODS:
+        raise ValueError(f"unknown planning method {method!r}; known: {', '.join(METHODS)}")
+
+
+def _order(abstraction: Abstraction, rng: np.random.Generator) -> list[StateSpace]:
+    """The top-K state spaces in an order drawn from their normalised scores (weighted
+    sampling without replacement); zero-probability ones follow in rank order."""
+    p = np.asarray(abstraction.probabilities, dtype=float)
+    positive = np.flatnonzero(p > 0)
+    order = list(rng.choice(positive, size=len(positive), replace=False,
+                            p=p[positive] / p[positive].sum())) if len(positive) else []
+    order += [k for k in range(len(p)) if p[k] <= 0]
+    return [abstraction.top_k[int(k)] for k in order]
+
+
+def representative_points(regions: Mapping[str, BaseGeometry], groups: Sequence[Sequence[str]],
+                          names: Sequence[str], feasibility: MotionFeasibility,
+                          nav: NavigationMap, start: np.ndarray) -> dict[str, np.ndarray | None]:
+    """Each location's best standing spot (see the module docstring); None for an empty
+    region or one with no drivable spot among its best candidates."""
+    out: dict[str, np.ndarray | None] = {}
+    for name, group in zip(names, groups, strict=True):
+        region = regions[name]
+        if region.is_empty or region.area <= 0:
+            out[name] = None
+            continue
+        grid = _RegionGrid(region, list(group), feasibility, GRID_CELL)
+        ranked = np.argsort(-grid.weight, kind="stable")[:REPRESENTATIVE_CANDIDATES]
+        P = grid.points[ranked]
+        lengths = nav.path_lengths(np.broadcast_to(start, P.shape), P)
+        ok = np.flatnonzero(np.isfinite(lengths))
+        out[name] = P[ok[0]].copy() if len(ok) else None
+    return out
+
+
+def location_costs(points: Mapping[str, np.ndarray | None], nav: NavigationMap, start: np.ndarray,
+                   speed: float) -> dict[tuple[str, str], float]:
+    """Task-planner costs {(from, to): path length / v x COST_SCALE} between the
+    representative points and the start; pairs with a missing point are left out (cannot
+    drive there)."""
+    keys = [k for k, p in points.items() if p is not None] + [START]
+    P = np.array([points[k] for k in keys[:-1]] + [start]).reshape(-1, 2)
+    A = np.repeat(P, len(P), axis=0)
+    B = np.tile(P, (len(P), 1))
+    L = nav.path_lengths(A, B).reshape(len(P), len(P))
+    return {(a, b): float(L[i, j] / speed * COST_SCALE)
+            for i, a in enumerate(keys) for j, b in enumerate(keys)
+            if a != b and b != START and np.isfinite(L[i, j])}
+
+
+def _assemble(method: str, seed: int, best: _Best, scenario: Scenario, nav: NavigationMap,
+              timing: dict[str, float], planning_time: float, searches: int, samples: int,
+              complete: bool) -> TaskMotionPlan:
+    """The TaskMotionPlan of the winning motion result: poses facing the next dish, paths
+    from the navigation map."""
+    motion = best.motion
+    dish_xy = {d.name: d.position for d in scenario.dishes}
+    here = np.asarray(scenario.robot.start[:2], dtype=float)
+    location = "start"
+    actions: list[PlanAction] = []
+    k = 0
+    for i, (name, arg) in enumerate(motion.actions):
+        if name == "goto":
+            y = np.asarray(motion.positions[k], dtype=float)
+            nxt = next((a for n, a in motion.actions[i + 1:] if n == "pickup"), None)
+            path = nav.path(here, y)
+            if path is None:
+                raise PlanningError(f"goto {arg}: no path from {here.tolist()} to {y.tolist()}")
+            yaw = facing_yaw(y, dish_xy[nxt]) if nxt is not None else facing_yaw(path[-2], y)
+            actions.append(Goto(location=arg, pose=(float(y[0]), float(y[1]), float(yaw)),
+                                path=tuple((float(p[0]), float(p[1])) for p in path),
+                                length=float(motion.leg_lengths[k])))
+            here, location, k = y, arg, k + 1
+        else:
+            actions.append(Pickup(dish=arg, location=location,
+                                  feasibility=float(motion.feasibility[arg])))
+    names = tuple(f"l{j}" for j in range(len(best.groups)))
+    return TaskMotionPlan(method=method, seed=int(seed), groups=best.groups, locations=names,
+                          actions=tuple(actions), utility=float(motion.utility),
+                          predicted_time=float(motion.predicted_time),
+                          planning_time=float(planning_time), timing=dict(timing),
+                          unreachable=best.unreachable, score=best.score, searches=searches,
+                          samples=samples, complete=complete)
+
+
+def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequence[Sequence[float]],
+         seed: int, time_budget: float | None = None, n_sequences: int = 3, workers: int = 1,
+         feasibility_time: float = 0.0) -> TaskMotionPlan:
+    """Plans the scenario's task with the named method (see the module docstring).
+
+    `heatmaps`: Fea^m (a `MotionFeasibility`, a mapping dish -> Heatmap or a list of
+    Heatmaps); `feasibility_time` is how long computing them took (s), added to the
+    breakdown and the planning time. Raises ValueError for an unknown method,
+    `PlanningTimeoutError` when the budget expires before any plan, `PlanningError` (or
+    `TaskPlanningError`) when no dish can be planned.
+    """
+    _check_method(method)
+    t_start = time.monotonic()
+    budget = scenario.planner.time_budget if time_budget is None else float(time_budget)
+    deadline = t_start + budget
+    planner = scenario.planner
+    del workers  # sequential for now (see the module docstring)
+    fea = as_motion_feasibility(heatmaps)
+    start = np.asarray(scenario.robot.start[:2], dtype=float)
+    timing = {"feasibility": float(feasibility_time), "navigation": 0.0, "abstraction": 0.0,
+              "task_planning": 0.0, "motion_search": 0.0}
+    searches = samples = 0
+    best: _Best | None = None
+    complete = True
+
+    def expired(stage: str) -> bool:
+        nonlocal complete
+        if time.monotonic() < deadline:
+            return False
+        complete = False
+        if best is None:
+            raise PlanningTimeoutError(f"{method}: the time budget of {budget:g} s expired during "
+                                  f"{stage}, before any plan was found")
+        return True
+
+    t = time.monotonic()
+    nav = NavigationMap(scenario, perceived_chairs)
+    timing["navigation"] = time.monotonic() - t
+    expired("the navigation map")
+
+    t = time.monotonic()
+    abstraction: Abstraction | None = None
+    if method.startswith("S3O"):
+        abstraction = build_abstraction(
+            scenario, fea, perceived_chairs=perceived_chairs, seed=seed,
+            time_limit=max(0.0, min(5.0, deadline - time.monotonic())))
+        partition: VoronoiPartition = abstraction.partition
+    else:
+        partition = voronoi_partition(scenario, perceived_chairs)
+    timing["abstraction"] = time.monotonic() - t
+    expired("the abstraction")
+    cells = dict(zip(partition.dishes, partition.cells, strict=True))
+    iterations = max(planner.top_k, 1)
+
+    if method == "V-PETLON":
+        groups = tuple((d,) for d in partition.dishes)
+        regions = location_regions(groups, cells)
+        result = petlon(groups, regions, fea, nav, start, planner,
+                        rng=np.random.default_rng([seed, _PETLON]), draws=iterations,
+                        unreachable=partition.unreachable, deadline=deadline)
+        timing["task_planning"] += result.task_time
+        timing["motion_search"] += result.motion_time
+        complete = result.draws == iterations
+        unreachable = tuple(sorted(set(result.task.unreachable) | set(partition.unreachable)))
+        best = _Best(result.motion, groups, regions, unreachable, None)
+        return _assemble(method, seed, best, scenario, nav, timing,
+                         time.monotonic() - t_start + feasibility_time, result.draws,
+                         result.draws, complete)
+
+    # The state spaces to search, one per iteration.
+    rng = np.random.default_rng([seed, _ORDER])
+    spaces: list[tuple[tuple[tuple[str, ...], ...], float | None]]
+    if method.startswith("V-"):
+        groups = tuple((d,) for d in partition.dishes)
+        spaces = [(groups, None)] * iterations
+    elif method == "S3O-Random":
+        assert abstraction is not None
+        spaces = [(s.groups, s.score) for s in
+                  (abstraction.random_candidate(rng) for _ in range(iterations))]
+    else:
+        assert abstraction is not None
+        spaces = [(s.groups, s.score) for s in _order(abstraction, rng)]
+    search = grop if method.endswith("GROP") else grop_star
+
+    tasks: dict[tuple[tuple[str, ...], ...], tuple[TaskPlanResult, dict[str, BaseGeometry]]] = {}
+    for it, (groups, score) in enumerate(spaces):
+        if expired("the motion search"):
+            break
+        t = time.monotonic()
+        if groups not in tasks:
+            names = [f"l{k}" for k in range(len(groups))]
+            regions = location_regions(groups, cells)
+            points = representative_points(regions, groups, names, fea, nav, start)
+            costs = location_costs(points, nav, start, planner.speed)
+            lost = sorted(set(partition.unreachable)
+                          | {d for n, g in zip(names, groups, strict=True)
+                             if points[n] is None for d in g})
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                expired("task planning")
+                break
+            tasks[groups] = (plan_problem(groups, costs, unreachable=lost, n_plans=n_sequences,
+                                          time_limit=min(TASK_TIME_LIMIT, remaining)), regions)
+        task, regions = tasks[groups]
+        timing["task_planning"] += time.monotonic() - t
+        unreachable = tuple(sorted(set(task.unreachable) | set(partition.unreachable)))
+        for j, sequence in enumerate(task.plans):
+            if j and expired("the motion search"):
+                break
+            t = time.monotonic()
+            result = search(sequence.actions, regions, fea, nav, start, planner,
+                            rng=np.random.default_rng([seed, _SEARCH, it, j]), deadline=deadline)
+            timing["motion_search"] += time.monotonic() - t
+            searches += 1
+            samples += result.samples
+            if result.valid and (best is None or result.utility > best.motion.utility):
+                best = _Best(result, groups, regions, unreachable, score)
+    if best is None:
+        raise PlanningError(f"{method}: no valid plan (every motion search ended outside its "
+                            f"regions or on an undrivable leg)")
+    return _assemble(method, seed, best, scenario, nav, timing,
+                     time.monotonic() - t_start + feasibility_time, searches, samples, complete)

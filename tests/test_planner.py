@@ -1,0 +1,142 @@
+"""The planner by method name: valid plans, merging, JSON, budget, determinism."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+from shapely.geometry import Point
+
+from s3o_drake.abstraction import voronoi_partition
+from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
+from s3o_drake.planning.planner import METHODS, PlanningTimeoutError, plan
+from s3o_drake.planning.task_planner import TaskProblem, check_plan
+from s3o_drake.scenario import load_scenario
+
+SCENES = ("two_dishes", "opposite_sides")
+
+
+@pytest.fixture(scope="module")
+def scenes():
+    """Scenario, coarse heatmaps and perceived chairs per scene, computed once."""
+    out = {}
+    for name in SCENES:
+        scenario = load_scenario(f"scenarios/small/{name}.yaml")
+        heatmaps = compute_heatmaps(scenario, seed=scenario.seed, cells=32, samples=2,
+                                    progress=False)
+        chairs = [c.pose for c in scenario.chairs if not c.mapped]
+        out[name] = (scenario, heatmaps, chairs)
+    return out
+
+
+@pytest.fixture(scope="module")
+def plans(scenes):
+    """Every method's plan of every scene (seed 0)."""
+    return {(scene, method): plan(scenes[scene][0], method=method, heatmaps=scenes[scene][1],
+                                  perceived_chairs=scenes[scene][2], seed=0)
+            for scene in SCENES for method in METHODS}
+
+
+def _problem(p: TaskMotionPlan) -> TaskProblem:
+    dishes = {d: name for name, group in zip(p.locations, p.groups, strict=True) for d in group}
+    for d in p.unreachable:
+        dishes[d] = None
+    return TaskProblem(locations=p.locations, dishes=dishes, costs=lambda a, b: 0.0)
+
+
+@pytest.mark.parametrize("scene", SCENES)
+@pytest.mark.parametrize("method", METHODS)
+def test_valid_plan_for_every_method(scenes, plans, scene, method):
+    scenario, _, chairs = scenes[scene]
+    p = plans[scene, method]
+    assert p.method == method and p.unreachable == ()
+    check_plan(_problem(p), p.task_actions)  # raises at a violated precondition
+    assert {a.dish for a in p.pickups} == {d.name for d in scenario.dishes}
+    assert math.isfinite(p.utility) and math.isfinite(p.predicted_time)
+    # Poses: inside their location's region, facing the dish picked next; paths end there.
+    partition = voronoi_partition(scenario, chairs)
+    cells = dict(zip(partition.dishes, partition.cells, strict=True))
+    dish_xy = {d.name: np.asarray(d.position) for d in scenario.dishes}
+    here = np.asarray(scenario.robot.start[:2], float)
+    for i, a in enumerate(p.actions):
+        if isinstance(a, Goto):
+            x, y, yaw = a.pose
+            group = p.groups[p.locations.index(a.location)]
+            assert any(cells[d].buffer(1e-6).covers(Point(x, y)) for d in group)
+            nxt = next(b for b in p.actions[i + 1:] if isinstance(b, Pickup))
+            d = dish_xy[nxt.dish] - (x, y)
+            assert yaw == pytest.approx(math.atan2(d[1], d[0]))
+            assert np.allclose(a.path[0], here) and np.allclose(a.path[-1], (x, y))
+            here = np.array([x, y])
+    # Utility as DESIGN.md 2.6 defines it, from the plan's own numbers.
+    pl = scenario.planner
+    utility = sum(-(g.length / pl.speed + pl.gamma) for g in p.gotos) + sum(
+        -pl.delta + pl.reward * k.feasibility for k in p.pickups)
+    assert p.utility == pytest.approx(utility, abs=1e-6)
+    assert set(p.timing) >= {"feasibility", "abstraction", "task_planning", "motion_search"}
+
+
+def test_s3o_merges_close_dishes(plans):
+    """Two plates 30 cm apart: S3O picks both from one stop, V needs one per dish."""
+    p = plans["two_dishes", "S3O-GROP*"]
+    assert len(p.gotos) == 1 and len(p.pickups) == 2
+    for method in ("V-GROP*", "V-GROP", "V-PETLON"):
+        v = plans["two_dishes", method]
+        assert len(v.gotos) == 2 and all(len(g) == 1 for g in v.groups)
+    assert p.utility > plans["two_dishes", "V-GROP*"].utility
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_opposite_sides_need_two_stops(plans, method):
+    assert len(plans["opposite_sides", method].gotos) == 2
+
+
+@pytest.mark.parametrize("method", ["S3O-GROP*", "V-PETLON"])
+def test_json_round_trip(plans, tmp_path, method):
+    p = plans["two_dishes", method]
+    assert TaskMotionPlan.from_json(p.to_json()) == p
+    p.write(tmp_path / "plan.json")
+    assert TaskMotionPlan.read(tmp_path / "plan.json") == p
+
+
+@pytest.mark.parametrize("method", ["S3O-GROP*", "V-PETLON", "S3O-Random"])
+def test_deterministic_for_a_seed(scenes, plans, method):
+    scenario, heatmaps, chairs = scenes["opposite_sides"]
+    again = plan(scenario, method=method, heatmaps=heatmaps, perceived_chairs=chairs, seed=0)
+    first = plans["opposite_sides", method]
+    assert again.actions == first.actions and again.utility == first.utility
+
+
+@pytest.mark.parametrize("method", ["S3O-GROP*", "V-GROP"])
+def test_tiny_budget_returns_in_time_or_says_why(scenes, method):
+    scenario, heatmaps, chairs = scenes["two_dishes"]
+    budget = 0.05
+    t0 = time.monotonic()
+    try:
+        p = plan(scenario, method=method, heatmaps=heatmaps, perceived_chairs=chairs, seed=0,
+                 time_budget=budget)
+    except PlanningTimeoutError as e:
+        assert "time budget" in str(e)
+    else:
+        assert p.pickups and math.isfinite(p.utility)
+    assert time.monotonic() - t0 <= budget * 1.05 + 0.1
+
+
+def test_budget_cuts_the_search_short(scenes):
+    """A budget that expires after the first searches returns their best, marked
+    incomplete, within the budget."""
+    scenario, heatmaps, chairs = scenes["opposite_sides"]
+    t0 = time.monotonic()
+    p = plan(scenario, method="V-GROP*", heatmaps=heatmaps, perceived_chairs=chairs, seed=0,
+             time_budget=0.15)
+    assert time.monotonic() - t0 <= 0.15 * 1.05 + 0.1
+    assert not p.complete and len(p.gotos) == 2
+
+
+def test_unknown_method_is_named(scenes):
+    scenario, heatmaps, chairs = scenes["two_dishes"]
+    with pytest.raises(ValueError, match="S3O-GROP\\*\\*"):
+        plan(scenario, method="S3O-GROP**", heatmaps=heatmaps, perceived_chairs=chairs, seed=0)
