@@ -1,0 +1,233 @@
+"""Benchmark the planner: planning time per task at the paper's sample counts, broken down,
+and the plan's utility against a run with 10x the samples per sequence.
+
+    python -m s3o_drake.planning.benchmark --tasks 10 --method S3O-GROP* --seed 0
+
+For each of the first N shipped tasks (scenarios/generated/task_*.yaml, 5-7 dishes each;
+or the files given with --scenarios):
+
+1. the feasibility heatmaps (Fea^m) of every dish, on --workers processes, timed as
+   "feasibility";
+2. `plan` with the method at the scenario's sample counts (the paper's: 20 CMA-ES
+   generations x 10 per sequence), timed, with the planner's own breakdown: feasibility,
+   navigation, abstraction, task_planning, motion_search;
+3. `plan` again on the same task, seed and heatmaps with --factor (default 10) times the
+   CMA-ES generations, i.e. 10x the samples per sequence: the long run.
+
+The utility ratio is the paper-count utility / the long-run utility (1.0: no loss; above
+1: the short run happened to do better). The time budget is the scenario's, a cap, not a
+target. The unmapped chairs of a scenario count as perceived.
+
+Prints a per-task table and the summary: median planning time with the heatmaps excluded
+and included (target: median <= 5 s on 2 cores) and the median and worst utility ratio
+(target: within 5 %, ratio >= 0.95). A task whose planning fails is listed with its error
+and left out of the medians.
+
+--json FILE: the file is started afresh, then one JSON line per task is appended (and
+flushed) as soon as the task is done, so an interrupted run keeps the finished tasks; the
+last line is {"summary": {...}}.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any, TextIO
+
+from s3o_drake.cli import ArgumentParser, doc_formatter, fail
+from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.planning.planner import METHODS, PlanningError, plan
+from s3o_drake.planning.task_planner import TaskPlanningError
+from s3o_drake.scenario import Scenario, ScenarioError, load_scenario
+
+REPO = Path(__file__).resolve().parents[2]
+TASKS_DIR = REPO / "scenarios" / "generated"
+STAGES = ("feasibility", "navigation", "abstraction", "task_planning", "motion_search")
+TIME_TARGET = 5.0
+"""Target median planning time (s), on 2 cores."""
+RATIO_TARGET = 0.95
+"""Target utility ratio: within 5 % of the long run."""
+
+
+def shipped_tasks() -> list[Path]:
+    """The shipped benchmark tasks, in name order."""
+    return sorted(TASKS_DIR.glob("task_*.yaml"))
+
+
+def perceived_chairs(scenario: Scenario) -> list[list[float]]:
+    """Until perception lands, the planner "perceives" the scenario's unmapped chairs."""
+    return [list(c.pose) for c in scenario.chairs if not c.mapped]
+
+
+def long_run(scenario: Scenario, factor: int) -> Scenario:
+    """A copy of the scenario with `factor` times the CMA-ES generations per sequence."""
+    planner = dataclasses.replace(scenario.planner,
+                                  cma_generations=scenario.planner.cma_generations * factor)
+    return dataclasses.replace(scenario, planner=planner)
+
+
+def benchmark_task(name: str, scenario: Scenario, *, method: str, seed: int, workers: int,
+                   factor: int) -> dict[str, Any]:
+    """One task's row: heatmaps, the paper-count plan, the long run, their utility ratio."""
+    row: dict[str, Any] = {"task": name, "dishes": len(scenario.dishes), "method": method,
+                           "seed": seed}
+    start = time.perf_counter()
+    heatmaps = compute_heatmaps(scenario, seed=seed, workers=workers, progress=False)
+    feasibility = time.perf_counter() - start
+    chairs = perceived_chairs(scenario)
+    try:
+        short = plan(scenario, method=method, heatmaps=heatmaps, perceived_chairs=chairs,
+                     seed=seed, workers=workers, feasibility_time=feasibility)
+        long = plan(long_run(scenario, factor), method=method, heatmaps=heatmaps,
+                    perceived_chairs=chairs, seed=seed, workers=workers)
+    except (PlanningError, TaskPlanningError) as e:
+        row["error"] = f"{type(e).__name__}: {e}"
+        row["feasibility_s"] = feasibility
+        return row
+    row.update({
+        "planning_s": short.planning_time - feasibility,
+        "planning_with_feasibility_s": short.planning_time,
+        "timing": {k: short.timing.get(k, 0.0) for k in STAGES},
+        "utility": short.utility,
+        "samples": short.samples,
+        "complete": short.complete,
+        "long_planning_s": long.planning_time,
+        "long_utility": long.utility,
+        "long_samples": long.samples,
+        "long_complete": long.complete,
+        "utility_ratio": short.utility / long.utility if long.utility > 0 else math.nan,
+    })
+    return row
+
+
+def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Medians over the tasks that planned (NaN ratios left out)."""
+    ok = [r for r in rows if "error" not in r]
+    ratios = [r["utility_ratio"] for r in ok if not math.isnan(r["utility_ratio"])]
+    times = [r["planning_s"] for r in ok]
+    times_all = [r["planning_with_feasibility_s"] for r in ok]
+    nan = math.nan
+    summary = {
+        "tasks": len(rows),
+        "planned": len(ok),
+        "failed": [r["task"] for r in rows if "error" in r],
+        "median_planning_s": statistics.median(times) if times else nan,
+        "median_planning_with_feasibility_s": statistics.median(times_all) if times_all else nan,
+        "median_timing": {k: statistics.median(r["timing"][k] for r in ok) if ok else nan
+                          for k in STAGES},
+        "median_utility_ratio": statistics.median(ratios) if ratios else nan,
+        "worst_utility_ratio": min(ratios) if ratios else nan,
+    }
+    summary["time_target_met"] = summary["median_planning_s"] <= TIME_TARGET
+    summary["time_target_met_with_feasibility"] = (
+        summary["median_planning_with_feasibility_s"] <= TIME_TARGET)
+    summary["utility_target_met"] = bool(ratios) and summary["worst_utility_ratio"] >= RATIO_TARGET
+    return summary
+
+
+def _print_row(r: dict[str, Any]) -> None:
+    if "error" in r:
+        print(f"{r['task']:<14} {r['dishes']:>2}  heatmaps {r['feasibility_s']:.2f} s; "
+              f"FAILED: {r['error']}", flush=True)
+        return
+    t = r["timing"]
+    flag = "" if r["complete"] and r["long_complete"] else "  (budget cut)"
+    print(f"{r['task']:<14} {r['dishes']:>2} {t['feasibility']:7.2f} {t['navigation']:6.2f} "
+          f"{t['abstraction']:6.2f} {t['task_planning']:6.2f} {t['motion_search']:6.2f} "
+          f"{r['planning_s']:7.2f} {r['planning_with_feasibility_s']:7.2f} "
+          f"{r['utility']:9.2f} {r['long_utility']:9.2f} {r['utility_ratio']:6.3f}{flag}",
+          flush=True)
+
+
+def _append(out: TextIO | None, record: dict[str, Any]) -> None:
+    if out is not None:
+        out.write(json.dumps(record) + "\n")
+        out.flush()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = ArgumentParser(prog="python -m s3o_drake.planning.benchmark",
+                            description=__doc__, formatter_class=doc_formatter())
+    parser.add_argument("--tasks", type=int, default=10,
+                        help="first N shipped tasks (default 10)")
+    parser.add_argument("--scenarios", nargs="+", metavar="YAML",
+                        help="these scenario files instead of the shipped tasks")
+    parser.add_argument("--method", default="S3O-GROP*",
+                        help=f"one of {', '.join(METHODS)} (default S3O-GROP*)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--workers", type=int, default=2,
+                        help="processes for the heatmaps and the planner (default 2)")
+    parser.add_argument("--factor", type=int, default=10,
+                        help="sample multiplier of the long run (default 10)")
+    parser.add_argument("--json", metavar="FILE",
+                        help="write one JSON line per task as it finishes, then the summary")
+    args = parser.parse_args(argv)
+    if args.method not in METHODS:
+        fail(f"--method: unknown method {args.method!r}; one of {', '.join(METHODS)}")
+    if args.workers < 1:
+        fail(f"--workers: must be at least 1, got {args.workers}")
+    if args.factor < 2:
+        fail(f"--factor: must be at least 2, got {args.factor}")
+    if args.scenarios:
+        paths = [Path(p) for p in args.scenarios]
+    else:
+        available = shipped_tasks()
+        if not 1 <= args.tasks <= len(available):
+            fail(f"--tasks: must be between 1 and {len(available)}, got {args.tasks}")
+        paths = available[:args.tasks]
+    scenarios = []
+    for path in paths:
+        try:
+            scenarios.append((path.stem, load_scenario(path)))
+        except ScenarioError as e:
+            fail(f"{path}: {e}")
+    json_path = Path(args.json) if args.json else None
+    if json_path is not None and not json_path.parent.is_dir():
+        fail(f"--json: no folder {json_path.parent}")
+
+    print(f"{args.method}, seed {args.seed}, {args.workers} workers, long run x{args.factor}; "
+          "times in s")
+    print(f"{'task':<14} {'n':>2} {'heatmap':>7} {'nav':>6} {'abstr':>6} {'task':>6} "
+          f"{'motion':>6} {'plan':>7} {'+heat':>7} {'utility':>9} {'long':>9} {'ratio':>6}",
+          flush=True)
+    rows: list[dict[str, Any]] = []
+    out = json_path.open("w") if json_path is not None else None
+    try:
+        for name, scenario in scenarios:
+            row = benchmark_task(name, scenario, method=args.method, seed=args.seed,
+                                 workers=args.workers, factor=args.factor)
+            rows.append(row)
+            _print_row(row)
+            _append(out, row)
+        summary = summarize(rows)
+        summary.update(method=args.method, seed=args.seed, workers=args.workers,
+                       factor=args.factor)
+        _append(out, {"summary": summary})
+    finally:
+        if out is not None:
+            out.close()
+
+    s = summary
+    t = s["median_timing"]
+    print(f"planned {s['planned']} of {s['tasks']} tasks"
+          + (f"; failed: {', '.join(s['failed'])}" if s["failed"] else ""))
+    print("median breakdown: " + ", ".join(f"{k} {t[k]:.2f} s" for k in STAGES))
+    print(f"median planning time: {s['median_planning_s']:.2f} s without the heatmaps, "
+          f"{s['median_planning_with_feasibility_s']:.2f} s with them "
+          f"(target <= {TIME_TARGET:g} s: {'met' if s['time_target_met'] else 'NOT met'} "
+          f"without, {'met' if s['time_target_met_with_feasibility'] else 'NOT met'} with)")
+    print(f"utility ratio (paper counts / x{args.factor} samples): median "
+          f"{s['median_utility_ratio']:.3f}, worst {s['worst_utility_ratio']:.3f} "
+          f"(target >= {RATIO_TARGET:g}: {'met' if s['utility_target_met'] else 'NOT met'})")
+    if json_path is not None:
+        print(f"wrote {json_path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
