@@ -16,7 +16,7 @@ Two searches with the same budget (default `cma_generations x cma_population` = 
 samples) and the same result type:
 
 - `grop_star` (GROP*): one CMA-ES (`cma`) over the stacked positions (2 x gotos
-  dimensions). Generation 0 is a greedy starting guess (`_RegionGrid.initial_point`)
+  dimensions). Generation 0 is a greedy starting guess (`RegionGrid.initial_point`)
   plus population - 1 draws from the Fea^m heatmaps; CMA-ES's mean starts at the best of
   them, so GROP* never ends below its own starting guess and starts in a good basin.
 - `grop` (GROP, the baseline): every sample draws each goto's position independently from
@@ -117,7 +117,7 @@ class MotionResult:
         return self.history[-1] if self.history else np.zeros((0, len(self.locations), 2))
 
 
-class _RegionGrid:
+class RegionGrid:
     """Grid cell centres inside one region and their summed Fea^m for the dishes picked
     there: the sampling distribution of GROP and the starting point of GROP*."""
 
@@ -169,7 +169,7 @@ class _RegionGrid:
         return self.points[rng.choice(len(self.points), size=n, p=p)]
 
 
-class _Problem:
+class SequenceProblem:
     """One sequence prepared for evaluation: gotos, pickups, regions, costs."""
 
     def __init__(self, sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
@@ -198,7 +198,7 @@ class _Problem:
         self.regions = [regions[loc] for loc in locations]
         for region in self.regions:
             shapely.prepare(region)
-        self.grids = [_RegionGrid(region, [d for g, d in picks if g == k], feasibility, grid_cell)
+        self.grids = [RegionGrid(region, [d for g, d in picks if g == k], feasibility, grid_cell)
                       for k, region in enumerate(self.regions)]
 
     @property
@@ -261,7 +261,30 @@ class _Problem:
                             history_utility=history_utility)
 
 
-def _ask_inside(es: cma.CMAEvolutionStrategy, problem: _Problem, population: int) -> list:
+class _Tally:
+    """What a search has seen: every generation (for Fig. 4) and the best sample so far."""
+
+    def __init__(self) -> None:
+        self.history: list[np.ndarray] = []
+        self.history_u: list[np.ndarray] = []
+        self.samples = 0
+        self.best_u = -math.inf
+        self.best_x: np.ndarray | None = None
+
+    def add(self, X: np.ndarray, u: np.ndarray) -> None:
+        self.history.append(X)
+        self.history_u.append(u)
+        self.samples += len(X)
+        k = int(np.argmax(u))
+        if u[k] > self.best_u:
+            self.best_u, self.best_x = float(u[k]), X[k].copy()
+
+    def result(self, problem: SequenceProblem, method: str, t0: float) -> MotionResult:
+        return problem.result(method, self.best_x, self.samples, time.monotonic() - t0,
+                              self.history, self.history_u)
+
+
+def _ask_inside(es: cma.CMAEvolutionStrategy, problem: SequenceProblem, population: int) -> list:
     """`population` solutions from `es`, each resampled (up to MAX_RESAMPLING rounds) until
     all its positions lie in their regions: cma's own constraint handling (`ask_and_eval`
     resamples infeasible solutions), here vectorised and without evaluating anything.
@@ -301,8 +324,8 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     deterministic. Returns the best sample seen.
     """
     t0 = time.monotonic()
-    problem = _Problem(sequence, regions, feasibility, nav, start_xy, planner, pickup_duration,
-                       grid_cell)
+    problem = SequenceProblem(sequence, regions, feasibility, nav, start_xy, planner,
+                              pickup_duration, grid_cell)
     generations = planner.cma_generations if generations is None else generations
     population = planner.cma_population if population is None else population
     if problem.n == 0:  # nothing to place: the sequence's utility is fixed
@@ -319,12 +342,8 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     X = np.stack([np.stack(x0)] * population)
     if population > 1:
         X[1:] = np.stack([g.draw(rng0, population - 1) for g in problem.grids], axis=1)
-    u, _, _ = problem.evaluate(X)
-    history: list[np.ndarray] = [X]
-    history_u: list[np.ndarray] = [u]
-    samples = len(X)
-    k = int(np.argmax(u))
-    best_u, best_x = float(u[k]), X[k].copy()
+    tally = _Tally()
+    tally.add(X, problem.evaluate(X)[0])
     sigma = max(MIN_SIGMA, SIGMA_FRACTION * float(np.mean([g.extent for g in problem.grids])))
     rest = generations - 1
     options = {
@@ -334,21 +353,16 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
         "tolflatfitness": math.inf, "tolfun": 0, "tolfunhist": 0, "tolx": 0,
         "tolstagnation": generations + 1,
     }
-    es = cma.CMAEvolutionStrategy(best_x.ravel(), sigma, options)
+    es = cma.CMAEvolutionStrategy(tally.best_x.ravel(), sigma, options)
     for _ in range(rest):
         if deadline is not None and time.monotonic() >= deadline:
             break
         asked = _ask_inside(es, problem, population)
         X = np.array(asked).reshape(len(asked), problem.n, 2)
-        u, _, _ = problem.evaluate(X)
-        samples += len(X)
-        history.append(X)
-        history_u.append(u)
-        k = int(np.argmax(u))
-        if u[k] > best_u:
-            best_u, best_x = float(u[k]), X[k].copy()
+        u = problem.evaluate(X)[0]
+        tally.add(X, u)
         es.tell(asked, list(-u))  # cma minimises
-    return problem.result("GROP*", best_x, samples, time.monotonic() - t0, history, history_u)
+    return tally.result(problem, "GROP*", t0)
 
 
 def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
@@ -363,29 +377,20 @@ def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     are costed together (one `path_lengths` call each) so `deadline` is checked as often
     as in GROP*."""
     t0 = time.monotonic()
-    problem = _Problem(sequence, regions, feasibility, nav, start_xy, planner, pickup_duration,
-                       grid_cell)
+    problem = SequenceProblem(sequence, regions, feasibility, nav, start_xy, planner,
+                              pickup_duration, grid_cell)
     generations = planner.cma_generations if generations is None else generations
     population = planner.cma_population if population is None else population
     if problem.n == 0:
         return problem.result("GROP", np.zeros((0, 2)), 1, time.monotonic() - t0, [], [])
     rng = rng if rng is not None else np.random.default_rng(seed)
-    best_u, best_x = -math.inf, None
-    history: list[np.ndarray] = []
-    history_u: list[np.ndarray] = []
-    samples = 0
+    tally = _Tally()
     for _ in range(generations):
         X = np.stack([g.draw(rng, population) for g in problem.grids], axis=1)
-        u, _, _ = problem.evaluate(X)
-        samples += len(X)
-        history.append(X)
-        history_u.append(u)
-        k = int(np.argmax(u))
-        if u[k] > best_u:
-            best_u, best_x = float(u[k]), X[k].copy()
+        tally.add(X, problem.evaluate(X)[0])
         if deadline is not None and time.monotonic() >= deadline:
             break
-    return problem.result("GROP", best_x, samples, time.monotonic() - t0, history, history_u)
+    return tally.result(problem, "GROP", t0)
 
 
 def location_regions(groups: Sequence[Sequence[str]], cells: Mapping[str, BaseGeometry],

@@ -9,7 +9,7 @@ lengths between those positions as costs). Several such draws are made and the o
 the least navigation cost is kept: PETLON optimises cost, never feasibility.
 
 Fea^m is used only to *score* the chosen plan, with the same utility as GROP*
-(`motion_search._Problem`, the code GROP* scores with), so the methods are comparable.
+(`motion_search.SequenceProblem`, the code GROP* scores with), so the methods are comparable.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from s3o_drake.abstraction.task_feasibility import MotionFeasibility
-from s3o_drake.planning.motion_search import GRID_CELL, MotionResult, _Problem
+from s3o_drake.planning.motion_search import GRID_CELL, MotionResult, SequenceProblem
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.task_planner import START, TaskPlanResult, plan_problem
 from s3o_drake.scenario import Planner
@@ -107,7 +107,8 @@ def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
         t1 = time.monotonic()
         task_time += t1 - t0
         sequence = task.best.actions
-        problem = _Problem(sequence, regions, feasibility, nav, start, planner, None, GRID_CELL)
+        problem = SequenceProblem(sequence, regions, feasibility, nav, start, planner, None,
+                                  GRID_CELL)
         X = np.array([points[loc] for loc in problem.locations]).reshape(-1, 2)
         motion = problem.result("PETLON", X, 1, 0.0, [], [])
         motion_time += time.monotonic() - t1

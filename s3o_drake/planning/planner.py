@@ -20,7 +20,7 @@ The plan of highest utility wins (V-PETLON: least navigation cost).
 Costs for the task planner. Location-to-location costs are the collision-free path lengths
 between the locations' representative points, divided by v, x10, as integers. A location's
 representative point is its best standing spot: the point of its 5 cm grid with the
-highest joint Fea^m (the grid GROP* starts from, `motion_search._RegionGrid`), among the
+highest joint Fea^m (the grid GROP* starts from, `motion_search.RegionGrid`), among the
 20 best the first that can be driven to from the start. The motion search then moves the
 stops, so these costs only rank the visiting orders.
 
@@ -58,7 +58,7 @@ from s3o_drake.abstraction.voronoi import VoronoiPartition
 from s3o_drake.planning.motion_search import (
     GRID_CELL,
     MotionResult,
-    _RegionGrid,
+    RegionGrid,
     grop,
     grop_star,
     location_regions,
@@ -123,7 +123,7 @@ def representative_points(regions: Mapping[str, BaseGeometry], groups: Sequence[
         if region.is_empty or region.area <= 0:
             out[name] = None
             continue
-        grid = _RegionGrid(region, list(group), feasibility, GRID_CELL)
+        grid = RegionGrid(region, list(group), feasibility, GRID_CELL)
         ranked = np.argsort(-grid.weight, kind="stable")[:REPRESENTATIVE_CANDIDATES]
         P = grid.points[ranked]
         lengths = nav.path_lengths(np.broadcast_to(start, P.shape), P)
