@@ -6,9 +6,12 @@ map use the footprints computed here, so what the planner avoids is what the pla
 collides with.
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
+from scipy import ndimage
 from shapely import affinity
 from shapely.geometry import Point, Polygon, box
 from shapely.ops import unary_union
@@ -86,3 +89,41 @@ def chair_footprint(pose: list[float]) -> Polygon:
 def dish_footprint(position: list[float], kind: str) -> Polygon:
     """The dish's circular outline."""
     return Point(position[0], position[1]).buffer(DISH_SHAPES[kind].radius, quad_segs=16)
+
+
+@dataclass(frozen=True)
+class DistanceField:
+    """Distance (m) from a grid's cell centres to obstacle footprints and the room's walls.
+
+    A cell is occupied when its centre lies within `grow` of an obstacle; the walls are a
+    ring of occupied cells just outside `bounds`. Index [i, j] is (x index, y index).
+    """
+
+    origin: np.ndarray
+    resolution: float
+    occupied: np.ndarray
+    distance: np.ndarray
+
+    @classmethod
+    def of(cls, obstacles, bounds: tuple[float, float, float, float], resolution: float, *,
+           grow: float) -> "DistanceField":
+        x0, y0, x1, y1 = bounds
+        nx, ny = math.ceil((x1 - x0) / resolution), math.ceil((y1 - y0) / resolution)
+        gx, gy = np.meshgrid(x0 + (np.arange(nx) + 0.5) * resolution,
+                             y0 + (np.arange(ny) + 0.5) * resolution, indexing="ij")
+        occupied = np.zeros((nx, ny), dtype=bool)
+        if not obstacles.is_empty:
+            occupied = shapely.contains_xy(obstacles.buffer(grow), gx, gy)
+        padded = np.pad(occupied, 1, constant_values=True)
+        distance = ndimage.distance_transform_edt(~padded)[1:-1, 1:-1] * resolution
+        return cls(np.array([x0, y0]), float(resolution), occupied, distance)
+
+    def at(self, P: np.ndarray) -> np.ndarray:
+        """The distance of the cell holding each point (m, 2); 0 outside the grid."""
+        P = np.asarray(P, dtype=float).reshape(-1, 2)
+        ij = np.floor((P - self.origin) / self.resolution).astype(int)
+        nx, ny = self.distance.shape
+        inside = (ij[:, 0] >= 0) & (ij[:, 0] < nx) & (ij[:, 1] >= 0) & (ij[:, 1] < ny)
+        out = np.zeros(len(P))
+        out[inside] = self.distance[ij[inside, 0], ij[inside, 1]]
+        return out

@@ -308,3 +308,27 @@ def test_build_command_rejects_bad_arguments_in_one_line():
         [sys.executable, "-m", "s3o_drake.feasibility.reachability", "--help"],
         capture_output=True, text=True, cwd=REPO).stdout
     assert "inverse reachability map" in help_text and "build" in help_text
+
+
+@pytest.mark.parametrize("scenario_path", [REPO / "scenarios" / "restaurant.yaml",
+                                           REPO / "scenarios" / "generated" / "task_003.yaml"])
+def test_plan_view_shortcuts_agree_with_drake(scenario_path):
+    """The base check's shortcuts (far from everything: free; prisms overlapping: collides)
+    never contradict the Drake collision checker, and settle most random poses."""
+    from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN
+
+    scenario = load_scenario(scenario_path)
+    scene = FeasibilityScene(scenario)
+    rng = np.random.default_rng(5)
+    x0, y0, x1, y1 = scenario.room.bounds
+    n = 3000
+    bases = np.stack([rng.uniform(x0, x1, n), rng.uniform(y0, y1, n),
+                      rng.uniform(-math.pi, math.pi, n)], axis=1)
+    free = np.array(scene.checker.CheckConfigsCollisionFree(
+        [np.concatenate([b, ARM_STOW, GRIPPER_OPEN]) for b in bases]), dtype=bool)
+    certainly_free = scene.clearance.certainly_free(bases[:, :2])
+    certainly_colliding = scene.collision.certainly_colliding(bases)
+    assert not (certainly_free & ~free).any()
+    assert not (certainly_colliding & free).any()
+    assert (certainly_free | certainly_colliding).mean() > 0.6
+    assert 0.4 < scene.robot_radius < 0.5  # the base's half diagonal is 0.418 m

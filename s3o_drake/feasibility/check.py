@@ -2,8 +2,10 @@
 
 For a base pose (x, y, yaw) where the robot really stands and a dish, feasible means
 
-(a) the base is collision-free: the robot with its arm in ARM_STOW passes the scene's
-    collision checker (tables, chairs, walls and the other dishes, 1 cm padding), and
+(a) the base stands inside the room and is collision-free: the robot with its arm in
+    ARM_STOW passes the scene's collision checker (tables, chairs, walls and the other
+    dishes, 1 cm padding; `check_many` settles most poses from plan-view geometry first,
+    see `clearance`, with the same answers), and
 (b) for one of the dish's grasps (`grasps.grasps_for`, in order: top, then side) an arm
     configuration exists within the joint limits, at least 1 cm from every obstacle (the
     grasped dish excepted: the gripper touches it) and without self-collision, that puts the
@@ -173,7 +175,7 @@ class FeasibilityChecker:
         self.scene = scene
         self.method = method
         if reachability is None and method == "map":
-            reachability = ReachabilityMap.load()
+            reachability = ReachabilityMap.shared()
         self.reachability = reachability
         self.fallback_ik = fallback_ik
         self.fallback_seeds = fallback_seeds
@@ -265,8 +267,16 @@ class FeasibilityChecker:
         """Collision-free with the arm stowed, for the queries `rows`: bool (len(rows),)."""
         if rows.size == 0:
             return np.zeros(0, dtype=bool)
-        qs = self._positions(bases[rows], np.broadcast_to(ARM_STOW, (rows.size, 6)))
-        return self._check_configs(qs)
+        # Plan-view geometry settles most base poses for certain (`clearance`); Drake
+        # answers the rest.
+        outside = ~self.scene.clearance.in_room(bases[rows, :2])
+        free = self.scene.clearance.certainly_free(bases[rows, :2])
+        settled = free | outside | self.scene.collision.certainly_colliding(bases[rows])
+        ask = np.flatnonzero(~settled)
+        if ask.size:
+            qs = self._positions(bases[rows[ask]], np.broadcast_to(ARM_STOW, (ask.size, 6)))
+            free[ask] = self._check_configs(qs)
+        return free
 
     @staticmethod
     def _positions(bases: np.ndarray, arms: np.ndarray) -> np.ndarray:
@@ -326,8 +336,9 @@ class FeasibilityChecker:
         checkers, so the same answer."""
         base = bases[0]
         geometry = self._geometry(bases, dish, offsets)
-        if not self.scene.checker.CheckConfigCollisionFree(
-                np.concatenate([base, ARM_STOW, GRIPPER_OPEN])):
+        if not self.scene.clearance.in_room(base[:2])[0] or \
+                not self.scene.checker.CheckConfigCollisionFree(
+                    np.concatenate([base, ARM_STOW, GRIPPER_OPEN])):
             return CheckResult(False, None, None, "base_collision")
         checker = self._grasp_checker(dish)
         row = np.zeros(1, dtype=int)

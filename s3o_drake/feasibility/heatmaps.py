@@ -27,7 +27,7 @@ def make_oracle(scenario: Scenario, *, method: str = "map",
                 reachability: Path | None = None) -> FeasibilityOracle:
     """Scene, checker and oracle for a scenario (ground-truth chairs: those it lists)."""
     scene = FeasibilityScene(scenario)
-    rmap = ReachabilityMap.load(reachability) if method == "map" else None
+    rmap = ReachabilityMap.shared(reachability) if method == "map" else None
     return FeasibilityOracle(FeasibilityChecker(scene, rmap, method=method),
                              scenario.uncertainty)
 

@@ -108,6 +108,9 @@ def unwrap_to(q: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
     return q_ref + kin.wrap(q - q_ref)
 
 
+_SHARED: dict[tuple, "ReachabilityMap"] = {}
+
+
 @dataclass
 class ReachabilityMap:
     """Stored arm configurations (bearing 0, wrist turn 0) per grasp kind on a (ρ, h) grid.
@@ -124,6 +127,17 @@ class ReachabilityMap:
     settings: dict
 
     # ----------------------------------------------------------------------------- file
+    @classmethod
+    def shared(cls, path: str | Path | None = None) -> "ReachabilityMap":
+        """`load(path)`, read once per process and file version: the map is never
+        modified, and its lookups, prepared on first use (about 0.3 s per grasp kind), then
+        serve every scene and planning problem of the process."""
+        path = Path(path) if path is not None else DEFAULT_PATH
+        key = (str(path.resolve()), path.stat().st_mtime_ns if path.is_file() else None)
+        if key not in _SHARED:
+            _SHARED[key] = cls.load(path)
+        return _SHARED[key]
+
     @classmethod
     def load(cls, path: str | Path | None = None, *, check_robot: bool = True) -> "ReachabilityMap":
         """Reads a map file (default: the shipped models/reachability_map.npz).
@@ -259,6 +273,11 @@ class ReachabilityMap:
         out[rows[:, None], rank] = np.where(ok_all[..., None], kin.wrap(q), np.nan)
         valid[rows[:, None], rank] = ok_all
         return out, valid
+
+    def prepare_all(self) -> None:
+        """Readies the lookups of every grasp kind of the map."""
+        for kind in self.configs:
+            self.prepare(kind)
 
     def prepare(self, kind: str) -> None:
         """Readies the lookups of a grasp kind now rather than at its first query."""

@@ -15,6 +15,11 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.planning import RobotDiagramBuilder, SceneGraphCollisionChecker
 
+from s3o_drake.feasibility.clearance import (
+    BaseClearance,
+    CertainCollision,
+    robot_horizontal_radius,
+)
 from s3o_drake.robot import (
     ARM_BASE_LINK,
     ARM_MOUNT_XYZ,
@@ -53,6 +58,14 @@ class FeasibilityScene:
         self.dishes = {d.name: d for d in scenario.dishes}
         self.grasp_frame = self.plant.GetFrameByName(GRASP_FRAME, self.robot)
         self.arm_base_frame = self.plant.GetFrameByName(ARM_BASE_LINK, self.robot)
+        context = self.plant.CreateDefaultContext()
+        inspector = self.diagram.scene_graph().model_inspector()
+        self.robot_radius = robot_horizontal_radius(self.plant, inspector, self.robot, context)
+        """Horizontal reach (m) of the robot's collision geometry with the arm stowed."""
+        self.clearance = BaseClearance(scenario, robot_radius=self.robot_radius,
+                                       padding=padding)
+        self.collision = CertainCollision.of_scene(self.plant, inspector, self.robot, context)
+        """Base positions that need no collision query (see `clearance`)."""
 
     def q(self, base: np.ndarray, arm: np.ndarray = ARM_STOW,
           gripper: np.ndarray = GRIPPER_OPEN) -> np.ndarray:

@@ -63,13 +63,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from scipy import ndimage
 from scipy.sparse.csgraph import shortest_path
 from shapely.geometry import Point, Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
-from s3o_drake.furniture import chair_footprint, table_footprint
+from s3o_drake.furniture import DistanceField, chair_footprint, table_footprint
 from s3o_drake.robot import BASE_RADIUS, BASE_WIDTH
 from s3o_drake.scenario import Scenario
 from s3o_drake.validation import room_polygon
@@ -143,21 +142,13 @@ class NavigationMap:
     # ----------------------------------------------------------------------------- grid
     def _build_grid(self) -> None:
         """Occupancy grid of footprints and walls, and the distance field to them."""
-        x0, y0, x1, y1 = self.room.bounds
-        res = self.resolution
-        self.origin = np.array([x0, y0])
-        nx, ny = math.ceil((x1 - x0) / res), math.ceil((y1 - y0) / res)
-        xs = x0 + (np.arange(nx) + 0.5) * res
-        ys = y0 + (np.arange(ny) + 0.5) * res
-        gx, gy = np.meshgrid(xs, ys, indexing="ij")
-        occupied = np.zeros((nx, ny), dtype=bool)
-        if not self.obstacles.is_empty:
-            occupied |= shapely.contains_xy(self.obstacles.buffer(res / 2), gx, gy)
-        # Pad with a ring of occupied cells: the walls.
-        padded = np.pad(occupied, 1, constant_values=True)
-        self.occupancy = occupied
+        field = DistanceField.of(self.obstacles, self.room.bounds, self.resolution,
+                                 grow=self.resolution / 2)
+        self._field = field
+        self.origin = field.origin
+        self.occupancy = field.occupied
         """occupancy[i, j]: cell (i, j) (x index, y index) touches an obstacle."""
-        self.distance = ndimage.distance_transform_edt(~padded)[1:-1, 1:-1] * res
+        self.distance = field.distance
         """Distance (m) from each cell centre to the nearest occupied cell centre."""
 
     def clearance(self, P: np.ndarray) -> np.ndarray:
@@ -166,13 +157,7 @@ class NavigationMap:
         From the distance field at the nearest cell; the error is within about one cell
         (`resolution`). Points outside the room get 0.
         """
-        P = np.asarray(P, dtype=float).reshape(-1, 2)
-        ij = np.floor((P - self.origin) / self.resolution).astype(int)
-        nx, ny = self.distance.shape
-        inside = (ij[:, 0] >= 0) & (ij[:, 0] < nx) & (ij[:, 1] >= 0) & (ij[:, 1] < ny)
-        out = np.zeros(len(P))
-        out[inside] = self.distance[ij[inside, 0], ij[inside, 1]]
-        return out
+        return self._field.at(P)
 
     def exact_clearance(self, P: np.ndarray) -> np.ndarray:
         """Exact clearance (m) of points (m, 2) to footprints and walls; 0 inside them."""

@@ -1,0 +1,218 @@
+"""A sound shortcut for the base collision check: far from everything means free.
+
+Most base poses a heatmap asks about stand in the open, and for those the Drake collision
+query (robot with its arm stowed against the whole scene) only confirms what plan-view
+geometry already proves: if no obstacle comes within the robot's horizontal radius (plus the
+checker's padding) of the base's centre, nothing can touch it. `BaseClearance` answers
+"certainly free" from a distance field of the scene's footprints and walls; everything else
+still goes to the `SceneGraphCollisionChecker`, so the answers are Drake's own, only cheaper
+(a test compares them on random poses).
+
+Soundness rests on two bounds, both computed rather than assumed:
+- the robot's radius: the farthest corner of any of its collision shapes' bounding boxes
+  from the base's vertical axis, with the arm stowed and the fingers open (from the plant);
+- the field: the footprints of `s3o_drake.furniture` (the same numbers the plant is built
+  from; a dish lies within its table's top) rasterised with every cell touching an obstacle
+  marked, and the distance read at a point reduced by one cell diagonal.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.geometry import Box, Capsule, Cylinder, Role, Sphere
+from shapely.ops import unary_union
+
+from s3o_drake.furniture import DistanceField, chair_footprint, table_footprint
+from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, robot_positions
+from s3o_drake.scenario import Scenario
+
+#: Raster cell (m): fine enough that the one-cell-diagonal allowance costs little.
+FIELD_RESOLUTION = 0.02
+#: Extra distance (m) on top of radius and padding, for rounding in the shapes' poses.
+SAFETY_MARGIN = 0.01
+
+
+def _shape_half_extents(shape) -> np.ndarray:
+    """Half extents of a shape's bounding box in its own frame."""
+    if isinstance(shape, Box):
+        return np.array([shape.width(), shape.depth(), shape.height()]) / 2
+    if isinstance(shape, Cylinder):
+        return np.array([shape.radius(), shape.radius(), shape.length() / 2])
+    if isinstance(shape, Sphere):
+        return np.full(3, shape.radius())
+    if isinstance(shape, Capsule):
+        return np.array([shape.radius(), shape.radius(), shape.length() / 2 + shape.radius()])
+    raise TypeError(f"no bounding box for a {type(shape).__name__} collision shape")
+
+
+def robot_horizontal_radius(plant, scene_graph_inspector, robot, context) -> float:
+    """Largest horizontal distance (m) of the robot's collision geometry from base_link's
+    vertical axis, with the arm stowed: bounding-box corners of every proximity shape."""
+    plant.SetPositions(context, robot, robot_positions(0.0, 0.0, 0.0, arm=ARM_STOW,
+                                                        gripper=GRIPPER_OPEN))
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    radius = 0.0
+    for body_index in plant.GetBodyIndices(robot):
+        body = plant.get_body(body_index)
+        X_WB = plant.EvalBodyPoseInWorld(context, body)
+        frame_id = plant.GetBodyFrameIdOrThrow(body_index)
+        for geometry in scene_graph_inspector.GetGeometries(frame_id, Role.kProximity):
+            X_BG = scene_graph_inspector.GetPoseInFrame(geometry)
+            corners_G = signs * _shape_half_extents(scene_graph_inspector.GetShape(geometry))
+            p_WC = (X_WB @ X_BG).multiply(corners_G.T).T
+            radius = max(radius, float(np.hypot(p_WC[:, 0], p_WC[:, 1]).max()))
+    return radius
+
+
+class BaseClearance:
+    """Which base positions are certainly collision-free (see the module docstring)."""
+
+    def __init__(self, scenario: Scenario, *, robot_radius: float, padding: float,
+                 resolution: float = FIELD_RESOLUTION):
+        shapes = [table_footprint(t.center, t.yaw, t.size) for t in scenario.tables]
+        shapes += [chair_footprint(list(c.pose)) for c in scenario.chairs]
+        self.bounds = scenario.room.bounds
+        # A cell counts as occupied when any of it touches an obstacle.
+        self._field = DistanceField.of(unary_union(shapes), self.bounds, resolution,
+                                       grow=resolution / math.sqrt(2))
+        self.required = robot_radius + padding + SAFETY_MARGIN + resolution * math.sqrt(2)
+        """Field distance (m) beyond which a base position is certainly free."""
+
+    def in_room(self, xy: np.ndarray) -> np.ndarray:
+        """bool (n,): base positions inside the room's walls. Beyond them the walls' thin
+        boxes leave free space that is not part of the world; the checks treat a base
+        there as colliding."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        x0, y0, x1, y1 = self.bounds
+        return (xy[:, 0] > x0) & (xy[:, 0] < x1) & (xy[:, 1] > y0) & (xy[:, 1] < y1)
+
+    def certainly_free(self, xy: np.ndarray) -> np.ndarray:
+        """bool (n,) for base positions (n, 2): True only where no collision is possible."""
+        return self._field.at(xy) > self.required
+
+
+#: Overlap (m) two shapes must have before they count as certainly touching: far above
+#: rounding, far below any clearance that matters.
+OVERLAP_MARGIN = 0.001
+_VERTICAL = 1.0 - 1e-9
+
+
+@dataclass(frozen=True)
+class _Prism:
+    """A collision shape that is a vertical prism: a box turned about z only (rectangle) or
+    a cylinder standing upright (disk), between heights z_lo and z_hi."""
+
+    center: np.ndarray  # (2,) in its frame (world, or the base's for the robot)
+    angle: float  # rectangle: its x axis' angle in that frame
+    half: np.ndarray  # rectangle: half sizes (2,); disk: (radius, radius)
+    disk: bool
+    z_lo: float
+    z_hi: float
+
+    @property
+    def reach(self) -> float:
+        return float(np.hypot(*self.half))
+
+
+def _prism(shape, X) -> "_Prism | None":
+    R = X.rotation().matrix()
+    if abs(R[2, 2]) < _VERTICAL:
+        return None
+    p = X.translation()
+    if isinstance(shape, Box):
+        half_z = shape.height() / 2
+        return _Prism(p[:2].copy(), math.atan2(R[1, 0], R[0, 0]),
+                      np.array([shape.width(), shape.depth()]) / 2, False,
+                      p[2] - half_z, p[2] + half_z)
+    if isinstance(shape, Cylinder):
+        half_z = shape.length() / 2
+        return _Prism(p[:2].copy(), 0.0, np.full(2, shape.radius()), True,
+                      p[2] - half_z, p[2] + half_z)
+    return None
+
+
+def _rect_axes(angle: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c, s], -1), np.stack([-s, c], -1)
+
+
+class CertainCollision:
+    """Base poses at which the stowed robot certainly collides with the scene.
+
+    Two solids certainly collide when their interiors overlap. For shapes that are vertical
+    prisms (boxes turned about z only, upright cylinders; the robot's base body, pedestal and
+    tray and the environment's walls, table tops and legs, chair seats and legs are), that
+    is a positive overlap of their height intervals and of their plan-view rectangles or
+    disks, tested exactly here (separating axes; disk against rectangle by distance).
+    Other shapes are simply not used: the test only ever says "collides" when Drake would.
+    """
+
+    def __init__(self, robot: list[_Prism], environment: list[_Prism]):
+        self.pairs: list[tuple[_Prism, list[_Prism]]] = []
+        for r in robot:
+            near = [e for e in environment if not e.disk and
+                    min(r.z_hi, e.z_hi) - max(r.z_lo, e.z_lo) > OVERLAP_MARGIN]
+            if near:
+                self.pairs.append((r, near))
+
+    @classmethod
+    def of_scene(cls, plant, inspector, robot_instance, context) -> "CertainCollision":
+        """The vertical prisms of a plant's proximity geometry: the robot's with the arm
+        stowed, in base_link's frame (the base at the origin), the rest in the world."""
+        plant.SetPositions(context, robot_instance, robot_positions(
+            0.0, 0.0, 0.0, arm=ARM_STOW, gripper=GRIPPER_OPEN))
+        robot_prisms, env_prisms = [], []
+        for geometry in inspector.GetAllGeometryIds(Role.kProximity):
+            body = plant.GetBodyFromFrameId(inspector.GetFrameId(geometry))
+            if body is None:
+                continue
+            X_WG = plant.EvalBodyPoseInWorld(context, body) @ inspector.GetPoseInFrame(geometry)
+            prism = _prism(inspector.GetShape(geometry), X_WG)
+            if prism is not None:
+                mine = body.model_instance() == robot_instance
+                (robot_prisms if mine else env_prisms).append(prism)
+        return cls(robot_prisms, env_prisms)
+
+    def certainly_colliding(self, bases: np.ndarray) -> np.ndarray:
+        """bool (n,) for base poses (n, 3): True only where the robot certainly collides."""
+        bases = np.asarray(bases, dtype=float).reshape(-1, 3)
+        out = np.zeros(len(bases), dtype=bool)
+        c, s = np.cos(bases[:, 2]), np.sin(bases[:, 2])
+        for r, environment in self.pairs:
+            # The robot prism's centre and angle in the world for every base pose.
+            center = bases[:, :2] + np.stack([c * r.center[0] - s * r.center[1],
+                                              s * r.center[0] + c * r.center[1]], -1)
+            angle = bases[:, 2] + r.angle
+            for e in environment:
+                near = np.flatnonzero(~out & (np.hypot(*(center - e.center).T)
+                                              < r.reach + e.reach))
+                if near.size == 0:
+                    continue
+                hit = (_disk_in_rect(center[near], r.half[0], e) if r.disk
+                       else _rects_overlap(center[near], angle[near], r.half, e))
+                out[near[hit]] = True
+        return out
+
+
+def _disk_in_rect(center: np.ndarray, radius: float, e: _Prism) -> np.ndarray:
+    u, v = _rect_axes(np.array(e.angle))
+    d = center - e.center
+    local = np.stack([d @ u, d @ v], -1)
+    nearest = np.clip(local, -e.half, e.half)
+    inside = np.all(np.abs(local) < e.half, axis=1)
+    return inside | (np.hypot(*(local - nearest).T) < radius - OVERLAP_MARGIN)
+
+
+def _rects_overlap(center: np.ndarray, angle: np.ndarray, half: np.ndarray,
+                   e: _Prism) -> np.ndarray:
+    """Separating-axis test of rectangles (n) against one rectangle, with a margin."""
+    ru, rv = _rect_axes(angle)  # (n, 2) each
+    eu, ev = _rect_axes(np.array(e.angle))
+    d = e.center - center  # (n, 2)
+    overlap = np.ones(len(center), dtype=bool)
+    for axis in (ru, rv, np.broadcast_to(eu, ru.shape), np.broadcast_to(ev, ru.shape)):
+        r_extent = half[0] * np.abs(np.sum(ru * axis, 1)) + half[1] * np.abs(np.sum(rv * axis, 1))
+        e_extent = e.half[0] * np.abs(axis @ eu) + e.half[1] * np.abs(axis @ ev)
+        overlap &= np.abs(np.sum(d * axis, 1)) < r_extent + e_extent - OVERLAP_MARGIN
+    return overlap
