@@ -140,3 +140,88 @@ def test_unknown_method_is_named(scenes):
     scenario, heatmaps, chairs = scenes["two_dishes"]
     with pytest.raises(ValueError, match="S3O-GROP\\*\\*"):
         plan(scenario, method="S3O-GROP**", heatmaps=heatmaps, perceived_chairs=chairs, seed=0)
+
+
+def _ring_heatmaps(scenario, inner: float = 0.45, outer: float = 0.95):
+    """Synthetic Fea^m: 0.9 on a ring around each dish, 0 elsewhere (cheap, for the budget)."""
+    from s3o_drake.feasibility.oracle import Heatmap
+
+    out = []
+    for d in scenario.dishes:
+        grid = Heatmap(d.name, np.zeros((64, 64)), d.position[0] - 2.0, d.position[1] - 2.0,
+                       4.0 / 64)
+        r = np.linalg.norm(grid.centers() - np.asarray(d.position), axis=-1)
+        out.append(Heatmap(d.name, np.where((r > inner) & (r < outer), 0.9, 0.0), grid.x0,
+                           grid.y0, grid.cell))
+    return out
+
+
+def _thirty_dishes():
+    """The restaurant with 30 cups along its tables' long edges."""
+    import dataclasses
+
+    from s3o_drake.scenario import Dish, dump_scenario, parse_scenario
+
+    scenario = load_scenario("scenarios/restaurant.yaml")
+    dishes = []
+    for t in scenario.tables:
+        hx, hy = t.size[0] / 2 - 0.1, t.size[1] / 2 - 0.1
+        c, s = math.cos(t.yaw), math.sin(t.yaw)
+        for sy in (-1, 1):
+            for x in np.linspace(-hx, hx, max(1, round(2 * hx / 0.22))):
+                p = np.asarray(t.center) + np.array([c * x - s * sy * hy, s * x + c * sy * hy])
+                dishes.append(Dish(name=f"cup_{len(dishes):02d}", table=t.name,
+                                   position=[float(p[0]), float(p[1])], kind="cup"))
+    assert len(dishes) >= 30
+    # Through the YAML, so that the scenario checks (overlaps, on the table) run.
+    return parse_scenario(dump_scenario(dataclasses.replace(scenario, dishes=dishes[:30])))
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_budget_holds_on_a_30_dish_task(workers):
+    scenario = _thirty_dishes()
+    chairs = [c.pose for c in scenario.chairs if not c.mapped]
+    budget = 2.5
+    t0 = time.monotonic()
+    p = plan(scenario, method="S3O-GROP*", heatmaps=_ring_heatmaps(scenario),
+             perceived_chairs=chairs, seed=0, time_budget=budget, workers=workers)
+    elapsed = time.monotonic() - t0
+    assert elapsed <= budget * 1.05
+    # Cups whose Voronoi cell holds no free space (walled in by their neighbours) are
+    # reported unreachable by the abstraction; the others are all planned.
+    assert len(p.pickups) + len(p.unreachable) == 30 and len(p.pickups) >= 10
+    check_plan(_problem(p), p.task_actions)
+
+
+def test_workers_give_the_same_plan(scenes):
+    scenario, heatmaps, chairs = scenes["opposite_sides"]
+    one = plan(scenario, method="S3O-GROP*", heatmaps=heatmaps, perceived_chairs=chairs, seed=0,
+               workers=1)
+    two = plan(scenario, method="S3O-GROP*", heatmaps=heatmaps, perceived_chairs=chairs, seed=0,
+               workers=2)
+    assert one.actions == two.actions and one.utility == two.utility
+    assert one.searches == two.searches
+
+
+def test_an_unreachable_dish_is_reported_and_the_rest_planned():
+    """A cup in the far corner of a table pushed into the room's corner cannot be picked;
+    the plate at the open edge still is."""
+    from s3o_drake.scenario import parse_scenario
+
+    scenario = parse_scenario("""
+seed: 3
+room: {bounds: [0.0, 0.0, 4.0, 4.0]}
+tables:
+  - {name: corner, center: [0.75, 3.25], yaw: 0.0, size: [1.4, 1.4, 0.04], height: 0.75}
+dishes:
+  - {name: far_cup, table: corner, position: [0.2, 3.8], kind: cup}
+  - {name: near_plate, table: corner, position: [1.3, 2.75], kind: plate}
+robot: {start: [3.0, 1.0, 0.0]}
+""")
+    heatmaps = compute_heatmaps(scenario, seed=0, cells=32, samples=2, progress=False)
+    assert heatmaps[0].values.max() == 0.0  # the oracle agrees: nowhere to pick it from
+    for method in ("S3O-GROP*", "V-PETLON"):
+        p = plan(scenario, method=method, heatmaps=heatmaps, perceived_chairs=[], seed=0)
+        assert p.unreachable == ("far_cup",)
+        assert [a.dish for a in p.pickups] == ["near_plate"]
+        check_plan(_problem(p), p.task_actions)

@@ -79,6 +79,11 @@ class TaskMotionPlan:
     """Base-pose samples evaluated over all searches."""
     complete: bool = True
     """False if the time budget cut the search short (the plan is the best so far)."""
+    early_samples: tuple[tuple[tuple[float, float], ...], ...] = ()
+    """The winning search's first generation: per sample, one (x, y) per goto (m); empty
+    for methods that run no search (the paper's Fig. 4, left)."""
+    late_samples: tuple[tuple[tuple[float, float], ...], ...] = ()
+    """Its last generation (Fig. 4, right)."""
 
     @property
     def gotos(self) -> tuple[Goto, ...]:
@@ -120,6 +125,8 @@ class TaskMotionPlan:
             "timing": dict(self.timing), "unreachable": list(self.unreachable),
             "score": self.score, "searches": self.searches, "samples": self.samples,
             "complete": self.complete,
+            "early_samples": _nested_lists(self.early_samples),
+            "late_samples": _nested_lists(self.late_samples),
         }
 
     @classmethod
@@ -149,7 +156,9 @@ class TaskMotionPlan:
                    unreachable=tuple(data["unreachable"]),
                    score=None if score is None else float(score),
                    searches=int(data["searches"]), samples=int(data["samples"]),
-                   complete=bool(data["complete"]))
+                   complete=bool(data["complete"]),
+                   early_samples=samples_tuple(data.get("early_samples", [])),
+                   late_samples=samples_tuple(data.get("late_samples", [])))
 
     def to_json(self, indent: int | None = 1) -> str:
         """Strict JSON (no NaN or Infinity: a plan's numbers are all finite)."""
@@ -165,6 +174,15 @@ class TaskMotionPlan:
     @classmethod
     def read(cls, path: str | Path) -> TaskMotionPlan:
         return cls.from_json(Path(path).read_text())
+
+
+def samples_tuple(samples: Any) -> tuple[tuple[tuple[float, float], ...], ...]:
+    """A generation's samples, (pop, n_gotos, 2) array-like, as nested tuples of floats."""
+    return tuple(tuple((float(p[0]), float(p[1])) for p in sample) for sample in samples)
+
+
+def _nested_lists(samples: tuple) -> list:
+    return [[list(p) for p in sample] for sample in samples]
 
 
 def facing_yaw(position: tuple[float, float] | Any, target: tuple[float, float] | Any) -> float:

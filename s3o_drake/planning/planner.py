@@ -33,15 +33,25 @@ so far is returned with `complete=False`. If it expires before any plan exists a
 navigation map, the Voronoi partition and Fea^t, clingo's grounding) may overrun a tiny
 budget by their own duration.
 
+Workers. With `workers > 1` the motion searches (one per task-level sequence) run in that
+many worker processes while this process goes on with the next state space's task
+planning. The workers are forked once the navigation map, the abstraction and Fea^m exist,
+so they inherit them instead of rebuilding or unpickling them; only a sequence and its
+regions travel to a worker, and a `MotionResult` back. They never call Drake. Where fork is
+not available (not Linux) the searches run in this process.
+
 Determinism. All randomness comes from generators seeded with (seed, purpose, iteration,
-sequence); with `workers=1` the same seed gives the same plan. `workers > 1` is accepted
-but searches still run in this process (parallel workers are future work).
+sequence), and results are compared in submission order, so the same seed gives the same
+plan whatever the number of workers (unless the budget cuts the search, when how far each
+got depends on the machine).
 """
 
 from __future__ import annotations
 
+import multiprocessing
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,7 +75,14 @@ from s3o_drake.planning.motion_search import (
 )
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.petlon import COST_SCALE, petlon
-from s3o_drake.planning.plan import Goto, Pickup, PlanAction, TaskMotionPlan, facing_yaw
+from s3o_drake.planning.plan import (
+    Goto,
+    Pickup,
+    PlanAction,
+    TaskMotionPlan,
+    facing_yaw,
+    samples_tuple,
+)
 from s3o_drake.planning.task_planner import START, TaskPlanResult, plan_problem
 from s3o_drake.scenario import Scenario
 
@@ -94,6 +111,62 @@ class _Best:
     regions: dict[str, BaseGeometry]
     unreachable: tuple[str, ...]
     score: float | None
+
+
+# What a forked search worker inherits: set just before the pool forks, read by _search_job.
+_inherited: dict | None = None
+
+
+def _search_job(job: tuple) -> MotionResult:
+    actions, regions, seed_key = job
+    s = _inherited
+    assert s is not None, "search workers must be forked by _Searches"
+    return s["search"](actions, regions, s["fea"], s["nav"], s["start"], s["planner"],
+                       rng=np.random.default_rng(seed_key), deadline=s["deadline"])
+
+
+class _Searches:
+    """Motion searches run here (workers <= 1) or in forked worker processes; results
+    come back in submission order."""
+
+    def __init__(self, workers: int, search: Callable[..., MotionResult], fea, nav, start,
+                 planner, deadline: float):
+        global _inherited
+        self._shared = dict(search=search, fea=fea, nav=nav, start=start, planner=planner,
+                            deadline=deadline)
+        self._pool: ProcessPoolExecutor | None = None
+        self._pending: list[tuple[object, Future | MotionResult]] = []
+        if workers > 1 and "fork" in multiprocessing.get_all_start_methods():
+            _inherited = self._shared
+            self._pool = ProcessPoolExecutor(max_workers=workers,
+                                             mp_context=multiprocessing.get_context("fork"))
+
+    def submit(self, key: object, actions, regions, seed_key: list[int]) -> None:
+        job = (actions, regions, seed_key)
+        if self._pool is None:
+            global _inherited
+            _inherited = self._shared
+            self._pending.append((key, _search_job(job)))
+        else:
+            self._pending.append((key, self._pool.submit(_search_job, job)))
+
+    def results(self) -> list[tuple[object, MotionResult]]:
+        """Every submitted search's (key, result), in submission order; searches that
+        had not started when the deadline passed are dropped."""
+        out = []
+        for key, item in self._pending:
+            if isinstance(item, Future):
+                if time.monotonic() >= self._shared["deadline"] and item.cancel():
+                    continue
+                item = item.result()
+            out.append((key, item))
+        return out
+
+    def close(self) -> None:
+        global _inherited
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+        _inherited = None
 
 
 def _check_method(method: str) -> None:
@@ -179,7 +252,9 @@ def _assemble(method: str, seed: int, best: _Best, scenario: Scenario, nav: Navi
                           predicted_time=float(motion.predicted_time),
                           planning_time=float(planning_time), timing=dict(timing),
                           unreachable=best.unreachable, score=best.score, searches=searches,
-                          samples=samples, complete=complete)
+                          samples=samples, complete=complete,
+                          early_samples=samples_tuple(motion.early),
+                          late_samples=samples_tuple(motion.late))
 
 
 def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequence[Sequence[float]],
@@ -198,7 +273,6 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
     budget = scenario.planner.time_budget if time_budget is None else float(time_budget)
     deadline = t_start + budget
     planner = scenario.planner
-    del workers  # sequential for now (see the module docstring)
     fea = as_motion_feasibility(heatmaps)
     start = np.asarray(scenario.robot.start[:2], dtype=float)
     timing = {"feasibility": float(feasibility_time), "navigation": 0.0, "abstraction": 0.0,
@@ -207,12 +281,14 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
     best: _Best | None = None
     complete = True
 
-    def expired(stage: str) -> bool:
+    def expired(stage: str, fatal: bool = True) -> bool:
+        """Whether the deadline passed (the plan is then incomplete); raises when it did
+        and `fatal` and no plan exists."""
         nonlocal complete
         if time.monotonic() < deadline:
             return False
         complete = False
-        if best is None:
+        if fatal and best is None:
             raise PlanningTimeoutError(f"{method}: the time budget of {budget:g} s expired during "
                                   f"{stage}, before any plan was found")
         return True
@@ -267,8 +343,31 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
     search = grop if method.endswith("GROP") else grop_star
 
     tasks: dict[tuple[tuple[str, ...], ...], tuple[TaskPlanResult, dict[str, BaseGeometry]]] = {}
+    searches_run = _Searches(workers, search, fea, nav, start, planner, deadline)
+    try:
+        best, searches, samples = _search_spaces(
+            spaces, tasks, searches_run, cells, partition, fea, nav, start, planner,
+            n_sequences, seed, deadline, timing, expired)
+    finally:
+        searches_run.close()
+    if time.monotonic() >= deadline:
+        complete = False  # a search may have been cut at the deadline (in a worker)
+    if best is None:
+        expired("the motion search")
+        raise PlanningError(f"{method}: no valid plan (every motion search ended outside its "
+                            f"regions or on an undrivable leg)")
+    return _assemble(method, seed, best, scenario, nav, timing,
+                     time.monotonic() - t_start + feasibility_time, searches, samples, complete)
+
+
+def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, fea, nav, start,
+                   planner, n_sequences, seed, deadline, timing, expired):
+    """Task planning per state space here, motion searches through `searches_run`; the
+    best result (ties: the first submitted), and how many searches and samples ran.
+    `expired(stage, fatal)` is plan()'s: fatal until a search has been submitted."""
+    submitted = False
     for it, (groups, score) in enumerate(spaces):
-        if expired("the motion search"):
+        if expired("the motion search", not submitted):
             break
         t = time.monotonic()
         if groups not in tasks:
@@ -281,7 +380,7 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
                              if points[n] is None for d in g})
             remaining = deadline - time.monotonic()
             if remaining <= 0:
-                expired("task planning")
+                expired("task planning", not submitted)
                 break
             tasks[groups] = (plan_problem(groups, costs, unreachable=lost, n_plans=n_sequences,
                                           time_limit=min(TASK_TIME_LIMIT, remaining)), regions)
@@ -289,18 +388,21 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
         timing["task_planning"] += time.monotonic() - t
         unreachable = tuple(sorted(set(task.unreachable) | set(partition.unreachable)))
         for j, sequence in enumerate(task.plans):
-            if j and expired("the motion search"):
+            if j and expired("the motion search", False):
                 break
             t = time.monotonic()
-            result = search(sequence.actions, regions, fea, nav, start, planner,
-                            rng=np.random.default_rng([seed, _SEARCH, it, j]), deadline=deadline)
+            searches_run.submit((groups, regions, unreachable, score), sequence.actions,
+                                regions, [seed, _SEARCH, it, j])
+            submitted = True
             timing["motion_search"] += time.monotonic() - t
-            searches += 1
-            samples += result.samples
-            if result.valid and (best is None or result.utility > best.motion.utility):
-                best = _Best(result, groups, regions, unreachable, score)
-    if best is None:
-        raise PlanningError(f"{method}: no valid plan (every motion search ended outside its "
-                            f"regions or on an undrivable leg)")
-    return _assemble(method, seed, best, scenario, nav, timing,
-                     time.monotonic() - t_start + feasibility_time, searches, samples, complete)
+    t = time.monotonic()
+    best = None
+    searches = samples = 0
+    for (groups, regions, unreachable, score), result in searches_run.results():
+        # A search that started as the deadline passed may have had no time for a sample.
+        searches += 1
+        samples += result.samples
+        if result.valid and (best is None or result.utility > best.motion.utility):
+            best = _Best(result, groups, regions, unreachable, score)
+    timing["motion_search"] += time.monotonic() - t
+    return best, searches, samples
