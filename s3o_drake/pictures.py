@@ -1,4 +1,5 @@
-"""Pictures a person reads faster than numbers: heatmaps and state spaces over the top view."""
+"""Pictures a person reads faster than numbers: heatmaps, state spaces, the motion search
+and the plan over the top view of the room."""
 
 from collections.abc import Sequence
 from pathlib import Path
@@ -16,6 +17,7 @@ from s3o_drake.scenario import Scenario
 
 if TYPE_CHECKING:
     from s3o_drake.abstraction.ranking import Abstraction
+    from s3o_drake.planning.plan import TaskMotionPlan
 
 
 def _figure_bytes(fig) -> bytes:
@@ -141,4 +143,96 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Seque
     ax.set_title(title or f"State space ranked {rank + 1} of {abstraction.count} "
                           f"({search}): {locations}, "
                           f"Score {state.score:.2f}, p = {p_rank:.2f}")
+    write_atomically(path, _figure_bytes(fig))
+
+
+def _room_axes(scenario: Scenario, top_view: np.ndarray, ax) -> None:
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    ax.imshow(top_view, extent=(x_min, x_max, y_min, y_max), origin="upper")
+    ax.set_xlim(x_min, x_max)
+    ax.set_ylim(y_min, y_max)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+
+
+def _dish_marks(ax, scenario: Scenario, unreachable: Sequence[str] = ()) -> None:
+    for dish in scenario.dishes:
+        lost = dish.name in unreachable
+        ax.plot(*dish.position, marker="x" if lost else "o", markersize=7 if lost else 5,
+                color="red" if lost else "cyan", markeredgecolor="red" if lost else "k",
+                linestyle="none")
+        ax.annotate(dish.name + (" (unreachable)" if lost else ""), dish.position,
+                    xytext=(4, 4), textcoords="offset points", fontsize=7, color="k",
+                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "alpha": 0.7})
+
+
+def search_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
+                  plan: "TaskMotionPlan", path: Path) -> None:
+    """The winning motion search's samples of its first and last generation over the
+    heatmaps, one colour per goto (the paper's Fig. 4): CMA-ES starts spread over the
+    feasible regions and ends concentrated where the utility is highest."""
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    aspect = (y_max - y_min) / (x_max - x_min)
+    fig, axes = plt.subplots(1, 2, figsize=(16, 8 * aspect + 0.8))
+    colours = plt.get_cmap("tab10")
+    gotos = plan.gotos
+    for ax, samples, name in ((axes[0], plan.early_samples, "first"),
+                              (axes[1], plan.late_samples, "last")):
+        _room_axes(scenario, top_view, ax)
+        if heatmaps:
+            _heatmap_layer(ax, scenario, heatmaps, alpha=0.45)
+        _dish_marks(ax, scenario, plan.unreachable)
+        points = np.asarray(samples, dtype=float).reshape(len(samples), -1, 2)
+        for k, goto in enumerate(gotos):
+            colour = colours(k % 10)
+            if points.size:
+                ax.scatter(points[:, k, 0], points[:, k, 1], s=22, color=colour,
+                           edgecolors="k", linewidths=0.4, label=f"goto {goto.location}")
+            ax.plot(*goto.pose[:2], marker="*", markersize=18, markerfacecolor="none",
+                    markeredgecolor=colour, markeredgewidth=2.0)
+        ax.set_title(f"{plan.method}: samples of the {name} generation "
+                     f"({len(samples)}); stars: the plan's stops", fontsize=10)
+        if gotos and points.size:
+            ax.legend(loc="upper left", fontsize=8, framealpha=0.8)
+    write_atomically(path, _figure_bytes(fig))
+
+
+def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan",
+                path: Path, *, title: str = "") -> None:
+    """The plan over the top view: the driven paths, each stop with its heading, and
+    thin lines from each stop to the dishes picked there; unreachable dishes crossed."""
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    fig, ax = plt.subplots(figsize=(10, 10 * (y_max - y_min) / (x_max - x_min)))
+    _room_axes(scenario, top_view, ax)
+    _dish_marks(ax, scenario, plan.unreachable)
+    colours = plt.get_cmap("tab10")
+    dish_xy = {d.name: d.position for d in scenario.dishes}
+    start = scenario.robot.start
+    ax.plot(start[0], start[1], marker="s", markersize=10, color="white", markeredgecolor="k")
+    ax.annotate("start", start[:2], xytext=(6, -12), textcoords="offset points", fontsize=8)
+    stop, colour, k = start[:2], "white", -1
+    for action in plan.actions:
+        if hasattr(action, "path"):
+            k += 1
+            colour = colours(k % 10)
+            p = np.asarray(action.path)
+            ax.plot(p[:, 0], p[:, 1], color=colour, linewidth=2.5, alpha=0.9)
+            x, y, yaw = action.pose
+            ax.annotate("", (x + 0.35 * np.cos(yaw), y + 0.35 * np.sin(yaw)), (x, y),
+                        arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5})
+            ax.plot(x, y, marker="o", markersize=14, color=colour, markeredgecolor="k")
+            ax.annotate(str(k + 1), (x, y), ha="center", va="center", fontsize=8,
+                        fontweight="bold")
+            stop = (x, y)
+        else:
+            d = dish_xy[action.dish]
+            ax.plot([stop[0], d[0]], [stop[1], d[1]], color=colour, linewidth=1.0,
+                    linestyle=":")
+            ax.annotate(f"{action.feasibility:.2f}", ((stop[0] + d[0]) / 2, (stop[1] + d[1]) / 2),
+                        fontsize=7, color="k", ha="center",
+                        bbox={"boxstyle": "round,pad=0.1", "fc": "white", "alpha": 0.6})
+    stops = len(plan.gotos)
+    ax.set_title(title or f"{plan.method}: {stops} stop{'s' if stops != 1 else ''}, "
+                          f"{len(plan.pickups)} pickups, predicted {plan.predicted_time:.0f} s, "
+                          f"utility {plan.utility:.1f} (numbers on the dotted lines: Fea$^m$)")
     write_atomically(path, _figure_bytes(fig))

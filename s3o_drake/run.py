@@ -1,11 +1,15 @@
-"""Simulate a scenario in Drake and save what happened.
+"""Plan a scenario's task with S3O (or a baseline), simulate it in Drake, save what happened.
 
-    python -m s3o_drake.run scenarios/restaurant.yaml
+    python -m s3o_drake.run scenarios/restaurant.yaml [--method NAME] [--seed N]
 
 Loads and validates the scenario, builds the restaurant and the mobile manipulator in a
-Drake diagram (MultibodyPlant, SceneGraph, overhead RgbdSensor, Meshcat), and simulates
-it. Until the planner lands, the robot holds its start pose for `simulation.hold_time`
-simulated seconds.
+Drake diagram (MultibodyPlant, SceneGraph, overhead RgbdSensor, Meshcat), computes every
+dish's Fea^m heatmap with the Drake feasibility check, and plans with the chosen method
+(default: the scenario's `planner.method`, S3O-GROP*): the methods are S3O-GROP*,
+S3O-GROP, V-GROP*, V-GROP, V-PETLON and S3O-Random. It prints the plan and writes it.
+Until execution lands, the simulated robot holds its start pose for
+`simulation.hold_time` simulated seconds. Until perception lands, the planner is given
+the scenario's unmapped chairs as if the overhead camera had found them.
 
 Outputs, in `out/<scenario file stem>/` unless --out or `outputs.directory` says otherwise:
   playback.html   a self-contained Meshcat recording; open it in a browser
@@ -13,11 +17,14 @@ Outputs, in `out/<scenario file stem>/` unless --out or `outputs.directory` says
   feasibility.png each dish's Fea^m heatmap (4 m x 4 m, 64 x 64 cells, from the Drake
                   feasibility check under the scenario's noise) over a top view of the room
   state_space.png the top-ranked S3O state space (Voronoi cells of the free base positions,
-                  merged where that scores best) over the same heatmaps; the scenario's
-                  chairs count as perceived obstacles
+                  merged where that scores best) over the same heatmaps
+  plan.json       the task-motion plan (actions, base poses, paths, expected utility,
+                  predicted time, Fea^m per pickup, planning time and its breakdown)
+  plan.png        the plan over the top view: paths, stops, which dish from which stop
+  search.png      the winning CMA-ES search's first and last generation (the paper's Fig. 4)
 
-Exit status: 0 on success, 2 on bad input (one line on stderr naming the field; nothing is
-written).
+Exit status: 0 on success, 1 when no plan could be made (the reason is printed), 2 on bad
+input (one line on stderr naming the field; nothing is written).
 """
 
 import logging
@@ -39,7 +46,15 @@ from s3o_drake.camera import orthophoto, overhead_camera
 from s3o_drake.cli import ArgumentParser, doc_formatter, fail
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.io import write_atomically
-from s3o_drake.pictures import feasibility_figure, state_space_figure
+from s3o_drake.pictures import (
+    feasibility_figure,
+    plan_figure,
+    search_figure,
+    state_space_figure,
+)
+from s3o_drake.planning.plan import Goto, TaskMotionPlan
+from s3o_drake.planning.planner import METHODS, PlanningError, plan
+from s3o_drake.planning.task_planner import TaskPlanningError
 from s3o_drake.scenario import Scenario, ScenarioError, load_scenario, scenario_stem
 from s3o_drake.world import build_world_diagram, robot_hold_state
 
@@ -107,6 +122,28 @@ def simulate(scenario: Scenario, *, meshcat: Meshcat, realtime: bool = False) ->
     return diagram, images, meshcat.StaticHtml()
 
 
+def describe_plan(p: TaskMotionPlan) -> str:
+    """The plan as a person reads it: one line per action, then the figures."""
+    lines = [f"{p.method} plan (seed {p.seed}): {len(p.gotos)} stops, {len(p.pickups)} pickups"
+             + (f", unreachable: {', '.join(p.unreachable)}" if p.unreachable else "")]
+    for i, a in enumerate(p.actions, 1):
+        if isinstance(a, Goto):
+            x, y, yaw = a.pose
+            lines.append(f"  {i:2d}. goto {a.location:<4} to ({x:5.2f}, {y:5.2f}) m, "
+                         f"yaw {yaw:+.2f} rad, path {a.length:.2f} m")
+        else:
+            lines.append(f"  {i:2d}. pickup {a.dish} (Fea^m {a.feasibility:.2f})")
+    t = p.timing
+    lines.append(f"  expected utility {p.utility:.1f}, predicted execution time "
+                 f"{p.predicted_time:.1f} s; planned in {p.planning_time:.2f} s (feasibility "
+                 f"{t.get('feasibility', 0):.2f}, navigation {t.get('navigation', 0):.2f}, "
+                 f"abstraction {t.get('abstraction', 0):.2f}, task planning "
+                 f"{t.get('task_planning', 0):.2f}, motion search "
+                 f"{t.get('motion_search', 0):.2f}); {p.searches} searches, {p.samples} samples"
+                 + ("" if p.complete else "; the time budget cut the search short"))
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m s3o_drake.run", description=__doc__,
                             formatter_class=doc_formatter())
@@ -116,6 +153,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--meshcat", action="store_true",
                         help="also serve a live Meshcat, print its URL and simulate in real "
                              "time so that it can be watched")
+    parser.add_argument("--method", metavar="NAME",
+                        help=f"planning method, one of {', '.join(METHODS)} "
+                             "(default: the scenario's planner.method)")
+    parser.add_argument("--seed", type=int, metavar="N",
+                        help="seed of all randomness (default: the scenario's seed)")
     parser.add_argument("--graphviz", action="store_true",
                         help="write the diagram's Graphviz (.dot, and .svg when Graphviz is "
                              f"installed) under {DIAGRAMS_DIR.name}/")
@@ -125,6 +167,12 @@ def main(argv: list[str] | None = None) -> int:
         scenario = load_scenario(args.scenario)
     except ScenarioError as e:
         fail(f"{args.scenario}: {e}")
+    if args.method is not None and args.method not in METHODS:
+        fail(f"--method: unknown method {args.method!r}; one of {', '.join(METHODS)}")
+    method = args.method or scenario.planner.method
+    seed = scenario.seed if args.seed is None else args.seed
+    if seed < 0:
+        fail(f"--seed: must be a non-negative integer, got {seed}")
     out = Path(args.out or scenario.outputs.directory or Path("out") / scenario_stem(args.scenario))
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} exists and is not a folder")
@@ -137,11 +185,22 @@ def main(argv: list[str] | None = None) -> int:
     start = time.perf_counter()
     diagram, (color, depth), html = simulate(scenario, meshcat=meshcat, realtime=args.meshcat)
     elapsed = time.perf_counter() - start
-    heatmaps = []
+    # Until perception lands, the planner "perceives" the scenario's unmapped chairs.
+    chairs = [list(c.pose) for c in scenario.chairs if not c.mapped]
+    heatmaps, task_plan, planning_failure = [], None, None
+    if scenario.dishes:
+        # In this process: the collision checker already spreads its batches over the
+        # cores, and worker processes would only add their start-up.
+        t = time.perf_counter()
+        heatmaps = compute_heatmaps(scenario, seed=seed, workers=1)
+        feasibility_time = time.perf_counter() - t
+        try:
+            task_plan = plan(scenario, method=method, heatmaps=heatmaps, perceived_chairs=chairs,
+                             seed=seed, workers=scenario.planner.workers,
+                             feasibility_time=feasibility_time)
+        except (PlanningError, TaskPlanningError) as e:
+            planning_failure = str(e)
     draw_state_space = scenario.outputs.state_space and bool(scenario.dishes)
-    if (scenario.outputs.feasibility or draw_state_space) and scenario.dishes:
-        heatmaps = compute_heatmaps(scenario, seed=scenario.seed,
-                                    workers=scenario.planner.workers)
 
     out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -160,22 +219,32 @@ def main(argv: list[str] | None = None) -> int:
             written.append(out / "feasibility.png")
         if draw_state_space:
             # Until perception lands, the planner "perceives" the scenario's chairs.
-            abstraction = build_abstraction(
-                scenario, heatmaps, perceived_chairs=[c.pose for c in scenario.chairs
-                                                      if not c.mapped])
+            abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=chairs,
+                                            seed=seed)
             state_space_figure(scenario, top_view, heatmaps, abstraction,
                                out / "state_space.png")
             written.append(out / "state_space.png")
+        if task_plan is not None:
+            task_plan.write(out / "plan.json")
+            plan_figure(scenario, top_view, task_plan, out / "plan.png")
+            written += [out / "plan.json", out / "plan.png"]
+            if task_plan.early_samples:
+                search_figure(scenario, top_view, heatmaps, task_plan, out / "search.png")
+                written.append(out / "search.png")
     if args.graphviz:
         written += write_graphviz(diagram, DIAGRAMS_DIR, "run")
 
     print(f"Simulated {scenario.simulation.hold_time:g} s of {scenario_stem(args.scenario)} "
           f"in {elapsed:.1f} s wall time.")
+    if task_plan is not None:
+        print(describe_plan(task_plan))
+    elif planning_failure is not None:
+        print(f"No plan: {planning_failure}")
     for path in written:
         print(f"  wrote {path}")
     if args.meshcat and sys.stdin.isatty():
         input("Meshcat is still serving; press Enter to exit.")
-    return 0
+    return 1 if planning_failure is not None else 0
 
 
 if __name__ == "__main__":

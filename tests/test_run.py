@@ -7,8 +7,10 @@ import sys
 from pathlib import Path
 
 import cv2
+import pytest
 
 from s3o_drake.camera import overhead_camera
+from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.run import main as run_main
 from s3o_drake.scenario import load_scenario
 
@@ -41,17 +43,41 @@ def test_run_writes_playback_and_overhead_picture(tmp_path, capsys):
     assert picture is not None and picture.shape[0] > 300
     assert str(out / "state_space.png") in printed
 
+    # The plan: printed, written, and drawn.
+    plan = TaskMotionPlan.read(out / "plan.json")
+    assert plan.method == "S3O-GROP*" and {a.dish for a in plan.pickups} == {"plate_a", "cup_b"}
+    assert "S3O-GROP* plan (seed 1)" in printed and "pickup plate_a" in printed
+    for name in ("plan.png", "search.png"):
+        picture = cv2.imread(str(out / name))
+        assert picture is not None and picture.shape[0] > 300, name
+
+
+@pytest.mark.parametrize("method", ["V-PETLON", "S3O-Random"])
+def test_run_plans_with_the_method_and_seed_given(tmp_path, capsys, method):
+    out = tmp_path / "run"
+    assert run_main([str(SMALL), "--out", str(out), "--method", method, "--seed", "4"]) == 0
+    plan = TaskMotionPlan.read(out / "plan.json")
+    assert plan.method == method and plan.seed == 4
+    assert f"{method} plan (seed 4)" in capsys.readouterr().out
+
 
 def test_help_explains_every_option():
     result = subprocess.run([sys.executable, "-m", "s3o_drake.run", "--help"],
                             capture_output=True, text=True, check=True, cwd=REPO)
-    for option in ("--out", "--meshcat", "--graphviz", "playback.html", "overhead.png"):
+    for option in ("--out", "--meshcat", "--graphviz", "--method", "--seed", "S3O-GROP*",
+                   "V-PETLON", "playback.html", "overhead.png", "plan.json", "search.png"):
         assert option in result.stdout
 
 
-def test_unknown_option_is_one_line_and_status_2(tmp_path):
-    result = subprocess.run([sys.executable, "-m", "s3o_drake.run", str(SMALL), "--fast"],
+@pytest.mark.parametrize("argv, field", [
+    (["--fast"], "--fast"),
+    (["--method", "S3O-GROP**"], "--method"),
+    (["--seed", "-1"], "--seed"),
+    (["--seed", "one"], "--seed"),
+])
+def test_bad_option_is_one_line_and_status_2(tmp_path, argv, field):
+    result = subprocess.run([sys.executable, "-m", "s3o_drake.run", str(SMALL), *argv],
                             capture_output=True, text=True, cwd=tmp_path)
     assert result.returncode == 2
-    assert result.stderr.count("\n") == 1 and "--fast" in result.stderr
+    assert result.stderr.count("\n") == 1 and field in result.stderr
     assert not (tmp_path / "out").exists()
