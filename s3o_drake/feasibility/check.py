@@ -269,10 +269,10 @@ class FeasibilityChecker:
             return np.zeros(0, dtype=bool)
         # Plan-view geometry settles most base poses for certain (`clearance`); Drake
         # answers the rest.
-        outside = ~self.scene.clearance.in_room(bases[rows, :2])
         free = self.scene.clearance.certainly_free(bases[rows, :2])
-        settled = free | outside | self.scene.collision.certainly_colliding(bases[rows])
-        ask = np.flatnonzero(~settled)
+        open_ = np.flatnonzero(~free & self.scene.clearance.in_room(bases[rows, :2]))
+        collides = self.scene.collision.certainly_colliding(bases[rows[open_]])
+        ask = open_[~collides]
         if ask.size:
             qs = self._positions(bases[rows[ask]], np.broadcast_to(ARM_STOW, (ask.size, 6)))
             free[ask] = self._check_configs(qs)

@@ -149,12 +149,24 @@ class CertainCollision:
     """
 
     def __init__(self, robot: list[_Prism], environment: list[_Prism]):
-        self.pairs: list[tuple[_Prism, list[_Prism]]] = []
-        for r in robot:
-            near = [e for e in environment if not e.disk and
-                    min(r.z_hi, e.z_hi) - max(r.z_lo, e.z_lo) > OVERLAP_MARGIN]
-            if near:
-                self.pairs.append((r, near))
+        # Per environment rectangle, the robot's rectangles and disks whose heights overlap
+        # it, as arrays: centre (k, 2) in the base frame, angle (k,), half sizes (k, 2).
+        self.pairs: list[tuple[_Prism, dict[bool, tuple[np.ndarray, ...]]]] = []
+        for e in environment:
+            if e.disk:
+                continue
+            groups = {}
+            for disk in (False, True):
+                rs = [r for r in robot if r.disk == disk and
+                      min(r.z_hi, e.z_hi) - max(r.z_lo, e.z_lo) > OVERLAP_MARGIN]
+                if rs:
+                    groups[disk] = (np.array([r.center for r in rs]),
+                                    np.array([r.angle for r in rs]),
+                                    np.array([r.half for r in rs]),
+                                    np.array([r.reach for r in rs]))
+            if groups:
+                self.pairs.append((e, groups))
+        self._reach = max((float(np.hypot(*r.center)) + r.reach for r in robot), default=0.0)
 
     @classmethod
     def of_scene(cls, plant, inspector, robot_instance, context) -> "CertainCollision":
@@ -178,24 +190,31 @@ class CertainCollision:
         """bool (n,) for base poses (n, 3): True only where the robot certainly collides."""
         bases = np.asarray(bases, dtype=float).reshape(-1, 3)
         out = np.zeros(len(bases), dtype=bool)
-        c, s = np.cos(bases[:, 2]), np.sin(bases[:, 2])
-        for r, environment in self.pairs:
-            # The robot prism's centre and angle in the world for every base pose.
-            center = bases[:, :2] + np.stack([c * r.center[0] - s * r.center[1],
-                                              s * r.center[0] + c * r.center[1]], -1)
-            angle = bases[:, 2] + r.angle
-            for e in environment:
-                near = np.flatnonzero(~out & (np.hypot(*(center - e.center).T)
-                                              < r.reach + e.reach))
-                if near.size == 0:
+        for e, groups in self.pairs:
+            rows = np.flatnonzero(~out & (np.hypot(*(bases[:, :2] - e.center).T)
+                                          < self._reach + e.reach))
+            if rows.size == 0:
+                continue
+            yaw = bases[rows, 2:3]
+            c, s = np.cos(yaw), np.sin(yaw)  # (m, 1)
+            hit = np.zeros(rows.size, dtype=bool)
+            for disk, (p_BR, angle, half, reach) in groups.items():
+                # The robot prisms' centres (m, k, 2) in the world at those base poses.
+                center = bases[rows, None, :2] + np.stack(
+                    [c * p_BR[:, 0] - s * p_BR[:, 1], s * p_BR[:, 0] + c * p_BR[:, 1]], -1)
+                near = np.hypot(*np.moveaxis(center - e.center, -1, 0)) < reach + e.reach
+                if not near.any():
                     continue
-                hit = (_disk_in_rect(center[near], r.half[0], e) if r.disk
-                       else _rects_overlap(center[near], angle[near], r.half, e))
-                out[near[hit]] = True
+                m, k = np.nonzero(near)
+                overlap = (_disk_in_rect(center[m, k], half[k, 0], e) if disk else
+                           _rects_overlap(center[m, k], yaw[m, 0] + angle[k], half[k], e))
+                hit[m[overlap]] = True
+            out[rows[hit]] = True
         return out
 
 
-def _disk_in_rect(center: np.ndarray, radius: float, e: _Prism) -> np.ndarray:
+def _disk_in_rect(center: np.ndarray, radius: np.ndarray, e: _Prism) -> np.ndarray:
+    """Disks (n) of radii (n,) against one rectangle: interiors overlap by the margin."""
     u, v = _rect_axes(np.array(e.angle))
     d = center - e.center
     local = np.stack([d @ u, d @ v], -1)
@@ -206,13 +225,15 @@ def _disk_in_rect(center: np.ndarray, radius: float, e: _Prism) -> np.ndarray:
 
 def _rects_overlap(center: np.ndarray, angle: np.ndarray, half: np.ndarray,
                    e: _Prism) -> np.ndarray:
-    """Separating-axis test of rectangles (n) against one rectangle, with a margin."""
+    """Separating-axis test of rectangles (n; half sizes (n, 2)) against one rectangle,
+    with a margin."""
     ru, rv = _rect_axes(angle)  # (n, 2) each
     eu, ev = _rect_axes(np.array(e.angle))
     d = e.center - center  # (n, 2)
     overlap = np.ones(len(center), dtype=bool)
     for axis in (ru, rv, np.broadcast_to(eu, ru.shape), np.broadcast_to(ev, ru.shape)):
-        r_extent = half[0] * np.abs(np.sum(ru * axis, 1)) + half[1] * np.abs(np.sum(rv * axis, 1))
+        r_extent = (half[:, 0] * np.abs(np.sum(ru * axis, 1))
+                    + half[:, 1] * np.abs(np.sum(rv * axis, 1)))
         e_extent = e.half[0] * np.abs(axis @ eu) + e.half[1] * np.abs(axis @ ev)
         overlap &= np.abs(np.sum(d * axis, 1)) < r_extent + e_extent - OVERLAP_MARGIN
     return overlap

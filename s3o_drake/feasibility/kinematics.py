@@ -29,8 +29,13 @@ NUM_BRANCHES = 8
 
 
 def wrap(angle: np.ndarray) -> np.ndarray:
-    """Angles wrapped into [-π, π)."""
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+    """Angles wrapped into [-π, π] (π itself only by rounding).
+
+    By floor rather than `%`: numpy's float remainder is an order of magnitude slower, and
+    far slower still on NaN, which the reachability lookups carry in empty slots.
+    """
+    angle = np.asarray(angle)
+    return angle - (2 * np.pi) * np.floor((angle + np.pi) * (1 / (2 * np.pi)))
 
 
 def _dh(q: np.ndarray, i: int) -> np.ndarray:
