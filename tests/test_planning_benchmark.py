@@ -65,3 +65,32 @@ def test_summary_medians_and_failures() -> None:
     assert s["worst_utility_ratio"] == 0.9
     assert s["time_target_met"] and s["time_target_met_with_feasibility"]
     assert not s["utility_target_met"]
+
+
+def test_resumes_from_the_tasks_in_its_json_file(tmp_path, monkeypatch, capsys) -> None:
+    """A task already in the --json file (same settings) is read back, not planned again;
+    one with other settings is planned."""
+    import json
+
+    from s3o_drake.planning import benchmark
+
+    path = tmp_path / "bench.jsonl"
+    settings = {"method": "S3O-GROP*", "seed": 0, "workers": 2, "factor": 10}
+    done = {**_row("task_000", 1.5, 0.99), **settings, "dishes": 7, "utility": 800.0,
+            "long_utility": 808.0, "complete": True, "long_complete": True}
+    other = {**done, "task": "task_001", "seed": 5}
+    path.write_text(json.dumps(done) + "\n" + json.dumps(other) + "\n" + '{"task": "cut sh')
+    planned = []
+
+    def fake(name, scenario, **kwargs):
+        planned.append(name)
+        return {**_row(name, 2.5, 1.0), **settings, "dishes": len(scenario.dishes),
+                "utility": 1.0, "long_utility": 1.0, "complete": True, "long_complete": True}
+
+    monkeypatch.setattr(benchmark, "benchmark_task", fake)
+    assert main(["--tasks", "2", "--json", str(path)]) == 0
+    assert planned == ["task_001"]
+    assert "resuming: 1 tasks" in capsys.readouterr().out
+    records = [json.loads(line) for line in path.read_text().splitlines()[3:]]
+    assert records[0]["task"] == "task_001" and records[-1]["summary"]["tasks"] == 2
+    assert records[-1]["summary"]["median_planning_s"] == 2.0

@@ -231,6 +231,8 @@ def main(argv: list[str] | None = None) -> int:
           flush=True)
     rows: list[dict[str, Any]] = []
     out = json_path.open("a") if json_path is not None else None
+    if out is not None and json_path.stat().st_size and not json_path.read_bytes().endswith(b"\n"):
+        out.write("\n")  # after a line an interruption cut short
     try:
         for name, scenario in scenarios:
             if name in done:
