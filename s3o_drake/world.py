@@ -16,10 +16,13 @@ from pydrake.geometry import (
     ColorRenderCamera,
     DepthRange,
     DepthRenderCamera,
+    GeometryInstance,
+    IllustrationProperties,
     MakeRenderEngineVtk,
     Meshcat,
     MeshcatVisualizer,
     MeshcatVisualizerParams,
+    PerceptionProperties,
     RenderCameraCore,
     RenderEngineVtkParams,
     Role,
@@ -41,6 +44,8 @@ from s3o_drake.camera import overhead_camera
 from s3o_drake.resources import make_parser, models_dir
 from s3o_drake.robot import ROBOT_JOINTS, add_robot, robot_desired_state, robot_positions
 from s3o_drake.scenario import Chair, Dish, Scenario, Table
+from s3o_drake.systems.commands import CONTROL_PERIOD
+from s3o_drake.systems.object_tracker import ObjectTracker
 
 RENDERER = "vtk"
 FLOOR_RGBA = np.array([0.82, 0.80, 0.76, 1.0])
@@ -176,7 +181,59 @@ def _add_overhead_camera(builder: DiagramBuilder, scene_graph: SceneGraph,
     return sensor
 
 
-def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None) -> Diagram:
+def _add_object_tracker(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
+                        scenario: Scenario, robot: ModelInstanceIndex) -> None:
+    tracker = builder.AddNamedSystem("object_tracker", ObjectTracker(
+        scenario=scenario, plant=plant, robot=robot, scene_graph=scene_graph,
+        period=CONTROL_PERIOD))
+    builder.Connect(plant.get_state_output_port(robot), tracker.GetInputPort("robot_state"))
+    builder.Connect(tracker.GetOutputPort("geometry_pose"),
+                    scene_graph.get_source_pose_port(tracker.source_id))
+    builder.ExportInput(tracker.GetInputPort("grip"), "grip")
+    builder.ExportOutput(tracker.GetOutputPort("dish_poses"), "dish_poses")
+    builder.ExportOutput(tracker.GetOutputPort("dish_states"), "dish_states")
+
+
+def _anchor_fixed_geometry(plant: MultibodyPlant, scene_graph: SceneGraph,
+                           models: WorldModels) -> None:
+    """Hands the welded furniture's and dishes' visual geometry (illustration and
+    perception roles) to anchored copies.
+
+    The plant reports a pose for every body's frame at every step, welded or not: the render
+    engine then moves each of those geometries (for the restaurant that tripled the cost of
+    a simulation step) and a Meshcat recording keeps a track per frame (three quarters of
+    the playback's size). These bodies never move, so their visual roles go to anchored
+    copies (same shape, pose and properties, render label included): camera and Meshcat show
+    exactly what they showed, and only the robot and the tracked dishes are moved. Their
+    collision geometry stays with the plant's bodies.
+    """
+    inspector = scene_graph.model_inspector()
+    source = scene_graph.RegisterSource("fixed_visuals")
+    context = plant.CreateDefaultContext()
+    fixed = [*models.tables.values(), *models.chairs.values(), *models.dishes.values()]
+    for instance in fixed:
+        for body_index in plant.GetBodyIndices(instance):
+            X_WB = plant.EvalBodyPoseInWorld(context, plant.get_body(body_index))
+            frame = plant.GetBodyFrameIdOrThrow(body_index)
+            visuals = set(inspector.GetGeometries(frame, Role.kPerception)) | set(
+                inspector.GetGeometries(frame, Role.kIllustration))
+            for geometry in sorted(visuals, key=lambda g: g.get_value()):
+                copy = GeometryInstance(X_WB @ inspector.GetPoseInFrame(geometry),
+                                        inspector.GetShape(geometry),
+                                        inspector.GetName(geometry))
+                perception = inspector.GetPerceptionProperties(geometry)
+                if perception is not None:
+                    copy.set_perception_properties(PerceptionProperties(perception))
+                    scene_graph.RemoveRole(plant.get_source_id(), geometry, Role.kPerception)
+                illustration = inspector.GetIllustrationProperties(geometry)
+                if illustration is not None:
+                    copy.set_illustration_properties(IllustrationProperties(illustration))
+                    scene_graph.RemoveRole(plant.get_source_id(), geometry, Role.kIllustration)
+                scene_graph.RegisterAnchoredGeometry(source, copy)
+
+
+def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
+                        track_dishes: bool = False, show_collisions: bool = True) -> Diagram:
     """The simulated restaurant as one named Diagram ("s3o_world").
 
     Input ports:  robot_desired_state (positions then velocities of the robot's 11 joints,
@@ -184,16 +241,27 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None) -
     Output ports: robot_state, overhead_color_image, overhead_depth_image,
                   overhead_label_image, query_object, body_poses
 
+    With `track_dishes`, the dishes are not welded into the plant: an ObjectTracker
+    ("object_tracker") owns their geometry and moves them with the gripper and the tray,
+    and the diagram also has
+    Input ports:  grip (abstract GripEvent; unconnected: the gripper holds nothing)
+    Output ports: dish_poses (abstract dict[str, RigidTransform], X_WD),
+                  dish_states (abstract dict[str, str]: "table", "gripper", "tray", "dropped")
+
     With a Meshcat, adds an illustration visualizer ("meshcat_visualizer", which can record
-    for playback) and a hidden collision-geometry one.
+    for playback) and, with `show_collisions`, a hidden collision-geometry one (for a person
+    watching live; it is not in a recording and costs a quarter of a step's time).
     """
     builder = DiagramBuilder()
     config = MultibodyPlantConfig(time_step=scenario.simulation.time_step,
                                   discrete_contact_approximation="sap")
     plant, scene_graph = AddMultibodyPlant(config, builder)
     plant.set_name("plant")
-    models = populate_plant(plant, scene_graph, scenario)
+    models = populate_plant(plant, scene_graph, scenario, dishes=not track_dishes)
     plant.Finalize()
+    _anchor_fixed_geometry(plant, scene_graph, models)
+    if track_dishes:
+        _add_object_tracker(builder, plant, scene_graph, scenario, models.robot)
 
     sensor = _add_overhead_camera(builder, scene_graph, scenario)
     builder.ExportInput(plant.get_desired_state_input_port(models.robot), "robot_desired_state")
@@ -208,11 +276,12 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None) -
         params = MeshcatVisualizerParams(publish_period=scenario.simulation.publish_period)
         visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
         visualizer.set_name("meshcat_visualizer")
-        collision = MeshcatVisualizerParams(role=Role.kProximity, prefix="collision",
-                                            visible_by_default=False,
-                                            publish_period=scenario.simulation.publish_period)
-        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, collision).set_name(
-            "meshcat_collision")
+        if show_collisions:
+            collision = MeshcatVisualizerParams(
+                role=Role.kProximity, prefix="collision", visible_by_default=False,
+                publish_period=scenario.simulation.publish_period)
+            MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, collision).set_name(
+                "meshcat_collision")
 
     diagram = builder.Build()
     diagram.set_name("s3o_world")

@@ -1,0 +1,265 @@
+"""ObjectTracker: the dishes as geometry that follows the gripper and the tray.
+
+The dishes are not bodies of the plant (the contact solver would have to hold a plate in a
+parallel gripper, which the execution does not need); this system owns their geometry in
+the SceneGraph and moves it by the rules of `GripEvent`.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import (
+    CollisionFilterDeclaration,
+    Cylinder,
+    FramePoseVector,
+    GeometryFrame,
+    GeometryInstance,
+    GeometrySet,
+    IllustrationProperties,
+    PerceptionProperties,
+    ProximityProperties,
+    RenderLabel,
+    Rgba,
+    SceneGraph,
+    SourceId,
+)
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import ModelInstanceIndex
+from pydrake.systems.framework import (
+    Context,
+    EventStatus,
+    LeafSystem,
+    State,
+    ValueProducer,
+)
+
+from s3o_drake.furniture import DISH_SHAPES
+from s3o_drake.robot import (
+    GRASP_FRAME,
+    NUM_POSITIONS,
+    TRAY_INNER_LENGTH,
+    TRAY_INNER_WIDTH,
+    TRAY_LINK,
+)
+from s3o_drake.scenario import Scenario
+from s3o_drake.systems.commands import GripEvent
+
+ON_TABLE = "table"
+IN_GRIPPER = "gripper"
+ON_TRAY = "tray"
+DROPPED = "dropped"
+
+
+@dataclass(frozen=True)
+class _Track:
+    """Where one dish is: `state` and its pose X_RD relative to the frame R that the state
+    implies (W on a table or the floor, the grasp frame G in the gripper, the tray T)."""
+
+    state: str
+    X_RD: RigidTransform
+
+
+class _Tracks(dict):
+    """The tracker's state: dish name -> _Track. Never changed in place (an update makes a
+    new one), so Drake's copies of the state may share it instead of deep-copying every
+    pose at every step."""
+
+    def __deepcopy__(self, memo) -> "_Tracks":
+        return self
+
+
+def _upright(x: float, y: float, z: float, R: RotationMatrix) -> RigidTransform:
+    """A pose at (x, y, z) that keeps only R's turn about z: a set-down dish stands up."""
+    m = R.matrix()
+    return RigidTransform(RotationMatrix.MakeZRotation(math.atan2(m[1, 0], m[0, 0])), [x, y, z])
+
+
+class ObjectTracker(LeafSystem):
+    """Owns the dishes' geometry and moves it with the gripper, the tray, or not at all.
+
+    Each dish D is a frame of this system's geometry source, named after the dish, with one
+    cylinder (its bottom face's centre at D's origin) that has illustration, perception
+    (colour, depth and a label of its own: `labels`) and proximity roles.
+
+    A dish starts on its table. When `grip.dish` names it, it is in the "gripper" and keeps
+    the pose relative to the grasp frame G that it had at that moment. When it is no longer
+    named, it lands on the "tray" if it is in `grip.placed` (upright on the tray's floor,
+    where it was released, kept inside the rim), else it is "dropped": upright on the floor
+    below where it was. The states change at a periodic update (`period`) and at a forced
+    unrestricted update; the poses of held dishes follow the robot's state continuously.
+
+    Input ports:
+        robot_state: vector (22): the robot's 11 positions then 11 velocities.
+        grip: abstract GripEvent; unconnected means the gripper holds nothing.
+    Output ports:
+        geometry_pose: FramePoseVector, for scene_graph.get_source_pose_port(source_id).
+        dish_poses: abstract dict[str, RigidTransform], X_WD per dish.
+        dish_states: abstract dict[str, str], "table", "gripper", "tray" or "dropped".
+
+    Construct it after the plant is finalized and every other geometry is registered: the
+    dishes are filtered out of all collision pairs that exist then, because the plant
+    rejects contact results involving geometry it does not own.
+    """
+
+    def __init__(self, *, scenario: Scenario, plant: MultibodyPlant, robot: ModelInstanceIndex,
+                 scene_graph: SceneGraph, period: float = 0.01,
+                 name: str = "object_tracker") -> None:
+        super().__init__()
+        if not plant.is_finalized():
+            raise ValueError("ObjectTracker needs a finalized plant")
+        self._plant = plant
+        self._G = plant.GetFrameByName(GRASP_FRAME, robot)
+        self._T = plant.GetFrameByName(TRAY_LINK, robot)
+        self._robot = robot
+
+        self._source_id = scene_graph.RegisterSource(name)
+        heights = {t.name: t.height for t in scenario.tables}
+        # Labels after every body of the plant: the plant labels its geometry by body index.
+        first_label = plant.num_bodies()
+        self._names = tuple(d.name for d in scenario.dishes)
+        self._frame_ids = {}
+        self._labels = {}
+        self._radii = {d.name: DISH_SHAPES[d.kind].radius for d in scenario.dishes}
+        initial = {}
+        for i, dish in enumerate(scenario.dishes):
+            shape = DISH_SHAPES[dish.kind]
+            frame_id = scene_graph.RegisterFrame(self._source_id, GeometryFrame(dish.name))
+            geometry = GeometryInstance(RigidTransform([0.0, 0.0, shape.height / 2]),
+                                        Cylinder(shape.radius, shape.height), f"{dish.name}_body")
+            rgba = Rgba(*shape.rgba)
+            illustration = IllustrationProperties()
+            illustration.AddProperty("phong", "diffuse", rgba)
+            geometry.set_illustration_properties(illustration)
+            label = RenderLabel(first_label + i)
+            perception = PerceptionProperties()
+            perception.AddProperty("phong", "diffuse", rgba)
+            perception.AddProperty("label", "id", label)
+            geometry.set_perception_properties(perception)
+            geometry.set_proximity_properties(ProximityProperties())
+            scene_graph.RegisterGeometry(self._source_id, frame_id, geometry)
+            self._frame_ids[dish.name] = frame_id
+            self._labels[dish.name] = int(label)
+            # As world.populate_plant welds the dishes: bottom centre on the table top.
+            X_WD = RigidTransform([dish.position[0], dish.position[1], heights[dish.table]])
+            initial[dish.name] = _Track(ON_TABLE, X_WD)
+        # The plant rejects contact results that involve geometry it does not own, so the
+        # dishes' proximity geometry is kept out of all collision pairs (it still answers
+        # queries that ignore the filters, e.g. signed distance to a point or a named pair).
+        inspector = scene_graph.model_inspector()
+        dish_geometries = GeometrySet(list(self._frame_ids.values()))
+        scene_graph.collision_filter_manager().Apply(
+            CollisionFilterDeclaration()
+            .ExcludeWithin(dish_geometries)
+            .ExcludeBetween(dish_geometries, GeometrySet(inspector.GetAllGeometryIds())))
+
+        self._robot_state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
+        self._grip_port = self.DeclareAbstractInputPort("grip", AbstractValue.Make(GripEvent()))
+        self._tracks_index = self.DeclareAbstractState(AbstractValue.Make(_Tracks(initial)))
+        # A plant context per system context, kept as a cache entry: kinematics of the
+        # gripper and tray without a Python attribute that changes during simulation.
+        self._plant_context_cache = self.DeclareCacheEntry(
+            "plant context at the robot's positions",
+            ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
+                          calc=self._calc_plant_context),
+            {self._robot_state_port.ticket()})
+
+        self.DeclareAbstractOutputPort(
+            "geometry_pose", lambda: AbstractValue.Make(FramePoseVector()),
+            self._calc_geometry_pose)
+        self.DeclareAbstractOutputPort(
+            "dish_poses", lambda: AbstractValue.Make({}),
+            self._calc_dish_poses)
+        self.DeclareAbstractOutputPort(
+            "dish_states", lambda: AbstractValue.Make({}), self._calc_dish_states)
+        # Transitions only (the held dishes' poses are computed from the robot's live state),
+        # so a 10 ms delay on grasp and release costs nothing visible and saves copying the
+        # abstract state at every plant step.
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._update_tracks)
+        self.DeclareForcedUnrestrictedUpdateEvent(self._update_tracks)
+
+    @property
+    def source_id(self) -> SourceId:
+        """The SceneGraph source id of the dishes' geometry."""
+        return self._source_id
+
+    @property
+    def dish_names(self) -> tuple[str, ...]:
+        return self._names
+
+    @property
+    def labels(self) -> dict[str, int]:
+        """The render label of each dish in the overhead label image."""
+        return dict(self._labels)
+
+    def _calc_plant_context(self, context: Context, value: AbstractValue) -> None:
+        plant_context = value.get_mutable_value()
+        q = self._robot_state_port.Eval(context)[:NUM_POSITIONS]
+        self._plant.SetPositions(plant_context, self._robot, q)
+
+    def _frames(self, context: Context) -> tuple[RigidTransform, RigidTransform]:
+        """X_WG (grasp frame) and X_WT (tray) at the robot's current positions."""
+        plant_context = self._plant_context_cache.Eval(context)
+        return (self._G.CalcPoseInWorld(plant_context), self._T.CalcPoseInWorld(plant_context))
+
+    def _grip(self, context: Context) -> GripEvent:
+        if not self._grip_port.HasValue(context):
+            return GripEvent()
+        return self._grip_port.Eval(context)
+
+    def _world_poses(self, context: Context) -> dict[str, RigidTransform]:
+        tracks = context.get_abstract_state(self._tracks_index).get_value()
+        needs_robot = any(t.state in (IN_GRIPPER, ON_TRAY) for t in tracks.values())
+        X_WG, X_WT = self._frames(context) if needs_robot else (None, None)
+        reference = {IN_GRIPPER: X_WG, ON_TRAY: X_WT}
+        poses = {}
+        for name, track in tracks.items():
+            X_WR = reference.get(track.state)
+            poses[name] = track.X_RD if X_WR is None else X_WR @ track.X_RD
+        return poses
+
+    def _calc_geometry_pose(self, context: Context, output: AbstractValue) -> None:
+        poses = FramePoseVector()
+        for name, X_WD in self._world_poses(context).items():
+            poses.set_value(self._frame_ids[name], X_WD)
+        output.set_value(poses)
+
+    def _calc_dish_poses(self, context: Context, output: AbstractValue) -> None:
+        output.set_value(self._world_poses(context))
+
+    def _calc_dish_states(self, context: Context, output: AbstractValue) -> None:
+        tracks = context.get_abstract_state(self._tracks_index).get_value()
+        output.set_value({name: track.state for name, track in tracks.items()})
+
+    def _update_tracks(self, context: Context, state: State) -> EventStatus:
+        tracks = context.get_abstract_state(self._tracks_index).get_value()
+        grip = self._grip(context)
+        changes = {name for name, t in tracks.items()
+                   if (name == grip.dish) != (t.state == IN_GRIPPER)}
+        if not changes:
+            return EventStatus.DidNothing()
+        X_WG, X_WT = self._frames(context)
+        X_WD_now = self._world_poses(context)
+        updated = _Tracks(tracks)
+        for name in changes:
+            X_WD = X_WD_now[name]
+            if name == grip.dish:
+                updated[name] = _Track(IN_GRIPPER, X_WG.inverse() @ X_WD)
+            elif name in grip.placed:
+                updated[name] = _Track(ON_TRAY, self._on_tray(name, X_WT.inverse() @ X_WD))
+            else:
+                p = X_WD.translation()
+                updated[name] = _Track(DROPPED, _upright(p[0], p[1], 0.0, X_WD.rotation()))
+        state.get_mutable_abstract_state(self._tracks_index).set_value(updated)
+        return EventStatus.Succeeded()
+
+    def _on_tray(self, name: str, X_TD: RigidTransform) -> RigidTransform:
+        """X_TD set down on the tray's floor (z = 0 in T) and kept inside its rim."""
+        radius = self._radii[name]
+        half_x = max(TRAY_INNER_LENGTH / 2 - radius, 0.0)
+        half_y = max(TRAY_INNER_WIDTH / 2 - radius, 0.0)
+        x, y, _ = X_TD.translation()
+        return _upright(float(np.clip(x, -half_x, half_x)), float(np.clip(y, -half_y, half_y)),
+                        0.0, X_TD.rotation())

@@ -1,0 +1,92 @@
+"""TaskMonitor: reports the dishes on the tray and ends the simulation when the plan is over."""
+
+import pytest
+from pydrake.common.value import AbstractValue
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantValueSource
+
+from s3o_drake.systems.commands import PlanProgress
+from s3o_drake.systems.task_monitor import TaskMonitor
+
+STATES = {"plate_a": "tray", "cup_b": "dropped", "bowl_c": "tray", "plate_d": "table"}
+DONE = PlanProgress(step=4, total=4, finished=True, reason="plan complete",
+                    outcomes=(("goto", "l1", "done"), ("pickup", "plate_a", "done"),
+                              ("pickup", "cup_b", "failed: missed")))
+
+
+def _fixed(monitor: TaskMonitor, context, progress: PlanProgress, states=STATES):
+    monitor.GetInputPort("progress").FixValue(context, progress)
+    monitor.GetInputPort("dish_states").FixValue(context, states)
+
+
+def _force_check(monitor: TaskMonitor, context):
+    updated = context.Clone()
+    monitor.CalcForcedDiscreteVariableUpdate(context, updated.get_mutable_discrete_state())
+    context.SetTimeStateAndParametersFrom(updated)
+
+
+def test_report_counts_the_dishes_on_the_tray():
+    monitor = TaskMonitor()
+    context = monitor.CreateDefaultContext()
+    _fixed(monitor, context, PlanProgress(step=2, total=4))
+    context.SetTime(3.0)
+    report = monitor.GetOutputPort("report").Eval(context)
+    assert report == {"dishes": 4, "collected": 2, "collected_dishes": ["bowl_c", "plate_a"],
+                      "execution_time": 3.0, "finished": False, "reason": "", "outcomes": []}
+
+
+def test_execution_time_is_when_the_plan_finished():
+    monitor = TaskMonitor()
+    context = monitor.CreateDefaultContext()
+    _fixed(monitor, context, DONE)
+    context.SetTime(12.5)
+    _force_check(monitor, context)
+    context.SetTime(14.0)
+    report = monitor.GetOutputPort("report").Eval(context)
+    assert report["finished"] and report["reason"] == "plan complete"
+    assert report["execution_time"] == pytest.approx(12.5)
+    assert report["outcomes"] == [["goto", "l1", "done"], ["pickup", "plate_a", "done"],
+                                  ["pickup", "cup_b", "failed: missed"]]
+
+
+def test_simulation_ends_settle_time_after_the_plan_finishes():
+    monitor = TaskMonitor(settle_time=0.5)
+    simulator = Simulator(monitor)
+    context = simulator.get_mutable_context()
+    _fixed(monitor, context, PlanProgress(step=1, total=4))
+    status = simulator.AdvanceTo(1.0)
+    assert status.reason() == status.ReturnReason.kReachedBoundaryTime
+
+    _fixed(monitor, context, DONE)
+    status = simulator.AdvanceTo(100.0)
+    assert status.reason() == status.ReturnReason.kReachedTerminationCondition
+    assert context.get_time() == pytest.approx(1.5, abs=0.011)
+    report = monitor.GetOutputPort("report").Eval(context)
+    assert report["execution_time"] == pytest.approx(1.0, abs=0.011)
+    assert report["collected"] == 2 and report["finished"]
+
+
+def test_simulation_ends_at_the_time_limit():
+    builder = DiagramBuilder()
+    monitor = builder.AddNamedSystem("monitor", TaskMonitor(time_limit=2.0))
+    progress = builder.AddSystem(ConstantValueSource(AbstractValue.Make(
+        PlanProgress(step=1, total=3))))
+    states = builder.AddSystem(ConstantValueSource(AbstractValue.Make(STATES)))
+    builder.Connect(progress.get_output_port(), monitor.GetInputPort("progress"))
+    builder.Connect(states.get_output_port(), monitor.GetInputPort("dish_states"))
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    status = simulator.AdvanceTo(1000.0)
+    assert status.reason() == status.ReturnReason.kReachedTerminationCondition
+    assert "time limit" in status.message()
+    context = monitor.GetMyContextFromRoot(simulator.get_context())
+    assert context.get_time() == pytest.approx(2.0, abs=0.011)
+    report = monitor.GetOutputPort("report").Eval(context)
+    assert report["reason"] == "time limit" and not report["finished"]
+    assert report["execution_time"] == pytest.approx(2.0, abs=0.011)
+
+
+def test_bad_arguments_are_refused():
+    with pytest.raises(ValueError, match="settle_time"):
+        TaskMonitor(settle_time=-1.0)
