@@ -6,7 +6,9 @@ motions over the robot's 11 positions, in this order:
 
 - approach: RRT-Connect from the current configuration to the pre-grasp, the grasp pose
   backed off `APPROACH_BACKOFF` against the approach axis (top grasp: above the dish; side
-  grasp: behind it), solved on the grasp's IK branch;
+  grasp: behind it), solved on the grasp's IK branch; when that pose or the straight line
+  from it to the grasp collides (a side grasp of a cup beyond a plate would sweep the hand
+  through the plate), back and up, from above, then half as far are tried;
 - descend: straight joint line pre-grasp -> grasp;
 - close: the fingers close (the dish stops them in simulation);
 - lift: straight joint line to the grasp pose raised by `LIFT_HEIGHT` (for a top grasp this
@@ -243,8 +245,20 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
     q_grasp[ARM] = _nearest_turn(q_grasp[ARM], q0[ARM])
     X_WG = scene.grasp_pose(q_grasp)
     approach_axis = X_WG.rotation().col(2)
-    q_pre = _moved(q_grasp, base, RigidTransform(
-        X_WG.rotation(), X_WG.translation() - APPROACH_BACKOFF * approach_axis), free)
+    up = np.array([0.0, 0.0, 1.0])
+    # Straight back along the approach axis first; when that sweeps the hand through a
+    # neighbouring dish (a cup beyond a plate), back and up, then from above, then shorter.
+    q_pre = None
+    for offset in (-APPROACH_BACKOFF * approach_axis,
+                   -APPROACH_BACKOFF * approach_axis + 0.5 * APPROACH_BACKOFF * up,
+                   APPROACH_BACKOFF * up,
+                   -0.5 * APPROACH_BACKOFF * approach_axis,
+                   0.5 * APPROACH_BACKOFF * up):
+        q_pre = _moved(q_grasp, base, RigidTransform(X_WG.rotation(),
+                                                     X_WG.translation() + offset), free)
+        if q_pre is not None and holding.CheckEdgeCollisionFree(q_pre, q_grasp):
+            break
+        q_pre = None
     p_lift = X_WG.translation() + np.array([0.0, 0.0, LIFT_HEIGHT])
     lift_target = RigidTransform(X_WG.rotation(), p_lift)
     q_lift = _moved(_with_gripper(q_grasp, GRIPPER_CLOSED), base, lift_target, holding)

@@ -1,0 +1,303 @@
+"""ArmController: pickups planned from the real robot and dish, played, gripped and reported.
+
+The scene is scenarios/small/two_dishes.yaml: a table (x 1.4..2.6, y 2.1..2.9, top at 0.75 m)
+with a plate at (1.85, 2.3) and a cup at (2.15, 2.3); the robot faces them from y = 1.45.
+"""
+
+import dataclasses
+import inspect
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import (
+    ConstantValueSource,
+    ConstantVectorSource,
+    MatrixGain,
+    Multiplexer,
+    VectorLogSink,
+)
+
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.grasps import RIM_INSET
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.furniture import DISH_SHAPES
+from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.scenario import load_scenario
+from s3o_drake.systems.arm_controller import ArmController, grasp_tolerance
+from s3o_drake.systems.commands import GripEvent, PickCommand, Status
+from s3o_drake.world import build_world_diagram
+
+REPO = Path(__file__).resolve().parent.parent
+SCENE = REPO / "scenarios" / "small" / "two_dishes.yaml"
+FRONT_OF_PLATE = np.array([1.85, 1.45, math.pi / 2])
+STOWED = np.concatenate([ARM_STOW, GRIPPER_OPEN])
+PLANNING_REASONS = ("no_ik", "no_path", "base_collision")
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario(SCENE)
+
+
+@pytest.fixture(scope="module")
+def scene(scenario):
+    return FeasibilityScene(scenario)
+
+
+@pytest.fixture(scope="module")
+def checker(scene):
+    return FeasibilityChecker(scene)
+
+
+def _controller(scenario, scene, checker, **kwargs):
+    arm = ArmController(scenario=scenario, scene=scene, checker=checker, **kwargs)
+    return arm, arm.CreateDefaultContext()
+
+
+def _fix_robot(arm, context, base=FRONT_OF_PLATE, arm_q=STOWED):
+    q = np.concatenate([base, arm_q])
+    arm.GetInputPort("robot_state").FixValue(context, np.concatenate([q, np.zeros(NUM_POSITIONS)]))
+
+
+def _step(arm, context, t):
+    """Runs the controller's update at time t, as the simulator's periodic event would."""
+    context.SetTime(t)
+    arm.CalcForcedUnrestrictedUpdate(context, context.get_mutable_state())
+
+
+def _outputs(arm, context):
+    return (arm.GetOutputPort("arm_desired_state").Eval(context),
+            arm.GetOutputPort("grip").Eval(context),
+            arm.GetOutputPort("status").Eval(context))
+
+
+def _play(arm, context, t0, *, dt=0.05, limit=60.0):
+    """Steps from t0 until the status is finished; records (t, desired, grip, status)."""
+    record, t = [], t0
+    while t < t0 + limit:
+        _step(arm, context, t)
+        desired, grip, status = _outputs(arm, context)
+        record.append((t, desired.copy(), grip, status))
+        if status.finished:
+            return record
+        t += dt
+    raise AssertionError(f"not finished after {limit} s: {record[-1][3]}")
+
+
+# ----------------------------------------------------------------------------- alone
+
+def test_ports_and_idle_hold(scenario, scene, checker):
+    arm, context = _controller(scenario, scene, checker)
+    assert arm.GetInputPort("robot_state").size() == 2 * NUM_POSITIONS
+    assert arm.GetOutputPort("arm_desired_state").size() == 16
+    # Before any update: the scenario's start (stowed, open); no command: idle.
+    desired, grip, status = _outputs(arm, context)
+    np.testing.assert_array_equal(desired, np.concatenate([STOWED, np.zeros(8)]))
+    assert grip == GripEvent() and status == Status()
+    # The first update takes the arm's configuration from the robot's state and holds it.
+    bent = STOWED + np.array([0.1, -0.05, 0.05, 0.0, 0.0, 0.2, -0.01, -0.01])
+    _fix_robot(arm, context, arm_q=bent)
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand())
+    for t in (0.0, 0.01, 1.0):
+        _step(arm, context, t)
+        desired, _, status = _outputs(arm, context)
+        np.testing.assert_allclose(desired, np.concatenate([bent, np.zeros(8)]))
+        assert status.state == "idle"
+
+
+def test_pickup_plays_grips_places_and_ends_done(scenario, scene, checker):
+    arm, context = _controller(scenario, scene, checker, noise=False)
+    _fix_robot(arm, context)
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="plate_a"))
+    t0 = 0.5
+    record = _play(arm, context, t0)
+    _, first, _, status = record[0]
+    assert status == Status(1, "running")
+    np.testing.assert_allclose(first[:8], STOWED, atol=1e-9)  # starts where the arm is
+    held = [r[0] for r in record if r[2].dish == "plate_a"]
+    assert held, "the gripper never held the plate"
+    # Held over one contiguous stretch in the middle of the motion, not at the ends.
+    assert held == [r[0] for r in record if held[0] <= r[0] <= held[-1]]
+    assert t0 < held[0] and held[-1] < record[-1][0]
+    assert all(r[2].placed == () for r in record if r[0] <= held[-1])
+    t_end, last, grip, status = record[-1]
+    assert status == Status(1, "done")
+    assert grip == GripEvent("", ("plate_a",))
+    np.testing.assert_allclose(last, np.concatenate([STOWED, np.zeros(8)]), atol=1e-9)
+    assert 3.0 < t_end - t0 < 40.0
+    # The fingers close while the plate is held: where the grip starts, they are shut.
+    closed = next(r[1] for r in record if r[0] == held[0])
+    np.testing.assert_allclose(closed[6:8], 0.0, atol=1e-6)
+    # Afterwards the arm holds still, and the same command is not run again.
+    _step(arm, context, t_end + 1.0)
+    desired, grip, status = _outputs(arm, context)
+    np.testing.assert_allclose(desired, last)
+    assert status == Status(1, "done") and grip.placed == ("plate_a",)
+
+
+def _grasp_point(arm, context, scene, base, dish):
+    """World position of the grasp frame when the gripper first holds `dish`."""
+    for _, desired, grip, _ in _play(arm, context, 0.0):
+        if grip.dish == dish:
+            return scene.grasp_pose(np.concatenate([base, desired[:8]])).translation()
+    raise AssertionError("never held")
+
+
+def test_grasp_aims_at_where_the_dish_really_is(scenario, scene, checker):
+    p_rim = np.array([1.85, 2.3 - DISH_SHAPES["plate"].radius + RIM_INSET])
+    points = {}
+    for shift in (0.0, 0.03):
+        arm, context = _controller(scenario, scene, checker, noise=False)
+        _fix_robot(arm, context)
+        poses = {d.name: RigidTransform([d.position[0] + (shift if d.name == "plate_a" else 0),
+                                         d.position[1], 0.75]) for d in scenario.dishes}
+        arm.GetInputPort("dish_poses").FixValue(context, poses)
+        arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="plate_a"))
+        points[shift] = _grasp_point(arm, context, scene, FRONT_OF_PLATE, "plate_a")
+    # The near rim, pinched: the checker's IK is within 1 cm of its target.
+    np.testing.assert_allclose(points[0.0][:2], p_rim, atol=0.01)
+    np.testing.assert_allclose(points[0.03][:2] - points[0.0][:2], [0.03, 0.0], atol=0.01)
+
+
+def test_base_too_far_fails_with_a_reason(scenario, scene, checker):
+    arm, context = _controller(scenario, scene, checker, noise=False)
+    _fix_robot(arm, context, base=FRONT_OF_PLATE - np.array([0.0, 1.3, 0.0]))  # 2.15 m away
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=4, dish="plate_a"))
+    _step(arm, context, 0.0)
+    desired, grip, status = _outputs(arm, context)
+    assert status.id == 4 and status.state == "failed" and status.reason in PLANNING_REASONS
+    np.testing.assert_allclose(desired, np.concatenate([STOWED, np.zeros(8)]))
+    assert grip == GripEvent()
+    # Unknown dishes fail by name, too.
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=5, dish="teapot"))
+    _step(arm, context, 0.01)
+    assert _outputs(arm, context)[2] == Status(5, "failed", "unknown_dish")
+
+
+def test_grasp_tolerances_follow_the_gripper_geometry():
+    assert grasp_tolerance("cup") == pytest.approx(0.07 - 0.045)
+    for kind in ("plate", "bowl"):
+        assert 0.02 < grasp_tolerance(kind) <= 0.07 - RIM_INSET
+    assert grasp_tolerance("bowl") < grasp_tolerance("plate")
+
+
+def test_large_reach_noise_misses_or_fails_without_raising(scenario, scene, checker):
+    noisy = dataclasses.replace(
+        scenario, uncertainty=dataclasses.replace(scenario.uncertainty, reach_std=0.2))
+    arm, context = _controller(noisy, scene, checker)
+    _fix_robot(arm, context)
+    t, outcomes = 0.0, []
+    for command_id in range(1, 6):
+        arm.GetInputPort("pick_command").FixValue(context, PickCommand(command_id, "plate_a"))
+        record = _play(arm, context, t, dt=0.25)
+        status = record[-1][3]
+        assert status.id == command_id and status.finished
+        if status.reason == "missed":
+            # A miss plays the motion without ever holding the dish.
+            assert len(record) > 1 and all(r[2].dish == "" for r in record)
+            assert "plate_a" not in record[-1][2].placed
+        outcomes.append(status)
+        t = record[-1][0] + 0.25
+    failed = [s for s in outcomes if s.state == "failed"]
+    assert failed and all(s.reason in (*PLANNING_REASONS, "missed") for s in failed)
+
+
+def test_same_seed_and_id_give_the_same_pickup(scenario, scene, checker):
+    """The noise and the planner's seed come from the seed and the command id alone."""
+    noisy = dataclasses.replace(
+        scenario, uncertainty=dataclasses.replace(scenario.uncertainty, reach_std=0.05))
+    runs = []
+    for _ in range(2):
+        arm, context = _controller(noisy, scene, checker, seed=3)
+        _fix_robot(arm, context)
+        arm.GetInputPort("pick_command").FixValue(context, PickCommand(7, "plate_a"))
+        _step(arm, context, 0.0)
+        context.SetTime(2.0)
+        desired, _, status = _outputs(arm, context)
+        runs.append((status, desired.copy()))
+    assert runs[0][0] == runs[1][0]
+    np.testing.assert_array_equal(runs[0][1], runs[1][1])
+
+
+# ------------------------------------------------------------------------- simulated
+
+def _permutation() -> np.ndarray:
+    """[base q 3, base v 3, arm q 8, arm v 8] -> [q 11, v 11] (the plant's desired state)."""
+    order = np.concatenate([np.arange(0, 3), np.arange(6, 14), np.arange(3, 6),
+                            np.arange(14, 22)])
+    P = np.zeros((22, 22))
+    P[np.arange(22), order] = 1.0
+    return P
+
+
+def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
+    start = dataclasses.replace(scenario, robot=dataclasses.replace(
+        scenario.robot, start=list(FRONT_OF_PLATE)))
+    builder = DiagramBuilder()
+    tracked = "track_dishes" in inspect.signature(build_world_diagram).parameters
+    world = builder.AddNamedSystem(
+        "world", build_world_diagram(start, **({"track_dishes": True} if tracked else {})))
+    arm = builder.AddNamedSystem("arm_controller", ArmController(
+        scenario=start, scene=scene, checker=checker, noise=False))
+    command = builder.AddSystem(ConstantValueSource(
+        AbstractValue.Make(PickCommand(id=1, dish="plate_a"))))
+    base = builder.AddSystem(ConstantVectorSource(np.concatenate([FRONT_OF_PLATE, np.zeros(3)])))
+    mux = builder.AddSystem(Multiplexer([6, 16]))
+    gain = builder.AddSystem(MatrixGain(_permutation()))
+    builder.Connect(command.get_output_port(), arm.GetInputPort("pick_command"))
+    builder.Connect(world.GetOutputPort("robot_state"), arm.GetInputPort("robot_state"))
+    if tracked:
+        builder.Connect(world.GetOutputPort("dish_poses"), arm.GetInputPort("dish_poses"))
+        builder.Connect(arm.GetOutputPort("grip"), world.GetInputPort("grip"))
+    else:
+        poses = {d.name: RigidTransform([*d.position, 0.75]) for d in start.dishes}
+        dishes = builder.AddSystem(ConstantValueSource(AbstractValue.Make(poses)))
+        builder.Connect(dishes.get_output_port(), arm.GetInputPort("dish_poses"))
+    builder.Connect(base.get_output_port(), mux.get_input_port(0))
+    builder.Connect(arm.GetOutputPort("arm_desired_state"), mux.get_input_port(1))
+    builder.Connect(mux.get_output_port(), gain.get_input_port())
+    builder.Connect(gain.get_output_port(), world.GetInputPort("robot_desired_state"))
+    period = 0.02
+    desired_log = builder.AddSystem(VectorLogSink(16, period))
+    state_log = builder.AddSystem(VectorLogSink(2 * NUM_POSITIONS, period))
+    builder.Connect(arm.GetOutputPort("arm_desired_state"), desired_log.get_input_port())
+    builder.Connect(world.GetOutputPort("robot_state"), state_log.get_input_port())
+    diagram = builder.Build()
+
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    arm_context = arm.GetMyContextFromRoot(context)
+    simulator.Initialize()
+    simulator.AdvanceTo(0.05)  # plans at t = 0
+    assert arm.GetOutputPort("status").Eval(arm_context) == Status(1, "running")
+    wall = time.perf_counter()
+    t_end = 0.05
+    while not arm.GetOutputPort("status").Eval(arm_context).finished and t_end < 40.0:
+        t_end += 1.0
+        simulator.AdvanceTo(t_end)
+    wall = time.perf_counter() - wall
+    print(f"\nsimulated {t_end - 0.05:.2f} s in {wall:.2f} s: real-time rate "
+          f"{(t_end - 0.05) / wall:.2f}")
+    assert arm.GetOutputPort("status").Eval(arm_context) == Status(1, "done")
+    assert arm.GetOutputPort("grip").Eval(arm_context).placed == ("plate_a",)
+
+    desired = desired_log.FindLog(context).data()
+    actual = state_log.FindLog(context).data()[3:NUM_POSITIONS]
+    # Arm joints (not the fingers, which the dish stops in the real world).
+    error = np.abs(actual[:6] - desired[:6]).max()
+    print(f"largest arm tracking error: {error:.4f} rad")
+    # The discrete plant follows one step behind: at most the arm's top speed x the step.
+    assert error < 1.0 * start.simulation.time_step + 0.005
+    # The base stays put while the arm works.
+    base_drift = np.abs(state_log.FindLog(context).data()[:3] - FRONT_OF_PLATE[:, None]).max()
+    assert base_drift < 0.01
+    if tracked:
+        states = world.GetOutputPort("dish_states").Eval(world.GetMyContextFromRoot(context))
+        assert states["plate_a"] == "tray" and states["cup_b"] == "table"

@@ -1,0 +1,260 @@
+"""BaseNavigator: drives a command's path at v, lands with the seeded noise, stops short of
+collisions; alone (forced updates, Eval at chosen times) and driving the world's plant."""
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pydrake.common.value import AbstractValue
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import (
+    ConstantValueSource,
+    ConstantVectorSource,
+    MatrixGain,
+    Multiplexer,
+)
+
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.scenario import load_scenario
+from s3o_drake.systems.base_navigator import BaseNavigator, wrap_angle
+from s3o_drake.systems.commands import BaseCommand, Status
+from s3o_drake.world import build_world_diagram
+
+REPO = Path(__file__).resolve().parent.parent
+V = 0.4  # the scenario's planner speed (default)
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
+    assert scenario.planner.speed == V
+    return scenario
+
+
+@pytest.fixture(scope="module")
+def scene(scenario):
+    return FeasibilityScene(scenario)
+
+
+def _robot_state(x: float, y: float, yaw: float) -> np.ndarray:
+    state = np.zeros(2 * NUM_POSITIONS)
+    state[:3] = [x, y, yaw]
+    return state
+
+
+class _Alone:
+    """A navigator with fixed inputs; `send` forces its update at `t`, `at` Evals."""
+
+    def __init__(self, navigator: BaseNavigator, base=(0.6, 0.6, 0.0)):
+        self.navigator = navigator
+        self.context = navigator.CreateDefaultContext()
+        navigator.GetInputPort("robot_state").FixValue(self.context, _robot_state(*base))
+        self.send(BaseCommand(), t=0.0)
+
+    def send(self, command: BaseCommand, t: float = 0.0) -> None:
+        self.context.SetTime(t)
+        self.navigator.GetInputPort("base_command").FixValue(
+            self.context, AbstractValue.Make(command))
+        self.navigator.CalcForcedUnrestrictedUpdate(self.context,
+                                                    self.context.get_mutable_state())
+
+    def at(self, t: float) -> tuple[np.ndarray, Status]:
+        self.context.SetTime(t)
+        desired = self.navigator.GetOutputPort("base_desired_state").Eval(self.context)
+        return desired.copy(), self.navigator.GetOutputPort("status").Eval(self.context)
+
+    def final(self) -> tuple[np.ndarray, Status]:
+        return self.at(1e3)
+
+
+def _navigator(scenario, scene=None, **kwargs) -> BaseNavigator:
+    kwargs.setdefault("noise", False)
+    return BaseNavigator(scenario=scenario, scene=scene, **kwargs)
+
+
+def test_ports_and_no_feedthrough(scenario):
+    navigator = _navigator(scenario)
+    assert navigator.GetInputPort("robot_state").size() == 22
+    assert navigator.GetOutputPort("base_desired_state").size() == 6
+    # The plant's state feeds back into robot_state: no algebraic loop.
+    assert not navigator.HasAnyDirectFeedthrough()
+
+
+def test_without_command_holds_the_initial_base_pose(scenario):
+    alone = _Alone(_navigator(scenario), base=(1.0, 2.0, 0.3))
+    desired, status = alone.at(5.0)
+    np.testing.assert_allclose(desired, [1.0, 2.0, 0.3, 0, 0, 0])
+    assert status == Status()
+
+
+def test_drives_the_path_at_v_and_lands_on_the_pose(scenario):
+    alone = _Alone(_navigator(scenario))
+    # An L: east 1 m, then north 1 m, then face west.
+    command = BaseCommand(id=1, path=((0.6, 0.6), (1.6, 0.6), (1.6, 1.6)),
+                          pose=(1.6, 1.6, math.pi))
+    alone.send(command)
+    # Mid first leg (already facing east): cruising at v along +x.
+    a, status = alone.at(1.5)
+    b, _ = alone.at(2.0)
+    assert status.id == 1 and status.state == "running"
+    np.testing.assert_allclose(a[3:], [V, 0, 0], atol=1e-12)
+    assert b[0] - a[0] == pytest.approx(0.5 * V)
+    assert a[1] == pytest.approx(0.6) and a[2] == pytest.approx(0.0)
+    final, status = alone.final()
+    np.testing.assert_allclose(final[:2], command.pose[:2], atol=1e-3)
+    assert wrap_angle(final[2] - math.pi) == pytest.approx(0.0, abs=1e-9)
+    np.testing.assert_allclose(final[3:], 0.0)
+    assert status == Status(id=1, state="done")
+
+    # The pose stays on the path (x = 0.6 -> 1.6 at y = 0.6, then y up at x = 1.6) and
+    # yaw only turns (0 -> pi/2 -> pi) while xy stands still.
+    poses = np.array([alone.at(t)[0] for t in np.arange(0.0, 12.0, 0.05)])
+    on_first = np.isclose(poses[:, 1], 0.6)
+    on_second = np.isclose(poses[:, 0], 1.6)
+    assert np.all(on_first | on_second)
+    moving_xy = np.hypot(poses[:, 3], poses[:, 4]) > 0
+    assert not np.any(moving_xy & (np.abs(poses[:, 5]) > 0))
+    assert np.all(np.abs(poses[:, 5]) <= 0.8 + 1e-12)
+    assert np.all(np.hypot(poses[:, 3], poses[:, 4]) <= V + 1e-12)
+
+
+def test_status_waits_for_the_settle_time(scenario):
+    alone = _Alone(_navigator(scenario, settle_time=0.3))
+    alone.send(BaseCommand(id=4, path=((0.6, 0.6), (1.0, 0.6)), pose=(1.0, 0.6, 0.0)))
+    # 0.4 m with v = 0.4 m/s and 1 m/s^2 ramps: 1.4 s of motion.
+    assert alone.at(1.35)[1].state == "running"
+    assert alone.at(1.6)[1].state == "running"
+    assert alone.at(1.75)[1] == Status(id=4, state="done")
+
+
+def test_command_id_0_stops_where_the_motion_is(scenario):
+    alone = _Alone(_navigator(scenario))
+    alone.send(BaseCommand(id=1, path=((0.6, 0.6), (2.6, 0.6)), pose=(2.6, 0.6, 0.0)))
+    here, _ = alone.at(2.0)
+    alone.send(BaseCommand(), t=2.0)
+    final, status = alone.final()
+    np.testing.assert_allclose(final, [*here[:3], 0, 0, 0])
+    assert status == Status()
+    # The same id again is no new command: nothing restarts.
+    alone.send(BaseCommand(), t=3.0)
+    np.testing.assert_allclose(alone.final()[0], final)
+
+
+def test_turns_the_short_way_and_keeps_yaw_continuous(scenario):
+    alone = _Alone(_navigator(scenario), base=(1.0, 1.0, 3.0))
+    # Heading of the leg is -3.0 rad: the short way is +0.28 rad through pi.
+    command = BaseCommand(id=1, path=((1.0, 1.0), (1.0 + math.cos(-3.0), 1.0 + math.sin(-3.0))),
+                          pose=(1.0 + math.cos(-3.0), 1.0 + math.sin(-3.0), -3.0))
+    alone.send(command)
+    yaws = np.array([alone.at(t)[0][2] for t in np.arange(0.0, 8.0, 0.05)])
+    assert np.all(np.diff(yaws) >= -1e-12)  # only counter-clockwise
+    assert yaws[-1] == pytest.approx(2 * math.pi - 3.0)
+    assert np.max(np.abs(np.diff(yaws))) < 0.8 * 0.05 + 1e-9
+
+
+def test_landing_noise_is_seeded_per_command(scenario):
+    command = BaseCommand(id=2, path=((0.6, 0.6), (1.5, 1.5)), pose=(1.5, 1.5, 0.5))
+    rng = np.random.default_rng([7, 1, 2])
+    std = scenario.uncertainty
+    expected = np.array(command.pose) + rng.normal(0.0, 1.0, 3) * [
+        std.nav_xy_std, std.nav_xy_std, std.nav_yaw_std]
+
+    landings = []
+    for earlier in (None, BaseCommand(id=1, path=((0.6, 0.6), (0.8, 0.6)), pose=(0.8, 0.6, 0))):
+        alone = _Alone(_navigator(scenario, seed=7, noise=True))
+        if earlier is not None:  # whatever happened before, command 2 lands the same
+            alone.send(earlier)
+        alone.send(command, t=5.0)
+        final, status = alone.final()
+        assert status == Status(id=2, state="done")
+        landings.append(final[:3])
+    np.testing.assert_allclose(landings[0][:2], expected[:2], atol=1e-9)
+    assert wrap_angle(landings[0][2] - expected[2]) == pytest.approx(0.0, abs=1e-9)
+    np.testing.assert_allclose(landings[0], landings[1], atol=1e-9)
+    assert np.linalg.norm(landings[0][:2] - command.pose[:2]) > 1e-3
+
+    other = _Alone(_navigator(scenario, seed=8, noise=True))
+    other.send(command)
+    assert np.linalg.norm(other.final()[0][:2] - landings[0][:2]) > 1e-3
+
+
+def test_a_path_through_the_table_fails_blocked_before_it(scenario, scene):
+    # The table spans x 1.4..2.6, y 2.1..2.9; drive straight across it along y = 2.5.
+    alone = _Alone(_navigator(scenario, scene), base=(0.6, 2.5, 0.0))
+    alone.send(BaseCommand(id=3, path=((0.6, 2.5), (3.4, 2.5)), pose=(3.4, 2.5, 0.0)))
+    final, status = alone.final()
+    assert status == Status(id=3, state="failed", reason="blocked")
+    assert 0.9 < final[0] < 1.4  # stopped in front of the table (the deck fits under its top)
+    assert final[1] == pytest.approx(2.5)
+    q = scene.q(final[:3])
+    assert scene.checker.CheckConfigCollisionFree(q)
+    # Within one check step of the first colliding pose.
+    assert not scene.checker.CheckConfigCollisionFree(scene.q(final[:3] + np.array([0.021, 0, 0])))
+    # Running until the cut: "running" then "failed".
+    assert alone.at(1.0)[1].state == "running"
+
+
+def test_a_colliding_landing_ends_done_at_the_last_free_pose(scenario, scene):
+    # Facing the table's south edge (y = 2.1) from 1.9 m: the base's front overlaps it.
+    alone = _Alone(_navigator(scenario, scene), base=(2.0, 0.8, math.pi / 2))
+    alone.send(BaseCommand(id=5, path=((2.0, 0.8), (2.0, 1.9)), pose=(2.0, 1.9, math.pi / 2)))
+    final, status = alone.final()
+    assert status == Status(id=5, state="done")
+    assert 1.4 < final[1] < 1.9 and final[0] == pytest.approx(2.0)
+    assert scene.checker.CheckConfigCollisionFree(scene.q(final[:3]))
+
+
+def test_free_path_with_scene_is_untouched(scenario, scene):
+    alone = _Alone(_navigator(scenario, scene))
+    alone.send(BaseCommand(id=1, path=((0.6, 0.6), (3.0, 0.6)), pose=(3.0, 0.6, 0.0)))
+    final, status = alone.final()
+    np.testing.assert_allclose(final[:3], [3.0, 0.6, 0.0], atol=1e-9)
+    assert status == Status(id=1, state="done")
+
+
+def _drive_in_world(scenario, command: BaseCommand, **kwargs):
+    builder = DiagramBuilder()
+    world = builder.AddSystem(build_world_diagram(scenario))
+    navigator = builder.AddSystem(_navigator(scenario, **kwargs))
+    commands = builder.AddSystem(ConstantValueSource(AbstractValue.Make(command)))
+    arm = builder.AddSystem(ConstantVectorSource(np.concatenate([ARM_STOW, GRIPPER_OPEN,
+                                                                 np.zeros(8)])))
+    mux = builder.AddSystem(Multiplexer([6, 16]))
+    # [base q, base v, arm q, arm v] -> [base q, arm q, base v, arm v]
+    order = [*range(0, 3), *range(6, 14), *range(3, 6), *range(14, 22)]
+    permute = builder.AddSystem(MatrixGain(np.eye(22)[order]))
+    builder.Connect(commands.get_output_port(), navigator.GetInputPort("base_command"))
+    builder.Connect(world.GetOutputPort("robot_state"), navigator.GetInputPort("robot_state"))
+    builder.Connect(navigator.GetOutputPort("base_desired_state"), mux.get_input_port(0))
+    builder.Connect(arm.get_output_port(), mux.get_input_port(1))
+    builder.Connect(mux.get_output_port(), permute.get_input_port())
+    builder.Connect(permute.get_output_port(), world.GetInputPort("robot_desired_state"))
+    diagram = builder.Build()
+
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    simulator.Initialize()
+    status_port = navigator.GetOutputPort("status")
+    nav_context = navigator.GetMyContextFromRoot(context)
+    start = time.perf_counter()
+    while not status_port.Eval(nav_context).finished and context.get_time() < 20.0:
+        simulator.AdvanceTo(context.get_time() + 0.1)
+    wall = time.perf_counter() - start
+    state = world.GetOutputPort("robot_state").Eval(world.GetMyContextFromRoot(context))
+    return state, status_port.Eval(nav_context), context.get_time(), wall
+
+
+def test_drives_the_plant_to_the_goal_in_simulation(scenario):
+    x0, y0, _ = scenario.robot.start
+    command = BaseCommand(id=1, path=((x0, y0), (1.2, 1.4)), pose=(1.2, 1.4, 0.5))
+    state, status, sim_time, wall = _drive_in_world(scenario, command)
+    print(f"\nbase navigator in the world: {sim_time:.1f} s simulated in {wall:.2f} s "
+          f"({sim_time / wall:.0f}x real time)")
+    assert status == Status(id=1, state="done")
+    np.testing.assert_allclose(state[:2], command.pose[:2], atol=0.02)
+    assert wrap_angle(state[2] - command.pose[2]) == pytest.approx(0.0, abs=0.02)
+    np.testing.assert_allclose(state[3:9], ARM_STOW, atol=0.01)  # the arm held still
