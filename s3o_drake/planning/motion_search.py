@@ -319,8 +319,8 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     `regions` maps each location name to its region (shapely, e.g. the union of its dishes'
     Voronoi cells). Budget: `generations` (default planner.cma_generations) x `population`
     (default planner.cma_population) samples, each generation costed with one
-    `nav.path_lengths` batch. `deadline` (a `time.monotonic()` value) ends the search after
-    the generation during which it passes. `seed` or `rng` (rng wins) makes it
+    `nav.path_lengths` batch. `deadline` (a `time.monotonic()` value) ends the search before
+    a generation that would, at the pace of the previous one, end past it. `seed` or `rng` (rng wins) makes it
     deterministic. Returns the best sample seen.
     """
     t0 = time.monotonic()
@@ -354,14 +354,19 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
         "tolstagnation": generations + 1,
     }
     es = cma.CMAEvolutionStrategy(tally.best_x.ravel(), sigma, options)
+    last = 0.0  # duration of the latest generation
     for _ in range(rest):
-        if deadline is not None and time.monotonic() >= deadline:
+        # Stop when the next generation would end past the deadline, not only once it has
+        # passed: a generation of a long sequence takes tens of milliseconds.
+        if deadline is not None and time.monotonic() + last >= deadline:
             break
+        t_generation = time.monotonic()
         asked = _ask_inside(es, problem, population)
         X = np.array(asked).reshape(len(asked), problem.n, 2)
         u = problem.evaluate(X)[0]
         tally.add(X, u)
         es.tell(asked, list(-u))  # cma minimises
+        last = time.monotonic() - t_generation
     return tally.result(problem, "GROP*", t0)
 
 
@@ -386,9 +391,11 @@ def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     rng = rng if rng is not None else np.random.default_rng(seed)
     tally = _Tally()
     for _ in range(generations):
+        t_batch = time.monotonic()
         X = np.stack([g.draw(rng, population) for g in problem.grids], axis=1)
         tally.add(X, problem.evaluate(X)[0])
-        if deadline is not None and time.monotonic() >= deadline:
+        # As in GROP*: no batch that would end past the deadline.
+        if deadline is not None and 2 * time.monotonic() - t_batch >= deadline:
             break
     return tally.result(problem, "GROP", t0)
 

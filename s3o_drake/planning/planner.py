@@ -90,6 +90,8 @@ METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random
 """The methods DESIGN.md section 2 compares, by name."""
 REPRESENTATIVE_CANDIDATES = 20
 """Best grid points tried (by joint Fea^m) for a location's representative point."""
+WORKER_SLACK = 0.03
+"""Share of the remaining budget by which worker processes stop before the deadline."""
 TASK_TIME_LIMIT = 5.0
 """Cap on one clingo call (s), below the remaining budget."""
 # Purposes mixed into seeds so that different draws never share a stream.
@@ -132,8 +134,11 @@ class _Searches:
     def __init__(self, workers: int, search: Callable[..., MotionResult], fea, nav, start,
                  planner, deadline: float):
         global _inherited
+        # Workers stop a little early: collecting their results and letting them go takes
+        # time too, and the budget must hold for the whole call.
+        slack = WORKER_SLACK * max(0.0, deadline - time.monotonic()) if workers > 1 else 0.0
         self._shared = dict(search=search, fea=fea, nav=nav, start=start, planner=planner,
-                            deadline=deadline)
+                            deadline=deadline - slack)
         self._pool: ProcessPoolExecutor | None = None
         self._pending: list[tuple[object, Future | MotionResult]] = []
         if workers > 1 and "fork" in multiprocessing.get_all_start_methods():
@@ -165,7 +170,8 @@ class _Searches:
     def close(self) -> None:
         global _inherited
         if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
+            # The results are in: no need to wait for the workers to exit.
+            self._pool.shutdown(wait=False, cancel_futures=True)
         _inherited = None
 
 
