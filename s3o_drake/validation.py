@@ -168,8 +168,8 @@ def _validate_settings(scenario: Scenario) -> None:
                                                        "across; at most 4096")
 
     s = scenario.simulation
-    if not 0 < s.time_step <= 0.01:
-        raise ScenarioError("simulation.time_step", f"must be in (0, 0.01] s, got "
+    if not 0 < s.time_step <= 0.05:
+        raise ScenarioError("simulation.time_step", f"must be in (0, 0.05] s, got "
                                                     f"{s.time_step:g}")
     _at_least(s.hold_time, 0.0, "simulation.hold_time")
     _at_least(s.publish_period, 0.0, "simulation.publish_period", strict=True)

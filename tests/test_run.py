@@ -1,7 +1,10 @@
-"""The run command end to end on a small scene."""
+"""The run command end to end on a small scene: plan, execute, report, playback."""
 
 import base64
+import dataclasses
+import json
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -12,60 +15,108 @@ import pytest
 from s3o_drake.camera import overhead_camera
 from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.run import main as run_main
-from s3o_drake.scenario import load_scenario
+from s3o_drake.scenario import dump_scenario, load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
 
 
-def test_run_writes_playback_and_overhead_picture(tmp_path, capsys):
-    out = tmp_path / "run"
-    assert run_main([str(SMALL), "--out", str(out)]) == 0
-    printed = capsys.readouterr().out
-    assert str(out / "playback.html") in printed and str(out / "overhead.png") in printed
+@pytest.fixture(scope="module")
+def exact_run(tmp_path_factory):
+    """two_dishes.yaml planned and executed without simulated noise (seed 1)."""
+    out = tmp_path_factory.mktemp("run") / "run"
+    status = run_main([str(SMALL), "--out", str(out), "--no-noise"])
+    return status, out
 
+
+def test_without_noise_every_dish_is_collected(exact_run, capsys):
+    status, out = exact_run
+    assert status == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["collected"] == report["dishes"] == 2
+    assert sorted(report["collected_dishes"]) == ["cup_b", "plate_a"]
+    assert report["finished"] and report["reason"] == "plan complete"
+    assert all(outcome == "done" for _, _, outcome in report["outcomes"])
+    # Execution time is simulated time: the drive and two pickups of 10-20 s each.
+    assert 20.0 < report["execution_time"] < 120.0
+    assert report["planning_time"] > 0 and report["realtime_rate"] > 1.0
+    plan = TaskMotionPlan.read(out / "plan.json")
+    assert plan.method == "S3O-GROP*" and {a.dish for a in plan.pickups} == {"plate_a", "cup_b"}
+    # The report follows the plan's actions one by one.
+    assert [(a, b) for a, b, _ in report["outcomes"]] == [
+        ("goto", x.location) if hasattr(x, "path") else ("pickup", x.dish)
+        for x in plan.actions]
+
+
+def test_outputs_are_written_and_open(exact_run):
+    _, out = exact_run
     html = (out / "playback.html").read_text()
     assert "<html" in html[:200] and "MeshCat.Viewer" in html
-    # The recording holds the scene: the table, the chair, a dish and the robot's links by
-    # name, inside the Meshcat commands that the page embeds as base64 data.
+    assert not re.search(r"<script[^>]+src=[\"']https?:", html)  # self-contained
+    # The recording holds the scene and the dishes by name, inside the Meshcat commands
+    # that the page embeds as base64 data.
     commands = b"".join(base64.b64decode(data) for data in re.findall(
         r'fetch\("data:application/octet-binary;base64,([A-Za-z0-9+/=]+)"\)', html))
-    for name in ("table", "chair", "plate_a", "base_link", "gripper_base", "animation"):
+    for name in ("table", "chair", "plate_a", "cup_b", "base_link", "gripper_base",
+                 "animation"):
         assert name.encode() in commands, name
-
     image = cv2.imread(str(out / "overhead.png"))
     camera = overhead_camera(load_scenario(SMALL))
     assert image is not None and image.shape == (camera.height, camera.width, 3)
     assert image.std() > 10  # a picture, not a blank
-    picture = cv2.imread(str(out / "feasibility.png"))
-    assert picture is not None and picture.shape[0] > 300
-    picture = cv2.imread(str(out / "state_space.png"))
-    assert picture is not None and picture.shape[0] > 300
-    assert str(out / "state_space.png") in printed
-
-    # The plan: printed, written, and drawn.
-    plan = TaskMotionPlan.read(out / "plan.json")
-    assert plan.method == "S3O-GROP*" and {a.dish for a in plan.pickups} == {"plate_a", "cup_b"}
-    assert "S3O-GROP* plan (seed 1)" in printed and "pickup plate_a" in printed
-    for name in ("plan.png", "search.png"):
+    for name in ("feasibility.png", "state_space.png", "plan.png", "search.png"):
         picture = cv2.imread(str(out / name))
         assert picture is not None and picture.shape[0] > 300, name
+
+
+@pytest.mark.skipif(shutil.which("chromium") is None, reason="needs Chromium (.ci/run installs it)")
+def test_playback_renders_in_headless_chromium(exact_run, tmp_path):
+    _, out = exact_run
+    shot = tmp_path / "shot.png"
+    subprocess.run(["chromium", "--headless", "--no-sandbox",
+                    "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+                    "--window-size=1000,700",
+                    "--virtual-time-budget=8000", f"--screenshot={shot}",
+                    (out / "playback.html").as_uri()],
+                   check=True, capture_output=True, timeout=120)
+    image = cv2.imread(str(shot))
+    assert image is not None and image.shape[:2] == (700, 1000)
+    # The scene, not an empty page: many colours (floor, tables, chairs, robot, dishes).
+    colours = {tuple(c) for c in (image[::4, ::4] // 32).reshape(-1, 3)}
+    assert len(colours) > 12 and image.std() > 15
+
+
+def test_large_reaching_noise_fails_some_pickups_without_a_crash(tmp_path):
+    scenario = load_scenario(SMALL)
+    noisy = dataclasses.replace(scenario, uncertainty=dataclasses.replace(
+        scenario.uncertainty, reach_std=0.08))
+    path = tmp_path / "noisy.yaml"
+    path.write_text(dump_scenario(noisy))
+    out = tmp_path / "run"
+    assert run_main([str(path), "--out", str(out), "--seed", "3"]) == 1
+    report = json.loads((out / "report.json").read_text())
+    failed = [o for a, _, o in report["outcomes"] if a == "pickup" and o != "done"]
+    assert failed and all(o.startswith("failed: ") for o in failed)
+    assert report["collected"] < report["dishes"] and report["finished"]
 
 
 @pytest.mark.parametrize("method", ["V-PETLON", "S3O-Random"])
 def test_run_plans_with_the_method_and_seed_given(tmp_path, capsys, method):
     out = tmp_path / "run"
-    assert run_main([str(SMALL), "--out", str(out), "--method", method, "--seed", "4"]) == 0
+    assert run_main([str(SMALL), "--out", str(out), "--method", method, "--seed", "4",
+                     "--no-noise"]) in (0, 1)
     plan = TaskMotionPlan.read(out / "plan.json")
     assert plan.method == method and plan.seed == 4
-    assert f"{method} plan (seed 4)" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert f"{method} plan (seed 4)" in printed and "Collected" in printed
 
 
 def test_help_explains_every_option():
     result = subprocess.run([sys.executable, "-m", "s3o_drake.run", "--help"],
                             capture_output=True, text=True, check=True, cwd=REPO)
-    for option in ("--out", "--meshcat", "--graphviz", "--method", "--seed", "S3O-GROP*",
-                   "V-PETLON", "playback.html", "overhead.png", "plan.json", "search.png"):
+    for option in ("--out", "--meshcat", "--method", "--seed", "--no-noise",
+                   "S3O-GROP*", "V-PETLON", "report.json", "playback.html", "overhead.png",
+                   "plan.json", "search.png", "Exit status"):
         assert option in result.stdout
 
 

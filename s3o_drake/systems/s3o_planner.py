@@ -1,0 +1,281 @@
+"""The S3O planner as a LeafSystem: plans at start, sends goals, follows the controllers.
+
+The planner sees what the robot can know: the overhead camera's images (through a
+perception function that reports the unmapped chairs) and the robot's state. At
+initialization it computes every dish's Fea^m heatmap on the *known* world (the mapped
+furniture and the perceived chairs), plans with the chosen method (`planning.planner.plan`)
+and builds its own navigation map for re-pathing. It then walks the plan one action at a
+time: a `goto` becomes a BaseCommand whose path starts where the base really is (the
+previous landing carried noise), a `pickup` a PickCommand. It advances when the controller
+reports the command done; a failed pickup is recorded and the plan goes on with the next
+action (the dish stays where it is); a failed goto ends the execution (the plan's later
+pickups assumed that stop).
+
+Replanning (later issues): a change of the optional `replan_request` input's value plans
+again from the robot's current pose for the dishes not yet collected (the state keeps the
+new plan and starts it from its first action).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import Context, LeafSystem, State
+from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
+
+from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.feasibility.kinematics import wrap
+from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.plan import Goto, TaskMotionPlan, facing_yaw
+from s3o_drake.planning.planner import PlanningError, plan
+from s3o_drake.planning.task_planner import TaskPlanningError
+from s3o_drake.robot import NUM_POSITIONS
+from s3o_drake.scenario import Chair, Scenario
+from s3o_drake.systems.commands import (
+    NO_COMMAND,
+    BaseCommand,
+    PickCommand,
+    PlanProgress,
+    Status,
+)
+
+#: A pickup's dish further off the base's heading than this (rad) is faced first.
+TURN_TOLERANCE = 0.03
+
+#: A perception function: (colour RGBA, depth (m), label) images -> chair poses [x, y, yaw].
+Perceive = Callable[[np.ndarray, np.ndarray, np.ndarray], list[list[float]]]
+
+
+def scenario_unmapped_chairs(scenario: Scenario) -> Perceive:
+    """Stand-in perception until the perception issue lands: reports the scenario's
+    unmapped chairs exactly, whatever the images show."""
+    chairs = [list(map(float, c.pose)) for c in scenario.chairs if not c.mapped]
+    return lambda color, depth, label: [list(c) for c in chairs]
+
+
+@dataclass(frozen=True)
+class _Execution:
+    """The planner's abstract state: the plan and where execution stands.
+
+    Immutable (every update makes a new one), so Drake's copies of the state may share it.
+    """
+
+    plan: TaskMotionPlan | None = None
+    nav: NavigationMap | None = None
+    """The known world's navigation map, for paths from where the base really is."""
+    known: Scenario | None = None
+    """The scenario as planned: mapped furniture, perceived chairs, the dishes to pick."""
+    heatmaps: tuple = ()
+    """The Fea^m heatmaps the plan was made with."""
+    step: int = 0  # index into plan.actions of the action being executed
+    command_id: int = NO_COMMAND  # id of the command sent for `step` (0: none yet)
+    turning: bool = False  # the command out is the turn in place before a pickup
+    turned: bool = False  # the base faces the dish of the pickup at `step`
+    next_id: int = 1
+    base_command: BaseCommand = field(default_factory=BaseCommand)
+    pick_command: PickCommand = field(default_factory=PickCommand)
+    outcomes: tuple[tuple[str, str, str], ...] = ()
+    finished: bool = False
+    reason: str = ""
+    replan_seen: float = 0.0
+    planning_time: float = 0.0
+    """Wall time (s) spent planning, summed over plans."""
+
+    def __deepcopy__(self, memo) -> _Execution:
+        return self  # immutable: a copy would only cost (the map is megabytes)
+
+
+class S3OPlanner(LeafSystem):
+    """Plans the task with S3O (or a baseline) and sequences the controllers.
+
+    Input ports:
+      overhead_color_image (ImageRgba8U), overhead_depth_image (ImageDepth32F),
+      overhead_label_image (ImageLabel16I): the overhead camera, read once at start (and
+        at each replan) through the perception function;
+      robot_state (22: the robot's 11 positions then 11 velocities);
+      base_status, arm_status (abstract Status): the controllers' reports;
+      replan_request (1, optional): a change of its value asks for a new plan.
+    Output ports:
+      base_command (abstract BaseCommand), pick_command (abstract PickCommand);
+      progress (abstract PlanProgress);
+      plan (abstract TaskMotionPlan, or None before planning / when none could be made).
+    """
+
+    def __init__(self, *, scenario: Scenario, method: str | None = None, seed: int | None = None,
+                 perceive: Perceive | None = None, workers: int | None = None,
+                 control_period: float = 0.05, progress_bar: bool = False):
+        super().__init__()
+        self._scenario = scenario
+        self._method = method or scenario.planner.method
+        self._seed = scenario.seed if seed is None else int(seed)
+        self._perceive = perceive or scenario_unmapped_chairs(scenario)
+        self._workers = scenario.planner.workers if workers is None else workers
+        self._progress_bar = progress_bar
+        self._dish_xy = {d.name: tuple(d.position) for d in scenario.dishes}
+        self._images = [
+            self.DeclareAbstractInputPort("overhead_color_image",
+                                          AbstractValue.Make(ImageRgba8U())),
+            self.DeclareAbstractInputPort("overhead_depth_image",
+                                          AbstractValue.Make(ImageDepth32F())),
+            self.DeclareAbstractInputPort("overhead_label_image",
+                                          AbstractValue.Make(ImageLabel16I())),
+        ]
+        self._robot_state = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
+        self._base_status = self.DeclareAbstractInputPort("base_status",
+                                                          AbstractValue.Make(Status()))
+        self._arm_status = self.DeclareAbstractInputPort("arm_status",
+                                                         AbstractValue.Make(Status()))
+        self._replan = self.DeclareVectorInputPort("replan_request", 1)
+        self._state = self.DeclareAbstractState(AbstractValue.Make(_Execution()))
+        self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0, self._step)
+        self.DeclareForcedUnrestrictedUpdateEvent(self._step)  # one step on demand (tests)
+        self.DeclareAbstractOutputPort(
+            "base_command", lambda: AbstractValue.Make(BaseCommand()),
+            lambda c, out: out.set_value(self._execution(c).base_command),
+            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
+        self.DeclareAbstractOutputPort(
+            "pick_command", lambda: AbstractValue.Make(PickCommand()),
+            lambda c, out: out.set_value(self._execution(c).pick_command),
+            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
+        self.DeclareAbstractOutputPort(
+            "progress", lambda: AbstractValue.Make(PlanProgress()), self._calc_progress,
+            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
+        self.DeclareAbstractOutputPort(
+            "plan", lambda: AbstractValue.Make(None),
+            lambda c, out: out.set_value(self._execution(c).plan),
+            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
+
+    # ------------------------------------------------------------------------ helpers
+    def _execution(self, context: Context) -> _Execution:
+        return context.get_abstract_state(int(self._state)).get_value()
+
+    def known_scenario(self, chairs: Sequence[Sequence[float]]) -> Scenario:
+        """The scenario as the robot knows it: mapped chairs and the perceived ones."""
+        mapped = [c for c in self._scenario.chairs if c.mapped]
+        seen = [Chair(name=f"perceived_{i}", pose=[float(v) for v in pose], mapped=False)
+                for i, pose in enumerate(chairs)]
+        return dataclasses.replace(self._scenario, chairs=mapped + seen)
+
+    def _plan(self, context: Context, execution: _Execution, *, start: np.ndarray,
+              dishes: Sequence[str]) -> _Execution:
+        """A new plan from base pose `start` for `dishes`, or a finished execution saying
+        why there is none."""
+        t0 = time.perf_counter()
+        images = [np.asarray(port.Eval(context).data) for port in self._images]
+        chairs = self._perceive(images[0], images[1][..., 0], images[2][..., 0])
+        known = self.known_scenario(chairs)
+        chairs = [list(c.pose) for c in known.chairs if not c.mapped]
+        known = dataclasses.replace(
+            known, robot=dataclasses.replace(known.robot, start=[float(v) for v in start]),
+            dishes=[d for d in known.dishes if d.name in set(dishes)])
+        try:
+            heatmaps = compute_heatmaps(known, seed=self._seed, workers=1,
+                                        progress=self._progress_bar)
+            t1 = time.perf_counter()
+            new = plan(known, method=self._method, heatmaps=heatmaps, perceived_chairs=chairs,
+                       seed=self._seed, workers=self._workers, feasibility_time=t1 - t0)
+        except (PlanningError, TaskPlanningError) as e:
+            return dataclasses.replace(execution, plan=None, finished=True, reason=f"no plan: {e}",
+                                       known=known, planning_time=execution.planning_time
+                                       + time.perf_counter() - t0)
+        return dataclasses.replace(execution, plan=new, nav=NavigationMap(known, chairs),
+                                   known=known, heatmaps=tuple(heatmaps), step=0,
+                                   command_id=NO_COMMAND,
+                                   finished=not new.actions,
+                                   reason="" if new.actions else "plan complete",
+                                   planning_time=execution.planning_time
+                                   + time.perf_counter() - t0)
+
+    # ------------------------------------------------------------------------- events
+    def _initialize(self, context: Context, state: State) -> None:
+        start = np.asarray(self._robot_state.Eval(context))[:3]
+        execution = self._plan(context, _Execution(), start=start,
+                               dishes=[d.name for d in self._scenario.dishes])
+        if self._replan.HasValue(context):
+            execution = dataclasses.replace(execution,
+                                            replan_seen=float(self._replan.Eval(context)[0]))
+        state.get_mutable_abstract_state(int(self._state)).set_value(execution)
+
+    def _step(self, context: Context, state: State) -> None:
+        execution = self._execution(context)
+        if self._replan.HasValue(context):
+            request = float(self._replan.Eval(context)[0])
+            if request != execution.replan_seen:
+                collected = {arg for action, arg, outcome in execution.outcomes
+                             if action == "pickup" and outcome == "done"}
+                remaining = [d.name for d in self._scenario.dishes if d.name not in collected]
+                start = np.asarray(self._robot_state.Eval(context))[:3]
+                execution = self._plan(context, dataclasses.replace(
+                    execution, finished=False, reason="", replan_seen=request),
+                    start=start, dishes=remaining)
+        if not execution.finished and execution.plan is not None:
+            execution = self._advance(context, execution)
+        state.get_mutable_abstract_state(int(self._state)).set_value(execution)
+
+    def _advance(self, context: Context, e: _Execution) -> _Execution:
+        actions = e.plan.actions
+        action = actions[e.step]
+        if e.command_id == NO_COMMAND:  # send the command for this step
+            cid = e.next_id
+            if isinstance(action, Goto):
+                here = np.asarray(self._robot_state.Eval(context))[:2]
+                path = e.nav.path(here, action.pose[:2]) if e.nav is not None else None
+                if path is None:  # no way from where it stands: drive the planned path
+                    path = np.vstack([here, np.asarray(action.path)[1:]])
+                command = BaseCommand(id=cid, path=tuple((float(x), float(y)) for x, y in path),
+                                      pose=tuple(float(v) for v in action.pose))
+                return dataclasses.replace(e, command_id=cid, next_id=cid + 1,
+                                           base_command=command)
+            x, y, yaw = np.asarray(self._robot_state.Eval(context))[:3]
+            facing = facing_yaw((x, y), self._dish_xy[action.dish])
+            if not e.turned and abs(wrap(facing - yaw)) > TURN_TOLERANCE:
+                # Fea^m assumed the base faces the dish it picks; the stop faced the first.
+                turn = BaseCommand(id=cid, path=((float(x), float(y)),),
+                                   pose=(float(x), float(y), float(facing)), turn=True)
+                return dataclasses.replace(e, command_id=cid, next_id=cid + 1,
+                                           base_command=turn, turning=True)
+            return dataclasses.replace(e, command_id=cid, next_id=cid + 1, turned=True,
+                                       pick_command=PickCommand(id=cid, dish=action.dish))
+        goto = isinstance(action, Goto) or e.turning
+        status: Status = (self._base_status if goto else self._arm_status).Eval(context)
+        if status.id != e.command_id or not status.finished:
+            return e
+        if e.turning and status.state == "done":
+            return dataclasses.replace(e, command_id=NO_COMMAND, turning=False, turned=True)
+        goto = isinstance(action, Goto)
+        name, arg = ("goto", action.location) if goto else ("pickup", action.dish)
+        outcome = "done" if status.state == "done" else f"failed: {status.reason}"
+        if e.turning:
+            outcome = f"failed: turn {status.reason}"
+        e = dataclasses.replace(e, outcomes=(*e.outcomes, (name, arg, outcome)),
+                                command_id=NO_COMMAND, step=e.step + 1, turning=False,
+                                turned=False)
+        if goto and status.state != "done":
+            return dataclasses.replace(e, finished=True,
+                                       reason=f"goto {arg} failed: {status.reason}")
+        if e.step >= len(actions):
+            return dataclasses.replace(e, finished=True, reason="plan complete")
+        return e
+
+    def _calc_progress(self, context: Context, out) -> None:
+        e = self._execution(context)
+        total = len(e.plan.actions) if e.plan is not None else 0
+        out.set_value(PlanProgress(step=min(e.step + 1, total) if total else 0, total=total,
+                                   finished=e.finished, reason=e.reason, outcomes=e.outcomes))
+
+    def planning_time(self, context: Context) -> float:
+        """Wall time (s) spent planning so far."""
+        return self._execution(context).planning_time
+
+    def planned_with(self, context: Context) -> tuple[Scenario | None, tuple]:
+        """The scenario as the latest plan knew it and the heatmaps it used (for pictures)."""
+        e = self._execution(context)
+        return e.known, e.heatmaps
+
+

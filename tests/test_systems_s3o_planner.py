@@ -1,0 +1,161 @@
+"""The S3OPlanner LeafSystem alone: it plans at initialization and walks the plan, one
+command at a time, advancing on the controllers' reports."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
+
+from s3o_drake.planning.plan import Goto, Pickup
+from s3o_drake.robot import robot_desired_state, robot_positions
+from s3o_drake.scenario import load_scenario
+from s3o_drake.systems.commands import NO_COMMAND, Status
+from s3o_drake.systems.s3o_planner import S3OPlanner
+
+SCENE = "scenarios/small/opposite_sides.yaml"
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario(SCENE)
+
+
+def _context(system, scenario):
+    context = system.CreateDefaultContext()
+    system.GetInputPort("overhead_color_image").FixValue(context, ImageRgba8U(8, 8))
+    system.GetInputPort("overhead_depth_image").FixValue(context, ImageDepth32F(8, 8))
+    system.GetInputPort("overhead_label_image").FixValue(context, ImageLabel16I(8, 8))
+    state = robot_desired_state(robot_positions(*scenario.robot.start))
+    system.GetInputPort("robot_state").FixValue(context, state)
+    system.GetInputPort("base_status").FixValue(context, Status())
+    system.GetInputPort("arm_status").FixValue(context, Status())
+    return context
+
+
+def _step(system, context):
+    system.CalcForcedUnrestrictedUpdate(context, context.get_mutable_state())
+
+
+@pytest.fixture(scope="module")
+def planned(scenario):
+    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0)
+    context = _context(system, scenario)
+    system.ExecuteInitializationEvents(context)
+    return system, context
+
+
+def test_plans_at_initialization(planned, scenario):
+    system, context = planned
+    plan = system.GetOutputPort("plan").Eval(context)
+    assert plan is not None and plan.method == "V-GROP*"
+    assert {a.dish for a in plan.pickups} == {d.name for d in scenario.dishes}
+    progress = system.GetOutputPort("progress").Eval(context)
+    assert progress.total == len(plan.actions) and not progress.finished
+    assert system.GetOutputPort("base_command").Eval(context).id == NO_COMMAND
+    assert system.planning_time(context) > 0
+
+
+def test_walks_the_plan_on_the_controllers_reports(scenario):
+    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0)
+    context = _context(system, scenario)
+    system.ExecuteInitializationEvents(context)
+    plan = system.GetOutputPort("plan").Eval(context)
+    base_status = system.GetInputPort("base_status")
+    arm_status = system.GetInputPort("arm_status")
+    sent = []
+    for i, action in enumerate(plan.actions):
+        _step(system, context)  # sends the command of this action
+        if isinstance(action, Goto):
+            command = system.GetOutputPort("base_command").Eval(context)
+            assert command.pose == pytest.approx(action.pose)
+            # The path starts where the base is and ends at the goal, clear of the map.
+            assert np.allclose(command.path[-1], action.pose[:2])
+            _step(system, context)  # a running controller: nothing changes
+            assert system.GetOutputPort("progress").Eval(context).step == i + 1
+            base_status.FixValue(context, Status(id=command.id, state="done"))
+            # The base arrives: the first pickup there needs no turn (the stop faces it).
+            system.GetInputPort("robot_state").FixValue(
+                context, robot_desired_state(robot_positions(*action.pose)))
+        else:
+            assert isinstance(action, Pickup)
+            command = system.GetOutputPort("pick_command").Eval(context)
+            assert command.dish == action.dish
+            # The first pickup fails: the plan goes on with the next action.
+            failed = not any(isinstance(a, Pickup) for a in plan.actions[:i])
+            arm_status.FixValue(context, Status(id=command.id, state="failed" if failed
+                                                else "done", reason="missed"))
+        sent.append(command.id)
+        _step(system, context)  # reads the report, advances
+    assert sent == sorted(set(sent))  # a fresh id per command
+    progress = system.GetOutputPort("progress").Eval(context)
+    assert progress.finished and progress.reason == "plan complete"
+    outcomes = [o for _, _, o in progress.outcomes]
+    assert outcomes.count("failed: missed") == 1 and len(outcomes) == len(plan.actions)
+
+
+def test_a_failed_goto_ends_the_execution(scenario):
+    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0)
+    context = _context(system, scenario)
+    system.ExecuteInitializationEvents(context)
+    _step(system, context)
+    command = system.GetOutputPort("base_command").Eval(context)
+    system.GetInputPort("base_status").FixValue(
+        context, Status(id=command.id, state="failed", reason="blocked"))
+    _step(system, context)
+    progress = system.GetOutputPort("progress").Eval(context)
+    assert progress.finished and "failed: blocked" in progress.reason
+    _step(system, context)  # nothing more is sent
+    assert system.GetOutputPort("base_command").Eval(context).id == command.id
+
+
+def test_perception_decides_the_obstacles(scenario):
+    """The planner plans around what perception reports, not the scenario's chairs."""
+    seen = []
+
+    def perceive(color, depth, label):
+        seen.append((color.shape, depth.shape, label.shape))
+        return []
+
+    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0, perceive=perceive)
+    known = system.known_scenario([[1.0, 1.0, 0.0]])
+    assert [c.pose for c in known.chairs if not c.mapped] == [[1.0, 1.0, 0.0]]
+    context = _context(system, scenario)
+    system.ExecuteInitializationEvents(context)
+    assert seen == [((8, 8, 4), (8, 8), (8, 8))]
+
+
+def test_turns_to_face_each_further_dish_before_picking_it():
+    """Fea^m assumed the base faces the dish it picks: at a stop that serves two dishes,
+    the second pickup is preceded by a turn in place (no navigation noise), then picked."""
+    scenario = load_scenario("scenarios/small/two_dishes.yaml")
+    system = S3OPlanner(scenario=scenario, method="S3O-GROP*", seed=0)
+    context = _context(system, scenario)
+    system.ExecuteInitializationEvents(context)
+    plan = system.GetOutputPort("plan").Eval(context)
+    assert len(plan.gotos) == 1 and len(plan.pickups) == 2
+    goto, first, second = plan.actions
+    _step(system, context)
+    command = system.GetOutputPort("base_command").Eval(context)
+    system.GetInputPort("base_status").FixValue(context, Status(id=command.id, state="done"))
+    system.GetInputPort("robot_state").FixValue(
+        context, robot_desired_state(robot_positions(*goto.pose)))
+    _step(system, context)  # goto done
+    _step(system, context)  # first pickup: faced already
+    pick = system.GetOutputPort("pick_command").Eval(context)
+    assert pick.dish == first.dish
+    system.GetInputPort("arm_status").FixValue(context, Status(id=pick.id, state="done"))
+    _step(system, context)
+    _step(system, context)  # second pickup: a turn first
+    turn = system.GetOutputPort("base_command").Eval(context)
+    assert turn.turn and turn.id > pick.id
+    x, y, yaw = turn.pose
+    dish = next(d for d in scenario.dishes if d.name == second.dish)
+    assert (x, y) == pytest.approx(goto.pose[:2])
+    assert yaw == pytest.approx(np.arctan2(dish.position[1] - y, dish.position[0] - x))
+    assert system.GetOutputPort("pick_command").Eval(context).id == pick.id  # not yet
+    system.GetInputPort("base_status").FixValue(context, Status(id=turn.id, state="done"))
+    _step(system, context)
+    _step(system, context)
+    pick2 = system.GetOutputPort("pick_command").Eval(context)
+    assert pick2.dish == second.dish and pick2.id > turn.id
