@@ -320,8 +320,8 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     Voronoi cells). Budget: `generations` (default planner.cma_generations) x `population`
     (default planner.cma_population) samples, each generation costed with one
     `nav.path_lengths` batch. `deadline` (a `time.monotonic()` value) ends the search before
-    a generation that would, at the pace of the previous one, end past it. `seed` or `rng` (rng wins) makes it
-    deterministic. Returns the best sample seen.
+    a generation that would, at the pace of the previous one, end past it. `seed` or `rng`
+    (rng wins) makes it deterministic. Returns the best sample seen.
     """
     t0 = time.monotonic()
     problem = SequenceProblem(sequence, regions, feasibility, nav, start_xy, planner,
