@@ -14,8 +14,8 @@ executes the plan: the base navigator drives each path and lands with the naviga
 the arm controller plans and runs each pickup (IK, OMPL RRT-Connect on Drake's collision
 checker) with the reaching noise and puts the dish on the tray, the object tracker carries
 the dishes, and the task monitor ends the run when the plan has ended. Execution time is
-simulated time. Until perception lands, the planner is given the scenario's unmapped chairs
-as if the overhead camera had found them.
+simulated time. The planner never reads the unmapped chairs from the scenario: it finds
+them in the overhead camera's depth image (s3o_drake.perception).
 
 Outputs, in `out/<scenario file stem>/` unless --out or `outputs.directory` says otherwise:
   report.json     what happened: dishes collected, execution (simulated) time, planning

@@ -11,7 +11,7 @@ from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.robot import robot_desired_state, robot_positions
 from s3o_drake.scenario import load_scenario
 from s3o_drake.systems.commands import NO_COMMAND, Status
-from s3o_drake.systems.s3o_planner import S3OPlanner
+from s3o_drake.systems.s3o_planner import S3OPlanner, scenario_unmapped_chairs
 
 SCENE = "scenarios/small/opposite_sides.yaml"
 
@@ -39,7 +39,8 @@ def _step(system, context):
 
 @pytest.fixture(scope="module")
 def planned(scenario):
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0)
+    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+                        perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
     return system, context
@@ -57,7 +58,8 @@ def test_plans_at_initialization(planned, scenario):
 
 
 def test_walks_the_plan_on_the_controllers_reports(scenario):
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0)
+    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+                        perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
     plan = system.GetOutputPort("plan").Eval(context)
@@ -95,7 +97,8 @@ def test_walks_the_plan_on_the_controllers_reports(scenario):
 
 
 def test_a_failed_goto_ends_the_execution(scenario):
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0)
+    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+                        perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
     _step(system, context)
@@ -129,7 +132,8 @@ def test_turns_to_face_each_further_dish_before_picking_it():
     """Fea^m assumed the base faces the dish it picks: at a stop that serves two dishes,
     the second pickup is preceded by a turn in place (no navigation noise), then picked."""
     scenario = load_scenario("scenarios/small/two_dishes.yaml")
-    system = S3OPlanner(scenario=scenario, method="S3O-GROP*", seed=0)
+    system = S3OPlanner(scenario=scenario, method="S3O-GROP*", seed=0,
+                        perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
     plan = system.GetOutputPort("plan").Eval(context)

@@ -1,7 +1,9 @@
 """The S3O planner as a LeafSystem: plans at start, sends goals, follows the controllers.
 
 The planner sees what the robot can know: the overhead camera's images (through a
-perception function that reports the unmapped chairs) and the robot's state. At
+perception function that reports the unmapped chairs: by default
+`perception.ChairPerception`, which explains the image by the map and the robot where it
+stands and fits chairs to what is left) and the robot's state. At
 initialization it computes every dish's Fea^m heatmap on the *known* world (the mapped
 furniture and the perceived chairs), plans with the chosen method (`planning.planner.plan`)
 and builds its own navigation map for re-pathing. It then walks the plan one action at a
@@ -30,6 +32,7 @@ from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.kinematics import wrap
+from s3o_drake.perception import ChairPerception
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.plan import Goto, TaskMotionPlan, facing_yaw
 from s3o_drake.planning.planner import PlanningError, plan
@@ -52,8 +55,8 @@ Perceive = Callable[[np.ndarray, np.ndarray, np.ndarray], list[list[float]]]
 
 
 def scenario_unmapped_chairs(scenario: Scenario) -> Perceive:
-    """Stand-in perception until the perception issue lands: reports the scenario's
-    unmapped chairs exactly, whatever the images show."""
+    """Perfect perception, for tests and comparisons: the scenario's unmapped chairs
+    exactly, whatever the images show."""
     chairs = [list(map(float, c.pose)) for c in scenario.chairs if not c.mapped]
     return lambda color, depth, label: [list(c) for c in chairs]
 
@@ -113,7 +116,7 @@ class S3OPlanner(LeafSystem):
         self._scenario = scenario
         self._method = method or scenario.planner.method
         self._seed = scenario.seed if seed is None else int(seed)
-        self._perceive = perceive or scenario_unmapped_chairs(scenario)
+        self._perceive = perceive  # None: ChairPerception from where the robot stands
         self._workers = scenario.planner.workers if workers is None else workers
         self._progress_bar = progress_bar
         self._dish_xy = {d.name: tuple(d.position) for d in scenario.dishes}
@@ -168,7 +171,10 @@ class S3OPlanner(LeafSystem):
         why there is none."""
         t0 = time.perf_counter()
         images = [np.asarray(port.Eval(context).data) for port in self._images]
-        chairs = self._perceive(images[0], images[1][..., 0], images[2][..., 0])
+        perceive = self._perceive or ChairPerception(dataclasses.replace(
+            self._scenario, robot=dataclasses.replace(self._scenario.robot,
+                                                      start=[float(v) for v in start])))
+        chairs = perceive(images[0], images[1][..., 0], images[2][..., 0])
         known = self.known_scenario(chairs)
         chairs = [list(c.pose) for c in known.chairs if not c.mapped]
         known = dataclasses.replace(

@@ -1,0 +1,10 @@
+"""Perception from the overhead camera: what the robot's map lacks (the chairs).
+
+`ChairPerception(scenario)(color, depth, label)` returns the unmapped chairs' poses
+[x, y, yaw]; `perceived_chairs(scenario, images)` is the one-call form. See `chairs`
+for the method and `benchmark` for its accuracy on the shipped tasks.
+"""
+
+from s3o_drake.perception.chairs import ChairPerception, draw_chairs, perceived_chairs
+
+__all__ = ["ChairPerception", "draw_chairs", "perceived_chairs"]
