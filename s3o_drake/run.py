@@ -36,6 +36,7 @@ a failed pickup or a blocked drive: the summary says which), 2 on bad input (one
 stderr naming the field; nothing is written).
 """
 
+import dataclasses
 import json
 import logging
 import sys
@@ -138,7 +139,12 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
 
     simulator.set_monitor(show)
     start = time.perf_counter()
-    simulator.AdvanceTo(TIME_LIMIT + 1.0)  # the task monitor ends it before
+    failure = None
+    try:
+        simulator.AdvanceTo(TIME_LIMIT + 1.0)  # the task monitor ends it before
+    except RuntimeError as e:  # e.g. the contact solver diverging: report it, keep the data
+        failure = f"the simulation failed at t = {context.get_time():.2f} s: " \
+                  f"{str(e).splitlines()[0]}"
     wall = time.perf_counter() - start
     bar.close()
     visualizer.StopRecording()
@@ -146,6 +152,8 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     monitor = diagram.GetSubsystemByName("task_monitor")
     report = dict(monitor.GetOutputPort("report").Eval(monitor.GetMyContextFromRoot(context)))
     known, heatmaps = planner.planned_with(planner_context)
+    if failure is not None:
+        report.update(finished=False, reason=failure, execution_time=context.get_time())
     report.update(planning_time=planner.planning_time(planner_context), wall_time=wall,
                   realtime_rate=context.get_time() / wall if wall > 0 else float("inf"),
                   simulated_time=context.get_time())
@@ -229,6 +237,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--meshcat", action="store_true",
                         help="also serve a live Meshcat, print its URL and simulate in real "
                              "time so that it can be watched")
+    parser.add_argument("--feasibility", choices=("oracle", "fcn"),
+                        help="source of the planner's Fea^m heatmaps (default: the scenario's "
+                             "planner.feasibility): the Drake oracle or the learned network")
     parser.add_argument("--no-noise", action="store_true",
                         help="simulate without the navigation and reaching noise (the "
                              "planner still plans with the scenario's noise model)")
@@ -240,6 +251,9 @@ def main(argv: list[str] | None = None) -> int:
         fail(f"{args.scenario}: {e}")
     if args.method is not None and args.method not in METHODS:
         fail(f"--method: unknown method {args.method!r}; one of {', '.join(METHODS)}")
+    if args.feasibility is not None:
+        scenario = dataclasses.replace(scenario, planner=dataclasses.replace(
+            scenario.planner, feasibility=args.feasibility))
     seed = scenario.seed if args.seed is None else args.seed
     if seed < 0:
         fail(f"--seed: must be a non-negative integer, got {seed}")
@@ -257,7 +271,8 @@ def main(argv: list[str] | None = None) -> int:
 
     out.mkdir(parents=True, exist_ok=True)
     report = {"scenario": str(args.scenario), "method": args.method or scenario.planner.method,
-              "seed": seed, "noise": not args.no_noise, **run.report}
+              "feasibility": scenario.planner.feasibility, "seed": seed,
+              "noise": not args.no_noise, **run.report}
     write_atomically(out / "report.json", json.dumps(report, indent=1) + "\n")
     written = [out / "report.json"]
     if run.plan is not None:

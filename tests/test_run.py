@@ -114,7 +114,7 @@ def test_run_plans_with_the_method_and_seed_given(tmp_path, capsys, method):
 def test_help_explains_every_option():
     result = subprocess.run([sys.executable, "-m", "s3o_drake.run", "--help"],
                             capture_output=True, text=True, check=True, cwd=REPO)
-    for option in ("--out", "--meshcat", "--method", "--seed", "--no-noise",
+    for option in ("--out", "--meshcat", "--method", "--seed", "--no-noise", "--feasibility",
                    "S3O-GROP*", "V-PETLON", "report.json", "playback.html", "overhead.png",
                    "plan.json", "search.png", "Exit status"):
         assert option in result.stdout
@@ -132,3 +132,12 @@ def test_bad_option_is_one_line_and_status_2(tmp_path, argv, field):
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and field in result.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_the_learned_heatmaps_plan_by_the_scenario_switch(tmp_path):
+    """--feasibility fcn (planner.feasibility: fcn) plans from the network's heatmaps of the
+    overhead depth image; without noise the plan still collects both dishes."""
+    out = tmp_path / "run"
+    assert run_main([str(SMALL), "--out", str(out), "--no-noise", "--feasibility", "fcn"]) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["feasibility"] == "fcn" and report["collected"] == 2

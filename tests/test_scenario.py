@@ -111,6 +111,8 @@ MALFORMED = [
     ("nan setting", _set("planner", {"speed": float("nan")}), "planner.speed", "finite"),
     ("unknown method", _set("planner", {"method": "RRT"}), "planner.method",
      "unknown method 'RRT'"),
+    ("unknown feasibility source", _set("planner", {"feasibility": "vgg"}),
+     "planner.feasibility", "unknown source 'vgg'"),
     ("zero speed", _set("planner", {"speed": 0.0}), "planner.speed", "greater than 0"),
     ("negative noise", _set("uncertainty", {"nav_xy_std": -0.1}), "uncertainty.nav_xy_std",
      "at least 0"),

@@ -3,6 +3,8 @@ command at a time, advancing on the controllers' reports."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
@@ -16,9 +18,16 @@ from s3o_drake.systems.s3o_planner import S3OPlanner, scenario_unmapped_chairs
 SCENE = "scenarios/small/opposite_sides.yaml"
 
 
+def _with_oracle(scenario):
+    """These tests feed blank images: the heatmaps come from the Drake oracle (the FCN reads
+    the images; tests/test_run.py runs it end to end)."""
+    return dataclasses.replace(scenario, planner=dataclasses.replace(
+        scenario.planner, feasibility="oracle"))
+
+
 @pytest.fixture(scope="module")
 def scenario():
-    return load_scenario(SCENE)
+    return _with_oracle(load_scenario(SCENE))
 
 
 def _context(system, scenario):
@@ -131,7 +140,7 @@ def test_perception_decides_the_obstacles(scenario):
 def test_turns_to_face_each_further_dish_before_picking_it():
     """Fea^m assumed the base faces the dish it picks: at a stop that serves two dishes,
     the second pickup is preceded by a turn in place (no navigation noise), then picked."""
-    scenario = load_scenario("scenarios/small/two_dishes.yaml")
+    scenario = _with_oracle(load_scenario("scenarios/small/two_dishes.yaml"))
     system = S3OPlanner(scenario=scenario, method="S3O-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)

@@ -25,6 +25,7 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import MatrixGain, Multiplexer
 
 from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.fcn import robot_render_labels
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.robot import NUM_POSITIONS
 from s3o_drake.scenario import Scenario
@@ -72,7 +73,8 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     truth = FeasibilityScene(scenario)
     planner = builder.AddNamedSystem("planner", S3OPlanner(
         scenario=scenario, method=method, seed=seed, perceive=perceive,
-        progress_bar=progress_bar, control_period=CONTROL_PERIOD))
+        progress_bar=progress_bar, control_period=CONTROL_PERIOD,
+        robot_labels=robot_render_labels(world)))
     navigator = builder.AddNamedSystem("base_navigator", BaseNavigator(
         scenario=scenario, scene=truth, seed=seed, noise=noise, control_period=CONTROL_PERIOD))
     arm = builder.AddNamedSystem("arm_controller", ArmController(

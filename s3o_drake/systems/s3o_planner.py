@@ -1,17 +1,17 @@
 """The S3O planner as a LeafSystem: plans at start, sends goals, follows the controllers.
 
-The planner sees what the robot can know: the overhead camera's images (through a
-perception function that reports the unmapped chairs: by default
-`perception.ChairPerception`, which explains the image by the map and the robot where it
-stands and fits chairs to what is left) and the robot's state. At
-initialization it computes every dish's Fea^m heatmap on the *known* world (the mapped
-furniture and the perceived chairs), plans with the chosen method (`planning.planner.plan`)
-and builds its own navigation map for re-pathing. It then walks the plan one action at a
-time: a `goto` becomes a BaseCommand whose path starts where the base really is (the
-previous landing carried noise), a `pickup` a PickCommand. It advances when the controller
-reports the command done; a failed pickup is recorded and the plan goes on with the next
-action (the dish stays where it is); a failed goto ends the execution (the plan's later
-pickups assumed that stop).
+The planner sees what the robot can know: the overhead camera's images (through a perception
+function that reports the unmapped chairs: by default `perception.ChairPerception`, which
+explains the image by the map and the robot where it stands and fits chairs to what is left)
+and the robot's state. At initialization it computes every dish's Fea^m heatmap
+(`planner.feasibility`: "oracle", the Drake check on the *known* world, i.e. the mapped
+furniture and the perceived chairs; or "fcn", the network of models/fcn/ on the overhead
+depth image), plans with the chosen method (`planning.planner.plan`) and builds its own
+navigation map for re-pathing. It then walks the plan one action at a time: a `goto` becomes
+a BaseCommand whose path starts where the base really is (the previous landing carried
+noise), a `pickup` a PickCommand. It advances when the controller reports the command done;
+a failed pickup is recorded and the plan goes on with the next action (the dish stays where
+it is); a failed goto ends the execution (the plan's later pickups assumed that stop).
 
 Replanning (later issues): a change of the optional `replan_request` input's value plans
 again from the robot's current pose for the dishes not yet collected (the state keeps the
@@ -30,6 +30,8 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, LeafSystem, State
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
+from s3o_drake.camera import overhead_camera
+from s3o_drake.feasibility.fcn import FcnFeasibility, overhead_view
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.kinematics import wrap
 from s3o_drake.perception import ChairPerception
@@ -111,7 +113,8 @@ class S3OPlanner(LeafSystem):
 
     def __init__(self, *, scenario: Scenario, method: str | None = None, seed: int | None = None,
                  perceive: Perceive | None = None, workers: int | None = None,
-                 control_period: float = 0.05, progress_bar: bool = False):
+                 control_period: float = 0.05, progress_bar: bool = False,
+                 robot_labels: frozenset[int] = frozenset()):
         super().__init__()
         self._scenario = scenario
         self._method = method or scenario.planner.method
@@ -119,6 +122,7 @@ class S3OPlanner(LeafSystem):
         self._perceive = perceive  # None: ChairPerception from where the robot stands
         self._workers = scenario.planner.workers if workers is None else workers
         self._progress_bar = progress_bar
+        self._robot_labels = robot_labels  # the robot's own pixels, for the FCN's view
         self._dish_xy = {d.name: tuple(d.position) for d in scenario.dishes}
         self._images = [
             self.DeclareAbstractInputPort("overhead_color_image",
@@ -181,8 +185,13 @@ class S3OPlanner(LeafSystem):
             known, robot=dataclasses.replace(known.robot, start=[float(v) for v in start]),
             dishes=[d for d in known.dishes if d.name in set(dishes)])
         try:
-            heatmaps = compute_heatmaps(known, seed=self._seed, workers=1,
-                                        progress=self._progress_bar)
+            if known.planner.feasibility == "fcn":
+                view = overhead_view(overhead_camera(known), images[1][..., 0],
+                                     images[2][..., 0], self._robot_labels)
+                heatmaps = FcnFeasibility.shared().heatmaps(view, list(known.dishes))
+            else:
+                heatmaps = compute_heatmaps(known, seed=self._seed, workers=1,
+                                            progress=self._progress_bar)
             t1 = time.perf_counter()
             new = plan(known, method=self._method, heatmaps=heatmaps, perceived_chairs=chairs,
                        seed=self._seed, workers=self._workers, feasibility_time=t1 - t0)

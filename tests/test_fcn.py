@@ -1,0 +1,144 @@
+"""The learned feasibility: the network, its training loop, the dataset command, the shipped
+weights, and the CLIs' bad-input handling."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from s3o_drake.feasibility import dataset, fcn_benchmark, train
+from s3o_drake.feasibility.fcn import (
+    CHANNELS,
+    FcnFeasibility,
+    FeasibilityUNet,
+    auroc,
+    crop_inputs,
+    view_of,
+)
+from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE
+from s3o_drake.scenario import load_scenario
+
+REPO = Path(__file__).resolve().parent.parent
+WEIGHTS = REPO / "models" / "fcn" / "fcn.pt"
+
+
+def _synthetic(count: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Crops with a random box obstacle; label: a reach ring minus the obstacle."""
+    rng = np.random.default_rng(seed)
+    n = CROP_CELLS
+    inputs = np.zeros((count, len(CHANNELS), n, n), np.float32)
+    c = (np.arange(n) + 0.5) * CROP_SIZE / n - CROP_SIZE / 2
+    dx, dy = np.meshgrid(c, c)
+    ring = ((np.hypot(dx, dy) > 0.5) & (np.hypot(dx, dy) < 1.0)).astype(np.float32)
+    labels = np.zeros((count, n, n), np.float32)
+    for k in range(count):
+        i, j = rng.integers(0, n - 16, 2)
+        inputs[k, 0, i:i + 16, j:j + 16] = 0.45
+        inputs[k, 3], inputs[k, 4] = dx, dy
+        labels[k] = ring * (inputs[k, 0] == 0)
+    return inputs, labels, np.arange(count) // 2
+
+
+def test_network_maps_a_crop_to_a_heatmap_of_the_same_grid():
+    model = FeasibilityUNet(width=4)
+    import torch
+
+    out = model(torch.zeros(2, len(CHANNELS), CROP_CELLS, CROP_CELLS))
+    assert out.shape == (2, CROP_CELLS, CROP_CELLS)
+
+
+@pytest.fixture
+def one_thread():
+    """One torch thread: on a shared 2-core machine more threads only wait for each other."""
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(threads)
+
+
+def test_training_lowers_the_loss_on_a_tiny_dataset(one_thread):
+    inputs, labels, scenes = _synthetic(8, seed=0)
+    config = train.TrainConfig(seed=0, epochs=6, patience=6, batch=4, lr=5e-3, width=4,
+                               val_fraction=0.25)
+    result = train.train(inputs, labels, scenes, config, progress=False)
+    assert result.train_loss[-1] < 0.8 * result.train_loss[0]
+    assert min(result.val_loss) < result.val_loss[0]
+    assert 0 <= result.val_mae <= 1
+
+
+def test_auroc_is_the_rank_statistic():
+    scores = np.array([0.1, 0.4, 0.35, 0.8, 0.4])
+    positive = np.array([False, False, True, True, True])
+    # Pairs (positive, negative) ordered right, ties count a half: (0.35 > 0.1) + (0.8 > both)
+    # + (0.4 > 0.1) + (0.4 = 0.4) / 2 = 4.5 of 6.
+    assert auroc(scores, positive) == pytest.approx(4.5 / 6)
+    assert np.isnan(auroc(scores, np.zeros(5, bool)))
+
+
+def test_dataset_writes_scenes_and_a_rerun_resumes(tmp_path, monkeypatch):
+    out = tmp_path / "data"
+    assert dataset.main(["--count", "1", "--seed", "1000", "--out", str(out), "--quiet"]) == 0
+    first = dataset.scene_path(out, 0)
+    with np.load(first) as data:
+        n = len(data["dishes"])
+        assert data["inputs"].shape == (n, len(CHANNELS), CROP_CELLS, CROP_CELLS)
+        assert data["labels"].shape == (n, CROP_CELLS, CROP_CELLS)
+        assert data["labels"].min() >= 0 and data["labels"].max() <= 1
+        assert data["labels"].max() > 0
+    stamp = first.stat().st_mtime_ns
+    # A run killed while writing scene 1 leaves only a temporary file: not a done scene.
+    (out / ".scene_00001.npz.abc.tmp").write_bytes(b"partial")
+    computed = []
+
+    def fake_scene(base_path, seed, index):
+        computed.append(index)
+        n = CROP_CELLS
+        return {"inputs": np.zeros((1, len(CHANNELS), n, n)), "labels": np.zeros((1, n, n)),
+                "index": np.array(index)}
+
+    monkeypatch.setattr(dataset, "make_scene", fake_scene)
+    assert dataset.main(["--count", "2", "--seed", "1000", "--out", str(out), "--quiet"]) == 0
+    assert computed == [1]
+    assert first.stat().st_mtime_ns == stamp
+    loaded = dataset.load_dataset(out)
+    assert list(loaded["scenes"]) == [0] * n + [1]
+
+
+@pytest.mark.parametrize(("module", "argv", "field"), [
+    (dataset, ["--count", "0", "--out", "x"], "--count"),
+    (dataset, ["--count", "2", "--out", "x", "--workers", "0"], "--workers"),
+    (dataset, ["--count", "2"], "--out"),
+    (train, ["--data", "/nonexistent/fcn"], "--data"),
+    (train, ["--data", "x", "--lr", "-1"], "--lr"),
+    (fcn_benchmark, ["--tasks", "0"], "--tasks"),
+    (fcn_benchmark, ["--weights", "/nonexistent.pt"], "--weights"),
+])
+def test_bad_arguments_are_one_line_and_exit_2(module, argv, field, capsys, tmp_path,
+                                                monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exit_info:
+        module.main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and field in err
+    assert not any(tmp_path.iterdir())  # nothing written
+
+
+@pytest.mark.skipif(not WEIGHTS.is_file(), reason="no shipped weights")
+def test_shipped_weights_predict_a_held_out_dish():
+    scenario = load_scenario(REPO / "scenarios" / "generated" / "task_000.yaml")
+    fcn = FcnFeasibility.load(WEIGHTS)
+    view = view_of(scenario)
+    dish = scenario.dishes[0]
+    predicted = fcn.heatmap(view, dish)
+    assert predicted.values.shape == (CROP_CELLS, CROP_CELLS)
+    assert predicted.values.min() >= 0 and predicted.values.max() <= 1
+    (oracle,) = compute_heatmaps(scenario, [dish.name], seed=scenario.seed, progress=False)
+    assert (predicted.x0, predicted.y0, predicted.cell) == pytest.approx(
+        (oracle.x0, oracle.y0, oracle.cell))
+    assert np.abs(predicted.values - oracle.values).mean() < 0.15
+    # The crop is the network's input for that dish.
+    assert crop_inputs(view, np.asarray(dish.position), dish.kind).shape[0] == len(CHANNELS)
