@@ -83,7 +83,12 @@ from s3o_drake.planning.plan import (
     facing_yaw,
     samples_tuple,
 )
-from s3o_drake.planning.task_planner import START, TaskPlanResult, plan_problem
+from s3o_drake.planning.task_planner import (
+    START,
+    TaskPlanningTimeoutError,
+    TaskPlanResult,
+    plan_problem,
+)
 from s3o_drake.scenario import Scenario
 
 METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random")
@@ -388,8 +393,16 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, fea
             if remaining <= 0:
                 expired("task planning", not submitted)
                 break
-            tasks[groups] = (plan_problem(groups, costs, unreachable=lost, n_plans=n_sequences,
-                                          time_limit=min(TASK_TIME_LIMIT, remaining)), regions)
+            try:
+                tasks[groups] = (plan_problem(groups, costs, unreachable=lost,
+                                              n_plans=n_sequences,
+                                              time_limit=min(TASK_TIME_LIMIT, remaining)),
+                                 regions)
+            except TaskPlanningTimeoutError:
+                if time.monotonic() < deadline:
+                    raise  # clingo's own cap (TASK_TIME_LIMIT) ran out, not the budget
+                expired("task planning", not submitted)
+                break
         task, regions = tasks[groups]
         timing["task_planning"] += time.monotonic() - t
         unreachable = tuple(sorted(set(task.unreachable) | set(partition.unreachable)))

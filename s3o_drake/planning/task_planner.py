@@ -63,6 +63,10 @@ class TaskPlanningError(RuntimeError):
     or no plan found within the time limit."""
 
 
+class TaskPlanningTimeoutError(TaskPlanningError):
+    """No task plan found within the time limit (one may exist)."""
+
+
 @dataclass(frozen=True)
 class TaskProblem:
     """A task-level problem: locations, where each dish is, the start and the costs.
@@ -282,7 +286,7 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
             break  # a cut search: the next "best" would not be meaningful
 
     if not plans:
-        raise TaskPlanningError(
+        raise TaskPlanningTimeoutError(
             f"no task plan found within the time limit of {time_limit:g} s "
             f"({len(problem.locations)} locations, {len(problem.dishes)} dishes)")
     plans.sort(key=lambda p: p.cost)
