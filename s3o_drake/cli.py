@@ -2,7 +2,11 @@
 
 import argparse
 import sys
-from typing import NoReturn
+from pathlib import Path
+from typing import TYPE_CHECKING, NoReturn
+
+if TYPE_CHECKING:
+    from s3o_drake.scenario import Scenario
 
 EXIT_BAD_INPUT = 2
 
@@ -18,6 +22,28 @@ def fail(message: str) -> NoReturn:
     """Reports bad input as one line on stderr and exits with status 2."""
     print(f"error: {message}", file=sys.stderr)
     sys.exit(EXIT_BAD_INPUT)
+
+
+def task_scenarios(files: list[str] | None, count: int) -> list[tuple[str, "Scenario"]]:
+    """(name, scenario) of a benchmark's tasks: the scenario `files` when given, else the
+    first `count` shipped tasks; a bad count (--tasks) or file is one line and exit 2."""
+    from s3o_drake.resources import shipped_tasks
+    from s3o_drake.scenario import ScenarioError, load_scenario
+
+    if files:
+        paths = [Path(p) for p in files]
+    else:
+        available = shipped_tasks()
+        if not 1 <= count <= len(available):
+            fail(f"--tasks: must be between 1 and {len(available)}, got {count}")
+        paths = available[:count]
+    scenarios = []
+    for path in paths:
+        try:
+            scenarios.append((path.stem, load_scenario(path)))
+        except ScenarioError as e:
+            fail(f"{path}: {e}")
+    return scenarios
 
 
 def doc_formatter() -> type[argparse.HelpFormatter]:

@@ -1,4 +1,5 @@
-"""Where the project's model files live, and a Drake parser that finds them."""
+"""Where the project's model files and shipped tasks live, and a Drake parser that finds
+them."""
 
 from pathlib import Path
 
@@ -6,6 +7,8 @@ from pydrake.multibody.parsing import Parser
 
 PACKAGE_NAME = "s3o_drake"
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
+TASKS_DIR = MODELS_DIR.parent / "scenarios" / "generated"
+"""The shipped benchmark tasks (`python -m s3o_drake.generate --count 100 --seed 0`)."""
 
 
 def models_dir() -> Path:
@@ -16,6 +19,11 @@ def models_dir() -> Path:
             "repository with `pip install -e .` so that the model files are next to the package"
         )
     return MODELS_DIR
+
+
+def shipped_tasks() -> list[Path]:
+    """The shipped benchmark tasks, in name order."""
+    return sorted(TASKS_DIR.glob("task_*.yaml"))
 
 
 def make_parser(plant, scene_graph=None) -> Parser:

@@ -67,6 +67,7 @@ from s3o_drake.pictures import (
 from s3o_drake.planning.plan import Goto, TaskMotionPlan
 from s3o_drake.planning.planner import METHODS
 from s3o_drake.scenario import Scenario, ScenarioError, load_scenario, scenario_stem
+from s3o_drake.world import overhead_images
 
 TOP_VIEW_CELL = 0.02  # m per pixel of the pictures' top view
 PICKUP_ESTIMATE = 16.0  # s, a simulated pickup (approach, grasp, tray, stow), for the bar
@@ -85,17 +86,6 @@ class Execution:
     """The scenario as the planner knew it (perceived chairs)."""
     heatmaps: tuple
     html: str
-    wall_time: float
-    """Wall time of the simulation (s), planning excluded."""
-
-
-def overhead_images(diagram: Diagram, context) -> tuple[np.ndarray, np.ndarray]:
-    """The overhead camera's colour (RGB) and depth (m) images."""
-    world = diagram.GetSubsystemByName("world")
-    world_context = world.GetMyContextFromRoot(context)
-    color = world.GetOutputPort("overhead_color_image").Eval(world_context)
-    depth = world.GetOutputPort("overhead_depth_image").Eval(world_context)
-    return np.array(color.data[:, :, :3], copy=True), np.array(depth.data[:, :, 0], copy=True)
 
 
 def frame_room(meshcat: Meshcat, scenario: Scenario) -> None:
@@ -121,7 +111,9 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     planner = diagram.GetSubsystemByName("planner")
     planner_context = planner.GetMyContextFromRoot(context)
     simulator.Initialize()  # the planner plans here
-    images = overhead_images(diagram, context)
+    world = diagram.GetSubsystemByName("world")
+    color, depth, _ = overhead_images(world, world.GetMyContextFromRoot(context))
+    images = (color[:, :, :3], depth)
     plan = planner.GetOutputPort("plan").Eval(planner_context)
     visualizer = diagram.GetSubsystemByName("world").GetSubsystemByName("meshcat_visualizer")
     visualizer.StartRecording(set_transforms_while_recording=realtime)
@@ -160,7 +152,7 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
                   realtime_rate=context.get_time() / wall if wall > 0 else float("inf"),
                   simulated_time=context.get_time())
     return Execution(diagram=diagram, plan=plan, report=report, images=images, known=known,
-                     heatmaps=heatmaps, html=meshcat.StaticHtml(), wall_time=wall)
+                     heatmaps=heatmaps, html=meshcat.StaticHtml())
 
 
 def describe_plan(p: TaskMotionPlan) -> str:

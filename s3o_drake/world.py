@@ -288,6 +288,37 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     return diagram
 
 
+def overhead_images(world: Diagram, context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The overhead camera's colour (H, W, 4) RGBA, depth (H, W) m and label (H, W) images,
+    from a world diagram and its context."""
+    color = world.GetOutputPort("overhead_color_image").Eval(context).data
+    depth = world.GetOutputPort("overhead_depth_image").Eval(context).data
+    label = world.GetOutputPort("overhead_label_image").Eval(context).data
+    return np.array(color, copy=True), np.array(depth[:, :, 0]), np.array(label[:, :, 0])
+
+
+def robot_render_labels(world: Diagram) -> frozenset[int]:
+    """The render labels of the robot's geometry in a world diagram: the robot knows its
+    own body when it sees it."""
+    plant = world.GetSubsystemByName("plant")
+    inspector = world.GetSubsystemByName("scene_graph").model_inspector()
+    labels = set()
+    for body in plant.GetBodyIndices(plant.GetModelInstanceByName("robot")):
+        for g in inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(body), Role.kPerception):
+            labels.add(int(inspector.GetPerceptionProperties(g).GetProperty("label", "id")))
+    return frozenset(labels)
+
+
+def render_overhead(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                 frozenset[int]]:
+    """One render of the scenario's world with the robot holding its start pose:
+    `overhead_images` and the robot's render labels."""
+    world = build_world_diagram(scenario)
+    context = world.CreateDefaultContext()
+    world.GetInputPort("robot_desired_state").FixValue(context, robot_hold_state(scenario))
+    return (*overhead_images(world, context), robot_render_labels(world))
+
+
 def robot_hold_state(scenario: Scenario) -> np.ndarray:
     """The robot's desired state that holds its start pose (positions, zero velocities)."""
     return robot_desired_state(robot_positions(*scenario.robot.start))

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from s3o_drake.perception import ChairPerception, draw_chairs, perceived_chairs
-from s3o_drake.perception.benchmark import match, overhead_images, true_chairs
+from s3o_drake.perception.benchmark import match, true_chairs
 from s3o_drake.scenario import load_scenario
+from s3o_drake.world import render_overhead
 
 REPO = Path(__file__).resolve().parent.parent
 CENTRE_TOLERANCE = 0.05  # m: the target
@@ -29,7 +30,7 @@ def _assert_found(scenario, found):
 @pytest.fixture(scope="module")
 def two_dishes():
     scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
-    return scenario, overhead_images(scenario)
+    return scenario, render_overhead(scenario)[:3]
 
 
 def test_finds_the_unmapped_chair_of_a_small_scene(two_dishes):
@@ -42,20 +43,20 @@ def test_finds_every_unmapped_chair_of_a_generated_task(task):
     # task_016: a chair whose backrest faces the image centre, so the camera sees the
     # floor under its seat from the side and the blob comes in two pieces.
     scenario = load_scenario(REPO / "scenarios" / "generated" / f"{task}.yaml")
-    _assert_found(scenario, perceived_chairs(scenario, overhead_images(scenario)))
+    _assert_found(scenario, perceived_chairs(scenario, render_overhead(scenario)[:3]))
 
 
 def test_a_scene_without_chairs_gives_none(two_dishes):
     scenario, _ = two_dishes
     empty = dataclasses.replace(scenario, chairs=[])
-    assert perceived_chairs(empty, overhead_images(empty)) == []
+    assert perceived_chairs(empty, render_overhead(empty)[:3]) == []
 
 
 def test_mapped_chairs_are_not_reported(two_dishes):
     scenario, _ = two_dishes
     mapped = dataclasses.replace(
         scenario, chairs=[dataclasses.replace(c, mapped=True) for c in scenario.chairs])
-    assert perceived_chairs(mapped, overhead_images(mapped)) == []
+    assert perceived_chairs(mapped, render_overhead(mapped)[:3]) == []
 
 
 def test_takes_the_images_as_the_world_diagram_produces_them(two_dishes):

@@ -7,7 +7,8 @@ import math
 
 import pytest
 
-from s3o_drake.planning.benchmark import long_run, main, shipped_tasks, summarize
+from s3o_drake.planning.benchmark import long_run, main, summarize
+from s3o_drake.resources import shipped_tasks
 from s3o_drake.scenario import load_scenario
 
 

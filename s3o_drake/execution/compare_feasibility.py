@@ -21,7 +21,7 @@ from pathlib import Path
 from pydrake.geometry import Meshcat
 
 from s3o_drake.cli import ArgumentParser, doc_formatter, fail
-from s3o_drake.planning.benchmark import shipped_tasks
+from s3o_drake.resources import shipped_tasks
 from s3o_drake.run import execute
 from s3o_drake.scenario import load_scenario
 

@@ -44,11 +44,12 @@ def scene_path(out: Path, index: int) -> Path:
 def make_scene(base_path: Path, seed: int, index: int) -> dict[str, np.ndarray]:
     """Inputs and oracle labels of every dish of scene `index` (arrays for np.savez)."""
     from s3o_drake.camera import overhead_camera
-    from s3o_drake.feasibility.fcn import crop_inputs, overhead_view, render_overhead
+    from s3o_drake.feasibility.fcn import crop_inputs, overhead_view
     from s3o_drake.feasibility.heatmaps import compute_heatmaps
+    from s3o_drake.world import render_overhead
 
     scenario = generate_task(load_scenario(base_path), seed, index)
-    depth, label, robot_labels = render_overhead(scenario)
+    _, depth, label, robot_labels = render_overhead(scenario)
     view = overhead_view(overhead_camera(scenario), depth, label, robot_labels)
     heatmaps = compute_heatmaps(scenario, seed=scenario.seed, progress=False)
     inputs = np.stack([crop_inputs(view, np.asarray(d.position[:2]), d.kind)

@@ -38,13 +38,13 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from pydrake.geometry import Role
 from torch import nn
 
 from s3o_drake.camera import OverheadCamera, back_project, overhead_camera
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE, Heatmap
 from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES
 from s3o_drake.scenario import Dish, Scenario
+from s3o_drake.world import render_overhead
 
 DEFAULT_WEIGHTS = Path(__file__).resolve().parents[2] / "models" / "fcn" / "fcn.pt"
 """The shipped network (see models/fcn/README.md for the commands that made it)."""
@@ -89,31 +89,6 @@ class OverheadView:
         return np.concatenate(pieces) if pieces else np.empty((0, 3))
 
 
-def render_overhead(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, frozenset[int]]:
-    """Depth (H, W) in metres, render labels (H, W), and the robot's labels, with the robot
-    holding its start pose (one render of the scenario's world diagram)."""
-    from s3o_drake.world import build_world_diagram, robot_hold_state
-
-    diagram = build_world_diagram(scenario)
-    context = diagram.CreateDefaultContext()
-    diagram.GetInputPort("robot_desired_state").FixValue(context, robot_hold_state(scenario))
-    depth = np.array(diagram.GetOutputPort("overhead_depth_image").Eval(context).data[:, :, 0])
-    label = np.array(diagram.GetOutputPort("overhead_label_image").Eval(context).data[:, :, 0])
-    return depth, label, robot_render_labels(diagram)
-
-
-def robot_render_labels(world) -> frozenset[int]:
-    """The render labels of the robot's geometry in a world diagram (`build_world_diagram`):
-    the robot knows its own body when it sees it."""
-    plant = world.GetSubsystemByName("plant")
-    inspector = world.GetSubsystemByName("scene_graph").model_inspector()
-    labels = set()
-    for body in plant.GetBodyIndices(plant.GetModelInstanceByName("robot")):
-        for g in inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(body), Role.kPerception):
-            labels.add(int(inspector.GetPerceptionProperties(g).GetProperty("label", "id")))
-    return frozenset(labels)
-
-
 def overhead_view(camera: OverheadCamera, depth: np.ndarray, label: np.ndarray,
                   robot_labels: frozenset[int]) -> OverheadView:
     """World points seen by the camera; robot pixels are re-projected onto the floor (z=0)."""
@@ -133,7 +108,7 @@ def overhead_view(camera: OverheadCamera, depth: np.ndarray, label: np.ndarray,
 
 def view_of(scenario: Scenario) -> OverheadView:
     """Renders the scenario once and returns its overhead view."""
-    depth, label, robot_labels = render_overhead(scenario)
+    _, depth, label, robot_labels = render_overhead(scenario)
     return overhead_view(overhead_camera(scenario), depth, label, robot_labels)
 
 

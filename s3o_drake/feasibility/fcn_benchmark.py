@@ -47,10 +47,10 @@ from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.io import write_atomically
+from s3o_drake.resources import shipped_tasks
 from s3o_drake.scenario import ScenarioError, load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
-TASKS_DIR = REPO / "scenarios" / "generated"
 WEIGHTS = REPO / "models" / "fcn" / "fcn.pt"
 REPEATS = 5
 """FCN timings are the median of this many runs (an oracle heatmap is timed once)."""
@@ -94,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="torch threads for the FCN (default 1)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
-    tasks = sorted(TASKS_DIR.glob("task_*.yaml"))
+    tasks = shipped_tasks()
     if not 1 <= args.tasks <= len(tasks):
         fail(f"--tasks: must be between 1 and {len(tasks)}, got {args.tasks}")
     if args.picture_count < 0:

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from s3o_drake.angles import wrap
 from s3o_drake.robot import GRASP_OFFSET
 
 # UR5e standard DH parameters (m, rad), as in models/robot/mobile_manipulator.urdf.
@@ -26,16 +27,6 @@ ELBOW_LIMIT = math.pi
 #: The grasp frame's offset from tool0 (DH frame 6) along its z axis (m).
 TCP_OFFSET = GRASP_OFFSET
 NUM_BRANCHES = 8
-
-
-def wrap(angle: np.ndarray) -> np.ndarray:
-    """Angles wrapped into [-π, π] (π itself only by rounding).
-
-    By floor rather than `%`: numpy's float remainder is an order of magnitude slower, and
-    far slower still on NaN, which the reachability lookups carry in empty slots.
-    """
-    angle = np.asarray(angle)
-    return angle - (2 * np.pi) * np.floor((angle + np.pi) * (1 / (2 * np.pi)))
 
 
 def _dh(q: np.ndarray, i: int) -> np.ndarray:

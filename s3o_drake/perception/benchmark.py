@@ -28,31 +28,17 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from tqdm import tqdm
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail
+from s3o_drake.angles import wrap
+from s3o_drake.cli import ArgumentParser, doc_formatter, fail, task_scenarios
 from s3o_drake.io import write_atomically
-from s3o_drake.perception.chairs import ChairPerception, draw_chairs, wrap_angle
-from s3o_drake.scenario import Scenario, ScenarioError, load_scenario
+from s3o_drake.perception.chairs import ChairPerception, draw_chairs
+from s3o_drake.scenario import Scenario
+from s3o_drake.world import render_overhead
 
-REPO = Path(__file__).resolve().parents[2]
-TASKS_DIR = REPO / "scenarios" / "generated"
 MATCH_RADIUS = 0.15
 """A detection this close (m) to a true chair's centre counts as finding it."""
 TARGET_ERROR = 0.05
 """The issue's target: perceived chairs within 5 cm of the truth."""
-
-
-def overhead_images(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(color (H, W, 4) uint8, depth (H, W) float32 m, label (H, W) int16) of the overhead
-    camera, as the world diagram renders the scenario with the robot at its start."""
-    from s3o_drake.world import build_world_diagram, robot_hold_state
-
-    diagram = build_world_diagram(scenario)
-    context = diagram.CreateDefaultContext()
-    diagram.GetInputPort("robot_desired_state").FixValue(context, robot_hold_state(scenario))
-    color = diagram.GetOutputPort("overhead_color_image").Eval(context).data.copy()
-    depth = diagram.GetOutputPort("overhead_depth_image").Eval(context).data[:, :, 0].copy()
-    label = diagram.GetOutputPort("overhead_label_image").Eval(context).data[:, :, 0].copy()
-    return color, depth, label
 
 
 def true_chairs(scenario: Scenario) -> list[list[float]]:
@@ -71,14 +57,14 @@ def match(truth: list[list[float]], found: list[list[float]]
     pairs = []
     for i, j in zip(*linear_sum_assignment(distance), strict=True):
         if distance[i, j] <= MATCH_RADIUS:
-            yaw = abs(wrap_angle(f[j, 2] - t[i, 2]))
+            yaw = abs(float(wrap(f[j, 2] - t[i, 2])))
             pairs.append((int(i), int(j), float(distance[i, j]), yaw))
     return pairs
 
 
 def benchmark_task(name: str, scenario: Scenario, pictures: Path | None) -> dict[str, Any]:
     """One task's row: counts, errors and the perception time."""
-    images = overhead_images(scenario)
+    images = render_overhead(scenario)[:3]
     perception = ChairPerception(scenario)
     start = time.perf_counter()
     found = perception(*images)
@@ -130,19 +116,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--pictures", metavar="DIR",
                         help="write each task's overhead image with the chairs drawn here")
     args = parser.parse_args(argv)
-    if args.scenarios:
-        paths = [Path(p) for p in args.scenarios]
-    else:
-        available = sorted(TASKS_DIR.glob("task_*.yaml"))
-        if not 1 <= args.tasks <= len(available):
-            fail(f"--tasks: must be between 1 and {len(available)}, got {args.tasks}")
-        paths = available[:args.tasks]
-    scenarios = []
-    for path in paths:
-        try:
-            scenarios.append((path.stem, load_scenario(path)))
-        except ScenarioError as e:
-            fail(f"{path}: {e}")
+    scenarios = task_scenarios(args.scenarios, args.tasks)
     pictures = Path(args.pictures) if args.pictures else None
     if pictures is not None and not pictures.is_dir():
         fail(f"--pictures: no folder {pictures}")

@@ -45,6 +45,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from s3o_drake import furniture as fu
+from s3o_drake.angles import wrap
 from s3o_drake.camera import OverheadCamera, back_project, overhead_camera
 from s3o_drake.robot import footprint_polygon
 from s3o_drake.scenario import Scenario
@@ -146,11 +147,6 @@ def _to_world(p_C: np.ndarray, pose: np.ndarray) -> np.ndarray:
                      s * p_C[:, 0] + c * p_C[:, 1] + pose[1]], axis=1)
 
 
-def wrap_angle(angle: float) -> float:
-    """The angle in [-pi, pi)."""
-    return (angle + math.pi) % (2 * math.pi) - math.pi
-
-
 @dataclass(frozen=True)
 class HeightGrid:
     """A top-view grid over the room: row 0 at the north edge (y_max), column 0 at x_min."""
@@ -166,11 +162,6 @@ class HeightGrid:
         col = np.floor((p_W[:, 0] - self.x_min) / self.cell).astype(int)
         row = np.floor((self.y_max - p_W[:, 1]) / self.cell).astype(int)
         return row, col
-
-    def centres(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-        """World points (n, 2) at the centres of the given cells."""
-        return np.stack([self.x_min + (cols + 0.5) * self.cell,
-                         self.y_max - (rows + 0.5) * self.cell], axis=1)
 
     def polygon_cells(self, polygon) -> np.ndarray:
         """Integer (k, 1, 2) vertex array of a shapely polygon in (col, row) for cv2."""
@@ -396,7 +387,7 @@ class ChairPerception:
         for k in range(4):
             # All four directions of the rectangle: the backrest's points decide which
             # one fits, and a start per direction keeps Powell out of the wrong basin.
-            yaw = wrap_angle(theta + k * math.pi / 2)
+            yaw = float(wrap(theta + k * math.pi / 2))
             start = np.array([cx + shift * math.cos(yaw), cy + shift * math.sin(yaw), yaw])
             result = minimize(self._cost, start, args=(points, high, grid, seen_z, to_obstacle),
                               method="Powell",
@@ -404,7 +395,7 @@ class ChairPerception:
             if best is None or result.fun < best[0]:
                 best = (result.fun, result.x)
         x, y, yaw = best[1]
-        return [float(x), float(y), wrap_angle(float(yaw))]
+        return [float(x), float(y), float(wrap(float(yaw)))]
 
 
 def perceived_chairs(scenario: Scenario, images: tuple[np.ndarray, np.ndarray, np.ndarray]

@@ -18,6 +18,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 
+from s3o_drake.angles import wrap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
 from s3o_drake.scenario import Scenario
@@ -30,11 +31,6 @@ CHECK_STEP_YAW = 0.05
 FINAL_APPROACH = 0.5
 #: Segments shorter than this (m or rad) are left out: nothing to drive.
 _TINY = 1e-9
-
-
-def wrap_angle(angle: float) -> float:
-    """The angle in [-pi, pi)."""
-    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 @dataclass(frozen=True)
@@ -229,7 +225,7 @@ class BaseNavigator(LeafSystem):
 
         def turn_to(heading: float) -> None:
             nonlocal pose
-            delta = wrap_angle(heading - pose[2])
+            delta = float(wrap(heading - pose[2]))
             if abs(delta) > _TINY:
                 end = np.array([pose[0], pose[1], pose[2] + delta])
                 segments.append(self._segment(pose, end, turn=True, length=abs(delta)))
@@ -241,11 +237,11 @@ class BaseNavigator(LeafSystem):
             if length <= _TINY:
                 continue
             heading = math.atan2(d[1], d[0])
-            if k == 0 and abs(wrap_angle(heading - pose[2])) > math.pi / 2:
+            if k == 0 and abs(float(wrap(heading - pose[2]))) > math.pi / 2:
                 # Leaving a stop that faces a table: back away from it rather than swing the
                 # base's corners round next to it (a stop needs only the inscribed radius
                 # of clearance, a turn in place the circumscribed one).
-                heading = wrap_angle(heading + math.pi)
+                heading = float(wrap(heading + math.pi))
             turn_to(heading)
             end = np.array([*p, pose[2]])
             segments.append(self._segment(pose, end, turn=False, length=length))

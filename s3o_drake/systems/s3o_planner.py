@@ -30,10 +30,10 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, LeafSystem, State
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
+from s3o_drake.angles import wrap
 from s3o_drake.camera import overhead_camera
 from s3o_drake.feasibility.fcn import FcnFeasibility, overhead_view
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
-from s3o_drake.feasibility.kinematics import wrap
 from s3o_drake.perception import ChairPerception
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.plan import Goto, TaskMotionPlan, facing_yaw
