@@ -32,7 +32,7 @@ from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.angles import wrap
 from s3o_drake.camera import overhead_camera
-from s3o_drake.feasibility.fcn import FcnFeasibility, overhead_view
+from s3o_drake.feasibility.fcn import FcnFeasibility, overhead_view, use_one_thread
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.perception import ChairPerception
 from s3o_drake.planning.navigation import NavigationMap
@@ -188,6 +188,7 @@ class S3OPlanner(LeafSystem):
             if known.planner.feasibility == "fcn":
                 view = overhead_view(overhead_camera(known), images[1][..., 0],
                                      images[2][..., 0], self._robot_labels)
+                use_one_thread()
                 heatmaps = FcnFeasibility.shared().heatmaps(view, list(known.dishes))
             else:
                 heatmaps = compute_heatmaps(known, seed=self._seed, workers=1,
