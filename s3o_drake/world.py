@@ -45,6 +45,7 @@ from s3o_drake.resources import make_parser, models_dir
 from s3o_drake.robot import ROBOT_JOINTS, add_robot, robot_desired_state, robot_positions
 from s3o_drake.scenario import Chair, Dish, Scenario, Table
 from s3o_drake.systems.commands import CONTROL_PERIOD
+from s3o_drake.systems.geometry_mirror import GeometryMirror
 from s3o_drake.systems.object_tracker import ObjectTracker
 
 RENDERER = "vtk"
@@ -166,23 +167,35 @@ def populate_plant(plant: MultibodyPlant, scene_graph: SceneGraph | None, scenar
     return models
 
 
-def _add_overhead_camera(builder: DiagramBuilder, scene_graph: SceneGraph,
+def _add_overhead_camera(builder: DiagramBuilder, plant: MultibodyPlant,
+                         scene_graph: SceneGraph, tracker: ObjectTracker | None,
                          scenario: Scenario) -> RgbdSensor:
-    if not scene_graph.HasRenderer(RENDERER):
-        scene_graph.AddRenderer(RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))
+    """The overhead RgbdSensor, looking at a perception-only mirror of `scene_graph`
+    (systems/geometry_mirror.py): the mirror's poses, and the renderer's, are updated only
+    when an image is evaluated, not at every plant step."""
+    camera_scene_graph = builder.AddNamedSystem("camera_scene_graph", SceneGraph())
+    camera_scene_graph.AddRenderer(RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))
+    sources = [plant.get_source_id()] + ([] if tracker is None else [tracker.source_id])
+    mirror = builder.AddNamedSystem("camera_mirror", GeometryMirror(
+        original=scene_graph, copy=camera_scene_graph, sources=sources))
+    builder.Connect(plant.get_geometry_pose_output_port(), mirror.get_input_port(0))
+    if tracker is not None:
+        builder.Connect(tracker.GetOutputPort("geometry_pose"), mirror.get_input_port(1))
+    builder.Connect(mirror.GetOutputPort("geometry_pose"),
+                    camera_scene_graph.get_source_pose_port(mirror.source_id))
     camera = overhead_camera(scenario)
     far = scenario.camera.height + 1.0
     core = RenderCameraCore(RENDERER, camera.info(), ClippingRange(0.05, far), RigidTransform())
     sensor = builder.AddNamedSystem("overhead_camera", RgbdSensor(
-        parent_id=scene_graph.world_frame_id(), X_PB=camera.X_WC,
+        parent_id=camera_scene_graph.world_frame_id(), X_PB=camera.X_WC,
         color_camera=ColorRenderCamera(core, show_window=False),
         depth_camera=DepthRenderCamera(core, DepthRange(0.05, far))))
-    builder.Connect(scene_graph.get_query_output_port(), sensor.query_object_input_port())
+    builder.Connect(camera_scene_graph.get_query_output_port(), sensor.query_object_input_port())
     return sensor
 
 
 def _add_object_tracker(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
-                        scenario: Scenario, robot: ModelInstanceIndex) -> None:
+                        scenario: Scenario, robot: ModelInstanceIndex) -> ObjectTracker:
     tracker = builder.AddNamedSystem("object_tracker", ObjectTracker(
         scenario=scenario, plant=plant, robot=robot, scene_graph=scene_graph,
         period=CONTROL_PERIOD))
@@ -192,6 +205,7 @@ def _add_object_tracker(builder: DiagramBuilder, plant: MultibodyPlant, scene_gr
     builder.ExportInput(tracker.GetInputPort("grip"), "grip")
     builder.ExportOutput(tracker.GetOutputPort("dish_poses"), "dish_poses")
     builder.ExportOutput(tracker.GetOutputPort("dish_states"), "dish_states")
+    return tracker
 
 
 def _anchor_fixed_geometry(plant: MultibodyPlant, scene_graph: SceneGraph,
@@ -260,10 +274,11 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     models = populate_plant(plant, scene_graph, scenario, dishes=not track_dishes)
     plant.Finalize()
     _anchor_fixed_geometry(plant, scene_graph, models)
+    tracker = None
     if track_dishes:
-        _add_object_tracker(builder, plant, scene_graph, scenario, models.robot)
+        tracker = _add_object_tracker(builder, plant, scene_graph, scenario, models.robot)
 
-    sensor = _add_overhead_camera(builder, scene_graph, scenario)
+    sensor = _add_overhead_camera(builder, plant, scene_graph, tracker, scenario)
     builder.ExportInput(plant.get_desired_state_input_port(models.robot), "robot_desired_state")
     builder.ExportOutput(plant.get_state_output_port(models.robot), "robot_state")
     builder.ExportOutput(sensor.color_image_output_port(), "overhead_color_image")

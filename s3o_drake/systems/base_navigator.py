@@ -104,9 +104,12 @@ class _Motion:
         tau = t - self.t0
         for seg in self.segments:
             if tau < seg.duration:
+                # Plain floats: evaluated at every plant step, where numpy's per-call cost
+                # on three-element arrays dominated.
                 s, rate = seg.at(tau)
-                direction = (np.asarray(seg.end) - np.asarray(seg.start)) / seg.length
-                return np.concatenate([seg.pose(s), direction * rate])
+                d = [(b - a) / seg.length for a, b in zip(seg.start, seg.end, strict=True)]
+                return np.array([a + di * s for a, di in zip(seg.start, d, strict=True)]
+                                + [di * rate for di in d])
             tau -= seg.duration
         return np.concatenate([self.end, np.zeros(3)])
 

@@ -38,6 +38,7 @@ from pydrake.systems.framework import (
 
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.robot import (
+    BASE_LINK,
     GRASP_FRAME,
     NUM_POSITIONS,
     TRAY_INNER_LENGTH,
@@ -114,6 +115,11 @@ class ObjectTracker(LeafSystem):
         self._G = plant.GetFrameByName(GRASP_FRAME, robot)
         self._T = plant.GetFrameByName(TRAY_LINK, robot)
         self._robot = robot
+        # The tray is welded to the base link, which the planar joints place at (x, y, yaw):
+        # the carried dishes follow from the first three positions without the plant's
+        # kinematics at every step.
+        default = plant.CreateDefaultContext()
+        self._X_BT = self._T.CalcPose(default, plant.GetFrameByName(BASE_LINK, robot))
 
         self._source_id = scene_graph.RegisterSource(name)
         heights = {t.name: t.height for t in scenario.tables}
@@ -209,11 +215,19 @@ class ObjectTracker(LeafSystem):
             return GripEvent()
         return self._grip_port.Eval(context)
 
+    def _tray_pose(self, context: Context) -> RigidTransform:
+        """X_WT from the base's planar joints alone."""
+        x, y, yaw = self._robot_state_port.Eval(context)[:3]
+        return RigidTransform(RotationMatrix.MakeZRotation(yaw), [x, y, 0.0]) @ self._X_BT
+
     def _world_poses(self, context: Context) -> dict[str, RigidTransform]:
         tracks = context.get_abstract_state(self._tracks_index).get_value()
-        needs_robot = any(t.state in (IN_GRIPPER, ON_TRAY) for t in tracks.values())
-        X_WG, X_WT = self._frames(context) if needs_robot else (None, None)
-        reference = {IN_GRIPPER: X_WG, ON_TRAY: X_WT}
+        states = {t.state for t in tracks.values()}
+        reference = {}
+        if IN_GRIPPER in states:
+            reference[IN_GRIPPER] = self._G.CalcPoseInWorld(self._plant_context_cache.Eval(context))
+        if ON_TRAY in states:
+            reference[ON_TRAY] = self._tray_pose(context)
         poses = {}
         for name, track in tracks.items():
             X_WR = reference.get(track.state)
