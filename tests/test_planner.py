@@ -227,3 +227,11 @@ robot: {start: [3.0, 1.0, 0.0]}
         assert p.unreachable == ("far_cup",)
         assert [a.dish for a in p.pickups] == ["near_plate"]
         check_plan(_problem(p), p.task_actions)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_task_without_dishes_has_the_empty_plan(method):
+    scenario = load_scenario("scenarios/small/empty_room.yaml")
+    assert not scenario.dishes
+    p = plan(scenario, method=method, heatmaps=[], perceived_chairs=[], seed=0)
+    assert p.actions == () and p.utility == 0.0 and p.complete

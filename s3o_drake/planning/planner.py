@@ -291,6 +291,11 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
     searches = samples = 0
     best: _Best | None = None
     complete = True
+    if not scenario.dishes:  # nothing to collect: the empty plan is the optimal one
+        return TaskMotionPlan(method=method, seed=int(seed), groups=(), locations=(),
+                              actions=(), utility=0.0, predicted_time=0.0,
+                              planning_time=float(feasibility_time) + time.monotonic() - t_start,
+                              timing=timing)
 
     def expired(stage: str, fatal: bool = True) -> bool:
         """Whether the deadline passed (the plan is then incomplete); raises when it did
