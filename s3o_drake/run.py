@@ -85,7 +85,7 @@ class Execution:
     known: Scenario | None
     """The scenario as the planner knew it (perceived chairs)."""
     heatmaps: tuple
-    html: str
+    html: str | None  # the playback page; None when nothing was recorded
 
 
 def frame_room(meshcat: Meshcat, scenario: Scenario) -> None:
@@ -98,14 +98,16 @@ def frame_room(meshcat: Meshcat, scenario: Scenario) -> None:
 
 
 def execute(scenario: Scenario, *, method: str | None = None, seed: int | None = None,
-            meshcat: Meshcat, realtime: bool = False, noise: bool = True,
+            meshcat: Meshcat | None, realtime: bool = False, noise: bool = True,
             progress: bool = True) -> Execution:
     """Builds the execution diagram, plans (at initialization) and simulates until the task
-    monitor ends the run; records the playback."""
+    monitor ends the run; records the playback in `meshcat` (none without one: the
+    benchmark's runs)."""
     diagram = build_execution_diagram(scenario, method=method, seed=seed, meshcat=meshcat,
                                       noise=noise, progress_bar=progress,
                                       show_collisions=realtime)
-    frame_room(meshcat, scenario)
+    if meshcat is not None:
+        frame_room(meshcat, scenario)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     planner = diagram.GetSubsystemByName("planner")
@@ -115,8 +117,10 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     color, depth, _ = overhead_images(world, world.GetMyContextFromRoot(context))
     images = (color[:, :, :3], depth)
     plan = planner.GetOutputPort("plan").Eval(planner_context)
-    visualizer = diagram.GetSubsystemByName("world").GetSubsystemByName("meshcat_visualizer")
-    visualizer.StartRecording(set_transforms_while_recording=realtime)
+    visualizer = None
+    if meshcat is not None:
+        visualizer = world.GetSubsystemByName("meshcat_visualizer")
+        visualizer.StartRecording(set_transforms_while_recording=realtime)
     if realtime:
         simulator.set_target_realtime_rate(1.0)
     # Whole simulated seconds against an estimate: the plan's driving time, and what a
@@ -141,8 +145,9 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
                   f"{str(e).splitlines()[0]}"
     wall = time.perf_counter() - start
     bar.close()
-    visualizer.StopRecording()
-    visualizer.PublishRecording()
+    if visualizer is not None:
+        visualizer.StopRecording()
+        visualizer.PublishRecording()
     monitor = diagram.GetSubsystemByName("task_monitor")
     report = dict(monitor.GetOutputPort("report").Eval(monitor.GetMyContextFromRoot(context)))
     known, heatmaps = planner.planned_with(planner_context)
@@ -152,7 +157,8 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
                   realtime_rate=context.get_time() / wall if wall > 0 else float("inf"),
                   simulated_time=context.get_time())
     return Execution(diagram=diagram, plan=plan, report=report, images=images, known=known,
-                     heatmaps=heatmaps, html=meshcat.StaticHtml())
+                     heatmaps=heatmaps,
+                     html=None if meshcat is None else meshcat.StaticHtml())
 
 
 def describe_plan(p: TaskMotionPlan) -> str:

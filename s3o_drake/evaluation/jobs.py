@@ -1,0 +1,94 @@
+"""One unit of benchmark work and the function a worker runs it with.
+
+A job is either a run (plan one task with one method and seed, execute the plan in the
+simulation, record the outcome) or a difficulty measurement (the task's pickable area from
+the Drake oracle). Jobs are plain data so that they travel to worker processes and Dask
+workers; `run_job` is importable by name on the other side.
+"""
+
+import dataclasses
+import hashlib
+import logging
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+
+from s3o_drake.scenario import Scenario, load_scenario
+
+RUN = "run"
+DIFFICULTY = "difficulty"
+
+
+@dataclass(frozen=True)
+class Job:
+    """`kind` "run": plan `task` (the scenario at `path`) with `method` and `seed`, execute;
+    `kind` "difficulty": the task's pickable area (the oracle's noise drawn from `seed`)."""
+
+    kind: str
+    task: str
+    path: str
+    digest: str  # of the scenario file's contents: an edited task is a new task
+    seed: int
+    method: str = ""
+
+    @property
+    def key(self) -> str:
+        """Identifies the job's result in a store."""
+        return f"{self.kind}/{self.task}@{self.digest}/{self.method}/{self.seed}"
+
+
+def file_digest(path: Path) -> str:
+    """A short digest of a file's contents."""
+    return hashlib.sha1(Path(path).read_bytes()).hexdigest()[:12]
+
+
+def run_job(job: Job) -> dict:
+    """Runs one job and returns its result row; an exception becomes a row with `error`
+    (type and message) so that one broken task does not stop a study."""
+    logging.getLogger("drake").setLevel(logging.WARNING)
+    start = time.perf_counter()
+    try:
+        if job.kind == RUN:
+            row = _run(job)
+        elif job.kind == DIFFICULTY:
+            row = _difficulty(job)
+        else:
+            raise ValueError(f"unknown job kind {job.kind!r}")
+    except Exception as e:  # recorded, not raised: the study goes on
+        row = {"error": f"{type(e).__name__}: {e}".splitlines()[0],
+               "traceback": traceback.format_exc(limit=8)}
+    return {"key": job.key, **dataclasses.asdict(job), **row,
+            "job_seconds": time.perf_counter() - start}
+
+
+def benchmark_scenario(path: str) -> Scenario:
+    """The task as the benchmark runs it: searches in this process (the parallelism is
+    across runs, and a forked search pool inside a pool worker would oversubscribe it)."""
+    scenario = load_scenario(Path(path))
+    return dataclasses.replace(scenario, planner=dataclasses.replace(scenario.planner,
+                                                                     workers=1))
+
+
+def _run(job: Job) -> dict:
+    from s3o_drake.run import execute  # heavy imports stay in the workers
+
+    run = execute(benchmark_scenario(job.path), method=job.method, seed=job.seed,
+                  meshcat=None, progress=False)
+    r = run.report
+    return {"dishes": r["dishes"], "collected": r["collected"],
+            "complete": r["collected"] == r["dishes"],
+            "fraction": r["collected"] / r["dishes"] if r["dishes"] else 1.0,
+            "execution_time": r["execution_time"], "planning_time": r["planning_time"],
+            "stops": None if run.plan is None else len(run.plan.gotos),
+            "planned": run.plan is not None, "finished": bool(r.get("finished", True)),
+            "reason": r.get("reason", ""), "realtime_rate": r["realtime_rate"]}
+
+
+def _difficulty(job: Job) -> dict:
+    from s3o_drake.feasibility.heatmaps import compute_heatmaps
+
+    scenario = load_scenario(Path(job.path))
+    heatmaps = compute_heatmaps(scenario, seed=job.seed, workers=1, progress=False)
+    areas = {h.dish: float(h.values.sum()) * h.cell**2 for h in heatmaps}
+    return {"dishes": len(areas), "area": sum(areas.values()), "areas": areas}

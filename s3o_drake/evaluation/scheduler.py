@@ -1,0 +1,118 @@
+"""Runs jobs on a local process pool or a Dask cluster, storing each result as it arrives.
+
+Both executors are driven by the same loop: at most `window` jobs are handed out at a time,
+in the order given (so an interrupted study has whole groups done, not a scatter), and a
+result is stored the moment it comes back. Jobs whose result is already in the store are
+skipped, which is how a study resumes.
+
+A worker process that dies (killed, out of memory, a crash in native code) breaks a local
+pool: the jobs it was running go back to the end of the queue and a fresh pool takes over;
+a job in flight at `max_attempts` breakages is recorded as an error instead of run again.
+On Dask the scheduler itself re-runs the work of a lost worker and reports `KilledWorker`
+after its own retries; that too becomes an error row.
+"""
+
+import multiprocessing
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import asdict
+
+from tqdm import tqdm
+
+from s3o_drake.evaluation.jobs import Job, run_job
+from s3o_drake.evaluation.store import ResultStore
+
+TASKS_PER_CHILD = 10
+"""Local workers are replaced after this many jobs: a Drake diagram per run leaves memory
+behind, and a long study must not grow without bound."""
+
+
+def pending_jobs(jobs: Iterable[Job], store: ResultStore) -> list[Job]:
+    """The jobs that have no finished result in the store, in order."""
+    return [job for job in jobs if not store.finished(job.key)]
+
+
+def run_jobs(jobs: Iterable[Job], store: ResultStore, *, workers: int = 2,
+             scheduler: str | None = None, fn: Callable[[Job], dict] = run_job,
+             progress: bool = True, desc: str = "runs", max_attempts: int = 3) -> int:
+    """Runs the jobs that the store has no finished result for; returns how many ran.
+
+    `scheduler`: None for a local pool of `workers` spawned processes, or the address of a
+    Dask scheduler ("tcp://HOST:PORT"), whose workers must have s3o_drake installed.
+    """
+    todo = deque(pending_jobs(jobs, store))
+    total = len(todo)
+    if not todo:
+        return 0
+    bar = tqdm(total=total, desc=desc, unit="job", disable=not progress, smoothing=0.1)
+    attempts: dict[str, int] = {}
+    client = None
+    try:
+        if scheduler is not None:
+            from distributed import Client
+
+            client = Client(scheduler)
+            window = max(1, 2 * sum(client.nthreads().values()))
+            _drive(client.get_executor(), todo, store, fn, window, bar)
+        else:
+            while todo:
+                with _local_pool(workers) as pool:
+                    broken = _drive(pool, todo, store, fn, workers, bar)
+                for job in broken:
+                    attempts[job.key] = attempts.get(job.key, 0) + 1
+                    if attempts[job.key] >= max_attempts:
+                        store.append({"key": job.key, **asdict(job),
+                                      "error": f"a worker process died running it "
+                                               f"{attempts[job.key]} times"})
+                        bar.update()
+                    else:
+                        todo.append(job)
+    finally:
+        bar.close()
+        if client is not None:
+            client.close()
+    return total
+
+
+def _local_pool(workers: int) -> ProcessPoolExecutor:
+    # Spawned, not forked: a fork would copy Drake's thread pools mid-use.
+    return ProcessPoolExecutor(max_workers=workers,
+                               mp_context=multiprocessing.get_context("spawn"),
+                               max_tasks_per_child=TASKS_PER_CHILD)
+
+
+def _drive(executor: Executor, todo: deque, store: ResultStore, fn: Callable[[Job], dict],
+           window: int, bar: tqdm) -> list[Job]:
+    """Feeds `todo` to `executor`, `window` at a time, storing results; returns the jobs
+    that were in flight when the executor broke (empty when all went well)."""
+    running: dict[Future, Job] = {}
+    while todo or running:
+        while todo and len(running) < window:
+            job = todo.popleft()
+            try:
+                running[executor.submit(fn, job)] = job
+            except BrokenProcessPool:
+                todo.appendleft(job)
+                return list(running.values())
+        done, _ = wait(running, return_when=FIRST_COMPLETED)
+        broken = []
+        for future in done:
+            job = running.pop(future)
+            try:
+                row = future.result()
+            except BrokenProcessPool:
+                broken.append(job)
+                continue
+            except Exception as e:  # e.g. Dask's KilledWorker: recorded, the study goes on
+                row = {"key": job.key, **asdict(job),
+                       "error": f"{type(e).__name__}: {e}".splitlines()[0]}
+            store.append(row)
+            bar.update()
+        if broken:
+            # The pool is gone: everything still out with it comes back too.
+            time.sleep(0.1)
+            return broken + list(running.values())
+    return []

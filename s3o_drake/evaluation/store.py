@@ -1,0 +1,51 @@
+"""Results as append-only JSON lines: written as each job finishes, read back on resume.
+
+Each finished job is one line, flushed and fsynced before the next is written, so a run
+that is killed loses at most the line it was writing. That cut-short line is cut off when
+the store is opened again (its job then runs again); every complete line is kept.
+"""
+
+import json
+import os
+from pathlib import Path
+
+
+class ResultStore:
+    """The rows of `path` (JSON lines), by job key; the last row of a key wins."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = Path(path)
+        self._rows: dict[str, dict] = {}
+        if not self.path.exists():
+            return
+        data = self.path.read_bytes()
+        end = data.rfind(b"\n") + 1
+        if end < len(data):  # a line cut short by a crash: drop it, keep the rest
+            with self.path.open("r+b") as f:
+                f.truncate(end)
+        for line in data[:end].splitlines():
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            if isinstance(row, dict) and "key" in row:
+                self._rows[row["key"]] = row
+
+    def rows(self) -> list[dict]:
+        return list(self._rows.values())
+
+    def finished(self, key: str) -> bool:
+        """A job is finished when it has a row without an error (errors run again)."""
+        row = self._rows.get(key)
+        return row is not None and "error" not in row
+
+    def get(self, key: str) -> dict | None:
+        return self._rows.get(key)
+
+    def append(self, row: dict) -> None:
+        line = json.dumps(row, sort_keys=True) + "\n"
+        with self.path.open("a") as f:
+            f.write(line)
+            f.flush()
+            os.fsync(f.fileno())
+        self._rows[row["key"]] = row

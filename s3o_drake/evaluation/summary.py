@@ -1,0 +1,261 @@
+"""The study's tables and figures: per difficulty group and method, the completion rate, the
+share of dishes collected, the execution time and the planning time.
+
+Spread is over seeds, as in the paper: each seed gives a rate (or a mean time) over the
+group's tasks; the table shows the mean of those and their standard deviation. Only
+(task, seed) pairs that every compared method has finished count, so that a study cut
+short compares the methods on the same tasks.
+"""
+
+import csv
+import json
+import math
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from s3o_drake.evaluation.difficulty import GROUPS
+
+METHOD = "S3O-GROP*"
+ABLATION = "S3O-Random"
+TARGETS = {"easy": 0.9, "difficult": 0.8}
+"""The issue's completion targets for S3O-GROP* (the paper reports 0.52 and 0.29)."""
+PAPER_TABLE_I = {  # completion / execution time (s), mean ± spread over seeds
+    "easy": ((0.52, 0.02, 107.90, 5.35), (0.30, 0.06, 96.95, 2.40)),
+    "moderate": ((0.36, 0.03, 118.68, 2.78), (0.18, 0.08, 97.89, 4.22)),
+    "difficult": ((0.29, 0.02, 131.25, 3.64), (0.17, 0.08, 102.85, 6.30)),
+}
+CSV_FIELDS = ("task", "group", "area", "method", "seed", "dishes", "collected", "complete",
+              "fraction", "execution_time", "planning_time", "stops", "finished", "reason",
+              "error")
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One method in one difficulty group."""
+
+    group: str
+    method: str
+    tasks: int  # distinct tasks
+    runs: int
+    seeds: int
+    completion: float
+    completion_std: float
+    fraction: float
+    fraction_std: float
+    execution_time: float
+    execution_time_std: float
+    planning_time: float  # median over runs
+
+
+def comparable_runs(runs: Sequence[dict], methods: Sequence[str]) -> list[dict]:
+    """The runs of (task, seed) pairs that every method has finished without error."""
+    ok = [r for r in runs if "error" not in r]
+    have = defaultdict(set)
+    for r in ok:
+        have[(r["task"], r["seed"])].add(r["method"])
+    full = {pair for pair, ms in have.items() if set(methods) <= ms}
+    return [r for r in ok if (r["task"], r["seed"]) in full and r["method"] in methods]
+
+
+def _mean_std(values: list[float]) -> tuple[float, float]:
+    if not values:
+        return math.nan, math.nan
+    std = float(np.std(values, ddof=1)) if len(values) > 1 else math.nan
+    return float(np.mean(values)), std
+
+
+def summarize(runs: Sequence[dict], groups: dict[str, str],
+              methods: Sequence[str]) -> list[Cell]:
+    """A Cell per group and method (groups in GROUPS order, methods in the given order)."""
+    runs = [r for r in comparable_runs(runs, methods) if r["task"] in groups]
+    cells = []
+    for group in GROUPS:
+        for method in methods:
+            mine = [r for r in runs if groups[r["task"]] == group and r["method"] == method]
+            by_seed = defaultdict(list)
+            for r in mine:
+                by_seed[r["seed"]].append(r)
+            per_seed = [(np.mean([r["complete"] for r in rs]), np.mean([r["fraction"] for r in rs]),
+                         np.mean([r["execution_time"] for r in rs])) for rs in by_seed.values()]
+            completion = _mean_std([float(p[0]) for p in per_seed])
+            fraction = _mean_std([float(p[1]) for p in per_seed])
+            execution = _mean_std([float(p[2]) for p in per_seed])
+            planning = float(np.median([r["planning_time"] for r in mine])) if mine else math.nan
+            cells.append(Cell(group, method, len({r["task"] for r in mine}), len(mine),
+                              len(by_seed), *completion, *fraction, *execution, planning))
+    return cells
+
+
+def _pm(mean: float, std: float, digits: int) -> str:
+    if math.isnan(mean):
+        return "–"
+    return f"{mean:.{digits}f}" + ("" if math.isnan(std) else f" ± {std:.{digits}f}")
+
+
+def claims(cells: Sequence[Cell]) -> list[tuple[str, bool | None]]:
+    """The issue's targets and the paper's claims, each with whether it holds (None: no
+    data)."""
+    at = {(c.group, c.method): c for c in cells}
+    out = []
+    for group, target in TARGETS.items():
+        c = at.get((group, METHOD))
+        ok = None if c is None or math.isnan(c.completion) else c.completion >= target
+        out.append((f"{METHOD} completion >= {target} on {group} tasks", ok))
+    for group in GROUPS:
+        mine = at.get((group, METHOD))
+        others = [c for c in cells if c.group == group and c.method != METHOD]
+        if mine is None or math.isnan(mine.completion) or not others:
+            out.append((f"{METHOD} ahead of every baseline in completion ({group})", None))
+            out.append((f"{METHOD} has the lowest execution time ({group})", None))
+            continue
+        out.append((f"{METHOD} ahead of every baseline in completion ({group})",
+                    all(mine.completion > o.completion for o in others)))
+        out.append((f"{METHOD} has the lowest execution time ({group})",
+                    all(mine.execution_time < o.execution_time for o in others)))
+    return out
+
+
+def markdown_tables(cells: Sequence[Cell], methods: Sequence[str]) -> str:
+    """Fig. 5 as tables (completion, share of dishes, execution time, planning time) and
+    Table I (S3O against S3O-Random), in Markdown."""
+    at = {(c.group, c.method): c for c in cells}
+    lines = []
+    for title, fmt in (
+            ("Task completion rate", lambda c: _pm(c.completion, c.completion_std, 2)),
+            ("Share of dishes collected", lambda c: _pm(c.fraction, c.fraction_std, 2)),
+            ("Execution time (s, simulated)",
+             lambda c: _pm(c.execution_time, c.execution_time_std, 1)),
+            ("Planning time (s, median)", lambda c: _pm(c.planning_time, math.nan, 2))):
+        lines += [f"**{title}**", "", "| group | " + " | ".join(methods) + " |",
+                  "|---|" + "---|" * len(methods)]
+        for group in GROUPS:
+            lines.append(f"| {group} | " + " | ".join(fmt(at[(group, m)]) for m in methods)
+                         + " |")
+        lines.append("")
+    lines.append("Runs per cell (tasks x seeds): " + ", ".join(
+        f"{g} {at[(g, methods[0])].tasks} x {at[(g, methods[0])].seeds}" for g in GROUPS))
+    lines.append("")
+    lines.append(table_one(cells))
+    return "\n".join(lines)
+
+
+def table_one(cells: Sequence[Cell]) -> str:
+    """Table I: completion rate / execution time of S3O(-GROP*) and S3O-Random per group,
+    beside the paper's figures."""
+    at = {(c.group, c.method): c for c in cells}
+    lines = ["**Table I** (completion rate / execution time in s; paper's figures in brackets)",
+             "", f"| difficulty | S3O ({METHOD}) | {ABLATION} |", "|---|---|---|"]
+    for group in GROUPS:
+        row = [group]
+        for i, method in enumerate((METHOD, ABLATION)):
+            c = at.get((group, method))
+            paper = PAPER_TABLE_I[group][i]
+            ours = ("–" if c is None else
+                    f"{_pm(c.completion, c.completion_std, 2)} / "
+                    f"{_pm(c.execution_time, c.execution_time_std, 1)}")
+            row.append(f"{ours} [{paper[0]:.2f} ± {paper[1]:.2f} / "
+                       f"{paper[2]:.1f} ± {paper[3]:.1f}]")
+        lines.append("| " + " | ".join(row) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def plot_figure_five(cells: Sequence[Cell], methods: Sequence[str], path: Path) -> None:
+    """The paper's Fig. 5: completion rate and execution time per group and method, bars
+    with the spread over seeds as error bars."""
+    at = {(c.group, c.method): c for c in cells}
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    width = 0.8 / len(methods)
+    x = np.arange(len(GROUPS))
+    colours = plt.get_cmap("tab10")
+    for ax, (label, value, spread) in zip(axes, (
+            ("task completion rate", "completion", "completion_std"),
+            ("execution time (s, simulated)", "execution_time", "execution_time_std")),
+            strict=True):
+        for i, method in enumerate(methods):
+            means = [getattr(at[(g, method)], value) for g in GROUPS]
+            errs = [np.nan_to_num(getattr(at[(g, method)], spread)) for g in GROUPS]
+            ax.bar(x + (i - (len(methods) - 1) / 2) * width, np.nan_to_num(means), width,
+                   yerr=errs, capsize=3, label=method, color=colours(i))
+        ax.set_xticks(x, [g.capitalize() for g in GROUPS])
+        ax.set_ylabel(label)
+        ax.grid(axis="y", alpha=0.3)
+    axes[0].set_ylim(0, 1.05)
+    axes[0].legend(fontsize=8, ncol=2)
+    runs = sum(at[(g, methods[0])].runs for g in GROUPS)
+    fig.suptitle(f"Completion and execution time by task difficulty ({runs} runs per method; "
+                 "error bars: standard deviation over seeds)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_table_one(cells: Sequence[Cell], path: Path) -> None:
+    """Table I as a picture."""
+    at = {(c.group, c.method): c for c in cells}
+    rows = []
+    for group in GROUPS:
+        row = [group.capitalize()]
+        for method in (METHOD, ABLATION):
+            c = at.get((group, method))
+            row.append("–" if c is None else f"{_pm(c.completion, c.completion_std, 2)} / "
+                                            f"{_pm(c.execution_time, c.execution_time_std, 1)}")
+        rows.append(row)
+    fig, ax = plt.subplots(figsize=(8, 1.9))
+    ax.axis("off")
+    table = ax.table(cellText=rows, colLabels=["Task difficulty", "S3O", "S3O-Random"],
+                     loc="center", cellLoc="center")
+    table.scale(1, 1.6)
+    ax.set_title("Table I: task completion rate / execution time (s)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
+                  groups: dict[str, str], methods: Sequence[str], settings: dict) -> list[Path]:
+    """results.csv (one row per run), results.json (settings, groups, the cells, the runs),
+    figure5.png, table1.png and summary.md; returns the paths written."""
+    cells = summarize(runs, groups, methods)
+    written = []
+    path = out / "results.csv"
+    with path.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=CSV_FIELDS, extrasaction="ignore")
+        writer.writeheader()
+        for r in sorted(runs, key=lambda r: (r["task"], r["method"], r["seed"])):
+            writer.writerow({**r, "group": groups.get(r["task"], ""),
+                             "area": areas.get(r["task"], "")})
+    written.append(path)
+    path = out / "results.json"
+    path.write_text(json.dumps({
+        "settings": settings, "areas": areas, "groups": groups,
+        "cells": [asdict(c) for c in cells],
+        "claims": [{"claim": text, "holds": ok} for text, ok in claims(cells)],
+        "runs": sorted(runs, key=lambda r: (r["task"], r["method"], r["seed"]))},
+        indent=1, default=float))
+    written.append(path)
+    plot_figure_five(cells, methods, out / "figure5.png")
+    written.append(out / "figure5.png")
+    if METHOD in methods and ABLATION in methods:
+        plot_table_one(cells, out / "table1.png")
+        written.append(out / "table1.png")
+    lines = ["# Benchmark summary", "", markdown_tables(cells, methods), "**Claims**", ""]
+    for text, ok in claims(cells):
+        lines.append(f"- {text}: " + {True: "holds", False: "does NOT hold",
+                                       None: "no data"}[ok])
+    errors = [r for r in runs if "error" in r]
+    if errors:
+        lines += ["", f"**{len(errors)} runs ended in an error** (not counted above):"]
+        lines += [f"- {r['task']} {r['method']} seed {r['seed']}: {r['error']}"
+                  for r in errors[:20]]
+    path = out / "summary.md"
+    path.write_text("\n".join(lines) + "\n")
+    written.append(path)
+    return written

@@ -1,0 +1,248 @@
+"""The benchmark study: jobs, the result store, resume, killed workers, Dask, grouping by
+difficulty, the tables and figures, and the command end to end on small tasks."""
+
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import matplotlib.image
+import pytest
+
+from s3o_drake.evaluate import main as evaluate
+from s3o_drake.evaluation.difficulty import difficulty_groups
+from s3o_drake.evaluation.jobs import RUN, Job
+from s3o_drake.evaluation.scheduler import run_jobs
+from s3o_drake.evaluation.store import ResultStore
+from s3o_drake.evaluation.summary import claims, comparable_runs, summarize
+
+REPO = Path(__file__).resolve().parent.parent
+SMALL = REPO / "scenarios" / "small"
+METHODS = ("S3O-GROP*", "S3O-Random")
+
+
+# --- difficulty groups -------------------------------------------------------------------
+
+def test_largest_areas_are_easy_smallest_difficult_in_even_thirds():
+    areas = {f"t{i}": float(a) for i, a in enumerate([5, 1, 9, 3, 7, 2, 8, 4, 6])}
+    groups = difficulty_groups(areas)
+    by_group = {g: sorted(areas[t] for t in groups if groups[t] == g)
+                for g in ("easy", "moderate", "difficult")}
+    assert by_group == {"easy": [7, 8, 9], "moderate": [4, 5, 6], "difficult": [1, 2, 3]}
+    # The order the tasks come in does not matter.
+    assert difficulty_groups(dict(reversed(list(areas.items())))) == groups
+
+
+def test_uneven_counts_and_ties_are_split_deterministically():
+    areas = {f"t{i:02d}": 1.0 for i in range(10)}
+    groups = difficulty_groups(areas)
+    sizes = [sum(g == name for g in groups.values())
+             for name in ("easy", "moderate", "difficult")]
+    assert sizes == [4, 3, 3]
+    assert [groups[f"t{i:02d}"] for i in range(4)] == ["easy"] * 4  # ties: by name
+    assert difficulty_groups({}) == {}
+
+
+# --- the store and the scheduler ---------------------------------------------------------
+
+def _toy_job(i: int, marker: Path) -> Job:
+    return Job(RUN, f"toy{i}", str(marker), "d", i, "toy")
+
+
+def toy_work(job: Job) -> dict:
+    """A stand-in for a run: logs that it ran; job toy1 kills its own worker process the
+    first time (its `path` names the marker file that says it already did)."""
+    marker = Path(job.path)
+    with (marker.parent / "calls.log").open("a") as log:
+        log.write(job.key + "\n")
+    if job.seed == 1 and not marker.exists():
+        marker.touch()
+        os.kill(os.getpid(), signal.SIGKILL)
+    return {"key": job.key, "task": job.task, "value": job.seed**2}
+
+
+def test_store_keeps_complete_lines_and_cuts_a_line_cut_short(tmp_path):
+    path = tmp_path / "results.jsonl"
+    store = ResultStore(path)
+    store.append({"key": "a", "v": 1})
+    store.append({"key": "b", "v": 2, "error": "boom"})
+    with path.open("a") as f:
+        f.write('{"key": "c", "v"')  # the process died while writing
+    store = ResultStore(path)
+    assert store.finished("a") and not store.finished("b") and store.get("c") is None
+    store.append({"key": "c", "v": 3})
+    lines = [json.loads(line) for line in path.read_text().splitlines()]
+    assert [row["key"] for row in lines] == ["a", "b", "c"]
+
+
+def test_a_killed_worker_is_replaced_and_no_result_is_lost_or_repeated(tmp_path):
+    marker = tmp_path / "killed"
+    jobs = [_toy_job(i, marker) for i in range(6)]
+    store = ResultStore(tmp_path / "results.jsonl")
+    assert run_jobs(jobs, store, workers=2, fn=toy_work, progress=False) == 6
+    assert marker.exists()  # the worker really died
+    rows = [json.loads(line) for line in store.path.read_text().splitlines()]
+    assert sorted(row["key"] for row in rows) == sorted(job.key for job in jobs)
+    assert all("error" not in row for row in rows)
+    assert {row["task"]: row["value"] for row in rows} == {f"toy{i}": i**2 for i in range(6)}
+    calls = (tmp_path / "calls.log").read_text().splitlines()
+    assert calls.count(jobs[1].key) == 2  # killed once, run again
+
+
+def test_resume_runs_only_the_jobs_without_a_finished_result(tmp_path):
+    marker = tmp_path / "killed"
+    marker.touch()  # no kills here
+    jobs = [_toy_job(i, marker) for i in range(5)]
+    store = ResultStore(tmp_path / "results.jsonl")
+    store.append({"key": jobs[0].key, "task": "toy0", "value": 0})
+    store.append({"key": jobs[3].key, "task": "toy3", "value": 9})
+    store.append({"key": jobs[4].key, "task": "toy4", "error": "ValueError: earlier"})
+    assert run_jobs(jobs, ResultStore(store.path), workers=1, fn=toy_work,
+                    progress=False) == 3
+    calls = sorted((tmp_path / "calls.log").read_text().splitlines())
+    assert calls == sorted(jobs[i].key for i in (1, 2, 4))
+    assert all(ResultStore(store.path).finished(job.key) for job in jobs)
+    assert run_jobs(jobs, ResultStore(store.path), workers=1, fn=toy_work,
+                    progress=False) == 0
+
+
+def test_dask_cluster_runs_real_jobs_and_stores_them(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    path = SMALL / "two_dishes.yaml"
+    jobs = [Job(RUN, "two_dishes", str(path), "x", 0, "S3O-GROP*"),
+            Job("difficulty", "two_dishes", str(path), "x", 0)]
+    store = ResultStore(tmp_path / "results.jsonl")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        ran = run_jobs(jobs, store, scheduler=cluster.scheduler_address, progress=False)
+    assert ran == 2
+    run, difficulty = (store.get(job.key) for job in jobs)
+    assert "error" not in run and "error" not in difficulty
+    assert run["collected"] == 2 and run["complete"] and run["execution_time"] > 10.0
+    assert set(difficulty["areas"]) == {"plate_a", "cup_b"} and difficulty["area"] > 0.5
+
+
+# --- the tables ----------------------------------------------------------------------------
+
+def _row(task, method, seed, complete, time_s, fraction=None):
+    return {"task": task, "method": method, "seed": seed, "complete": complete,
+            "fraction": (1.0 if complete else 0.5) if fraction is None else fraction,
+            "execution_time": time_s, "planning_time": 1.0}
+
+
+def test_summary_averages_per_seed_and_compares_methods_on_the_same_runs():
+    groups = {"a": "easy", "b": "moderate", "c": "difficult"}
+    runs = []
+    for seed, (ok_a, t) in enumerate([(True, 100.0), (False, 120.0)]):
+        for task in groups:
+            runs.append(_row(task, "S3O-GROP*", seed, ok_a, t))
+            runs.append(_row(task, "S3O-Random", seed, False, t + 10))
+    runs.append(_row("a", "S3O-GROP*", 2, True, 50.0))  # no S3O-Random run: not compared
+    runs.append({**_row("a", "S3O-Random", 2, True, 50.0), "error": "boom"})
+    assert len(comparable_runs(runs, METHODS)) == 12
+    cells = {(c.group, c.method): c for c in summarize(runs, groups, METHODS)}
+    mine = cells[("easy", "S3O-GROP*")]
+    assert (mine.runs, mine.seeds, mine.tasks) == (2, 2, 1)
+    assert mine.completion == pytest.approx(0.5)
+    assert mine.completion_std == pytest.approx(math.sqrt(0.5))
+    assert mine.execution_time == pytest.approx(110.0)
+    assert cells[("easy", "S3O-Random")].completion == 0.0
+    verdict = dict(claims(list(cells.values())))
+    assert verdict["S3O-GROP* completion >= 0.9 on easy tasks"] is False
+    assert verdict["S3O-GROP* ahead of every baseline in completion (difficult)"] is True
+    assert verdict["S3O-GROP* has the lowest execution time (moderate)"] is True
+
+
+# --- the command ----------------------------------------------------------------------------
+
+def _three_tasks(folder: Path) -> Path:
+    folder.mkdir()
+    shutil.copy(SMALL / "two_dishes.yaml", folder / "a_two_dishes.yaml")
+    shutil.copy(SMALL / "opposite_sides.yaml", folder / "b_opposite_sides.yaml")
+    one = (SMALL / "two_dishes.yaml").read_text().replace(
+        "  - {name: plate_a, table: table, position: [1.85, 2.3], kind: plate}\n", "")
+    assert one.count("kind:") == 1
+    (folder / "c_one_cup.yaml").write_text(one)
+    return folder
+
+
+def _command(tasks: Path, out: Path) -> list[str]:
+    return ["--tasks", str(tasks), "--methods", *METHODS, "--seeds", "1", "--out", str(out),
+            "--workers", "2", "--quiet"]
+
+
+def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, capsys):
+    tasks = _three_tasks(tmp_path / "tasks")
+    out = tmp_path / "results"
+    # Killed mid-study (the whole process group, as a crash or a lost machine would).
+    process = subprocess.Popen([sys.executable, "-m", "s3o_drake.evaluate",
+                                *_command(tasks, out)], cwd=REPO, start_new_session=True,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    results = out / "results.jsonl"
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline and process.poll() is None and not (
+            results.exists() and results.read_text().count("\n") >= 1):
+        time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    before = results.read_text().splitlines()
+    assert 1 <= len(before) < 6
+
+    assert evaluate(_command(tasks, out)) == 0
+    printed = capsys.readouterr().out
+    assert f"{len(before)} already finished" in printed
+    after = results.read_text().splitlines()
+    assert after[:len(before)] == before  # finished runs kept, not run again
+    rows = [json.loads(line) for line in after]
+    assert len(rows) == 6 and len({r["key"] for r in rows}) == 6
+    assert all(r["complete"] for r in rows)  # small tasks with the default noise
+
+    csv_lines = (out / "results.csv").read_text().splitlines()
+    assert csv_lines[0].startswith("task,group,area,method,seed,dishes,collected,complete")
+    assert len(csv_lines) == 7
+    study = json.loads((out / "results.json").read_text())
+    assert sorted(study["groups"].values()) == ["difficult", "easy", "moderate"]
+    least = min(study["areas"], key=study["areas"].get)
+    assert study["groups"][least] == "difficult"
+    assert {c["method"] for c in study["cells"]} == set(METHODS)
+    for picture in ("figure5.png", "table1.png"):
+        image = matplotlib.image.imread(out / picture)
+        assert image.shape[0] > 150 and image.shape[1] > 500 and image.std() > 0.01
+    summary = (out / "summary.md").read_text()
+    assert "Table I" in summary and "Task completion rate" in summary
+
+    # Once more: nothing left to run.
+    assert evaluate(_command(tasks, out)) == 0
+    assert results.read_text().splitlines() == after
+
+
+@pytest.mark.parametrize("args, field", [
+    (["--methods", "FOO"], "--methods"),
+    (["--seeds", "0"], "--seeds"),
+    (["--workers", "0"], "--workers"),
+    (["--scheduler", "localhost"], "--scheduler"),
+    (["--limit", "0"], "--limit"),
+])
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, args, field):
+    out = tmp_path / "results"
+    with pytest.raises(SystemExit) as exit_info:
+        evaluate(["--tasks", str(SMALL), "--out", str(out), *args])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and field in err[0]
+    assert not out.exists()
+
+
+def test_a_broken_task_file_is_named(tmp_path, capsys):
+    tasks = tmp_path / "tasks"
+    tasks.mkdir()
+    (tasks / "bad.yaml").write_text("dishes: 3\n")
+    with pytest.raises(SystemExit) as exit_info:
+        evaluate(["--tasks", str(tasks), "--out", str(tmp_path / "r")])
+    assert exit_info.value.code == 2
+    assert "bad.yaml" in capsys.readouterr().err
