@@ -217,6 +217,25 @@ def test_free_path_with_scene_is_untouched(scenario, scene):
     assert status == Status(id=1, state="done")
 
 
+def test_backs_out_of_a_stop_too_tight_to_turn_in(scenario, scene):
+    # Facing the table's south-west leg, 2 cm from touching: turning east, either way
+    # round, swings a corner into the leg; backing straight out first leaves room.
+    base = np.array([1.4, 1.78, math.pi / 2])
+    free = lambda p: scene.checker.CheckConfigCollisionFree(scene.q(np.asarray(p, float)))  # noqa: E731
+    assert free(base)
+    turned = lambda a: base + np.array([0.0, 0.0, a])  # noqa: E731
+    assert not all(free(turned(-a)) for a in np.arange(0.05, math.pi / 2, 0.05))
+    assert not all(free(turned(a)) for a in np.arange(0.05, 1.5 * math.pi, 0.05))
+    alone = _Alone(_navigator(scenario, scene), base=tuple(base))
+    alone.send(BaseCommand(id=4, path=((1.4, 1.78), (3.2, 1.2)), pose=(3.2, 1.2, 0.0)))
+    final, status = alone.final()
+    assert status == Status(id=4, state="done")
+    np.testing.assert_allclose(final[:3], [3.2, 1.2, 0.0], atol=1e-9)
+    # It first drove straight back (yaw unchanged, y decreasing), then turned.
+    early, _ = alone.at(0.5)
+    assert early[2] == pytest.approx(math.pi / 2) and early[1] < 1.78 and early[4] < 0
+
+
 def _drive_in_world(scenario, command: BaseCommand, **kwargs):
     builder = DiagramBuilder()
     world = builder.AddSystem(build_world_diagram(scenario))

@@ -29,6 +29,9 @@ CHECK_STEP_XY = 0.02
 CHECK_STEP_YAW = 0.05
 #: A collision this close to the end of the path (m of driving) only shortens the landing.
 FINAL_APPROACH = 0.5
+#: How far (m) the base may back straight out of a tight stop before it turns, tried in
+#: turn when the direct motion is blocked.
+ESCAPE_STEPS = tuple(0.05 * k for k in range(1, 13))
 #: Segments shorter than this (m or rad) are left out: nothing to drive.
 _TINY = 1e-9
 
@@ -143,6 +146,10 @@ class BaseNavigator(LeafSystem):
     collision within the last 0.5 m of driving or in the final turn ends the command "done"
     there (landed short); an earlier one ends it "failed", reason "blocked". Collisions at
     the very start (the base already stands there) are ignored until the first free pose.
+    Before giving up on a blocked motion it tries, in turn, the first turn the other way
+    round and backing straight out by 5, 10, ... 60 cm before turning (a noisy landing can
+    leave the base where the rectangle cannot turn towards the path): the first of these
+    that is not blocked is driven.
     """
 
     def __init__(self, *, scenario: Scenario, scene: FeasibilityScene | None,
@@ -216,19 +223,40 @@ class BaseNavigator(LeafSystem):
         waypoints += [np.asarray(p, float) for p in command.path[1:-1]]
         waypoints.append(target[:2])
         segments = self._segments(waypoints, float(base[2]), float(target[2]))
-        segments, outcome, reason = self._cut_at_collision(segments)
+        cut = self._cut_at_collision(segments)
+        if cut[1] == "failed":
+            # The noisy landing left the base where the turn towards the path hits something
+            # (a stop only keeps the inscribed radius): first turn the other way round,
+            # then back straight out (ESCAPE_STEPS) before turning.
+            yaw = float(base[2])
+            heading = np.array([math.cos(yaw), math.sin(yaw)])
+            escapes = [self._segments(waypoints, yaw, float(target[2]), long_way=True)]
+            escapes += [self._segments([waypoints[0], waypoints[0] - d * heading,
+                                        *waypoints[1:]], yaw, float(target[2]))
+                        for d in ESCAPE_STEPS]
+            for escape in escapes:
+                escaped = self._cut_at_collision(escape)
+                if escaped[1] != "failed":
+                    cut = escaped
+                    break
+        segments, outcome, reason = cut
         hold = tuple(float(v) for v in base[:3])
         return _Motion(id=command.id, t0=t, hold=hold, segments=tuple(segments),
                        outcome=outcome, reason=reason, initialized=True)
 
-    def _segments(self, waypoints: list[np.ndarray], yaw: float,
-                  target_yaw: float) -> list[_Segment]:
+    def _segments(self, waypoints: list[np.ndarray], yaw: float, target_yaw: float, *,
+                  long_way: bool = False) -> list[_Segment]:
+        """Turn-then-drive segments through the waypoints, then the turn to `target_yaw`;
+        with `long_way`, the first turn goes the other way round."""
         segments = []
         pose = np.array([*waypoints[0], yaw])
 
         def turn_to(heading: float) -> None:
-            nonlocal pose
+            nonlocal pose, long_way
             delta = float(wrap(heading - pose[2]))
+            if long_way and abs(delta) > _TINY:
+                delta -= math.copysign(2 * math.pi, delta)
+                long_way = False
             if abs(delta) > _TINY:
                 end = np.array([pose[0], pose[1], pose[2] + delta])
                 segments.append(self._segment(pose, end, turn=True, length=abs(delta)))
