@@ -20,7 +20,9 @@ from s3o_drake.execution.arm_motion import (
 )
 from s3o_drake.execution.pickup import (
     FINGER_MAX_VELOCITY,
+    LIFT_HEIGHT,
     SEGMENT_NAMES,
+    X_WA,
     _moved,
     plan_pickup,
 )
@@ -29,7 +31,7 @@ from s3o_drake.feasibility.check import FeasibilityChecker, facing_yaw
 from s3o_drake.feasibility.grasps import rotation_for
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN
+from s3o_drake.robot import ARM_STOW, GRIPPER_CLOSED, GRIPPER_OPEN
 from s3o_drake.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
@@ -172,3 +174,28 @@ def test_pickup_out_of_reach_or_in_collision_fails_with_a_reason(scene, checker)
     under = np.array([1.85, 2.45, math.pi / 2])
     plan = plan_pickup(scene, checker, under, "plate_a")
     assert not plan.ok and plan.reason == "base_collision"
+
+
+def test_at_arm_s_length_the_lift_draws_the_dish_in():
+    """A stop that the benchmark's S3O-GROP* plan chose for cup_3 of task_002, 1.03 m
+    from it: the grasp is reachable but the hand cannot rise 9 cm straight up there; the
+    pickup still succeeds, lifting the cup up and towards the arm."""
+    scene = FeasibilityScene(load_scenario(REPO / "scenarios" / "generated" / "task_002.yaml"))
+    checker = FeasibilityChecker(scene, ReachabilityMap.load())
+    base = np.array([6.368, 2.618, -1.275])
+    result = checker.check(base, "cup_3", None)
+    assert result.feasible
+    q_closed = result.q.copy()
+    q_closed[9:] = GRIPPER_CLOSED
+    X_WG = scene.grasp_pose(q_closed)
+    lifted = X_WG.translation() + np.array([0.0, 0.0, LIFT_HEIGHT])
+    straight_up = RigidTransform(X_WG.rotation(), lifted)
+    assert _moved(q_closed, base, straight_up, ik.grasp_checker(scene, "cup_3")) is None
+
+    plan = plan_pickup(scene, checker, base, "cup_3", seed=0)
+    assert plan.ok, plan.reason
+    lift = next(s for s in plan.segments if s.name == "lift")
+    p_start, p_end = (scene.grasp_pose(q).translation() for q in lift.waypoints[[0, -1]])
+    assert p_end[2] - p_start[2] > 0.02
+    arm_base = X_WA(base).translation()
+    assert np.hypot(*(p_end - arm_base)[:2]) < np.hypot(*(p_start - arm_base)[:2])

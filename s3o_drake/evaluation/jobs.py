@@ -82,7 +82,8 @@ def _run(job: Job) -> dict:
             "execution_time": r["execution_time"], "planning_time": r["planning_time"],
             "stops": None if run.plan is None else len(run.plan.gotos),
             "planned": run.plan is not None, "finished": bool(r.get("finished", True)),
-            "reason": r.get("reason", ""), "realtime_rate": r["realtime_rate"]}
+            "reason": r.get("reason", ""), "realtime_rate": r["realtime_rate"],
+            "outcomes": [f"{action} {arg}: {outcome}" for action, arg, outcome in r["outcomes"]]}
 
 
 def _difficulty(job: Job) -> dict:

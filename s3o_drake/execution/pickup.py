@@ -64,6 +64,8 @@ REASONS = ("ok", "no_ik", "no_path", "base_collision")
 APPROACH_BACKOFF = 0.09
 #: How far the grasped dish is lifted straight up (m).
 LIFT_HEIGHT = 0.09
+#: How far the lift may also draw the dish towards the arm when straight up is out of reach (m).
+LIFT_INWARD = 0.08
 #: Height of the grasp frame above the tray's floor at release (m): the dish's bottom
 #: then clears the 3 cm rim (a cup held at 6 cm up its side sits ~4 cm above the floor).
 TRAY_CLEARANCE = 0.10
@@ -253,18 +255,31 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
                    -APPROACH_BACKOFF * approach_axis + 0.5 * APPROACH_BACKOFF * up,
                    APPROACH_BACKOFF * up,
                    -0.5 * APPROACH_BACKOFF * approach_axis,
-                   0.5 * APPROACH_BACKOFF * up):
+                   0.5 * APPROACH_BACKOFF * up,
+                   0.3 * APPROACH_BACKOFF * up):
         q_pre = _moved(q_grasp, base, RigidTransform(X_WG.rotation(),
                                                      X_WG.translation() + offset), free)
         if q_pre is not None and holding.CheckEdgeCollisionFree(q_pre, q_grasp):
             break
         q_pre = None
-    p_lift = X_WG.translation() + np.array([0.0, 0.0, LIFT_HEIGHT])
-    lift_target = RigidTransform(X_WG.rotation(), p_lift)
-    q_lift = _moved(_with_gripper(q_grasp, GRIPPER_CLOSED), base, lift_target, holding)
+    q_closed = _with_gripper(q_grasp, GRIPPER_CLOSED)
+    # Straight up first. At the edge of the arm's reach (where the planner's stops often
+    # are: Fea^m only asks for the grasp) the hand cannot rise 9 cm there, so the dish is
+    # also drawn in towards the arm, as a person lifts a plate at arm's length.
+    inward = X_WA(base).translation() - X_WG.translation()
+    inward[2] = 0.0
+    inward /= max(float(np.linalg.norm(inward)), 1e-9)
+    q_lift = None
+    for offset in (LIFT_HEIGHT * up, LIFT_HEIGHT * up + LIFT_INWARD * inward,
+                   0.6 * LIFT_HEIGHT * up + LIFT_INWARD * inward, 0.45 * LIFT_HEIGHT * up,
+                   0.3 * LIFT_HEIGHT * up):
+        lift_target = RigidTransform(X_WG.rotation(), X_WG.translation() + offset)
+        q_lift = _moved(q_closed, base, lift_target, holding)
+        if q_lift is not None and holding.CheckEdgeCollisionFree(q_closed, q_lift):
+            break
+        q_lift = None
     if q_pre is None or q_lift is None:
         return PickupPlan(False, "no_ik", grasp=result.grasp)
-    q_closed = _with_gripper(q_grasp, GRIPPER_CLOSED)
     q_tray = tray_configuration(base, result.grasp, q_closed, holding)
     if q_tray is None:
         return PickupPlan(False, "no_path", grasp=result.grasp)
