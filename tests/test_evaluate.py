@@ -19,7 +19,7 @@ from s3o_drake.evaluation.difficulty import difficulty_groups
 from s3o_drake.evaluation.jobs import RUN, Job
 from s3o_drake.evaluation.scheduler import run_jobs
 from s3o_drake.evaluation.store import ResultStore
-from s3o_drake.evaluation.summary import claims, comparable_runs, summarize
+from s3o_drake.evaluation.summary import claims, comparable_runs, failure_table, summarize
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small"
@@ -156,6 +156,19 @@ def test_summary_averages_per_seed_and_compares_methods_on_the_same_runs():
     assert verdict["S3O-GROP* completion >= 0.9 on easy tasks"] is False
     assert verdict["S3O-GROP* ahead of every baseline in completion (difficult)"] is True
     assert verdict["S3O-GROP* has the lowest execution time (moderate)"] is True
+
+
+def test_failure_table_counts_reasons_and_dishes_left_behind():
+    runs = [{**_row("a", "S3O-GROP*", 0, False, 100.0), "dishes": 3,
+             "outcomes": ["goto l0: done", "pickup cup: failed: no_ik",
+                          "goto l1: failed: blocked"]},
+            {**_row("a", "V-PETLON", 0, True, 90.0), "dishes": 1,
+             "outcomes": ["goto l0: done", "pickup cup: done"]}]
+    table = failure_table(runs, ["S3O-GROP*", "V-PETLON"])
+    assert "| pickup failed: no_ik | 1 | 0 |" in table
+    assert "| goto failed: blocked | 1 | 0 |" in table
+    assert "| not planned or not reached | 2 | 0 |" in table
+    assert "| runs | 1 | 1 |" in table
 
 
 # --- the command ----------------------------------------------------------------------------

@@ -167,6 +167,29 @@ def table_one(cells: Sequence[Cell]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def failure_table(runs: Sequence[dict], methods: Sequence[str]) -> str:
+    """Why dishes were not collected, per method: failed actions by reason, and dishes the
+    plan left out (unreachable by its model), over the runs that record their outcomes."""
+    counts = {m: defaultdict(int) for m in methods}
+    for r in runs:
+        if "error" in r or r.get("method") not in counts or "outcomes" not in r:
+            continue
+        mine = counts[r["method"]]
+        mine["runs"] += 1
+        for outcome in r["outcomes"]:
+            _, _, result = outcome.partition(": ")
+            if result.startswith("failed"):
+                mine[outcome.split(" ", 1)[0] + " " + result] += 1
+        planned = sum(o.startswith("pickup ") for o in r["outcomes"])
+        mine["not planned or not reached"] += r["dishes"] - planned
+    reasons = sorted({k for c in counts.values() for k in c if k != "runs"})
+    lines = ["| reason | " + " | ".join(methods) + " |", "|---|" + "---|" * len(methods),
+             "| runs | " + " | ".join(str(counts[m]["runs"]) for m in methods) + " |"]
+    lines += [f"| {reason} | " + " | ".join(str(counts[m][reason]) for m in methods) + " |"
+              for reason in reasons]
+    return "\n".join(lines) + "\n"
+
+
 def plot_figure_five(cells: Sequence[Cell], methods: Sequence[str], path: Path) -> None:
     """The paper's Fig. 5: completion rate and execution time per group and method, bars
     with the spread over seeds as error bars."""
@@ -250,6 +273,9 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
     for text, ok in claims(cells):
         lines.append(f"- {text}: " + {True: "holds", False: "does NOT hold",
                                        None: "no data"}[ok])
+    lines += ["", "**Why dishes were not collected** (failed actions by reason; dishes that "
+              "no pickup was planned for or that a failed goto left behind)", "",
+              failure_table(runs, methods)]
     errors = [r for r in runs if "error" in r]
     if errors:
         lines += ["", f"**{len(errors)} runs ended in an error** (not counted above):"]
