@@ -111,20 +111,24 @@ def test_resume_runs_only_the_jobs_without_a_finished_result(tmp_path):
                     progress=False) == 0
 
 
-def test_dask_cluster_runs_real_jobs_and_stores_them(tmp_path):
+def test_the_command_runs_on_a_dask_cluster(tmp_path, capsys):
     distributed = pytest.importorskip("distributed")
-    path = SMALL / "two_dishes.yaml"
-    jobs = [Job(RUN, "two_dishes", str(path), "x", 0, "S3O-GROP*"),
-            Job("difficulty", "two_dishes", str(path), "x", 0)]
-    store = ResultStore(tmp_path / "results.jsonl")
+    tasks = tmp_path / "tasks"
+    tasks.mkdir()
+    shutil.copy(SMALL / "two_dishes.yaml", tasks)
+    out = tmp_path / "results"
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
-        ran = run_jobs(jobs, store, scheduler=cluster.scheduler_address, progress=False)
-    assert ran == 2
-    run, difficulty = (store.get(job.key) for job in jobs)
-    assert "error" not in run and "error" not in difficulty
+        status = evaluate(["--tasks", str(tasks), "--methods", "S3O-GROP*", "--seeds", "1",
+                           "--out", str(out), "--scheduler", cluster.scheduler_address,
+                           "--quiet"])
+    assert status == 0
+    (run,) = ResultStore(out / "results.jsonl").rows()
+    (difficulty,) = ResultStore(out / "difficulty.jsonl").rows()
     assert run["collected"] == 2 and run["complete"] and run["execution_time"] > 10.0
+    assert run["outcomes"][-1].endswith("done")
     assert set(difficulty["areas"]) == {"plate_a", "cup_b"} and difficulty["area"] > 0.5
+    assert "1 tasks x 1 methods x 1 seeds" in capsys.readouterr().out
 
 
 # --- the tables ----------------------------------------------------------------------------
