@@ -1,5 +1,6 @@
 """Tests of the navigation map: path lengths and paths for the base."""
 
+import itertools
 import math
 
 import numpy as np
@@ -8,6 +9,7 @@ import shapely
 from shapely.geometry import LineString
 
 from s3o_drake.abstraction.voronoi import free_space
+from s3o_drake.feasibility.scene import ENVIRONMENT_PADDING
 from s3o_drake.planning.navigation import (
     DRIVE_RADIUS,
     INSCRIBED_RADIUS,
@@ -49,7 +51,8 @@ def _free_points(scenario, perceived, n, seed=0) -> np.ndarray:
 
 
 def test_radii():
-    assert DRIVE_RADIUS == BASE_RADIUS
+    # The execution's collision check pads by ENVIRONMENT_PADDING: paths keep more.
+    assert DRIVE_RADIUS >= BASE_RADIUS + ENVIRONMENT_PADDING
     assert abs(INSCRIBED_RADIUS - 0.28) < 1e-12
 
 
@@ -64,7 +67,7 @@ def test_empty_room_is_straight_line():
 def test_around_a_table_matches_the_analytic_shortest_path():
     nav = NavigationMap(_one_table(), [])
     p, q = np.array([1.5, 2.0]), np.array([4.5, 2.0])
-    r = BASE_RADIUS
+    r = DRIVE_RADIUS
     # Around the rounded rectangle (table offset by r): tangent, arc, top, arc, tangent.
     corner = np.array([2.5, 2.3])
     w = p - corner
@@ -277,3 +280,16 @@ def test_a_full_endpoint_cache_starts_afresh_without_losing_the_batch(monkeypatc
     again = nav.path_lengths(P + 0.01, Q)  # overflows the cache: keys of both batches
     np.testing.assert_allclose(first, np.linalg.norm(P - Q, axis=1))
     np.testing.assert_allclose(again, np.linalg.norm(P + 0.01 - Q, axis=1))
+
+
+def test_furniture_in_a_row_does_not_open_a_way_through_the_middle():
+    """The generated tasks' four small tables stand in a row: the inflated footprints'
+    vertices at the tables' edge line are collinear, and a chord along that line crosses
+    no edge properly. The benchmark's robot drove into small_2 on such a path."""
+    scenario = load_scenario("scenarios/generated/task_010.yaml")
+    nav = NavigationMap(scenario, [c.pose for c in scenario.chairs if not c.mapped])
+    path = nav.path([3.349, 1.567], [8.969, 2.589])
+    assert path is not None
+    # Interior segments keep the driving clearance (the first and the last join stops).
+    for a, b in itertools.pairwise(path[1:-1]):
+        assert LineString([a, b]).distance(nav.obstacles) >= DRIVE_RADIUS - 1e-3

@@ -10,12 +10,13 @@ the room's walls.
 
 Two radii (the base is a 0.62 x 0.56 m rectangle):
 
-- `DRIVE_RADIUS` = BASE_RADIUS = 0.418 m, the circumscribed radius. Along a path the base
-  turns freely, so every interior point of a path keeps at least this much from every
-  footprint: the *driveable* region.
+- `DRIVE_RADIUS` = BASE_RADIUS + DRIVE_MARGIN = 0.438 m, the circumscribed radius and a
+  margin for the collision check's padding. Along a path the base turns freely, so every
+  interior point of a path keeps at least this much from every footprint: the *driveable*
+  region.
 - `INSCRIBED_RADIUS` = BASE_WIDTH / 2 = 0.28 m. The abstraction calls a position free if
   it keeps this much (`s3o_drake.abstraction.voronoi.free_space`), so standing spots next
-  to tables may lie in the 0.28-0.418 m band, outside the driveable region.
+  to tables may lie in the 0.28-0.438 m band, outside the driveable region.
 
 Endpoint rule. An endpoint with clearance >= DRIVE_RADIUS is used as it is. One in the
 band is joined to the driveable region by the straight segment to its nearest point in
@@ -73,8 +74,14 @@ from s3o_drake.robot import BASE_RADIUS, BASE_WIDTH
 from s3o_drake.scenario import Scenario
 from s3o_drake.validation import room_polygon
 
-DRIVE_RADIUS = BASE_RADIUS
-"""Clearance kept along a path: the base's circumscribed radius, safe at any yaw (m)."""
+DRIVE_MARGIN = 0.02
+"""Added to the circumscribed radius along paths (m): the execution's collision check keeps
+1 cm of padding (feasibility.scene.ENVIRONMENT_PADDING), and a path that hugs an inflated
+obstacle at exactly the base's radius left the base no room to turn there (the benchmark
+found runs of every method blocked so, e.g. task_010 next to a wall)."""
+DRIVE_RADIUS = BASE_RADIUS + DRIVE_MARGIN
+"""Clearance kept along a path: the base's circumscribed radius plus DRIVE_MARGIN, safe at
+any yaw (m)."""
 INSCRIBED_RADIUS = BASE_WIDTH / 2
 """Clearance an endpoint (a standing spot) needs at least (m)."""
 INSCRIBED_TOLERANCE = 1e-3
@@ -235,6 +242,16 @@ class NavigationMap:
             # crossing an edge; its midpoint tells.
             mid = (A + B) / 2
             free &= ~shapely.contains_xy(blocking, mid[:, 0], mid[:, 1])
+            # A chord through vertices of another polygon crosses none of its edges
+            # properly, yet may run inside it: furniture in a row puts the vertices of
+            # several inflated footprints on one line (the four small tables of the
+            # generated tasks). Those chords are tested exactly against the interior.
+            if free.any() and not blocking.is_empty:
+                inside = blocking.buffer(-_SLACK)
+                shapely.prepare(inside)
+                cand = np.flatnonzero(free)
+                lines = shapely.linestrings(np.stack([A[cand], B[cand]], axis=1))
+                free[cand[shapely.intersects(inside, lines)]] = False
             d = np.linalg.norm(B - A, axis=1)
             weights[ii[free], jj[free]] = d[free]
             weights[jj[free], ii[free]] = d[free]
