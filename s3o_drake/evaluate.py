@@ -36,6 +36,7 @@ summary.md), 2 on bad input (nothing is written), 130 when interrupted (finished
 
 import os
 import re
+import signal
 import sys
 from pathlib import Path
 
@@ -121,6 +122,10 @@ def study_jobs(paths: list[Path], methods: list[str], seeds: int) -> tuple[list[
     return difficulty, runs
 
 
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     paths, methods = _validate(args)
@@ -135,6 +140,8 @@ def main(argv: list[str] | None = None) -> int:
           flush=True)
     options = {"workers": args.workers, "scheduler": args.scheduler,
                "progress": not args.quiet}
+    # `kill PID` stops the study like Ctrl-C: finished runs kept, workers shut down.
+    previous = signal.signal(signal.SIGTERM, _interrupt)
     try:
         run_jobs(difficulty_jobs, difficulty_store, desc="difficulty", **options)
         run_jobs(run_job_list, store, desc="runs", **options)
@@ -142,6 +149,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\ninterrupted: the finished runs are kept in {out / 'results.jsonl'}; "
               "run the same command to go on", file=sys.stderr)
         return 130
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
     wanted = {j.key for j in run_job_list}
     runs = [r for r in store.rows() if r["key"] in wanted]

@@ -94,6 +94,48 @@ def test_a_killed_worker_is_replaced_and_no_result_is_lost_or_repeated(tmp_path)
     assert calls.count(jobs[1].key) == 2  # killed once, run again
 
 
+def sleepy_work(job: Job) -> dict:
+    """A stand-in for a long run: says which process runs it, then sleeps."""
+    (Path(job.path) / f"{job.task}.pid").write_text(str(os.getpid()))
+    time.sleep(120)
+    return {"key": job.key}
+
+
+def _alive(pid: int) -> bool:
+    """Running or sleeping (a zombie waiting to be reaped has ended)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="uses /proc")
+def test_workers_do_not_outlive_a_killed_study(tmp_path):
+    script = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+              "from pathlib import Path; from test_evaluate import sleepy_work; "
+              "from s3o_drake.evaluation.jobs import Job; "
+              "from s3o_drake.evaluation.scheduler import run_jobs; "
+              "from s3o_drake.evaluation.store import ResultStore; "
+              f"d = Path({str(tmp_path)!r}); "
+              "jobs = [Job('run', f't{i}', str(d), 'x', i, 'm') for i in range(2)]; "
+              "run_jobs(jobs, ResultStore(d / 'r.jsonl'), workers=2, fn=sleepy_work, "
+              "progress=False)")
+    study = subprocess.Popen([sys.executable, "-c", script], cwd=REPO)
+    pids = [tmp_path / "t0.pid", tmp_path / "t1.pid"]
+    deadline = time.monotonic() + 120
+    while not all(p.exists() and p.read_text() for p in pids):
+        assert time.monotonic() < deadline and study.poll() is None
+        time.sleep(0.2)
+    workers = [int(p.read_text()) for p in pids]
+    study.kill()  # the study's process only, as an out-of-memory kill would
+    study.wait()
+    deadline = time.monotonic() + 20
+    while any(_alive(pid) for pid in workers):
+        assert time.monotonic() < deadline, "a worker outlived the study"
+        time.sleep(0.2)
+
+
 def test_resume_runs_only_the_jobs_without_a_finished_result(tmp_path):
     marker = tmp_path / "killed"
     marker.touch()  # no kills here
