@@ -2,7 +2,7 @@
 difficulty, and write the paper's Fig. 5 and Table I.
 
     python -m s3o_drake.evaluate --tasks DIR --methods all --seeds 3 --out results/
-           [--workers N | --scheduler tcp://HOST:PORT] [--limit N] [--quiet]
+           [--workers N | --scheduler tcp://HOST:PORT] [--limit N] [--quiet] [--summarize]
 
 Each run plans the task (the scenario file) with the method, the noise and the planner's
 randomness drawn from the seed, and executes the plan in the full Drake simulation, as
@@ -22,6 +22,9 @@ Written to --out:
   figure5.png       completion rate and execution time per group and method (Fig. 5)
   table1.png        S3O-GROP* against S3O-Random per group (Table I)
   summary.md        the same as Markdown tables, the claims checked, errors if any
+
+--summarize writes those from the runs finished so far and runs nothing (safe beside a
+running study: the result files are only read).
 
 Scale-out: a local pool of --workers spawned processes (default: one per core), or, with
 --scheduler, the workers of a Dask distributed cluster (they need s3o_drake installed; each
@@ -72,6 +75,9 @@ def parse_args(argv: list[str] | None):
     parser.add_argument("--limit", type=int, metavar="N",
                         help="only the first N tasks of the folder (by name)")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.add_argument("--summarize", action="store_true",
+                        help="run nothing: write the tables and figures from the runs "
+                             "finished so far (e.g. while the study runs elsewhere)")
     return parser.parse_args(argv)
 
 
@@ -132,8 +138,8 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     difficulty_jobs, run_job_list = study_jobs(paths, methods, args.seeds)
-    difficulty_store = ResultStore(out / "difficulty.jsonl")
-    store = ResultStore(out / "results.jsonl")
+    difficulty_store = ResultStore(out / "difficulty.jsonl", read_only=args.summarize)
+    store = ResultStore(out / "results.jsonl", read_only=args.summarize)
     print(f"{len(paths)} tasks x {len(methods)} methods x {args.seeds} seeds = "
           f"{len(run_job_list)} runs; "
           f"{sum(store.finished(j.key) for j in run_job_list)} already finished in {out}",
@@ -143,8 +149,9 @@ def main(argv: list[str] | None = None) -> int:
     # `kill PID` stops the study like Ctrl-C: finished runs kept, workers shut down.
     previous = signal.signal(signal.SIGTERM, _interrupt)
     try:
-        run_jobs(difficulty_jobs, difficulty_store, desc="difficulty", **options)
-        run_jobs(run_job_list, store, desc="runs", **options)
+        if not args.summarize:
+            run_jobs(difficulty_jobs, difficulty_store, desc="difficulty", **options)
+            run_jobs(run_job_list, store, desc="runs", **options)
     except KeyboardInterrupt:
         print(f"\ninterrupted: the finished runs are kept in {out / 'results.jsonl'}; "
               "run the same command to go on", file=sys.stderr)
@@ -166,6 +173,10 @@ def main(argv: list[str] | None = None) -> int:
     print("Group sizes: " + ", ".join(
         f"{g} {sum(v == g for v in groups.values())}" for g in GROUPS))
     print("wrote " + ", ".join(str(p) for p in written))
+    if args.summarize:
+        left = sum(not store.finished(j.key) for j in run_job_list)
+        print(f"{left} of {len(run_job_list)} runs not finished yet; "
+              "the tables compare the methods on the finished (task, seed) pairs")
     errors = [r for r in runs if "error" in r] + [r for r in measured
                                                    if r is not None and "error" in r]
     if errors:

@@ -78,6 +78,14 @@ def test_store_keeps_complete_lines_and_cuts_a_line_cut_short(tmp_path):
     store.append({"key": "c", "v": 3})
     lines = [json.loads(line) for line in path.read_text().splitlines()]
     assert [row["key"] for row in lines] == ["a", "b", "c"]
+    # Read-only (beside a running study): a line being written is skipped, not cut.
+    with path.open("a") as f:
+        f.write('{"key": "d"')
+    reader = ResultStore(path, read_only=True)
+    assert reader.get("d") is None and reader.finished("c")
+    assert path.read_text().endswith('{"key": "d"')
+    with pytest.raises(PermissionError):
+        reader.append({"key": "e"})
 
 
 def test_a_killed_worker_is_replaced_and_no_result_is_lost_or_repeated(tmp_path):
@@ -275,9 +283,12 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, c
     summary = (out / "summary.md").read_text()
     assert "Table I" in summary and "Task completion rate" in summary
 
-    # Once more: nothing left to run.
+    # Once more: nothing left to run; --summarize only rewrites the tables.
     assert evaluate(_command(tasks, out)) == 0
     assert results.read_text().splitlines() == after
+    (out / "figure5.png").unlink()
+    assert evaluate([*_command(tasks, out), "--summarize"]) == 0
+    assert (out / "figure5.png").exists() and results.read_text().splitlines() == after
 
 
 @pytest.mark.parametrize("args, field", [

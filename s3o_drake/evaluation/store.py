@@ -13,14 +13,17 @@ from pathlib import Path
 class ResultStore:
     """The rows of `path` (JSON lines), by job key; the last row of a key wins."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, *, read_only: bool = False) -> None:
+        """`read_only`: never touch the file (another process may be appending to it); a
+        cut-short last line is then only skipped."""
         self.path = Path(path)
+        self.read_only = read_only
         self._rows: dict[str, dict] = {}
         if not self.path.exists():
             return
         data = self.path.read_bytes()
         end = data.rfind(b"\n") + 1
-        if end < len(data):  # a line cut short by a crash: drop it, keep the rest
+        if end < len(data) and not read_only:  # cut short by a crash: drop it, keep the rest
             with self.path.open("r+b") as f:
                 f.truncate(end)
         for line in data[:end].splitlines():
@@ -43,6 +46,8 @@ class ResultStore:
         return self._rows.get(key)
 
     def append(self, row: dict) -> None:
+        if self.read_only:
+            raise PermissionError(f"{self.path} was opened read-only")
         line = json.dumps(row, sort_keys=True) + "\n"
         with self.path.open("a") as f:
             f.write(line)
