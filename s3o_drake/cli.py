@@ -24,19 +24,22 @@ def fail(message: str) -> NoReturn:
     sys.exit(EXIT_BAD_INPUT)
 
 
+def first_tasks(count: int) -> list[Path]:
+    """The first `count` shipped tasks; a bad count (--tasks) is one line and exit 2."""
+    from s3o_drake.resources import shipped_tasks
+
+    available = shipped_tasks()
+    if not 1 <= count <= len(available):
+        fail(f"--tasks: must be between 1 and {len(available)}, got {count}")
+    return available[:count]
+
+
 def task_scenarios(files: list[str] | None, count: int) -> list[tuple[str, "Scenario"]]:
     """(name, scenario) of a benchmark's tasks: the scenario `files` when given, else the
     first `count` shipped tasks; a bad count (--tasks) or file is one line and exit 2."""
-    from s3o_drake.resources import shipped_tasks
     from s3o_drake.scenario import ScenarioError, load_scenario
 
-    if files:
-        paths = [Path(p) for p in files]
-    else:
-        available = shipped_tasks()
-        if not 1 <= count <= len(available):
-            fail(f"--tasks: must be between 1 and {len(available)}, got {count}")
-        paths = available[:count]
+    paths = [Path(p) for p in files] if files else first_tasks(count)
     scenarios = []
     for path in paths:
         try:

@@ -16,7 +16,6 @@ import ctypes
 import multiprocessing
 import signal
 import sys
-import time
 from collections import deque
 from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
@@ -126,6 +125,5 @@ def _drive(executor: Executor, todo: deque, store: ResultStore, fn: Callable[[Jo
             bar.update()
         if broken:
             # The pool is gone: everything still out with it comes back too.
-            time.sleep(0.1)
             return broken + list(running.values())
     return []

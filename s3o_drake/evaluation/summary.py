@@ -100,6 +100,14 @@ def _pm(mean: float, std: float, digits: int) -> str:
     return f"{mean:.{digits}f}" + ("" if math.isnan(std) else f" ± {std:.{digits}f}")
 
 
+def _table_one_cell(c: Cell | None) -> str:
+    """Completion rate / execution time, as Table I shows them."""
+    if c is None:
+        return "–"
+    return (f"{_pm(c.completion, c.completion_std, 2)} / "
+            f"{_pm(c.execution_time, c.execution_time_std, 1)}")
+
+
 def claims(cells: Sequence[Cell]) -> list[tuple[str, bool | None]]:
     """The issue's targets and the paper's claims, each with whether it holds (None: no
     data)."""
@@ -158,10 +166,7 @@ def table_one(cells: Sequence[Cell]) -> str:
         for i, method in enumerate((METHOD, ABLATION)):
             c = at.get((group, method))
             paper = PAPER_TABLE_I[group][i]
-            ours = ("–" if c is None else
-                    f"{_pm(c.completion, c.completion_std, 2)} / "
-                    f"{_pm(c.execution_time, c.execution_time_std, 1)}")
-            row.append(f"{ours} [{paper[0]:.2f} ± {paper[1]:.2f} / "
+            row.append(f"{_table_one_cell(c)} [{paper[0]:.2f} ± {paper[1]:.2f} / "
                        f"{paper[2]:.1f} ± {paper[3]:.1f}]")
         lines.append("| " + " | ".join(row) + " |")
     return "\n".join(lines) + "\n"
@@ -223,14 +228,8 @@ def plot_figure_five(cells: Sequence[Cell], methods: Sequence[str], path: Path) 
 def plot_table_one(cells: Sequence[Cell], path: Path) -> None:
     """Table I as a picture."""
     at = {(c.group, c.method): c for c in cells}
-    rows = []
-    for group in GROUPS:
-        row = [group.capitalize()]
-        for method in (METHOD, ABLATION):
-            c = at.get((group, method))
-            row.append("–" if c is None else f"{_pm(c.completion, c.completion_std, 2)} / "
-                                            f"{_pm(c.execution_time, c.execution_time_std, 1)}")
-        rows.append(row)
+    rows = [[group.capitalize(), *(_table_one_cell(at.get((group, method)))
+                                   for method in (METHOD, ABLATION))] for group in GROUPS]
     fig, ax = plt.subplots(figsize=(8, 1.9))
     ax.axis("off")
     table = ax.table(cellText=rows, colLabels=["Task difficulty", "S3O", "S3O-Random"],

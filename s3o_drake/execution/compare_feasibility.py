@@ -20,8 +20,7 @@ from pathlib import Path
 
 from pydrake.geometry import Meshcat
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail
-from s3o_drake.resources import shipped_tasks
+from s3o_drake.cli import ArgumentParser, doc_formatter, fail, first_tasks
 from s3o_drake.run import execute
 from s3o_drake.scenario import load_scenario
 
@@ -46,9 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="seed of every run (default 0)")
     parser.add_argument("--json", metavar="FILE", help="append one JSON line per run")
     args = parser.parse_args(argv)
-    tasks = shipped_tasks()
-    if not 1 <= args.tasks <= len(tasks):
-        fail(f"--tasks: must be between 1 and {len(tasks)}, got {args.tasks}")
+    tasks = first_tasks(args.tasks)
     if args.seed < 0:
         fail(f"--seed: must be a non-negative integer, got {args.seed}")
     json_path = Path(args.json) if args.json else None
@@ -59,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'task':<10} " + "  ".join(f"{s + ' dishes':>13} {s + ' plan s':>12}"
                                        for s in SOURCES), flush=True)
     rows = []
-    for path in tasks[:args.tasks]:
+    for path in tasks:
         cells = []
         for source in SOURCES:
             row = run_task(path, source, args.seed)

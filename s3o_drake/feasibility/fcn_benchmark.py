@@ -35,7 +35,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail
+from s3o_drake.cli import ArgumentParser, doc_formatter, fail, first_tasks
 from s3o_drake.feasibility.fcn import (
     CHANNELS,
     FcnFeasibility,
@@ -47,7 +47,6 @@ from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.io import write_atomically
-from s3o_drake.resources import shipped_tasks
 from s3o_drake.scenario import ScenarioError, load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
@@ -94,9 +93,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="torch threads for the FCN (default 1)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
-    tasks = shipped_tasks()
-    if not 1 <= args.tasks <= len(tasks):
-        fail(f"--tasks: must be between 1 and {len(tasks)}, got {args.tasks}")
+    tasks = first_tasks(args.tasks)
     if args.picture_count < 0:
         fail(f"--picture-count: must be non-negative, got {args.picture_count}")
     if args.threads < 1:
@@ -111,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     if pictures is not None and pictures.exists() and not pictures.is_dir():
         fail(f"--pictures: {pictures} exists and is not a folder")
     scenarios = []
-    for path in tasks[:args.tasks]:
+    for path in tasks:
         try:
             scenarios.append((path.stem, load_scenario(path)))
         except ScenarioError as e:

@@ -11,6 +11,7 @@ world; a base that would collide stops at the last free pose (DESIGN.md, executi
 semantics).
 """
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -230,10 +231,11 @@ class BaseNavigator(LeafSystem):
             # then back straight out (ESCAPE_STEPS) before turning.
             yaw = float(base[2])
             heading = np.array([math.cos(yaw), math.sin(yaw)])
-            escapes = [self._segments(waypoints, yaw, float(target[2]), long_way=True)]
-            escapes += [self._segments([waypoints[0], waypoints[0] - d * heading,
-                                        *waypoints[1:]], yaw, float(target[2]))
-                        for d in ESCAPE_STEPS]
+            # Built one at a time: the first that is not blocked ends the search.
+            escapes = itertools.chain(
+                [self._segments(waypoints, yaw, float(target[2]), long_way=True)],
+                (self._segments([waypoints[0], waypoints[0] - d * heading, *waypoints[1:]],
+                                yaw, float(target[2])) for d in ESCAPE_STEPS))
             for escape in escapes:
                 escaped = self._cut_at_collision(escape)
                 if escaped[1] != "failed":

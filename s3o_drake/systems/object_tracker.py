@@ -113,13 +113,13 @@ class ObjectTracker(LeafSystem):
             raise ValueError("ObjectTracker needs a finalized plant")
         self._plant = plant
         self._G = plant.GetFrameByName(GRASP_FRAME, robot)
-        self._T = plant.GetFrameByName(TRAY_LINK, robot)
         self._robot = robot
         # The tray is welded to the base link, which the planar joints place at (x, y, yaw):
         # the carried dishes follow from the first three positions without the plant's
         # kinematics at every step.
         default = plant.CreateDefaultContext()
-        self._X_BT = self._T.CalcPose(default, plant.GetFrameByName(BASE_LINK, robot))
+        self._X_BT = plant.GetFrameByName(TRAY_LINK, robot).CalcPose(
+            default, plant.GetFrameByName(BASE_LINK, robot))
 
         self._source_id = scene_graph.RegisterSource(name)
         heights = {t.name: t.height for t in scenario.tables}
@@ -208,7 +208,7 @@ class ObjectTracker(LeafSystem):
     def _frames(self, context: Context) -> tuple[RigidTransform, RigidTransform]:
         """X_WG (grasp frame) and X_WT (tray) at the robot's current positions."""
         plant_context = self._plant_context_cache.Eval(context)
-        return (self._G.CalcPoseInWorld(plant_context), self._T.CalcPoseInWorld(plant_context))
+        return self._G.CalcPoseInWorld(plant_context), self._tray_pose(context)
 
     def _grip(self, context: Context) -> GripEvent:
         if not self._grip_port.HasValue(context):
