@@ -19,7 +19,13 @@ from s3o_drake.evaluation.difficulty import difficulty_groups
 from s3o_drake.evaluation.jobs import RUN, Job
 from s3o_drake.evaluation.scheduler import run_jobs
 from s3o_drake.evaluation.store import ResultStore
-from s3o_drake.evaluation.summary import claims, comparable_runs, failure_table, summarize
+from s3o_drake.evaluation.summary import (
+    claims,
+    comparable_runs,
+    failure_table,
+    paired_comparison,
+    summarize,
+)
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small"
@@ -210,6 +216,19 @@ def test_summary_averages_per_seed_and_compares_methods_on_the_same_runs():
     assert verdict["S3O-GROP* completion >= 0.9 on easy tasks"] is False
     assert verdict["S3O-GROP* ahead of every baseline in completion (difficult)"] is True
     assert verdict["S3O-GROP* has the lowest execution time (moderate)"] is True
+
+
+def test_paired_comparison_counts_disagreements_on_the_same_tasks():
+    runs = []
+    for i in range(10):
+        runs.append(_row(f"t{i}", "S3O-GROP*", 0, i <= 7, 100.0 + i))
+        runs.append(_row(f"t{i}", "S3O-Random", 0, i in (7, 8), 110.0 + i))
+    runs.append(_row("t10", "S3O-GROP*", 0, True, 1.0))  # no partner: not compared
+    (row,) = paired_comparison(runs, METHODS)
+    assert (row.baseline, row.pairs, row.wins, row.losses) == ("S3O-Random", 10, 7, 1)
+    assert row.p_value == pytest.approx(2 * 9 / 256)  # P(>= 7 of 8 heads), both tails
+    assert row.time_difference == pytest.approx(-10.0)
+    assert row.time_low == pytest.approx(-10.0) and row.time_high == pytest.approx(-10.0)
 
 
 def test_failure_table_counts_reasons_and_dishes_left_behind():
