@@ -18,10 +18,14 @@ Written to --out:
   results.jsonl     one line per finished run, written as it finishes (the resume log)
   difficulty.jsonl  one line per task: its pickable area, per dish and in all
   results.csv       one row per run, with the task's area and group
-  results.json      settings, areas, groups, the per-group figures, the claims, every run
+  results.json      settings, areas, groups, the per-group figures, the claims, the paired
+                    comparison, every run
   figure5.png       completion rate and execution time per group and method (Fig. 5)
   table1.png        S3O-GROP* against S3O-Random per group (Table I)
-  summary.md        the same as Markdown tables, the claims checked, errors if any
+  summary.md        the same as Markdown tables, the claims checked, S3O-GROP* against each
+                    method on the same tasks (wins, losses, sign test, time saved),
+                    completion under other splits of the tasks (hardest dish, area per
+                    dish, number of dishes), why dishes were lost, errors if any
 
 --summarize writes those from the runs finished so far and runs nothing (safe beside a
 running study: the result files are only read).
@@ -168,7 +172,9 @@ def main(argv: list[str] | None = None) -> int:
                 "seeds": list(range(args.seeds)), "difficulty_seed": DIFFICULTY_SEED,
                 "command": "python -m s3o_drake.evaluate " + " ".join(
                     sys.argv[1:] if argv is None else argv)}
-    written = write_outputs(out, runs, areas, groups, methods, settings)
+    dish_areas = {r["task"]: r["areas"] for r in measured
+                  if r is not None and "error" not in r}
+    written = write_outputs(out, runs, areas, groups, methods, settings, dish_areas)
     print(markdown_tables(summarize(runs, groups, methods), methods))
     print("Group sizes: " + ", ".join(
         f"{g} {sum(v == g for v in groups.values())}" for g in GROUPS))

@@ -23,6 +23,7 @@ from s3o_drake.evaluation.summary import (
     claims,
     comparable_runs,
     failure_table,
+    other_measures_table,
     paired_comparison,
     summarize,
 )
@@ -229,6 +230,19 @@ def test_paired_comparison_counts_disagreements_on_the_same_tasks():
     assert row.p_value == pytest.approx(2 * 9 / 256)  # P(>= 7 of 8 heads), both tails
     assert row.time_difference == pytest.approx(-10.0)
     assert row.time_low == pytest.approx(-10.0) and row.time_high == pytest.approx(-10.0)
+
+
+def test_other_splits_group_tasks_by_their_hardest_dish_and_their_size():
+    # Task "wide" has the largest total area but one nearly unreachable dish.
+    dish_areas = {"wide": {"a": 3.0, "b": 3.0, "c": 0.1}, "mid": {"a": 2.0, "b": 2.0},
+                  "small": {"a": 0.5, "b": 0.5}}
+    runs = [_row("wide", m, 0, False, 1.0) for m in METHODS]
+    runs += [_row(t, m, 0, True, 1.0) for t in ("mid", "small") for m in METHODS]
+    lines = other_measures_table(runs, dish_areas, METHODS).splitlines()
+    assert "| paper's (total area) | easy | 1 | 0.00 | 0.00 |" in lines
+    assert "| smallest dish area | difficult | 1 | 0.00 | 0.00 |" in lines
+    assert "| smallest dish area | easy | 1 | 1.00 | 1.00 |" in lines
+    assert "| number of dishes | 2 dishes | 2 | 1.00 | 1.00 |" in lines
 
 
 def test_failure_table_counts_reasons_and_dishes_left_behind():

@@ -11,7 +11,7 @@ import csv
 import json
 import math
 from collections import defaultdict
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -22,7 +22,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.stats import binomtest
 
-from s3o_drake.evaluation.difficulty import GROUPS
+from s3o_drake.evaluation.difficulty import GROUPS, difficulty_groups
 
 METHOD = "S3O-GROP*"
 ABLATION = "S3O-Random"
@@ -187,6 +187,37 @@ def paired_table(rows: Sequence[Paired]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def other_measures_table(runs: Sequence[dict], dish_areas: Mapping[str, Mapping[str, float]],
+                         methods: Sequence[str]) -> str:
+    """Completion rate per method with the tasks split into thirds by other measures than
+    the paper's total area (the smallest dish area, the mean area per dish) and by the
+    number of dishes: a check of whether the paper's measure is what separates the hard
+    tasks. Pooled over seeds, on the comparable runs."""
+    runs = [r for r in comparable_runs(runs, methods) if r["task"] in dish_areas]
+    splits = {
+        "paper's (total area)": difficulty_groups(
+            {t: sum(a.values()) for t, a in dish_areas.items()}),
+        "smallest dish area": difficulty_groups(
+            {t: min(a.values()) for t, a in dish_areas.items() if a}),
+        "mean area per dish": difficulty_groups(
+            {t: sum(a.values()) / len(a) for t, a in dish_areas.items() if a}),
+        "number of dishes": {t: f"{len(a)} dishes" for t, a in dish_areas.items()},
+    }
+    lines = ["| split | group | tasks | " + " | ".join(methods) + " |",
+             "|---|---|---|" + "---|" * len(methods)]
+    for name, split in splits.items():
+        for group in sorted(set(split.values()), key=lambda g: (g not in GROUPS, GROUPS.index(
+                g) if g in GROUPS else 0, g)):
+            mine = [r for r in runs if split.get(r["task"]) == group]
+            rates = []
+            for method in methods:
+                done = [r["complete"] for r in mine if r["method"] == method]
+                rates.append(f"{np.mean(done):.2f}" if done else "–")
+            lines.append(f"| {name} | {group} | {len({r['task'] for r in mine})} | "
+                         + " | ".join(rates) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def markdown_tables(cells: Sequence[Cell], methods: Sequence[str]) -> str:
     """Fig. 5 as tables (completion, share of dishes, execution time, planning time) and
     Table I (S3O against S3O-Random), in Markdown."""
@@ -298,7 +329,8 @@ def plot_table_one(cells: Sequence[Cell], path: Path) -> None:
 
 
 def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
-                  groups: dict[str, str], methods: Sequence[str], settings: dict) -> list[Path]:
+                  groups: dict[str, str], methods: Sequence[str], settings: dict,
+                  dish_areas: Mapping[str, Mapping[str, float]] | None = None) -> list[Path]:
     """results.csv (one row per run), results.json (settings, groups, the cells, the runs),
     figure5.png, table1.png and summary.md; returns the paths written."""
     cells = summarize(runs, groups, methods)
@@ -333,6 +365,10 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
     if paired:
         lines += ["", f"**Paired comparison** ({METHOD} against each method on the same "
                   "tasks and seeds, all groups)", "", paired_table(paired)]
+    if dish_areas:
+        lines += ["", "**Other splits of the tasks** (completion rate; does the paper's "
+                  "measure separate the hard tasks?)", "",
+                  other_measures_table(runs, dish_areas, methods)]
     lines += ["", "**Why dishes were not collected** (failed actions by reason; dishes that "
               "no pickup was planned for or that a failed goto left behind)", "",
               failure_table(runs, methods)]
