@@ -238,7 +238,8 @@ def test_other_splits_group_tasks_by_their_hardest_dish_and_their_size():
                   "small": {"a": 0.5, "b": 0.5}}
     runs = [_row("wide", m, 0, False, 1.0) for m in METHODS]
     runs += [_row(t, m, 0, True, 1.0) for t in ("mid", "small") for m in METHODS]
-    lines = other_measures_table(runs, dish_areas, METHODS).splitlines()
+    groups = difficulty_groups({t: sum(a.values()) for t, a in dish_areas.items()})
+    lines = other_measures_table(runs, dish_areas, METHODS, groups).splitlines()
     assert "| paper's (total area) | easy | 1 | 0.00 | 0.00 |" in lines
     assert "| smallest dish area | difficult | 1 | 0.00 | 0.00 |" in lines
     assert "| smallest dish area | easy | 1 | 1.00 | 1.00 |" in lines

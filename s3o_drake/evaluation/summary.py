@@ -188,15 +188,15 @@ def paired_table(rows: Sequence[Paired]) -> str:
 
 
 def other_measures_table(runs: Sequence[dict], dish_areas: Mapping[str, Mapping[str, float]],
-                         methods: Sequence[str]) -> str:
+                         methods: Sequence[str], groups: Mapping[str, str]) -> str:
     """Completion rate per method with the tasks split into thirds by other measures than
     the paper's total area (the smallest dish area, the mean area per dish) and by the
     number of dishes: a check of whether the paper's measure is what separates the hard
-    tasks. Pooled over seeds, on the comparable runs."""
+    tasks. `groups` is the paper's split, as the other tables use it. Pooled over seeds, on
+    the comparable runs."""
     runs = [r for r in comparable_runs(runs, methods) if r["task"] in dish_areas]
     splits = {
-        "paper's (total area)": difficulty_groups(
-            {t: sum(a.values()) for t, a in dish_areas.items()}),
+        "paper's (total area)": groups,
         "smallest dish area": difficulty_groups(
             {t: min(a.values()) for t, a in dish_areas.items() if a}),
         "mean area per dish": difficulty_groups(
@@ -206,8 +206,8 @@ def other_measures_table(runs: Sequence[dict], dish_areas: Mapping[str, Mapping[
     lines = ["| split | group | tasks | " + " | ".join(methods) + " |",
              "|---|---|---|" + "---|" * len(methods)]
     for name, split in splits.items():
-        for group in sorted(set(split.values()), key=lambda g: (g not in GROUPS, GROUPS.index(
-                g) if g in GROUPS else 0, g)):
+        present = set(split.values())
+        for group in [g for g in GROUPS if g in present] + sorted(present - set(GROUPS)):
             mine = [r for r in runs if split.get(r["task"]) == group]
             rates = []
             for method in methods:
@@ -334,6 +334,7 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
     """results.csv (one row per run), results.json (settings, groups, the cells, the runs),
     figure5.png, table1.png and summary.md; returns the paths written."""
     cells = summarize(runs, groups, methods)
+    paired = paired_comparison(runs, methods)
     written = []
     path = out / "results.csv"
     with path.open("w", newline="") as f:
@@ -348,7 +349,7 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
         "settings": settings, "areas": areas, "groups": groups,
         "cells": [asdict(c) for c in cells],
         "claims": [{"claim": text, "holds": ok} for text, ok in claims(cells)],
-        "paired": [asdict(p) for p in paired_comparison(runs, methods)],
+        "paired": [asdict(p) for p in paired],
         "runs": sorted(runs, key=lambda r: (r["task"], r["method"], r["seed"]))},
         indent=1, default=float))
     written.append(path)
@@ -361,14 +362,13 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
     for text, ok in claims(cells):
         lines.append(f"- {text}: " + {True: "holds", False: "does NOT hold",
                                        None: "no data"}[ok])
-    paired = paired_comparison(runs, methods)
     if paired:
         lines += ["", f"**Paired comparison** ({METHOD} against each method on the same "
                   "tasks and seeds, all groups)", "", paired_table(paired)]
     if dish_areas:
         lines += ["", "**Other splits of the tasks** (completion rate; does the paper's "
                   "measure separate the hard tasks?)", "",
-                  other_measures_table(runs, dish_areas, methods)]
+                  other_measures_table(runs, dish_areas, methods, groups)]
     lines += ["", "**Why dishes were not collected** (failed actions by reason; dishes that "
               "no pickup was planned for or that a failed goto left behind)", "",
               failure_table(runs, methods)]
