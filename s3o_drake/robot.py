@@ -51,6 +51,8 @@ GRIPPER_JOINTS = ("left_finger_joint", "right_finger_joint")
 #: All joints, in the order of the model instance's positions, velocities and actuators.
 ROBOT_JOINTS = BASE_JOINTS + ARM_JOINTS + GRIPPER_JOINTS
 NUM_POSITIONS = len(ROBOT_JOINTS)
+#: The arm's six joints among the robot's positions (and velocities).
+ARM_POSITIONS = slice(len(BASE_JOINTS), len(BASE_JOINTS) + len(ARM_JOINTS))
 
 BASE_LINK = "base_link"
 ARM_BASE_LINK = "ur_base_link"

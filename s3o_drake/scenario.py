@@ -126,8 +126,6 @@ class Uncertainty:
     nav_xy_std: float = 0.10
     nav_yaw_std: float = 0.05
     reach_std: float = 0.01
-    samples: int = 5
-    """Monte-Carlo samples per base pose when estimating Fea^m."""
 
 
 @dataclass

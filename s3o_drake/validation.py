@@ -155,7 +155,6 @@ def _validate_settings(scenario: Scenario) -> None:
     u = scenario.uncertainty
     for name in ("nav_xy_std", "nav_yaw_std", "reach_std"):
         _at_least(getattr(u, name), 0.0, f"uncertainty.{name}")
-    _at_least(u.samples, 1, "uncertainty.samples")
 
     c = scenario.camera
     tallest = max([t.height for t in scenario.tables] + [scenario.room.wall_height])

@@ -33,15 +33,14 @@ def _chairs(scenario: Scenario) -> list[list[float]]:
 @pytest.fixture(scope="module")
 def two_dishes():
     scenario = load_scenario(SMALL / "two_dishes.yaml")
-    heatmaps = compute_heatmaps(scenario, seed=scenario.seed, cells=32, samples=2,
-                                progress=False)
+    heatmaps = compute_heatmaps(scenario, cells=32, progress=False)
     return scenario, heatmaps
 
 
 @pytest.fixture(scope="module")
 def opposite_sides():
     scenario = load_scenario(SMALL / "opposite_sides.yaml")
-    heatmaps = compute_heatmaps(scenario, seed=scenario.seed, cells=32, samples=2,
+    heatmaps = compute_heatmaps(scenario, cells=32,
                                 progress=False)
     return scenario, heatmaps
 

@@ -18,17 +18,11 @@ from s3o_drake.execution.arm_motion import (
     plan_arm_path,
     time_parameterize,
 )
-from s3o_drake.execution.pickup import (
-    FINGER_MAX_VELOCITY,
-    LIFT_HEIGHT,
-    SEGMENT_NAMES,
-    X_WA,
-    _moved,
-    plan_pickup,
-)
+from s3o_drake.execution.pickup import FINGER_MAX_VELOCITY, SEGMENT_NAMES, plan_pickup
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.check import FeasibilityChecker, facing_yaw
 from s3o_drake.feasibility.grasps import rotation_for
+from s3o_drake.feasibility.pickup_geometry import LIFT_HEIGHT, X_WA, moved
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.robot import ARM_STOW, GRIPPER_CLOSED, GRIPPER_OPEN
@@ -58,8 +52,8 @@ def around_the_table_edge(scene):
     q0 = scene.q(FRONT)
     below = RigidTransform(rotation_for("side", math.pi / 2), [1.6, 1.95, 0.6])
     above = RigidTransform(rotation_for("top", math.pi / 2), [2.1, 2.4, 0.85])
-    qa = _moved(q0, FRONT, below, scene.checker)
-    qb = _moved(q0, FRONT, above, scene.checker)
+    qa = moved(q0, FRONT, below, scene.checker)
+    qb = moved(q0, FRONT, above, scene.checker)
     assert qa is not None and qb is not None
     assert not scene.checker.CheckEdgeCollisionFree(qa, qb)
     return qa, qb
@@ -190,7 +184,7 @@ def test_at_arm_s_length_the_lift_draws_the_dish_in():
     X_WG = scene.grasp_pose(q_closed)
     lifted = X_WG.translation() + np.array([0.0, 0.0, LIFT_HEIGHT])
     straight_up = RigidTransform(X_WG.rotation(), lifted)
-    assert _moved(q_closed, base, straight_up, ik.grasp_checker(scene, "cup_3")) is None
+    assert moved(q_closed, base, straight_up, ik.grasp_checker(scene, "cup_3")) is None
 
     plan = plan_pickup(scene, checker, base, "cup_3", seed=0)
     assert plan.ok, plan.reason

@@ -136,7 +136,7 @@ def test_shipped_weights_predict_a_held_out_dish():
     predicted = fcn.heatmap(view, dish)
     assert predicted.values.shape == (CROP_CELLS, CROP_CELLS)
     assert predicted.values.min() >= 0 and predicted.values.max() <= 1
-    (oracle,) = compute_heatmaps(scenario, [dish.name], seed=scenario.seed, progress=False)
+    (oracle,) = compute_heatmaps(scenario, [dish.name], progress=False)
     assert (predicted.x0, predicted.y0, predicted.cell) == pytest.approx(
         (oracle.x0, oracle.y0, oracle.cell))
     assert np.abs(predicted.values - oracle.values).mean() < 0.15

@@ -69,25 +69,24 @@ def test_noise_lowers_the_probability_next_to_an_obstacle_not_in_the_open(rmap):
 def test_heatmap_is_a_probability_map_around_the_dish(rmap):
     scenario = load_scenario(SMALL)
     oracle = _oracle(scenario, rmap)
-    heatmap = oracle.heatmap("plate_a", rng=np.random.default_rng(3))
+    heatmap = oracle.heatmap("plate_a")
     assert heatmap.values.shape == (64, 64)
     assert heatmap.cell == pytest.approx(4.0 / 64)
     assert np.all((heatmap.values >= 0) & (heatmap.values <= 1))
-    # Feasible in front of the dish, never beyond the arm's reach (about 1.35 m from the
-    # base's centre, with a side grasp) plus the navigation noise, never on the table.
+    # Feasible in front of the dish; beyond the arm's reach (about 1.35 m from the base's
+    # centre, with a side grasp) only the Gaussian tail of landing noise past 3 sigma.
     assert heatmap.value_at(OPEN_SPOT) >= 0.6
     dish = np.array(scenario.dishes[0].position)
     far = np.linalg.norm(heatmap.centers() - dish, axis=-1) > 1.35 + 3 * 0.1
-    assert np.all(heatmap.values[far] == 0)
-    assert heatmap.value_at(dish) == 0
-    # Reproducible from the seed.
-    again = oracle.heatmap("plate_a", rng=np.random.default_rng(3))
+    assert heatmap.values[far].max() < 2e-3
+    # An expectation, not a sample: the same every time.
+    again = oracle.heatmap("plate_a")
     np.testing.assert_array_equal(heatmap.values, again.values)
 
 
 def test_heatmaps_do_not_depend_on_the_worker_count():
     scenario = load_scenario(SMALL)
-    kwargs = {"seed": 5, "cells": 16, "samples": 2, "progress": False}
+    kwargs = {"cells": 16, "progress": False}
     one = compute_heatmaps(scenario, workers=1, **kwargs)
     two = compute_heatmaps(scenario, workers=2, **kwargs)
     assert [h.dish for h in one] == ["plate_a", "cup_b"]

@@ -25,8 +25,7 @@ def scenes():
     out = {}
     for name in SCENES:
         scenario = load_scenario(f"scenarios/small/{name}.yaml")
-        heatmaps = compute_heatmaps(scenario, seed=scenario.seed, cells=32, samples=2,
-                                    progress=False)
+        heatmaps = compute_heatmaps(scenario, cells=32, progress=False)
         chairs = [c.pose for c in scenario.chairs if not c.mapped]
         out[name] = (scenario, heatmaps, chairs)
     return out
@@ -220,7 +219,7 @@ dishes:
   - {name: near_plate, table: corner, position: [1.3, 2.75], kind: plate}
 robot: {start: [3.0, 1.0, 0.0]}
 """)
-    heatmaps = compute_heatmaps(scenario, seed=0, cells=32, samples=2, progress=False)
+    heatmaps = compute_heatmaps(scenario, cells=32, progress=False)
     assert heatmaps[0].values.max() == 0.0  # the oracle agrees: nowhere to pick it from
     for method in ("S3O-GROP*", "V-PETLON"):
         p = plan(scenario, method=method, heatmaps=heatmaps, perceived_chairs=[], seed=0)

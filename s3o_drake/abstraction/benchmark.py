@@ -5,8 +5,8 @@
 Scenes are scenarios/restaurant.yaml (six dishes, six chairs, all passed as perceived)
 cut to its first dishes, or extended with dishes drawn at random free spots on the
 restaurant's tables (seeded, validated like any scenario). Fea^m heatmaps are computed
-before any timing, once on the largest scene (4 m x 4 m crops at --cells x --cells,
---samples landings per cell): they are the feasibility step's cost, not this one's.
+before any timing, once on the largest scene (4 m x 4 m crops at --cells x --cells):
+they are the feasibility step's cost, not this one's.
 The time is everything `build_abstraction` does: free space, Voronoi cells, adjacency,
 the position grid, candidate generation, Fea^t of every group, Score and ranking.
 "candidates" counts all generated partitions (the product over the adjacency graph's
@@ -88,10 +88,11 @@ def with_dish_count(base: Scenario, count: int, seed: int, *,
     return scene
 
 
-def _cache_key(scene: Scenario, cells: int, samples: int) -> str:
+def _cache_key(scene: Scenario, cells: int) -> str:
     dishes = ";".join(f"{d.name}@{d.position[0]:.4f},{d.position[1]:.4f}" for d in scene.dishes)
     chairs = ";".join(f"{c.pose}" for c in scene.chairs)
-    return f"{dishes}|{chairs}|{cells}|{samples}|{scene.seed}"
+    # The oracle's version: heatmaps of an older success test must not be reused.
+    return f"{dishes}|{chairs}|{cells}|executed-pickup|{scene.seed}"
 
 
 def _load_cache(path: Path, key: str) -> list[Heatmap] | None:
@@ -152,18 +153,16 @@ def main(argv: list[str] | None = None) -> int:
                         help="the table of the dense rows (default: mid_1, free all round)")
     parser.add_argument("--cells", type=int, default=64,
                         help="heatmap cells per side (default: 64)")
-    parser.add_argument("--samples", type=int, default=2,
-                        help="landings per heatmap cell (default: 2)")
     parser.add_argument("--workers", type=int, default=1,
                         help="processes computing the heatmaps (default: 1)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the extra dishes")
     parser.add_argument("--cache", metavar="FILE.npz",
                         help="keep the heatmaps in this file and reuse them when the dishes, "
-                             "cells and samples match")
+                             "and cells match")
     args = parser.parse_args(argv)
     if any(n < 1 for n in args.counts + args.dense):
         fail("--counts, --dense: every count must be at least 1")
-    for name in ("cells", "samples", "workers"):
+    for name in ("cells", "workers"):
         if getattr(args, name) < 1:
             fail(f"--{name}: must be at least 1, got {getattr(args, name)}")
     try:
@@ -184,12 +183,11 @@ def main(argv: list[str] | None = None) -> int:
     start = time.perf_counter()
     by_scene: dict[int, dict[str, Heatmap]] = {}
     for index, scene in enumerate(s for s in (largest, dense) if s is not None):
-        key = _cache_key(scene, args.cells, args.samples)
+        key = _cache_key(scene, args.cells)
         cache = Path(args.cache).with_suffix(f".{index}.npz") if args.cache else None
         heatmaps = _load_cache(cache, key) if cache else None
         if heatmaps is None:
-            heatmaps = compute_heatmaps(scene, seed=scene.seed, workers=args.workers,
-                                        cells=args.cells, samples=args.samples)
+            heatmaps = compute_heatmaps(scene, workers=args.workers, cells=args.cells)
             if cache:
                 _save_cache(cache, key, heatmaps)
         by_scene[id(scene)] = {h.dish: h for h in heatmaps}

@@ -90,6 +90,6 @@ def _difficulty(job: Job) -> dict:
     from s3o_drake.feasibility.heatmaps import compute_heatmaps
 
     scenario = load_scenario(Path(job.path))
-    heatmaps = compute_heatmaps(scenario, seed=job.seed, workers=1, progress=False)
+    heatmaps = compute_heatmaps(scenario, workers=1, progress=False)
     areas = {h.dish: float(h.values.sum()) * h.cell**2 for h in heatmaps}
     return {"dishes": len(areas), "area": sum(areas.values()), "areas": areas}

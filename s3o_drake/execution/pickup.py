@@ -1,27 +1,23 @@
 """The arm's part of `pickup(o)`: from where the base really stands, pick the dish onto the tray.
 
-`plan_pickup` turns one feasibility check (the grasp configuration of
-`FeasibilityChecker.check`, with the reach noise T^m already in its target) into timed
-motions over the robot's 11 positions, in this order:
+`plan_pickup` finds the configurations of the pickup with
+`s3o_drake.feasibility.pickup_geometry.pickup_geometry` (the very test that Fea^m's oracle
+applies: grasp, pre-grasp, closed fingers, lift, tray and release, with the reach noise
+T^m already in the grasp target) and joins them into timed motions over the robot's 11
+positions, in this order:
 
-- approach: RRT-Connect from the current configuration to the pre-grasp, the grasp pose
-  backed off `APPROACH_BACKOFF` against the approach axis (top grasp: above the dish; side
-  grasp: behind it), solved on the grasp's IK branch; when that pose or the straight line
-  from it to the grasp collides (a side grasp of a cup beyond a plate would sweep the hand
-  through the plate), back and up, from above, then half as far are tried;
+- approach: RRT-Connect from the current configuration to the pre-grasp;
 - descend: straight joint line pre-grasp -> grasp;
 - close: the fingers close (the dish stops them in simulation);
-- lift: straight joint line to the grasp pose raised by `LIFT_HEIGHT` (for a top grasp this
-  is the pre-grasp);
-- to_tray: RRT-Connect to the release configuration, the grasp frame `TRAY_CLEARANCE`
-  above the tray's centre, gripper held as it grasped (down for a top grasp, level for a
-  side grasp so that a cup stays upright);
+- lift: straight joint line to the lifted grasp;
+- to_tray: RRT-Connect to the configuration over the tray, gripper held as it grasped
+  (down for a top grasp, level for a side grasp so that a cup stays upright);
 - release: the fingers open;
 - stow: RRT-Connect back to ARM_STOW.
 
-Which collision checker judges each motion: the scene's own (1 cm padding, nothing may be
-touched) for approach, release and stow; the grasping checker (`ik.grasp_checker`: the
-gripper's bodies may touch this dish, and only they) for descend, close, lift and to_tray,
+The three RRT-Connect paths are what the oracle leaves out; the scene's own checker (1 cm
+padding, nothing may be touched) judges approach and stow, the grasping checker
+(`ik.grasp_checker`: the gripper's bodies may touch this dish, and only they) the motions
 where the gripper is at, or holds, the dish. The checker's dish stays where it stood on the
 table: while carrying, the dish in the hand is not part of the collision model (its own
 collisions are ignored on the way to the tray), and the model's copy on the table may be
@@ -29,12 +25,9 @@ touched only by the gripper.
 """
 
 import copy
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.planning import SceneGraphCollisionChecker
 from pydrake.trajectories import PiecewisePolynomial
 
 from s3o_drake.execution.arm_motion import (
@@ -45,40 +38,17 @@ from s3o_drake.execution.arm_motion import (
     time_parameterize,
 )
 from s3o_drake.feasibility import ik
-from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP
+from s3o_drake.feasibility.pickup_geometry import pickup_geometry, with_gripper
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.robot import (
-    ARM_MOUNT_XYZ,
-    ARM_STOW,
-    GRIPPER_CLOSED,
-    GRIPPER_OPEN,
-    NUM_POSITIONS,
-    TRAY_XYZ,
-)
+from s3o_drake.robot import GRIPPER_OPEN, NUM_POSITIONS
 
 SEGMENT_NAMES = ("approach", "descend", "close", "lift", "to_tray", "release", "stow")
-REASONS = ("ok", "no_ik", "no_path", "base_collision")
-#: Pre-grasp distance from the grasp pose against the approach axis (m).
-APPROACH_BACKOFF = 0.09
-#: How far the grasped dish is lifted straight up (m).
-LIFT_HEIGHT = 0.09
-#: How far the lift may also draw the dish towards the arm when straight up is out of reach (m).
-LIFT_INWARD = 0.08
-#: Height of the grasp frame above the tray's floor at release (m): the dish's bottom
-#: then clears the 3 cm rim (a cup held at 6 cm up its side sits ~4 cm above the floor).
-TRAY_CLEARANCE = 0.10
 #: Near the dish the arm goes at half its speed.
 SLOW = 0.5
 #: Finger speed and acceleration limits (m/s, m/s²); the plant allows 0.15 m/s.
 FINGER_MAX_VELOCITY = 0.1
 FINGER_MAX_ACCELERATION = 0.5
-#: IK tolerance of the derived poses (pre-grasp, lift, tray): rad and m.
-POSE_TOLERANCE = 1e-4
-#: Joints that turn ±2π (all but the elbow): their angles may be shifted by 2π.
-_WRAPPING = np.array([True, True, False, True, True, True])
-
 
 @dataclass(frozen=True)
 class Segment:
@@ -137,86 +107,6 @@ def _segment(name: str, path: np.ndarray, slow: bool = False) -> Segment:
     return Segment(name, trajectory, trajectory.end_time() - trajectory.start_time(), path)
 
 
-def X_WA(base: np.ndarray) -> RigidTransform:
-    """Pose of the arm's base frame A (axes parallel to base_link's) for a base (x, y, yaw)."""
-    x, y, yaw = base
-    R = RotationMatrix.MakeZRotation(yaw)
-    return RigidTransform(R, np.array([x, y, 0.0]) + R @ np.array(ARM_MOUNT_XYZ))
-
-
-def _nearest_turn(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """q with its ±2π joints shifted by whole turns towards `reference`, inside ±2π."""
-    shifted = q.copy()
-    turns = np.round((reference - q) / (2 * math.pi))
-    shifted[_WRAPPING] += 2 * math.pi * turns[_WRAPPING]
-    out = np.abs(shifted) > 2 * math.pi
-    shifted[out] -= np.sign(shifted[out]) * 2 * math.pi
-    return shifted
-
-
-def solve_arm(R_AG: np.ndarray, p_AG: np.ndarray, reference: np.ndarray) -> list[np.ndarray]:
-    """Arm configurations putting G at (R_AG, p_AG), the nearest to `reference` first.
-
-    Newton steps from `reference` (the same IK branch, when it reaches) come first, then
-    the closed-form solutions of every branch, each turned as near `reference` as allowed.
-    """
-    found = []
-    q, angle, distance = kin.refine(reference[None], R_AG[None], p_AG[None], iterations=20)
-    if angle[0] < POSE_TOLERANCE and distance[0] < POSE_TOLERANCE:
-        found.append(_nearest_turn(q[0], reference))
-    branches = kin.inverse(R_AG[None], p_AG[None])[0]
-    branches = [_nearest_turn(b, reference) for b in branches if not np.isnan(b).any()]
-    branches.sort(key=lambda b: float(np.linalg.norm(b - reference)))
-    for b in branches:
-        R, p = kin.forward(b)
-        angle, distance = kin.pose_error(R, p, R_AG, p_AG)
-        if angle < POSE_TOLERANCE and distance < POSE_TOLERANCE:
-            found.append(b)
-    return found
-
-
-def _moved(q: np.ndarray, base: np.ndarray, X_WG_target: RigidTransform,
-           checker: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """q (11) with the arm moved so that G is at X_WG_target, collision-free, or None."""
-    X_AG = X_WA(base).inverse() @ X_WG_target
-    for arm in solve_arm(X_AG.rotation().matrix(), X_AG.translation(), q[ARM]):
-        candidate = q.copy()
-        candidate[ARM] = arm
-        if checker.CheckConfigCollisionFree(candidate):
-            return candidate
-    return None
-
-
-def tray_configuration(base: np.ndarray, grasp: str, q_from: np.ndarray,
-                       checker: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """The robot's 11 positions at release over the tray (fingers as in `q_from`), or None.
-
-    G is `TRAY_CLEARANCE` above the tray's centre; a top grasp keeps the gripper pointing
-    down, a side grasp keeps it level (a cup stays upright). Headings of the approach axis
-    are tried from pointing backwards round to sideways; per heading, the configuration
-    nearest ARM_STOW that is collision-free wins.
-    """
-    p_BT = np.array(TRAY_XYZ) + np.array([0.0, 0.0, TRAY_CLEARANCE])
-    p_AG = p_BT - np.array(ARM_MOUNT_XYZ)
-    R_bearing = R_BEARING_TOP if grasp == "top" else R_BEARING_SIDE
-    for heading in (math.pi, 0.5 * math.pi, -0.5 * math.pi, 0.75 * math.pi, -0.75 * math.pi,
-                    0.0):
-        R_AG = (RotationMatrix.MakeZRotation(heading) @ R_bearing).matrix()
-        for arm in solve_arm(R_AG, p_AG, np.asarray(ARM_STOW)):
-            q = q_from.copy()
-            q[:3] = base
-            q[ARM] = arm
-            if checker.CheckConfigCollisionFree(q):
-                return q
-    return None
-
-
-def _with_gripper(q: np.ndarray, gripper: np.ndarray) -> np.ndarray:
-    out = q.copy()
-    out[9:] = gripper
-    return out
-
-
 def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
                 dish: str, *, reach_offset: np.ndarray | None = None,
                 q_start: np.ndarray | None = None, seed: int = 0,
@@ -235,86 +125,37 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
     if q0.shape != (NUM_POSITIONS,):
         raise ValueError(f"q_start: expected {NUM_POSITIONS} positions, got shape {q0.shape}")
     q0[:3] = base
-    result = checker.check(base, dish, reach_offset)
-    if not result.feasible:
-        reason = "base_collision" if result.reason == "base_collision" else "no_ik"
-        return PickupPlan(False, reason)
+    geometry = pickup_geometry(scene, checker, base, dish, reach_offset=reach_offset,
+                               q_arm=q0[ARM])
+    if not geometry.ok:
+        return PickupPlan(False, geometry.reason, grasp=geometry.grasp)
+    c = geometry.configurations
     free = scene.checker
     holding = ik.grasp_checker(scene, dish)
-    q_grasp = _with_gripper(result.q, GRIPPER_OPEN)
-    # The same grasp with its ±2π joints a whole turn nearer to where the arm is now: the
-    # same geometry (so just as collision-free), less to turn.
-    q_grasp[ARM] = _nearest_turn(q_grasp[ARM], q0[ARM])
-    X_WG = scene.grasp_pose(q_grasp)
-    approach_axis = X_WG.rotation().col(2)
-    up = np.array([0.0, 0.0, 1.0])
-    # Straight back along the approach axis first; when that sweeps the hand through a
-    # neighbouring dish (a cup beyond a plate), back and up, then from above, then shorter.
-    q_pre = None
-    for offset in (-APPROACH_BACKOFF * approach_axis,
-                   -APPROACH_BACKOFF * approach_axis + 0.5 * APPROACH_BACKOFF * up,
-                   APPROACH_BACKOFF * up,
-                   -0.5 * APPROACH_BACKOFF * approach_axis,
-                   0.5 * APPROACH_BACKOFF * up,
-                   0.3 * APPROACH_BACKOFF * up):
-        q_pre = _moved(q_grasp, base, RigidTransform(X_WG.rotation(),
-                                                     X_WG.translation() + offset), free)
-        if q_pre is not None and holding.CheckEdgeCollisionFree(q_pre, q_grasp):
-            break
-        q_pre = None
-    q_closed = _with_gripper(q_grasp, GRIPPER_CLOSED)
-    # Straight up first. At the edge of the arm's reach (where the planner's stops often
-    # are: Fea^m only asks for the grasp) the hand cannot rise 9 cm there, so the dish is
-    # also drawn in towards the arm, as a person lifts a plate at arm's length.
-    inward = X_WA(base).translation() - X_WG.translation()
-    inward[2] = 0.0
-    inward /= max(float(np.linalg.norm(inward)), 1e-9)
-    q_lift = None
-    for offset in (LIFT_HEIGHT * up, LIFT_HEIGHT * up + LIFT_INWARD * inward,
-                   0.6 * LIFT_HEIGHT * up + LIFT_INWARD * inward, 0.45 * LIFT_HEIGHT * up,
-                   0.3 * LIFT_HEIGHT * up):
-        lift_target = RigidTransform(X_WG.rotation(), X_WG.translation() + offset)
-        q_lift = _moved(q_closed, base, lift_target, holding)
-        if q_lift is not None and holding.CheckEdgeCollisionFree(q_closed, q_lift):
-            break
-        q_lift = None
-    if q_pre is None or q_lift is None:
-        return PickupPlan(False, "no_ik", grasp=result.grasp)
-    q_tray = tray_configuration(base, result.grasp, q_closed, holding)
-    if q_tray is None:
-        return PickupPlan(False, "no_path", grasp=result.grasp)
-    q_release = _with_gripper(q_tray, GRIPPER_OPEN)
-    q_stow = _with_gripper(scene.q(base), GRIPPER_OPEN)
-    if not free.CheckConfigCollisionFree(q_release):
-        return PickupPlan(False, "no_path", grasp=result.grasp)
-
-    q_open = _with_gripper(q0, GRIPPER_OPEN)
+    fail = PickupPlan(False, "no_path", grasp=c.grasp)
+    q_open = with_gripper(q0, GRIPPER_OPEN)
     opening = not np.allclose(q0[9:], GRIPPER_OPEN)
     # Fingers not open: they open first, where the arm stands.
     if opening and not free.CheckEdgeCollisionFree(q0, q_open):
-        return PickupPlan(False, "no_path", grasp=result.grasp)
-    approach = plan_arm_path(free, q_open, q_pre, time_limit=time_limit, seed=seed)
+        return fail
+    approach = plan_arm_path(free, q_open, c.q_pre, time_limit=time_limit, seed=seed)
     if approach is None:
-        return PickupPlan(False, "no_path", grasp=result.grasp)
+        return fail
     if opening:
         approach = np.vstack([q0[None, :], approach])
-    segments = []
-    segments.append(_segment("approach", approach))
-    straight = (("descend", q_pre, q_grasp, holding, True),
-                ("close", q_grasp, q_closed, holding, False),
-                ("lift", q_closed, q_lift, holding, True))
-    for name, a, b, edge_checker, slow in straight:
-        if not edge_checker.CheckEdgeCollisionFree(a, b):
-            return PickupPlan(False, "no_path", grasp=result.grasp)
-        segments.append(_segment(name, np.stack([a, b]), slow))
-    for name, a, b, path_checker in (("to_tray", q_lift, q_tray, holding),
-                                     ("release", q_tray, q_release, free),
-                                     ("stow", q_release, q_stow, free)):
-        if name == "release":
-            path = np.stack([a, b]) if path_checker.CheckEdgeCollisionFree(a, b) else None
+    # pickup_geometry checked the straight motions (descend, close, lift, release).
+    segments = [_segment("approach", approach),
+                _segment("descend", np.stack([c.q_pre, c.q_grasp]), True),
+                _segment("close", np.stack([c.q_grasp, c.q_closed])),
+                _segment("lift", np.stack([c.q_closed, c.q_lift]), True)]
+    for name, a, b, path_checker in (("to_tray", c.q_lift, c.q_tray, holding),
+                                     ("release", c.q_tray, c.q_release, None),
+                                     ("stow", c.q_release, c.q_stow, free)):
+        if path_checker is None:
+            path = np.stack([a, b])
         else:
             path = plan_arm_path(path_checker, a, b, time_limit=time_limit, seed=seed)
         if path is None:
-            return PickupPlan(False, "no_path", grasp=result.grasp)
+            return fail
         segments.append(_segment(name, path))
-    return PickupPlan(True, "ok", segments, grasp=result.grasp)
+    return PickupPlan(True, "ok", segments, grasp=c.grasp)

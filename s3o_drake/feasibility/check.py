@@ -42,6 +42,7 @@ vectorised in numpy, out-of-reach queries are settled without a collision query,
 collision checks go in batches through `CheckConfigsCollisionFree`.
 """
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -228,6 +229,23 @@ class FeasibilityChecker:
         return grasps_for(self.scene.dishes[dish].kind, p_WD, table_height,
                           self.scene.p_WA(np.asarray(base, dtype=float)))
 
+    def free_grasps(self, base: np.ndarray, dish: str,
+                    reach_offset: np.ndarray | None = None) -> Iterator[CheckResult]:
+        """Every feasible answer `check` could give, in its order (the first is `check`'s):
+        the collision-free grasp configurations of the map method (the one IK solution of
+        method "ik"). A base in collision gives one infeasible result with reason
+        "base_collision" and nothing else. Picking needs more than a grasp (a pre-grasp, a
+        lift), so `pickup_geometry` goes on to the next one when the first does not do."""
+        bases = np.asarray(base, dtype=float).reshape(1, 3)
+        offsets = None if reach_offset is None else _offsets(reach_offset, 1)
+        if self.method == "map":
+            results = self._map_grasps(bases[0], dish, offsets)
+        else:
+            results = iter([self.check(bases[0], dish, reach_offset)])
+        for result in results:
+            if result.feasible or result.reason == "base_collision":
+                yield result
+
     # ------------------------------------------------------------------------- helpers
     def _specs_for(self, dish: str) -> list[GraspSpec]:
         return self._specs_for_kind(self.scene.dishes[dish].kind)
@@ -262,6 +280,12 @@ class FeasibilityChecker:
         relative = kin.wrap(np.arctan2(dy, dx) - yaw)
         return [(distance - spec.inset, h + spec.z_offset, relative)
                 for spec in self._specs_for(dish)]
+
+    def base_free(self, bases: np.ndarray) -> np.ndarray:
+        """Whether base poses (n, 3) are inside the room and collision-free with the arm
+        stowed: bool (n,)."""
+        bases = np.asarray(bases, dtype=float).reshape(-1, 3)
+        return self._base_free(bases, np.arange(len(bases)))
 
     def _base_free(self, bases: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """Collision-free with the arm stowed, for the queries `rows`: bool (len(rows),)."""
@@ -334,12 +358,18 @@ class FeasibilityChecker:
         """`_run_map` for one query, without its batch bookkeeping (which would cost more
         than the collision checks): the same candidates, in the same order, against the same
         checkers, so the same answer."""
-        base = bases[0]
-        geometry = self._geometry(bases, dish, offsets)
+        return next(self._map_grasps(bases[0], dish, offsets))
+
+    def _map_grasps(self, base: np.ndarray, dish: str,
+                    offsets: np.ndarray | None) -> Iterator[CheckResult]:
+        """The map method's collision-free grasp configurations for one query, in the order
+        `check` tries them, then one infeasible result that says why there are no more."""
+        geometry = self._geometry(base[None], dish, offsets)
         if not self.scene.clearance.in_room(base[:2])[0] or \
                 not self.scene.checker.CheckConfigCollisionFree(
                     np.concatenate([base, ARM_STOW, GRIPPER_OPEN])):
-            return CheckResult(False, None, None, "base_collision")
+            yield CheckResult(False, None, None, "base_collision")
+            return
         checker = self._grasp_checker(dish)
         row = np.zeros(1, dtype=int)
         reachable = False
@@ -349,16 +379,16 @@ class FeasibilityChecker:
             for arm in q[0][valid[0]]:
                 q_full = np.concatenate([base, arm, GRIPPER_OPEN])
                 if checker.CheckConfigCollisionFree(q_full):
-                    return CheckResult(True, q_full, spec.kind, "ok")
+                    yield CheckResult(True, q_full, spec.kind, "ok")
         if reachable and self.fallback_ik:
             batch = _Batch(feasible=np.zeros(1, dtype=bool), q=np.full((1, 11), np.nan),
                            grasp=np.full(1, -1), reason=np.zeros(1, dtype=int))
             self._fallback(batch, 0, base, dish, None if offsets is None else offsets[0],
                            geometry)
             if batch.feasible[0]:
-                return CheckResult(True, batch.q[0].copy(), self._specs_for(dish)[
+                yield CheckResult(True, batch.q[0].copy(), self._specs_for(dish)[
                     batch.grasp[0]].kind, "ok")
-        return CheckResult(False, None, None, "arm_collision" if reachable else "out_of_reach")
+        yield CheckResult(False, None, None, "arm_collision" if reachable else "out_of_reach")
 
     def _run_map(self, batch: _Batch, bases, dish, offsets, geometry, details: bool) -> None:
         """Grasp by grasp: the map's candidates, the base check (once, when first needed:

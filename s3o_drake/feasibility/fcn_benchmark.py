@@ -142,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
             batched.append(time.perf_counter() - start)
         task_fcn = statistics.median(batched)
         start = time.perf_counter()
-        oracle = compute_heatmaps(scenario, seed=scenario.seed, progress=False)
+        oracle = compute_heatmaps(scenario, progress=False)
         task_oracle = time.perf_counter() - start
         fcn_s, oracle_s = fcn_s + task_fcn, oracle_s + task_oracle
         p = np.stack([h.values for h in predicted])

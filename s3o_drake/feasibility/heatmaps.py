@@ -1,8 +1,9 @@
 """Fea^m heatmaps of many dishes, spread over worker processes, with a progress bar.
 
 Each worker builds its own scene and checker once (they hold Drake contexts that cannot
-cross processes) and then computes whole heatmaps. Dish i's noise comes from the
-generator seeded with (seed, i), so the maps are the same whatever the worker count.
+cross processes) and then computes whole heatmaps. A heatmap is an expectation without
+sampling (`FeasibilityOracle.expectation`), so the maps are the same whatever the worker
+count.
 """
 
 import logging
@@ -11,7 +12,6 @@ from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-import numpy as np
 from tqdm import tqdm
 
 from s3o_drake.feasibility.check import FeasibilityChecker
@@ -39,15 +39,14 @@ def _init_worker(scenario: Scenario, method: str, reachability: Path | None) -> 
 
 
 def _heatmap_job(job: tuple) -> Heatmap:
-    dish, index, seed, size, cells, samples, whole_room = job
-    rng = np.random.default_rng([seed, index])
+    dish, size, cells, whole_room = job
     if whole_room:
-        return _worker_oracle.room_heatmap(dish, rng=rng, cell=size, samples=samples)
-    return _worker_oracle.heatmap(dish, rng=rng, size=size, cells=cells, samples=samples)
+        return _worker_oracle.room_heatmap(dish, cell=size)
+    return _worker_oracle.heatmap(dish, size=size, cells=cells)
 
 
-def compute_heatmaps(scenario: Scenario, dishes: Sequence[str] | None = None, *, seed: int,
-                     workers: int = 1, samples: int | None = None, size: float = CROP_SIZE,
+def compute_heatmaps(scenario: Scenario, dishes: Sequence[str] | None = None, *,
+                     workers: int = 1, size: float = CROP_SIZE,
                      cells: int = CROP_CELLS, whole_room: bool = False,
                      method: str = "map", reachability: Path | None = None,
                      progress: bool = True) -> list[Heatmap]:
@@ -57,8 +56,7 @@ def compute_heatmaps(scenario: Scenario, dishes: Sequence[str] | None = None, *,
     `whole_room=True`, the whole room at a cell of `size` metres.
     """
     names = list(dishes) if dishes is not None else [d.name for d in scenario.dishes]
-    index = {d.name: i for i, d in enumerate(scenario.dishes)}
-    jobs = [(name, index[name], seed, size, cells, samples, whole_room) for name in names]
+    jobs = [(name, size, cells, whole_room) for name in names]
     bar = tqdm(total=len(jobs), desc="feasibility heatmaps", unit="dish", disable=not progress)
     results: list[Heatmap] = []
     if workers <= 1 or len(jobs) <= 1:

@@ -70,6 +70,14 @@ def forward(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return R, T6[..., :3, 3] + TCP_OFFSET * R[..., :, 2]
 
 
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """u x v over the last axis: `np.cross` without its per-call axis handling, which
+    dominated Newton steps on a few configurations."""
+    return np.stack([u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1],
+                     u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2],
+                     u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]], axis=-1)
+
+
 def jacobian(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """R_AG, p_AG and the geometric Jacobian (..., 6, 6) of G in A: rows ω (3) then v (3)."""
     frames = _frames(q)
@@ -80,7 +88,7 @@ def jacobian(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         z = frames[i][..., :3, 2]
         o = frames[i][..., :3, 3]
         J[..., :3, i] = z
-        J[..., 3:, i] = np.cross(z, p - o)
+        J[..., 3:, i] = _cross(z, p - o)
     return R, p, J
 
 

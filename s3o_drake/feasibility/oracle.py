@@ -1,28 +1,63 @@
-"""Fea^m(y_r, y_o) under uncertainty: Monte-Carlo over the navigation and reaching noise.
+"""Fea^m(y_r, y_o): the probability that the executed pickup succeeds, from Drake.
 
-The robot is sent to base position y_r with its yaw facing the dish (the arm is mounted on
-the base's x axis, so facing the dish puts the dish straight ahead of the arm). It lands
-at y_r + ε, yaw + η with ε ~ N(0, nav_xy_std² I), η ~ N(0, nav_yaw_std²) (T^n), and the
-gripper aims at the dish's grasp point shifted horizontally by ξ ~ N(0, reach_std² I) (T^m:
-the overhead camera errs in the floor plane; the table's height is known). Fea^m is
-the fraction of `samples` such landings from which `FeasibilityChecker` finds a feasible
-pick. The noise is drawn from one generator seeded by the caller, all at once and before
-any work is split, so the result does not depend on how many workers compute it.
+The robot is sent to base position y_r facing the dish. Its landing carries the navigation
+noise T^n, (dx, dy) ~ N(0, nav_xy_std² I) and dyaw ~ N(0, nav_yaw_std²), and the execution
+decides where it then stands (`landing.pickup_poses`: stopped short of a collision, turned
+to face the dish). The gripper aims at the dish's grasp point shifted horizontally by the
+reach noise T^m, ξ ~ N(0, reach_std² I) (the overhead camera errs in the floor plane; the
+table's height is known). The pickup succeeds when the ArmController's test passes from
+there (`pickup_geometry`: grasp, pre-grasp, lift, tray, with the target moved by ξ) and the
+fingers catch the dish (|ξ| within `grasp_tolerance`). Only the arm's joint-space paths
+between those configurations are left out (RRT-Connect finds them; how rarely they decide
+an outcome is measured, docs/feasibility.md).
 
-Heatmaps evaluate Fea^m on a grid of base positions: a 4 m x 4 m crop at 64 x 64 cells
-around a dish (as the paper's code did), or the whole room.
+Two ways to compute it:
+
+- `probabilities`: Monte Carlo over exactly that: the reference. `MC_SAMPLES` = 100
+  landings per position keep its standard error sqrt(p (1 - p) / n) at most 0.05 (at
+  p = 0.5).
+- `heatmap`, `room_heatmap`: the same expectation without sampling error, for grids. Once
+  the base has turned to face the dish, where it picks depends only on where it landed in
+  the plane: S(x) = the pickup succeeds from the pickup pose of a landing at x (facing the
+  dish; stopped short on the line to the dish when x collides). Then
+  Fea^m(y) = P(caught) E_e[S(y + e)], S blurred by the landing noise's Gaussian. The reach
+  noise widens the blur (a target off by ξ is, to the arm, a base off by -ξ), and
+  P(caught) = 1 - exp(-tol² / 2 reach_std²) (the norm of ξ is Rayleigh). S is evaluated on
+  a grid `FINE_CELL` or finer whose every k-th centre is a heatmap cell's centre, and
+  blurred with `scipy.ndimage.gaussian_filter`. What this leaves out (the drive's heading
+  taken along the line to the dish, a yaw within `TURN_TOLERANCE` of facing taken as
+  facing) is measured against `probabilities` by `python -m s3o_drake.feasibility.pinning`.
 """
 
 import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import gaussian_filter
 
 from s3o_drake.feasibility.check import FeasibilityChecker, facing_yaw
+from s3o_drake.feasibility.landing import pickup_poses, stop_short
+from s3o_drake.feasibility.pickup_geometry import (
+    catch_probability,
+    grasp_tolerance,
+    pickup_geometry,
+)
 from s3o_drake.scenario import Uncertainty
 
 CROP_SIZE = 4.0
 CROP_CELLS = 64
+#: Monte-Carlo landings per position (see the module docstring).
+MC_SAMPLES = 100
+#: The grid on which S is evaluated is at least this fine (m): the heatmaps' 6.25 cm cells
+#: as they are. Against a grid half as fine (3.1 cm), on the 7 dishes of task_002, heatmap
+#: values differ by 0.012 on average where either is above 0.02 (95th percentile 0.04) at a
+#: quarter of the cost.
+FINE_CELL = 0.07
+#: The blur's kernel reaches this many standard deviations (its tails beyond weigh < 1e-3).
+TRUNCATE = 3.5
+#: No base further than this (m) from a dish reaches it: the arm's reach from the base's
+#: centre (about 1.35 m with a side grasp) and a margin.
+REACH_LIMIT = 1.5
 
 
 @dataclass(frozen=True)
@@ -61,62 +96,101 @@ class Heatmap:
 
 
 class FeasibilityOracle:
-    """Fea^m from the Drake check, with the scenario's noise model."""
+    """Fea^m from the Drake check of the executed pickup, with the scenario's noise model."""
 
     def __init__(self, checker: FeasibilityChecker, noise: Uncertainty):
         self.checker = checker
         self.noise = noise
 
-    def _landings(self, nominal: np.ndarray, dish: str, samples: int,
-                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """Noisy landing poses (n * samples, 3) and reach offsets for nominal positions."""
-        p_dish, _ = self.checker.scene.dish_p_WD(dish)
-        n = len(nominal)
-        yaw = facing_yaw(nominal, p_dish)
-        bases = np.empty((n, samples, 3))
-        bases[..., :2] = nominal[:, None, :] + rng.normal(0.0, self.noise.nav_xy_std,
-                                                         (n, samples, 2))
-        bases[..., 2] = yaw[:, None] + rng.normal(0.0, self.noise.nav_yaw_std, (n, samples))
-        # The dish is seen from above: its position errs in the floor plane; its height is
-        # that of the mapped table top.
-        offsets = np.zeros((n, samples, 3))
-        offsets[..., :2] = rng.normal(0.0, self.noise.reach_std, (n, samples, 2))
-        return bases.reshape(-1, 3), offsets.reshape(-1, 3)
+    # --------------------------------------------------------------------- the success test
+    def success(self, bases: np.ndarray, dish: str,
+                reach_offsets: np.ndarray | None = None) -> np.ndarray:
+        """Whether the ArmController's pickup test passes from base poses (n, 3), the grasp
+        target moved by `reach_offsets` (n, 2 or 3): bool (n,). The fingers' catch is not
+        part of it (`grasp_tolerance`)."""
+        bases = np.asarray(bases, dtype=float).reshape(-1, 3)
+        # The batched grasp check settles every pose without a free grasp at once; the
+        # rest of the test (pre-grasp, lift, tray) is run pose by pose.
+        ok = self.checker.check_many(bases, dish, reach_offsets)
+        for row in np.flatnonzero(ok):
+            offset = None if reach_offsets is None else np.asarray(reach_offsets)[row]
+            ok[row] = pickup_geometry(self.checker.scene, self.checker, bases[row], dish,
+                                      reach_offset=offset).ok
+        return ok
 
+    def landing_success(self, landings: np.ndarray, dish: str) -> np.ndarray:
+        """S(x) of the module docstring for landing positions (n, 2): bool (n,)."""
+        landings = np.asarray(landings, dtype=float).reshape(-1, 2)
+        p_dish, _ = self.checker.scene.dish_p_WD(dish)
+        targets = np.column_stack([landings, facing_yaw(landings, p_dish)])
+        # Stepping back against a heading that faces the dish keeps it facing the dish.
+        poses, landed = stop_short(self.checker.base_free, targets)
+        ok = np.zeros(len(landings), dtype=bool)
+        ok[landed] = self.success(poses[landed], dish)
+        return ok
+
+    # ------------------------------------------------------------------------ Monte Carlo
     def probabilities(self, positions: np.ndarray, dish: str, *, rng: np.random.Generator,
-                      samples: int | None = None) -> np.ndarray:
-        """Fea^m for each base position (n, 2) and the dish."""
+                      samples: int = MC_SAMPLES) -> np.ndarray:
+        """Fea^m for each base position (n, 2), by Monte Carlo over the executed landing
+        and reach (see the module docstring). The noise is drawn all at once, first."""
         positions = np.asarray(positions, dtype=float).reshape(-1, 2)
-        samples = samples or self.noise.samples
-        bases, offsets = self._landings(positions, dish, samples, rng)
-        feasible = self.checker.check_many(bases, dish, offsets)
-        return feasible.reshape(len(positions), samples).mean(axis=1)
+        n = len(positions)
+        nav = rng.normal(0.0, 1.0, (n, samples, 3)) * [
+            self.noise.nav_xy_std, self.noise.nav_xy_std, self.noise.nav_yaw_std]
+        reach = rng.normal(0.0, self.noise.reach_std, (n, samples, 2))
+        p_dish, _ = self.checker.scene.dish_p_WD(dish)
+        nominal = np.repeat(positions, samples, axis=0)
+        poses, landed = pickup_poses(self.checker.base_free, nominal, p_dish,
+                                     nav.reshape(-1, 3))
+        reach = reach.reshape(-1, 2)
+        tolerance = grasp_tolerance(self.checker.scene.dishes[dish].kind)
+        ok = landed & (np.linalg.norm(reach, axis=1) <= tolerance)
+        ok[ok] = self.success(poses[ok], dish, reach[ok])
+        return ok.reshape(n, samples).mean(axis=1)
 
     def probability(self, position: np.ndarray, dish: str, *, rng: np.random.Generator,
-                    samples: int | None = None) -> float:
-        """Fea^m(y_r, y_o) for one base position."""
+                    samples: int = MC_SAMPLES) -> float:
+        """Fea^m(y_r, y_o) for one base position, by Monte Carlo."""
         return float(self.probabilities(position, dish, rng=rng, samples=samples)[0])
 
-    def heatmap(self, dish: str, *, rng: np.random.Generator, size: float = CROP_SIZE,
-                cells: int = CROP_CELLS, center: np.ndarray | None = None,
-                samples: int | None = None) -> Heatmap:
+    # -------------------------------------------------------------------------- heatmaps
+    def expectation(self, dish: str, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+        """Fea^m at the grid of centres xs (cols,) x ys (rows,), evenly spaced by the same
+        step: (rows, cols), by the blur of the module docstring."""
+        cell = float(xs[1] - xs[0]) if len(xs) > 1 else float(ys[1] - ys[0])
+        k = max(1, math.ceil(cell / FINE_CELL - 1e-9))
+        h = cell / k
+        sigma = math.hypot(self.noise.nav_xy_std, self.noise.reach_std)
+        margin = math.ceil(TRUNCATE * sigma / h)
+        fine_x = xs[0] + h * np.arange(-margin, (len(xs) - 1) * k + margin + 1)
+        fine_y = ys[0] + h * np.arange(-margin, (len(ys) - 1) * k + margin + 1)
+        P = np.stack(np.meshgrid(fine_x, fine_y), axis=-1)
+        p_dish, _ = self.checker.scene.dish_p_WD(dish)
+        near = np.linalg.norm(P - p_dish, axis=-1) <= REACH_LIMIT
+        S = np.zeros(P.shape[:2])
+        S[near] = self.landing_success(P[near], dish)
+        if sigma > 0:
+            S = gaussian_filter(S, sigma / h, mode="constant", cval=0.0, truncate=TRUNCATE)
+        kind = self.checker.scene.dishes[dish].kind
+        values = S[margin::k, margin::k][:len(ys), :len(xs)]
+        return np.clip(values, 0.0, 1.0) * catch_probability(kind, self.noise.reach_std)
+
+    def heatmap(self, dish: str, *, size: float = CROP_SIZE, cells: int = CROP_CELLS,
+                center: np.ndarray | None = None) -> Heatmap:
         """Fea^m on a cells x cells grid of side `size` (m), centred on the dish by default."""
         if center is None:
             center, _ = self.checker.scene.dish_p_WD(dish)
         cell = size / cells
-        grid = Heatmap(dish, np.zeros((cells, cells)), float(center[0] - size / 2),
-                       float(center[1] - size / 2), cell)
-        values = self.probabilities(grid.centers().reshape(-1, 2), dish, rng=rng,
-                                    samples=samples)
-        return Heatmap(dish, values.reshape(cells, cells), grid.x0, grid.y0, cell)
+        x0, y0 = float(center[0] - size / 2), float(center[1] - size / 2)
+        centres = (np.arange(cells) + 0.5) * cell
+        return Heatmap(dish, self.expectation(dish, x0 + centres, y0 + centres), x0, y0, cell)
 
-    def room_heatmap(self, dish: str, *, rng: np.random.Generator, cell: float = 0.05,
-                     samples: int | None = None) -> Heatmap:
+    def room_heatmap(self, dish: str, *, cell: float = 0.05) -> Heatmap:
         """Fea^m over the whole room at `cell` resolution (m)."""
         x_min, y_min, x_max, y_max = self.checker.scene.scenario.room.bounds
         cols = math.ceil((x_max - x_min) / cell)
         rows = math.ceil((y_max - y_min) / cell)
-        grid = Heatmap(dish, np.zeros((rows, cols)), x_min, y_min, cell)
-        values = self.probabilities(grid.centers().reshape(-1, 2), dish, rng=rng,
-                                    samples=samples)
-        return Heatmap(dish, values.reshape(rows, cols), x_min, y_min, cell)
+        xs = x_min + (np.arange(cols) + 0.5) * cell
+        ys = y_min + (np.arange(rows) + 0.5) * cell
+        return Heatmap(dish, self.expectation(dish, xs, ys), x_min, y_min, cell)

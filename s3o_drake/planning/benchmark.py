@@ -77,7 +77,7 @@ def benchmark_task(name: str, scenario: Scenario, *, method: str, seed: int, wor
     row: dict[str, Any] = {"task": name, "dishes": len(scenario.dishes), "method": method,
                            "seed": seed, "workers": workers, "factor": factor}
     start = time.perf_counter()
-    heatmaps = compute_heatmaps(scenario, seed=seed, workers=1, progress=False)
+    heatmaps = compute_heatmaps(scenario, workers=1, progress=False)
     feasibility = time.perf_counter() - start
     chairs = perceived_chairs(scenario)
     try:

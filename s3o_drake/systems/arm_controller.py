@@ -5,10 +5,10 @@ arm from `robot_state`) towards where the dish really is (`dish_poses`), with th
 T^m added to the grasp target (`plan_pickup`'s `reach_offset`). The motion is then played
 back open-loop from the Context: the plant's PD actuators track it. Whether the gripper
 really holds the dish is decided by geometry, not by contact simulation: the noise must
-leave the real dish within the gripper's tolerance of the grasp point (`grasp_tolerance`).
+leave the real dish within the gripper's tolerance of the grasp point
+(`pickup_geometry.grasp_tolerance`).
 """
 
-import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -19,10 +19,9 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from s3o_drake.execution.pickup import plan_pickup
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.grasps import RIM_INSET, holds_whole
+from s3o_drake.feasibility.pickup_geometry import caught
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.furniture import DISH_SHAPES
-from s3o_drake.robot import ARM_STOW, FINGER_TRAVEL, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import Scenario
 from s3o_drake.systems.commands import NO_COMMAND, GripEvent, PickCommand, Status
 
@@ -32,33 +31,6 @@ NUM_ARM_AND_FINGERS = NUM_POSITIONS - 3
 #: Stream tag of the reach noise in `numpy.random.default_rng([seed, tag, command id])`
 #: (the navigation noise has its own tag, so the two draws never share numbers).
 REACH_NOISE_STREAM = 2
-#: Friction coefficient between pads and dish (the world's default contact friction).
-PAD_FRICTION = 0.5
-
-
-def grasp_tolerance(kind: str) -> float:
-    """How far (m, horizontally) the real dish may be from where the gripper aims and still
-    be held, for a dish of `kind`.
-
-    Held whole (a cup): the fingers open `2 FINGER_TRAVEL` wide and close on the dish's
-    sides, so the dish's centre may be off by the half-clearance FINGER_TRAVEL - radius
-    (0.025 m for a cup) before a finger comes down on it instead of beside it; the same
-    number is used along the pads' width, where a dish further off is pushed aside by the
-    pads' edges rather than centred.
-
-    Pinched at the rim (plate, bowl): the fingers open along the bearing with the near rim
-    RIM_INSET beyond the grasp point; the dish coming nearer by FINGER_TRAVEL - RIM_INSET
-    puts the rim under the outer pad (going away leaves more room). Sideways, the flat pads
-    meet the round rim at an angle asin(e / radius); past the friction angle atan(μ) the
-    squeezed rim slips out, so e <= radius μ / sqrt(1 + μ²) (0.054 m for a plate, 0.036 m for
-    a bowl, μ = 0.5). The smaller of the two applies in every direction.
-    """
-    radius = DISH_SHAPES[kind].radius
-    if holds_whole(kind):
-        return FINGER_TRAVEL - radius
-    sideways = radius * PAD_FRICTION / math.hypot(1.0, PAD_FRICTION)
-    return min(FINGER_TRAVEL - RIM_INSET, sideways)
-
 
 @dataclass(frozen=True)
 class _Activity:
@@ -243,7 +215,7 @@ class ArmController(LeafSystem):
             activity, status=Status(command.id, "running"), trajectory=plan.trajectory(),
             t_start=context.get_time(), t_grasp=float(ends["close"]),
             t_release=float(ends["release"]),
-            missed=bool(np.linalg.norm(noise) > grasp_tolerance(dish.kind)))
+            missed=not caught(noise, dish.kind))
 
     def _dish_xy(self, context: Context, name: str, default: np.ndarray) -> np.ndarray:
         if not self._dish_poses_port.HasValue(context):

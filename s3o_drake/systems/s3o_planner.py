@@ -191,7 +191,7 @@ class S3OPlanner(LeafSystem):
                 use_one_thread()
                 heatmaps = FcnFeasibility.shared().heatmaps(view, list(known.dishes))
             else:
-                heatmaps = compute_heatmaps(known, seed=self._seed, workers=1,
+                heatmaps = compute_heatmaps(known, workers=1,
                                             progress=self._progress_bar)
             t1 = time.perf_counter()
             new = plan(known, method=self._method, heatmaps=heatmaps, perceived_chairs=chairs,

@@ -1,0 +1,350 @@
+"""The configurations of an executed pickup: the one test shared by the ArmController and Fea^m.
+
+A pickup, as the ArmController runs it (`s3o_drake.execution.pickup.plan_pickup`), passes
+through these configurations of the robot's 11 positions, from where the base stands:
+
+- grasp: a collision-free arm configuration at one of the dish's grasps
+  (`FeasibilityChecker.free_grasps`, in its order: the 1 cm clearance, joint limits);
+- pre-grasp: the grasp pose backed off `APPROACH_BACKOFF` against the approach axis (top
+  grasp: above the dish; side grasp: behind it), on the grasp's IK branch; when that pose
+  or the straight line from it to the grasp collides (a side grasp of a cup beyond a plate
+  would sweep the hand through the plate), back and up, from above, then shorter are tried;
+- closed: the fingers closed at the grasp (the straight finger motion must be free);
+- lift: the grasp pose raised `LIFT_HEIGHT`, or at the edge of reach also drawn in towards
+  the arm by `LIFT_INWARD`, or raised less; the straight line to it must be free;
+- tray: the grasp frame `TRAY_CLEARANCE` above the tray's centre (`tray_configuration`),
+  and release: the same with the fingers open, free by the scene's own checker;
+- stow: ARM_STOW.
+
+`pickup_geometry` finds them, trying the grasp configurations in order until one has a
+pre-grasp and a lift, and says why not when none has: "base_collision" (the base stands in
+collision), "no_ik" (no collision-free grasp, or no pre-grasp or lift on any grasp's branch)
+or "no_path" (no free tray or release configuration). What it leaves to the execution are
+the three joint-space paths between these configurations (approach, to the tray, stow), which
+OMPL's RRT-Connect searches; how rarely they decide an outcome is measured by
+`python -m s3o_drake.feasibility.pinning` (docs/feasibility.md).
+
+Which checker judges each configuration: the scene's own (1 cm padding, nothing may be
+touched) for the pre-grasp, release and stow; the grasping checker (`ik.grasp_checker`: the
+gripper's bodies may touch this dish, and only they) for the grasp, the descent, closing,
+the lift and the tray, where the gripper is at, or holds, the dish.
+
+Whether the fingers catch the dish is geometry too: the reach noise must leave the real dish
+within the gripper's tolerance of where it aims (`grasp_tolerance`); otherwise the motion
+runs and the pickup fails "missed".
+"""
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.planning import SceneGraphCollisionChecker
+
+from s3o_drake.feasibility import ik
+from s3o_drake.feasibility import kinematics as kin
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP, RIM_INSET, holds_whole
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.furniture import DISH_SHAPES
+from s3o_drake.robot import (
+    ARM_MOUNT_XYZ,
+    ARM_POSITIONS,
+    ARM_STOW,
+    FINGER_TRAVEL,
+    GRIPPER_CLOSED,
+    GRIPPER_OPEN,
+    TRAY_XYZ,
+)
+
+REASONS = ("ok", "no_ik", "no_path", "base_collision")
+#: Pre-grasp distance from the grasp pose against the approach axis (m).
+APPROACH_BACKOFF = 0.09
+#: How far the grasped dish is lifted straight up (m).
+LIFT_HEIGHT = 0.09
+#: How far the lift may also draw the dish towards the arm when straight up is out of reach (m).
+LIFT_INWARD = 0.08
+#: Height of the grasp frame above the tray's floor at release (m): the dish's bottom
+#: then clears the 3 cm rim (a cup held at 6 cm up its side sits ~4 cm above the floor).
+TRAY_CLEARANCE = 0.10
+#: IK tolerance of the derived poses (pre-grasp, lift, tray): rad and m.
+POSE_TOLERANCE = 1e-4
+#: Friction coefficient between pads and dish (the world's default contact friction).
+PAD_FRICTION = 0.5
+#: Joints that turn ±2π (all but the elbow): their angles may be shifted by 2π.
+_WRAPPING = np.array([True, True, False, True, True, True])
+_UP = np.array([0.0, 0.0, 1.0])
+
+
+def grasp_tolerance(kind: str) -> float:
+    """How far (m, horizontally) the real dish may be from where the gripper aims and still
+    be held, for a dish of `kind`.
+
+    Held whole (a cup): the fingers open `2 FINGER_TRAVEL` wide and close on the dish's
+    sides, so the dish's centre may be off by the half-clearance FINGER_TRAVEL - radius
+    (0.025 m for a cup) before a finger comes down on it instead of beside it; the same
+    number is used along the pads' width, where a dish further off is pushed aside by the
+    pads' edges rather than centred.
+
+    Pinched at the rim (plate, bowl): the fingers open along the bearing with the near rim
+    RIM_INSET beyond the grasp point; the dish coming nearer by FINGER_TRAVEL - RIM_INSET
+    puts the rim under the outer pad (going away leaves more room). Sideways, the flat pads
+    meet the round rim at an angle asin(e / radius); past the friction angle atan(μ) the
+    squeezed rim slips out, so e <= radius μ / sqrt(1 + μ²) (0.054 m for a plate, 0.036 m for
+    a bowl, μ = 0.5). The smaller of the two applies in every direction.
+    """
+    radius = DISH_SHAPES[kind].radius
+    if holds_whole(kind):
+        return FINGER_TRAVEL - radius
+    sideways = radius * PAD_FRICTION / math.hypot(1.0, PAD_FRICTION)
+    return min(FINGER_TRAVEL - RIM_INSET, sideways)
+
+
+def caught(reach_noise: np.ndarray, kind: str) -> bool:
+    """Whether the fingers catch a dish of `kind` when the reach misses it by `reach_noise`
+    (m, horizontal)."""
+    return bool(np.linalg.norm(np.asarray(reach_noise, dtype=float)[:2]) <= grasp_tolerance(kind))
+
+
+def catch_probability(kind: str, reach_std: float) -> float:
+    """P(caught) under isotropic Gaussian reach noise of `reach_std` per axis: the norm of
+    the noise is Rayleigh distributed."""
+    if reach_std <= 0:
+        return 1.0
+    return 1.0 - math.exp(-0.5 * (grasp_tolerance(kind) / reach_std) ** 2)
+
+
+@dataclass(frozen=True)
+class PickupConfigurations:
+    """The robot's 11 positions at each stop of a pickup (see the module docstring)."""
+
+    grasp: str
+    q_grasp: np.ndarray
+    q_pre: np.ndarray
+    q_closed: np.ndarray
+    q_lift: np.ndarray
+    q_tray: np.ndarray
+    q_release: np.ndarray
+    q_stow: np.ndarray
+
+
+@dataclass(frozen=True)
+class PickupGeometry:
+    """The answer of `pickup_geometry`: ok with the configurations, or not ok with why
+    ("base_collision", "no_ik" or "no_path"); `grasp` names the grasp that got furthest."""
+
+    ok: bool
+    reason: str
+    configurations: PickupConfigurations | None = None
+    grasp: str | None = None
+
+
+def X_WA(base: np.ndarray) -> RigidTransform:
+    """Pose of the arm's base frame A (axes parallel to base_link's) for a base (x, y, yaw)."""
+    x, y, yaw = base
+    R = RotationMatrix.MakeZRotation(yaw)
+    return RigidTransform(R, np.array([x, y, 0.0]) + R @ np.array(ARM_MOUNT_XYZ))
+
+
+def nearest_turn(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Arm angles q with its ±2π joints shifted by whole turns towards `reference`, inside
+    ±2π: the same geometry (so just as collision-free), less to turn."""
+    shifted = q.copy()
+    turns = np.round((reference - q) / (2 * math.pi))
+    shifted[_WRAPPING] += 2 * math.pi * turns[_WRAPPING]
+    out = np.abs(shifted) > 2 * math.pi
+    shifted[out] -= np.sign(shifted[out]) * 2 * math.pi
+    return shifted
+
+
+def solve_arm(R_AG: np.ndarray, p_AG: np.ndarray, reference: np.ndarray) -> list[np.ndarray]:
+    """Arm configurations putting G at (R_AG, p_AG), the nearest to `reference` first.
+
+    The closed-form solutions of every branch, each turned as near `reference` as allowed;
+    when none is exact (near a singular wrist), Newton steps from `reference`.
+    """
+    return solve_arm_many(np.asarray(R_AG)[None], np.asarray(p_AG)[None], reference)[0]
+
+
+def solve_arm_many(R_AG: np.ndarray, p_AG: np.ndarray,
+                   reference: np.ndarray) -> list[list[np.ndarray]]:
+    """`solve_arm` for targets (m, 3, 3), (m, 3) at once (vectorised: a pickup asks for
+    several targets at a time)."""
+    reference = np.asarray(reference, dtype=float)
+    branches = kin.inverse(R_AG, p_AG)  # (m, 8, 6)
+    R, p = kin.forward(np.nan_to_num(branches))
+    angle, distance = kin.pose_error(R, p, R_AG[:, None], p_AG[:, None])
+    exact = ~np.isnan(branches).any(axis=-1) & (angle < POSE_TOLERANCE) & \
+        (distance < POSE_TOLERANCE)
+    found = []
+    for k in range(len(p_AG)):
+        turned = [nearest_turn(b, reference) for b in branches[k][exact[k]]]
+        turned.sort(key=lambda b: float(np.linalg.norm(b - reference)))
+        found.append(turned)
+    singular = [k for k in range(len(p_AG)) if not found[k]]
+    if singular:
+        q, angle, distance = kin.refine(np.broadcast_to(reference, (len(singular), 6)),
+                                        R_AG[singular], p_AG[singular], iterations=20)
+        for j, k in enumerate(singular):
+            if angle[j] < POSE_TOLERANCE and distance[j] < POSE_TOLERANCE:
+                found[k] = [nearest_turn(q[j], reference)]
+    return found
+
+
+def moved(q: np.ndarray, base: np.ndarray, X_WG_target: RigidTransform,
+          checker: SceneGraphCollisionChecker) -> np.ndarray | None:
+    """q (11) with the arm moved so that G is at X_WG_target, collision-free, or None."""
+    return _moved(q, X_WA(base).inverse() @ X_WG_target, checker)
+
+
+def _moved(q: np.ndarray, X_AG_target: RigidTransform,
+           checker: SceneGraphCollisionChecker) -> np.ndarray | None:
+    """`moved` with the target in the arm's base frame A."""
+    R = X_AG_target.rotation().matrix()
+    return _first_free(q, solve_arm(R, X_AG_target.translation(), q[ARM_POSITIONS]), checker)
+
+
+def _first_free(q: np.ndarray, arms: list[np.ndarray],
+                checker: SceneGraphCollisionChecker) -> np.ndarray | None:
+    """q (11) with the first of `arms` that is collision-free, or None."""
+    for arm in arms:
+        candidate = q.copy()
+        candidate[ARM_POSITIONS] = arm
+        if checker.CheckConfigCollisionFree(candidate):
+            return candidate
+    return None
+
+
+def _first_offset(q: np.ndarray, X_AG: RigidTransform, offsets: list[np.ndarray],
+                  checker: SceneGraphCollisionChecker,
+                  edge_checker: SceneGraphCollisionChecker) -> np.ndarray | None:
+    """q moved to the first of X_AG's offsets (same rotation, in order) where the arm is
+    free by `checker` and the straight line from q is free by `edge_checker`, or None."""
+    R = np.broadcast_to(X_AG.rotation().matrix(), (len(offsets), 3, 3))
+    targets = X_AG.translation() + np.array(offsets)
+    for arms in solve_arm_many(R, targets, q[ARM_POSITIONS]):
+        moved_q = _first_free(q, arms, checker)
+        if moved_q is not None and edge_checker.CheckEdgeCollisionFree(moved_q, q):
+            return moved_q
+    return None
+
+
+@lru_cache(maxsize=4)
+def _tray_arms(grasp: str) -> tuple[np.ndarray, ...]:
+    """The arm configurations at release over the tray, in the order they are tried.
+
+    G is `TRAY_CLEARANCE` above the tray's centre; a top grasp keeps the gripper pointing
+    down, a side grasp keeps it level (a cup stays upright). Headings of the approach axis
+    go from pointing backwards round to sideways; per heading, the solutions nearest
+    ARM_STOW first. In the arm's frame they do not depend on where the base stands, so they
+    are solved once.
+    """
+    p_BT = np.array(TRAY_XYZ) + np.array([0.0, 0.0, TRAY_CLEARANCE])
+    p_AG = p_BT - np.array(ARM_MOUNT_XYZ)
+    R_bearing = R_BEARING_TOP if grasp == "top" else R_BEARING_SIDE
+    arms = []
+    for heading in (math.pi, 0.5 * math.pi, -0.5 * math.pi, 0.75 * math.pi, -0.75 * math.pi,
+                    0.0):
+        R_AG = (RotationMatrix.MakeZRotation(heading) @ R_bearing).matrix()
+        arms += solve_arm(R_AG, p_AG, np.asarray(ARM_STOW))
+    return tuple(arms)
+
+
+def tray_configuration(base: np.ndarray, grasp: str, q_from: np.ndarray,
+                       checker: SceneGraphCollisionChecker) -> np.ndarray | None:
+    """The robot's 11 positions at release over the tray (fingers as in `q_from`), or None:
+    the first of `_tray_arms` that is collision-free."""
+    for arm in _tray_arms(grasp):
+        q = q_from.copy()
+        q[:3] = base
+        q[ARM_POSITIONS] = arm
+        if checker.CheckConfigCollisionFree(q):
+            return q
+    return None
+
+
+def with_gripper(q: np.ndarray, gripper: np.ndarray) -> np.ndarray:
+    """q (11) with the fingers at `gripper`."""
+    out = q.copy()
+    out[9:] = gripper
+    return out
+
+
+def _pre_grasp(q_grasp: np.ndarray, X_AG: RigidTransform, free: SceneGraphCollisionChecker,
+               holding: SceneGraphCollisionChecker) -> np.ndarray | None:
+    """The first pre-grasp (see the module docstring) whose descent to q_grasp is free."""
+    approach_axis = X_AG.rotation().col(2)
+    offsets = [-APPROACH_BACKOFF * approach_axis,
+               -APPROACH_BACKOFF * approach_axis + 0.5 * APPROACH_BACKOFF * _UP,
+               APPROACH_BACKOFF * _UP,
+               -0.5 * APPROACH_BACKOFF * approach_axis,
+               0.5 * APPROACH_BACKOFF * _UP,
+               0.3 * APPROACH_BACKOFF * _UP]
+    return _first_offset(q_grasp, X_AG, offsets, free, holding)
+
+
+def _lift(q_closed: np.ndarray, X_AG: RigidTransform,
+          holding: SceneGraphCollisionChecker) -> np.ndarray | None:
+    """The first lift (see the module docstring) reached by a free straight line.
+
+    Straight up first. At the edge of the arm's reach the hand cannot rise 9 cm there, so
+    the dish is also drawn in towards the arm, as a person lifts a plate at arm's length.
+    """
+    inward = -X_AG.translation()  # towards A's origin, horizontally
+    inward[2] = 0.0
+    inward /= max(float(np.linalg.norm(inward)), 1e-9)
+    offsets = [LIFT_HEIGHT * _UP, LIFT_HEIGHT * _UP + LIFT_INWARD * inward,
+               0.6 * LIFT_HEIGHT * _UP + LIFT_INWARD * inward, 0.45 * LIFT_HEIGHT * _UP,
+               0.3 * LIFT_HEIGHT * _UP]
+    return _first_offset(q_closed, X_AG, offsets, holding, holding)
+
+
+def _grasp_pose_in_A(q: np.ndarray) -> RigidTransform:
+    R, p = kin.forward(q[ARM_POSITIONS])
+    return RigidTransform(RotationMatrix(R), p)
+
+
+def pickup_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
+                    dish: str, *, reach_offset: np.ndarray | None = None,
+                    q_arm: np.ndarray = ARM_STOW) -> PickupGeometry:
+    """The configurations of picking `dish` from base pose `base` (x, y, yaw), or why not.
+
+    `reach_offset` moves the grasp target in the world (the dish's true place and the reach
+    noise, as in `FeasibilityChecker.check`); `q_arm` is where the arm is now (the grasp's
+    ±2π joints are turned as near it as they go). See the module docstring.
+    """
+    base = np.asarray(base, dtype=float).reshape(3)
+    free = scene.checker
+    holding = ik.grasp_checker(scene, dish)
+    tried: str | None = None
+    got_lift = False
+    for result in checker.free_grasps(base, dish, reach_offset):
+        if result.reason == "base_collision":
+            return PickupGeometry(False, "base_collision")
+        tried = tried or result.grasp
+        q_grasp = with_gripper(result.q, GRIPPER_OPEN)
+        q_grasp[ARM_POSITIONS] = nearest_turn(q_grasp[ARM_POSITIONS], np.asarray(q_arm))
+        X_AG = _grasp_pose_in_A(q_grasp)
+        q_pre = _pre_grasp(q_grasp, X_AG, free, holding)
+        if q_pre is None:
+            continue
+        q_closed = with_gripper(q_grasp, GRIPPER_CLOSED)
+        if not holding.CheckEdgeCollisionFree(q_grasp, q_closed):
+            continue
+        q_lift = _lift(q_closed, X_AG, holding)
+        if q_lift is None:
+            continue
+        got_lift = True
+        q_tray = tray_configuration(base, result.grasp, q_closed, holding)
+        if q_tray is None:
+            continue
+        q_release = with_gripper(q_tray, GRIPPER_OPEN)
+        if not free.CheckConfigCollisionFree(q_release) or \
+                not free.CheckEdgeCollisionFree(q_tray, q_release):
+            continue
+        q_stow = with_gripper(scene.q(base), GRIPPER_OPEN)
+        return PickupGeometry(True, "ok", PickupConfigurations(
+            result.grasp, q_grasp, q_pre, q_closed, q_lift, q_tray, q_release, q_stow),
+            grasp=result.grasp)
+    return PickupGeometry(False, "no_path" if got_lift else "no_ik", grasp=tried)
