@@ -229,6 +229,21 @@ class FeasibilityChecker:
         return grasps_for(self.scene.dishes[dish].kind, p_WD, table_height,
                           self.scene.p_WA(np.asarray(base, dtype=float)))
 
+    def first_grasps(self, bases: np.ndarray, dish: str, reach_offsets: np.ndarray | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, list[str | None]]:
+        """`check`'s answers for base poses (n, 3) at once, as arrays: feasible (n,), the
+        configurations q (n, 11) (NaN where infeasible) and the grasp kinds (None there)."""
+        bases = np.asarray(bases, dtype=float).reshape(-1, 3)
+        if reach_offsets is not None:
+            reach_offsets = _offsets(reach_offsets, len(bases))
+        if len(bases) == 0:
+            return np.zeros(0, dtype=bool), np.zeros((0, 11)), []
+        out = self._run(bases, dish, reach_offsets, details=False)
+        specs = self._specs_for(dish)
+        kinds = [specs[g].kind if ok else None
+                 for g, ok in zip(out.grasp, out.feasible, strict=True)]
+        return out.feasible, out.q, kinds
+
     def free_grasps(self, base: np.ndarray, dish: str,
                     reach_offset: np.ndarray | None = None) -> Iterator[CheckResult]:
         """Every feasible answer `check` could give, in its order (the first is `check`'s):

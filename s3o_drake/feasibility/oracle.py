@@ -40,7 +40,7 @@ from s3o_drake.feasibility.landing import pickup_poses, stop_short
 from s3o_drake.feasibility.pickup_geometry import (
     catch_probability,
     grasp_tolerance,
-    pickup_geometry,
+    pickup_feasible_many,
 )
 from s3o_drake.scenario import Uncertainty
 
@@ -108,15 +108,8 @@ class FeasibilityOracle:
         """Whether the ArmController's pickup test passes from base poses (n, 3), the grasp
         target moved by `reach_offsets` (n, 2 or 3): bool (n,). The fingers' catch is not
         part of it (`grasp_tolerance`)."""
-        bases = np.asarray(bases, dtype=float).reshape(-1, 3)
-        # The batched grasp check settles every pose without a free grasp at once; the
-        # rest of the test (pre-grasp, lift, tray) is run pose by pose.
-        ok = self.checker.check_many(bases, dish, reach_offsets)
-        for row in np.flatnonzero(ok):
-            offset = None if reach_offsets is None else np.asarray(reach_offsets)[row]
-            ok[row] = pickup_geometry(self.checker.scene, self.checker, bases[row], dish,
-                                      reach_offset=offset).ok
-        return ok
+        return pickup_feasible_many(self.checker.scene, self.checker, bases, dish,
+                                    reach_offsets)
 
     def landing_success(self, landings: np.ndarray, dish: str) -> np.ndarray:
         """S(x) of the module docstring for landing positions (n, 2): bool (n,)."""

@@ -56,6 +56,7 @@ from s3o_drake.robot import (
     GRIPPER_CLOSED,
     GRIPPER_OPEN,
     TRAY_XYZ,
+    robot_positions,
 )
 
 REASONS = ("ok", "no_ik", "no_path", "base_collision")
@@ -148,48 +149,37 @@ def X_WA(base: np.ndarray) -> RigidTransform:
 
 
 def nearest_turn(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """Arm angles q with its ±2π joints shifted by whole turns towards `reference`, inside
-    ±2π: the same geometry (so just as collision-free), less to turn."""
-    shifted = q.copy()
-    turns = np.round((reference - q) / (2 * math.pi))
-    shifted[_WRAPPING] += 2 * math.pi * turns[_WRAPPING]
-    out = np.abs(shifted) > 2 * math.pi
-    shifted[out] -= np.sign(shifted[out]) * 2 * math.pi
-    return shifted
+    """Arm angles q (..., 6) with their ±2π joints shifted by whole turns towards
+    `reference` (broadcast), inside ±2π: the same geometry (so just as collision-free),
+    less to turn."""
+    q = np.asarray(q, dtype=float)
+    turns = np.where(_WRAPPING, np.round((reference - q) / (2 * math.pi)), 0.0)
+    shifted = q + 2 * math.pi * turns
+    return np.where(np.abs(shifted) > 2 * math.pi,
+                    shifted - np.sign(shifted) * 2 * math.pi, shifted)
 
 
 def solve_arm(R_AG: np.ndarray, p_AG: np.ndarray, reference: np.ndarray) -> list[np.ndarray]:
-    """Arm configurations putting G at (R_AG, p_AG), the nearest to `reference` first.
-
-    The closed-form solutions of every branch, each turned as near `reference` as allowed;
-    when none is exact (near a singular wrist), Newton steps from `reference`.
-    """
+    """Arm configurations putting G at (R_AG, p_AG): the closed-form solutions of every
+    branch, each turned as near `reference` as allowed, the nearest first."""
     return solve_arm_many(np.asarray(R_AG)[None], np.asarray(p_AG)[None], reference)[0]
 
 
 def solve_arm_many(R_AG: np.ndarray, p_AG: np.ndarray,
                    reference: np.ndarray) -> list[list[np.ndarray]]:
-    """`solve_arm` for targets (m, 3, 3), (m, 3) at once (vectorised: a pickup asks for
-    several targets at a time)."""
-    reference = np.asarray(reference, dtype=float)
+    """`solve_arm` for targets (m, 3, 3), (m, 3) and references (6,) or (m, 6) at once
+    (vectorised: the oracle asks for thousands of targets)."""
+    m = len(p_AG)
+    references = np.broadcast_to(np.asarray(reference, dtype=float), (m, 6))
     branches = kin.inverse(R_AG, p_AG)  # (m, 8, 6)
     R, p = kin.forward(np.nan_to_num(branches))
     angle, distance = kin.pose_error(R, p, R_AG[:, None], p_AG[:, None])
     exact = ~np.isnan(branches).any(axis=-1) & (angle < POSE_TOLERANCE) & \
         (distance < POSE_TOLERANCE)
-    found = []
-    for k in range(len(p_AG)):
-        turned = [nearest_turn(b, reference) for b in branches[k][exact[k]]]
-        turned.sort(key=lambda b: float(np.linalg.norm(b - reference)))
-        found.append(turned)
-    singular = [k for k in range(len(p_AG)) if not found[k]]
-    if singular:
-        q, angle, distance = kin.refine(np.broadcast_to(reference, (len(singular), 6)),
-                                        R_AG[singular], p_AG[singular], iterations=20)
-        for j, k in enumerate(singular):
-            if angle[j] < POSE_TOLERANCE and distance[j] < POSE_TOLERANCE:
-                found[k] = [nearest_turn(q[j], reference)]
-    return found
+    turned = nearest_turn(np.nan_to_num(branches), references[:, None])
+    gap = np.where(exact, np.linalg.norm(turned - references[:, None], axis=-1), np.inf)
+    order = np.argsort(gap, axis=1, kind="stable")
+    return [[turned[k, b] for b in order[k] if exact[k, b]] for k in range(m)]
 
 
 def moved(q: np.ndarray, base: np.ndarray, X_WG_target: RigidTransform,
@@ -216,18 +206,56 @@ def _first_free(q: np.ndarray, arms: list[np.ndarray],
     return None
 
 
-def _first_offset(q: np.ndarray, X_AG: RigidTransform, offsets: list[np.ndarray],
+def _first_offset(q: np.ndarray, solutions: list[list[np.ndarray]],
                   checker: SceneGraphCollisionChecker,
                   edge_checker: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """q moved to the first of X_AG's offsets (same rotation, in order) where the arm is
-    free by `checker` and the straight line from q is free by `edge_checker`, or None."""
-    R = np.broadcast_to(X_AG.rotation().matrix(), (len(offsets), 3, 3))
-    targets = X_AG.translation() + np.array(offsets)
-    for arms in solve_arm_many(R, targets, q[ARM_POSITIONS]):
+    """q moved to the first target (of `solutions`, one list of arms per target, in order)
+    where the arm is free by `checker` and the straight line from q is free by
+    `edge_checker`, or None."""
+    for arms in solutions:
         moved_q = _first_free(q, arms, checker)
         if moved_q is not None and edge_checker.CheckEdgeCollisionFree(moved_q, q):
             return moved_q
     return None
+
+
+def _pre_grasp_offsets(R_AG: np.ndarray) -> np.ndarray:
+    """The pre-grasps' offsets from grasps (n, 3, 3), in the order tried: (n, 6, 3).
+
+    Straight back along the approach axis first; when that sweeps the hand through a
+    neighbouring dish (a cup beyond a plate), back and up, then from above, then shorter.
+    """
+    back = -APPROACH_BACKOFF * R_AG[:, :, 2]
+    up = np.broadcast_to(APPROACH_BACKOFF * _UP, back.shape)
+    return np.stack([back, back + 0.5 * up, up, 0.5 * back, 0.5 * up, 0.3 * up], axis=1)
+
+
+def _lift_offsets(p_AG: np.ndarray) -> np.ndarray:
+    """The lifts' offsets from grasps at p_AG (n, 3), in the order tried: (n, 5, 3).
+
+    Straight up first. At the edge of the arm's reach the hand cannot rise 9 cm there, so
+    the dish is also drawn in towards the arm, as a person lifts a plate at arm's length.
+    """
+    inward = -p_AG * [1.0, 1.0, 0.0]  # towards A's origin, horizontally
+    inward /= np.maximum(np.linalg.norm(inward, axis=1, keepdims=True), 1e-9)
+    up = np.broadcast_to(LIFT_HEIGHT * _UP, inward.shape)
+    drawn = LIFT_INWARD * inward
+    return np.stack([up, up + drawn, 0.6 * up + drawn, 0.45 * up, 0.3 * up], axis=1)
+
+
+def _arm_solutions(q_grasps: np.ndarray) -> list[tuple[list, list]]:
+    """For grasp configurations (n, 11): the IK solutions of every pre-grasp and every
+    lift target, in the order tried, near the grasp's arm (two vectorised solves)."""
+    arms = q_grasps[:, ARM_POSITIONS]
+    R, p = kin.forward(arms)
+    n = len(arms)
+    found = []
+    for offsets in (_pre_grasp_offsets(R), _lift_offsets(p)):
+        k = offsets.shape[1]
+        solutions = solve_arm_many(np.repeat(R, k, axis=0), (p[:, None] + offsets).reshape(-1, 3),
+                                   np.repeat(arms, k, axis=0))
+        found.append([solutions[i * k:(i + 1) * k] for i in range(n)])
+    return list(zip(*found, strict=True))
 
 
 @lru_cache(maxsize=4)
@@ -271,38 +299,40 @@ def with_gripper(q: np.ndarray, gripper: np.ndarray) -> np.ndarray:
     return out
 
 
-def _pre_grasp(q_grasp: np.ndarray, X_AG: RigidTransform, free: SceneGraphCollisionChecker,
-               holding: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """The first pre-grasp (see the module docstring) whose descent to q_grasp is free."""
-    approach_axis = X_AG.rotation().col(2)
-    offsets = [-APPROACH_BACKOFF * approach_axis,
-               -APPROACH_BACKOFF * approach_axis + 0.5 * APPROACH_BACKOFF * _UP,
-               APPROACH_BACKOFF * _UP,
-               -0.5 * APPROACH_BACKOFF * approach_axis,
-               0.5 * APPROACH_BACKOFF * _UP,
-               0.3 * APPROACH_BACKOFF * _UP]
-    return _first_offset(q_grasp, X_AG, offsets, free, holding)
+def _complete(base: np.ndarray, grasp: str, q_grasp: np.ndarray, solutions: tuple[list, list],
+              free: SceneGraphCollisionChecker,
+              holding: SceneGraphCollisionChecker) -> tuple[PickupConfigurations | None, bool]:
+    """The rest of the pickup from one grasp configuration (see the module docstring):
+    the configurations, or None; and whether a lift was found (for the reason)."""
+    pre_solutions, lift_solutions = solutions
+    q_pre = _first_offset(q_grasp, pre_solutions, free, holding)
+    if q_pre is None:
+        return None, False
+    q_closed = with_gripper(q_grasp, GRIPPER_CLOSED)
+    if not holding.CheckEdgeCollisionFree(q_grasp, q_closed):
+        return None, False
+    q_lift = _first_offset(q_closed, lift_solutions, holding, holding)
+    if q_lift is None:
+        return None, False
+    q_tray = tray_configuration(base, grasp, q_closed, holding)
+    if q_tray is None:
+        return None, True
+    q_release = with_gripper(q_tray, GRIPPER_OPEN)
+    if not free.CheckConfigCollisionFree(q_release) or \
+            not free.CheckEdgeCollisionFree(q_tray, q_release):
+        return None, True
+    q_stow = with_gripper(robot_positions(*base), GRIPPER_OPEN)
+    return PickupConfigurations(grasp, q_grasp, q_pre, q_closed, q_lift, q_tray, q_release,
+                                q_stow), True
 
 
-def _lift(q_closed: np.ndarray, X_AG: RigidTransform,
-          holding: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """The first lift (see the module docstring) reached by a free straight line.
-
-    Straight up first. At the edge of the arm's reach the hand cannot rise 9 cm there, so
-    the dish is also drawn in towards the arm, as a person lifts a plate at arm's length.
-    """
-    inward = -X_AG.translation()  # towards A's origin, horizontally
-    inward[2] = 0.0
-    inward /= max(float(np.linalg.norm(inward)), 1e-9)
-    offsets = [LIFT_HEIGHT * _UP, LIFT_HEIGHT * _UP + LIFT_INWARD * inward,
-               0.6 * LIFT_HEIGHT * _UP + LIFT_INWARD * inward, 0.45 * LIFT_HEIGHT * _UP,
-               0.3 * LIFT_HEIGHT * _UP]
-    return _first_offset(q_closed, X_AG, offsets, holding, holding)
-
-
-def _grasp_pose_in_A(q: np.ndarray) -> RigidTransform:
-    R, p = kin.forward(q[ARM_POSITIONS])
-    return RigidTransform(RotationMatrix(R), p)
+def _grasp_start(q: np.ndarray, q_arm: np.ndarray) -> np.ndarray:
+    """A grasp configuration (n, 11) with the fingers open and its ±2π joints as near the
+    arm's `q_arm` as they go."""
+    q_grasp = np.array(q, dtype=float)
+    q_grasp[..., 9:] = GRIPPER_OPEN
+    q_grasp[..., ARM_POSITIONS] = nearest_turn(q_grasp[..., ARM_POSITIONS], q_arm)
+    return q_grasp
 
 
 def pickup_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
@@ -323,28 +353,41 @@ def pickup_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: 
         if result.reason == "base_collision":
             return PickupGeometry(False, "base_collision")
         tried = tried or result.grasp
-        q_grasp = with_gripper(result.q, GRIPPER_OPEN)
-        q_grasp[ARM_POSITIONS] = nearest_turn(q_grasp[ARM_POSITIONS], np.asarray(q_arm))
-        X_AG = _grasp_pose_in_A(q_grasp)
-        q_pre = _pre_grasp(q_grasp, X_AG, free, holding)
-        if q_pre is None:
-            continue
-        q_closed = with_gripper(q_grasp, GRIPPER_CLOSED)
-        if not holding.CheckEdgeCollisionFree(q_grasp, q_closed):
-            continue
-        q_lift = _lift(q_closed, X_AG, holding)
-        if q_lift is None:
-            continue
-        got_lift = True
-        q_tray = tray_configuration(base, result.grasp, q_closed, holding)
-        if q_tray is None:
-            continue
-        q_release = with_gripper(q_tray, GRIPPER_OPEN)
-        if not free.CheckConfigCollisionFree(q_release) or \
-                not free.CheckEdgeCollisionFree(q_tray, q_release):
-            continue
-        q_stow = with_gripper(scene.q(base), GRIPPER_OPEN)
-        return PickupGeometry(True, "ok", PickupConfigurations(
-            result.grasp, q_grasp, q_pre, q_closed, q_lift, q_tray, q_release, q_stow),
-            grasp=result.grasp)
+        q_grasp = _grasp_start(result.q, np.asarray(q_arm))
+        (solutions,) = _arm_solutions(q_grasp[None])
+        configurations, lifted = _complete(base, result.grasp, q_grasp, solutions, free,
+                                           holding)
+        got_lift |= lifted
+        if configurations is not None:
+            return PickupGeometry(True, "ok", configurations, grasp=result.grasp)
     return PickupGeometry(False, "no_path" if got_lift else "no_ik", grasp=tried)
+
+
+def pickup_feasible_many(scene: FeasibilityScene, checker: FeasibilityChecker,
+                         bases: np.ndarray, dish: str,
+                         reach_offsets: np.ndarray | None = None) -> np.ndarray:
+    """`pickup_geometry(...).ok` for base poses (n, 3) and reach offsets (n, 2 or 3), with
+    the arm stowed: bool (n,).
+
+    The same answers, faster: the first grasp of every pose comes from the checker's batch,
+    the IK of all their pre-grasps and lifts from two vectorised solves; a pose whose first
+    grasp does not complete gets `pickup_geometry` (which goes on to its other grasps).
+    """
+    bases = np.asarray(bases, dtype=float).reshape(-1, 3)
+    feasible, q, grasps = checker.first_grasps(bases, dish, reach_offsets)
+    ok = np.zeros(len(bases), dtype=bool)
+    rows = np.flatnonzero(feasible)
+    if rows.size == 0:
+        return ok
+    free, holding = scene.checker, ik.grasp_checker(scene, dish)
+    q_grasps = _grasp_start(q[rows], np.asarray(ARM_STOW))
+    for row, q_grasp, solutions in zip(rows, q_grasps, _arm_solutions(q_grasps), strict=True):
+        configurations, _ = _complete(bases[row], grasps[row], q_grasp, solutions, free,
+                                      holding)
+        if configurations is not None:
+            ok[row] = True
+        else:
+            offset = None if reach_offsets is None else np.asarray(reach_offsets)[row]
+            ok[row] = pickup_geometry(scene, checker, bases[row], dish,
+                                      reach_offset=offset).ok
+    return ok
