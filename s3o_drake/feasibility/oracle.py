@@ -26,7 +26,7 @@ Two ways to compute it:
   a grid `FINE_CELL` or finer whose every k-th centre is a heatmap cell's centre, and
   blurred with `scipy.ndimage.gaussian_filter`. What this leaves out (the drive's heading
   taken along the line to the dish, a yaw within `TURN_TOLERANCE` of facing taken as
-  facing) is measured against `probabilities` by `python -m s3o_drake.feasibility.pinning`.
+  facing) is measured against `probabilities` by `python -m s3o_drake.execution.pinning`.
 """
 
 import math
