@@ -8,7 +8,8 @@ Each run plans the task (the scenario file) with the method, the noise and the p
 randomness drawn from the seed, and executes the plan in the full Drake simulation, as
 `python -m s3o_drake.run` does but without the playback. It records whether every dish was
 collected (task completion), the share of dishes collected, the execution time (simulated)
-and the planning time. Seeds are 0 to N-1.
+and the planning time, and per executed pickup the plan's Fea^m against the outcome (read
+by `python -m s3o_drake.calibration`). Seeds are 0 to N-1.
 
 Difficulty (the paper's measure): Σ_o ∫ Fea^m(y, o) dy, the expected area from which each
 dish can be picked, from the Drake oracle under the scenario's noise model, summed over the

@@ -20,7 +20,9 @@ them in the overhead camera's depth image (s3o_drake.perception).
 
 Outputs, in `out/<scenario file stem>/` unless --out or `outputs.directory` says otherwise:
   report.json     what happened: dishes collected, execution (simulated) time, planning
-                  time, each action's outcome, the realtime rate of the simulation
+                  time, each action's outcome, the realtime rate of the simulation, and a
+                  record per executed pickup (predicted Fea^m and its source, planned and
+                  real stop, outcome, reach noise; `python -m s3o_drake.calibration` reads it)
   plan.json       the task-motion plan (actions, base poses, paths, expected utility,
                   predicted time, Fea^m per pickup, planning time and its breakdown)
   playback.html   a self-contained Meshcat recording of the execution; open it in a browser
@@ -186,8 +188,12 @@ def describe_plan(p: TaskMotionPlan) -> str:
 def describe_execution(report: dict) -> str:
     """The execution's outcome: each action, then the summary line."""
     lines = ["Execution:"]
+    # A record per finished pickup, in the order of the pickups' outcomes.
+    predicted = iter(record["predicted"] for record in report.get("pickups", []))
     for i, (action, arg, outcome) in enumerate(report["outcomes"], 1):
-        lines.append(f"  {i:2d}. {action} {arg}: {outcome}")
+        fea = next(predicted, None) if action == "pickup" else None
+        lines.append(f"  {i:2d}. {action} {arg}: {outcome}"
+                     + ("" if fea is None else f" (predicted Fea^m {fea:.2f})"))
     lines.append(f"Collected {report['collected']} of {report['dishes']} dishes in "
                  f"{report['execution_time']:.1f} s of execution (simulated); planning took "
                  f"{report['planning_time']:.1f} s; simulated {report['simulated_time']:.1f} s "

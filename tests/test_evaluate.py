@@ -14,6 +14,7 @@ from pathlib import Path
 import matplotlib.image
 import pytest
 
+from s3o_drake.calibration import main as calibration
 from s3o_drake.evaluate import main as evaluate
 from s3o_drake.evaluation.difficulty import difficulty_groups
 from s3o_drake.evaluation.jobs import RUN, Job
@@ -27,6 +28,7 @@ from s3o_drake.evaluation.summary import (
     paired_comparison,
     summarize,
 )
+from s3o_drake.systems.commands import PickupRecord
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small"
@@ -184,6 +186,11 @@ def test_the_command_runs_on_a_dask_cluster(tmp_path, capsys):
     (difficulty,) = ResultStore(out / "difficulty.jsonl").rows()
     assert run["collected"] == 2 and run["complete"] and run["execution_time"] > 10.0
     assert run["outcomes"][-1].endswith("done")
+    # A record per executed pickup, in the order of the outcomes, as plain JSON.
+    records = [PickupRecord.from_dict(r) for r in run["pickups"]]
+    assert [f"pickup {r.dish}: done" for r in records] == [
+        o for o in run["outcomes"] if o.startswith("pickup")]
+    assert all(r.method == "S3O-GROP*" and 0 <= r.predicted <= 1 for r in records)
     assert set(difficulty["areas"]) == {"plate_a", "cup_b"} and difficulty["area"] > 0.5
     assert "1 tasks x 1 methods x 1 seeds" in capsys.readouterr().out
 
@@ -316,6 +323,11 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, c
         assert image.shape[0] > 150 and image.shape[1] > 500 and image.std() > 0.01
     summary = (out / "summary.md").read_text()
     assert "Table I" in summary and "Task completion rate" in summary
+    # The calibration command reads the study's pickups.
+    pickups = sum(len(r["pickups"]) for r in rows)
+    assert pickups >= 6
+    assert calibration([str(out), "--out", str(tmp_path / "calibration")]) == 0
+    assert f"{pickups} executed pickups from 6 runs" in capsys.readouterr().out
 
     # Once more: nothing left to run; --summarize only rewrites the tables.
     assert evaluate(_command(tasks, out)) == 0

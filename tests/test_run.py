@@ -1,7 +1,9 @@
 """The run command end to end on a small scene: plan, execute, report, playback."""
 
 import base64
+import contextlib
 import dataclasses
+import io
 import json
 import re
 import shutil
@@ -12,10 +14,12 @@ from pathlib import Path
 import cv2
 import pytest
 
+from s3o_drake.angles import wrap
 from s3o_drake.camera import overhead_camera
-from s3o_drake.planning.plan import TaskMotionPlan
+from s3o_drake.planning.plan import TaskMotionPlan, facing_yaw
 from s3o_drake.run import main as run_main
 from s3o_drake.scenario import dump_scenario, load_scenario
+from s3o_drake.systems.commands import PickupRecord
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -25,12 +29,14 @@ SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
 def exact_run(tmp_path_factory):
     """two_dishes.yaml planned and executed without simulated noise (seed 1)."""
     out = tmp_path_factory.mktemp("run") / "run"
-    status = run_main([str(SMALL), "--out", str(out), "--no-noise"])
-    return status, out
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):  # capsys is per test, the run per module
+        status = run_main([str(SMALL), "--out", str(out), "--no-noise"])
+    return status, out, printed.getvalue()
 
 
-def test_without_noise_every_dish_is_collected(exact_run, capsys):
-    status, out = exact_run
+def test_without_noise_every_dish_is_collected(exact_run):
+    status, out, printed = exact_run
     assert status == 0
     report = json.loads((out / "report.json").read_text())
     assert report["collected"] == report["dishes"] == 2
@@ -46,10 +52,28 @@ def test_without_noise_every_dish_is_collected(exact_run, capsys):
     assert [(a, b) for a, b, _ in report["outcomes"]] == [
         ("goto", x.location) if hasattr(x, "path") else ("pickup", x.dish)
         for x in plan.actions]
+    # A record per executed pickup: the plan's Fea^m from the planned stop, the stop
+    # where the base really stood (without noise: the planned one, within the navigator's
+    # goal tolerance, facing the dish), the outcome; no reach noise was drawn.
+    records = [PickupRecord.from_dict(r) for r in report["pickups"]]
+    assert [(r.dish, r.predicted) for r in records] == [(a.dish, a.feasibility)
+                                                        for a in plan.pickups]
+    stop = plan.gotos[0].pose
+    dishes = {d.name: d for d in load_scenario(SMALL).dishes}
+    for r in records:
+        assert r.succeeded and r.reach_noise is None and r.method == "S3O-GROP*"
+        assert r.source == "fcn" and r.kind == dishes[r.dish].kind
+        assert r.planned_pose == pytest.approx(stop)
+        assert r.actual_pose[:2] == pytest.approx(stop[:2], abs=0.03)
+        assert abs(wrap(r.actual_pose[2] - facing_yaw(r.actual_pose[:2],
+                                                      dishes[r.dish].position))) < 0.05
+    # The summary puts each pickup's prediction beside its outcome.
+    for r in records:
+        assert f"pickup {r.dish}: done (predicted Fea^m {r.predicted:.2f})" in printed
 
 
 def test_outputs_are_written_and_open(exact_run):
-    _, out = exact_run
+    _, out, _ = exact_run
     html = (out / "playback.html").read_text()
     assert "<html" in html[:200] and "MeshCat.Viewer" in html
     assert not re.search(r"<script[^>]+src=[\"']https?:", html)  # self-contained
@@ -71,7 +95,7 @@ def test_outputs_are_written_and_open(exact_run):
 
 @pytest.mark.skipif(shutil.which("chromium") is None, reason="needs Chromium (.ci/run installs it)")
 def test_playback_renders_in_headless_chromium(exact_run, tmp_path):
-    _, out = exact_run
+    _, out, _ = exact_run
     shot = tmp_path / "shot.png"
     subprocess.run(["chromium", "--headless", "--no-sandbox",
                     "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
@@ -97,6 +121,10 @@ def test_large_reaching_noise_fails_some_pickups_without_a_crash(tmp_path):
     report = json.loads((out / "report.json").read_text())
     failed = [o for a, _, o in report["outcomes"] if a == "pickup" and o != "done"]
     assert failed and all(o.startswith("failed: ") for o in failed)
+    # The records say the same, with the reach error drawn for each pickup.
+    records = [PickupRecord.from_dict(r) for r in report["pickups"]]
+    assert [f"failed: {r.outcome}" for r in records if not r.succeeded] == failed
+    assert all(r.reach_noise is not None for r in records if not r.outcome.startswith("turn"))
     assert report["collected"] < report["dishes"] and report["finished"]
 
 

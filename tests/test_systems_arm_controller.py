@@ -31,7 +31,7 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.arm_controller import ArmController
+from s3o_drake.systems.arm_controller import REACH_NOISE_STREAM, ArmController
 from s3o_drake.systems.commands import GripEvent, PickCommand, Status
 from s3o_drake.world import build_world_diagram
 
@@ -208,6 +208,10 @@ def test_large_reach_noise_misses_or_fails_without_raising(scenario, scene, chec
         t = record[-1][0] + 0.25
     failed = [s for s in outcomes if s.state == "failed"]
     assert failed and all(s.reason in (*PLANNING_REASONS, "missed") for s in failed)
+    # Missed or not, each report says how far off the reach was drawn.
+    assert all(s.reach_noise is not None and len(s.reach_noise) == 2 for s in outcomes)
+    missed = [s for s in outcomes if s.reason == "missed"]
+    assert all(np.hypot(*s.reach_noise) > grasp_tolerance("plate") for s in missed)
 
 
 def test_same_seed_and_id_give_the_same_pickup(scenario, scene, checker):
@@ -225,6 +229,19 @@ def test_same_seed_and_id_give_the_same_pickup(scenario, scene, checker):
         runs.append((status, desired.copy()))
     assert runs[0][0] == runs[1][0]
     np.testing.assert_array_equal(runs[0][1], runs[1][1])
+    # The status reports the reach error drawn (for the calibration of Fea^m): the
+    # command's own stream, scaled by the scenario's reach_std.
+    draw = np.random.default_rng([3, REACH_NOISE_STREAM, 7]).normal(0.0, 1.0, 2) * 0.05
+    assert runs[0][0].reach_noise == pytest.approx(tuple(draw))
+
+
+def test_no_reach_noise_is_reported_with_the_noise_off(scenario, scene, checker):
+    arm, context = _controller(scenario, scene, checker, noise=False)
+    _fix_robot(arm, context, base=FRONT_OF_PLATE - np.array([0.0, 1.3, 0.0]))
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=4, dish="plate_a"))
+    _step(arm, context, 0.0)
+    status = _outputs(arm, context)[2]
+    assert status.state == "failed" and status.reach_noise is None
 
 
 # ------------------------------------------------------------------------- simulated

@@ -12,7 +12,7 @@ from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.robot import robot_desired_state, robot_positions
 from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.commands import NO_COMMAND, Status
+from s3o_drake.systems.commands import NO_COMMAND, PickupRecord, Status
 from s3o_drake.systems.s3o_planner import S3OPlanner, scenario_unmapped_chairs
 
 SCENE = "scenarios/small/opposite_sides.yaml"
@@ -172,3 +172,85 @@ def test_turns_to_face_each_further_dish_before_picking_it():
     _step(system, context)
     pick2 = system.GetOutputPort("pick_command").Eval(context)
     assert pick2.dish == second.dish and pick2.id > turn.id
+
+
+def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenario):
+    """Each finished pickup leaves a PickupRecord on `progress`: the plan's Fea^m and the
+    stop it was predicted for, where the base really stood when the pick was sent, the
+    arm's outcome and reach noise."""
+    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+                        perceive=scenario_unmapped_chairs(scenario))
+    context = _context(system, scenario)
+    system.ExecuteInitializationEvents(context)
+    plan = system.GetOutputPort("plan").Eval(context)
+    kinds = {d.name: d.kind for d in scenario.dishes}
+    positions = {d.name: d.position for d in scenario.dishes}
+    expected, stop, landing = [], None, None
+    for i, action in enumerate(plan.actions):
+        _step(system, context)
+        if isinstance(action, Goto):
+            command = system.GetOutputPort("base_command").Eval(context)
+            system.GetInputPort("base_status").FixValue(context, Status(command.id, "done"))
+            # A landing off the planned stop, facing the dish it picks next (no turn).
+            dish = positions[plan.actions[i + 1].dish]
+            x, y = action.pose[0] + 0.03 * (i + 1), action.pose[1] - 0.02
+            landing = (x, y, float(np.arctan2(dish[1] - y, dish[0] - x)))
+            system.GetInputPort("robot_state").FixValue(
+                context, robot_desired_state(robot_positions(*landing)))
+            stop = action.pose
+        else:
+            command = system.GetOutputPort("pick_command").Eval(context)
+            noise = (0.001 * i, -0.002)
+            failed = len(expected) == 0
+            system.GetInputPort("arm_status").FixValue(context, Status(
+                command.id, "failed" if failed else "done", "no_ik" if failed else "",
+                reach_noise=noise))
+            expected.append(PickupRecord(
+                dish=action.dish, kind=kinds[action.dish], method="V-GROP*",
+                predicted=action.feasibility, source="oracle", planned_pose=stop,
+                actual_pose=landing, outcome="no_ik" if failed else "done",
+                reach_noise=noise))
+        _step(system, context)
+    records = system.GetOutputPort("progress").Eval(context).pickups
+    assert len(records) == len(plan.pickups) >= 2
+    for got, want in zip(records, expected, strict=True):
+        assert got.actual_pose == pytest.approx(want.actual_pose)
+        assert got == dataclasses.replace(want, actual_pose=got.actual_pose)
+    assert [r.succeeded for r in records] == [False] + [True] * (len(records) - 1)
+
+
+def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
+    scenario = _with_oracle(load_scenario("scenarios/small/two_dishes.yaml"))
+    system = S3OPlanner(scenario=scenario, method="S3O-GROP*", seed=0,
+                        perceive=scenario_unmapped_chairs(scenario))
+    context = _context(system, scenario)
+    system.ExecuteInitializationEvents(context)
+    goto, first, second = system.GetOutputPort("plan").Eval(context).actions
+    _step(system, context)
+    command = system.GetOutputPort("base_command").Eval(context)
+    system.GetInputPort("base_status").FixValue(context, Status(id=command.id, state="done"))
+    system.GetInputPort("robot_state").FixValue(
+        context, robot_desired_state(robot_positions(*goto.pose)))
+    _step(system, context)
+    _step(system, context)
+    pick = system.GetOutputPort("pick_command").Eval(context)
+    system.GetInputPort("arm_status").FixValue(context, Status(id=pick.id, state="done"))
+    _step(system, context)
+    _step(system, context)  # the turn towards the second dish
+    turn = system.GetOutputPort("base_command").Eval(context)
+    assert turn.turn
+    stopped = (goto.pose[0], goto.pose[1], goto.pose[2] + 0.2)
+    system.GetInputPort("robot_state").FixValue(
+        context, robot_desired_state(robot_positions(*stopped)))
+    system.GetInputPort("base_status").FixValue(
+        context, Status(id=turn.id, state="failed", reason="blocked"))
+    _step(system, context)
+    progress = system.GetOutputPort("progress").Eval(context)
+    assert progress.outcomes[-1] == ("pickup", second.dish, "failed: turn blocked")
+    done, blocked = progress.pickups
+    assert (done.dish, done.outcome, blocked.dish) == (first.dish, "done", second.dish)
+    assert done.actual_pose == pytest.approx(goto.pose)
+    assert blocked.outcome == "turn blocked" and blocked.reach_noise is None
+    assert blocked.actual_pose == pytest.approx(stopped)
+    assert blocked.planned_pose == done.planned_pose == pytest.approx(goto.pose)
+    assert blocked.predicted == second.feasibility

@@ -1,18 +1,28 @@
 """TaskMonitor: reports the dishes on the tray and ends the simulation when the plan is over."""
 
+import json
+
 import pytest
 from pydrake.common.value import AbstractValue
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource
 
-from s3o_drake.systems.commands import PlanProgress
+from s3o_drake.systems.commands import PickupRecord, PlanProgress
 from s3o_drake.systems.task_monitor import TaskMonitor
 
 STATES = {"plate_a": "tray", "cup_b": "dropped", "bowl_c": "tray", "plate_d": "table"}
+RECORDS = (
+    PickupRecord(dish="plate_a", kind="plate", method="S3O-GROP*", predicted=0.97,
+                 source="fcn", planned_pose=(1.0, 2.0, 0.5), actual_pose=(1.05, 1.9, 0.52),
+                 outcome="done", reach_noise=(0.004, -0.01)),
+    PickupRecord(dish="cup_b", kind="cup", method="S3O-GROP*", predicted=0.6, source="fcn",
+                 planned_pose=(1.0, 2.0, 0.5), actual_pose=(1.05, 1.9, 0.8),
+                 outcome="missed", reach_noise=(0.03, 0.02)),
+)
 DONE = PlanProgress(step=4, total=4, finished=True, reason="plan complete",
                     outcomes=(("goto", "l1", "done"), ("pickup", "plate_a", "done"),
-                              ("pickup", "cup_b", "failed: missed")))
+                              ("pickup", "cup_b", "failed: missed")), pickups=RECORDS)
 
 
 def _fixed(monitor: TaskMonitor, context, progress: PlanProgress, states=STATES):
@@ -33,7 +43,8 @@ def test_report_counts_the_dishes_on_the_tray():
     context.SetTime(3.0)
     report = monitor.GetOutputPort("report").Eval(context)
     assert report == {"dishes": 4, "collected": 2, "collected_dishes": ["bowl_c", "plate_a"],
-                      "execution_time": 3.0, "finished": False, "reason": "", "outcomes": []}
+                      "execution_time": 3.0, "finished": False, "reason": "", "outcomes": [],
+                      "pickups": []}
 
 
 def test_execution_time_is_when_the_plan_finished():
@@ -48,6 +59,21 @@ def test_execution_time_is_when_the_plan_finished():
     assert report["execution_time"] == pytest.approx(12.5)
     assert report["outcomes"] == [["goto", "l1", "done"], ["pickup", "plate_a", "done"],
                                   ["pickup", "cup_b", "failed: missed"]]
+
+
+def test_report_carries_the_pickup_records_as_plain_json():
+    monitor = TaskMonitor()
+    context = monitor.CreateDefaultContext()
+    _fixed(monitor, context, DONE)
+    pickups = monitor.GetOutputPort("report").Eval(context)["pickups"]
+    assert pickups[1] == {"dish": "cup_b", "kind": "cup", "method": "S3O-GROP*",
+                          "predicted": 0.6, "source": "fcn", "planned_pose": [1.0, 2.0, 0.5],
+                          "actual_pose": [1.05, 1.9, 0.8], "outcome": "missed",
+                          "reach_noise": [0.03, 0.02]}
+    # Through JSON and back: the same records.
+    again = json.loads(json.dumps(pickups))
+    assert tuple(PickupRecord.from_dict(p) for p in again) == RECORDS
+    assert [r.succeeded for r in RECORDS] == [True, False]
 
 
 def test_simulation_ends_settle_time_after_the_plan_finishes():
@@ -65,6 +91,7 @@ def test_simulation_ends_settle_time_after_the_plan_finishes():
     report = monitor.GetOutputPort("report").Eval(context)
     assert report["execution_time"] == pytest.approx(1.0, abs=0.011)
     assert report["collected"] == 2 and report["finished"]
+    assert [p["outcome"] for p in report["pickups"]] == ["done", "missed"]
 
 
 def test_simulation_ends_at_the_time_limit():
@@ -85,6 +112,21 @@ def test_simulation_ends_at_the_time_limit():
     report = monitor.GetOutputPort("report").Eval(context)
     assert report["reason"] == "time limit" and not report["finished"]
     assert report["execution_time"] == pytest.approx(2.0, abs=0.011)
+
+
+@pytest.mark.parametrize("change, field", [
+    ({"predicted": 1.2}, "predicted"), ({"predicted": "0.9"}, "predicted"),
+    ({"actual_pose": [1.0, 2.0]}, "actual_pose"), ({"reach_noise": [0.1]}, "reach_noise"),
+    ({"outcome": None}, "outcome"), ({"dish": None}, "dish"),
+])
+def test_a_bad_pickup_record_is_refused_by_field(change, field):
+    data = {**RECORDS[0].to_dict(), **change}
+    with pytest.raises(ValueError, match=field):
+        PickupRecord.from_dict(data)
+    del data[field]
+    if field != "reach_noise":  # optional: None when no noise was drawn
+        with pytest.raises(ValueError, match=field):
+            PickupRecord.from_dict(data)
 
 
 def test_bad_arguments_are_refused():

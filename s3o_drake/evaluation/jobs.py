@@ -83,7 +83,8 @@ def _run(job: Job) -> dict:
             "stops": None if run.plan is None else len(run.plan.gotos),
             "planned": run.plan is not None, "finished": bool(r.get("finished", True)),
             "reason": r.get("reason", ""), "realtime_rate": r["realtime_rate"],
-            "outcomes": [f"{action} {arg}: {outcome}" for action, arg, outcome in r["outcomes"]]}
+            "outcomes": [f"{action} {arg}: {outcome}" for action, arg, outcome in r["outcomes"]],
+            "pickups": r["pickups"]}
 
 
 def _difficulty(job: Job) -> dict:

@@ -39,7 +39,8 @@ class _Activity:
     `hold`: the arm's and fingers' 8 positions held while no motion plays; `trajectory`: the
     motion playing (11 positions, t from 0 at `t_start`) or None; `t_grasp`, `t_release`:
     when (since `t_start`) the gripper closes on and lets go of `dish`; `missed`: the reach
-    noise put the dish out of the gripper's tolerance.
+    noise put the dish out of the gripper's tolerance; `reach_noise`: that noise (None with
+    the noise off), reported on every status of the command.
     """
 
     started: bool = False
@@ -53,6 +54,7 @@ class _Activity:
     t_grasp: float = 0.0
     t_release: float = 0.0
     missed: bool = False
+    reach_noise: tuple[float, float] | None = None
 
     def __deepcopy__(self, memo) -> "_Activity":
         # Immutable (the trajectory is never changed after planning): Drake's copies of the
@@ -77,7 +79,8 @@ class ArmController(LeafSystem):
             the end of its "release", `placed` gains it at the end of "release".
         status: abstract Status of the latest command taken: "idle", "running", "done" or
             "failed" with reason "no_ik", "no_path", "base_collision", "missed" or
-            "unknown_dish".
+            "unknown_dish"; its `reach_noise` is the reach error drawn for the pickup
+            (None with the noise off).
 
     Every `control_period` an unrestricted update takes new commands and moves the
     played motion's grip and status on; `arm_desired_state` follows the motion
@@ -173,17 +176,20 @@ class ArmController(LeafSystem):
         if elapsed < trajectory.end_time() - 1e-9:
             return activity
         end = trajectory.value(trajectory.end_time()).ravel()[ARM_AND_FINGERS]
-        status = (Status(activity.command, "failed", "missed") if activity.missed
-                  else Status(activity.command, "done"))
+        status = (Status(activity.command, "failed", "missed", activity.reach_noise)
+                  if activity.missed
+                  else Status(activity.command, "done", reach_noise=activity.reach_noise))
         return replace(activity, status=status, hold=tuple(end), trajectory=None)
 
     def _start(self, activity: _Activity, command: PickCommand, context: Context,
                robot_state: np.ndarray) -> _Activity:
         """Plans `command`'s pickup; the motion plays from now, or the command fails."""
-        activity = replace(activity, command=command.id, dish=command.dish, missed=False)
+        activity = replace(activity, command=command.id, dish=command.dish, missed=False,
+                           reach_noise=None)
 
         def failed(reason: str) -> _Activity:
-            return replace(activity, status=Status(command.id, "failed", reason))
+            return replace(activity, status=Status(command.id, "failed", reason,
+                                                   activity.reach_noise))
 
         dish = self._scene.dishes.get(command.dish)
         if dish is None:
@@ -193,6 +199,8 @@ class ArmController(LeafSystem):
         rng = np.random.default_rng([self._seed, REACH_NOISE_STREAM, command.id])
         noise = rng.normal(0.0, 1.0, 2) * self._reach_std
         plan_seed = int(rng.integers(2**31 - 1))
+        if self._reach_std > 0:  # reported, for the calibration of Fea^m against outcomes
+            activity = replace(activity, reach_noise=(float(noise[0]), float(noise[1])))
         p_WD_scenario, _ = self._scene.dish_p_WD(command.dish)
         p_WD = self._dish_xy(context, command.dish, p_WD_scenario)
         # The checker's scene has the dish where the scenario put it: the offset carries
@@ -212,7 +220,8 @@ class ArmController(LeafSystem):
         ends = dict(zip((s.name for s in plan.segments),
                         np.cumsum([s.duration for s in plan.segments]), strict=True))
         return replace(
-            activity, status=Status(command.id, "running"), trajectory=plan.trajectory(),
+            activity, status=Status(command.id, "running", reach_noise=activity.reach_noise),
+            trajectory=plan.trajectory(),
             t_start=context.get_time(), t_grasp=float(ends["close"]),
             t_release=float(ends["release"]),
             missed=not caught(noise, dish.kind))

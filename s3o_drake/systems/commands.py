@@ -7,11 +7,16 @@ planner advances when the status of its current command says done (or gives up o
 pickup and goes on with the next action, or stops at a failed goto). Id 0 means "no
 command": controllers hold still.
 
+`PickupRecord` is what the planner learns of each executed pickup (for the calibration of
+Fea^m, s3o_drake.evaluation.calibration); it travels in `PlanProgress` to the task monitor.
+
 All are frozen dataclasses: a port value is copied by Drake, and nothing may change it in
 place.
 """
 
+import math
 from dataclasses import dataclass
+from typing import Any
 
 NO_COMMAND = 0
 #: How often (s) the execution systems of the full diagram look at their inputs: commands,
@@ -46,11 +51,16 @@ class PickCommand:
 class Status:
     """A controller's report on command `id`: state "idle" (no command yet), "running",
     "done" or "failed", with the failure's `reason` (e.g. "no_ik", "no_path", "missed",
-    "base_collision", "blocked")."""
+    "base_collision", "blocked").
+
+    `reach_noise`: on the arm's reports of a pickup, the reach error T^m drawn for it
+    ((dx, dy), m, added to where the gripper aims); None when none was drawn (the
+    simulation's noise is off, the dish is unknown) and on the base's reports."""
 
     id: int = NO_COMMAND
     state: str = "idle"
     reason: str = ""
+    reach_noise: tuple[float, float] | None = None
 
     @property
     def finished(self) -> bool:
@@ -69,6 +79,76 @@ class GripEvent:
 
 
 @dataclass(frozen=True)
+class PickupRecord:
+    """One executed pickup, as calibration of Fea^m needs it: what the plan predicted from
+    where, where the base really stood, and what happened.
+
+    `dish`, `kind` (plate, bowl, cup); `method` that planned it; `predicted`: the plan's
+    Fea^m of the pickup (`Pickup.feasibility`) from its planned stop; `source`: the model
+    that gave it (`planner.feasibility`: "fcn" or "oracle"); `planned_pose`: the stop as
+    planned, (x, y, yaw) of the goto before the pickup (the plan's start pose when there
+    was none); `actual_pose`: the base's (x, y, yaw) when the pickup was commanded, after
+    any turn to face the dish (where a turn failed: where it stopped); `outcome`: "done",
+    or the failure's reason ("no_ik", "missed", "turn blocked", ...); `reach_noise`: the
+    reach error drawn, (dx, dy) m, None when none was drawn.
+    """
+
+    dish: str
+    kind: str
+    method: str
+    predicted: float
+    source: str
+    planned_pose: tuple[float, float, float]
+    actual_pose: tuple[float, float, float]
+    outcome: str
+    reach_noise: tuple[float, float] | None = None
+
+    @property
+    def succeeded(self) -> bool:
+        return self.outcome == "done"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON data (lists for the tuples)."""
+        return {"dish": self.dish, "kind": self.kind, "method": self.method,
+                "predicted": self.predicted, "source": self.source,
+                "planned_pose": list(self.planned_pose), "actual_pose": list(self.actual_pose),
+                "outcome": self.outcome,
+                "reach_noise": None if self.reach_noise is None else list(self.reach_noise)}
+
+    @classmethod
+    def from_dict(cls, data: Any) -> "PickupRecord":
+        """The record of `to_dict`'s data; ValueError naming the field when it is not one."""
+        if not isinstance(data, dict):
+            raise ValueError(f"expected a pickup record (an object), got {data!r:.60}")
+        missing = [f for f in ("dish", "kind", "method", "predicted", "source",
+                               "planned_pose", "actual_pose", "outcome") if f not in data]
+        if missing:
+            raise ValueError(f"pickup record without {missing[0]!r}")
+        for name in ("dish", "kind", "method", "source", "outcome"):
+            if not isinstance(data[name], str):
+                raise ValueError(f"{name}: expected a string, got {data[name]!r:.60}")
+        predicted = data["predicted"]
+        if (isinstance(predicted, bool) or not isinstance(predicted, int | float)
+                or not 0.0 <= predicted <= 1.0):
+            raise ValueError(f"predicted: expected a probability in [0, 1], got {predicted!r}")
+        noise = data.get("reach_noise")
+        return cls(dish=data["dish"], kind=data["kind"], method=data["method"],
+                   predicted=float(predicted), source=data["source"],
+                   planned_pose=_numbers(data["planned_pose"], 3, "planned_pose"),
+                   actual_pose=_numbers(data["actual_pose"], 3, "actual_pose"),
+                   outcome=data["outcome"],
+                   reach_noise=None if noise is None else _numbers(noise, 2, "reach_noise"))
+
+
+def _numbers(value: Any, count: int, name: str) -> tuple[float, ...]:
+    if (not isinstance(value, list | tuple) or len(value) != count
+            or not all(isinstance(v, int | float) and not isinstance(v, bool)
+                       and math.isfinite(v) for v in value)):
+        raise ValueError(f"{name}: expected {count} finite numbers, got {value!r:.60}")
+    return tuple(float(v) for v in value)
+
+
+@dataclass(frozen=True)
 class PlanProgress:
     """The planner's progress through its plan, for the task monitor.
 
@@ -76,6 +156,7 @@ class PlanProgress:
     `finished`: nothing more will happen (plan done, or it cannot go on: `reason` says
     why, e.g. "plan complete", "goto 3 failed: blocked", "no plan: ...").
     `outcomes`: per finished action, (action, argument, "done" or "failed: <reason>").
+    `pickups`: per finished pickup, in order, its `PickupRecord`.
     """
 
     step: int = 0
@@ -83,3 +164,4 @@ class PlanProgress:
     finished: bool = False
     reason: str = ""
     outcomes: tuple[tuple[str, str, str], ...] = ()
+    pickups: tuple[PickupRecord, ...] = ()

@@ -12,6 +12,9 @@ a BaseCommand whose path starts where the base really is (the previous landing c
 noise), a `pickup` a PickCommand. It advances when the controller reports the command done;
 a failed pickup is recorded and the plan goes on with the next action (the dish stays where
 it is); a failed goto ends the execution (the plan's later pickups assumed that stop).
+Each finished pickup also leaves a `PickupRecord` on `progress` (the Fea^m the plan
+predicted from its planned stop, where the base really stood, the outcome, the reach noise
+the arm drew): the executions against which Fea^m is calibrated.
 
 Replanning (later issues): a change of the optional `replan_request` input's value plans
 again from the robot's current pose for the dishes not yet collected (the state keeps the
@@ -36,7 +39,7 @@ from s3o_drake.feasibility.fcn import FcnFeasibility, overhead_view, use_one_thr
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.perception import ChairPerception
 from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.planning.plan import Goto, TaskMotionPlan, facing_yaw
+from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan, facing_yaw
 from s3o_drake.planning.planner import PlanningError, plan
 from s3o_drake.planning.task_planner import TaskPlanningError
 from s3o_drake.robot import NUM_POSITIONS
@@ -45,6 +48,7 @@ from s3o_drake.systems.commands import (
     NO_COMMAND,
     BaseCommand,
     PickCommand,
+    PickupRecord,
     PlanProgress,
     Status,
 )
@@ -85,6 +89,9 @@ class _Execution:
     base_command: BaseCommand = field(default_factory=BaseCommand)
     pick_command: PickCommand = field(default_factory=PickCommand)
     outcomes: tuple[tuple[str, str, str], ...] = ()
+    pickups: tuple[PickupRecord, ...] = ()
+    pick_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """The base's pose when the current pickup's PickCommand was sent."""
     finished: bool = False
     reason: str = ""
     replan_seen: float = 0.0
@@ -107,7 +114,8 @@ class S3OPlanner(LeafSystem):
       replan_request (1, optional): a change of its value asks for a new plan.
     Output ports:
       base_command (abstract BaseCommand), pick_command (abstract PickCommand);
-      progress (abstract PlanProgress);
+      progress (abstract PlanProgress: the outcomes, and a PickupRecord per finished
+        pickup);
       plan (abstract TaskMotionPlan, or None before planning / when none could be made).
     """
 
@@ -124,6 +132,7 @@ class S3OPlanner(LeafSystem):
         self._progress_bar = progress_bar
         self._robot_labels = robot_labels  # the robot's own pixels, for the FCN's view
         self._dish_xy = {d.name: tuple(d.position) for d in scenario.dishes}
+        self._dish_kind = {d.name: d.kind for d in scenario.dishes}
         self._images = [
             self.DeclareAbstractInputPort("overhead_color_image",
                                           AbstractValue.Make(ImageRgba8U())),
@@ -257,7 +266,8 @@ class S3OPlanner(LeafSystem):
                 return dataclasses.replace(e, command_id=cid, next_id=cid + 1,
                                            base_command=turn, turning=True)
             return dataclasses.replace(e, command_id=cid, next_id=cid + 1, turned=True,
-                                       pick_command=PickCommand(id=cid, dish=action.dish))
+                                       pick_command=PickCommand(id=cid, dish=action.dish),
+                                       pick_pose=(float(x), float(y), float(yaw)))
         goto = isinstance(action, Goto) or e.turning
         status: Status = (self._base_status if goto else self._arm_status).Eval(context)
         if status.id != e.command_id or not status.finished:
@@ -269,9 +279,12 @@ class S3OPlanner(LeafSystem):
         outcome = "done" if status.state == "done" else f"failed: {status.reason}"
         if e.turning:
             outcome = f"failed: turn {status.reason}"
+        pickups = e.pickups
+        if not goto:
+            pickups = (*pickups, self._record(context, e, action, status))
         e = dataclasses.replace(e, outcomes=(*e.outcomes, (name, arg, outcome)),
-                                command_id=NO_COMMAND, step=e.step + 1, turning=False,
-                                turned=False)
+                                pickups=pickups, command_id=NO_COMMAND, step=e.step + 1,
+                                turning=False, turned=False)
         if goto and status.state != "done":
             return dataclasses.replace(e, finished=True,
                                        reason=f"goto {arg} failed: {status.reason}")
@@ -279,11 +292,32 @@ class S3OPlanner(LeafSystem):
             return dataclasses.replace(e, finished=True, reason="plan complete")
         return e
 
+    def _record(self, context: Context, e: _Execution, action: Pickup,
+                status: Status) -> PickupRecord:
+        """The record of the pickup at `e.step`, which `status` has just finished."""
+        if e.turning:  # the turn to face the dish failed: no pick, the base stopped here
+            actual = tuple(float(v) for v in np.asarray(self._robot_state.Eval(context))[:3])
+            outcome, noise = f"turn {status.reason}", None
+        else:
+            actual = e.pick_pose
+            outcome = "done" if status.state == "done" else status.reason
+            noise = status.reach_noise
+        # The stop the prediction was made for: the latest goto's pose, else where the
+        # plan started.
+        stop = next((a.pose for a in reversed(e.plan.actions[:e.step]) if isinstance(a, Goto)),
+                    tuple(float(v) for v in e.known.robot.start))
+        return PickupRecord(dish=action.dish, kind=self._dish_kind[action.dish],
+                            method=self._method, predicted=float(action.feasibility),
+                            source=e.known.planner.feasibility,
+                            planned_pose=tuple(float(v) for v in stop), actual_pose=actual,
+                            outcome=outcome, reach_noise=noise)
+
     def _calc_progress(self, context: Context, out) -> None:
         e = self._execution(context)
         total = len(e.plan.actions) if e.plan is not None else 0
         out.set_value(PlanProgress(step=min(e.step + 1, total) if total else 0, total=total,
-                                   finished=e.finished, reason=e.reason, outcomes=e.outcomes))
+                                   finished=e.finished, reason=e.reason, outcomes=e.outcomes,
+                                   pickups=e.pickups))
 
     def planning_time(self, context: Context) -> float:
         """Wall time (s) spent planning so far."""

@@ -28,7 +28,9 @@ class TaskMonitor(LeafSystem):
         report: abstract dict with keys dishes (int, total), collected (int, on the tray),
             collected_dishes (list[str], sorted), execution_time (float, s: the simulated
             time the plan finished, else the current time), finished (bool), reason (str),
-            outcomes (list of [action, argument, result] lists, from progress.outcomes).
+            outcomes (list of [action, argument, result] lists, from progress.outcomes),
+            pickups (list of dicts, `PickupRecord.to_dict()` of progress.pickups: the
+            report is plain JSON data, as run.py and the benchmark write it).
     """
 
     def __init__(self, *, settle_time: float = 0.5, time_limit: float = 600.0,
@@ -90,4 +92,5 @@ class TaskMonitor(LeafSystem):
             "finished": bool(progress.finished),
             "reason": reason,
             "outcomes": [list(outcome) for outcome in progress.outcomes],
+            "pickups": [record.to_dict() for record in progress.pickups],
         })
