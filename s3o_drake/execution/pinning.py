@@ -36,6 +36,9 @@ from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.feasibility.oracle import FeasibilityOracle
 from s3o_drake.scenario import Scenario
 
+#: Base positions drawn around each dish before choosing the poses.
+CANDIDATES = 150
+
 
 def sample_poses(oracle: FeasibilityOracle, count: int,
                  rng: np.random.Generator) -> list[tuple[str, np.ndarray, bool]]:
@@ -46,10 +49,10 @@ def sample_poses(oracle: FeasibilityOracle, count: int,
     infeasible: list = []
     for dish in scene.dishes:
         p = np.asarray(scene.dish_p_WD(dish)[0])
-        r = rng.uniform(0.3, 1.3, 60)
-        theta = rng.uniform(-np.pi, np.pi, 60)
+        r = rng.uniform(0.3, 1.3, CANDIDATES)
+        theta = rng.uniform(-np.pi, np.pi, CANDIDATES)
         xy = p + np.column_stack([r * np.cos(theta), r * np.sin(theta)])
-        bases = np.column_stack([xy, facing_yaw(xy, p) + rng.normal(0.0, 0.1, 60)])
+        bases = np.column_stack([xy, facing_yaw(xy, p) + rng.normal(0.0, 0.1, CANDIDATES)])
         bases = bases[oracle.checker.base_free(bases)]
         ok = oracle.success(bases, dish)
         feasible += [(dish, b, True) for b in bases[ok]]
