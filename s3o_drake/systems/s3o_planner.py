@@ -37,6 +37,7 @@ from s3o_drake.angles import wrap
 from s3o_drake.camera import overhead_camera
 from s3o_drake.feasibility.fcn import FcnFeasibility, overhead_view, use_one_thread
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.feasibility.landing import TURN_TOLERANCE
 from s3o_drake.perception import ChairPerception
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan, facing_yaw
@@ -52,9 +53,6 @@ from s3o_drake.systems.commands import (
     PlanProgress,
     Status,
 )
-
-#: A pickup's dish further off the base's heading than this (rad) is faced first.
-TURN_TOLERANCE = 0.03
 
 #: A perception function: (colour RGBA, depth (m), label) images -> chair poses [x, y, yaw].
 Perceive = Callable[[np.ndarray, np.ndarray, np.ndarray], list[list[float]]]
