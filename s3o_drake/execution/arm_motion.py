@@ -272,13 +272,14 @@ def rounded_corners(path: np.ndarray, rounding: float) -> BsplineTrajectory:
     """A cubic B-spline along the waypoints `path` (n >= 3 distinct, (n, d)) that rounds
     every inner corner and follows the straight edges elsewhere.
 
-    Control points: each inner waypoint W, with one point on either edge at distance
-    `rounding` x (the shorter of the two edges) from W (0 < rounding < 0.5). Four collinear
-    control points make a straight piece, so between corners the curve lies on the edge;
-    near W it stays inside the thin triangle of the three points there, so it cuts the corner
-    by less than that distance. The curve starts at path[0] and ends at path[-1] (clamped
-    knots) and is parameterised nearly by arc length (averaging knots over the control
-    polygon's chord lengths, de Boor's choice), which suits TOPPRA's grid.
+    Control points: the ends, and each inner waypoint W with one point on either edge at
+    distance d = `rounding` x (the shorter of the two edges) from W (0 < rounding < 0.5), so
+    every control point lies on the path. Where four consecutive control points are collinear
+    (between two inner corners) the curve follows the edge exactly; elsewhere it stays in the
+    triangle of four consecutive ones, within d of the path near a corner. The curve starts at
+    path[0] and ends at path[-1] (clamped knots) and is parameterised nearly by arc length
+    (averaging knots over the control polygon's chord lengths, de Boor's choice), which suits
+    TOPPRA's grid.
     """
     if not 0.0 < rounding < 0.5:
         raise ValueError(f"rounding: expected a fraction in (0, 0.5), got {rounding}")
@@ -398,7 +399,7 @@ def _with_stops(points: np.ndarray, plant: MultibodyPlant, max_velocity: np.ndar
         timed = time_optimal(edge, plant, max_velocity, max_acceleration)
         if timed is None:
             raise RuntimeError(f"TOPPRA found no timing for the straight edge {i} of a path")
-        piece = timed.time_scaling()
+        piece = timed.time_scaling().Clone()
         if time_scaling is None:
             time_scaling = piece
         else:
