@@ -14,11 +14,21 @@ from pydrake.math import RigidTransform
 
 from s3o_drake.execution.arm_motion import (
     ARM,
+    CORNER_ROUNDINGS,
+    STILL_DURATION,
+    curve_collision_free,
     edges_free,
+    joint_limits,
     plan_arm_path,
+    rounded_corners,
     time_parameterize,
 )
-from s3o_drake.execution.pickup import FINGER_MAX_VELOCITY, SEGMENT_NAMES, plan_pickup
+from s3o_drake.execution.pickup import (
+    FINGER_MAX_VELOCITY,
+    SEGMENT_NAMES,
+    plan_pickup,
+    segment_limits,
+)
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.check import FeasibilityChecker, facing_yaw
 from s3o_drake.feasibility.grasps import rotation_for
@@ -32,7 +42,6 @@ REPO = Path(__file__).resolve().parent.parent
 SCENE = REPO / "scenarios" / "small" / "two_dishes.yaml"
 # Facing north towards the table's free edge, 0.65 m from it.
 FRONT = np.array([1.85, 1.45, math.pi / 2])
-ARM_VELOCITY = 1.0  # the default limit (rad/s)
 
 
 @pytest.fixture(scope="module")
@@ -101,29 +110,155 @@ def test_endpoints_in_collision_are_rejected_by_name(scene, around_the_table_edg
 
 # ---------------------------------------------------------------------- time_parameterize
 
-def _max_rates(trajectory, samples: int = 400) -> tuple[np.ndarray, np.ndarray]:
+def _rates(trajectory, samples: int = 2000) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sample times and |q̇|, |q̈| there (positions x samples)."""
     times = np.linspace(trajectory.start_time(), trajectory.end_time(), samples)
-    v = np.abs(np.column_stack([trajectory.EvalDerivative(t, 1) for t in times]))
-    a = np.abs(np.column_stack([trajectory.EvalDerivative(t, 2) for t in times]))
+    v = np.abs(trajectory.MakeDerivative(1).vector_values(times))
+    a = np.abs(trajectory.MakeDerivative(2).vector_values(times))
+    return times, v, a
+
+
+def _max_rates(trajectory, samples: int = 2000) -> tuple[np.ndarray, np.ndarray]:
+    _, v, a = _rates(trajectory, samples)
     return v.max(axis=1), a.max(axis=1)
 
 
-def test_timing_respects_limits_and_stays_on_the_path():
-    path = np.array([[0.0, 0.0], [1.0, 0.5], [1.0, 0.52], [-1.0, 2.0]])
-    trajectory = time_parameterize(path, max_velocity=[1.0, 0.5], max_acceleration=2.0)
+def _off_the_edges(q: np.ndarray, path: np.ndarray) -> float:
+    """Distance from q to the nearest straight edge of `path`."""
+    distances = []
+    for p, b in itertools.pairwise(path):
+        e = b - p
+        s = np.clip(np.dot(q - p, e) / np.dot(e, e), 0.0, 1.0)
+        distances.append(float(np.linalg.norm(q - p - s * e)))
+    return min(distances)
+
+
+def _assert_within_limits_and_at_rest(trajectory, path, v_max, a_max):
+    """Sampled speeds and accelerations within the limits (0.1 % for sampling between
+    TOPPRA's own checks), exact endpoints, at rest at both ends."""
     v, a = _max_rates(trajectory)
-    assert np.all(v <= np.array([1.0, 0.5]) + 1e-9)
-    assert np.all(a <= 2.0 + 1e-6)
-    np.testing.assert_allclose(trajectory.value(trajectory.start_time()).ravel(), path[0])
-    np.testing.assert_allclose(trajectory.value(trajectory.end_time()).ravel(), path[-1])
-    np.testing.assert_allclose(trajectory.EvalDerivative(trajectory.end_time(), 1).ravel(), 0,
-                               atol=1e-12)
-    # Every sample lies on one of the straight segments.
-    for t in np.linspace(trajectory.start_time(), trajectory.end_time(), 97):
-        q = trajectory.value(t).ravel()
-        off = [np.linalg.norm(np.cross(np.append(b - a, 0), np.append(q - a, 0)))
-               / np.linalg.norm(b - a) for a, b in itertools.pairwise(path)]
-        assert min(off) < 1e-9
+    finite_v, finite_a = np.isfinite(v_max), np.isfinite(a_max)
+    assert np.all(v[finite_v] <= v_max[finite_v] * 1.001), v / v_max
+    assert np.all(a[finite_a] <= a_max[finite_a] * 1.001), a / a_max
+    assert trajectory.start_time() == 0.0
+    np.testing.assert_allclose(trajectory.value(0.0).ravel(), path[0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(trajectory.value(trajectory.end_time()).ravel(), path[-1],
+                               rtol=0, atol=1e-12)
+    for t in (0.0, trajectory.end_time()):
+        np.testing.assert_allclose(trajectory.EvalDerivative(t, 1).ravel(), 0.0, atol=1e-9)
+
+
+@pytest.fixture(scope="module")
+def plant(scene):
+    return scene.checker.plant()
+
+
+@pytest.fixture(scope="module")
+def corner_at_the_table_edge(scene, around_the_table_edge):
+    """qa (gripper level below the table top, before its edge) -> raise the shoulder ->
+    stretch the elbow out over the table: raised 0.315 rad, the hand just clears the table's
+    edge at the corner (barely more than the 0.311 rad that the straight edges need), so
+    rounding the corner swings it into the table; raised 0.5 rad, it clears it well."""
+    qa, _ = around_the_table_edge
+
+    def path(raise_by: float) -> np.ndarray:
+        qc = qa.copy()
+        qc[4] -= raise_by  # shoulder lift
+        qb = qc.copy()
+        qb[5] -= 0.6  # elbow
+        return np.stack([qa, qc, qb])
+
+    tight, roomy = path(0.315), path(0.5)
+    for p in (tight, roomy):
+        assert edges_free(scene.checker, p)
+        assert not scene.checker.CheckEdgeCollisionFree(p[0], p[-1])  # a real corner
+    return tight, roomy
+
+
+def test_limits_come_from_the_robot_model(plant):
+    v, a = joint_limits(plant)
+    np.testing.assert_allclose(v[ARM], math.pi)  # the UR5e's 180 deg/s
+    np.testing.assert_allclose(a[ARM], 5.0)
+    assert np.all(np.isinf(a[:3]))  # the model gives the base none (it does not move here)
+
+
+def test_a_straight_edge_gets_the_time_optimal_trapezoid(plant):
+    """Along one straight edge TOPPRA's answer is the rest-to-rest trapezoid of the joint that
+    needs longest: accelerate at 5 rad/s², cruise at π rad/s, brake (2.0 rad) or a triangle
+    (0.5 rad)."""
+    q0 = np.zeros(11)
+    for move, expected in ((2.0, 2.0 / math.pi + math.pi / 5.0), (0.5, 2 * math.sqrt(0.5 / 5.0))):
+        q1 = q0.copy()
+        q1[ARM] = [move, -0.5 * move, 0.3, 0.0, 0.1, 0.2]
+        timed = time_parameterize(np.stack([q0, q1]), plant)
+        assert not timed.smoothed
+        assert timed.duration == pytest.approx(expected, rel=2e-3)
+        v, a = joint_limits(plant)
+        _assert_within_limits_and_at_rest(timed.trajectory, [q0, q1], v, a)
+
+
+def test_stops_at_each_waypoint_on_the_straight_edges(scene, plant, around_the_table_edge):
+    """Without a checker the motion stays on the checked straight edges and stops at each
+    waypoint; within lower limits given per position."""
+    path = plan_arm_path(scene.checker, *around_the_table_edge, seed=1)
+    v, a = joint_limits(plant)
+    v[ARM], a[ARM] = [1.0, 0.5, 1.0, 2.0, 2.0, 2.0], 2.0
+    timed = time_parameterize(path, plant, max_velocity=v, max_acceleration=a)
+    assert not timed.smoothed
+    trajectory = timed.trajectory
+    _assert_within_limits_and_at_rest(trajectory, path, v, a)
+    times, speeds, _ = _rates(trajectory, 400)
+    assert all(_off_the_edges(trajectory.value(t).ravel(), path) < 1e-9 for t in times)
+    # At rest where it passes each inner waypoint.
+    for waypoint in path[1:-1]:
+        at = np.argmin([np.linalg.norm(trajectory.value(t).ravel() - waypoint) for t in times])
+        assert speeds[:, at].max() < 0.1 * v[ARM].max()
+
+
+def test_a_rounded_corner_is_checked_faster_and_within_the_limits(scene, plant,
+                                                                  corner_at_the_table_edge):
+    _, roomy = corner_at_the_table_edge
+    stops = time_parameterize(roomy, plant)
+    rounded = time_parameterize(roomy, plant, checker=scene.checker)
+    assert rounded.smoothed
+    assert curve_collision_free(scene.checker, rounded.trajectory.path())
+    assert rounded.duration < 0.95 * stops.duration
+    v, a = joint_limits(plant)
+    _assert_within_limits_and_at_rest(rounded.trajectory, roomy, v, a)
+    # It passes the corner without stopping, close to the waypoint.
+    times, speeds, _ = _rates(rounded.trajectory, 400)
+    gaps = [np.linalg.norm(rounded.trajectory.value(t).ravel() - roomy[1]) for t in times]
+    at = int(np.argmin(gaps))
+    assert gaps[at] < 0.4 * np.linalg.norm(roomy[1] - roomy[0])
+    assert speeds[:, at].max() > 0.3
+
+
+def test_a_rounding_that_cuts_into_the_table_is_rejected(scene, plant, corner_at_the_table_edge):
+    tight, _ = corner_at_the_table_edge
+    # The largest rounding swings the hand into the table edge: the checker says so ...
+    assert not curve_collision_free(scene.checker, rounded_corners(tight, CORNER_ROUNDINGS[0]))
+    # ... so with only that rounding allowed, the motion stops at the corner instead.
+    timed = time_parameterize(tight, plant, checker=scene.checker,
+                              roundings=CORNER_ROUNDINGS[:1])
+    assert not timed.smoothed
+    samples = timed.trajectory.vector_values(np.linspace(0.0, timed.duration, 300)).T
+    assert all(_off_the_edges(q, tight) < 1e-9 for q in samples)
+    # With every rounding allowed, whatever is chosen was checked.
+    timed = time_parameterize(tight, plant, checker=scene.checker)
+    assert not timed.smoothed or curve_collision_free(scene.checker, timed.trajectory.path())
+
+
+def test_timing_rejects_bad_input_and_times_a_still_path(plant):
+    q = np.zeros(11)
+    with pytest.raises(ValueError, match="path"):
+        time_parameterize(np.zeros((2, 6)), plant)
+    moved_base = q.copy()
+    moved_base[0] = 0.5  # the model gives the base no acceleration limit
+    with pytest.raises(ValueError, match="max_acceleration"):
+        time_parameterize(np.stack([q, moved_base]), plant)
+    still = time_parameterize(np.stack([q, q, q]), plant)
+    assert still.duration == pytest.approx(STILL_DURATION)
+    np.testing.assert_array_equal(still.trajectory.value(still.duration).ravel(), q)
 
 
 # ----------------------------------------------------------------------------- pickups
@@ -148,16 +283,26 @@ def test_pickup_from_in_front_is_collision_free_and_ends_stowed(scene, checker, 
         free = checkers[segment.name].CheckConfigsCollisionFree(qs)
         assert all(free), segment.name
         assert edges_free(checkers[segment.name], segment.waypoints), segment.name
-        v, _ = _max_rates(trajectory, 200)
-        assert np.all(v[ARM] <= ARM_VELOCITY + 1e-9), segment.name
-        assert np.all(v[9:] <= FINGER_MAX_VELOCITY + 1e-9), segment.name
+        if segment.smoothed:  # its rounded corners were checked by the same checker
+            assert curve_collision_free(checkers[segment.name], trajectory.path())
+        v, a = _max_rates(trajectory, 400)
+        v_max, a_max = segment_limits(scene.checker.plant(), segment.name)
+        assert np.all(v[3:] <= v_max[3:] * 1.001), segment.name
+        assert np.all(a[3:] <= a_max[3:] * 1.001), segment.name
+        assert np.all(v[9:] <= FINGER_MAX_VELOCITY * 1.001), segment.name
         np.testing.assert_allclose(v[:3], 0.0, atol=1e-12)  # the base stays put
         previous_end = qs[-1]
     np.testing.assert_allclose(previous_end[ARM], ARM_STOW, atol=1e-12)
     np.testing.assert_allclose(previous_end[9:], GRIPPER_OPEN)
     whole = plan.trajectory()
     assert whole.end_time() == pytest.approx(plan.duration)
-    assert 3.0 < plan.duration < 40.0
+    t0 = 0.0
+    for segment in plan.segments:  # the joined trajectory plays the segments in turn
+        for t in (0.0, 0.5 * segment.duration, segment.duration):
+            np.testing.assert_allclose(whole.value(t0 + t), segment.trajectory.value(t),
+                                       atol=1e-9)
+        t0 += segment.duration
+    assert 2.0 < plan.duration < 12.0
 
 
 def test_pickup_out_of_reach_or_in_collision_fails_with_a_reason(scene, checker):

@@ -1,5 +1,6 @@
 """The mobile manipulator's model: kinematics, actuation, collision geometry and control."""
 
+import itertools
 import math
 
 import numpy as np
@@ -25,6 +26,10 @@ from s3o_drake.resources import make_parser
 
 UR5E_POSITION_LIMITS = (2 * math.pi, 2 * math.pi, math.pi, 2 * math.pi, 2 * math.pi, 2 * math.pi)
 UR5E_EFFORT_LIMITS = (150.0, 150.0, 150.0, 28.0, 28.0, 28.0)
+#: Published joint speed (180 deg/s, every joint) and the acceleration Universal Robots'
+#: ROS 2 driver gives MoveIt (rad/s, rad/s²).
+UR5E_SPEED_LIMIT = math.pi
+UR5E_ACCELERATION_LIMIT = 5.0
 BASE_BODIES = {"base_link", "lidar_link", "tray_link", "pedestal_link", "ur_base_link"}
 GRIPPER_BODIES = {"gripper_base", "left_finger", "right_finger"}
 # Gripper pointing straight down into the chassis behind the pedestal (upper arm backwards,
@@ -157,6 +162,37 @@ def test_arm_joint_limits_are_ur5e(scene):
         joint = plant.GetJointByName(finger, model)
         assert joint.position_lower_limits()[0] == 0.0
         assert joint.position_upper_limits()[0] == pytest.approx(robot.FINGER_TRAVEL)
+
+
+def test_arm_acceleration_limits_parse_and_fit_the_rated_torques(scene):
+    """The URDF's drake:acceleration (5 rad/s², Universal Robots' MoveIt value) reaches the
+    plant, and is one the UR5e can deliver: every joint at ±5 rad/s² and ±π rad/s at once,
+    worst signs, with gravity (the simulation compensates it, a real arm must carry it),
+    |M(q)| q̈ + |C(q, v) v| + |g(q)| stays within the rated joint torques."""
+    plant, model = scene.plant, scene.model
+    a_max = plant.GetAccelerationUpperLimits()
+    np.testing.assert_array_equal(a_max[3:9], UR5E_ACCELERATION_LIMIT)
+    np.testing.assert_array_equal(plant.GetAccelerationLowerLimits()[3:9],
+                                  -UR5E_ACCELERATION_LIMIT)
+    np.testing.assert_allclose(plant.GetVelocityUpperLimits()[3:9], UR5E_SPEED_LIMIT)
+    context = plant.CreateDefaultContext()
+    rng = np.random.default_rng(0)
+    # Stretched out level (the largest gravity torque) and random configurations.
+    arms = [np.zeros(6)] + [rng.uniform(-math.pi, math.pi, 6) for _ in range(40)]
+    worst = np.zeros(6)
+    for arm in arms:
+        plant.SetPositions(context, model, robot.robot_positions(0.0, 0.0, 0.0, arm=arm))
+        M = plant.CalcMassMatrix(context)[3:9, 3:9]
+        g = plant.CalcGravityGeneralizedForces(context)[3:9]
+        inertial = np.abs(M) @ a_max[3:9]
+        for signs in itertools.product((-1.0, 1.0), repeat=6):
+            v = np.zeros(11)
+            v[3:9] = UR5E_SPEED_LIMIT * np.array(signs)
+            plant.SetVelocities(context, model, v)
+            bias = plant.CalcBiasTerm(context)[3:9]
+            worst = np.maximum(worst, (inertial + np.abs(bias) + np.abs(g))
+                               / np.array(UR5E_EFFORT_LIMITS))
+    assert np.all(worst < 1.0), worst
 
 
 def test_masses(scene):

@@ -15,6 +15,13 @@ positions, in this order:
 - release: the fingers open;
 - stow: RRT-Connect back to ARM_STOW.
 
+Every motion is timed by `arm_motion.time_parameterize` (Drake's TOPPRA) within
+`segment_limits`: the UR5e's joint limits from the robot model (180 deg/s, 5 rad/s²), `SLOW`
+of them near the dish (descend, lift), the fingers at FINGER_MAX_*; the corners of a
+multi-waypoint path are rounded where the motion's own checker finds the rounded curve
+collision-free. A pickup then takes a median 7.2 s of simulated time against 13.0 s with the
+trapezoids at 1 rad/s that it replaced (docs/execution.md, `pickup_benchmark`).
+
 The three RRT-Connect paths are what the oracle leaves out; the scene's own checker (1 cm
 padding, nothing may be touched) judges approach and stow, the grasping checker
 (`ik.grasp_checker`: the gripper's bodies may touch this dish, and only they) the motions
@@ -24,17 +31,18 @@ collisions are ignored on the way to the tray), and the model's copy on the tabl
 touched only by the gripper.
 """
 
-import copy
 from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.trajectories import PiecewisePolynomial
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.planning import SceneGraphCollisionChecker
+from pydrake.trajectories import CompositeTrajectory, PathParameterizedTrajectory, Trajectory
 
 from s3o_drake.execution.arm_motion import (
     ARM,
-    ARM_MAX_ACCELERATION,
-    ARM_MAX_VELOCITY,
+    joint_limits,
     plan_arm_path,
+    shifted,
     time_parameterize,
 )
 from s3o_drake.feasibility import ik
@@ -44,20 +52,29 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.robot import GRIPPER_OPEN, NUM_POSITIONS
 
 SEGMENT_NAMES = ("approach", "descend", "close", "lift", "to_tray", "release", "stow")
-#: Near the dish the arm goes at half its speed.
+#: Near the dish (SLOW_SEGMENTS) the arm keeps to this fraction of its joint limits, so that
+#: the hand arrives at the grasp gently and the PD-tracked arm settles before the fingers close.
 SLOW = 0.5
+SLOW_SEGMENTS = ("descend", "lift")
 #: Finger speed and acceleration limits (m/s, m/s²); the plant allows 0.15 m/s.
 FINGER_MAX_VELOCITY = 0.1
 FINGER_MAX_ACCELERATION = 0.5
 
+
 @dataclass(frozen=True)
 class Segment:
-    """One timed motion: `trajectory` gives the robot's 11 positions over [0, duration]."""
+    """One timed motion: `trajectory` gives the robot's 11 positions over [0, duration].
+
+    `waypoints` (n, 11) is the path whose straight edges were checked; the trajectory runs
+    along them, stopping at each (`smoothed` False), or along a curve that rounds their
+    corners and was itself checked densely (`smoothed` True; see `time_parameterize`).
+    """
 
     name: str
-    trajectory: PiecewisePolynomial
+    trajectory: PathParameterizedTrajectory
     duration: float
-    waypoints: np.ndarray  # (n, 11): the checked straight-line path it runs along
+    waypoints: np.ndarray
+    smoothed: bool = False
 
 
 @dataclass
@@ -74,37 +91,37 @@ class PickupPlan:
     def duration(self) -> float:
         return sum(s.duration for s in self.segments)
 
-    def trajectory(self) -> PiecewisePolynomial:
+    def trajectory(self) -> Trajectory:
         """The segments joined into one trajectory starting at t = 0."""
         if not self.segments:
             raise ValueError("an unsuccessful plan has no trajectory")
-        total, t0 = None, 0.0
+        pieces, t0 = [], 0.0
         for segment in self.segments:
-            piece = copy.copy(segment.trajectory)
-            piece.shiftRight(t0)
-            if total is None:
-                total = piece
-            else:
-                total.ConcatenateInTime(piece)
+            pieces.append(shifted(segment.trajectory, t0))
             t0 += segment.duration
-        return total
+        return CompositeTrajectory(pieces)
 
 
-def _limits() -> tuple[np.ndarray, np.ndarray]:
-    """Per-position speed and acceleration limits of the 11 positions (the base does not
-    move within a pickup; its entries only need to be positive)."""
-    v = np.concatenate([np.ones(3), np.full(6, ARM_MAX_VELOCITY), np.full(2, FINGER_MAX_VELOCITY)])
-    a = np.concatenate([np.ones(3), np.full(6, ARM_MAX_ACCELERATION),
-                        np.full(2, FINGER_MAX_ACCELERATION)])
+def segment_limits(plant: MultibodyPlant, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Speed and acceleration limits of the 11 positions in segment `name`: the arm's from
+    the robot model (the UR5e's; models/robot/mobile_manipulator.urdf), the fingers' the
+    gentler FINGER_MAX_*, all times SLOW in SLOW_SEGMENTS; the base does not move within a
+    pickup (the model's limits, unused)."""
+    v, a = joint_limits(plant)
+    v[9:] = np.minimum(v[9:], FINGER_MAX_VELOCITY)
+    a[9:] = np.minimum(a[9:], FINGER_MAX_ACCELERATION)
+    if name in SLOW_SEGMENTS:
+        v, a = v * SLOW, a * SLOW
     return v, a
 
 
-def _segment(name: str, path: np.ndarray, slow: bool = False) -> Segment:
-    v, a = _limits()
-    if slow:
-        v, a = v * SLOW, a * SLOW
-    trajectory = time_parameterize(path, max_velocity=v, max_acceleration=a)
-    return Segment(name, trajectory, trajectory.end_time() - trajectory.start_time(), path)
+def _segment(name: str, path: np.ndarray, checker: SceneGraphCollisionChecker) -> Segment:
+    """`path` timed by TOPPRA within `segment_limits`, its corners rounded where `checker`
+    finds the rounded curve collision-free."""
+    v, a = segment_limits(checker.plant(), name)
+    timed = time_parameterize(path, checker.plant(), max_velocity=v, max_acceleration=a,
+                              checker=checker)
+    return Segment(name, timed.trajectory, timed.duration, path, timed.smoothed)
 
 
 def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
@@ -144,18 +161,18 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
     if opening:
         approach = np.vstack([q0[None, :], approach])
     # pickup_geometry checked the straight motions (descend, close, lift, release).
-    segments = [_segment("approach", approach),
-                _segment("descend", np.stack([c.q_pre, c.q_grasp]), True),
-                _segment("close", np.stack([c.q_grasp, c.q_closed])),
-                _segment("lift", np.stack([c.q_closed, c.q_lift]), True)]
+    segments = [_segment("approach", approach, free),
+                _segment("descend", np.stack([c.q_pre, c.q_grasp]), holding),
+                _segment("close", np.stack([c.q_grasp, c.q_closed]), holding),
+                _segment("lift", np.stack([c.q_closed, c.q_lift]), holding)]
     for name, a, b, path_checker in (("to_tray", c.q_lift, c.q_tray, holding),
-                                     ("release", c.q_tray, c.q_release, None),
+                                     ("release", c.q_tray, c.q_release, free),
                                      ("stow", c.q_release, c.q_stow, free)):
-        if path_checker is None:
+        if name == "release":
             path = np.stack([a, b])
         else:
             path = plan_arm_path(path_checker, a, b, time_limit=time_limit, seed=seed)
         if path is None:
             return fail
-        segments.append(_segment(name, path))
+        segments.append(_segment(name, path, path_checker))
     return PickupPlan(True, "ok", segments, grasp=c.grasp)

@@ -15,7 +15,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
-from pydrake.trajectories import PiecewisePolynomial
+from pydrake.trajectories import Trajectory
 
 from s3o_drake.execution.pickup import plan_pickup
 from s3o_drake.feasibility.check import FeasibilityChecker
@@ -49,7 +49,7 @@ class _Activity:
     grip: GripEvent = field(default_factory=GripEvent)
     hold: tuple[float, ...] = tuple(np.concatenate([ARM_STOW, GRIPPER_OPEN]))
     dish: str = ""
-    trajectory: PiecewisePolynomial | None = None
+    trajectory: Trajectory | None = None
     t_start: float = 0.0
     t_grasp: float = 0.0
     t_release: float = 0.0
