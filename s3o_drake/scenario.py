@@ -142,7 +142,7 @@ class Camera:
 class Simulation:
     time_step: float = 0.01
     """The discrete plant's step (s). SAP treats the joints' PD actuators implicitly; the arm
-    follows its trajectory one step behind (at most 1 rad/s x 0.01 s, nothing at the rests
+    follows its trajectory one step behind (at most π rad/s x 0.01 s, nothing at the rests
     where it grasps and releases). At 0.02 s runs were 1.5x faster but SAP failed to
     converge in 2 of 16 runs (a robot at rest, no contact), so 0.01 s it is."""
     hold_time: float = 1.0
@@ -150,7 +150,7 @@ class Simulation:
     shows the robot at rest with what it collected."""
     publish_period: float = 0.2
     """Frame period of the Meshcat recording (s). The page interpolates between frames, so
-    5 frames per second look smooth at the robot's speeds (0.4 m/s, 1 rad/s); a five-minute
+    5 frames per second look smooth at the robot's speeds (0.4 m/s; the arm up to π rad/s); a five-minute
     execution's playback page stays near 6.5 MB (docs/execution.md), and each frame costs
     simulation time."""
 
