@@ -141,8 +141,9 @@ class BaseNavigator(LeafSystem):
     it compares the command's id with the one it executes; on a new id it plans the whole
     motion from where the base actually is: the waypoints of `command.path` (the first is
     replaced by the base's position, the last by the landing), each drive preceded by a turn
-    in place toward its heading, and a final turn to the landing yaw. Yaw stays continuous
-    (no 2 pi jumps), so the desired yaw equals the landing's only modulo 2 pi.
+    in place toward its heading, and a final turn to the landing yaw; a `turn` command only
+    turns, where the base stands. Yaw stays continuous (no 2 pi jumps), so the desired yaw
+    equals the landing's only modulo 2 pi.
 
     The landing is `command.pose` + (dx, dy, dyaw) with dx, dy ~ N(0, nav_xy_std^2) and
     dyaw ~ N(0, nav_yaw_std^2) from numpy.random.default_rng([seed, 1, command.id]), or
@@ -227,8 +228,13 @@ class BaseNavigator(LeafSystem):
     def _plan(self, command: BaseCommand, base: np.ndarray, t: float) -> _Motion:
         target = self.landing(command)
         waypoints = [np.asarray(base[:2], float)]
-        waypoints += [np.asarray(p, float) for p in command.path[1:-1]]
-        waypoints.append(target[:2])
+        if not command.turn:
+            waypoints += [np.asarray(p, float) for p in command.path[1:-1]]
+            waypoints.append(target[:2])
+        # A turn turns where the base stands: its pose's x, y are where the planner saw the
+        # base a control period earlier, and the base has since drifted by micrometres (the
+        # arm's motion pushes it against its PD); driving there first meant turning towards
+        # that micro-drive, up to π/2 out of the way and back.
         segments = self._segments(waypoints, float(base[2]), float(target[2]))
         cut = self._cut_at_collision(segments)
         if cut[1] == "failed":
