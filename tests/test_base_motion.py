@@ -70,9 +70,11 @@ def test_chain_time_equals_the_segments_timed_one_by_one():
     d = np.diff(points, axis=1)
     heading = np.arctan2(d[..., 1], d[..., 0])
     length = np.hypot(d[..., 0], d[..., 1])
-    got = chain_time(PROFILE, heading, heading, length, PROFILE.drive_time(length), yaw0, yaw1)
+    got, end = chain_time(PROFILE, heading, heading, length, PROFILE.drive_time(length),
+                          yaw0, yaw1)
     want = [PROFILE.motion_time(p, a, b) for p, a, b in zip(points, yaw0, yaw1, strict=True)]
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(end, yaw1)
 
 
 def test_chain_time_with_a_stretch_of_legs_and_no_final_yaw():
@@ -93,10 +95,11 @@ def test_chain_time_with_a_stretch_of_legs_and_no_final_yaw():
     own = PROFILE.drive_time(length[:, cols])
     own[:, 2] = stretch_time
     # NaN: the landing faces along the last leg (the plan's yaw of a goto without pickup).
-    got = chain_time(PROFILE, h_in, h_out, lengths, own, yaw0, np.full(50, np.nan))
-    want = [PROFILE.motion_time(p, a, math.atan2(*(p[-1] - p[-2])[::-1]))
-            for p, a in zip(points, yaw0, strict=True)]
+    got, end = chain_time(PROFILE, h_in, h_out, lengths, own, yaw0, np.full(50, np.nan))
+    last = np.arctan2(*(points[:, -1] - points[:, -2]).T[::-1])
+    want = [PROFILE.motion_time(p, a, b) for p, a, b in zip(points, yaw0, last, strict=True)]
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(end, last)
 
 
 def test_the_navigator_plays_the_profile_time():

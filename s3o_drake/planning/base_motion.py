@@ -140,9 +140,9 @@ def _pose(p: np.ndarray) -> tuple[float, float, float]:
 
 def chain_time(profile: BaseProfile, heading_in: np.ndarray, heading_out: np.ndarray,
                length: np.ndarray, own_time: np.ndarray, yaw0: np.ndarray,
-               yaw1: np.ndarray) -> np.ndarray:
-    """Motion durations (s) of m paths at once, each given as K items in order, the
-    vectorised form of `motion_segments` timed by `profile`.
+               yaw1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Motion durations (s) of m paths at once, and the yaw each ends at (rad): the
+    vectorised form of `motion_segments` timed by `profile`, each path given as K items.
 
     Item k of path i is a straight leg (`heading_in` = `heading_out` = its heading,
     `own_time` its drive time) or a stretch of several legs whose inner turns are in
@@ -171,4 +171,4 @@ def chain_time(profile: BaseProfile, heading_in: np.ndarray, heading_out: np.nda
         travel = np.where(live, e_out, travel)
         first &= ~live
     target = np.where(np.isnan(yaw1), travel, yaw1)
-    return total + profile.turn_time(wrap(target - heading))
+    return total + profile.turn_time(wrap(target - heading)), target

@@ -39,6 +39,7 @@ from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.plan import Goto, TaskMotionPlan, facing_yaw
 from s3o_drake.planning.planner import PlanningError, plan
 from s3o_drake.planning.task_planner import TaskPlanningError
+from s3o_drake.planning.time_model import TURN_TOLERANCE  # the planner's model of this rule
 from s3o_drake.robot import NUM_POSITIONS
 from s3o_drake.scenario import Chair, Scenario
 from s3o_drake.systems.commands import (
@@ -48,9 +49,6 @@ from s3o_drake.systems.commands import (
     PlanProgress,
     Status,
 )
-
-#: A pickup's dish further off the base's heading than this (rad) is faced first.
-TURN_TOLERANCE = 0.03
 
 #: A perception function: (colour RGBA, depth (m), label) images -> chair poses [x, y, yaw].
 Perceive = Callable[[np.ndarray, np.ndarray, np.ndarray], list[list[float]]]
