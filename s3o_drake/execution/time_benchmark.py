@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail
+from s3o_drake.cli import ArgumentParser, doc_formatter, fail, task_scenarios
 from s3o_drake.evaluation.store import ResultStore
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.motion_search import GRID_CELL, SequenceProblem, location_regions
@@ -41,7 +41,7 @@ from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.time_model import MODEL_FILE, CostModel
 from s3o_drake.resources import TASKS_DIR
 from s3o_drake.run import execute
-from s3o_drake.scenario import METHODS, Scenario, ScenarioError, load_scenario
+from s3o_drake.scenario import METHODS, Scenario
 
 TARGETS = {"off": 0.03, "on": 0.08}
 """Median |predicted - simulated| / simulated allowed, per noise setting."""
@@ -180,12 +180,7 @@ def main(argv: list[str] | None = None) -> int:
         paths = paths[:args.count]
     if not paths:
         fail("--tasks: no task_*.yaml found")
-    tasks = []
-    for path in paths:
-        try:
-            tasks.append((path.stem, load_scenario(path)))
-        except ScenarioError as e:
-            fail(f"{path}: {e}")
+    tasks = task_scenarios([str(p) for p in paths], len(paths))
     json_path = Path(args.json) if args.json else None
     if json_path is not None and not json_path.parent.is_dir():
         fail(f"--json: no folder {json_path.parent}")
