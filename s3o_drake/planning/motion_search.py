@@ -4,8 +4,13 @@ Given one task-level sequence (`TaskPlan.actions`: ("goto", location) / ("pickup
 the motion search picks one base position (x, y) per `goto` inside that location's region
 and scores the whole sequence by its utility Σ R(a):
 
-    R(goto)   = -(len(y, y') / v + γ)      len: collision-free path length (NavigationMap)
+    R(goto)   = -Cst(goto)                  Cst = time + γ
     R(pickup) = -δ + λ · Fea^m(y_r, y_o)    y_r: the position of the latest goto
+
+with the costs of the cost profile (`time_model.CostModel`): "robot", the base navigator's
+motion along the map's path and the turns at the stop, γ and δ our robot's recorded times;
+or "paper", Cst(goto) = len(y, y') / v + γ with len the collision-free path length
+(NavigationMap) and δ, γ, v from the planner settings.
 
 `Fea^m` is taken as it comes (`MotionFeasibility.values`): the heatmaps already include
 the navigation and reaching noise (T^n, T^m) by Monte-Carlo, so Fea^m is the expected
@@ -31,11 +36,12 @@ first was all-penalty and the search never improved on its start. A sample still
 after resampling, or whose legs cannot be driven (infinite path length), gets utility
 `-PENALTY - Σ distance to the regions - UNREACHABLE_STEP x unreachable legs`; the distance
 term slopes CMA-ES back into the regions. Only samples inside all their regions reach
-`nav`, in one `path_lengths` batch per generation.
+`nav`, in one path query batch per generation.
 
-Predicted execution time: Σ len / v over the gotos plus `pickup_duration` per pickup.
-γ is a cost for starting to drive, not time, so it is not counted; `pickup_duration`
-defaults to δ read as seconds (the paper gives δ the units of len / v).
+Predicted execution time: the time model's prediction of the simulated execution
+(`time_model`), under either profile. Only a search given no dishes or start pose (costs
+None: the paper's costs from the planner settings alone) falls back to the paper's
+estimate, Σ len / v plus `pickup_duration` (default δ) per pickup.
 
 Deterministic for a seed: CMA-ES gets its own seed (derived from `seed`), GROP draws from
 `numpy.random.default_rng(seed)`, and `nav` is deterministic.
@@ -93,7 +99,7 @@ class MotionResult:
     valid: bool
     """True if every position lies in its region and every leg can be driven."""
     predicted_time: float
-    """Σ len / v + pickup_duration per pickup (s); inf when not valid."""
+    """The predicted execution time (s; `SequenceProblem.result`); inf when not valid."""
     leg_lengths: np.ndarray
     """Path length of each goto's leg (n_gotos,), m (inf where not drivable)."""
     feasibility: dict[str, float]

@@ -1,8 +1,10 @@
 """The navigation map: collision-free path lengths and paths for the base (DESIGN.md 2.6).
 
-GROP*'s utility charges `len(y, y') / v` per `goto`, with `len` the collision-free path
-length on the map; CMA-ES evaluates it thousands of times per plan at continuous,
-clustered points, so it must be exact enough to rank samples and cheap (<= 0.2 ms).
+GROP*'s utility charges `len(y, y') / v` per `goto` (the paper's cost profile), with `len`
+the collision-free path length on the map, or the base navigator's motion time along the
+path (`path_times`, the robot's cost profile); CMA-ES evaluates it thousands of times per
+plan at continuous, clustered points, so it must be exact enough to rank samples and cheap
+(<= 0.2 ms).
 
 Obstacles: the tables and the mapped chairs of the scenario, plus the chairs the planner
 perceives, passed explicitly (the scenario's unmapped chairs are never read here), and
