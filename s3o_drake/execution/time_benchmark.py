@@ -1,7 +1,8 @@
 """Benchmark the time model: the plan's predicted execution time against the simulated one.
 
     python -m s3o_drake.execution.time_benchmark [--tasks DIR | YAML ...] [--count N]
-        [--noise on off] [--method NAME] [--seed N] [--json FILE] [--evaluation]
+        [--noise on off] [--method NAME] [--seed N] [--cost-profile robot|paper]
+        [--json FILE] [--evaluation]
 
 Plans and executes each task as `python -m s3o_drake.run` does (the scenario's settings,
 no playback), once with the simulated noise off (`run --no-noise`) and once with it on, and
@@ -41,7 +42,7 @@ from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.time_model import MODEL_FILE, CostModel
 from s3o_drake.resources import TASKS_DIR
 from s3o_drake.run import execute
-from s3o_drake.scenario import METHODS, Scenario
+from s3o_drake.scenario import COST_PROFILES, METHODS, Scenario
 
 TARGETS = {"off": 0.03, "on": 0.08}
 """Median |predicted - simulated| / simulated allowed, per noise setting."""
@@ -158,6 +159,9 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"planning method (default S3O-GROP*), one of {', '.join(METHODS)}")
     parser.add_argument("--seed", type=int, default=None, metavar="N",
                         help="seed of every run (default: each scenario's own)")
+    parser.add_argument("--cost-profile", choices=COST_PROFILES,
+                        help="plan with this cost profile (default: each scenario's own); the "
+                             "prediction is the time model's under either")
     parser.add_argument("--json", metavar="FILE", help="append one JSON line per run; resumes")
     parser.add_argument("--evaluation", action="store_true",
                         help="measure the CMA-ES evaluation cost per sample instead")
@@ -181,6 +185,9 @@ def main(argv: list[str] | None = None) -> int:
     if not paths:
         fail("--tasks: no task_*.yaml found")
     tasks = task_scenarios([str(p) for p in paths], len(paths))
+    if args.cost_profile is not None:
+        tasks = [(name, dataclasses.replace(scenario, planner=dataclasses.replace(
+            scenario.planner, cost_profile=args.cost_profile))) for name, scenario in tasks]
     json_path = Path(args.json) if args.json else None
     if json_path is not None and not json_path.parent.is_dir():
         fail(f"--json: no folder {json_path.parent}")
