@@ -215,7 +215,7 @@ def base_profile(planner: Planner) -> BaseProfile:
 
 
 @dataclass(frozen=True)
-class Dish:
+class DishPlace:
     """What the cost model needs of a dish: where it stands and its kind."""
 
     xy: tuple[float, float]
@@ -232,7 +232,7 @@ class CostModel:
     """
 
     def __init__(self, planner: Planner, *, profile: str | None = None,
-                 dishes: Mapping[str, Dish] | None = None,
+                 dishes: Mapping[str, DishPlace] | None = None,
                  start: Sequence[float] | None = None, time_model: TimeModel | None = None):
         self.planner = planner
         self.profile = planner.cost_profile if profile is None else profile
@@ -255,7 +255,7 @@ class CostModel:
     @classmethod
     def for_scenario(cls, scenario: Scenario, time_model: TimeModel | None = None) -> CostModel:
         """The scenario's cost profile, with its dishes and start for the time prediction."""
-        dishes = {d.name: Dish((float(d.position[0]), float(d.position[1])), d.kind)
+        dishes = {d.name: DishPlace((float(d.position[0]), float(d.position[1])), d.kind)
                   for d in scenario.dishes}
         return cls(scenario.planner, dishes=dishes, start=scenario.robot.start,
                    time_model=time_model)

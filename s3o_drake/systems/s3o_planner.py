@@ -39,7 +39,7 @@ from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.plan import Goto, TaskMotionPlan, facing_yaw
 from s3o_drake.planning.planner import PlanningError, plan
 from s3o_drake.planning.task_planner import TaskPlanningError
-from s3o_drake.planning.time_model import TURN_TOLERANCE  # the planner's model of this rule
+from s3o_drake.planning.time_model import TURN_TOLERANCE  # one constant: the rule, its model
 from s3o_drake.robot import NUM_POSITIONS
 from s3o_drake.scenario import Chair, Scenario
 from s3o_drake.systems.commands import (
