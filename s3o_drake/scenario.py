@@ -24,6 +24,8 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random")
 # Where the planner's Fea^m heatmaps come from: the Drake check, or the learned network.
 FEASIBILITY_SOURCES = ("oracle", "fcn")
+# The utility's costs: our robot's recorded time model, or the paper's values.
+COST_PROFILES = ("robot", "paper")
 
 
 class ScenarioError(ValueError):
@@ -95,14 +97,20 @@ class Planner:
     top_k: int = 5
     cma_generations: int = 20
     cma_population: int = 10
+    cost_profile: str = "robot"
+    """The utility's costs (planning/time_model.py): "robot", the execution's predicted
+    time (the base navigator's motion profile along the path, turns included, and the
+    recorded pickup and command times of models/time_model.yaml); or "paper", the paper's
+    Cst(goto) = len / v + γ and δ below."""
     delta: float = 5.0
-    """δ: constant cost of a pickup."""
+    """δ: constant cost of a pickup (the "paper" cost profile)."""
     gamma: float = 20.0
-    """γ: constant cost of starting to drive."""
+    """γ: constant cost of starting to drive (the "paper" cost profile)."""
     reward: float = 150.0
     """λ: reward of a successful pickup, weighted by its feasibility."""
     speed: float = 0.4
-    """v: the base's speed for costing navigation (m/s)."""
+    """v: the base's cruise speed (m/s): the navigator drives at it, and both cost profiles
+    cost navigation with it."""
     reach: float = 1.0
     """How far from the base centre the robot can pick a dish (m)."""
     location_samples: int = 100
@@ -150,9 +158,9 @@ class Simulation:
     shows the robot at rest with what it collected."""
     publish_period: float = 0.2
     """Frame period of the Meshcat recording (s). The page interpolates between frames, so
-    5 frames per second look smooth at the robot's speeds (0.4 m/s; the arm up to π rad/s); a five-minute
-    execution's playback page stays near 6.5 MB (docs/execution.md), and each frame costs
-    simulation time."""
+    5 frames per second look smooth at the robot's speeds (0.4 m/s; the arm up to π rad/s);
+    a five-minute execution's playback page stays near 6.5 MB (docs/execution.md), and each
+    frame costs simulation time."""
 
 
 @dataclass

@@ -12,7 +12,13 @@ from shapely.geometry import Polygon, box
 
 from s3o_drake.furniture import DISH_KINDS, chair_footprint, dish_footprint, table_footprint
 from s3o_drake.robot import footprint_polygon
-from s3o_drake.scenario import FEASIBILITY_SOURCES, METHODS, Scenario, ScenarioError
+from s3o_drake.scenario import (
+    COST_PROFILES,
+    FEASIBILITY_SOURCES,
+    METHODS,
+    Scenario,
+    ScenarioError,
+)
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 # Overlaps smaller than this (m^2) are numerical contact, not interpenetration.
@@ -142,6 +148,10 @@ def _validate_settings(scenario: Scenario) -> None:
     if p.feasibility not in FEASIBILITY_SOURCES:
         raise ScenarioError("planner.feasibility", f"unknown source {p.feasibility!r} (expected "
                                                    f"one of: {', '.join(FEASIBILITY_SOURCES)})")
+    if p.cost_profile not in COST_PROFILES:
+        raise ScenarioError("planner.cost_profile", f"unknown profile {p.cost_profile!r} "
+                                                    f"(expected one of: "
+                                                    f"{', '.join(COST_PROFILES)})")
     _at_least(p.top_k, 1, "planner.top_k")
     _at_least(p.cma_generations, 1, "planner.cma_generations")
     _at_least(p.cma_population, 2, "planner.cma_population")

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import shapely
 from shapely.geometry import Point, box
 
 from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
+from s3o_drake.angles import wrap
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.motion_search import (
     PENALTY,
@@ -17,10 +20,13 @@ from s3o_drake.planning.motion_search import (
     location_regions,
 )
 from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.plan import facing_yaw
+from s3o_drake.planning.time_model import CostModel
 from s3o_drake.scenario import load_scenario
 
 CELL = 0.05
 SEQUENCE = [("goto", "l0"), ("pickup", "plate_a"), ("goto", "l1"), ("pickup", "cup_b")]
+MERGED = [("goto", "l01"), ("pickup", "plate_a"), ("pickup", "cup_b")]
 
 
 def _grid(size: float = 4.0) -> tuple[np.ndarray, np.ndarray]:
@@ -78,6 +84,57 @@ def test_positions_in_regions_and_utility_by_hand(scene, search):
     assert set(result.feasibility) == {"plate_a", "cup_b"}
     assert all(v > 0.5 for v in result.feasibility.values())
     assert len(result.history) == 20 and result.early.shape == (10, 2, 2)
+
+
+def _hand_robot_costs(result: MotionResult, scenario, nav, fea, costs: CostModel):
+    """Utility and predicted time under the robot profile from single, unbatched queries:
+    the navigator's segments along each path (BaseProfile.motion_time), the S3OPlanner's
+    turn rule at a stop, the recorded pickup times."""
+    model, profile = costs.model, costs.base
+    gamma = model.overheads.gamma
+    dish_xy = {d.name: np.asarray(d.position, float) for d in scenario.dishes}
+    kind = {d.name: d.kind for d in scenario.dishes}
+    here = np.asarray(scenario.robot.start[:2], float)
+    yaw = float(scenario.robot.start[2])
+    cost, gain, k = 0.0, 0.0, -1
+    for i, (name, arg) in enumerate(result.actions):
+        if name == "goto":
+            k += 1
+            y = result.positions[k]
+            first = next(a for n, a in result.actions[i + 1:] if n == "pickup")
+            arrive = facing_yaw(y, dish_xy[first])
+            cost += profile.motion_time(nav.path(here, y), yaw, arrive) + gamma
+            here, yaw, turned = y, arrive, first
+        else:
+            if arg != turned:
+                delta = float(wrap(facing_yaw(here, dish_xy[arg]) - yaw))
+                if abs(delta) > model.turn_tolerance:
+                    cost += profile.turn_time(delta) + gamma
+                    yaw += delta
+            cost += float(model.pickup_time(kind[arg], np.linalg.norm(here - dish_xy[arg])))
+            gain += scenario.planner.reward * float(fea.values(arg, here[None])[0])
+    return gain - cost, cost + model.overheads.plan
+
+
+@pytest.mark.parametrize("sequence", [SEQUENCE, MERGED])
+def test_robot_profile_costs_by_hand(scene, sequence):
+    """The robot cost profile's vectorised costs (one path batch per generation) are the
+    time of the navigator's motions, the stop's turns and the pickups, query by query."""
+    scenario, nav, regions, fea = scene
+    regions = {**regions, "l01": regions["l0"].union(regions["l1"])}
+    costs = CostModel.for_scenario(scenario)
+    result = grop_star(sequence, regions, fea, nav, scenario.robot.start, scenario.planner,
+                       seed=2, costs=costs)
+    assert result.valid
+    utility, predicted = _hand_robot_costs(result, scenario, nav, fea, costs)
+    assert result.utility == pytest.approx(utility, abs=1e-6)
+    assert result.predicted_time == pytest.approx(predicted, abs=1e-6)
+    # Every sample of the search was costed the same way.
+    for X, U in zip(result.history[:3], result.history_utility[:3], strict=True):
+        for x, u in zip(X[:3], U[:3], strict=True):
+            again = dataclasses.replace(result, positions=x)
+            assert u == pytest.approx(_hand_robot_costs(again, scenario, nav, fea, costs)[0],
+                                      abs=1e-6)
 
 
 def test_deterministic_for_a_seed(scene):

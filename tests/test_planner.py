@@ -14,6 +14,7 @@ from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
 from s3o_drake.planning.planner import METHODS, PlanningTimeoutError, plan
 from s3o_drake.planning.task_planner import TaskProblem, check_plan
+from s3o_drake.planning.time_model import TimeModel
 from s3o_drake.scenario import load_scenario
 
 SCENES = ("two_dishes", "opposite_sides")
@@ -70,10 +71,13 @@ def test_valid_plan_for_every_method(scenes, plans, scene, method):
             assert yaw == pytest.approx(math.atan2(d[1], d[0]))
             assert np.allclose(a.path[0], here) and np.allclose(a.path[-1], (x, y))
             here = np.array([x, y])
-    # Utility as DESIGN.md 2.6 defines it, from the plan's own numbers.
+    # Utility as DESIGN.md 2.6 defines it, under the robot cost profile (the default): the
+    # costs are the predicted execution time (without its once-per-plan start and end),
+    # the gains λ Fea^m (the paper profile: tests/test_time_model.py).
     pl = scenario.planner
-    utility = sum(-(g.length / pl.speed + pl.gamma) for g in p.gotos) + sum(
-        -pl.delta + pl.reward * k.feasibility for k in p.pickups)
+    assert pl.cost_profile == "robot"
+    offset = TimeModel.load().overheads.plan
+    utility = -(p.predicted_time - offset) + sum(pl.reward * k.feasibility for k in p.pickups)
     assert p.utility == pytest.approx(utility, abs=1e-6)
     assert set(p.timing) >= {"feasibility", "abstraction", "task_planning", "motion_search"}
 

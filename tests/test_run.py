@@ -43,8 +43,11 @@ def test_without_noise_every_dish_is_collected(exact_run):
     assert sorted(report["collected_dishes"]) == ["cup_b", "plate_a"]
     assert report["finished"] and report["reason"] == "plan complete"
     assert all(outcome == "done" for _, _, outcome in report["outcomes"])
-    # Execution time is simulated time: the drive and two pickups of 10-20 s each.
+    # Execution time is simulated time: the drive and two pickups of 10-20 s each; the
+    # plan predicted it (tests/test_time_model.py holds the model to the simulation).
     assert 20.0 < report["execution_time"] < 120.0
+    plan = TaskMotionPlan.read(out / "plan.json")
+    assert plan.predicted_time == pytest.approx(report["execution_time"], rel=0.1)
     assert report["planning_time"] > 0 and report["realtime_rate"] > 1.0
     plan = TaskMotionPlan.read(out / "plan.json")
     assert plan.method == "S3O-GROP*" and {a.dish for a in plan.pickups} == {"plate_a", "cup_b"}
@@ -137,6 +140,9 @@ def test_run_plans_with_the_method_and_seed_given(tmp_path, capsys, method):
     assert plan.method == method and plan.seed == 4
     printed = capsys.readouterr().out
     assert f"{method} plan (seed 4)" in printed and "Collected" in printed
+    report = json.loads((out / "report.json").read_text())
+    assert (f"Execution time: predicted {plan.predicted_time:.1f} s, simulated "
+            f"{report['execution_time']:.1f} s") in printed
 
 
 def test_help_explains_every_option():

@@ -113,6 +113,8 @@ MALFORMED = [
      "unknown method 'RRT'"),
     ("unknown feasibility source", _set("planner", {"feasibility": "vgg"}),
      "planner.feasibility", "unknown source 'vgg'"),
+    ("unknown cost profile", _set("planner", {"cost_profile": "fast"}),
+     "planner.cost_profile", "unknown profile 'fast'"),
     ("zero speed", _set("planner", {"speed": 0.0}), "planner.speed", "greater than 0"),
     ("negative noise", _set("uncertainty", {"nav_xy_std": -0.1}), "uncertainty.nav_xy_std",
      "at least 0"),

@@ -278,3 +278,19 @@ def test_drives_the_plant_to_the_goal_in_simulation(scenario):
     np.testing.assert_allclose(state[:2], command.pose[:2], atol=0.02)
     assert wrap_angle(state[2] - command.pose[2]) == pytest.approx(0.0, abs=0.02)
     np.testing.assert_allclose(state[3:9], ARM_STOW, atol=0.01)  # the arm held still
+
+
+def test_a_turn_command_turns_where_the_base_stands(scenario):
+    # The planner's turn command names where it saw the base a control period earlier; the
+    # base has drifted 40 µm since (the arm pushes it against its PD). It only turns.
+    alone = _Alone(_navigator(scenario), base=(1.0, 1.0, 0.0))
+    alone.send(BaseCommand(id=1, path=((1.0, 1.00004),), pose=(1.0, 1.00004, 1.0), turn=True))
+    poses = np.array([alone.at(t)[0] for t in np.arange(0.0, 3.0, 0.01)])
+    np.testing.assert_array_equal(poses[:, :2], np.broadcast_to([1.0, 1.0], (len(poses), 2)))
+    assert np.all(np.diff(poses[:, 2]) >= 0)  # straight to yaw 1.0, no detour
+    final, status = alone.final()
+    np.testing.assert_allclose(final[:3], [1.0, 1.0, 1.0])
+    assert status == Status(id=1, state="done")
+    # 1 rad: 0.4 s ramps to 0.8 rad/s and back, 0.68 rad at 0.8 rad/s; then the settle time.
+    assert alone.at(0.4 + 0.85 + 0.4 + 0.3 - 1e-6)[1].state == "running"
+    assert alone.at(0.4 + 0.85 + 0.4 + 0.3 + 1e-6)[1].state == "done"

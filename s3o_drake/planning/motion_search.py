@@ -4,8 +4,13 @@ Given one task-level sequence (`TaskPlan.actions`: ("goto", location) / ("pickup
 the motion search picks one base position (x, y) per `goto` inside that location's region
 and scores the whole sequence by its utility Σ R(a):
 
-    R(goto)   = -(len(y, y') / v + γ)      len: collision-free path length (NavigationMap)
+    R(goto)   = -Cst(goto)                  Cst = time + γ
     R(pickup) = -δ + λ · Fea^m(y_r, y_o)    y_r: the position of the latest goto
+
+with the costs of the cost profile (`time_model.CostModel`): "robot", the base navigator's
+motion along the map's path and the turns at the stop, γ and δ our robot's recorded times;
+or "paper", Cst(goto) = len(y, y') / v + γ with len the collision-free path length
+(NavigationMap) and δ, γ, v from the planner settings.
 
 `Fea^m` is taken as it comes (`MotionFeasibility.values`): the heatmaps already include
 the navigation and reaching noise (T^n, T^m) by Monte-Carlo, so Fea^m is the expected
@@ -31,11 +36,12 @@ first was all-penalty and the search never improved on its start. A sample still
 after resampling, or whose legs cannot be driven (infinite path length), gets utility
 `-PENALTY - Σ distance to the regions - UNREACHABLE_STEP x unreachable legs`; the distance
 term slopes CMA-ES back into the regions. Only samples inside all their regions reach
-`nav`, in one `path_lengths` batch per generation.
+`nav`, in one path query batch per generation.
 
-Predicted execution time: Σ len / v over the gotos plus `pickup_duration` per pickup.
-γ is a cost for starting to drive, not time, so it is not counted; `pickup_duration`
-defaults to δ read as seconds (the paper gives δ the units of len / v).
+Predicted execution time: the time model's prediction of the simulated execution
+(`time_model`), under either profile. Only a search given no dishes or start pose (costs
+None: the paper's costs from the planner settings alone) falls back to the paper's
+estimate, Σ len / v plus `pickup_duration` (default δ) per pickup.
 
 Deterministic for a seed: CMA-ES gets its own seed (derived from `seed`), GROP draws from
 `numpy.random.default_rng(seed)`, and `nav` is deterministic.
@@ -57,6 +63,7 @@ from shapely.ops import unary_union
 from s3o_drake.abstraction.task_feasibility import MotionFeasibility
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.task_planner import Action
+from s3o_drake.planning.time_model import CostModel
 from s3o_drake.scenario import Planner
 
 PENALTY = 1e4
@@ -92,7 +99,7 @@ class MotionResult:
     valid: bool
     """True if every position lies in its region and every leg can be driven."""
     predicted_time: float
-    """Σ len / v + pickup_duration per pickup (s); inf when not valid."""
+    """The predicted execution time (s; `SequenceProblem.result`); inf when not valid."""
     leg_lengths: np.ndarray
     """Path length of each goto's leg (n_gotos,), m (inf where not drivable)."""
     feasibility: dict[str, float]
@@ -170,17 +177,19 @@ class RegionGrid:
 
 
 class SequenceProblem:
-    """One sequence prepared for evaluation: gotos, pickups, regions, costs."""
+    """One sequence prepared for evaluation: gotos, pickups, regions, costs (`costs`: the
+    cost profile and the time prediction; None: the paper's costs from `planner`)."""
 
     def __init__(self, sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
                  feasibility: MotionFeasibility, nav: NavigationMap,
                  start_xy: Sequence[float], planner: Planner, pickup_duration: float | None,
-                 grid_cell: float):
+                 grid_cell: float, costs: CostModel | None = None):
         self.actions = tuple((str(a), str(b)) for a, b in sequence)
         self.start = np.asarray(start_xy, dtype=float)[:2]
         self.nav = nav
         self.feasibility = feasibility
         self.planner = planner
+        self.costs = CostModel.paper(planner) if costs is None else costs
         self.pickup_duration = planner.delta if pickup_duration is None else pickup_duration
         locations: list[str] = []
         picks: list[tuple[int, str]] = []  # (goto index, or -1 for the start; dish)
@@ -195,6 +204,8 @@ class SequenceProblem:
                 raise ValueError(f"action {name!r} is not supported by the motion search")
         self.locations = tuple(locations)
         self.picks = picks
+        self.stop_dishes = [[d for g, d in picks if g == k] for k in range(len(locations))]
+        self.start_dishes = [d for g, d in picks if g < 0]
         self.regions = [regions[loc] for loc in locations]
         for region in self.regions:
             shapely.prepare(region)
@@ -212,12 +223,17 @@ class SequenceProblem:
             ok &= shapely.intersects_xy(region, X[:, k, 0], X[:, k, 1])
         return ok
 
-    def evaluate(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Utilities (m,), leg lengths (m, n) and pickup Fea^m (m, pickups) of samples
-        X (m, n, 2), with one `nav.path_lengths` call for all valid samples."""
+    def evaluate(self, X: np.ndarray, *, timed: bool = False
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Utilities (m,), leg lengths (m, n), pickup Fea^m (m, pickups) and, with `timed`
+        (or the robot profile, where the costs are the times), predicted execution times
+        (m,) (NaN otherwise and where invalid) of samples X (m, n, 2), with one path query
+        batch for all valid samples."""
         X = np.asarray(X, dtype=float).reshape(-1, self.n, 2)
         m = len(X)
-        p = self.planner
+        p, costs = self.planner, self.costs
+        robot = costs.profile == "robot"
+        timed = costs.timed and (timed or robot)
         outside = np.zeros((m, self.n))
         for k, region in enumerate(self.regions):
             hit = shapely.intersects_xy(region, X[:, k, 0], X[:, k, 1])
@@ -226,33 +242,56 @@ class SequenceProblem:
                 outside[~hit, k] = np.maximum(outside[~hit, k], 1e-9)
         ok = (outside == 0).all(axis=1)
         lengths = np.full((m, self.n), np.inf)
-        if ok.any() and self.n:
+        goto_time = np.full((m, self.n), np.inf)
+        start_turns = np.zeros(m)
+        if ok.any() and timed:
+            lengths[ok], goto_time[ok], start_turns[ok] = costs.goto_times(
+                self.nav, X[ok], self.stop_dishes, self.start_dishes)
+        elif ok.any() and self.n:
             Y = X[ok]
             prev = np.concatenate([np.broadcast_to(self.start, (len(Y), 1, 2)), Y[:, :-1]], axis=1)
             lengths[ok] = self.nav.path_lengths(prev.reshape(-1, 2), Y.reshape(-1, 2)) \
                 .reshape(len(Y), self.n)
+        drivable = np.isfinite(lengths).all(axis=1)
+        if robot:
+            goto_cost = np.where(np.isfinite(lengths), goto_time, 0.0)
+        else:
+            goto_cost = np.where(np.isfinite(lengths), lengths, 0.0) / p.speed + costs.gamma
         F = np.zeros((m, len(self.picks)))
+        delta = np.zeros((m, len(self.picks)))
+        pickup_time = np.zeros((m, len(self.picks)))
         for j, (g, dish) in enumerate(self.picks):
             where = np.broadcast_to(self.start, (m, 2)) if g < 0 else X[:, g]
             F[:, j] = self.feasibility.values(dish, where)
-        drivable = np.isfinite(lengths).all(axis=1)
-        goto_cost = np.where(np.isfinite(lengths), lengths, 0.0) / p.speed + p.gamma
-        utility = -goto_cost.sum(axis=1) + (-p.delta + p.reward * F).sum(axis=1)
+            delta[:, j] = costs.pickup_costs(dish, where)
+            if timed:
+                pickup_time[:, j] = delta[:, j] if robot else costs.pickup_times(dish, where)
+        start_cost = start_turns if robot else 0.0
+        utility = -goto_cost.sum(axis=1) - start_cost + (-delta + p.reward * F).sum(axis=1)
         bad = ~(ok & drivable)
         unreachable = (~np.isfinite(lengths) & ok[:, None]).sum(axis=1)
         utility[bad] = -PENALTY - outside[bad].sum(axis=1) - UNREACHABLE_STEP * unreachable[bad]
-        return utility, lengths, F
+        times = np.full(m, np.nan)
+        if timed:
+            times[~bad] = costs.predicted_time(goto_time[~bad], start_turns[~bad],
+                                               pickup_time[~bad])
+        return utility, lengths, F, times
 
     def result(self, method: str, x: np.ndarray, samples: int, elapsed: float,
                history: list[np.ndarray], history_utility: list[np.ndarray]) -> MotionResult:
         """The MotionResult of the sample x (n, 2), re-evaluated so that every number in it
         comes from the same evaluation."""
         x = np.asarray(x, dtype=float).reshape(self.n, 2)
-        u, lengths, F = self.evaluate(x[None])
+        u, lengths, F, times = self.evaluate(x[None], timed=True)
         legs = lengths[0]
         valid = bool(u[0] > -PENALTY + 1e-9) if self.n else True
-        time_s = float(legs.sum() / self.planner.speed + self.pickup_duration * len(self.picks)) \
-            if valid else math.inf
+        if not valid:
+            time_s = math.inf
+        elif self.costs.timed:
+            time_s = float(times[0])
+        else:  # no dishes or start known: the paper's own estimate
+            time_s = float(legs.sum() / self.planner.speed
+                           + self.pickup_duration * len(self.picks))
         feas = {dish: float(F[0, j]) for j, (_, dish) in enumerate(self.picks)}
         return MotionResult(method=method, actions=self.actions, locations=self.locations,
                             positions=x, utility=float(u[0]), valid=valid,
@@ -313,19 +352,21 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
               planner: Planner, *, seed: int | None = None,
               rng: np.random.Generator | None = None, generations: int | None = None,
               population: int | None = None, pickup_duration: float | None = None,
-              deadline: float | None = None, grid_cell: float = GRID_CELL) -> MotionResult:
+              deadline: float | None = None, grid_cell: float = GRID_CELL,
+              costs: CostModel | None = None) -> MotionResult:
     """GROP*: CMA-ES over one base position per goto of `sequence` (DESIGN.md 2.6).
 
     `regions` maps each location name to its region (shapely, e.g. the union of its dishes'
     Voronoi cells). Budget: `generations` (default planner.cma_generations) x `population`
-    (default planner.cma_population) samples, each generation costed with one
-    `nav.path_lengths` batch. `deadline` (a `time.monotonic()` value) ends the search before
-    a generation that would, at the pace of the previous one, end past it. `seed` or `rng`
-    (rng wins) makes it deterministic. Returns the best sample seen.
+    (default planner.cma_population) samples, each generation costed with one path query
+    batch; `costs` is the cost profile (None: the paper's, from `planner`). `deadline` (a
+    `time.monotonic()` value) ends the search before a generation that would, at the pace
+    of the previous one, end past it. `seed` or `rng` (rng wins) makes it deterministic.
+    Returns the best sample seen.
     """
     t0 = time.monotonic()
     problem = SequenceProblem(sequence, regions, feasibility, nav, start_xy, planner,
-                              pickup_duration, grid_cell)
+                              pickup_duration, grid_cell, costs)
     generations = planner.cma_generations if generations is None else generations
     population = planner.cma_population if population is None else population
     if problem.n == 0:  # nothing to place: the sequence's utility is fixed
@@ -375,7 +416,7 @@ def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
          planner: Planner, *, seed: int | None = None, rng: np.random.Generator | None = None,
          generations: int | None = None, population: int | None = None,
          pickup_duration: float | None = None, deadline: float | None = None,
-         grid_cell: float = GRID_CELL) -> MotionResult:
+         grid_cell: float = GRID_CELL, costs: CostModel | None = None) -> MotionResult:
     """GROP (the baseline): the same budget as `grop_star`, each sample drawing every
     goto's position from its location's Fea^m grid (∝ Fea^m, only where Fea^m > 0 unless
     it is 0 everywhere), no adaptation; the best utility is kept. Batches of `population`
@@ -383,7 +424,7 @@ def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     as in GROP*."""
     t0 = time.monotonic()
     problem = SequenceProblem(sequence, regions, feasibility, nav, start_xy, planner,
-                              pickup_duration, grid_cell)
+                              pickup_duration, grid_cell, costs)
     generations = planner.cma_generations if generations is None else generations
     population = planner.cma_population if population is None else population
     if problem.n == 0:

@@ -1,8 +1,10 @@
 """The navigation map: collision-free path lengths and paths for the base (DESIGN.md 2.6).
 
-GROP*'s utility charges `len(y, y') / v` per `goto`, with `len` the collision-free path
-length on the map; CMA-ES evaluates it thousands of times per plan at continuous,
-clustered points, so it must be exact enough to rank samples and cheap (<= 0.2 ms).
+GROP*'s utility charges `len(y, y') / v` per `goto` (the paper's cost profile), with `len`
+the collision-free path length on the map, or the base navigator's motion time along the
+path (`path_times`, the robot's cost profile); CMA-ES evaluates it thousands of times per
+plan at continuous, clustered points, so it must be exact enough to rank samples and cheap
+(<= 0.2 ms).
 
 Obstacles: the tables and the mapped chairs of the scenario, plus the chairs the planner
 perceives, passed explicitly (the scenario's unmapped chairs are never read here), and
@@ -69,7 +71,9 @@ from shapely.geometry import Point, Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
+from s3o_drake.angles import wrap
 from s3o_drake.furniture import DistanceField, chair_footprint, table_footprint
+from s3o_drake.planning.base_motion import BaseProfile, chain_time
 from s3o_drake.robot import BASE_RADIUS, BASE_WIDTH
 from s3o_drake.scenario import Scenario
 from s3o_drake.validation import room_polygon
@@ -145,6 +149,7 @@ class NavigationMap:
         self._build_grid()
         self._build_graph(quad_segs)
         self._endpoint_cache: dict[tuple[float, float], _Endpoint] = {}
+        self._route_tables: dict[BaseProfile, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     # ----------------------------------------------------------------------------- grid
     def _build_grid(self) -> None:
@@ -474,6 +479,11 @@ class NavigationMap:
         return a.lead + best + b.lead, int(a.seen[i]), int(b.seen[j])
 
     def _lengths(self, P: np.ndarray, Q: np.ndarray) -> list[tuple[float, int, int]]:
+        return self._query(P, Q)[0]
+
+    def _query(self, P: np.ndarray, Q: np.ndarray) -> tuple[list[tuple[float, int, int]],
+                                                           list[_Endpoint], list[_Endpoint]]:
+        """(length, first vertex, last vertex) per pair, and the pairs' endpoints."""
         P = np.asarray(P, dtype=float).reshape(-1, 2)
         Q = np.asarray(Q, dtype=float).reshape(-1, 2)
         if len(P) != len(Q):
@@ -490,7 +500,8 @@ class NavigationMap:
             direct[idx] = ~self._blocked(ea, eb)
             detour = idx[~direct[idx]]
             self._see([A[i] for i in detour] + [B[i] for i in detour])
-        return [self._pair_length(a, b, bool(d)) for a, b, d in zip(A, B, direct, strict=True)]
+        return [self._pair_length(a, b, bool(d)) for a, b, d in zip(A, B, direct, strict=True)], \
+            A, B
 
     def path_length(self, p: Sequence[float], q: Sequence[float]) -> float:
         """Collision-free path length (m) from p to q; inf when unreachable.
@@ -502,6 +513,94 @@ class NavigationMap:
     def path_lengths(self, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """`path_length` for pairs (P[i], Q[i]), P and Q (m, 2): one vectorised batch."""
         return np.array([r[0] for r in self._lengths(P, Q)])
+
+    def path_times(self, P: np.ndarray, Q: np.ndarray, yaw_from: np.ndarray,
+                   yaw_to: np.ndarray, profile: BaseProfile
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Path lengths (m), the base's motion times (s) and landing yaws (rad) for pairs
+        (P[i], Q[i]): the BaseNavigator's motion along `path(P[i], Q[i])` from yaw
+        `yaw_from[i]`, landing at `yaw_to[i]` (NaN: facing along the last leg), timed by
+        `profile` (`base_motion.chain_time`; settle time and command hand-over not
+        included). inf (and NaN yaw) where the path length is inf. One vectorised batch,
+        as `path_lengths`.
+
+        A path is up to five items: the lead from P to its entry point, the leg from there
+        to the first graph vertex (or straight to Q's entry), the stretch along the graph's
+        shortest route between its first and last vertex (timed once per map and profile
+        by `route_table`), the leg to Q's entry, and the lead to Q.
+        """
+        results, A, B = self._query(P, Q)
+        m = len(results)
+        lengths = np.array([r[0] for r in results], dtype=float).reshape(m)
+        times = np.full(m, np.inf)
+        landing = np.full(m, np.nan)
+        ok = np.isfinite(lengths)
+        if not ok.any():
+            return lengths, times, landing
+        idx = np.flatnonzero(ok)
+        pa = np.array([A[k].p for k in idx])
+        ea = np.array([A[k].entry for k in idx])
+        eb = np.array([B[k].entry for k in idx])
+        pb = np.array([B[k].p for k in idx])
+        first = np.array([results[k][1] for k in idx])
+        last = np.array([results[k][2] for k in idx])
+        graph = first >= 0
+        fi, la = np.where(graph, first, 0), np.where(graph, last, 0)
+        vi = np.where(graph[:, None], self.vertices[fi] if len(self.vertices) else ea, eb)
+        vj = np.where(graph[:, None], self.vertices[la] if len(self.vertices) else eb, eb)
+        # The legs as (from, to) point pairs; the stretch (item 2) comes from the table.
+        legs = [(pa, ea), (ea, vi), (vj, vj), (vj, eb), (eb, pb)]
+        d = np.stack([b - a for a, b in legs], axis=1)  # (k, 5, 2)
+        heading = np.arctan2(d[..., 1], d[..., 0])
+        length = np.hypot(d[..., 0], d[..., 1])
+        own = profile.drive_time(length)
+        h_in, h_out = heading.copy(), heading.copy()
+        if graph.any():
+            route_in, route_out, route_time = self.route_table(profile)
+            stretch = graph & (fi != la)
+            h_in[:, 2] = np.where(stretch, route_in[fi, la], 0.0)
+            h_out[:, 2] = np.where(stretch, route_out[fi, la], 0.0)
+            own[:, 2] = np.where(stretch, route_time[fi, la], 0.0)
+            length[:, 2] = np.where(stretch, self._D[fi, la], 0.0)
+        times[idx], landing[idx] = chain_time(profile, h_in, h_out, length, own,
+                                              np.asarray(yaw_from, float).reshape(m)[idx],
+                                              np.asarray(yaw_to, float).reshape(m)[idx])
+        return lengths, times, landing
+
+    def route_table(self, profile: BaseProfile) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For every pair (i, j) of graph vertices, the heading of the first and of the last
+        leg of the shortest route i -> j, and its motion time under `profile`: the drives of
+        its legs and the turns at its inner vertices. Computed once per profile, by hop
+        count (a route is the route to its last vertex's predecessor plus one leg)."""
+        if profile in self._route_tables:
+            return self._route_tables[profile]
+        n = len(self.vertices)
+        V = self.vertices
+        dv = V[None, :, :] - V[:, None, :]  # dv[k, j] = V[j] - V[k]
+        edge_heading = np.arctan2(dv[..., 1], dv[..., 0])
+        edge_time = profile.drive_time(np.hypot(dv[..., 0], dv[..., 1]))
+        h_in = np.zeros((n, n))
+        h_out = np.zeros((n, n))
+        time_ij = np.zeros((n, n))
+        done = np.eye(n, dtype=bool)
+        reachable = np.isfinite(self._D)
+        rows = np.arange(n)[:, None].repeat(n, axis=1)
+        while True:
+            k = self._pred
+            todo = reachable & ~done
+            ready = todo & done[rows, np.where(k >= 0, k, 0)] & (k >= 0)
+            if not ready.any():
+                break
+            i, j = np.nonzero(ready)
+            kk = k[i, j]
+            single = kk == i
+            turn = profile.turn_time(wrap(edge_heading[kk, j] - h_out[i, kk]))
+            time_ij[i, j] = np.where(single, 0.0, time_ij[i, kk] + turn) + edge_time[kk, j]
+            h_in[i, j] = np.where(single, edge_heading[i, j], h_in[i, kk])
+            h_out[i, j] = edge_heading[kk, j]
+            done[i, j] = True
+        self._route_tables[profile] = (h_in, h_out, time_ij)
+        return self._route_tables[profile]
 
     def path(self, p: Sequence[float], q: Sequence[float]) -> np.ndarray | None:
         """Waypoints (k, 2) from p to q, or None when q is unreachable from p.

@@ -27,6 +27,7 @@ from s3o_drake.abstraction.task_feasibility import MotionFeasibility
 from s3o_drake.planning.motion_search import GRID_CELL, MotionResult, SequenceProblem
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.task_planner import START, TaskPlanResult, plan_problem
+from s3o_drake.planning.time_model import CostModel
 from s3o_drake.scenario import Planner
 
 COST_SCALE = 10.0
@@ -76,11 +77,13 @@ def random_position(region: BaseGeometry, nav: NavigationMap, start: np.ndarray,
 def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
            feasibility: MotionFeasibility, nav: NavigationMap, start_xy: Sequence[float],
            planner: Planner, *, rng: np.random.Generator, draws: int = 1,
-           unreachable: Sequence[str] = (), deadline: float | None = None) -> PetlonResult:
+           unreachable: Sequence[str] = (), deadline: float | None = None,
+           costs: CostModel | None = None) -> PetlonResult:
     """V-PETLON over the state space `groups` (location k named "l{k}", its region in
     `regions`): `draws` random position sets, each ordered optimally for navigation, the
     cheapest kept. At least one draw is made; `deadline` (time.monotonic) stops further
-    draws. Raises `TaskPlanningError` if no dish can be planned."""
+    draws; `costs` scores the kept plan (None: the paper's costs). Raises
+    `TaskPlanningError` if no dish can be planned."""
     start = np.asarray(start_xy, dtype=float)[:2]
     names = [f"l{k}" for k in range(len(groups))]
     best: PetlonResult | None = None
@@ -97,18 +100,18 @@ def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
         A = np.repeat(P, len(P), axis=0)
         B = np.tile(P, (len(P), 1))
         L = nav.path_lengths(A, B).reshape(len(P), len(P))
-        costs = {(a, b): L[i_a, i_b] / planner.speed * COST_SCALE
+        task_costs = {(a, b): L[i_a, i_b] / planner.speed * COST_SCALE
                  for i_a, a in enumerate(keys) for i_b, b in enumerate(keys) if a != b}
         lost = set(unreachable) | {d for n, g in zip(names, groups, strict=True)
                                    if points[n] is None for d in g}
         remaining = None if deadline is None else max(deadline - time.monotonic(), 0.5)
-        task = plan_problem(groups, costs, unreachable=sorted(lost), n_plans=1,
+        task = plan_problem(groups, task_costs, unreachable=sorted(lost), n_plans=1,
                             time_limit=5.0 if remaining is None else min(5.0, remaining))
         t1 = time.monotonic()
         task_time += t1 - t0
         sequence = task.best.actions
         problem = SequenceProblem(sequence, regions, feasibility, nav, start, planner, None,
-                                  GRID_CELL)
+                                  GRID_CELL, costs)
         X = np.array([points[loc] for loc in problem.locations]).reshape(-1, 2)
         motion = problem.result("PETLON", X, 1, 0.0, [], [])
         motion_time += time.monotonic() - t1

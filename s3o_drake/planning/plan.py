@@ -63,7 +63,8 @@ class TaskMotionPlan:
     utility: float
     """Σ R(a) (DESIGN.md 2.6) of the plan: expected, with Fea^m as the pickup success."""
     predicted_time: float
-    """Σ path length / v + δ per pickup (s), as the motion search predicts it."""
+    """The simulated execution time the plan should take (s), as planned: exact landings,
+    every action done (planning/time_model.py)."""
     planning_time: float
     """Wall time of `plan` (s), plus `timing["feasibility"]` if the caller passed it."""
     timing: dict[str, float] = field(default_factory=dict)

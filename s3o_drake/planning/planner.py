@@ -89,6 +89,7 @@ from s3o_drake.planning.task_planner import (
     TaskPlanResult,
     plan_problem,
 )
+from s3o_drake.planning.time_model import CostModel
 from s3o_drake.scenario import Scenario
 
 METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random")
@@ -129,7 +130,8 @@ def _search_job(job: tuple) -> MotionResult:
     s = _inherited
     assert s is not None, "search workers must be forked by _Searches"
     return s["search"](actions, regions, s["fea"], s["nav"], s["start"], s["planner"],
-                       rng=np.random.default_rng(seed_key), deadline=s["deadline"])
+                       rng=np.random.default_rng(seed_key), deadline=s["deadline"],
+                       costs=s["costs"])
 
 
 class _Searches:
@@ -137,13 +139,13 @@ class _Searches:
     come back in submission order."""
 
     def __init__(self, workers: int, search: Callable[..., MotionResult], fea, nav, start,
-                 planner, deadline: float):
+                 planner, deadline: float, costs: CostModel):
         global _inherited
         # Workers stop a little early: collecting their results and letting them go takes
         # time too, and the budget must hold for the whole call.
         slack = WORKER_SLACK * max(0.0, deadline - time.monotonic()) if workers > 1 else 0.0
         self._shared = dict(search=search, fea=fea, nav=nav, start=start, planner=planner,
-                            deadline=deadline - slack)
+                            deadline=deadline - slack, costs=costs)
         self._pool: ProcessPoolExecutor | None = None
         self._pending: list[tuple[object, Future | MotionResult]] = []
         if workers > 1 and "fork" in multiprocessing.get_all_start_methods():
@@ -311,6 +313,9 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
 
     t = time.monotonic()
     nav = NavigationMap(scenario, perceived_chairs)
+    costs = CostModel.for_scenario(scenario)
+    # The graph routes' motion times, once, before search workers fork and inherit them.
+    nav.route_table(costs.base)
     timing["navigation"] = time.monotonic() - t
     expired("the navigation map")
 
@@ -333,7 +338,7 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
         regions = location_regions(groups, cells)
         result = petlon(groups, regions, fea, nav, start, planner,
                         rng=np.random.default_rng([seed, _PETLON]), draws=iterations,
-                        unreachable=partition.unreachable, deadline=deadline)
+                        unreachable=partition.unreachable, deadline=deadline, costs=costs)
         timing["task_planning"] += result.task_time
         timing["motion_search"] += result.motion_time
         complete = result.draws == iterations
@@ -359,7 +364,7 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
     search = grop if method.endswith("GROP") else grop_star
 
     tasks: dict[tuple[tuple[str, ...], ...], tuple[TaskPlanResult, dict[str, BaseGeometry]]] = {}
-    searches_run = _Searches(workers, search, fea, nav, start, planner, deadline)
+    searches_run = _Searches(workers, search, fea, nav, start, planner, deadline, costs)
     try:
         best, searches, samples = _search_spaces(
             spaces, tasks, searches_run, cells, partition, fea, nav, start, planner,

@@ -19,22 +19,24 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 
-from s3o_drake.angles import wrap
+from s3o_drake.feasibility.landing import CHECK_STEP_XY, CHECK_STEP_YAW, FINAL_APPROACH
 from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.planning.base_motion import (
+    ACCELERATION,
+    SETTLE_TIME,
+    TINY,
+    YAW_ACCELERATION,
+    YAW_RATE,
+    motion_segments,
+    trapezoid,
+)
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
 from s3o_drake.scenario import Scenario
 from s3o_drake.systems.commands import NO_COMMAND, BaseCommand, Status
 
-#: Sampling of a motion for the collision check: one pose per this much travel (m, rad).
-CHECK_STEP_XY = 0.02
-CHECK_STEP_YAW = 0.05
-#: A collision this close to the end of the path (m of driving) only shortens the landing.
-FINAL_APPROACH = 0.5
 #: How far (m) the base may back straight out of a tight stop before it turns, tried in
 #: turn when the direct motion is blocked.
 ESCAPE_STEPS = tuple(0.05 * k for k in range(1, 13))
-#: Segments shorter than this (m or rad) are left out: nothing to drive.
-_TINY = 1e-9
 
 
 @dataclass(frozen=True)
@@ -53,9 +55,8 @@ class _Segment:
     @staticmethod
     def make(start, end, *, turn: bool, length: float, max_speed: float,
              accel: float) -> "_Segment":
-        # Too short to reach max_speed: a triangular profile peaking mid-way.
-        speed = min(max_speed, math.sqrt(length * accel))
-        duration = length / speed + speed / accel
+        # The profile's arithmetic is the planner's too (planning/base_motion.py).
+        speed, duration = trapezoid(length, max_speed, accel)
         return _Segment(tuple(map(float, start)), tuple(map(float, end)), turn, float(length),
                         speed, accel, duration)
 
@@ -136,8 +137,9 @@ class BaseNavigator(LeafSystem):
     it compares the command's id with the one it executes; on a new id it plans the whole
     motion from where the base actually is: the waypoints of `command.path` (the first is
     replaced by the base's position, the last by the landing), each drive preceded by a turn
-    in place toward its heading, and a final turn to the landing yaw. Yaw stays continuous
-    (no 2 pi jumps), so the desired yaw equals the landing's only modulo 2 pi.
+    in place toward its heading, and a final turn to the landing yaw; a `turn` command only
+    turns, where the base stands. Yaw stays continuous (no 2 pi jumps), so the desired yaw
+    equals the landing's only modulo 2 pi.
 
     The landing is `command.pose` + (dx, dy, dyaw) with dx, dy ~ N(0, nav_xy_std^2) and
     dyaw ~ N(0, nav_yaw_std^2) from numpy.random.default_rng([seed, 1, command.id]), or
@@ -155,8 +157,9 @@ class BaseNavigator(LeafSystem):
 
     def __init__(self, *, scenario: Scenario, scene: FeasibilityScene | None,
                  seed: int | None = None, control_period: float = 0.01,
-                 max_yaw_rate: float = 0.8, noise: bool = True, settle_time: float = 0.3,
-                 acceleration: float = 1.0, yaw_acceleration: float = 2.0):
+                 max_yaw_rate: float = YAW_RATE, noise: bool = True,
+                 settle_time: float = SETTLE_TIME, acceleration: float = ACCELERATION,
+                 yaw_acceleration: float = YAW_ACCELERATION):
         super().__init__()
         self._speed = scenario.planner.speed
         self._xy_std = scenario.uncertainty.nav_xy_std if noise else 0.0
@@ -221,8 +224,13 @@ class BaseNavigator(LeafSystem):
     def _plan(self, command: BaseCommand, base: np.ndarray, t: float) -> _Motion:
         target = self.landing(command)
         waypoints = [np.asarray(base[:2], float)]
-        waypoints += [np.asarray(p, float) for p in command.path[1:-1]]
-        waypoints.append(target[:2])
+        if not command.turn:
+            waypoints += [np.asarray(p, float) for p in command.path[1:-1]]
+            waypoints.append(target[:2])
+        # A turn turns where the base stands: its pose's x, y are where the planner saw the
+        # base a control period earlier, and the base has since drifted by micrometres (the
+        # arm's motion pushes it against its PD); driving there first meant turning towards
+        # that micro-drive, up to π/2 out of the way and back.
         segments = self._segments(waypoints, float(base[2]), float(target[2]))
         cut = self._cut_at_collision(segments)
         if cut[1] == "failed":
@@ -248,39 +256,11 @@ class BaseNavigator(LeafSystem):
 
     def _segments(self, waypoints: list[np.ndarray], yaw: float, target_yaw: float, *,
                   long_way: bool = False) -> list[_Segment]:
-        """Turn-then-drive segments through the waypoints, then the turn to `target_yaw`;
-        with `long_way`, the first turn goes the other way round."""
-        segments = []
-        pose = np.array([*waypoints[0], yaw])
-
-        def turn_to(heading: float) -> None:
-            nonlocal pose, long_way
-            delta = float(wrap(heading - pose[2]))
-            if long_way and abs(delta) > _TINY:
-                delta -= math.copysign(2 * math.pi, delta)
-                long_way = False
-            if abs(delta) > _TINY:
-                end = np.array([pose[0], pose[1], pose[2] + delta])
-                segments.append(self._segment(pose, end, turn=True, length=abs(delta)))
-                pose = end
-
-        for k, p in enumerate(waypoints[1:]):
-            d = p - pose[:2]
-            length = float(np.hypot(*d))
-            if length <= _TINY:
-                continue
-            heading = math.atan2(d[1], d[0])
-            if k == 0 and abs(float(wrap(heading - pose[2]))) > math.pi / 2:
-                # Leaving a stop that faces a table: back away from it rather than swing the
-                # base's corners round next to it (a stop needs only the inscribed radius
-                # of clearance, a turn in place the circumscribed one).
-                heading = float(wrap(heading + math.pi))
-            turn_to(heading)
-            end = np.array([*p, pose[2]])
-            segments.append(self._segment(pose, end, turn=False, length=length))
-            pose = end
-        turn_to(target_yaw)
-        return segments
+        """Turn-then-drive segments through the waypoints, then the turn to `target_yaw`
+        (`base_motion.motion_segments`: the rule the planner's cost model times); with
+        `long_way`, the first turn goes the other way round."""
+        return [self._segment(s.start, s.end, turn=s.turn, length=s.length)
+                for s in motion_segments(waypoints, yaw, target_yaw, long_way=long_way)]
 
     def _segment(self, start, end, *, turn: bool, length: float) -> _Segment:
         if turn:
@@ -307,9 +287,9 @@ class BaseNavigator(LeafSystem):
         hit = first_free + int(colliding[0])
         last_i, last_s, _ = samples[hit - 1]
         kept = list(segments[:last_i]) if last_i >= 0 else []
-        if last_i >= 0 and last_s > _TINY:
+        if last_i >= 0 and last_s > TINY:
             seg = segments[last_i]
-            if last_s >= seg.length - _TINY:
+            if last_s >= seg.length - TINY:
                 kept.append(seg)
             else:
                 kept.append(self._segment(seg.start, seg.pose(last_s), turn=seg.turn,

@@ -18,12 +18,9 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from s3o_drake.planning.time_model import CONTROL_PERIOD  # noqa: F401 (the systems' period)
+
 NO_COMMAND = 0
-#: How often (s) the execution systems of the full diagram look at their inputs: commands,
-#: reports and grips change a few times a minute, and a 50 ms reaction is invisible next
-#: to seconds-long motions, while every periodic event costs a state copy per firing.
-#: (Trajectories are evaluated at every plant step regardless.)
-CONTROL_PERIOD = 0.05
 
 
 @dataclass(frozen=True)

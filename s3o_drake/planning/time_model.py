@@ -1,0 +1,343 @@
+"""The plan's time model: what the simulated execution will take, and the utility's costs.
+
+A plan runs as a chain of commands, one at a time (systems/s3o_planner.py): a base command
+per `goto`, a turn in place before a pickup whose dish the base does not face (a stop that
+serves several dishes faces the first), and an arm command per `pickup`. Its simulated
+execution time is predicted as
+
+    T = Σ_gotos (t_drive + γ) + Σ_turns (t_turn + γ) + Σ_pickups δ(kind, d) + T_0
+
+- t_drive: the BaseNavigator's motion along the navigation map's path, from the yaw the base
+  left its previous stop with to the stop's yaw (facing its first dish): turns in place,
+  trapezoidal drives, backing away from a stop (`base_motion`, `NavigationMap.path_times`);
+- t_turn: a turn in place before a further pickup at a stop, when the dish is more than
+  TURN_TOLERANCE off the base's heading (the S3OPlanner's rule);
+- γ: the fixed time of a base command that its motion does not cover: the navigator's
+  settle time, and the hand-over between commands (see `command_overheads`);
+- δ(kind, d): a pickup: the ArmController's motion, a fitted function of the dish's kind,
+  its distance d from the base and the grasp the arm takes there, plus the arm command's
+  hand-over;
+- T_0: the start and the end of the run (the first command starts a control period after
+  t = 0; the run ends when the planner reads the last report, without the next hand-over).
+
+γ, δ and T_0 are derived by `python -m s3o_drake.execution.derive_times` and recorded in
+models/time_model.yaml (`TimeModel`), which everything reads: the pickup's duration is the
+arm's, and changes with it (re-run the command after changing the arm's motion).
+
+The utility keeps the paper's form, R(goto) = -Cst(goto) with Cst = time + γ, and
+R(pickup) = -δ + λ Fea^m, under one of two cost profiles (`Planner.cost_profile`):
+
+- "robot": the terms above: Cst(goto) = t_drive + γ + Σ_turns at its stop (t_turn + γ), δ
+  the recorded pickup time; the utility's costs are then the predicted time;
+- "paper": the paper's values: Cst(goto) = len / v + γ, δ constant (the scenario's
+  planner.delta, gamma, speed: 5, 20, 0.4 by default), len the path length on the map.
+
+Either way the plan's `predicted_time` is T above (for the paper profile too, since it is a
+prediction of the execution, not a cost), as planned: every landing exact, every action
+done. With the navigation noise on, the landings differ (the turn before the first pickup
+at a stop then often happens too) and failed pickups take other times: see docs/planning.md.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import yaml
+
+from s3o_drake.angles import wrap
+from s3o_drake.feasibility.landing import TURN_TOLERANCE
+from s3o_drake.planning.base_motion import SETTLE_TIME, BaseProfile
+from s3o_drake.resources import MODELS_DIR
+from s3o_drake.scenario import Planner, Scenario
+
+if TYPE_CHECKING:  # only for hints: the systems import this module for their period
+    from s3o_drake.planning.navigation import NavigationMap
+
+#: How often (s) the execution systems of the full diagram look at their inputs: commands,
+#: reports and grips change a few times a minute, and a 50 ms reaction is invisible next
+#: to seconds-long motions, while every periodic event costs a state copy per firing.
+#: (Trajectories are evaluated at every plant step regardless.) Here, below the systems,
+#: because the hand-over between commands is part of the time model.
+CONTROL_PERIOD = 0.05
+MODEL_FILE = MODELS_DIR / "time_model.yaml"
+FORMAT = "s3o_drake.TimeModel/1"
+PICKUP_FORMS = ("constant", "per_kind", "linear", "per_kind_linear", "per_kind_grasp",
+                "per_kind_grasp_linear", "per_kind_grasp_quadratic")
+"""Pickup-duration models, polynomials in d (the base-dish distance) per group: one for all,
+per dish kind, or per kind and grasp (the grasp predicted from the distance: `PickupModel`)."""
+GRASPS = ("top", "side")
+
+
+@dataclass(frozen=True)
+class Overheads:
+    """The fixed times of the command chain (s), from the systems' control period."""
+
+    gamma: float
+    """Per base command: settle time, reading the report, sending the next command."""
+    pickup: float
+    """Per arm command: its end, reading its report, sending the next command."""
+    plan: float
+    """Once per plan: the first command's start minus the last command's hand-over."""
+
+
+def command_overheads(control_period: float = CONTROL_PERIOD,
+                      settle_time: float = SETTLE_TIME) -> Overheads:
+    """The command chain's fixed times for the execution diagram's timing.
+
+    The planner and the controllers update every `control_period`, at the same ticks, and
+    Drake computes a tick's updates from the state before it, so a message written at one
+    tick is read at the next. A base command starts at a tick; the navigator reports done
+    `settle_time` after its motion ends (a function of time: readable at once), the planner
+    reads it at the first tick after that (half a period later on average), writes the next
+    command one tick later, and the next controller starts it one tick after that:
+    γ = settle + 2.5 periods. An arm command's motion ends at the first tick after its
+    trajectory (half a period on average), its report is state (read one tick later), then
+    the same two ticks: 3.5 periods. The first command is written at t = 0 and started one
+    tick later; the run's execution time is the tick at which the planner reads the last
+    report, so the last command's two hand-over ticks do not happen: -1 period per plan.
+    (Measured against full simulations in tests/test_time_model.py.)
+    """
+    p = float(control_period)
+    return Overheads(gamma=settle_time + 2.5 * p, pickup=3.5 * p, plan=-p)
+
+
+@dataclass(frozen=True)
+class PickupModel:
+    """The arm's pickup motion duration (s) as a polynomial in d, the horizontal distance (m)
+    from the base's centre to the dish: `coefficients[key]` lowest degree first, the key the
+    dish's kind and grasp ("cup/side"), else its kind ("cup"), else "*" (every dish).
+
+    The grasp is the one the arm takes: the top grasp where it reaches, else the side grasp
+    (`feasibility.grasps`: cups only); from the planner's side that is a distance per kind,
+    `side_beyond[kind]` (m), beyond which the top grasp no longer reaches."""
+
+    form: str
+    coefficients: Mapping[str, tuple[float, ...]]
+    side_beyond: Mapping[str, float] = field(default_factory=dict)
+
+    def grasp(self, kind: str, distance) -> np.ndarray:
+        """The grasp ("top" or "side") expected at `distance` (array)."""
+        d = np.asarray(distance, dtype=float)
+        return np.where(d > self.side_beyond.get(kind, math.inf), "side", "top")
+
+    def coefficients_for(self, kind: str, grasp: str) -> tuple[float, ...]:
+        for key in (f"{kind}/{grasp}", kind, "*"):
+            if key in self.coefficients:
+                return self.coefficients[key]
+        raise KeyError(f"the pickup time model has no coefficients for a {kind!r} "
+                       f"({grasp} grasp)")
+
+    def duration(self, kind: str, distance) -> np.ndarray:
+        d = np.asarray(distance, dtype=float)
+        grasp = self.grasp(kind, d)
+        out = np.zeros(d.shape)
+        for g in GRASPS:
+            where = grasp == g
+            if where.any():
+                c = self.coefficients_for(kind, g)
+                out = np.where(where, np.polynomial.polynomial.polyval(d, c), out)
+        return out
+
+
+@dataclass(frozen=True)
+class TimeModel:
+    """The recorded time model (models/time_model.yaml): the command overheads, the pickup
+    model, and how they were made (`provenance`, `fit`)."""
+
+    overheads: Overheads
+    pickup: PickupModel
+    turn_tolerance: float = TURN_TOLERANCE
+    provenance: Mapping[str, Any] = field(default_factory=dict)
+    fit: Mapping[str, Any] = field(default_factory=dict)
+
+    def pickup_time(self, kind: str, distance) -> np.ndarray:
+        """δ: a pickup command's time (s), the arm's motion and its hand-over."""
+        return self.pickup.duration(kind, distance) + self.overheads.pickup
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"format": FORMAT, **dict(self.provenance),
+                "gamma": self.overheads.gamma, "pickup_overhead": self.overheads.pickup,
+                "plan_offset": self.overheads.plan, "turn_tolerance": self.turn_tolerance,
+                "pickup": {"model": self.pickup.form,
+                           "coefficients": {k: [float(c) for c in v] for k, v
+                                            in sorted(self.pickup.coefficients.items())},
+                           "side_beyond": {k: float(v) for k, v
+                                           in sorted(self.pickup.side_beyond.items())},
+                           **dict(self.fit)}}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> TimeModel:
+        if data.get("format") != FORMAT:
+            raise ValueError(f"not a time model (format {data.get('format')!r}, expected "
+                             f"{FORMAT!r})")
+        pickup = dict(data["pickup"])
+        form = pickup.pop("model")
+        if form not in PICKUP_FORMS:
+            raise ValueError(f"pickup.model: unknown form {form!r}")
+        coefficients = {str(k): tuple(float(c) for c in v)
+                        for k, v in pickup.pop("coefficients").items()}
+        side_beyond = {str(k): float(v) for k, v in pickup.pop("side_beyond", {}).items()}
+        known = {"format", "gamma", "pickup_overhead", "plan_offset", "turn_tolerance",
+                 "pickup"}
+        return cls(overheads=Overheads(gamma=float(data["gamma"]),
+                                       pickup=float(data["pickup_overhead"]),
+                                       plan=float(data["plan_offset"])),
+                   pickup=PickupModel(form, coefficients, side_beyond),
+                   turn_tolerance=float(data["turn_tolerance"]),
+                   provenance={k: v for k, v in data.items() if k not in known}, fit=pickup)
+
+    @classmethod
+    def load(cls, path: str | Path = MODEL_FILE) -> TimeModel:
+        """The recorded model (cached per path)."""
+        return _load(str(Path(path).resolve()))
+
+
+@functools.lru_cache(maxsize=4)
+def _load(path: str) -> TimeModel:
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"{path}: no time model; make it with "
+                                "`python -m s3o_drake.execution.derive_times`")
+    return TimeModel.from_dict(yaml.safe_load(Path(path).read_text()))
+
+
+def base_profile(planner: Planner) -> BaseProfile:
+    """The base's motion profile as the navigator drives it: the planner's speed v and the
+    navigator's other limits."""
+    return BaseProfile(speed=planner.speed)
+
+
+@dataclass(frozen=True)
+class DishPlace:
+    """What the cost model needs of a dish: where it stands and its kind."""
+
+    xy: tuple[float, float]
+    kind: str
+
+
+class CostModel:
+    """The utility's costs and the predicted time of one planning problem.
+
+    `profile` "robot" or "paper" (module docstring). `dishes` and `start` (x, y, yaw) make
+    the time prediction possible; without them (`CostModel.paper(planner)`, for library
+    callers that have only the planner settings) the predicted time is the paper's
+    estimate Σ len / v + δ per pickup.
+    """
+
+    def __init__(self, planner: Planner, *, profile: str | None = None,
+                 dishes: Mapping[str, DishPlace] | None = None,
+                 start: Sequence[float] | None = None, time_model: TimeModel | None = None):
+        self.planner = planner
+        self.profile = planner.cost_profile if profile is None else profile
+        if self.profile not in ("robot", "paper"):
+            raise ValueError(f"unknown cost profile {self.profile!r}")
+        self.dishes = dict(dishes or {})
+        self.start = None if start is None else np.asarray(start, dtype=float)[:3]
+        self.timed = bool(self.dishes) and self.start is not None
+        if self.profile == "robot" and not self.timed:
+            raise ValueError("the robot cost profile needs the dishes and the start pose")
+        self.model = (time_model or TimeModel.load()) if self.timed else None
+        self.base = base_profile(planner)
+        self.reward = planner.reward
+
+    @classmethod
+    def paper(cls, planner: Planner) -> CostModel:
+        """The paper's costs from the planner settings alone (no time prediction)."""
+        return cls(planner, profile="paper")
+
+    @classmethod
+    def for_scenario(cls, scenario: Scenario, time_model: TimeModel | None = None) -> CostModel:
+        """The scenario's cost profile, with its dishes and start for the time prediction."""
+        dishes = {d.name: DishPlace((float(d.position[0]), float(d.position[1])), d.kind)
+                  for d in scenario.dishes}
+        return cls(scenario.planner, dishes=dishes, start=scenario.robot.start,
+                   time_model=time_model)
+
+    @property
+    def gamma(self) -> float:
+        """γ of the utility: the paper's start cost, or the robot's per-command time."""
+        return self.planner.gamma if self.profile == "paper" else self.model.overheads.gamma
+
+    # ----------------------------------------------------------------------- the parts
+    def pickup_times(self, dish: str, where: np.ndarray) -> np.ndarray:
+        """δ (s) of picking `dish` from base positions `where` (m, 2)."""
+        d = np.linalg.norm(np.asarray(where, float).reshape(-1, 2) - self.dishes[dish].xy, axis=1)
+        return self.model.pickup_time(self.dishes[dish].kind, d)
+
+    def pickup_costs(self, dish: str, where: np.ndarray) -> np.ndarray:
+        """δ of the utility for picking `dish` from positions `where` (m, 2)."""
+        if self.profile == "paper":
+            return np.full(len(np.asarray(where).reshape(-1, 2)), self.planner.delta)
+        return self.pickup_times(dish, where)
+
+    def facing(self, where: np.ndarray, dish: str) -> np.ndarray:
+        """Yaw (m,) of base positions `where` (m, 2) facing `dish` (plan.facing_yaw)."""
+        d = np.asarray(self.dishes[dish].xy) - np.asarray(where, float).reshape(-1, 2)
+        yaw = np.arctan2(d[:, 1], d[:, 0])
+        return np.where((d[:, 0] == 0) & (d[:, 1] == 0), 0.0, yaw)
+
+    def stop_turns(self, where: np.ndarray, yaw: np.ndarray,
+                   dishes: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+        """The turns in place at a stop: base positions `where` (m, 2) arriving at `yaw`
+        (m,) pick `dishes` in order, turning first to face each one that is more than the
+        tolerance off. Returns their time Σ (t_turn + γ) (m,) and the yaw the base leaves
+        with (m,)."""
+        yaw = np.asarray(yaw, dtype=float).copy()
+        total = np.zeros(len(yaw))
+        for dish in dishes:
+            delta = wrap(self.facing(where, dish) - yaw)
+            turn = np.abs(delta) > self.model.turn_tolerance
+            total += np.where(turn, self.base.turn_time(delta) + self.model.overheads.gamma, 0.0)
+            yaw = np.where(turn, yaw + delta, yaw)
+        return total, yaw
+
+    def goto_times(self, nav: NavigationMap, stops: np.ndarray,
+                   stop_dishes: Sequence[Sequence[str]], start_dishes: Sequence[str] = ()
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For samples of stops (m, n, 2) visited in order from the start, each followed by
+        the pickups `stop_dishes[k]`: path lengths (m, n), goto times (m, n) (drive + γ +
+        the turns at the stop) and the time of the turns at the start before its pickups
+        `start_dishes` (m,). inf where a leg cannot be driven."""
+        stops = np.asarray(stops, dtype=float)
+        m, n = stops.shape[:2]
+        start_xy = np.broadcast_to(self.start[:2], (m, 2))
+        start_turns, yaw = self.stop_turns(start_xy, np.full(m, self.start[2]), start_dishes)
+        if n == 0:
+            return np.zeros((m, 0)), np.zeros((m, 0)), start_turns
+        # Each stop's landing yaw faces its first dish; it leaves facing its last one picked
+        # after a turn. Both depend on the stop alone, so every leg goes in one batch.
+        flat = stops.reshape(m * n, 2)
+        arrive = np.full((m, n), np.nan)
+        turns = np.zeros((m, n))
+        leave = np.full((m, n), np.nan)
+        for k, dishes in enumerate(stop_dishes):
+            if dishes:
+                arrive[:, k] = self.facing(stops[:, k], dishes[0])
+                turns[:, k], leave[:, k] = self.stop_turns(stops[:, k], arrive[:, k], dishes)
+        depart = np.concatenate([yaw[:, None], leave[:, :-1]], axis=1)
+        prev = np.concatenate([start_xy[:, None], stops[:, :-1]], axis=1).reshape(m * n, 2)
+        lengths, drive, landing = nav.path_times(prev, flat, np.nan_to_num(depart).ravel(),
+                                                 arrive.ravel(), self.base)
+        unknown = np.isnan(depart).ravel()
+        if unknown.any():
+            # After a stop without pickups the base faces along the leg it came by (a
+            # landing yaw that does not depend on where it left from): the next leg starts
+            # from there.
+            fix = np.flatnonzero(unknown)
+            previous_landing = np.concatenate([np.full((m, 1), np.nan),
+                                               landing.reshape(m, n)[:, :-1]], axis=1).ravel()
+            _, drive[fix], _ = nav.path_times(prev[fix], flat[fix], previous_landing[fix],
+                                              arrive.ravel()[fix], self.base)
+        goto = drive.reshape(m, n) + self.model.overheads.gamma + turns
+        return lengths.reshape(m, n), goto, start_turns
+
+    def predicted_time(self, goto_times: np.ndarray, start_turns: np.ndarray,
+                       pickup_times: np.ndarray) -> np.ndarray:
+        """T (module docstring) from the parts (m, n), (m,), (m, pickups)."""
+        return (goto_times.sum(axis=1) + start_turns + pickup_times.sum(axis=1)
+                + self.model.overheads.plan)
