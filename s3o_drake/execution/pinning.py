@@ -31,8 +31,8 @@ from tqdm import tqdm
 
 from s3o_drake.cli import ArgumentParser, doc_formatter, fail, task_scenarios
 from s3o_drake.execution.pickup import plan_pickup
-from s3o_drake.feasibility.check import facing_yaw
 from s3o_drake.feasibility.heatmaps import make_oracle
+from s3o_drake.feasibility.landing import facing_yaw
 from s3o_drake.feasibility.oracle import FeasibilityOracle
 from s3o_drake.scenario import Scenario
 

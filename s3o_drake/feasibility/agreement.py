@@ -21,7 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from s3o_drake.cli import ArgumentParser, doc_formatter, fail
-from s3o_drake.feasibility.check import FeasibilityChecker, facing_yaw
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.landing import facing_yaw
 from s3o_drake.feasibility.reachability import ReachabilityMap, ReachabilityMapError
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.scenario import ScenarioError, load_scenario

@@ -95,12 +95,6 @@ class CheckResult:
     reason: str
 
 
-def facing_yaw(base_xy: np.ndarray, p_WD: np.ndarray) -> np.ndarray:
-    """Base yaw (rad) that faces the dish at p_WD from base position(s) (..., 2)."""
-    delta = np.asarray(p_WD, dtype=float)[:2] - np.asarray(base_xy, dtype=float)[..., :2]
-    return np.arctan2(delta[..., 1], delta[..., 0])
-
-
 def arm_base_positions(bases: np.ndarray) -> np.ndarray:
     """p_WA (n, 3) for base poses (n, 3): `FeasibilityScene.p_WA`, vectorised (as in
     `FeasibilityChecker._geometry`)."""

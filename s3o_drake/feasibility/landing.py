@@ -24,7 +24,6 @@ from collections.abc import Callable
 import numpy as np
 
 from s3o_drake.angles import wrap
-from s3o_drake.feasibility.check import facing_yaw
 
 #: Sampling of a motion for the collision check: one pose per this much travel (m, rad).
 CHECK_STEP_XY = 0.02
@@ -38,6 +37,12 @@ _STEPS_PER_CALL = 5
 
 #: Vectorised free-pose test: base poses (n, 3) -> bool (n,).
 FreeTest = Callable[[np.ndarray], np.ndarray]
+
+
+def facing_yaw(base_xy: np.ndarray, p_WD: np.ndarray) -> np.ndarray:
+    """Base yaw (rad) that faces the dish at p_WD from base position(s) (..., 2)."""
+    delta = np.asarray(p_WD, dtype=float)[:2] - np.asarray(base_xy, dtype=float)[..., :2]
+    return np.arctan2(delta[..., 1], delta[..., 0])
 
 
 def stop_short(free: FreeTest, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
