@@ -22,11 +22,11 @@ from s3o_drake.feasibility.check import (
     CheckResult,
     FeasibilityChecker,
     arm_base_positions,
-    facing_yaw,
     grasp_specs,
 )
 from s3o_drake.feasibility.grasps import grasps_for
 from s3o_drake.feasibility.ik import grasp_error, solve_grasp_ik, verify
+from s3o_drake.feasibility.landing import facing_yaw
 from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
 from s3o_drake.furniture import DISH_KINDS
 from s3o_drake.robot import ARM_BASE_LINK, GRASP_FRAME, add_robot, robot_positions
