@@ -44,7 +44,6 @@ from s3o_drake.execution.arm_motion import time_parameterize
 from s3o_drake.execution.pickup import (
     FINGER_MAX_ACCELERATION,
     FINGER_MAX_VELOCITY,
-    REASONS,
     SEGMENT_NAMES,
     SLOW_SEGMENTS,
     PickupPlan,
@@ -53,6 +52,7 @@ from s3o_drake.execution.pickup import (
 )
 from s3o_drake.feasibility.agreement import sample_queries
 from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.pickup_geometry import REASONS
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.io import write_atomically
