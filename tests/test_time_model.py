@@ -205,7 +205,7 @@ def test_the_plan_predicts_the_simulated_execution(executed):
 @pytest.fixture(scope="module")
 def heatmaps():
     scenario = _with(load_scenario(TWO_DISHES), feasibility="oracle")
-    return scenario, compute_heatmaps(scenario, seed=0, workers=1, progress=False)
+    return scenario, compute_heatmaps(scenario, workers=1, progress=False)
 
 
 def test_the_cost_profile_switch(heatmaps):
