@@ -227,9 +227,10 @@ def test_the_cost_profile_switch(heatmaps):
     utility = sum(-(g.length / pl.speed + pl.gamma) for g in paper.gotos) + sum(
         -pl.delta + pl.reward * k.feasibility for k in paper.pickups)
     assert paper.utility == pytest.approx(utility, abs=1e-6)
-    # The paper's straight estimate would be far below the execution's time.
+    # The paper's straight estimate is well below the execution's time (pickups of ~7 s
+    # against δ = 5 s, the turns, accelerations and hand-overs: 1.66x here).
     straight = sum(g.length for g in paper.gotos) / pl.speed + pl.delta * len(paper.pickups)
-    assert paper.predicted_time > straight + 10.0
+    assert paper.predicted_time > 1.3 * straight
     # Same plan under both profiles here: the same prediction.
     if [g.pose for g in paper.gotos] == [g.pose for g in robot.gotos] and \
             paper.task_actions == robot.task_actions:
