@@ -8,7 +8,7 @@ from pydrake.multibody.parsing import Parser
 PACKAGE_NAME = "s3o_drake"
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 TASKS_DIR = MODELS_DIR.parent / "scenarios" / "generated"
-"""The shipped benchmark tasks (`python -m s3o_drake.generate --count 100 --seed 0`)."""
+"""The shipped benchmark tasks (`python -m s3o_drake.commands.generate --count 100 --seed 0`)."""
 
 
 def models_dir() -> Path:

@@ -41,12 +41,12 @@ from pydrake.systems.sensors import RgbdSensor
 
 from s3o_drake import furniture as fu
 from s3o_drake.camera import overhead_camera
+from s3o_drake.execution.geometry_mirror import GeometryMirror
+from s3o_drake.execution.messages import CONTROL_PERIOD
+from s3o_drake.execution.object_tracker import ObjectTracker
 from s3o_drake.resources import make_parser, models_dir
 from s3o_drake.robot import ROBOT_JOINTS, add_robot, robot_desired_state, robot_positions
 from s3o_drake.scenario import Chair, Dish, Scenario, Table
-from s3o_drake.systems.commands import CONTROL_PERIOD
-from s3o_drake.systems.geometry_mirror import GeometryMirror
-from s3o_drake.systems.object_tracker import ObjectTracker
 
 RENDERER = "vtk"
 FLOOR_RGBA = np.array([0.82, 0.80, 0.76, 1.0])

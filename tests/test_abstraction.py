@@ -280,7 +280,7 @@ def test_benchmark_help_and_bad_input(tmp_path):
     import subprocess
     import sys
 
-    command = [sys.executable, "-m", "s3o_drake.abstraction.benchmark"]
+    command = [sys.executable, "-m", "s3o_drake.commands.abstraction_benchmark"]
     result = subprocess.run([*command, "--help"], capture_output=True, text=True, check=True)
     assert "--counts" in result.stdout and "<= 1 s" in result.stdout
     for bad in (["--counts", "0"], ["--scenario", str(tmp_path / "nope.yaml")], ["--fast"]):

@@ -12,7 +12,14 @@ import numpy as np
 import pytest
 from pydrake.math import RigidTransform
 
-from s3o_drake.execution.arm_motion import (
+from s3o_drake.feasibility import ik
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.grasps import rotation_for
+from s3o_drake.feasibility.landing import facing_yaw
+from s3o_drake.feasibility.pickup_geometry import LIFT_HEIGHT, X_WA, moved
+from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.manipulation.arm_motion import (
     ARM,
     CORNER_ROUNDINGS,
     STILL_DURATION,
@@ -23,19 +30,12 @@ from s3o_drake.execution.arm_motion import (
     rounded_corners,
     time_parameterize,
 )
-from s3o_drake.execution.pickup import (
+from s3o_drake.manipulation.pickup import (
     FINGER_MAX_VELOCITY,
     SEGMENT_NAMES,
     plan_pickup,
     segment_limits,
 )
-from s3o_drake.feasibility import ik
-from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.grasps import rotation_for
-from s3o_drake.feasibility.landing import facing_yaw
-from s3o_drake.feasibility.pickup_geometry import LIFT_HEIGHT, X_WA, moved
-from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.robot import ARM_STOW, GRIPPER_CLOSED, GRIPPER_OPEN
 from s3o_drake.scenario import load_scenario
 

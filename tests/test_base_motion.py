@@ -9,6 +9,8 @@ import pytest
 from pydrake.common.value import AbstractValue
 
 from s3o_drake.angles import wrap
+from s3o_drake.execution.base_navigator import BaseNavigator
+from s3o_drake.execution.messages import BaseCommand
 from s3o_drake.planning.base_motion import (
     BaseProfile,
     backs_away,
@@ -18,8 +20,6 @@ from s3o_drake.planning.base_motion import (
 )
 from s3o_drake.robot import NUM_POSITIONS
 from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.base_navigator import BaseNavigator
-from s3o_drake.systems.commands import BaseCommand
 
 REPO = Path(__file__).resolve().parent.parent
 PROFILE = BaseProfile(speed=0.4)

@@ -300,12 +300,12 @@ def test_small_build_round_trips_through_its_file(tmp_path):
 
 def test_build_command_rejects_bad_arguments_in_one_line():
     run = subprocess.run(
-        [sys.executable, "-m", "s3o_drake.feasibility.reachability", "build",
+        [sys.executable, "-m", "s3o_drake.commands.build_reachability", "build",
          "--resolution", "0.5"], capture_output=True, text=True, cwd=REPO)
     assert run.returncode == 2
     assert run.stderr.count("\n") == 1 and "--resolution" in run.stderr
     help_text = subprocess.run(
-        [sys.executable, "-m", "s3o_drake.feasibility.reachability", "--help"],
+        [sys.executable, "-m", "s3o_drake.commands.build_reachability", "--help"],
         capture_output=True, text=True, cwd=REPO).stdout
     assert "inverse reachability map" in help_text and "build" in help_text
 

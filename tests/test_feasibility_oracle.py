@@ -97,7 +97,7 @@ def test_heatmaps_do_not_depend_on_the_worker_count():
 
 
 def test_benchmark_rejects_bad_arguments_in_one_line(capsys):
-    from s3o_drake.feasibility.benchmark import main as benchmark_main
+    from s3o_drake.commands.feasibility_benchmark import main as benchmark_main
 
     with pytest.raises(SystemExit) as info:
         benchmark_main(["--queries", "3"])

@@ -5,9 +5,9 @@ from pathlib import Path
 
 import pytest
 
-from s3o_drake.generate import generate_task
-from s3o_drake.generate import main as generate_main
+from s3o_drake.commands.generate import main as generate_main
 from s3o_drake.scenario import load_scenario
+from s3o_drake.task_generation import generate_task
 
 REPO = Path(__file__).resolve().parent.parent
 BASE = REPO / "scenarios" / "restaurant.yaml"

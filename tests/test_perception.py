@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from s3o_drake.commands.perception_benchmark import match, true_chairs
 from s3o_drake.perception import ChairPerception, draw_chairs, perceived_chairs
-from s3o_drake.perception.benchmark import match, true_chairs
 from s3o_drake.scenario import load_scenario
 from s3o_drake.world import render_overhead
 

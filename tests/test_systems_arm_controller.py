@@ -24,6 +24,8 @@ from pydrake.systems.primitives import (
     VectorLogSink,
 )
 
+from s3o_drake.execution.arm_controller import REACH_NOISE_STREAM, ArmController
+from s3o_drake.execution.messages import GripEvent, PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import RIM_INSET
 from s3o_drake.feasibility.pickup_geometry import grasp_tolerance
@@ -31,8 +33,6 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.arm_controller import REACH_NOISE_STREAM, ArmController
-from s3o_drake.systems.commands import GripEvent, PickCommand, Status
 from s3o_drake.world import build_world_diagram
 
 REPO = Path(__file__).resolve().parent.parent

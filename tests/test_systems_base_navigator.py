@@ -18,11 +18,11 @@ from pydrake.systems.primitives import (
 )
 
 from s3o_drake.angles import wrap as wrap_angle
+from s3o_drake.execution.base_navigator import BaseNavigator
+from s3o_drake.execution.messages import BaseCommand, Status
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.base_navigator import BaseNavigator
-from s3o_drake.systems.commands import BaseCommand, Status
 from s3o_drake.world import build_world_diagram
 
 REPO = Path(__file__).resolve().parent.parent

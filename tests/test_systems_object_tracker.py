@@ -14,6 +14,8 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
 from s3o_drake.camera import overhead_camera
+from s3o_drake.execution.messages import GripEvent
+from s3o_drake.execution.object_tracker import ObjectTracker
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.robot import (
     ARM_STOW,
@@ -25,8 +27,6 @@ from s3o_drake.robot import (
     robot_positions,
 )
 from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.commands import GripEvent
-from s3o_drake.systems.object_tracker import ObjectTracker
 from s3o_drake.world import build_world_diagram, populate_plant, robot_hold_state
 
 REPO = Path(__file__).resolve().parent.parent

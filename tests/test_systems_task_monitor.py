@@ -8,8 +8,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource
 
-from s3o_drake.systems.commands import PickupRecord, PlanProgress
-from s3o_drake.systems.task_monitor import TaskMonitor
+from s3o_drake.execution.messages import PickupRecord, PlanProgress
+from s3o_drake.execution.task_monitor import TaskMonitor
 
 STATES = {"plate_a": "tray", "cup_b": "dropped", "bowl_c": "tray", "plate_d": "table"}
 RECORDS = (

@@ -16,7 +16,10 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.analysis import Simulator
 
 from s3o_drake.angles import wrap
+from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.diagram import build_execution_diagram
+from s3o_drake.execution.messages import BaseCommand
+from s3o_drake.execution.s3o_planner import scenario_unmapped_chairs
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.planning import base_motion
 from s3o_drake.planning.base_motion import BaseProfile
@@ -33,9 +36,6 @@ from s3o_drake.planning.time_model import (
 )
 from s3o_drake.robot import NUM_POSITIONS
 from s3o_drake.scenario import dump_scenario, load_scenario
-from s3o_drake.systems.base_navigator import BaseNavigator
-from s3o_drake.systems.commands import BaseCommand
-from s3o_drake.systems.s3o_planner import scenario_unmapped_chairs
 
 REPO = Path(__file__).resolve().parent.parent
 TWO_DISHES = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -55,7 +55,7 @@ def test_overheads_follow_the_control_period():
 
 def test_the_recorded_model_was_made_from_the_code_as_it_is():
     """A stale models/time_model.yaml (the navigator's or the systems' timing changed since
-    it was derived) fails here: re-run `python -m s3o_drake.execution.derive_times`."""
+    it was derived) fails here: re-run `python -m s3o_drake.commands.derive_times`."""
     model = TimeModel.load()
     o = command_overheads(CONTROL_PERIOD, base_motion.SETTLE_TIME)
     assert model.overheads.gamma == pytest.approx(o.gamma, abs=1e-6)
@@ -67,7 +67,7 @@ def test_the_recorded_model_was_made_from_the_code_as_it_is():
         "acceleration": base_motion.ACCELERATION, "yaw_rate": base_motion.YAW_RATE,
         "yaw_acceleration": base_motion.YAW_ACCELERATION,
         "settle_time": base_motion.SETTLE_TIME}
-    assert model.provenance["command"].startswith("python -m s3o_drake.execution.derive_times")
+    assert model.provenance["command"].startswith("python -m s3o_drake.commands.derive_times")
     assert model.provenance["samples"] >= 100 and model.pickup.form in PICKUP_FORMS
     held_out = model.fit["held_out"]
     assert held_out[model.pickup.form]["rmse"] == min(e["rmse"] for e in held_out.values())

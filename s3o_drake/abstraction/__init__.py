@@ -5,7 +5,7 @@ DESIGN.md section 2, steps 2-4. `build_abstraction` runs them all; the modules h
   candidates.py         partitions into connected groups: enumeration and beam search
   task_feasibility.py   Fea^t from any Fea^m source (heatmaps now, the FCN later)
   ranking.py            Score, ranking, the top-K distribution, S3O-Random
-  benchmark.py          python -m s3o_drake.abstraction.benchmark
+  benchmark.py          python -m s3o_drake.commands.abstraction_benchmark
 """
 
 from s3o_drake.abstraction.candidates import beam_partitions, connected_partitions

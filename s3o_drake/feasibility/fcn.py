@@ -186,7 +186,7 @@ class FcnFeasibility:
 
     @classmethod
     def load(cls, path: Path) -> "FcnFeasibility":
-        """Reads a checkpoint written by `s3o_drake.feasibility.train`."""
+        """Reads a checkpoint written by `s3o_drake.feasibility.training`."""
         checkpoint = torch.load(Path(path), map_location="cpu", weights_only=True)
         model = FeasibilityUNet(**checkpoint["config"])
         model.load_state_dict(checkpoint["state_dict"])

@@ -20,11 +20,9 @@ of the joint angles), verifies it by forward kinematics and, where it is not yet
 tolerance, moves it onto the target with a few Newton steps; so the answer does not depend on
 the grid's resolution, and a target beyond the arm's reach has no candidates.
 
-    python -m s3o_drake.feasibility.reachability build [--out models/reachability_map.npz]
-                                                       [--workers 2] [--resolution 0.01]
-
-builds the map deterministically with worker processes (a few minutes on two cores) and writes
-it atomically, with its settings, as a compressed .npz; `ReachabilityMap.load()` reads it.
+`python -m s3o_drake.commands.build_reachability build` builds the map deterministically
+with worker processes (a few minutes on two cores) and writes it atomically, with its
+settings, as a compressed .npz; `ReachabilityMap.load()` reads it.
 """
 
 import datetime
@@ -33,7 +31,6 @@ import io
 import json
 import math
 import multiprocessing
-import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -41,7 +38,6 @@ from pathlib import Path
 
 import numpy as np
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.grasps import GRASP_KINDS, R_BEARING_SIDE, R_BEARING_TOP
 from s3o_drake.feasibility.ik import (
@@ -50,11 +46,10 @@ from s3o_drake.feasibility.ik import (
     MIN_DISTANCE,
     POSITION_TOLERANCE,
 )
-from s3o_drake.io import write_atomically
 from s3o_drake.resources import MODELS_DIR
 
 DEFAULT_PATH = MODELS_DIR / "reachability_map.npz"
-BUILD_COMMAND = "python -m s3o_drake.feasibility.reachability build"
+BUILD_COMMAND = "python -m s3o_drake.commands.build_reachability build"
 FORMAT_VERSION = 1
 
 #: Grid ranges (m): ρ from A's z axis, h above A's origin. A at 0.75 m above the floor; the
@@ -568,44 +563,3 @@ def _positive(text: str) -> float:
     if not (value > 0 and math.isfinite(value)):
         raise ValueError(text)
     return value
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.feasibility.reachability",
-                            description=__doc__, formatter_class=doc_formatter())
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
-                                parser_class=ArgumentParser)
-    build = sub.add_parser("build", help="build the map with Drake IK and write it",
-                           description="Builds the reachability map with Drake IK and writes "
-                                       "it atomically with its settings: deterministic "
-                                       "(the same file content, build time and date aside, "
-                                       "whatever --workers), about 6 minutes on two cores "
-                                       "at the default resolution.")
-    build.add_argument("--out", metavar="NPZ", default=str(DEFAULT_PATH),
-                       help=f"output file (default {DEFAULT_PATH.relative_to(MODELS_DIR.parent)})")
-    build.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
-    build.add_argument("--resolution", type=_positive, default=RESOLUTION,
-                       help=f"grid step in metres (default {RESOLUTION})")
-    build.add_argument("--quiet", action="store_true", help="no progress bar")
-    args = parser.parse_args(argv)
-    if args.workers < 1:
-        fail(f"--workers: must be at least 1, got {args.workers}")
-    if not 0.002 <= args.resolution <= 0.1:
-        fail(f"--resolution: must be between 0.002 and 0.1 m, got {args.resolution}")
-    out = Path(args.out)
-    if not out.parent.is_dir():
-        fail(f"--out: folder {out.parent} does not exist")
-    if out.is_dir():
-        fail(f"--out: {out} is a folder")
-    reach_map = build_map(resolution=args.resolution, workers=args.workers,
-                          progress=not args.quiet)
-    data = reach_map.to_bytes()
-    write_atomically(out, data)
-    s = reach_map.settings
-    print(f"wrote {out} ({len(data) / 1e6:.2f} MB): nodes {s['nodes']}, configurations "
-          f"{s['configurations']}, {s['build_seconds']:.0f} s")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

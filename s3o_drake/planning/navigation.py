@@ -31,7 +31,7 @@ or touching an obstacle, or outside the room) is not a position of the base at a
 `path_length` returns inf and `path` returns None for it (no exception, so that CMA-ES
 can score such samples with its penalty).
 
-Design (measured with `python -m s3o_drake.planning.navigation --benchmark`):
+Design (measured with `python -m s3o_drake.commands.navigation_benchmark --benchmark`):
 
 - Occupancy grid + Euclidean distance field (`scipy.ndimage.distance_transform_edt`) at
   `resolution`: `clearance(P)` is an O(1) lookup per point. It classifies most endpoints
@@ -59,7 +59,6 @@ Design (measured with `python -m s3o_drake.planning.navigation --benchmark`):
 from __future__ import annotations
 
 import math
-import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -724,38 +723,3 @@ def benchmark(scenario: Scenario, perceived_chairs: Sequence[Sequence[float]], *
     result["mean_detour_ratio"] = float(np.mean(lengths[finite] / np.maximum(straight[finite],
                                                                              1e-9)))
     return result
-
-
-def main(argv: list[str] | None = None) -> int:
-    """`python -m s3o_drake.planning.navigation [scenario] --benchmark`."""
-    from s3o_drake.cli import ArgumentParser, doc_formatter, fail
-    from s3o_drake.scenario import ScenarioError, load_scenario
-
-    parser = ArgumentParser(prog="python -m s3o_drake.planning.navigation",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("scenario", nargs="?", default="scenarios/restaurant.yaml",
-                        help="scenario YAML (default: scenarios/restaurant.yaml); its "
-                             "unmapped chairs play the perceived ones")
-    parser.add_argument("--benchmark", action="store_true",
-                        help="time path-length queries and print the figures")
-    parser.add_argument("--queries", type=int, default=2000, help="queries per workload")
-    args = parser.parse_args(argv)
-    if args.queries < 10:
-        parser.error(f"--queries must be at least 10, got {args.queries}")
-    try:
-        scenario = load_scenario(args.scenario)
-    except ScenarioError as e:
-        fail(str(e))
-    perceived = [list(c.pose) for c in scenario.chairs if not c.mapped]
-    if not args.benchmark:
-        nav = NavigationMap(scenario, perceived)
-        print(f"{len(nav.vertices)} graph vertices, grid {nav.occupancy.shape}, "
-              f"{len(nav._edges)} blocking edges")
-        return 0
-    for key, value in benchmark(scenario, perceived, queries=args.queries).items():
-        print(f"{key:28s} {value:.4f}")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -38,17 +38,17 @@ from pydrake.multibody.plant import MultibodyPlant
 from pydrake.planning import SceneGraphCollisionChecker
 from pydrake.trajectories import CompositeTrajectory, PathParameterizedTrajectory, Trajectory
 
-from s3o_drake.execution.arm_motion import (
+from s3o_drake.feasibility import ik
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.pickup_geometry import pickup_geometry, with_gripper
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.manipulation.arm_motion import (
     ARM,
     joint_limits,
     plan_arm_path,
     shifted,
     time_parameterize,
 )
-from s3o_drake.feasibility import ik
-from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.pickup_geometry import pickup_geometry, with_gripper
-from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.robot import GRIPPER_OPEN, NUM_POSITIONS
 
 SEGMENT_NAMES = ("approach", "descend", "close", "lift", "to_tray", "release", "stow")

@@ -1,6 +1,6 @@
 """Benchmark chair perception: how close the perceived chairs are to the true ones.
 
-    python -m s3o_drake.perception.benchmark --tasks 20
+    python -m s3o_drake.commands.perception_benchmark --tasks 20
 
 For each of the first N shipped tasks (scenarios/generated/task_*.yaml; or the files given
 with --scenarios) the overhead camera renders the scene (the world diagram with the robot
@@ -29,7 +29,7 @@ from scipy.optimize import linear_sum_assignment
 from tqdm import tqdm
 
 from s3o_drake.angles import wrap
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail, task_scenarios
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
 from s3o_drake.io import write_atomically
 from s3o_drake.perception.chairs import ChairPerception, draw_chairs
 from s3o_drake.scenario import Scenario
@@ -107,7 +107,7 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.perception.benchmark",
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.perception_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--tasks", type=int, default=20,
                         help="first N shipped tasks (default 20)")

@@ -1,6 +1,6 @@
 """Benchmark the time model: the plan's predicted execution time against the simulated one.
 
-    python -m s3o_drake.execution.time_benchmark [--tasks DIR | YAML ...] [--count N]
+    python -m s3o_drake.commands.time_benchmark [--tasks DIR | YAML ...] [--count N]
         [--noise on off] [--method NAME] [--seed N] [--cost-profile robot|paper]
         [--json FILE] [--evaluation]
 
@@ -34,14 +34,14 @@ from pathlib import Path
 import numpy as np
 
 from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail, task_scenarios
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
 from s3o_drake.evaluation.store import ResultStore
+from s3o_drake.execution.execute import execute
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.motion_search import GRID_CELL, SequenceProblem, location_regions
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.time_model import MODEL_FILE, CostModel
 from s3o_drake.resources import TASKS_DIR
-from s3o_drake.run import execute
 from s3o_drake.scenario import COST_PROFILES, METHODS, Scenario
 
 TARGETS = {"off": 0.03, "on": 0.08}
@@ -148,7 +148,7 @@ def _print_summary(s: dict) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.execution.time_benchmark",
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.time_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--tasks", nargs="+", default=[str(TASKS_DIR)], metavar="PATH",
                         help="a folder of task_*.yaml (default scenarios/generated) or files")

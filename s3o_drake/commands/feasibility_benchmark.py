@@ -1,7 +1,7 @@
 """Benchmark the feasibility check: speed with the reachability map and with full IK in the
 same run, their agreement, and the time of one heatmap.
 
-    python -m s3o_drake.feasibility.benchmark --queries 500 --tasks 4
+    python -m s3o_drake.commands.feasibility_benchmark --queries 500 --tasks 4
 
 Queries are drawn as a planner makes them (`agreement.sample_queries`): base positions
 within 1.1 m of a dish, yaw facing it with navigation noise, a horizontal reach offset, in
@@ -28,15 +28,15 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.feasibility.agreement import Agreement, measure, sample_queries
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import FeasibilityOracle
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.generate import generate_task
 from s3o_drake.io import write_atomically
 from s3o_drake.scenario import load_scenario
+from s3o_drake.task_generation import generate_task
 
 REPO = Path(__file__).resolve().parents[2]
 RESTAURANT = REPO / "scenarios" / "restaurant.yaml"
@@ -53,7 +53,7 @@ def _batched_seconds(checker: FeasibilityChecker, queries) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.feasibility.benchmark",
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.feasibility_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--queries", type=int, default=500,
                         help="queries in all, split over the scenes (default 500)")

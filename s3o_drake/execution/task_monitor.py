@@ -5,7 +5,7 @@ import math
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
 
-from s3o_drake.systems.commands import PlanProgress
+from s3o_drake.execution.messages import PlanProgress
 
 TIME_LIMIT_REASON = "time limit"
 

@@ -1,6 +1,6 @@
 """Compare the planner's two Fea^m sources end to end: plan with each, execute, count dishes.
 
-    python -m s3o_drake.execution.compare_feasibility --tasks 6 [--seed 0] [--json FILE]
+    python -m s3o_drake.commands.compare_feasibility --tasks 6 [--seed 0] [--json FILE]
 
 For each of the first N shipped tasks (scenarios/generated, never used to train the network)
 and each source (`planner.feasibility`: "oracle", the Drake check under the noise model;
@@ -20,8 +20,8 @@ from pathlib import Path
 
 from pydrake.geometry import Meshcat
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail, first_tasks
-from s3o_drake.run import execute
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, first_tasks
+from s3o_drake.execution.execute import execute
 from s3o_drake.scenario import load_scenario
 
 SOURCES = ("oracle", "fcn")
@@ -39,7 +39,7 @@ def run_task(path: Path, source: str, seed: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.execution.compare_feasibility",
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.compare_feasibility",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--tasks", type=int, default=6, help="first N shipped tasks (default 6)")
     parser.add_argument("--seed", type=int, default=0, help="seed of every run (default 0)")

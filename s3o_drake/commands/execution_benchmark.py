@@ -1,6 +1,6 @@
 """Benchmark the execution: how much faster than real time a plan runs, and the playback's size.
 
-    python -m s3o_drake.execution.benchmark [--scenarios YAML ...] [--seeds 0 1 2]
+    python -m s3o_drake.commands.execution_benchmark [--scenarios YAML ...] [--seeds 0 1 2]
 
 For each scenario (default: scenarios/restaurant.yaml, six dishes) and seed, plans with
 S3O-GROP* and executes the plan in the full diagram with the Meshcat recording on, as
@@ -20,8 +20,8 @@ from pathlib import Path
 
 from pydrake.geometry import Meshcat
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail
-from s3o_drake.run import execute
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.execution.execute import execute
 from s3o_drake.scenario import ScenarioError, load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
@@ -47,7 +47,7 @@ def measure(path: Path, seed: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.execution.benchmark",
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.execution_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--scenarios", nargs="+", metavar="YAML",
                         default=[str(REPO / "scenarios" / "restaurant.yaml")])

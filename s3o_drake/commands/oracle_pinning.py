@@ -1,6 +1,6 @@
 """How well Fea^m's oracle models the executed pickup: the two measurements behind it.
 
-    python -m s3o_drake.execution.pinning [--tasks 5] [--poses 40] [--positions 20]
+    python -m s3o_drake.commands.oracle_pinning [--tasks 5] [--poses 40] [--positions 20]
                                             [--seed 0] [--json FILE]
 
 1. The success test against the ArmController's pickup. On exact base poses (no noise)
@@ -29,11 +29,11 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail, task_scenarios
-from s3o_drake.execution.pickup import plan_pickup
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.feasibility.landing import facing_yaw
 from s3o_drake.feasibility.oracle import FeasibilityOracle
+from s3o_drake.manipulation.pickup import plan_pickup
 from s3o_drake.scenario import Scenario
 
 #: Base positions drawn around each dish before choosing the poses.
@@ -125,7 +125,7 @@ def summarize(test_rows: list[dict], expectation_rows: list[dict]) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.execution.pinning",
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.oracle_pinning",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--tasks", type=int, default=5, help="first shipped tasks (default 5)")
     parser.add_argument("--poses", type=int, default=40,

@@ -1,6 +1,6 @@
 """Benchmark of the state-space abstraction: candidates counted and time taken.
 
-    python -m s3o_drake.abstraction.benchmark [--counts 5 7 15 30]
+    python -m s3o_drake.commands.abstraction_benchmark [--counts 5 7 15 30]
 
 Scenes are scenarios/restaurant.yaml (six dishes, six chairs, all passed as perceived)
 cut to its first dishes, or extended with dishes drawn at random free spots on the
@@ -35,12 +35,12 @@ import numpy as np
 from s3o_drake.abstraction.ranking import build_abstraction, rank
 from s3o_drake.abstraction.task_feasibility import TaskFeasibility
 from s3o_drake.abstraction.voronoi import voronoi_partition
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES
-from s3o_drake.generate import DEFAULT_BASE, DISH_GAP, EDGE_MARGIN
 from s3o_drake.scenario import Dish, Scenario, ScenarioError, load_scenario
+from s3o_drake.task_generation import DEFAULT_BASE, DISH_GAP, EDGE_MARGIN
 from s3o_drake.validation import validate_scenario
 
 TARGETS = {7: 1.0, 30: 5.0}  # dishes -> seconds
@@ -140,7 +140,7 @@ def _synthetic_row(label: str, scene: Scenario, perceived: list, heatmaps: dict,
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.abstraction.benchmark",
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.abstraction_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--scenario", default=str(DEFAULT_BASE),
                         help="base scene (default: scenarios/restaurant.yaml)")

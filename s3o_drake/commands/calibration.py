@@ -1,10 +1,10 @@
 """Calibration of Fea^m against executed pickups: is a pickup rated p picked a share p of
 the time?
 
-    python -m s3o_drake.calibration RESULTS [RESULTS ...] [--out DIR] [--methods NAME ...]
+    python -m s3o_drake.commands.calibration RESULTS [RESULTS ...] [--out DIR] [--methods NAME ...]
                                     [--by all|method|source] [--bins N]
 
-RESULTS: a results.jsonl of `python -m s3o_drake.evaluate`, a folder holding one (else the
+RESULTS: a results.jsonl of `python -m s3o_drake.commands.evaluate`, a folder holding one (else the
 report.json files below it), or report.json files of `python -m s3o_drake.run`. Each executed
 pickup there carries the plan's Fea^m of it (from the planned stop), the source of that
 model (planner.feasibility: fcn or oracle), the planned and the real stop, and the outcome.
@@ -35,7 +35,7 @@ import json
 import sys
 from pathlib import Path
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.evaluation.calibration import (
     RecordsError,
     calibrate_records,
@@ -49,7 +49,7 @@ from s3o_drake.planning.planner import METHODS
 
 
 def parse_args(argv: list[str] | None):
-    parser = ArgumentParser(prog="python -m s3o_drake.calibration", description=__doc__,
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.calibration", description=__doc__,
                             formatter_class=doc_formatter())
     parser.add_argument("results", nargs="+", metavar="RESULTS",
                         help="results.jsonl, a folder holding one or run outputs, or "

@@ -1,6 +1,6 @@
 """Benchmark the pickup's duration: TOPPRA under the UR5e's limits against the old trapezoids.
 
-    python -m s3o_drake.execution.pickup_benchmark [--poses 200] [--tasks 4] [--seed 0]
+    python -m s3o_drake.commands.pickup_benchmark [--poses 200] [--tasks 4] [--seed 0]
                                                    [--json FILE]
 
 Samples feasible pickups with a fixed seed, an equal share of --poses in each scene:
@@ -39,9 +39,15 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail, first_tasks
-from s3o_drake.execution.arm_motion import time_parameterize
-from s3o_drake.execution.pickup import (
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, first_tasks
+from s3o_drake.feasibility.agreement import sample_queries
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.pickup_geometry import REASONS
+from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.io import write_atomically
+from s3o_drake.manipulation.arm_motion import time_parameterize
+from s3o_drake.manipulation.pickup import (
     FINGER_MAX_ACCELERATION,
     FINGER_MAX_VELOCITY,
     SEGMENT_NAMES,
@@ -50,12 +56,6 @@ from s3o_drake.execution.pickup import (
     plan_pickup,
     segment_limits,
 )
-from s3o_drake.feasibility.agreement import sample_queries
-from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.pickup_geometry import REASONS
-from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.io import write_atomically
 from s3o_drake.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
@@ -141,7 +141,7 @@ def distribution(values: list[float]) -> dict[str, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.execution.pickup_benchmark",
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.pickup_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--poses", type=int, default=200,
                         help="feasible poses in all, split over the scenes (default 200)")

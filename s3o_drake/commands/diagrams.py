@@ -1,6 +1,6 @@
 """Regenerate the Graphviz pictures of the project's Drake diagrams in diagrams/.
 
-    python -m s3o_drake.diagrams [--check]
+    python -m s3o_drake.commands.diagrams [--check]
 
 Writes diagrams/execution.dot (the whole execution diagram: world, planner, controllers,
 monitor, one level deep) and diagrams/world.dot (the simulated restaurant inside it), and an
@@ -18,7 +18,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from s3o_drake.cli import ArgumentParser, doc_formatter
+from s3o_drake.commands.common import ArgumentParser, doc_formatter
 from s3o_drake.execution.diagram import build_execution_diagram
 from s3o_drake.scenario import load_scenario
 
@@ -79,7 +79,7 @@ def write(directory: Path = DIAGRAMS_DIR) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.diagrams", description=__doc__,
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.diagrams", description=__doc__,
                             formatter_class=doc_formatter())
     parser.add_argument("--check", action="store_true",
                         help="compare with the committed files instead of writing them")
@@ -87,7 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.check:
         names = stale()
         for name in names:
-            print(f"{DIAGRAMS_DIR.name}/{name} is stale; run python -m s3o_drake.diagrams")
+            print(f"{DIAGRAMS_DIR.name}/{name} is stale; run python -m s3o_drake.commands.diagrams")
         return 1 if names else 0
     for path in write():
         print(f"wrote {path}")

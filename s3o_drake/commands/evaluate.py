@@ -1,7 +1,7 @@
 """Benchmark study: plan and execute every task x method x seed, group the tasks by
 difficulty, and write the paper's Fig. 5 and Table I.
 
-    python -m s3o_drake.evaluate --tasks DIR --methods all --seeds 3 --out results/
+    python -m s3o_drake.commands.evaluate --tasks DIR --methods all --seeds 3 --out results/
            [--workers N | --scheduler tcp://HOST:PORT] [--limit N] [--quiet] [--summarize]
 
 Each run plans the task (the scenario file) with the method, the noise and the planner's
@@ -9,7 +9,7 @@ randomness drawn from the seed, and executes the plan in the full Drake simulati
 `python -m s3o_drake.run` does but without the playback. It records whether every dish was
 collected (task completion), the share of dishes collected, the execution time (simulated)
 and the planning time, and per executed pickup the plan's Fea^m against the outcome (read
-by `python -m s3o_drake.calibration`). Seeds are 0 to N-1.
+by `python -m s3o_drake.commands.calibration`). Seeds are 0 to N-1.
 
 Difficulty (the paper's measure): Σ_o ∫ Fea^m(y, o) dy, the expected area from which each
 dish can be picked, from the Drake oracle under the scenario's noise model, summed over the
@@ -48,7 +48,7 @@ import signal
 import sys
 from pathlib import Path
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.evaluation.difficulty import GROUPS, difficulty_groups
 from s3o_drake.evaluation.jobs import DIFFICULTY, RUN, Job, file_digest
 from s3o_drake.evaluation.scheduler import run_jobs
@@ -64,7 +64,7 @@ SCHEDULER = re.compile(r"^(tcp|tls|inproc|ucx)://\S+$")
 
 
 def parse_args(argv: list[str] | None):
-    parser = ArgumentParser(prog="python -m s3o_drake.evaluate", description=__doc__,
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.evaluate", description=__doc__,
                             formatter_class=doc_formatter())
     parser.add_argument("--tasks", required=True, metavar="DIR",
                         help="folder of task scenarios (*.yaml), e.g. scenarios/generated")
@@ -171,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
     groups = difficulty_groups(areas)
     settings = {"tasks": str(Path(args.tasks)), "task_count": len(paths), "methods": methods,
                 "seeds": list(range(args.seeds)), "difficulty_seed": DIFFICULTY_SEED,
-                "command": "python -m s3o_drake.evaluate " + " ".join(
+                "command": "python -m s3o_drake.commands.evaluate " + " ".join(
                     sys.argv[1:] if argv is None else argv)}
     dish_areas = {r["task"]: r["areas"] for r in measured
                   if r is not None and "error" not in r}

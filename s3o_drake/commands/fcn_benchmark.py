@@ -1,6 +1,6 @@
 """Benchmark the feasibility FCN against the Drake oracle on scenes never used in training.
 
-    python -m s3o_drake.feasibility.fcn_benchmark --tasks 10 --pictures out/fcn_pictures
+    python -m s3o_drake.commands.fcn_benchmark --tasks 10 --pictures out/fcn_pictures
 
 The scenes are the first N shipped benchmark tasks (scenarios/generated, drawn with seed 0;
 the training scenes come from another seed, 1000 by default). Each task is rendered once
@@ -35,7 +35,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail, first_tasks
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, first_tasks
 from s3o_drake.feasibility.fcn import (
     CHANNELS,
     FcnFeasibility,
@@ -80,7 +80,7 @@ def save_picture(path: Path, inputs: np.ndarray, predicted: Heatmap, oracle: Hea
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.feasibility.fcn_benchmark",
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.fcn_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--tasks", type=int, default=10, help="number of tasks (default 10)")
     parser.add_argument("--weights", metavar="PT", default=str(WEIGHTS),

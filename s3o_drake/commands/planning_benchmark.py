@@ -1,7 +1,7 @@
 """Benchmark the planner: planning time per task at the paper's sample counts, broken down,
 and the plan's utility against a run with 10x the samples per sequence.
 
-    python -m s3o_drake.planning.benchmark --tasks 10 --method S3O-GROP* --seed 0
+    python -m s3o_drake.commands.planning_benchmark --tasks 10 --method S3O-GROP* --seed 0
 
 For each of the first N shipped tasks (scenarios/generated/task_*.yaml, 5-7 dishes each;
 or the files given with --scenarios):
@@ -44,7 +44,7 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail, task_scenarios
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.planning.planner import METHODS, PlanningError, plan
@@ -60,7 +60,8 @@ RATIO_TARGET = 0.95
 
 def perceived_chairs(scenario: Scenario) -> list[list[float]]:
     """The chairs the planner is given here: the scenario's unmapped ones, exactly (this
-    benchmark measures planning; perception has its own, s3o_drake.perception.benchmark)."""
+    benchmark measures planning; perception has its own,
+    s3o_drake.commands.perception_benchmark)."""
     return [list(c.pose) for c in scenario.chairs if not c.mapped]
 
 
@@ -166,7 +167,7 @@ def _finished(path: Path, settings: dict[str, Any]) -> dict[str, dict[str, Any]]
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.planning.benchmark",
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.planning_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--tasks", type=int, default=10,
                         help="first N shipped tasks (default 10)")

@@ -35,6 +35,14 @@ from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.angles import wrap
 from s3o_drake.camera import overhead_camera
+from s3o_drake.execution.messages import (
+    NO_COMMAND,
+    BaseCommand,
+    PickCommand,
+    PickupRecord,
+    PlanProgress,
+    Status,
+)
 from s3o_drake.feasibility.fcn import FcnFeasibility, overhead_view, use_one_thread
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
@@ -45,14 +53,6 @@ from s3o_drake.planning.planner import PlanningError, plan
 from s3o_drake.planning.task_planner import TaskPlanningError
 from s3o_drake.robot import NUM_POSITIONS
 from s3o_drake.scenario import Chair, Scenario
-from s3o_drake.systems.commands import (
-    NO_COMMAND,
-    BaseCommand,
-    PickCommand,
-    PickupRecord,
-    PlanProgress,
-    Status,
-)
 
 #: A perception function: (colour RGBA, depth (m), label) images -> chair poses [x, y, yaw].
 Perceive = Callable[[np.ndarray, np.ndarray, np.ndarray], list[list[float]]]

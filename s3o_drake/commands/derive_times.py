@@ -1,6 +1,6 @@
 """Derive the planner's time model from the robot's own motions, and record it.
 
-    python -m s3o_drake.execution.derive_times [--samples 400] [--seed 0]
+    python -m s3o_drake.commands.derive_times [--samples 400] [--seed 0]
                                                [--out models/time_model.yaml]
 
 Pickups: from the shipped tasks (scenarios/restaurant.yaml and scenarios/generated/, in name
@@ -35,11 +35,11 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from s3o_drake.cli import ArgumentParser, doc_formatter, fail
-from s3o_drake.execution.pickup import plan_pickup
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.io import write_atomically
+from s3o_drake.manipulation.pickup import plan_pickup
 from s3o_drake.planning.base_motion import (
     ACCELERATION,
     SETTLE_TIME,
@@ -255,7 +255,7 @@ def _rounded(value):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.execution.derive_times",
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.derive_times",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--samples", type=int, default=400,
                         help="pickups to plan (default 400)")
@@ -271,7 +271,7 @@ def main(argv: list[str] | None = None) -> int:
     if not out.parent.is_dir():
         fail(f"--out: no folder {out.parent}")
     logging.getLogger("drake").setLevel(logging.WARNING)
-    command = ("python -m s3o_drake.execution.derive_times "
+    command = ("python -m s3o_drake.commands.derive_times "
                f"--samples {args.samples} --seed {args.seed}")
     t0 = time.perf_counter()
     model, rows = derive(args.samples, args.seed, command)

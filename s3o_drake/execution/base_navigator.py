@@ -19,6 +19,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 
+from s3o_drake.execution.messages import NO_COMMAND, BaseCommand, Status
 from s3o_drake.feasibility.landing import CHECK_STEP_XY, CHECK_STEP_YAW, FINAL_APPROACH
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.base_motion import (
@@ -32,7 +33,6 @@ from s3o_drake.planning.base_motion import (
 )
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
 from s3o_drake.scenario import Scenario
-from s3o_drake.systems.commands import NO_COMMAND, BaseCommand, Status
 
 #: How far (m) the base may back straight out of a tight stop before it turns, tried in
 #: turn when the direct motion is blocked.

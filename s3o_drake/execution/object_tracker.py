@@ -36,6 +36,7 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
+from s3o_drake.execution.messages import GripEvent
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.robot import (
     BASE_LINK,
@@ -46,7 +47,6 @@ from s3o_drake.robot import (
     TRAY_LINK,
 )
 from s3o_drake.scenario import Scenario
-from s3o_drake.systems.commands import GripEvent
 
 ON_TABLE = "table"
 IN_GRIPPER = "gripper"
