@@ -169,3 +169,12 @@ def footprint_polygon(x: float, y: float, yaw: float) -> Polygon:
     R_WB = np.array([[c, -s], [s, c]])
     p_WC = p_BC @ R_WB.T + np.array([x, y])
     return Polygon(p_WC)
+
+
+#: How often (s) the execution systems of the full diagram look at their inputs: commands,
+#: reports and grips change a few times a minute, and a 50 ms reaction is invisible next
+#: to seconds-long motions, while every periodic event costs a state copy per firing.
+#: (Trajectories are evaluated at every plant step regardless.) A property of the robot's
+#: controllers, here at the bottom because the time model counts the hand-over between
+#: commands.
+CONTROL_PERIOD = 0.05

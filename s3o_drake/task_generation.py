@@ -19,12 +19,14 @@ import numpy as np
 from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES, chair_footprint, table_footprint
 from s3o_drake.robot import footprint_polygon
 from s3o_drake.scenario import (
+    START_CLEARANCE,
     Chair,
     Dish,
     Scenario,
     ScenarioError,
+    room_polygon,
+    validate_scenario,
 )
-from s3o_drake.validation import START_CLEARANCE, room_polygon, validate_scenario
 
 DEFAULT_BASE = Path(__file__).resolve().parent.parent / "scenarios" / "restaurant.yaml"
 DISH_COUNTS = (5, 6, 7)

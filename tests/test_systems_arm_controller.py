@@ -25,7 +25,7 @@ from pydrake.systems.primitives import (
 )
 
 from s3o_drake.execution.arm_controller import REACH_NOISE_STREAM, ArmController
-from s3o_drake.execution.messages import GripEvent, PickCommand, Status
+from s3o_drake.execution.messages import PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import RIM_INSET
 from s3o_drake.feasibility.pickup_geometry import grasp_tolerance
@@ -33,7 +33,8 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import load_scenario
-from s3o_drake.world import build_world_diagram
+from s3o_drake.world.builder import build_world_diagram
+from s3o_drake.world.object_tracker import GripEvent
 
 REPO = Path(__file__).resolve().parent.parent
 SCENE = REPO / "scenarios" / "small" / "two_dishes.yaml"

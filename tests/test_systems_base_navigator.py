@@ -23,7 +23,7 @@ from s3o_drake.execution.messages import BaseCommand, Status
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import load_scenario
-from s3o_drake.world import build_world_diagram
+from s3o_drake.world.builder import build_world_diagram
 
 REPO = Path(__file__).resolve().parent.parent
 V = 0.4  # the scenario's planner speed (default)

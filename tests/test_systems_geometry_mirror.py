@@ -20,10 +20,10 @@ from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 
 from s3o_drake.camera import overhead_camera
-from s3o_drake.execution.geometry_mirror import GeometryMirror
 from s3o_drake.robot import robot_desired_state, robot_positions
 from s3o_drake.scenario import load_scenario
-from s3o_drake.world import build_world_diagram, robot_render_labels
+from s3o_drake.world.builder import build_world_diagram, robot_render_labels
+from s3o_drake.world.geometry_mirror import GeometryMirror
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"

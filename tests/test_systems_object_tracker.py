@@ -14,8 +14,6 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
 from s3o_drake.camera import overhead_camera
-from s3o_drake.execution.messages import GripEvent
-from s3o_drake.execution.object_tracker import ObjectTracker
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.robot import (
     ARM_STOW,
@@ -27,7 +25,8 @@ from s3o_drake.robot import (
     robot_positions,
 )
 from s3o_drake.scenario import load_scenario
-from s3o_drake.world import build_world_diagram, populate_plant, robot_hold_state
+from s3o_drake.world.builder import build_world_diagram, populate_plant, robot_hold_state
+from s3o_drake.world.object_tracker import GripEvent, ObjectTracker
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"

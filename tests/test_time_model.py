@@ -27,14 +27,13 @@ from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.plan import facing_yaw
 from s3o_drake.planning.planner import plan
 from s3o_drake.planning.time_model import (
-    CONTROL_PERIOD,
     PICKUP_FORMS,
     TURN_TOLERANCE,
     CostModel,
     TimeModel,
     command_overheads,
 )
-from s3o_drake.robot import NUM_POSITIONS
+from s3o_drake.robot import CONTROL_PERIOD, NUM_POSITIONS
 from s3o_drake.scenario import dump_scenario, load_scenario
 
 REPO = Path(__file__).resolve().parent.parent

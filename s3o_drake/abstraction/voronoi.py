@@ -37,8 +37,7 @@ from shapely.ops import unary_union
 
 from s3o_drake.furniture import chair_footprint, table_footprint
 from s3o_drake.robot import BASE_WIDTH
-from s3o_drake.scenario import Scenario
-from s3o_drake.validation import room_polygon
+from s3o_drake.scenario import Scenario, room_polygon
 
 INSCRIBED_RADIUS = BASE_WIDTH / 2
 """The radius of the largest disc inside the base's footprint, whatever its yaw (m)."""

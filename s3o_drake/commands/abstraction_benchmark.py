@@ -39,9 +39,8 @@ from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES
-from s3o_drake.scenario import Dish, Scenario, ScenarioError, load_scenario
+from s3o_drake.scenario import Dish, Scenario, ScenarioError, load_scenario, validate_scenario
 from s3o_drake.task_generation import DEFAULT_BASE, DISH_GAP, EDGE_MARGIN
-from s3o_drake.validation import validate_scenario
 
 TARGETS = {7: 1.0, 30: 5.0}  # dishes -> seconds
 MAX_TRIES = 10_000

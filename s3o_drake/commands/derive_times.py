@@ -47,7 +47,6 @@ from s3o_drake.planning.base_motion import (
     YAW_RATE,
 )
 from s3o_drake.planning.time_model import (
-    CONTROL_PERIOD,
     MODEL_FILE,
     PICKUP_FORMS,
     TURN_TOLERANCE,
@@ -56,6 +55,7 @@ from s3o_drake.planning.time_model import (
     command_overheads,
 )
 from s3o_drake.resources import MODELS_DIR, shipped_tasks
+from s3o_drake.robot import CONTROL_PERIOD
 from s3o_drake.scenario import load_scenario
 
 RESTAURANT = MODELS_DIR.parent / "scenarios" / "restaurant.yaml"

@@ -33,7 +33,7 @@ from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_
 from s3o_drake.io import write_atomically
 from s3o_drake.perception.chairs import ChairPerception, draw_chairs
 from s3o_drake.scenario import Scenario
-from s3o_drake.world import render_overhead
+from s3o_drake.world.builder import render_overhead
 
 MATCH_RADIUS = 0.15
 """A detection this close (m) to a true chair's centre counts as finding it."""

@@ -17,13 +17,14 @@ from pydrake.math import RigidTransform
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 from pydrake.trajectories import Trajectory
 
-from s3o_drake.execution.messages import NO_COMMAND, GripEvent, PickCommand, Status
+from s3o_drake.execution.messages import NO_COMMAND, PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.pickup_geometry import caught
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.manipulation.pickup import plan_pickup
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import Scenario
+from s3o_drake.world.object_tracker import GripEvent
 
 #: The arm's and the fingers' positions among the robot's 11.
 ARM_AND_FINGERS = slice(3, NUM_POSITIONS)

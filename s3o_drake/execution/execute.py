@@ -15,7 +15,7 @@ from tqdm import tqdm
 from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
 from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.scenario import Scenario
-from s3o_drake.world import overhead_images
+from s3o_drake.world.builder import overhead_images
 
 
 @dataclass

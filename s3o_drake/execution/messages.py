@@ -18,8 +18,6 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from s3o_drake.planning.time_model import CONTROL_PERIOD  # noqa: F401 (the systems' period)
-
 NO_COMMAND = 0
 
 
@@ -62,17 +60,6 @@ class Status:
     @property
     def finished(self) -> bool:
         return self.state in ("done", "failed")
-
-
-@dataclass(frozen=True)
-class GripEvent:
-    """What the gripper holds: `dish` ("" for nothing). The arm controller outputs it and
-    the object tracker follows it: a dish named here moves with the gripper from the
-    moment it appears; when it disappears, the dish lands on the tray if it is in `placed`
-    (the dishes the arm has put down on the tray so far), else it is dropped where it is."""
-
-    dish: str = ""
-    placed: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,7 @@ def make_scene(base_path: Path, seed: int, index: int) -> dict[str, np.ndarray]:
     from s3o_drake.camera import overhead_camera
     from s3o_drake.feasibility.fcn import crop_inputs, overhead_view
     from s3o_drake.feasibility.heatmaps import compute_heatmaps
-    from s3o_drake.world import render_overhead
+    from s3o_drake.world.builder import render_overhead
 
     scenario = generate_task(load_scenario(base_path), seed, index)
     _, depth, label, robot_labels = render_overhead(scenario)

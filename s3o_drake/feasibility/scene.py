@@ -29,7 +29,7 @@ from s3o_drake.robot import (
     robot_positions,
 )
 from s3o_drake.scenario import Scenario
-from s3o_drake.world import populate_plant
+from s3o_drake.world.builder import populate_plant
 
 # Robot-environment clearance of a feasible configuration (m): the arm stays at least 1 cm
 # from every obstacle, and the base keeps the same small margin.

@@ -74,8 +74,7 @@ from s3o_drake.angles import wrap
 from s3o_drake.furniture import DistanceField, chair_footprint, table_footprint
 from s3o_drake.planning.base_motion import BaseProfile, chain_time
 from s3o_drake.robot import BASE_RADIUS, BASE_WIDTH
-from s3o_drake.scenario import Scenario
-from s3o_drake.validation import room_polygon
+from s3o_drake.scenario import Scenario, room_polygon
 
 DRIVE_MARGIN = 0.02
 """Added to the circumscribed radius along paths (m): the execution's collision check keeps

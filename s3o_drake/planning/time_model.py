@@ -54,17 +54,12 @@ from s3o_drake.angles import wrap
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
 from s3o_drake.planning.base_motion import SETTLE_TIME, BaseProfile
 from s3o_drake.resources import MODELS_DIR
+from s3o_drake.robot import CONTROL_PERIOD
 from s3o_drake.scenario import Planner, Scenario
 
 if TYPE_CHECKING:  # only for hints: the systems import this module for their period
     from s3o_drake.planning.navigation import NavigationMap
 
-#: How often (s) the execution systems of the full diagram look at their inputs: commands,
-#: reports and grips change a few times a minute, and a 50 ms reaction is invisible next
-#: to seconds-long motions, while every periodic event costs a state copy per firing.
-#: (Trajectories are evaluated at every plant step regardless.) Here, below the systems,
-#: because the hand-over between commands is part of the time model.
-CONTROL_PERIOD = 0.05
 MODEL_FILE = MODELS_DIR / "time_model.yaml"
 FORMAT = "s3o_drake.TimeModel/1"
 PICKUP_FORMS = ("constant", "per_kind", "linear", "per_kind_linear", "per_kind_grasp",

@@ -41,12 +41,17 @@ from pydrake.systems.sensors import RgbdSensor
 
 from s3o_drake import furniture as fu
 from s3o_drake.camera import overhead_camera
-from s3o_drake.execution.geometry_mirror import GeometryMirror
-from s3o_drake.execution.messages import CONTROL_PERIOD
-from s3o_drake.execution.object_tracker import ObjectTracker
 from s3o_drake.resources import make_parser, models_dir
-from s3o_drake.robot import ROBOT_JOINTS, add_robot, robot_desired_state, robot_positions
+from s3o_drake.robot import (
+    CONTROL_PERIOD,
+    ROBOT_JOINTS,
+    add_robot,
+    robot_desired_state,
+    robot_positions,
+)
 from s3o_drake.scenario import Chair, Dish, Scenario, Table
+from s3o_drake.world.geometry_mirror import GeometryMirror
+from s3o_drake.world.object_tracker import ObjectTracker
 
 RENDERER = "vtk"
 FLOOR_RGBA = np.array([0.82, 0.80, 0.76, 1.0])
@@ -171,7 +176,7 @@ def _add_overhead_camera(builder: DiagramBuilder, plant: MultibodyPlant,
                          scene_graph: SceneGraph, tracker: ObjectTracker | None,
                          scenario: Scenario) -> RgbdSensor:
     """The overhead RgbdSensor, looking at a perception-only mirror of `scene_graph`
-    (systems/geometry_mirror.py): the mirror's poses, and the renderer's, are updated only
+    (world/geometry_mirror.py): the mirror's poses, and the renderer's, are updated only
     when an image is evaluated, not at every plant step."""
     camera_scene_graph = builder.AddNamedSystem("camera_scene_graph", SceneGraph())
     camera_scene_graph.AddRenderer(RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))

@@ -36,7 +36,6 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from s3o_drake.execution.messages import GripEvent
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.robot import (
     BASE_LINK,
@@ -76,6 +75,17 @@ def _upright(x: float, y: float, z: float, R: RotationMatrix) -> RigidTransform:
     """A pose at (x, y, z) that keeps only R's turn about z: a set-down dish stands up."""
     m = R.matrix()
     return RigidTransform(RotationMatrix.MakeZRotation(math.atan2(m[1, 0], m[0, 0])), [x, y, z])
+
+
+@dataclass(frozen=True)
+class GripEvent:
+    """What the gripper holds: `dish` ("" for nothing). The arm controller outputs it and
+    the object tracker follows it: a dish named here moves with the gripper from the
+    moment it appears; when it disappears, the dish lands on the tray if it is in `placed`
+    (the dishes the arm has put down on the tray so far), else it is dropped where it is."""
+
+    dish: str = ""
+    placed: tuple[str, ...] = ()
 
 
 class ObjectTracker(LeafSystem):
