@@ -21,11 +21,12 @@ from s3o_drake.execution.diagram import build_execution_diagram
 from s3o_drake.execution.messages import BaseCommand
 from s3o_drake.execution.s3o_planner import scenario_unmapped_chairs
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning import base_motion
 from s3o_drake.planning.base_motion import BaseProfile
 from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.planning.plan import facing_yaw
-from s3o_drake.planning.planner import plan
+from s3o_drake.planning.plan import TaskMotionPlan, facing_yaw
+from s3o_drake.planning.planner import plan_task
 from s3o_drake.planning.time_model import (
     PICKUP_FORMS,
     TURN_TOLERANCE,
@@ -43,6 +44,17 @@ TWO_DISHES = REPO / "scenarios" / "small" / "two_dishes.yaml"
 def _with(scenario, **planner):
     return dataclasses.replace(scenario, planner=dataclasses.replace(scenario.planner,
                                                                      **planner))
+
+
+def _known(scenario, perceived_chairs) -> KnownWorld:
+    """What the planner knows in `scenario` with these perceived chairs."""
+    return KnownWorld.of(scenario, perceived_chairs=perceived_chairs)
+
+
+def plan(scenario, *, perceived_chairs, **kwargs) -> TaskMotionPlan:
+    """The plan of `scenario` from its start with these perceived chairs: the planner's own
+    call, `plan_task`, which raises when no plan can be made."""
+    return plan_task(_known(scenario, perceived_chairs), **kwargs).plan
 
 
 def test_overheads_follow_the_control_period():
@@ -83,7 +95,7 @@ def test_goto_times_are_the_navigators_motion():
     NavigationMap.path_times says, from any start yaw, with or without a final yaw."""
     scenario = load_scenario(REPO / "scenarios" / "restaurant.yaml")
     chairs = [c.pose for c in scenario.chairs if not c.mapped]
-    nav = NavigationMap(scenario, chairs)
+    nav = NavigationMap(_known(scenario, chairs).obstacles)
     profile = BaseProfile(speed=scenario.planner.speed)
     navigator = BaseNavigator(scenario=scenario, scene=None, noise=False)
     rng = np.random.default_rng(0)
@@ -117,7 +129,7 @@ def test_turns_at_a_merged_stop():
     """The S3OPlanner's rule: before each further pickup, a turn in place if the dish is
     more than TURN_TOLERANCE off; the base leaves facing the last dish it turned to."""
     scenario = load_scenario(TWO_DISHES)
-    costs = CostModel.for_scenario(scenario)
+    costs = CostModel.for_known(KnownWorld.perfect(scenario))
     stop = np.array([[2.0, 1.5]])
     a = math.atan2(2.3 - 1.5, 1.85 - 2.0)  # plate_a
     b = math.atan2(2.3 - 1.5, 2.15 - 2.0)  # cup_b
@@ -169,12 +181,12 @@ def test_the_plan_predicts_the_simulated_execution(executed):
     scenario, p, report, drives, arms = executed
     assert [(a, o == "done" or o.startswith("failed: no_")) for a, _, o in report["outcomes"]] \
         == [("goto", True), ("pickup", True), ("pickup", True)]
-    costs = CostModel.for_scenario(scenario)
+    costs = CostModel.for_known(KnownWorld.perfect(scenario))
     (goto,) = p.gotos
     first, second = (a.dish for a in p.pickups)
     # Commands: the drive (id 1), the first pickup (2), the turn (3), the second pickup (4).
     assert sorted(drives) == [1, 3] and set(arms) <= {2, 4}
-    nav = NavigationMap(scenario, [c.pose for c in scenario.chairs if not c.mapped])
+    nav = NavigationMap(KnownWorld.perfect(scenario).obstacles)
     start = np.asarray(scenario.robot.start, float)
     _, drive, _ = nav.path_times(start[None, :2], np.array([goto.pose[:2]]), start[2:],
                                  np.array([goto.pose[2]]), costs.base)

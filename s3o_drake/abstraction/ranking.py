@@ -35,7 +35,7 @@ from s3o_drake.abstraction.candidates import (
 )
 from s3o_drake.abstraction.task_feasibility import DEFAULT_GRID_CELL, TaskFeasibility
 from s3o_drake.abstraction.voronoi import INSCRIBED_RADIUS, VoronoiPartition, voronoi_partition
-from s3o_drake.scenario import Scenario
+from s3o_drake.known_world import KnownWorld
 
 KEEP = 1000
 """How many of the best candidates are kept, scored and ranked in full."""
@@ -200,8 +200,7 @@ def rank(partition: VoronoiPartition, task: TaskFeasibility, *, top_k: int,
                        _make=state_space)
 
 
-def build_abstraction(scenario: Scenario, feasibility, *,
-                      perceived_chairs: Sequence[Sequence[float]],
+def build_abstraction(known: KnownWorld, feasibility, *,
                       dishes: Sequence[str] | None = None, seed: int | None = None,
                       clearance: float = INSCRIBED_RADIUS, joint_threshold: float = 0.0,
                       grid_cell: float = DEFAULT_GRID_CELL,
@@ -209,20 +208,19 @@ def build_abstraction(scenario: Scenario, feasibility, *,
                       time_limit: float = 5.0,
                       exhaustive_max_dishes: int = EXHAUSTIVE_MAX_DISHES,
                       beam_width: int = DEFAULT_BEAM_WIDTH) -> Abstraction:
-    """S3O's state-space computation for a scenario, ranked, with the top-K distribution.
+    """S3O's state-space computation for what the robot knows, ranked, with the top-K
+    distribution.
 
     `feasibility` is Fea^m: a `MotionFeasibility`, a mapping dish -> Heatmap or a list of
-    Heatmaps. `perceived_chairs` are the poses [x, y, yaw] of the chairs perception
-    reports (mapped chairs come from the scenario). Reach, N, K and the seed default to
-    the scenario's planner settings and seed; `location_cost` to γ / λ.
+    Heatmaps. Reach, N, K and the seed default to the planner's settings and the
+    scenario's seed; `location_cost` to γ / λ.
     """
-    planner = scenario.planner
+    planner = known.planner
     if location_cost is None:
         location_cost = planner.gamma / planner.reward if planner.reward > 0 else 0.0
-    partition = voronoi_partition(scenario, perceived_chairs, dishes=dishes,
-                                  clearance=clearance)
-    task = TaskFeasibility(partition, feasibility, samples=scenario.planner.location_samples,
-                           seed=scenario.seed if seed is None else seed,
+    partition = voronoi_partition(known, dishes=dishes, clearance=clearance)
+    task = TaskFeasibility(partition, feasibility, samples=planner.location_samples,
+                           seed=known.settings.seed if seed is None else seed,
                            joint_threshold=joint_threshold, grid_cell=grid_cell)
     return rank(partition, task, top_k=planner.top_k, location_cost=location_cost,
                 max_count=max_count,

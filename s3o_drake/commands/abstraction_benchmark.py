@@ -39,6 +39,7 @@ from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.scenario import Dish, Scenario, ScenarioError, load_scenario, validate_scenario
 from s3o_drake.task_generation import DEFAULT_BASE, DISH_GAP, EDGE_MARGIN
 
@@ -119,7 +120,7 @@ def _synthetic_row(label: str, scene: Scenario, perceived: list, heatmaps: dict,
                    adjacency: list[set[int]], target: float | None, note: str) -> bool:
     """Times the abstraction with the cells' adjacency replaced; prints one row."""
     t0 = time.perf_counter()
-    partition = voronoi_partition(scene, perceived)
+    partition = voronoi_partition(KnownWorld.of(scene, perceived_chairs=perceived))
     partition.adjacency = adjacency
     task = TaskFeasibility(partition, heatmaps, samples=scene.planner.location_samples,
                            seed=scene.seed)
@@ -199,7 +200,8 @@ def main(argv: list[str] | None = None) -> int:
         scene = replace(full, dishes=full.dishes[:count])
         t0 = time.perf_counter()
         chairs = [] if label else perceived
-        abstraction = build_abstraction(scene, by_scene[id(full)], perceived_chairs=chairs)
+        abstraction = build_abstraction(KnownWorld.of(scene, perceived_chairs=chairs),
+                                        by_scene[id(full)])
         elapsed = time.perf_counter() - t0
         target = TARGETS.get(count) if not label or count == 7 else None
         ok = target is None or elapsed <= target

@@ -60,6 +60,7 @@ from __future__ import annotations
 
 import sys
 
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.navigation import (
     NavigationMap,
     benchmark,
@@ -86,13 +87,13 @@ def main(argv: list[str] | None = None) -> int:
         scenario = load_scenario(args.scenario)
     except ScenarioError as e:
         fail(str(e))
-    perceived = [list(c.pose) for c in scenario.chairs if not c.mapped]
+    known = KnownWorld.perfect(scenario)
     if not args.benchmark:
-        nav = NavigationMap(scenario, perceived)
+        nav = NavigationMap(known.obstacles)
         print(f"{len(nav.vertices)} graph vertices, grid {nav.occupancy.shape}, "
               f"{len(nav._edges)} blocking edges")
         return 0
-    for key, value in benchmark(scenario, perceived, queries=args.queries).items():
+    for key, value in benchmark(known, queries=args.queries).items():
         print(f"{key:28s} {value:.4f}")
     return 0
 

@@ -47,22 +47,15 @@ from typing import Any, TextIO
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.planning.planner import METHODS, PlanningError, plan
-from s3o_drake.planning.task_planner import TaskPlanningError
-from s3o_drake.scenario import Scenario
+from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.pipeline import plan_from
+from s3o_drake.scenario import METHODS, Scenario
 
 STAGES = ("feasibility", "navigation", "abstraction", "task_planning", "motion_search")
 TIME_TARGET = 5.0
 """Target median planning time (s), on 2 cores."""
 RATIO_TARGET = 0.95
 """Target utility ratio: within 5 % of the long run."""
-
-
-def perceived_chairs(scenario: Scenario) -> list[list[float]]:
-    """The chairs the planner is given here: the scenario's unmapped ones, exactly (this
-    benchmark measures planning; perception has its own,
-    s3o_drake.commands.perception_benchmark)."""
-    return [list(c.pose) for c in scenario.chairs if not c.mapped]
 
 
 def long_run(scenario: Scenario, factor: int) -> Scenario:
@@ -77,17 +70,20 @@ def benchmark_task(name: str, scenario: Scenario, *, method: str, seed: int, wor
     """One task's row: heatmaps, the paper-count plan, the long run, their utility ratio."""
     row: dict[str, Any] = {"task": name, "dishes": len(scenario.dishes), "method": method,
                            "seed": seed, "workers": workers, "factor": factor}
+    # The planner is given the scenario's unmapped chairs exactly: this benchmark measures
+    # planning (perception has its own, s3o_drake.commands.perception_benchmark).
+    known = KnownWorld.perfect(scenario)
     start = time.perf_counter()
-    heatmaps = compute_heatmaps(scenario, workers=1, progress=False)
+    heatmaps = compute_heatmaps(known.as_scenario(), workers=1, progress=False,
+                                obstacles=known.obstacles)
     feasibility = time.perf_counter() - start
-    chairs = perceived_chairs(scenario)
-    try:
-        short = plan(scenario, method=method, heatmaps=heatmaps, perceived_chairs=chairs,
-                     seed=seed, workers=workers, feasibility_time=feasibility)
-        long = plan(long_run(scenario, factor), method=method, heatmaps=heatmaps,
-                    perceived_chairs=chairs, seed=seed, workers=workers)
-    except (PlanningError, TaskPlanningError) as e:
-        row["error"] = f"{type(e).__name__}: {e}"
+    short_result = plan_from(known, method=method, heatmaps=heatmaps, seed=seed,
+                             workers=workers, started=start)
+    long_result = plan_from(KnownWorld.perfect(long_run(scenario, factor)), method=method,
+                            heatmaps=heatmaps, seed=seed, workers=workers)
+    short, long = short_result.plan, long_result.plan
+    if short is None or long is None:
+        row["error"] = short_result.error or long_result.error
         row["feasibility_s"] = feasibility
         return row
     row.update({

@@ -50,7 +50,6 @@ from pathlib import Path
 import cv2
 from pydrake.geometry import Meshcat
 
-from s3o_drake.abstraction import build_abstraction
 from s3o_drake.camera import orthophoto, overhead_camera
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.execution.execute import (
@@ -111,9 +110,10 @@ def describe_execution(report: dict) -> str:
 
 
 def _write_pictures(scenario: Scenario, run: Execution, out: Path) -> list[Path]:
+    """The pictures of what the plan was made on (the latest planning's result)."""
     written = []
-    known = run.known or scenario
-    heatmaps = list(run.heatmaps)
+    result = run.result
+    heatmaps = list(result.heatmaps) if result is not None else []
     if not heatmaps and run.plan is None:
         return written
     color, depth = run.images
@@ -122,20 +122,16 @@ def _write_pictures(scenario: Scenario, run: Execution, out: Path) -> list[Path]
     if heatmaps and scenario.outputs.feasibility:
         feasibility_figure(scenario, top_view, heatmaps, out / "feasibility.png")
         written.append(out / "feasibility.png")
-    if heatmaps and scenario.outputs.state_space:
-        chairs = [c.pose for c in known.chairs if not c.mapped]
-        abstraction = build_abstraction(known, heatmaps, perceived_chairs=chairs,
-                                        seed=run.plan.seed if run.plan else scenario.seed)
-        state_space_figure(scenario, top_view, heatmaps, abstraction, out / "state_space.png")
+    if run.plan is not None and result.partition is not None and scenario.outputs.state_space:
+        state_space_figure(scenario, top_view, result, out / "state_space.png")
         written.append(out / "state_space.png")
     if run.plan is not None:
-        plan_figure(scenario, top_view, run.plan, out / "plan.png")
+        plan_figure(scenario, top_view, run.plan, out / "plan.png", start=result.known.pose)
         written.append(out / "plan.png")
         if run.plan.early_samples:
             search_figure(scenario, top_view, heatmaps, run.plan, out / "search.png")
             written.append(out / "search.png")
     return written
-
 
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m s3o_drake.run", description=__doc__,

@@ -38,6 +38,7 @@ from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_
 from s3o_drake.evaluation.store import ResultStore
 from s3o_drake.execution.execute import execute
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.motion_search import GRID_CELL, SequenceProblem, location_regions
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.time_model import MODEL_FILE, CostModel
@@ -101,9 +102,9 @@ def evaluation_cost(scenario: Scenario, *, generations: int = 20, population: in
     generation jittered by 3 cm around a centre), Fea^m 1 everywhere (the same for both
     profiles). The paper profile's evaluation is the one the motion search had before the
     time model (one path-length batch); the robot's adds the motion times."""
-    chairs = [list(c.pose) for c in scenario.chairs if not c.mapped]
-    nav = NavigationMap(scenario, chairs)
-    partition = voronoi_partition(scenario, chairs)
+    known = KnownWorld.perfect(scenario)
+    nav = NavigationMap(known.obstacles)
+    partition = voronoi_partition(known)
     groups = [(d,) for d, cell in zip(partition.dishes, partition.cells, strict=True)
               if not cell.is_empty]
     regions = location_regions(groups, dict(zip(partition.dishes, partition.cells, strict=True)))
@@ -117,12 +118,12 @@ def evaluation_cost(scenario: Scenario, *, generations: int = 20, population: in
                for _ in range(generations)]
     out = {}
     for profile in ("paper", "robot"):
-        costs = CostModel.for_scenario(dataclasses.replace(
-            scenario, planner=dataclasses.replace(scenario.planner, cost_profile=profile)))
+        costs = CostModel.for_known(KnownWorld.perfect(dataclasses.replace(
+            scenario, planner=dataclasses.replace(scenario.planner, cost_profile=profile))))
         nav.route_table(costs.base)
         best = np.inf
         for _ in range(repeats):
-            problem = SequenceProblem(sequence, regions, fea, nav, scenario.robot.start,
+            problem = SequenceProblem(sequence, regions, fea, nav, known.pose,
                                       costs.planner, None, GRID_CELL, costs)
             nav._endpoint_cache.clear()  # each repeat starts cold, as a new search does
             t0 = time.perf_counter()

@@ -14,6 +14,7 @@ from tqdm import tqdm
 
 from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
 from s3o_drake.planning.plan import TaskMotionPlan
+from s3o_drake.planning.planner import PlanningResult
 from s3o_drake.scenario import Scenario
 from s3o_drake.world.builder import overhead_images
 
@@ -27,9 +28,9 @@ class Execution:
     report: dict
     images: tuple[np.ndarray, np.ndarray]
     """The overhead camera's colour (RGB) and depth (m) images at the start."""
-    known: Scenario | None
-    """The scenario as the planner knew it (perceived chairs)."""
-    heatmaps: tuple
+    result: PlanningResult | None
+    """The latest planning's result: what the plan was made on (the KnownWorld with the
+    perceived chairs, the heatmaps, the navigation map, the state spaces)."""
     html: str | None  # the playback page; None when nothing was recorded
 
 
@@ -93,12 +94,12 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
         visualizer.PublishRecording()
     monitor = diagram.GetSubsystemByName("task_monitor")
     report = dict(monitor.GetOutputPort("report").Eval(monitor.GetMyContextFromRoot(context)))
-    known, heatmaps = planner.planned_with(planner_context)
+    result = planner.GetOutputPort("planning_result").Eval(planner_context)
     if failure is not None:
         report.update(finished=False, reason=failure, execution_time=context.get_time())
-    report.update(planning_time=planner.planning_time(planner_context), wall_time=wall,
+    planning_time = float(planner.GetOutputPort("planning_time").Eval(planner_context)[0])
+    report.update(planning_time=planning_time, wall_time=wall,
                   realtime_rate=context.get_time() / wall if wall > 0 else float("inf"),
                   simulated_time=context.get_time())
-    return Execution(diagram=diagram, plan=plan, report=report, images=images, known=known,
-                     heatmaps=heatmaps,
+    return Execution(diagram=diagram, plan=plan, report=report, images=images, result=result,
                      html=None if meshcat is None else meshcat.StaticHtml())

@@ -1,20 +1,19 @@
 """The S3O planner as a LeafSystem: plans at start, sends goals, follows the controllers.
 
-The planner sees what the robot can know: the overhead camera's images (through a perception
-function that reports the unmapped chairs: by default `perception.ChairPerception`, which
-explains the image by the map and the robot where it stands and fits chairs to what is left)
-and the robot's state. At initialization it computes every dish's Fea^m heatmap
-(`planner.feasibility`: "oracle", the Drake check on the *known* world, i.e. the mapped
-furniture and the perceived chairs; or "fcn", the network of models/fcn/ on the overhead
-depth image), plans with the chosen method (`planning.planner.plan`) and builds its own
-navigation map for re-pathing. It then walks the plan one action at a time: a `goto` becomes
-a BaseCommand whose path starts where the base really is (the previous landing carried
-noise), a `pickup` a PickCommand. It advances when the controller reports the command done;
-a failed pickup is recorded and the plan goes on with the next action (the dish stays where
-it is); a failed goto ends the execution (the plan's later pickups assumed that stop).
-Each finished pickup also leaves a `PickupRecord` on `progress` (the Fea^m the plan
-predicted from its planned stop, where the base really stood, the outcome, the reach noise
-the arm drew): the executions against which Fea^m is calibrated.
+The planner sees what the robot can know: the overhead camera's images and the robot's
+state. At initialization it makes a `KnownWorld` of them (`perception.perceive_known_world`:
+the map, the chairs a perception function reports, by default `perception.ChairPerception`,
+the dishes left and where the robot stands) and plans from it with the planning pipeline
+(`planning.pipeline.plan_from`: Fea^m from `planner.feasibility`, "oracle" or "fcn", then
+the chosen method). It then walks the plan one action at a time: a `goto` becomes a
+BaseCommand whose path, on the plan's own navigation map, starts where the base really is
+(the previous landing carried noise), a `pickup` a PickCommand. It advances when the
+controller reports the command done; a failed pickup is recorded and the plan goes on with
+the next action (the dish stays where it is); a failed goto ends the execution (the plan's
+later pickups assumed that stop). Each finished pickup also leaves a `PickupRecord` on
+`progress` (the Fea^m the plan predicted from its planned stop, where the base really stood,
+the outcome, the reach noise the arm drew): the executions against which Fea^m is
+calibrated.
 
 Replanning (later issues): a change of the optional `replan_request` input's value plans
 again from the robot's current pose for the dishes not yet collected (the state keeps the
@@ -25,7 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,7 +33,6 @@ from pydrake.systems.framework import Context, LeafSystem, State
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.angles import wrap
-from s3o_drake.camera import overhead_camera
 from s3o_drake.execution.messages import (
     NO_COMMAND,
     BaseCommand,
@@ -43,19 +41,13 @@ from s3o_drake.execution.messages import (
     PlanProgress,
     Status,
 )
-from s3o_drake.feasibility.fcn import FcnFeasibility, overhead_view, use_one_thread
-from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
-from s3o_drake.perception import ChairPerception
-from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.perception import Perceive, perceive_known_world
+from s3o_drake.planning.pipeline import plan_from
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan, facing_yaw
-from s3o_drake.planning.planner import PlanningError, plan
-from s3o_drake.planning.task_planner import TaskPlanningError
+from s3o_drake.planning.planner import PlanningResult
 from s3o_drake.robot import NUM_POSITIONS
-from s3o_drake.scenario import Chair, Scenario
-
-#: A perception function: (colour RGBA, depth (m), label) images -> chair poses [x, y, yaw].
-Perceive = Callable[[np.ndarray, np.ndarray, np.ndarray], list[list[float]]]
+from s3o_drake.scenario import Scenario
 
 
 def scenario_unmapped_chairs(scenario: Scenario) -> Perceive:
@@ -72,13 +64,9 @@ class _Execution:
     Immutable (every update makes a new one), so Drake's copies of the state may share it.
     """
 
-    plan: TaskMotionPlan | None = None
-    nav: NavigationMap | None = None
-    """The known world's navigation map, for paths from where the base really is."""
-    known: Scenario | None = None
-    """The scenario as planned: mapped furniture, perceived chairs, the dishes to pick."""
-    heatmaps: tuple = ()
-    """The Fea^m heatmaps the plan was made with."""
+    result: PlanningResult | None = None
+    """The latest planning's result: the plan, and what it was made on (the KnownWorld,
+    the heatmaps, the navigation map that re-paths the drives from where the base is)."""
     step: int = 0  # index into plan.actions of the action being executed
     command_id: int = NO_COMMAND  # id of the command sent for `step` (0: none yet)
     turning: bool = False  # the command out is the turn in place before a pickup
@@ -96,8 +84,15 @@ class _Execution:
     planning_time: float = 0.0
     """Wall time (s) spent planning, summed over plans."""
 
+    @property
+    def plan(self) -> TaskMotionPlan | None:
+        return None if self.result is None else self.result.plan
+
     def __deepcopy__(self, memo) -> _Execution:
-        return self  # immutable: a copy would only cost (the map is megabytes)
+        # Immutable: frozen, and the navigation map is sealed after planning (its queries
+        # memoise nothing more), so Drake's copies may share it; a copy would only cost
+        # (the map is megabytes).
+        return self
 
 
 class S3OPlanner(LeafSystem):
@@ -114,7 +109,10 @@ class S3OPlanner(LeafSystem):
       base_command (abstract BaseCommand), pick_command (abstract PickCommand);
       progress (abstract PlanProgress: the outcomes, and a PickupRecord per finished
         pickup);
-      plan (abstract TaskMotionPlan, or None before planning / when none could be made).
+      plan (abstract TaskMotionPlan, or None before planning / when none could be made);
+      planning_result (abstract PlanningResult, or None before planning: the latest plan
+        and what it was made on, the KnownWorld, heatmaps, navigation map and state spaces);
+      planning_time (1: wall time in s spent planning so far, all plans).
     """
 
     def __init__(self, *, scenario: Scenario, method: str | None = None, seed: int | None = None,
@@ -160,60 +158,44 @@ class S3OPlanner(LeafSystem):
         self.DeclareAbstractOutputPort(
             "progress", lambda: AbstractValue.Make(PlanProgress()), self._calc_progress,
             prerequisites_of_calc={self.abstract_state_ticket(self._state)})
+        # A model value of object: the ports carry None until (and unless) there is a plan.
         self.DeclareAbstractOutputPort(
             "plan", lambda: AbstractValue.Make(None),
             lambda c, out: out.set_value(self._execution(c).plan),
+            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
+        self.DeclareAbstractOutputPort(
+            "planning_result", lambda: AbstractValue.Make(None),
+            lambda c, out: out.set_value(self._execution(c).result),
+            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
+        self.DeclareVectorOutputPort(
+            "planning_time", 1,
+            lambda c, out: out.SetAtIndex(0, self._execution(c).planning_time),
             prerequisites_of_calc={self.abstract_state_ticket(self._state)})
 
     # ------------------------------------------------------------------------ helpers
     def _execution(self, context: Context) -> _Execution:
         return context.get_abstract_state(int(self._state)).get_value()
 
-    def known_scenario(self, chairs: Sequence[Sequence[float]]) -> Scenario:
-        """The scenario as the robot knows it: mapped chairs and the perceived ones."""
-        mapped = [c for c in self._scenario.chairs if c.mapped]
-        seen = [Chair(name=f"perceived_{i}", pose=[float(v) for v in pose], mapped=False)
-                for i, pose in enumerate(chairs)]
-        return dataclasses.replace(self._scenario, chairs=mapped + seen)
-
     def _plan(self, context: Context, execution: _Execution, *, start: np.ndarray,
               dishes: Sequence[str]) -> _Execution:
         """A new plan from base pose `start` for `dishes`, or a finished execution saying
         why there is none."""
         t0 = time.perf_counter()
-        images = [np.asarray(port.Eval(context).data) for port in self._images]
-        perceive = self._perceive or ChairPerception(dataclasses.replace(
-            self._scenario, robot=dataclasses.replace(self._scenario.robot,
-                                                      start=[float(v) for v in start])))
-        chairs = perceive(images[0], images[1][..., 0], images[2][..., 0])
-        known = self.known_scenario(chairs)
-        chairs = [list(c.pose) for c in known.chairs if not c.mapped]
-        known = dataclasses.replace(
-            known, robot=dataclasses.replace(known.robot, start=[float(v) for v in start]),
-            dishes=[d for d in known.dishes if d.name in set(dishes)])
-        try:
-            if known.planner.feasibility == "fcn":
-                view = overhead_view(overhead_camera(known), images[1][..., 0],
-                                     images[2][..., 0], self._robot_labels)
-                use_one_thread()
-                heatmaps = FcnFeasibility.shared().heatmaps(view, list(known.dishes))
-            else:
-                heatmaps = compute_heatmaps(known, workers=1,
-                                            progress=self._progress_bar)
-            t1 = time.perf_counter()
-            new = plan(known, method=self._method, heatmaps=heatmaps, perceived_chairs=chairs,
-                       seed=self._seed, workers=self._workers, feasibility_time=t1 - t0)
-        except (PlanningError, TaskPlanningError) as e:
-            return dataclasses.replace(execution, plan=None, finished=True, reason=f"no plan: {e}",
-                                       known=known, planning_time=execution.planning_time
-                                       + time.perf_counter() - t0)
-        return dataclasses.replace(execution, plan=new, nav=NavigationMap(known, chairs),
-                                   known=known, heatmaps=tuple(heatmaps), step=0,
-                                   command_id=NO_COMMAND,
-                                   finished=not new.actions,
-                                   reason="" if new.actions else "plan complete",
-                                   planning_time=execution.planning_time
-                                   + time.perf_counter() - t0)
+        images = tuple(np.asarray(port.Eval(context).data) for port in self._images)
+        known = perceive_known_world(self._scenario, images, pose=start, dishes=dishes,
+                                     perceive=self._perceive, robot_labels=self._robot_labels)
+        result = plan_from(known, method=self._method, seed=self._seed, workers=self._workers,
+                           progress=self._progress_bar, started=t0)
+        if result.navigation is not None:
+            result.navigation.seal()
+        spent = execution.planning_time + time.perf_counter() - t0
+        if result.plan is None:
+            return dataclasses.replace(execution, result=result, finished=True,
+                                       reason=result.error, planning_time=spent)
+        return dataclasses.replace(execution, result=result, step=0, command_id=NO_COMMAND,
+                                   finished=not result.plan.actions,
+                                   reason="" if result.plan.actions else "plan complete",
+                                   planning_time=spent)
 
     # ------------------------------------------------------------------------- events
     def _initialize(self, context: Context, state: State) -> None:
@@ -248,7 +230,8 @@ class S3OPlanner(LeafSystem):
             cid = e.next_id
             if isinstance(action, Goto):
                 here = np.asarray(self._robot_state.Eval(context))[:2]
-                path = e.nav.path(here, action.pose[:2]) if e.nav is not None else None
+                nav = e.result.navigation
+                path = nav.path(here, action.pose[:2]) if nav is not None else None
                 if path is None:  # no way from where it stands: drive the planned path
                     path = np.vstack([here, np.asarray(action.path)[1:]])
                 command = BaseCommand(id=cid, path=tuple((float(x), float(y)) for x, y in path),
@@ -303,10 +286,10 @@ class S3OPlanner(LeafSystem):
         # The stop the prediction was made for: the latest goto's pose, else where the
         # plan started.
         stop = next((a.pose for a in reversed(e.plan.actions[:e.step]) if isinstance(a, Goto)),
-                    tuple(float(v) for v in e.known.robot.start))
+                    e.result.known.pose)
         return PickupRecord(dish=action.dish, kind=self._dish_kind[action.dish],
                             method=self._method, predicted=float(action.feasibility),
-                            source=e.known.planner.feasibility,
+                            source=e.result.known.planner.feasibility,
                             planned_pose=tuple(float(v) for v in stop), actual_pose=actual,
                             outcome=outcome, reach_noise=noise)
 
@@ -316,14 +299,3 @@ class S3OPlanner(LeafSystem):
         out.set_value(PlanProgress(step=min(e.step + 1, total) if total else 0, total=total,
                                    finished=e.finished, reason=e.reason, outcomes=e.outcomes,
                                    pickups=e.pickups))
-
-    def planning_time(self, context: Context) -> float:
-        """Wall time (s) spent planning so far."""
-        return self._execution(context).planning_time
-
-    def planned_with(self, context: Context) -> tuple[Scenario | None, tuple]:
-        """The scenario as the latest plan knew it and the heatmaps it used (for pictures)."""
-        e = self._execution(context)
-        return e.known, e.heatmaps
-
-

@@ -6,9 +6,8 @@ path (`path_times`, the robot's cost profile); CMA-ES evaluates it thousands of 
 plan at continuous, clustered points, so it must be exact enough to rank samples and cheap
 (<= 0.2 ms).
 
-Obstacles: the tables and the mapped chairs of the scenario, plus the chairs the planner
-perceives, passed explicitly (the scenario's unmapped chairs are never read here), and
-the room's walls.
+Obstacles: what the robot knows (`KnownWorld.obstacles`): the room's walls, the tables, the
+mapped chairs and the chairs it perceived (the true unmapped chairs are never read here).
 
 Two radii (the base is a 0.62 x 0.56 m rectangle):
 
@@ -58,6 +57,7 @@ Design (measured with `python -m s3o_drake.commands.navigation_benchmark --bench
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
@@ -71,10 +71,10 @@ from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
 from s3o_drake.angles import wrap
-from s3o_drake.furniture import DistanceField, chair_footprint, table_footprint
+from s3o_drake.furniture import DistanceField
+from s3o_drake.known_world import KnownWorld, Obstacles
 from s3o_drake.planning.base_motion import BaseProfile, chain_time
 from s3o_drake.robot import BASE_RADIUS, BASE_WIDTH
-from s3o_drake.scenario import Scenario, room_polygon
 
 DRIVE_MARGIN = 0.02
 """Added to the circumscribed radius along paths (m): the execution's collision check keeps
@@ -118,35 +118,29 @@ class NavigationMap:
     `path` are the queries. Deterministic: no randomness, ties broken by index.
     """
 
-    def __init__(self, scenario: Scenario, perceived_chairs: Sequence[Sequence[float]], *,
-                 resolution: float = 0.05, quad_segs: int = 4, fast_visibility: bool = True):
-        """`perceived_chairs`: poses [x, y, yaw] reported by perception; mapped chairs come
-        from the scenario. `resolution` (m) is the occupancy grid's cell size.
-        `fast_visibility=False` tests what an endpoint sees with the exact segment test
+    def __init__(self, obstacles: Obstacles, *, resolution: float = 0.05, quad_segs: int = 4,
+                 fast_visibility: bool = True):
+        """`obstacles`: what the robot knows (`KnownWorld.obstacles`: the walls, the tables,
+        the mapped and the perceived chairs). `resolution` (m) is the occupancy grid's cell
+        size. `fast_visibility=False` tests what an endpoint sees with the exact segment test
         instead of the precomputed visibility polygons (a reference for tests)."""
         self.fast_visibility = fast_visibility
         if resolution <= 0:
             raise ValueError(f"resolution must be positive, got {resolution}")
         self.resolution = float(resolution)
-        self.room = room_polygon(scenario)
-        footprints = [table_footprint(t.center, t.yaw, t.size) for t in scenario.tables]
-        poses = [list(c.pose) for c in scenario.chairs if c.mapped]
-        poses += [list(map(float, p)) for p in perceived_chairs]
-        for p in poses:
-            if len(p) != 3:
-                raise ValueError(f"a chair pose is [x, y, yaw], got {p}")
-        footprints += [chair_footprint(p) for p in poses]
-        self.footprints: list[Polygon] = footprints
-        self.obstacles: BaseGeometry = unary_union(footprints) if footprints else Polygon()
+        self.room = obstacles.room
+        self.footprints: list[Polygon] = list(obstacles.footprints)
+        self.obstacles: BaseGeometry = obstacles.union
         """The union of the true footprints (not inflated)."""
         # What the exact tests measure clearance to: footprints and the walls.
         self._walls = self.room.exterior
-        self._solid = unary_union([self.obstacles.boundary, self._walls]) if footprints \
+        self._solid = unary_union([self.obstacles.boundary, self._walls]) if self.footprints \
             else self._walls
         shapely.prepare(self._solid)
         self._build_grid()
         self._build_graph(quad_segs)
         self._endpoint_cache: dict[tuple[float, float], _Endpoint] = {}
+        self._sealed = False
         self._route_tables: dict[BaseProfile, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     # ----------------------------------------------------------------------------- grid
@@ -372,10 +366,23 @@ class NavigationMap:
         return out
 
     # ------------------------------------------------------------------------ endpoints
+    def seal(self) -> None:
+        """Stops memoising: later queries compute what the caches lack without storing it,
+        and work on copies of what they hold, so the map no longer changes. The execution
+        seals the plan's map before Drake's state copies share it."""
+        self._sealed = True
+
     def _prepare(self, P: np.ndarray) -> list[_Endpoint]:
         """Endpoints for points (m, 2), from the cache or computed in one batch."""
         P = np.asarray(P, dtype=float).reshape(-1, 2)
         keys = [(float(x), float(y)) for x, y in P]
+        if self._sealed:
+            # Copies: `_see` fills in what an endpoint sees, and the cache must not change.
+            missing = sorted({k for k in keys if k not in self._endpoint_cache})
+            fresh = dict(zip(missing, self._compute_endpoints(np.array(missing)), strict=True)) \
+                if missing else {}
+            return [dataclasses.replace(self._endpoint_cache[k]) if k in self._endpoint_cache
+                    else fresh[k] for k in keys]
         todo = sorted({k for k in keys if k not in self._endpoint_cache})
         if todo:
             if len(self._endpoint_cache) + len(todo) > _ENDPOINT_CACHE_SIZE:
@@ -597,6 +604,8 @@ class NavigationMap:
             h_in[i, j] = np.where(single, edge_heading[i, j], h_in[i, kk])
             h_out[i, j] = edge_heading[kk, j]
             done[i, j] = True
+        if self._sealed:
+            return h_in, h_out, time_ij
         self._route_tables[profile] = (h_in, h_out, time_ij)
         return self._route_tables[profile]
 
@@ -653,8 +662,7 @@ def _rings(geometry: BaseGeometry) -> list:
 
 
 # ---------------------------------------------------------------------------- benchmark
-def benchmark(scenario: Scenario, perceived_chairs: Sequence[Sequence[float]], *,
-              queries: int = 2000, seed: int = 0) -> dict[str, float]:
+def benchmark(known: KnownWorld, *, queries: int = 2000, seed: int = 0) -> dict[str, float]:
     """Times the map's build and path-length queries on CMA-ES-like workloads.
 
     Points are drawn uniformly from the abstraction's free space within reach (1 m) of
@@ -668,11 +676,11 @@ def benchmark(scenario: Scenario, perceived_chairs: Sequence[Sequence[float]], *
 
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
-    nav = NavigationMap(scenario, perceived_chairs)
+    nav = NavigationMap(known.obstacles)
     build = time.perf_counter() - t0
-    free = free_space(scenario, perceived_chairs)
-    dishes = np.array([d.position for d in scenario.dishes], float).reshape(-1, 2)
-    near = unary_union([Point(*d).buffer(scenario.planner.reach) for d in dishes]) \
+    free = free_space(known)
+    dishes = np.array([d.position for d in known.dishes], float).reshape(-1, 2)
+    near = unary_union([Point(*d).buffer(known.planner.reach) for d in dishes]) \
         if len(dishes) else nav.room
     region = free.intersection(near)
     x0, y0, x1, y1 = region.bounds
@@ -689,7 +697,7 @@ def benchmark(scenario: Scenario, perceived_chairs: Sequence[Sequence[float]], *
     pick = rng.integers(0, 10, queries)
     jitter = (centres_p[pick] + rng.normal(0, 0.03, (queries, 2)),
               centres_q[pick] + rng.normal(0, 0.03, (queries, 2)))
-    start = np.asarray(scenario.robot.start[:2], float)
+    start = np.asarray(known.pose[:2], float)
     fixed = (np.repeat(start[None], queries, axis=0), jitter[1])
     result = {"build_s": build, "vertices": float(len(nav.vertices))}
     for name, (P, Q) in {"uniform": uniform, "jitter": jitter, "from_start": fixed}.items():

@@ -10,14 +10,16 @@ import matplotlib
 matplotlib.use("Agg")  # files only; never a window
 import matplotlib.pyplot as plt
 import numpy as np
+from shapely.ops import unary_union
 
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.io import write_atomically
 from s3o_drake.scenario import Scenario
 
 if TYPE_CHECKING:
-    from s3o_drake.abstraction.ranking import Abstraction
+    from s3o_drake.abstraction.ranking import StateSpace
     from s3o_drake.planning.plan import TaskMotionPlan
+    from s3o_drake.planning.planner import PlanningResult
 
 
 def _figure_bytes(fig) -> bytes:
@@ -76,33 +78,49 @@ def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Seque
     write_atomically(path, _figure_bytes(fig))
 
 
-def state_space_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
-                       abstraction: "Abstraction", path: Path, *, rank: int = 0,
-                       title: str = "") -> None:
-    """A ranked state space over the top view and the heatmaps (the paper's Fig. 3, right).
+def _searched_state(result: "PlanningResult") -> tuple["StateSpace | None", int | None]:
+    """The ranked StateSpace whose locations are the plan's, and its rank (0-based); None
+    where the abstraction did not rank it (the V- methods, a random candidate)."""
+    if result.abstraction is None or result.plan is None:
+        return None, None
+    wanted = {frozenset(g) for g in result.plan.groups}
+    for rank, state in enumerate(result.abstraction.ranked):
+        if {frozenset(g) for g in state.groups} == wanted:
+            return state, rank
+    return None, None
 
-    Each location is filled in its own colour and outlined; inside a merged location the
-    Voronoi borders between its dishes' cells are dashed. Dishes are marked in their
-    location's colour; unreachable dishes (empty cells) get a red cross.
+
+def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "PlanningResult",
+                       path: Path, *, title: str = "") -> None:
+    """The state space the plan used, over the top view and the heatmaps (the paper's
+    Fig. 3, right).
+
+    Each location is filled in its own colour, outlined and named as in plan.json; inside a
+    merged location the Voronoi borders between its dishes' cells are dashed. Dishes are
+    marked in their location's colour; unreachable dishes (empty cells) get a red cross.
+    The title says where the abstraction ranked this state space, when it did.
     """
     from shapely.plotting import plot_polygon
 
-    state = abstraction.ranked[rank]
-    partition = abstraction.partition
+    plan, partition = result.plan, result.partition
+    state, rank = _searched_state(result)
+    index = {d: i for i, d in enumerate(partition.dishes)}
     x_min, y_min, x_max, y_max = scenario.room.bounds
     fig, ax = plt.subplots(figsize=(10, 10 * (y_max - y_min) / (x_max - x_min)))
     ax.imshow(top_view, extent=(x_min, x_max, y_min, y_max), origin="upper")
-    if heatmaps:
-        image = _heatmap_layer(ax, scenario, heatmaps, alpha=0.45)
+    if result.heatmaps:
+        image = _heatmap_layer(ax, scenario, result.heatmaps, alpha=0.45)
         fig.colorbar(image, ax=ax, fraction=0.03, pad=0.02,
                      label="Fea$^m$ (probability of a pick)")
     colours = plt.get_cmap("tab10")
-    for k, group in enumerate(state.indices):
+    unreachable = set(partition.unreachable) | set(plan.unreachable)
+    for k, (names, location_name) in enumerate(zip(plan.groups, plan.locations, strict=True)):
         colour = colours(k % 10)
-        location = abstraction.location(state, k)
-        names = [partition.dishes[i] for i in group]
-        fea = ", ".join(f"{state.task_feasibility[n]:.2f}" for n in names)
-        label = f"l{k + 1}: {' + '.join(names)} (Fea$^t$ {fea})"
+        group = [index[n] for n in names]
+        location = unary_union([partition.cells[i] for i in group])
+        fea = "" if state is None else \
+            " (Fea$^t$ " + ", ".join(f"{state.task_feasibility[n]:.2f}" for n in names) + ")"
+        label = f"{location_name}: {' + '.join(names)}{fea}"
         if not location.is_empty:
             for polygon in getattr(location, "geoms", [location]):
                 if polygon.geom_type != "Polygon" or polygon.area <= 0:
@@ -120,30 +138,39 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Seque
                                              facecolor="none", edgecolor=colour,
                                              linewidth=0.8, linestyle="--")
         for i, name in zip(group, names, strict=True):
-            p = partition.p_WO[i]
-            unreachable = name in abstraction.unreachable
-            ax.plot(*p, marker="x" if unreachable else "o", markersize=7,
-                    color="red" if unreachable else colour, markeredgecolor="k"
-                    if not unreachable else "red", linestyle="none",
-                    label=label if label and location.is_empty else None)
-            ax.annotate(name, p, xytext=(4, 4), textcoords="offset points", fontsize=8,
-                        color="k", bbox={"boxstyle": "round,pad=0.15", "fc": "white",
-                                         "alpha": 0.7})
+            _mark_dish(ax, partition.p_WO[i], name, colour, name in unreachable,
+                       label if label and location.is_empty else None)
+    for name in sorted(unreachable - {n for g in plan.groups for n in g}):
+        _mark_dish(ax, partition.p_WO[index[name]], name, "red", True, None)
     ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.08), fontsize=8, ncol=2,
               frameon=False)
     ax.set_xlim(x_min, x_max)
     ax.set_ylim(y_min, y_max)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    search = "all candidates" if abstraction.exhaustive and abstraction.complete else \
-        "beam search"
-    top = abstraction.probabilities
-    p_rank = top[rank] if rank < len(top) else 0.0
-    locations = f"{len(state.groups)} location" + ("" if len(state.groups) == 1 else "s")
-    ax.set_title(title or f"State space ranked {rank + 1} of {abstraction.count} "
-                          f"({search}): {locations}, "
-                          f"Score {state.score:.2f}, p = {p_rank:.2f}")
+    locations = f"{len(plan.groups)} location" + ("" if len(plan.groups) == 1 else "s")
+    abstraction = result.abstraction
+    if abstraction is None:
+        where = "the plain Voronoi state space (no merging)"
+    elif state is None:
+        where = f"a state space outside the {len(abstraction.ranked)} ranked best"
+    else:
+        top = abstraction.probabilities
+        p_rank = top[rank] if rank < len(top) else 0.0
+        search = "all candidates" if abstraction.exhaustive and abstraction.complete else \
+            "beam search"
+        where = (f"the state space ranked {rank + 1} of {abstraction.count} ({search}), "
+                 f"Score {state.score:.2f}, p = {p_rank:.2f}")
+    ax.set_title(title or f"{plan.method} searched {where}: {locations}")
     write_atomically(path, _figure_bytes(fig))
+
+
+def _mark_dish(ax, p: np.ndarray, name: str, colour, unreachable: bool, label) -> None:
+    ax.plot(*p, marker="x" if unreachable else "o", markersize=7,
+            color="red" if unreachable else colour,
+            markeredgecolor="red" if unreachable else "k", linestyle="none", label=label)
+    ax.annotate(name, p, xytext=(4, 4), textcoords="offset points", fontsize=8, color="k",
+                bbox={"boxstyle": "round,pad=0.15", "fc": "white", "alpha": 0.7})
 
 
 def _room_axes(scenario: Scenario, top_view: np.ndarray, ax) -> None:
@@ -198,7 +225,7 @@ def search_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[H
 
 
 def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan",
-                path: Path, *, title: str = "") -> None:
+                path: Path, *, start: Sequence[float] | None = None, title: str = "") -> None:
     """The plan over the top view: the driven paths, each stop with its heading, and
     thin lines from each stop to the dishes picked there; unreachable dishes crossed."""
     x_min, y_min, x_max, y_max = scenario.room.bounds
@@ -207,7 +234,7 @@ def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan"
     _dish_marks(ax, scenario, plan.unreachable)
     colours = plt.get_cmap("tab10")
     dish_xy = {d.name: d.position for d in scenario.dishes}
-    start = scenario.robot.start
+    start = scenario.robot.start if start is None else start
     ax.plot(start[0], start[1], marker="s", markersize=10, color="white", markeredgecolor="k")
     ax.annotate("start", start[:2], xytext=(6, -12), textcoords="offset points", fontsize=8)
     stop, colour, k = start[:2], "white", -1

@@ -1,6 +1,8 @@
-"""The planner: every compared method by name, under one time budget (DESIGN.md 2.5-2.7).
+"""The planner: every compared method by name, under one time budget.
 
-`plan(scenario, method=..., heatmaps=..., perceived_chairs=..., seed=...)` runs
+`plan_task(known, method=..., heatmaps=..., seed=...)` plans from what the robot knows (a
+`KnownWorld`) with Fea^m given; the planning pipeline (`pipeline.plan_from`) computes Fea^m
+and calls it. It runs
 
 - **S3O-GROP*** : the top-K S3O state spaces, searched in an order drawn from the
   normalised top-K scores (weighted sampling *without* replacement, so that each of them is
@@ -65,6 +67,7 @@ from s3o_drake.abstraction import (
 )
 from s3o_drake.abstraction.task_feasibility import MotionFeasibility, as_motion_feasibility
 from s3o_drake.abstraction.voronoi import VoronoiPartition
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.motion_search import (
     GRID_CELL,
     MotionResult,
@@ -90,10 +93,8 @@ from s3o_drake.planning.task_planner import (
     plan_problem,
 )
 from s3o_drake.planning.time_model import CostModel
-from s3o_drake.scenario import Scenario
+from s3o_drake.scenario import METHODS
 
-METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random")
-"""The methods DESIGN.md section 2 compares, by name."""
 REPRESENTATIVE_CANDIDATES = 20
 """Best grid points tried (by joint Fea^m) for a location's representative point."""
 WORKER_SLACK = 0.03
@@ -110,6 +111,30 @@ class PlanningError(RuntimeError):
 
 class PlanningTimeoutError(PlanningError, TimeoutError):
     """The time budget expired before any plan was found."""
+
+
+@dataclass(frozen=True)
+class PlanningResult:
+    """What planning from a KnownWorld produced: the plan, or why there is none, and what
+    the plan was made on, so that execution and the pictures use the same things."""
+
+    known: KnownWorld
+    """What the robot knew: the plan starts at `known.pose`."""
+    method: str
+    seed: int
+    plan: TaskMotionPlan | None
+    error: str = ""
+    """Why there is no plan ("" when there is one)."""
+    heatmaps: tuple = ()
+    """The Fea^m heatmaps the plan was made with."""
+    navigation: NavigationMap | None = None
+    """The navigation map the plan was costed on; the execution re-paths its drives on it."""
+    partition: VoronoiPartition | None = None
+    """The plain Voronoi cells of the dishes (every method but the empty plan)."""
+    abstraction: Abstraction | None = None
+    """S3O's ranked state spaces (the S3O methods; None for the V- methods)."""
+    planning_time: float = 0.0
+    """Wall time (s) spent: perception, Fea^m and the search (the plan's own figure)."""
 
 
 @dataclass
@@ -233,14 +258,14 @@ def location_costs(points: Mapping[str, np.ndarray | None], nav: NavigationMap, 
             if a != b and b != START and np.isfinite(L[i, j])}
 
 
-def _assemble(method: str, seed: int, best: _Best, scenario: Scenario, nav: NavigationMap,
+def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: NavigationMap,
               timing: dict[str, float], planning_time: float, searches: int, samples: int,
               complete: bool) -> TaskMotionPlan:
     """The TaskMotionPlan of the winning motion result: poses facing the next dish, paths
     from the navigation map."""
     motion = best.motion
-    dish_xy = {d.name: d.position for d in scenario.dishes}
-    here = np.asarray(scenario.robot.start[:2], dtype=float)
+    dish_xy = {d.name: d.position for d in known.dishes}
+    here = np.asarray(known.pose[:2], dtype=float)
     location = "start"
     actions: list[PlanAction] = []
     k = 0
@@ -270,10 +295,11 @@ def _assemble(method: str, seed: int, best: _Best, scenario: Scenario, nav: Navi
                           late_samples=samples_tuple(motion.late))
 
 
-def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequence[Sequence[float]],
-         seed: int, time_budget: float | None = None, n_sequences: int = 3, workers: int = 1,
-         feasibility_time: float = 0.0) -> TaskMotionPlan:
-    """Plans the scenario's task with the named method (see the module docstring).
+def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
+              time_budget: float | None = None, n_sequences: int = 3, workers: int = 1,
+              feasibility_time: float = 0.0) -> PlanningResult:
+    """Plans the collection of the known world's dishes from its pose with the named
+    method (see the module docstring).
 
     `heatmaps`: Fea^m (a `MotionFeasibility`, a mapping dish -> Heatmap or a list of
     Heatmaps); `feasibility_time` is how long computing them took (s), added to the
@@ -283,21 +309,23 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
     """
     _check_method(method)
     t_start = time.monotonic()
-    budget = scenario.planner.time_budget if time_budget is None else float(time_budget)
+    budget = known.planner.time_budget if time_budget is None else float(time_budget)
     deadline = t_start + budget
-    planner = scenario.planner
+    planner = known.planner
     fea = as_motion_feasibility(heatmaps)
-    start = np.asarray(scenario.robot.start[:2], dtype=float)
+    start = np.asarray(known.pose[:2], dtype=float)
     timing = {"feasibility": float(feasibility_time), "navigation": 0.0, "abstraction": 0.0,
               "task_planning": 0.0, "motion_search": 0.0}
     searches = samples = 0
     best: _Best | None = None
     complete = True
-    if not scenario.dishes:  # nothing to collect: the empty plan is the optimal one
-        return TaskMotionPlan(method=method, seed=int(seed), groups=(), locations=(),
-                              actions=(), utility=0.0, predicted_time=0.0,
-                              planning_time=float(feasibility_time) + time.monotonic() - t_start,
-                              timing=timing)
+    if not known.dishes:  # nothing to collect: the empty plan is the optimal one
+        empty = TaskMotionPlan(method=method, seed=int(seed), groups=(), locations=(),
+                               actions=(), utility=0.0, predicted_time=0.0,
+                               planning_time=float(feasibility_time) + time.monotonic() - t_start,
+                               timing=timing)
+        return PlanningResult(known=known, method=method, seed=int(seed), plan=empty,
+                              planning_time=empty.planning_time)
 
     def expired(stage: str, fatal: bool = True) -> bool:
         """Whether the deadline passed (the plan is then incomplete); raises when it did
@@ -312,8 +340,8 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
         return True
 
     t = time.monotonic()
-    nav = NavigationMap(scenario, perceived_chairs)
-    costs = CostModel.for_scenario(scenario)
+    nav = NavigationMap(known.obstacles)
+    costs = CostModel.for_known(known)
     # The graph routes' motion times, once, before search workers fork and inherit them.
     nav.route_table(costs.base)
     timing["navigation"] = time.monotonic() - t
@@ -323,11 +351,10 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
     abstraction: Abstraction | None = None
     if method.startswith("S3O"):
         abstraction = build_abstraction(
-            scenario, fea, perceived_chairs=perceived_chairs, seed=seed,
-            time_limit=max(0.0, min(5.0, deadline - time.monotonic())))
+            known, fea, seed=seed, time_limit=max(0.0, min(5.0, deadline - time.monotonic())))
         partition: VoronoiPartition = abstraction.partition
     else:
-        partition = voronoi_partition(scenario, perceived_chairs)
+        partition = voronoi_partition(known)
     timing["abstraction"] = time.monotonic() - t
     expired("the abstraction")
     cells = dict(zip(partition.dishes, partition.cells, strict=True))
@@ -344,9 +371,12 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
         complete = result.draws == iterations
         unreachable = tuple(sorted(set(result.task.unreachable) | set(partition.unreachable)))
         best = _Best(result.motion, groups, regions, unreachable, None)
-        return _assemble(method, seed, best, scenario, nav, timing,
+        made = _assemble(method, seed, best, known, nav, timing,
                          time.monotonic() - t_start + feasibility_time, result.draws,
                          result.draws, complete)
+        return PlanningResult(known=known, method=method, seed=int(seed), plan=made,
+                              navigation=nav, partition=partition,
+                              planning_time=made.planning_time)
 
     # The state spaces to search, one per iteration.
     rng = np.random.default_rng([seed, _ORDER])
@@ -377,15 +407,18 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
         expired("the motion search")
         raise PlanningError(f"{method}: no valid plan (every motion search ended outside its "
                             f"regions or on an undrivable leg)")
-    return _assemble(method, seed, best, scenario, nav, timing,
+    made = _assemble(method, seed, best, known, nav, timing,
                      time.monotonic() - t_start + feasibility_time, searches, samples, complete)
+    return PlanningResult(known=known, method=method, seed=int(seed), plan=made, navigation=nav,
+                          partition=partition, abstraction=abstraction,
+                          planning_time=made.planning_time)
 
 
 def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, fea, nav, start,
                    planner, n_sequences, seed, deadline, timing, expired):
     """Task planning per state space here, motion searches through `searches_run`; the
     best result (ties: the first submitted), and how many searches and samples ran.
-    `expired(stage, fatal)` is plan()'s: fatal until a search has been submitted."""
+    `expired(stage, fatal)` is plan_task()'s: fatal until a search has been submitted."""
     submitted = False
     for it, (groups, score) in enumerate(spaces):
         if expired("the motion search", not submitted):

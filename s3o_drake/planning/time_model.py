@@ -52,10 +52,11 @@ import yaml
 
 from s3o_drake.angles import wrap
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.base_motion import SETTLE_TIME, BaseProfile
 from s3o_drake.resources import MODELS_DIR
 from s3o_drake.robot import CONTROL_PERIOD
-from s3o_drake.scenario import Planner, Scenario
+from s3o_drake.scenario import Planner
 
 if TYPE_CHECKING:  # only for hints: the systems import this module for their period
     from s3o_drake.planning.navigation import NavigationMap
@@ -246,12 +247,12 @@ class CostModel:
         return cls(planner, profile="paper")
 
     @classmethod
-    def for_scenario(cls, scenario: Scenario, time_model: TimeModel | None = None) -> CostModel:
-        """The scenario's cost profile, with its dishes and start for the time prediction."""
+    def for_known(cls, known: KnownWorld, time_model: TimeModel | None = None) -> CostModel:
+        """The planner's cost profile, with the dishes that remain and where the robot
+        stands for the time prediction."""
         dishes = {d.name: DishPlace((float(d.position[0]), float(d.position[1])), d.kind)
-                  for d in scenario.dishes}
-        return cls(scenario.planner, dishes=dishes, start=scenario.robot.start,
-                   time_model=time_model)
+                  for d in known.dishes}
+        return cls(known.planner, dishes=dishes, start=known.pose, time_model=time_model)
 
     @property
     def gamma(self) -> float:
