@@ -18,15 +18,12 @@ from pydrake.geometry import Role
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility import reachability as reach
 from s3o_drake.feasibility.agreement import sample_queries
-from s3o_drake.feasibility.check import (
-    CheckResult,
-    FeasibilityChecker,
-    arm_base_positions,
-    grasp_specs,
-)
+from s3o_drake.feasibility.check import CheckResult, FeasibilityChecker
+from s3o_drake.feasibility.grasp_targets import arm_base_positions, grasp_specs
 from s3o_drake.feasibility.grasps import grasps_for
 from s3o_drake.feasibility.ik import grasp_error, solve_grasp_ik, verify
 from s3o_drake.feasibility.landing import facing_yaw
+from s3o_drake.feasibility.reachability_build import build_map
 from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
 from s3o_drake.furniture import DISH_KINDS
 from s3o_drake.robot import ARM_BASE_LINK, GRASP_FRAME, add_robot, robot_positions
@@ -287,8 +284,8 @@ def test_missing_map_names_the_build_command(tmp_path):
 
 
 def test_small_build_round_trips_through_its_file(tmp_path):
-    built = reach.build_map(resolution=0.1, rho_range=(0.5, 0.7), height_range=(0.0, 0.1),
-                            workers=1, progress=False)
+    built = build_map(resolution=0.1, rho_range=(0.5, 0.7), height_range=(0.0, 0.1),
+                      workers=1, progress=False)
     path = tmp_path / "map.npz"
     path.write_bytes(built.to_bytes())
     loaded = reach.ReachabilityMap.load(path)

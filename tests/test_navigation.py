@@ -9,7 +9,7 @@ import shapely
 from shapely.geometry import LineString
 
 from s3o_drake.abstraction.voronoi import free_space
-from s3o_drake.commands.navigation_benchmark import main
+from s3o_drake.commands.navigation_benchmark import benchmark, main
 from s3o_drake.feasibility.scene import ENVIRONMENT_PADDING
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.navigation import (
@@ -216,9 +216,9 @@ def test_fast_visibility_agrees_with_the_exact_segment_test(restaurant):
     points = _free_points(scenario, perceived, 400, seed=4)
     V = fast.vertices
     mi, vi = np.nonzero(np.ones((len(points), len(V)), dtype=bool))
-    sees = fast._sees(points[mi], vi)
+    sees = fast._sight.polygons.sees(points[mi], vi)
     assert 0.05 < sees.mean() < 0.95
-    np.testing.assert_array_equal(sees, ~fast._blocked(points[mi], V[vi]))
+    np.testing.assert_array_equal(sees, ~fast._blocking_edges.blocked(points[mi], V[vi]))
     np.testing.assert_array_equal(fast.path_lengths(points[:200], points[200:]),
                                   exact.path_lengths(points[:200], points[200:]))
 
@@ -250,10 +250,8 @@ def test_lengths_match_an_independent_visibility_graph():
 
 
 def test_benchmark_reports_figures(restaurant):
-    from s3o_drake.planning.navigation import benchmark
-
     scenario, perceived, _ = restaurant
-    figures = benchmark(scenario, perceived, queries=50)
+    figures = benchmark(_known(scenario, perceived), queries=50)
     assert figures["vertices"] > 0
     assert figures["cma_like_batch50_ms"] > 0
     assert 0.9 < figures["finite_fraction"] <= 1.0

@@ -27,18 +27,22 @@ builds the map deterministically with worker processes (a few minutes on two cor
 it atomically, with its settings, as a compressed .npz; `ReachabilityMap.load()` reads it.
 """
 
+import math
 import sys
 from pathlib import Path
 
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.feasibility.reachability import (
-    DEFAULT_PATH,
-    RESOLUTION,
-    _positive,
-    build_map,
-)
+from s3o_drake.feasibility.reachability import DEFAULT_PATH
+from s3o_drake.feasibility.reachability_build import RESOLUTION, build_map
 from s3o_drake.io import write_atomically
 from s3o_drake.resources import MODELS_DIR
+
+
+def _positive(text: str) -> float:
+    value = float(text)
+    if not (value > 0 and math.isfinite(value)):
+        raise ValueError(text)
+    return value
 
 
 def main(argv: list[str] | None = None) -> int:
