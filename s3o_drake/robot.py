@@ -67,6 +67,9 @@ BASE_LENGTH = 0.62
 BASE_WIDTH = 0.56
 #: Circumscribed radius of the footprint (m), for inflating obstacles.
 BASE_RADIUS = math.hypot(BASE_LENGTH / 2, BASE_WIDTH / 2)
+#: Inscribed radius (m): the largest disc inside the footprint, whatever its yaw. Closer than
+#: this to an obstacle the base collides at every yaw, so standing spots keep at least this.
+INSCRIBED_RADIUS = BASE_WIDTH / 2
 
 #: Position of ur_base_link in base_link (m); see the URDF's header for the reasons.
 ARM_MOUNT_XYZ = (0.15, 0.0, 0.75)

@@ -18,6 +18,7 @@ import math
 import re
 import typing
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
 
 import yaml
@@ -30,7 +31,17 @@ from s3o_drake.robot import footprint_polygon
 # The methods of the paper's comparison: S3O-GROP* and its ablations and baselines.
 METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random")
 # Where the planner's Fea^m heatmaps come from: the Drake check, or the learned network.
-FEASIBILITY_SOURCES = ("oracle", "fcn")
+class FeasibilitySource(str, Enum):
+    """Where the planner's Fea^m heatmaps come from (the field `planner.feasibility` holds
+    the value: yaml_load_typed reads no Enum)."""
+
+    ORACLE = "oracle"
+    """The Drake check of the known world under the noise model."""
+    FCN = "fcn"
+    """The network of models/fcn/, on the overhead depth image."""
+
+
+FEASIBILITY_SOURCES = tuple(s.value for s in FeasibilitySource)
 # The utility's costs: our robot's recorded time model, or the paper's values.
 COST_PROFILES = ("robot", "paper")
 
@@ -98,7 +109,7 @@ class Robot:
 
 @dataclass
 class Planner:
-    """Planning settings; defaults are the paper's (DESIGN.md section 2)."""
+    """Planning settings; defaults are the paper's."""
 
     method: str = "S3O-GROP*"
     top_k: int = 5

@@ -12,11 +12,11 @@ Task i depends only on the seed and i, so the same seed gives the same tasks.
 
 import math
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 
 from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES, chair_footprint, table_footprint
+from s3o_drake.resources import RESTAURANT
 from s3o_drake.robot import footprint_polygon
 from s3o_drake.scenario import (
     START_CLEARANCE,
@@ -28,7 +28,7 @@ from s3o_drake.scenario import (
     validate_scenario,
 )
 
-DEFAULT_BASE = Path(__file__).resolve().parent.parent / "scenarios" / "restaurant.yaml"
+DEFAULT_BASE = RESTAURANT
 DISH_COUNTS = (5, 6, 7)
 EDGE_MARGIN = 0.03  # a dish stays this far inside its table's edge (m)
 DISH_GAP = 0.05  # free space between two dishes (m)

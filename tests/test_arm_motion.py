@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from pydrake.math import RigidTransform
 
+from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import rotation_for
-from s3o_drake.feasibility.landing import facing_yaw
 from s3o_drake.feasibility.pickup_geometry import LIFT_HEIGHT, X_WA, moved
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from pydrake.geometry import Role
 
+from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility import reachability as reach
 from s3o_drake.feasibility.agreement import sample_queries
@@ -22,7 +23,6 @@ from s3o_drake.feasibility.check import CheckResult, FeasibilityChecker
 from s3o_drake.feasibility.grasp_targets import arm_base_positions, grasp_specs
 from s3o_drake.feasibility.grasps import grasps_for
 from s3o_drake.feasibility.ik import grasp_error, solve_grasp_ik, verify
-from s3o_drake.feasibility.landing import facing_yaw
 from s3o_drake.feasibility.reachability_build import build_map
 from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
 from s3o_drake.furniture import DISH_KINDS

@@ -6,12 +6,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.landing import (
     CHECK_STEP_XY,
     FINAL_APPROACH,
     TURN_TOLERANCE,
-    facing_yaw,
     pickup_poses,
     stop_short,
     turn_until,

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
-from s3o_drake.feasibility.landing import facing_yaw
 from s3o_drake.feasibility.oracle import FeasibilityOracle
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene

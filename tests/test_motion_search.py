@@ -10,7 +10,7 @@ import shapely
 from shapely.geometry import Point, box
 
 from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
-from s3o_drake.angles import wrap
+from s3o_drake.angles import facing_yaw, wrap
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.motion_search import (
@@ -21,7 +21,6 @@ from s3o_drake.planning.motion_search import (
     location_regions,
 )
 from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.planning.plan import facing_yaw
 from s3o_drake.planning.time_model import CostModel
 from s3o_drake.scenario import load_scenario
 
@@ -61,7 +60,7 @@ def scene():
 
 
 def _hand_utility(result: MotionResult, scenario, nav, fea) -> float:
-    """Σ R(a) of DESIGN.md 2.6 from single, unbatched queries."""
+    """Σ R(a) (GROP*'s utility) from single, unbatched queries."""
     p = scenario.planner
     here = np.asarray(scenario.robot.start[:2], float)
     k, total = 0, 0.0

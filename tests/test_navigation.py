@@ -12,13 +12,8 @@ from s3o_drake.abstraction.voronoi import free_space
 from s3o_drake.commands.navigation_benchmark import benchmark, main
 from s3o_drake.feasibility.scene import ENVIRONMENT_PADDING
 from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.navigation import (
-    DRIVE_RADIUS,
-    INSCRIBED_RADIUS,
-    INSCRIBED_TOLERANCE,
-    NavigationMap,
-)
-from s3o_drake.robot import BASE_RADIUS
+from s3o_drake.planning.navigation import DRIVE_RADIUS, INSCRIBED_TOLERANCE, NavigationMap
+from s3o_drake.robot import BASE_RADIUS, INSCRIBED_RADIUS
 from s3o_drake.scenario import Room, Scenario, Table, load_scenario
 
 RESTAURANT = "scenarios/restaurant.yaml"

@@ -13,10 +13,10 @@ from s3o_drake.abstraction import voronoi_partition
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
-from s3o_drake.planning.planner import METHODS, PlanningTimeoutError, plan_task
+from s3o_drake.planning.planner import PlanningTimeoutError, plan_task
 from s3o_drake.planning.task_planner import TaskProblem, check_plan
 from s3o_drake.planning.time_model import TimeModel
-from s3o_drake.scenario import load_scenario
+from s3o_drake.scenario import METHODS, load_scenario
 
 SCENES = ("two_dishes", "opposite_sides")
 
@@ -83,7 +83,7 @@ def test_valid_plan_for_every_method(scenes, plans, scene, method):
             assert yaw == pytest.approx(math.atan2(d[1], d[0]))
             assert np.allclose(a.path[0], here) and np.allclose(a.path[-1], (x, y))
             here = np.array([x, y])
-    # Utility as DESIGN.md 2.6 defines it, under the robot cost profile (the default): the
+    # Utility as GROP* defines it, under the robot cost profile (the default): the
     # costs are the predicted execution time (without its once-per-plan start and end),
     # the gains λ Fea^m (the paper profile: tests/test_time_model.py).
     pl = scenario.planner

@@ -1,11 +1,10 @@
 """S3O's symbolic state space: Voronoi cells, merging, task-level feasibility, ranking.
 
-DESIGN.md section 2, steps 2-4. `build_abstraction` runs them all; the modules hold:
+Steps 2-4 of S3O: `build_abstraction` runs them all; the modules hold:
   voronoi.py            free space, the Voronoi cells, Sym and adjacency
   candidates.py         partitions into connected groups: enumeration and beam search
   task_feasibility.py   Fea^t from any Fea^m source (heatmaps now, the FCN later)
   ranking.py            Score, ranking, the top-K distribution, S3O-Random
-  benchmark.py          python -m s3o_drake.commands.abstraction_benchmark
 """
 
 from s3o_drake.abstraction.candidates import beam_partitions, connected_partitions
@@ -21,15 +20,9 @@ from s3o_drake.abstraction.task_feasibility import (
     MotionFeasibility,
     TaskFeasibility,
 )
-from s3o_drake.abstraction.voronoi import (
-    INSCRIBED_RADIUS,
-    VoronoiPartition,
-    free_space,
-    voronoi_partition,
-)
+from s3o_drake.abstraction.voronoi import VoronoiPartition, free_space, voronoi_partition
 
 __all__ = [
-    "INSCRIBED_RADIUS",
     "Abstraction",
     "HeatmapFeasibility",
     "MotionFeasibility",

@@ -1,13 +1,13 @@
 """Score and rank candidate state spaces; the top-K distribution the planner samples from.
 
-`build_abstraction` is the one entry point (DESIGN.md 2.2-2.4): Voronoi cells of the
+`build_abstraction` is the one entry point (S3O's steps 2-4): Voronoi cells of the
 free space, candidate partitions, task-level feasibility of every group, Score, rank.
 
 Ranking value. The paper ranks by Score = Σ_o Fea^t(l(o), o) alone. That Score barely
 moves when two close dishes merge (both stay about as feasible), and Fea^m and Fea^t
 are Monte-Carlo estimates, so plain Voronoi and a sensible merge differ by noise. The
 planner's own utility settles it: every location costs at least one `goto`, γ = 20,
-against λ = 150 per unit of pickup feasibility (DESIGN.md 2.6). Candidates are therefore
+against λ = 150 per unit of pickup feasibility (GROP*'s utility). Candidates are therefore
 ranked by Score - c·|L| with the location cost c = γ / λ (0.133 by default; pass
 `location_cost=0` for the paper's ranking): a merge wins unless it loses more than c of
 summed Fea^t. Remaining ties (within 1e-9) go to fewer locations, then the canonical
@@ -34,8 +34,9 @@ from s3o_drake.abstraction.candidates import (
     generate_candidates,
 )
 from s3o_drake.abstraction.task_feasibility import DEFAULT_GRID_CELL, TaskFeasibility
-from s3o_drake.abstraction.voronoi import INSCRIBED_RADIUS, VoronoiPartition, voronoi_partition
+from s3o_drake.abstraction.voronoi import VoronoiPartition, voronoi_partition
 from s3o_drake.known_world import KnownWorld
+from s3o_drake.robot import INSCRIBED_RADIUS
 
 KEEP = 1000
 """How many of the best candidates are kept, scored and ranked in full."""

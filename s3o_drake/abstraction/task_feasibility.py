@@ -1,4 +1,4 @@
-"""Task-level feasibility Fea^t(l, o) of a (possibly merged) location (DESIGN.md 2.4).
+"""Task-level feasibility Fea^t(l, o) of a (possibly merged) location.
 
 The motion-level source. Anything with `values(dish, points) -> Fea^m` per point
 satisfies `MotionFeasibility`; `HeatmapFeasibility` serves it from `Heatmap` grids (the

@@ -1,4 +1,4 @@
-"""The Voronoi partition of the free base-position space: one cell per dish (DESIGN.md 2.2).
+"""The Voronoi partition of the free base-position space: one cell per dish.
 
 Free space. A base position y is a candidate if the base standing there can be free of
 the room's walls, the tables and the chairs the planner knows (the mapped chairs and the
@@ -36,10 +36,8 @@ from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
 from s3o_drake.known_world import KnownWorld
-from s3o_drake.robot import BASE_WIDTH
+from s3o_drake.robot import INSCRIBED_RADIUS
 
-INSCRIBED_RADIUS = BASE_WIDTH / 2
-"""The radius of the largest disc inside the base's footprint, whatever its yaw (m)."""
 ADJACENCY_MIN_LENGTH = 0.01
 """Cells touching along less than this (m) are not adjacent (a corner is not a border)."""
 _EMPTY_AREA = 1e-9  # m^2; cells smaller than this are empty

@@ -45,7 +45,7 @@ from s3o_drake.evaluation.calibration import (
     reliability_figure,
 )
 from s3o_drake.io import write_atomically
-from s3o_drake.planning.planner import METHODS
+from s3o_drake.scenario import METHODS
 
 
 def parse_args(argv: list[str] | None):

@@ -22,9 +22,9 @@ from pydrake.geometry import Meshcat
 
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, first_tasks
 from s3o_drake.execution.execute import execute
-from s3o_drake.scenario import load_scenario
+from s3o_drake.scenario import FEASIBILITY_SOURCES, load_scenario
 
-SOURCES = ("oracle", "fcn")
+SOURCES = FEASIBILITY_SOURCES
 
 
 def run_task(path: Path, source: str, seed: int) -> dict:

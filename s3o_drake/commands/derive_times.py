@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from s3o_drake.angles import facing_yaw
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
@@ -54,11 +55,10 @@ from s3o_drake.planning.time_model import (
     TimeModel,
     command_overheads,
 )
-from s3o_drake.resources import MODELS_DIR, shipped_tasks
+from s3o_drake.resources import RESTAURANT, shipped_tasks
 from s3o_drake.robot import CONTROL_PERIOD
 from s3o_drake.scenario import load_scenario
 
-RESTAURANT = MODELS_DIR.parent / "scenarios" / "restaurant.yaml"
 FOLDS = 5
 CANDIDATES_PER_ROUND = 64
 ROUNDS = 5
@@ -111,7 +111,7 @@ def _feasible_base(checker: FeasibilityChecker, dish: str, p_WD: np.ndarray, rad
         r = np.sqrt(rng.uniform(MIN_DISTANCE**2, radius**2, CANDIDATES_PER_ROUND))
         a = rng.uniform(-math.pi, math.pi, CANDIDATES_PER_ROUND)
         xy = p_WD + np.column_stack([r * np.cos(a), r * np.sin(a)])
-        yaw = np.arctan2(p_WD[1] - xy[:, 1], p_WD[0] - xy[:, 0])
+        yaw = facing_yaw(xy, p_WD)
         bases = np.column_stack([xy, yaw])
         ok = np.flatnonzero(checker.check_many(bases, dish))
         if len(ok):

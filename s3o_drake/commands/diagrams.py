@@ -20,11 +20,10 @@ from pathlib import Path
 
 from s3o_drake.commands.common import ArgumentParser, doc_formatter
 from s3o_drake.execution.diagram import build_execution_diagram
+from s3o_drake.resources import DIAGRAMS_DIR, SCENARIOS_DIR
 from s3o_drake.scenario import load_scenario
 
-REPO = Path(__file__).resolve().parent.parent
-DIAGRAMS_DIR = REPO / "diagrams"
-SCENARIO = REPO / "scenarios" / "small" / "two_dishes.yaml"
+SCENARIO = SCENARIOS_DIR / "small" / "two_dishes.yaml"
 """The structure does not depend on the scene; a small one builds fastest."""
 
 # A system id: "_17" (a diagram), "s17" (a block), "cluster17..." / "clusters17in" (their

@@ -54,8 +54,7 @@ from s3o_drake.evaluation.jobs import DIFFICULTY, RUN, Job, file_digest
 from s3o_drake.evaluation.scheduler import run_jobs
 from s3o_drake.evaluation.store import ResultStore
 from s3o_drake.evaluation.summary import markdown_tables, summarize, write_outputs
-from s3o_drake.planning.planner import METHODS
-from s3o_drake.scenario import ScenarioError, load_scenario
+from s3o_drake.scenario import METHODS, ScenarioError, load_scenario
 
 DIFFICULTY_SEED = 0
 """The oracle's noise draws for the difficulty measure: one fixed seed, so that a task's

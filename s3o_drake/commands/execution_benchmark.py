@@ -22,9 +22,9 @@ from pydrake.geometry import Meshcat
 
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.execution.execute import execute
+from s3o_drake.resources import RESTAURANT
 from s3o_drake.scenario import ScenarioError, load_scenario
 
-REPO = Path(__file__).resolve().parents[2]
 RATE_TARGET = 10.0
 SIZE_TARGET_MB = 20.0
 FIVE_MINUTES = 300.0
@@ -50,7 +50,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m s3o_drake.commands.execution_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
     parser.add_argument("--scenarios", nargs="+", metavar="YAML",
-                        default=[str(REPO / "scenarios" / "restaurant.yaml")])
+                        default=[str(RESTAURANT)])
     parser.add_argument("--seeds", nargs="+", type=int, default=[0], metavar="N")
     parser.add_argument("--json", metavar="FILE", help="append one JSON line per run")
     args = parser.parse_args(argv)

@@ -47,10 +47,10 @@ from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.io import write_atomically
+from s3o_drake.resources import FCN_WEIGHTS
 from s3o_drake.scenario import ScenarioError, load_scenario
 
-REPO = Path(__file__).resolve().parents[2]
-WEIGHTS = REPO / "models" / "fcn" / "fcn.pt"
+WEIGHTS = FCN_WEIGHTS
 REPEATS = 5
 """FCN timings are the median of this many runs (an oracle heatmap is timed once)."""
 TARGETS = {"mae": 0.06, "auroc": 0.95, "speed_ratio": 100.0}

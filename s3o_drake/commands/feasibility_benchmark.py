@@ -35,11 +35,9 @@ from s3o_drake.feasibility.oracle import FeasibilityOracle
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.io import write_atomically
+from s3o_drake.resources import RESTAURANT
 from s3o_drake.scenario import load_scenario
 from s3o_drake.task_generation import generate_task
-
-REPO = Path(__file__).resolve().parents[2]
-RESTAURANT = REPO / "scenarios" / "restaurant.yaml"
 
 
 def _batched_seconds(checker: FeasibilityChecker, queries) -> float:

@@ -20,6 +20,7 @@ from shapely.ops import unary_union
 from s3o_drake.abstraction.voronoi import free_space
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.resources import RESTAURANT
 
 
 def benchmark(known: KnownWorld, *, queries: int = 2000, seed: int = 0) -> dict[str, float]:
@@ -97,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = ArgumentParser(prog="python -m s3o_drake.commands.navigation_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("scenario", nargs="?", default="scenarios/restaurant.yaml",
+    parser.add_argument("scenario", nargs="?", default=str(RESTAURANT),
                         help="scenario YAML (default: scenarios/restaurant.yaml); its "
                              "unmapped chairs play the perceived ones")
     parser.add_argument("--benchmark", action="store_true",

@@ -56,10 +56,9 @@ from s3o_drake.manipulation.pickup import (
     plan_pickup,
     segment_limits,
 )
+from s3o_drake.resources import RESTAURANT
 from s3o_drake.scenario import load_scenario
 
-REPO = Path(__file__).resolve().parents[2]
-RESTAURANT = REPO / "scenarios" / "restaurant.yaml"
 TIMINGS = ("toppra", "toppra_stops", "trapezoid")
 #: The timing before TOPPRA (the reference): the arm's speed and acceleration (rad/s, rad/s²),
 #: a third of the UR5e's speed limit, and the share of them near the dish.

@@ -64,8 +64,14 @@ from s3o_drake.planning.pictures import (
     state_space_figure,
 )
 from s3o_drake.planning.plan import Goto, TaskMotionPlan
-from s3o_drake.planning.planner import METHODS
-from s3o_drake.scenario import Scenario, ScenarioError, load_scenario, scenario_stem
+from s3o_drake.scenario import (
+    FEASIBILITY_SOURCES,
+    METHODS,
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    scenario_stem,
+)
 
 TOP_VIEW_CELL = 0.02  # m per pixel of the pictures' top view
 
@@ -147,7 +153,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--meshcat", action="store_true",
                         help="also serve a live Meshcat, print its URL and simulate in real "
                              "time so that it can be watched")
-    parser.add_argument("--feasibility", choices=("oracle", "fcn"),
+    parser.add_argument("--feasibility", choices=FEASIBILITY_SOURCES,
                         help="source of the planner's Fea^m heatmaps (default: the scenario's "
                              "planner.feasibility): the Drake oracle or the learned network")
     parser.add_argument("--no-noise", action="store_true",

@@ -7,8 +7,8 @@ speed v (or `max_yaw_rate` when turning), accelerate and brake at a fixed rate s
 PD-controlled plant can follow. The landing is the command's pose plus the navigation noise
 T^n, drawn from the command's own random stream so that a seed fixes every landing whatever
 else happens in the run. Before the motion starts its poses are checked against the true
-world; a base that would collide stops at the last free pose (DESIGN.md, execution
-semantics).
+world; a base that would collide stops at the last free pose, as a local planner
+stops short.
 """
 
 import itertools

@@ -32,7 +32,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, LeafSystem, State
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
-from s3o_drake.angles import wrap
+from s3o_drake.angles import facing_yaw, wrap
 from s3o_drake.execution.messages import (
     NO_COMMAND,
     BaseCommand,
@@ -44,7 +44,7 @@ from s3o_drake.execution.messages import (
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
 from s3o_drake.perception import Perceive, perceive_known_world
 from s3o_drake.planning.pipeline import plan_from
-from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan, facing_yaw
+from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
 from s3o_drake.planning.planner import PlanningResult
 from s3o_drake.robot import NUM_POSITIONS
 from s3o_drake.scenario import Scenario

@@ -15,12 +15,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.landing import facing_yaw
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.resources import RESTAURANT
 
-DEFAULT_SCENARIOS = ("scenarios/restaurant.yaml",)
+DEFAULT_SCENARIOS = (str(RESTAURANT),)
 MAX_DISTANCE = 1.1
 YAW_STD = 0.05
 REACH_STD = 0.01

@@ -36,8 +36,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
+from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.landing import facing_yaw, pickup_poses, stop_short
+from s3o_drake.feasibility.landing import pickup_poses, stop_short
 from s3o_drake.feasibility.pickup_geometry import (
     catch_probability,
     grasp_tolerance,

@@ -38,9 +38,9 @@ import numpy as np
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP
 from s3o_drake.feasibility.ik import ANGLE_TOLERANCE, POSITION_TOLERANCE
-from s3o_drake.resources import MODELS_DIR
+from s3o_drake.resources import REACHABILITY_MAP, ROBOT_URDF
 
-DEFAULT_PATH = MODELS_DIR / "reachability_map.npz"
+DEFAULT_PATH = REACHABILITY_MAP
 BUILD_COMMAND = "python -m s3o_drake.commands.build_reachability build"
 FORMAT_VERSION = 1
 
@@ -69,7 +69,7 @@ class ReachabilityMapError(RuntimeError):
 
 def robot_model_sha256() -> str:
     """SHA-256 of the robot's URDF, recorded in the map so that a stale map is noticed."""
-    urdf = MODELS_DIR / "robot" / "mobile_manipulator.urdf"
+    urdf = ROBOT_URDF
     return hashlib.sha256(urdf.read_bytes()).hexdigest()
 
 

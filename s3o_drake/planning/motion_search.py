@@ -1,4 +1,4 @@
-"""Motion-level search: base positions for a task-level sequence (DESIGN.md 2.6).
+"""Motion-level search: base positions for a task-level sequence.
 
 Given one task-level sequence (`TaskPlan.actions`: ("goto", location) / ("pickup", dish)),
 the motion search picks one base position (x, y) per `goto` inside that location's region
@@ -354,7 +354,7 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
               population: int | None = None, pickup_duration: float | None = None,
               deadline: float | None = None, grid_cell: float = GRID_CELL,
               costs: CostModel | None = None) -> MotionResult:
-    """GROP*: CMA-ES over one base position per goto of `sequence` (DESIGN.md 2.6).
+    """GROP*: CMA-ES over one base position per goto of `sequence`.
 
     `regions` maps each location name to its region (shapely, e.g. the union of its dishes'
     Voronoi cells). Budget: `generations` (default planner.cma_generations) x `population`

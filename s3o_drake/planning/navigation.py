@@ -1,4 +1,4 @@
-"""The navigation map: collision-free path lengths and paths for the base (DESIGN.md 2.6).
+"""The navigation map: collision-free path lengths and paths for the base.
 
 GROP*'s utility charges `len(y, y') / v` per `goto` (the paper's cost profile), with `len`
 the collision-free path length on the map, or the base navigator's motion time along the
@@ -74,7 +74,7 @@ from s3o_drake.furniture import DistanceField
 from s3o_drake.known_world import Obstacles
 from s3o_drake.planning.base_motion import BaseProfile, chain_time
 from s3o_drake.planning.visibility import BlockingEdges, VertexSight, cross, rings
-from s3o_drake.robot import BASE_RADIUS, BASE_WIDTH
+from s3o_drake.robot import BASE_RADIUS, INSCRIBED_RADIUS
 
 DRIVE_MARGIN = 0.02
 """Added to the circumscribed radius along paths (m): the execution's collision check keeps
@@ -84,8 +84,6 @@ found runs of every method blocked so, e.g. task_010 next to a wall)."""
 DRIVE_RADIUS = BASE_RADIUS + DRIVE_MARGIN
 """Clearance kept along a path: the base's circumscribed radius plus DRIVE_MARGIN, safe at
 any yaw (m)."""
-INSCRIBED_RADIUS = BASE_WIDTH / 2
-"""Clearance an endpoint (a standing spot) needs at least (m)."""
 INSCRIBED_TOLERANCE = 1e-3
 """An endpoint's clearance may fall this short of INSCRIBED_RADIUS (m): the abstraction's
 free space is a polygon (`buffer(..., quad_segs=16)`) whose boundary comes ~0.3 mm closer."""

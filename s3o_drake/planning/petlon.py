@@ -1,4 +1,4 @@
-"""V-PETLON, the baseline without feasibility (DESIGN.md section 2, methods list).
+"""V-PETLON, the baseline without feasibility.
 
 PETLON plans in the plain Voronoi state space (one location per dish) and knows nothing
 about Fea^m: for each dish it takes a random obstacle-free base position near it (a

@@ -23,11 +23,18 @@ from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.planner import PlanningError, PlanningResult, plan_task
 from s3o_drake.planning.task_planner import TaskPlanningError
+from s3o_drake.scenario import FEASIBILITY_SOURCES, FeasibilitySource
 
 
-def heatmaps_for(known: KnownWorld, *, progress: bool = False) -> list[Heatmap]:
-    """Every remaining dish's Fea^m heatmap, from the planner's feasibility source."""
-    if known.planner.feasibility == "fcn":
+def heatmaps_for(known: KnownWorld, *, source: str | None = None,
+                 progress: bool = False) -> list[Heatmap]:
+    """Every remaining dish's Fea^m heatmap, from `source` ("oracle" or "fcn"; default the
+    planner's `feasibility`)."""
+    source = known.planner.feasibility if source is None else source
+    if source not in FEASIBILITY_SOURCES:
+        raise ValueError(f"unknown feasibility source {source!r}; known: "
+                         f"{', '.join(FEASIBILITY_SOURCES)}")
+    if source == FeasibilitySource.FCN:
         if known.overhead is None:
             raise ValueError("planner.feasibility fcn: the network needs the overhead images, "
                              "and this KnownWorld has none")
@@ -45,11 +52,13 @@ def heatmaps_for(known: KnownWorld, *, progress: bool = False) -> list[Heatmap]:
 def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None = None,
               workers: int | None = None, time_budget: float | None = None,
               n_sequences: int = 3, heatmaps: Sequence[Heatmap] | None = None,
-              progress: bool = False, started: float | None = None) -> PlanningResult:
+              feasibility: str | None = None, progress: bool = False,
+              started: float | None = None) -> PlanningResult:
     """Plans from `known` (see the module docstring).
 
-    Method, seed, workers and budget default to the planner's settings and the scenario's
-    seed. `heatmaps` given are used as they are (a second plan on the same Fea^m).
+    Method, seed, workers, budget and the Fea^m source (`feasibility`) default to the
+    planner's settings and the scenario's seed. `heatmaps` given are used as they are (a
+    second plan on the same Fea^m).
     `started` is the `time.perf_counter()` at which the caller began (before perceiving),
     so that the planning time counts perception too. A plan that cannot be made is a
     result with `plan` None and `error` saying why; an unknown method raises ValueError.
@@ -59,7 +68,7 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
     seed = known.settings.seed if seed is None else int(seed)
     workers = known.planner.workers if workers is None else workers
     if heatmaps is None:
-        heatmaps = heatmaps_for(known, progress=progress)
+        heatmaps = heatmaps_for(known, source=feasibility, progress=progress)
     maps = tuple(heatmaps) if isinstance(heatmaps, (list, tuple)) else ()
     try:
         result = plan_task(known, method=method, heatmaps=heatmaps, seed=seed,

@@ -67,6 +67,7 @@ from s3o_drake.abstraction import (
 )
 from s3o_drake.abstraction.task_feasibility import MotionFeasibility, as_motion_feasibility
 from s3o_drake.abstraction.voronoi import VoronoiPartition
+from s3o_drake.angles import facing_yaw
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.motion_search import (
     GRID_CELL,
@@ -78,14 +79,7 @@ from s3o_drake.planning.motion_search import (
 )
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.petlon import COST_SCALE, petlon
-from s3o_drake.planning.plan import (
-    Goto,
-    Pickup,
-    PlanAction,
-    TaskMotionPlan,
-    facing_yaw,
-    samples_tuple,
-)
+from s3o_drake.planning.plan import Goto, Pickup, PlanAction, TaskMotionPlan, samples_tuple
 from s3o_drake.planning.task_planner import (
     START,
     TaskPlanningTimeoutError,

@@ -50,18 +50,18 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
-from s3o_drake.angles import wrap
+from s3o_drake.angles import facing_yaw, wrap
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.base_motion import SETTLE_TIME, BaseProfile
-from s3o_drake.resources import MODELS_DIR
+from s3o_drake.resources import TIME_MODEL
 from s3o_drake.robot import CONTROL_PERIOD
 from s3o_drake.scenario import Planner
 
 if TYPE_CHECKING:  # only for hints: the systems import this module for their period
     from s3o_drake.planning.navigation import NavigationMap
 
-MODEL_FILE = MODELS_DIR / "time_model.yaml"
+MODEL_FILE = TIME_MODEL
 FORMAT = "s3o_drake.TimeModel/1"
 PICKUP_FORMS = ("constant", "per_kind", "linear", "per_kind_linear", "per_kind_grasp",
                 "per_kind_grasp_linear", "per_kind_grasp_quadratic")
@@ -272,10 +272,8 @@ class CostModel:
         return self.pickup_times(dish, where)
 
     def facing(self, where: np.ndarray, dish: str) -> np.ndarray:
-        """Yaw (m,) of base positions `where` (m, 2) facing `dish` (plan.facing_yaw)."""
-        d = np.asarray(self.dishes[dish].xy) - np.asarray(where, float).reshape(-1, 2)
-        yaw = np.arctan2(d[:, 1], d[:, 0])
-        return np.where((d[:, 0] == 0) & (d[:, 1] == 0), 0.0, yaw)
+        """Yaw (m,) of base positions `where` (m, 2) facing `dish`."""
+        return facing_yaw(np.asarray(where, float).reshape(-1, 2), self.dishes[dish].xy)
 
     def stop_turns(self, where: np.ndarray, yaw: np.ndarray,
                    dishes: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
