@@ -13,8 +13,8 @@ from pydrake.systems.framework import Diagram
 from tqdm import tqdm
 
 from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
+from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import TaskMotionPlan
-from s3o_drake.planning.planner import PlanningResult
 from s3o_drake.scenario import Scenario
 from s3o_drake.world.builder import overhead_images
 

@@ -43,9 +43,8 @@ from s3o_drake.execution.messages import (
 )
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
 from s3o_drake.perception import Perceive, perceive_known_world
-from s3o_drake.planning.pipeline import plan_from
+from s3o_drake.planning.pipeline import PlanningResult, plan_from
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
-from s3o_drake.planning.planner import PlanningResult
 from s3o_drake.robot import NUM_POSITIONS
 from s3o_drake.scenario import Scenario
 

@@ -25,6 +25,8 @@ from s3o_drake.planning.planner import PlanningError, PlanningResult, plan_task
 from s3o_drake.planning.task_planner import TaskPlanningError
 from s3o_drake.scenario import FEASIBILITY_SOURCES, FeasibilitySource
 
+__all__ = ["PlanningResult", "heatmaps_for", "plan_from"]  # the pipeline's API
+
 
 def heatmaps_for(known: KnownWorld, *, source: str | None = None,
                  progress: bool = False) -> list[Heatmap]:
