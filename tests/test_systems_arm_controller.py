@@ -1,14 +1,14 @@
 """ArmController: pickups planned from the real robot and dish, played, gripped and reported.
 
-The scene is scenarios/small/two_dishes.yaml: a table (x 1.4..2.6, y 2.1..2.9, top at 0.75 m)
-with a plate at (1.85, 2.3) and a cup at (2.15, 2.3); the robot faces them from y = 1.45.
+The scene (tests/conftest.py) is scenarios/small/two_dishes.yaml: a table (x 1.4..2.6, y
+2.1..2.9, top at 0.75 m) with a plate at (1.85, 2.3) and a cup at (2.15, 2.3); the robot
+faces them from y = 1.45.
 """
 
 import dataclasses
 import inspect
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,36 +26,16 @@ from pydrake.systems.primitives import (
 
 from s3o_drake.execution.arm_controller import REACH_NOISE_STREAM, ArmController
 from s3o_drake.execution.messages import CommandState, PickCommand, Status
-from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import RIM_INSET
 from s3o_drake.feasibility.pickup_geometry import grasp_tolerance
-from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
-from s3o_drake.scenario import load_scenario
 from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.dish_messages import DishPoses, DishState, GripEvent
 
-REPO = Path(__file__).resolve().parent.parent
-SCENE = REPO / "scenarios" / "small" / "two_dishes.yaml"
 FRONT_OF_PLATE = np.array([1.85, 1.45, math.pi / 2])
 STOWED = np.concatenate([ARM_STOW, GRIPPER_OPEN])
 PLANNING_REASONS = ("no_ik", "no_path", "base_collision")
-
-
-@pytest.fixture(scope="module")
-def scenario():
-    return load_scenario(SCENE)
-
-
-@pytest.fixture(scope="module")
-def scene(scenario):
-    return FeasibilityScene(scenario)
-
-
-@pytest.fixture(scope="module")
-def checker(scene):
-    return FeasibilityChecker(scene)
 
 
 def _controller(scenario, scene, checker, **kwargs):

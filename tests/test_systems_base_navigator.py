@@ -3,7 +3,6 @@ collisions; alone (forced updates, Eval at chosen times) and driving the world's
 
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,25 +19,10 @@ from pydrake.systems.primitives import (
 from s3o_drake.angles import wrap as wrap_angle
 from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.messages import BaseCommand, CommandState, Status
-from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
-from s3o_drake.scenario import load_scenario
 from s3o_drake.world.builder import build_world_diagram
 
-REPO = Path(__file__).resolve().parent.parent
 V = 0.4  # the scenario's planner speed (default)
-
-
-@pytest.fixture(scope="module")
-def scenario():
-    scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
-    assert scenario.planner.speed == V
-    return scenario
-
-
-@pytest.fixture(scope="module")
-def scene(scenario):
-    return FeasibilityScene(scenario)
 
 
 def _robot_state(x: float, y: float, yaw: float) -> np.ndarray:
@@ -93,6 +77,7 @@ def test_without_command_holds_the_initial_base_pose(scenario):
 
 
 def test_drives_the_path_at_v_and_lands_on_the_pose(scenario):
+    assert scenario.planner.speed == V
     alone = _Alone(_navigator(scenario))
     # An L: east 1 m, then north 1 m, then face west.
     command = BaseCommand(id=1, path=((0.6, 0.6), (1.6, 0.6), (1.6, 1.6)),

@@ -4,7 +4,6 @@ import base64
 import copy
 import json
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,19 +25,11 @@ from s3o_drake.robot import (
     robot_desired_state,
     robot_positions,
 )
-from s3o_drake.scenario import load_scenario
 from s3o_drake.world.builder import build_world_diagram, populate_plant, robot_hold_state
 from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
 from s3o_drake.world.object_tracker import AddObjectTracker
 
-REPO = Path(__file__).resolve().parent.parent
-SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
 ARM_REACHING = np.array([0.3, -0.6, 1.2, -2.2, -1.571, 0.4])
-
-
-@pytest.fixture(scope="module")
-def scenario():
-    return load_scenario(SMALL)
 
 
 @pytest.fixture(scope="module")
