@@ -129,6 +129,10 @@ def test_dishes_start_on_their_tables(tracker_and_plant, scenario):
     assert len(frame_poses.ids()) == 2
     for frame_id in frame_poses.ids():
         assert frame_poses.value(frame_id).translation()[2] == pytest.approx(0.75)
+    # The output holds copies: a reader that changes one does not move the dish.
+    driver.poses()["plate_a"].set_translation([0.0, 0.0, 0.0])
+    driver.set(robot_positions(1.2, 2.0, 0.0), GripEvent())  # a fresh Eval
+    np.testing.assert_allclose(driver.poses()["plate_a"].translation(), [1.85, 2.3, 0.75])
 
 
 def test_gripped_dish_follows_the_grasp_frame_then_lands_on_the_tray(tracker_and_plant):
