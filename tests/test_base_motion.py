@@ -10,7 +10,7 @@ from pydrake.common.value import AbstractValue
 
 from s3o_drake.angles import wrap
 from s3o_drake.execution.base_navigator import BaseNavigator
-from s3o_drake.execution.messages import BaseCommand
+from s3o_drake.execution.messages import BaseCommand, CommandState
 from s3o_drake.planning.base_motion import (
     BaseProfile,
     backs_away,
@@ -124,6 +124,6 @@ def test_the_navigator_plays_the_profile_time():
         # Its status turns done settle_time after the motion ends, not before.
         end = motion.duration + profile.settle_time
         context.SetTime(end - 1e-6)
-        assert navigator.GetOutputPort("status").Eval(context).state == "running"
+        assert navigator.GetOutputPort("status").Eval(context).state is CommandState.RUNNING
         context.SetTime(end + 1e-6)
-        assert navigator.GetOutputPort("status").Eval(context).state == "done"
+        assert navigator.GetOutputPort("status").Eval(context).state is CommandState.DONE

@@ -1,8 +1,8 @@
 """Motion-level feasibility: the one check, the reachability map, exhaustive IK.
 
-The scene is scenarios/small/two_dishes.yaml: a 1.2 m x 0.8 m table (x 1.4..2.6, y 2.1..2.9,
-top at 0.75 m) with a plate and a cup 0.2 m inside its free south edge (y = 2.1) and a chair
-at its north side.
+The scene (tests/conftest.py) is scenarios/small/two_dishes.yaml: a 1.2 m x 0.8 m table (x
+1.4..2.6, y 2.1..2.9, top at 0.75 m) with a plate and a cup 0.2 m inside its free south edge
+(y = 2.1) and a chair at its north side.
 """
 
 import dataclasses
@@ -30,17 +30,11 @@ from s3o_drake.robot import ARM_BASE_LINK, GRASP_FRAME, add_robot, robot_positio
 from s3o_drake.scenario import Chair, load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
-SCENE = REPO / "scenarios" / "small" / "two_dishes.yaml"
 # In front of the plate, facing it (north), 0.34 m from the table's edge.
 FRONT_OF_PLATE = np.array([1.85, 1.45, math.pi / 2])
 # The check's tolerance on the grasp frame.
 POSITION_TOLERANCE = 0.01
 ANGLE_TOLERANCE = math.radians(3.0)
-
-
-@pytest.fixture(scope="module")
-def scene():
-    return FeasibilityScene(load_scenario(SCENE))
 
 
 @pytest.fixture(scope="module")

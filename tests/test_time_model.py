@@ -182,7 +182,7 @@ def test_the_plan_predicts_the_simulated_execution(executed):
     ticks' rounding (the model adds half a period per command; a command really waits
     between nothing and a whole period)."""
     scenario, p, report, drives, arms = executed
-    assert [(a, o == "done" or o.startswith("failed: no_")) for a, _, o in report["outcomes"]] \
+    assert [(a, o == "done" or o.startswith("failed: no_")) for a, _, o in report.outcomes] \
         == [("goto", True), ("pickup", True), ("pickup", True)]
     costs = CostModel.for_known(KnownWorld.perfect(scenario))
     (goto,) = p.gotos
@@ -207,7 +207,7 @@ def test_the_plan_predicts_the_simulated_execution(executed):
     real = sum(arms.get(cid, -0.5 * CONTROL_PERIOD) for cid in (2, 4)) \
         + 2 * costs.model.overheads.pickup
     expected = p.predicted_time - fitted + real
-    assert abs(report["execution_time"] - expected) <= 4 * CONTROL_PERIOD / 2 + 1e-6
+    assert abs(report.execution_time - expected) <= 4 * CONTROL_PERIOD / 2 + 1e-6
     # The fitted pickup times are near the real ones (what the benchmark measures).
     for cid, dish in ((2, first), (4, second)):
         if cid in arms:

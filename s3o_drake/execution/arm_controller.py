@@ -13,18 +13,17 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.math import RigidTransform
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 from pydrake.trajectories import Trajectory
 
-from s3o_drake.execution.messages import NO_COMMAND, PickCommand, Status
+from s3o_drake.execution.messages import NO_COMMAND, CommandState, PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.pickup_geometry import caught
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.manipulation.pickup import plan_pickup
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import Scenario
-from s3o_drake.world.object_tracker import GripEvent
+from s3o_drake.world.dish_messages import DishPoses, GripEvent
 
 #: The arm's and the fingers' positions among the robot's 11.
 ARM_AND_FINGERS = slice(3, NUM_POSITIONS)
@@ -57,9 +56,11 @@ class _Activity:
     missed: bool = False
     reach_noise: tuple[float, float] | None = None
 
-    def __deepcopy__(self, memo) -> "_Activity":
-        # Immutable (the trajectory is never changed after planning): Drake's copies of the
-        # state, made at every update, may share it instead of cloning the trajectory.
+    def __deepcopy__(self, memo: dict) -> "_Activity":
+        # Shared, not copied: every field is an immutable value, and the trajectory, the one
+        # C++ object, is made once by `_start` and never changed afterwards (an update
+        # makes a new _Activity). Drake copies the state before every update; a deep copy
+        # would clone the whole pickup trajectory every control period.
         return self
 
 
@@ -71,17 +72,17 @@ class ArmController(LeafSystem):
             arrives while another plays starts when that one ends).
         robot_state: vector (22), the robot's 11 positions then 11 velocities (base x, y,
             yaw; 6 arm joints; 2 fingers).
-        dish_poses: abstract dict[str, RigidTransform], X_WD of each dish where it really
-            is; unconnected: the scenario's positions.
+        dish_poses: abstract DishPoses, X_WD of each dish where it really is; unconnected:
+            the scenario's positions.
     Output ports:
         arm_desired_state: vector (16), the 6 arm and 2 finger positions, then their 8
             velocities (for the plant's desired state, with the base's entries).
         grip: abstract GripEvent; `dish` from the end of the pickup's "close" segment to
             the end of its "release", `placed` gains it at the end of "release".
-        status: abstract Status of the latest command taken: "idle", "running", "done" or
-            "failed" with reason "no_ik", "no_path", "base_collision", "missed" or
-            "unknown_dish"; its `reach_noise` is the reach error drawn for the pickup
-            (None with the noise off).
+        status: abstract Status of the latest command taken: its CommandState idle,
+            running, done or failed with reason "no_ik", "no_path", "base_collision",
+            "missed" or "unknown_dish"; its `reach_noise` is the reach error drawn for the
+            pickup (None with the noise off).
 
     Every `control_period` an unrestricted update takes new commands and moves the
     played motion's grip and status on; `arm_desired_state` follows the motion
@@ -94,7 +95,7 @@ class ArmController(LeafSystem):
     def __init__(self, *, scenario: Scenario, scene: FeasibilityScene,
                  checker: FeasibilityChecker, seed: int | None = None,
                  control_period: float = 0.01, noise: bool = True,
-                 plan_time_limit: float = 5.0):
+                 plan_time_limit: float = 5.0) -> None:
         super().__init__()
         if control_period <= 0:
             raise ValueError(f"control_period: expected a positive period, got {control_period}")
@@ -108,7 +109,7 @@ class ArmController(LeafSystem):
             "pick_command", AbstractValue.Make(PickCommand()))
         self._robot_state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
         self._dish_poses_port = self.DeclareAbstractInputPort(
-            "dish_poses", AbstractValue.Make(dict[str, RigidTransform]()))
+            "dish_poses", AbstractValue.Make(DishPoses()))
         self._activity_index = self.DeclareAbstractState(AbstractValue.Make(_Activity()))
         activity_ticket = {self.abstract_state_ticket(self._activity_index)}
         self.DeclareVectorOutputPort(
@@ -177,9 +178,10 @@ class ArmController(LeafSystem):
         if elapsed < trajectory.end_time() - 1e-9:
             return activity
         end = trajectory.value(trajectory.end_time()).ravel()[ARM_AND_FINGERS]
-        status = (Status(activity.command, "failed", "missed", activity.reach_noise)
+        status = (Status(activity.command, CommandState.FAILED, "missed", activity.reach_noise)
                   if activity.missed
-                  else Status(activity.command, "done", reach_noise=activity.reach_noise))
+                  else Status(activity.command, CommandState.DONE,
+                              reach_noise=activity.reach_noise))
         return replace(activity, status=status, hold=tuple(end), trajectory=None)
 
     def _start(self, activity: _Activity, command: PickCommand, context: Context,
@@ -189,7 +191,7 @@ class ArmController(LeafSystem):
                            reach_noise=None)
 
         def failed(reason: str) -> _Activity:
-            return replace(activity, status=Status(command.id, "failed", reason,
+            return replace(activity, status=Status(command.id, CommandState.FAILED, reason,
                                                    activity.reach_noise))
 
         dish = self._scene.dishes.get(command.dish)
@@ -221,7 +223,8 @@ class ArmController(LeafSystem):
         ends = dict(zip((s.name for s in plan.segments),
                         np.cumsum([s.duration for s in plan.segments]), strict=True))
         return replace(
-            activity, status=Status(command.id, "running", reach_noise=activity.reach_noise),
+            activity, status=Status(command.id, CommandState.RUNNING,
+                                    reach_noise=activity.reach_noise),
             trajectory=plan.trajectory(),
             t_start=context.get_time(), t_grasp=float(ends["close"]),
             t_release=float(ends["release"]),
@@ -230,5 +233,6 @@ class ArmController(LeafSystem):
     def _dish_xy(self, context: Context, name: str, default: np.ndarray) -> np.ndarray:
         if not self._dish_poses_port.HasValue(context):
             return default
-        X_WD = self._dish_poses_port.Eval(context).get(name)
+        poses: DishPoses = self._dish_poses_port.Eval(context)
+        X_WD = poses.get(name)
         return default if X_WD is None else np.asarray(X_WD.translation()[:2], dtype=float)

@@ -19,7 +19,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 
-from s3o_drake.execution.messages import NO_COMMAND, BaseCommand, Status
+from s3o_drake.execution.messages import NO_COMMAND, BaseCommand, CommandState, Status
 from s3o_drake.feasibility.landing import CHECK_STEP_XY, CHECK_STEP_YAW, FINAL_APPROACH
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.base_motion import (
@@ -81,17 +81,17 @@ class _Segment:
 class _Motion:
     """What the navigator is doing (its abstract state): command `id` started at `t0` (s),
     playing `segments` from `hold` (the pose before the first one, and the pose kept when
-    there are none), ending in `outcome` ("done" or "failed") with `reason`."""
+    there are none), ending in `outcome` (done or failed) with `reason`."""
 
     id: int = NO_COMMAND
     t0: float = 0.0
     hold: tuple[float, float, float] = (0.0, 0.0, 0.0)
     segments: tuple[_Segment, ...] = ()
-    outcome: str = "done"
+    outcome: CommandState = CommandState.DONE
     reason: str = ""
     initialized: bool = False
 
-    def __deepcopy__(self, memo) -> "_Motion":
+    def __deepcopy__(self, memo: dict) -> "_Motion":
         # Immutable all the way down: Drake clones abstract state on every update, and a
         # real deep copy of the segments was a sixth of the simulation's time.
         return self
@@ -128,8 +128,8 @@ class BaseNavigator(LeafSystem):
             (x, y, yaw) is positions 0..2.
     Output ports:
         base_desired_state (vector 6): x, y, yaw (m, rad) then their rates (m/s, rad/s).
-        status (abstract `Status`): "idle" before any command, "running" while the motion
-            plays, then "done" (landed, possibly short of a colliding goal) or "failed"
+        status (abstract `Status`): CommandState idle before any command, running while the
+            motion plays, then done (landed, possibly short of a colliding goal) or failed
             with reason "blocked" (stopped far from the goal by a collision), `settle_time`
             after the motion ended.
 
@@ -146,8 +146,8 @@ class BaseNavigator(LeafSystem):
     exactly `command.pose` with `noise=False`. With a `scene` (the true world), poses every
     2 cm / 0.05 rad along the motion are checked (inside the room and collision-free, arm
     stowed); the motion is cut at the last free pose before the first collision. A
-    collision within the last 0.5 m of driving or in the final turn ends the command "done"
-    there (landed short); an earlier one ends it "failed", reason "blocked". Collisions at
+    collision within the last 0.5 m of driving or in the final turn ends the command done
+    there (landed short); an earlier one ends it failed, reason "blocked". Collisions at
     the very start (the base already stands there) are ignored until the first free pose.
     Before giving up on a blocked motion it tries, in turn, the first turn the other way
     round and backing straight out by 5, 10, ... 60 cm before turning (a noisy landing can
@@ -159,7 +159,7 @@ class BaseNavigator(LeafSystem):
                  seed: int | None = None, control_period: float = 0.01,
                  max_yaw_rate: float = YAW_RATE, noise: bool = True,
                  settle_time: float = SETTLE_TIME, acceleration: float = ACCELERATION,
-                 yaw_acceleration: float = YAW_ACCELERATION):
+                 yaw_acceleration: float = YAW_ACCELERATION) -> None:
         super().__init__()
         self._speed = scenario.planner.speed
         self._xy_std = scenario.uncertainty.nav_xy_std if noise else 0.0
@@ -212,7 +212,7 @@ class BaseNavigator(LeafSystem):
         state.get_mutable_abstract_state(self._motion_index).set_value(new)
         return EventStatus.Succeeded()
 
-    def landing(self, command: BaseCommand) -> np.ndarray:
+    def _landing(self, command: BaseCommand) -> np.ndarray:
         """The pose (x, y, yaw) the command aims for: its pose plus the seeded noise T^n
         (none for a turn in place)."""
         if command.turn:
@@ -222,7 +222,7 @@ class BaseNavigator(LeafSystem):
         return np.asarray(command.pose, dtype=float) + noise
 
     def _plan(self, command: BaseCommand, base: np.ndarray, t: float) -> _Motion:
-        target = self.landing(command)
+        target = self._landing(command)
         waypoints = [np.asarray(base[:2], float)]
         if not command.turn:
             waypoints += [np.asarray(p, float) for p in command.path[1:-1]]
@@ -233,7 +233,7 @@ class BaseNavigator(LeafSystem):
         # that micro-drive, up to π/2 out of the way and back.
         segments = self._segments(waypoints, float(base[2]), float(target[2]))
         cut = self._cut_at_collision(segments)
-        if cut[1] == "failed":
+        if cut[1] is CommandState.FAILED:
             # The noisy landing left the base where the turn towards the path hits something
             # (a stop only keeps the inscribed radius): first turn the other way round,
             # then back straight out (ESCAPE_STEPS) before turning.
@@ -246,7 +246,7 @@ class BaseNavigator(LeafSystem):
                                 yaw, float(target[2])) for d in ESCAPE_STEPS))
             for escape in escapes:
                 escaped = self._cut_at_collision(escape)
-                if escaped[1] != "failed":
+                if escaped[1] is not CommandState.FAILED:
                     cut = escaped
                     break
         segments, outcome, reason = cut
@@ -269,10 +269,12 @@ class BaseNavigator(LeafSystem):
         return _Segment.make(start, end, turn=False, length=length, max_speed=self._speed,
                              accel=self._accel)
 
-    def _cut_at_collision(self, segments: list[_Segment]) -> tuple[list[_Segment], str, str]:
-        """The segments up to the last free pose, and how the command ends."""
+    def _cut_at_collision(self, segments: list[_Segment]
+                          ) -> tuple[list[_Segment], CommandState, str]:
+        """The segments up to the last free pose, and how the command ends (with the
+        failure's reason)."""
         if self._scene is None or not segments:
-            return segments, "done", ""
+            return segments, CommandState.DONE, ""
         # Samples: (segment index, distance along it, pose); index -1 is the start pose.
         samples = [(-1, 0.0, np.asarray(segments[0].start))]
         for i, seg in enumerate(segments):
@@ -283,7 +285,7 @@ class BaseNavigator(LeafSystem):
         first_free = int(np.argmax(free)) if free.any() else len(free)
         colliding = np.flatnonzero(~free[first_free:])
         if colliding.size == 0:
-            return segments, "done", ""
+            return segments, CommandState.DONE, ""
         hit = first_free + int(colliding[0])
         last_i, last_s, _ = samples[hit - 1]
         kept = list(segments[:last_i]) if last_i >= 0 else []
@@ -297,15 +299,15 @@ class BaseNavigator(LeafSystem):
         return kept, *self._outcome(segments, samples[hit])
 
     @staticmethod
-    def _outcome(segments: list[_Segment], hit: tuple) -> tuple[str, str]:
+    def _outcome(segments: list[_Segment], hit: tuple) -> tuple[CommandState, str]:
         """Whether a collision at sample `hit` only shortens the landing or blocks the way."""
         i, s, _ = hit
         drives = [0.0 if seg.turn else seg.length for seg in segments]
         final_turn = segments[i].turn and i == len(segments) - 1
         travelled = sum(drives[:i]) + (0.0 if segments[i].turn else s)
         if final_turn or travelled >= sum(drives) - FINAL_APPROACH:
-            return "done", ""
-        return "failed", "blocked"
+            return CommandState.DONE, ""
+        return CommandState.FAILED, "blocked"
 
     def _free(self, poses: np.ndarray) -> np.ndarray:
         """bool (n,): base poses inside the room and collision-free with the arm stowed."""
@@ -328,6 +330,6 @@ class BaseNavigator(LeafSystem):
         if motion.id == NO_COMMAND:
             output.set_value(Status())
         elif context.get_time() < motion.t0 + motion.duration + self._settle_time:
-            output.set_value(Status(id=motion.id, state="running"))
+            output.set_value(Status(id=motion.id, state=CommandState.RUNNING))
         else:
             output.set_value(Status(id=motion.id, state=motion.outcome, reason=motion.reason))

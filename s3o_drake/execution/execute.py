@@ -93,7 +93,9 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
         visualizer.StopRecording()
         visualizer.PublishRecording()
     monitor = diagram.GetSubsystemByName("task_monitor")
-    report = dict(monitor.GetOutputPort("report").Eval(monitor.GetMyContextFromRoot(context)))
+    monitor_context = monitor.GetMyContextFromRoot(context)
+    # The RunReport as plain JSON data: what report.json and the evaluation's rows hold.
+    report = monitor.GetOutputPort("report").Eval(monitor_context).to_dict()
     result = planner.GetOutputPort("planning_result").Eval(planner_context)
     if failure is not None:
         report.update(finished=False, reason=failure, execution_time=context.get_time())

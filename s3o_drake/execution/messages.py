@@ -8,7 +8,8 @@ pickup and goes on with the next action, or stops at a failed goto). Id 0 means 
 command": controllers hold still.
 
 `PickupRecord` is what the planner learns of each executed pickup (for the calibration of
-Fea^m, s3o_drake.evaluation.calibration); it travels in `PlanProgress` to the task monitor.
+Fea^m, s3o_drake.evaluation.calibration); it travels in `PlanProgress` to the task monitor,
+whose `RunReport` is what a run reports (its `to_dict()` is report.json's data).
 
 All are frozen dataclasses: a port value is copied by Drake, and nothing may change it in
 place.
@@ -16,9 +17,25 @@ place.
 
 import math
 from dataclasses import dataclass
+from enum import Enum
 from typing import Any
 
 NO_COMMAND = 0
+
+
+class CommandState(str, Enum):
+    """Where a controller is with its latest command. A str Enum, so that a state compares
+    and serialises as the plain word ("idle", "running", "done", "failed")."""
+
+    IDLE = "idle"  # no command yet
+    RUNNING = "running"
+    DONE = "done"
+    FAILED = "failed"
+
+    def __str__(self) -> str:
+        # The word, not "CommandState.DONE": str() of a mixed-in Enum, and since Python 3.11
+        # also format() and f-strings, would otherwise name the class and the member.
+        return self.value
 
 
 @dataclass(frozen=True)
@@ -44,22 +61,28 @@ class PickCommand:
 
 @dataclass(frozen=True)
 class Status:
-    """A controller's report on command `id`: state "idle" (no command yet), "running",
-    "done" or "failed", with the failure's `reason` (e.g. "no_ik", "no_path", "missed",
-    "base_collision", "blocked").
+    """A controller's report on command `id`: its `state` (a CommandState: idle before any
+    command, running, done or failed), with the failure's `reason` (e.g. "no_ik",
+    "no_path", "missed", "base_collision", "blocked").
 
     `reach_noise`: on the arm's reports of a pickup, the reach error T^m drawn for it
     ((dx, dy), m, added to where the gripper aims); None when none was drawn (the
     simulation's noise is off, the dish is unknown) and on the base's reports."""
 
     id: int = NO_COMMAND
-    state: str = "idle"
+    state: CommandState = CommandState.IDLE
     reason: str = ""
     reach_noise: tuple[float, float] | None = None
 
+    def __post_init__(self) -> None:
+        # A state given as its word ("done") is stored as the CommandState, so that the
+        # port always carries the enum; a word that is no state is a ValueError.
+        if not isinstance(self.state, CommandState):
+            object.__setattr__(self, "state", CommandState(self.state))
+
     @property
     def finished(self) -> bool:
-        return self.state in ("done", "failed")
+        return self.state in (CommandState.DONE, CommandState.FAILED)
 
 
 @dataclass(frozen=True)
@@ -149,3 +172,43 @@ class PlanProgress:
     reason: str = ""
     outcomes: tuple[tuple[str, str, str], ...] = ()
     pickups: tuple[PickupRecord, ...] = ()
+
+
+@dataclass(frozen=True)
+class RunReport:
+    """What the task monitor reports of a run.
+
+    `dishes`: how many the world has; `collected_dishes`: those on the tray, sorted;
+    `execution_time` (s): the simulated time at which the plan finished, else the time of
+    the report; `finished`: the plan is over; `reason`: why (`PlanProgress.reason`, or
+    "time limit"); `outcomes` and `pickups`: `PlanProgress`'s.
+    """
+
+    dishes: int = 0
+    collected_dishes: tuple[str, ...] = ()
+    execution_time: float = 0.0
+    finished: bool = False
+    reason: str = ""
+    outcomes: tuple[tuple[str, str, str], ...] = ()
+    pickups: tuple[PickupRecord, ...] = ()
+
+    @property
+    def collected(self) -> int:
+        """How many dishes are on the tray."""
+        return len(self.collected_dishes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON data, as report.json holds it (execute.py adds the timings): dishes,
+        collected, collected_dishes (a list), execution_time, finished, reason, outcomes
+        (a list of [action, argument, result] lists), pickups (`PickupRecord.to_dict()`
+        each)."""
+        return {
+            "dishes": self.dishes,
+            "collected": self.collected,
+            "collected_dishes": list(self.collected_dishes),
+            "execution_time": self.execution_time,
+            "finished": self.finished,
+            "reason": self.reason,
+            "outcomes": [list(outcome) for outcome in self.outcomes],
+            "pickups": [record.to_dict() for record in self.pickups],
+        }

@@ -5,7 +5,8 @@ import math
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
 
-from s3o_drake.execution.messages import PlanProgress
+from s3o_drake.execution.messages import PlanProgress, RunReport
+from s3o_drake.world.dish_messages import DishState, DishStates
 
 TIME_LIMIT_REASON = "time limit"
 
@@ -22,15 +23,13 @@ class TaskMonitor(LeafSystem):
 
     Input ports:
         progress: abstract PlanProgress (from the planner).
-        dish_states: abstract dict[str, str], per dish "table", "gripper", "tray" or
-            "dropped" (from the ObjectTracker).
+        dish_states: abstract DishStates, the DishState of each dish (from the
+            ObjectTracker).
     Output ports:
-        report: abstract dict with keys dishes (int, total), collected (int, on the tray),
-            collected_dishes (list[str], sorted), execution_time (float, s: the simulated
-            time the plan finished, else the current time), finished (bool), reason (str),
-            outcomes (list of [action, argument, result] lists, from progress.outcomes),
-            pickups (list of dicts, `PickupRecord.to_dict()` of progress.pickups: the
-            report is plain JSON data, as run.py and the benchmark write it).
+        report: abstract RunReport: the dishes, those on the tray, the execution time (the
+            simulated time the plan finished, else the current time), whether and why the
+            plan finished, and progress's outcomes and pickup records (`to_dict()` gives
+            the plain JSON data that report.json holds).
     """
 
     def __init__(self, *, settle_time: float = 0.5, time_limit: float = 600.0,
@@ -43,10 +42,10 @@ class TaskMonitor(LeafSystem):
         self._progress_port = self.DeclareAbstractInputPort(
             "progress", AbstractValue.Make(PlanProgress()))
         self._dish_states_port = self.DeclareAbstractInputPort(
-            "dish_states", AbstractValue.Make({}))
+            "dish_states", AbstractValue.Make(DishStates()))
         # The simulated time at which progress first said finished; NaN while it has not.
         self._finished_at_index = self.DeclareDiscreteState([math.nan])
-        self.DeclareAbstractOutputPort("report", lambda: AbstractValue.Make({}),
+        self.DeclareAbstractOutputPort("report", lambda: AbstractValue.Make(RunReport()),
                                        self._calc_report)
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._check)
         self.DeclareForcedDiscreteUpdateEvent(self._check)
@@ -76,21 +75,15 @@ class TaskMonitor(LeafSystem):
 
     def _calc_report(self, context: Context, output: AbstractValue) -> None:
         progress = self._progress_port.Eval(context)
-        dish_states = self._dish_states_port.Eval(context)
-        collected = sorted(name for name, state in dish_states.items() if state == "tray")
+        dish_states: DishStates = self._dish_states_port.Eval(context)
         finished_at = self._finished_at(context)
         t = context.get_time()
         if not progress.finished and t >= self._time_limit:
             reason = TIME_LIMIT_REASON
         else:
             reason = progress.reason
-        output.set_value({
-            "dishes": len(dish_states),
-            "collected": len(collected),
-            "collected_dishes": collected,
-            "execution_time": t if math.isnan(finished_at) else finished_at,
-            "finished": bool(progress.finished),
-            "reason": reason,
-            "outcomes": [list(outcome) for outcome in progress.outcomes],
-            "pickups": [record.to_dict() for record in progress.pickups],
-        })
+        output.set_value(RunReport(
+            dishes=len(dish_states), collected_dishes=dish_states.named(DishState.TRAY),
+            execution_time=t if math.isnan(finished_at) else finished_at,
+            finished=bool(progress.finished), reason=reason, outcomes=progress.outcomes,
+            pickups=progress.pickups))

@@ -50,8 +50,8 @@ from s3o_drake.robot import (
     robot_positions,
 )
 from s3o_drake.scenario import Chair, Dish, Scenario, Table
-from s3o_drake.world.geometry_mirror import GeometryMirror
-from s3o_drake.world.object_tracker import ObjectTracker
+from s3o_drake.world.geometry_mirror import AddGeometryMirror
+from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
 
 RENDERER = "vtk"
 FLOOR_RGBA = np.array([0.82, 0.80, 0.76, 1.0])
@@ -181,13 +181,11 @@ def _add_overhead_camera(builder: DiagramBuilder, plant: MultibodyPlant,
     camera_scene_graph = builder.AddNamedSystem("camera_scene_graph", SceneGraph())
     camera_scene_graph.AddRenderer(RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))
     sources = [plant.get_source_id()] + ([] if tracker is None else [tracker.source_id])
-    mirror = builder.AddNamedSystem("camera_mirror", GeometryMirror(
-        original=scene_graph, copy=camera_scene_graph, sources=sources))
+    mirror = AddGeometryMirror(builder, original=scene_graph, copy=camera_scene_graph,
+                               sources=sources)
     builder.Connect(plant.get_geometry_pose_output_port(), mirror.get_input_port(0))
     if tracker is not None:
         builder.Connect(tracker.GetOutputPort("geometry_pose"), mirror.get_input_port(1))
-    builder.Connect(mirror.GetOutputPort("geometry_pose"),
-                    camera_scene_graph.get_source_pose_port(mirror.source_id))
     camera = overhead_camera(scenario)
     far = scenario.camera.height + 1.0
     core = RenderCameraCore(RENDERER, camera.info(), ClippingRange(0.05, far), RigidTransform())
@@ -201,12 +199,8 @@ def _add_overhead_camera(builder: DiagramBuilder, plant: MultibodyPlant,
 
 def _add_object_tracker(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
                         scenario: Scenario, robot: ModelInstanceIndex) -> ObjectTracker:
-    tracker = builder.AddNamedSystem("object_tracker", ObjectTracker(
-        scenario=scenario, plant=plant, robot=robot, scene_graph=scene_graph,
-        period=CONTROL_PERIOD))
-    builder.Connect(plant.get_state_output_port(robot), tracker.GetInputPort("robot_state"))
-    builder.Connect(tracker.GetOutputPort("geometry_pose"),
-                    scene_graph.get_source_pose_port(tracker.source_id))
+    tracker = AddObjectTracker(builder, scenario=scenario, plant=plant, robot=robot,
+                               scene_graph=scene_graph, period=CONTROL_PERIOD)
     builder.ExportInput(tracker.GetInputPort("grip"), "grip")
     builder.ExportOutput(tracker.GetOutputPort("dish_poses"), "dish_poses")
     builder.ExportOutput(tracker.GetOutputPort("dish_states"), "dish_states")
@@ -264,8 +258,8 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     ("object_tracker") owns their geometry and moves them with the gripper and the tray,
     and the diagram also has
     Input ports:  grip (abstract GripEvent; unconnected: the gripper holds nothing)
-    Output ports: dish_poses (abstract dict[str, RigidTransform], X_WD),
-                  dish_states (abstract dict[str, str]: "table", "gripper", "tray", "dropped")
+    Output ports: dish_poses (abstract DishPoses, X_WD), dish_states (abstract DishStates)
+    (world/dish_messages.py).
 
     With a Meshcat, adds an illustration visualizer ("meshcat_visualizer", which can record
     for playback) and, with `show_collisions`, a hidden collision-geometry one (for a person
