@@ -249,7 +249,7 @@ def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
         context, Status(id=turn.id, state="failed", reason="blocked"))
     _step(system, context)
     progress = system.GetOutputPort("progress").Eval(context)
-    assert progress.outcomes[-1] == ("pickup", second.dish, "failed: turn blocked")
+    assert tuple(progress.outcomes[-1]) == ("pickup", second.dish, "failed: turn blocked")
     done, blocked = progress.pickups
     assert (done.dish, done.outcome, blocked.dish) == (first.dish, "done", second.dish)
     assert done.actual_pose == pytest.approx(goto.pose)

@@ -9,6 +9,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource
 
 from s3o_drake.execution.messages import (
+    ActionOutcome,
     CommandState,
     PickupRecord,
     PlanProgress,
@@ -29,8 +30,10 @@ RECORDS = (
                  outcome="missed", reach_noise=(0.03, 0.02)),
 )
 DONE = PlanProgress(step=4, total=4, finished=True, reason="plan complete",
-                    outcomes=(("goto", "l1", "done"), ("pickup", "plate_a", "done"),
-                              ("pickup", "cup_b", "failed: missed")), pickups=RECORDS)
+                    outcomes=(ActionOutcome("goto", "l1", done=True),
+                              ActionOutcome("pickup", "plate_a", done=True),
+                              ActionOutcome("pickup", "cup_b", done=False, reason="missed")),
+                    pickups=RECORDS)
 
 
 def _fixed(monitor: TaskMonitor, context, progress: PlanProgress, states=STATES):

@@ -156,13 +156,33 @@ def _numbers(value: Any, count: int, name: str) -> tuple[float, ...]:
 
 
 @dataclass(frozen=True)
+class ActionOutcome:
+    """How one action of the plan ended: `action` ("goto" or "pickup"), its `argument` (the
+    location or the dish), whether it was `done`, and if not, the `reason`. It unpacks as
+    (action, argument, result), result "done" or "failed: <reason>", as report.json lists
+    it."""
+
+    action: str
+    argument: str
+    done: bool
+    reason: str = ""
+
+    @property
+    def result(self) -> str:
+        return "done" if self.done else f"failed: {self.reason}"
+
+    def __iter__(self):
+        return iter((self.action, self.argument, self.result))
+
+
+@dataclass(frozen=True)
 class PlanProgress:
     """The planner's progress through its plan, for the task monitor.
 
     `step`: the action being executed (1-based; 0 before a plan exists), of `total`.
     `finished`: nothing more will happen (plan done, or it cannot go on: `reason` says
     why, e.g. "plan complete", "goto 3 failed: blocked", "no plan: ...").
-    `outcomes`: per finished action, (action, argument, "done" or "failed: <reason>").
+    `outcomes`: per finished action, its ActionOutcome.
     `pickups`: per finished pickup, in order, its `PickupRecord`.
     """
 
@@ -170,7 +190,7 @@ class PlanProgress:
     total: int = 0
     finished: bool = False
     reason: str = ""
-    outcomes: tuple[tuple[str, str, str], ...] = ()
+    outcomes: tuple[ActionOutcome, ...] = ()
     pickups: tuple[PickupRecord, ...] = ()
 
 
@@ -189,7 +209,7 @@ class RunReport:
     execution_time: float = 0.0
     finished: bool = False
     reason: str = ""
-    outcomes: tuple[tuple[str, str, str], ...] = ()
+    outcomes: tuple[ActionOutcome, ...] = ()
     pickups: tuple[PickupRecord, ...] = ()
 
     @property

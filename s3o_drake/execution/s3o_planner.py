@@ -35,7 +35,9 @@ from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 from s3o_drake.angles import facing_yaw, wrap
 from s3o_drake.execution.messages import (
     NO_COMMAND,
+    ActionOutcome,
     BaseCommand,
+    CommandState,
     PickCommand,
     PickupRecord,
     PlanProgress,
@@ -73,7 +75,7 @@ class _Execution:
     next_id: int = 1
     base_command: BaseCommand = field(default_factory=BaseCommand)
     pick_command: PickCommand = field(default_factory=PickCommand)
-    outcomes: tuple[tuple[str, str, str], ...] = ()
+    outcomes: tuple[ActionOutcome, ...] = ()
     pickups: tuple[PickupRecord, ...] = ()
     pick_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """The base's pose when the current pickup's PickCommand was sent."""
@@ -211,8 +213,8 @@ class S3OPlanner(LeafSystem):
         if self._replan.HasValue(context):
             request = float(self._replan.Eval(context)[0])
             if request != execution.replan_seen:
-                collected = {arg for action, arg, outcome in execution.outcomes
-                             if action == "pickup" and outcome == "done"}
+                collected = {o.argument for o in execution.outcomes
+                             if o.action == "pickup" and o.done}
                 remaining = [d.name for d in self._scenario.dishes if d.name not in collected]
                 start = np.asarray(self._robot_state.Eval(context))[:3]
                 execution = self._plan(context, dataclasses.replace(
@@ -252,20 +254,21 @@ class S3OPlanner(LeafSystem):
         status: Status = (self._base_status if goto else self._arm_status).Eval(context)
         if status.id != e.command_id or not status.finished:
             return e
-        if e.turning and status.state == "done":
+        done = status.state == CommandState.DONE
+        if e.turning and done:
             return dataclasses.replace(e, command_id=NO_COMMAND, turning=False, turned=True)
         goto = isinstance(action, Goto)
         name, arg = ("goto", action.location) if goto else ("pickup", action.dish)
-        outcome = "done" if status.state == "done" else f"failed: {status.reason}"
-        if e.turning:
-            outcome = f"failed: turn {status.reason}"
+        outcome = ActionOutcome(name, arg, done=done and not e.turning,
+                                reason=f"turn {status.reason}" if e.turning else
+                                "" if done else status.reason)
         pickups = e.pickups
         if not goto:
             pickups = (*pickups, self._record(context, e, action, status))
-        e = dataclasses.replace(e, outcomes=(*e.outcomes, (name, arg, outcome)),
+        e = dataclasses.replace(e, outcomes=(*e.outcomes, outcome),
                                 pickups=pickups, command_id=NO_COMMAND, step=e.step + 1,
                                 turning=False, turned=False)
-        if goto and status.state != "done":
+        if goto and not done:
             return dataclasses.replace(e, finished=True,
                                        reason=f"goto {arg} failed: {status.reason}")
         if e.step >= len(actions):
@@ -280,7 +283,7 @@ class S3OPlanner(LeafSystem):
             outcome, noise = f"turn {status.reason}", None
         else:
             actual = e.pick_pose
-            outcome = "done" if status.state == "done" else status.reason
+            outcome = "done" if status.state == CommandState.DONE else status.reason
             noise = status.reach_noise
         # The stop the prediction was made for: the latest goto's pose, else where the
         # plan started.
