@@ -47,7 +47,7 @@ from s3o_drake.feasibility.landing import TURN_TOLERANCE
 from s3o_drake.perception import Perceive, perceive_known_world
 from s3o_drake.planning.pipeline import PlanningResult, plan_from
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
-from s3o_drake.robot import NUM_POSITIONS
+from s3o_drake.robot import CONTROL_PERIOD, NUM_POSITIONS
 from s3o_drake.scenario import Scenario
 
 
@@ -108,8 +108,8 @@ class S3OPlanner(LeafSystem):
       replan_request (1, optional): a change of its value asks for a new plan.
     Output ports:
       base_command (abstract BaseCommand), pick_command (abstract PickCommand);
-      progress (abstract PlanProgress: the outcomes, and a PickupRecord per finished
-        pickup);
+      progress (abstract PlanProgress: an ActionOutcome per finished action, and a
+        PickupRecord per finished pickup);
       plan (abstract TaskMotionPlan, or None before planning / when none could be made);
       planning_result (abstract PlanningResult, or None before planning: the latest plan
         and what it was made on, the KnownWorld, heatmaps, navigation map and state spaces);
@@ -118,7 +118,7 @@ class S3OPlanner(LeafSystem):
 
     def __init__(self, *, scenario: Scenario, method: str | None = None, seed: int | None = None,
                  perceive: Perceive | None = None, workers: int | None = None,
-                 control_period: float = 0.05, progress_bar: bool = False,
+                 control_period: float = CONTROL_PERIOD, progress_bar: bool = False,
                  robot_labels: frozenset[int] = frozenset()):
         super().__init__()
         self._scenario = scenario

@@ -229,7 +229,9 @@ class SequenceProblem:
         (or the robot profile, where the costs are the times), predicted execution times
         (m,) (NaN otherwise and where invalid) of samples X (m, n, 2), with one path query
         batch for all valid samples."""
-        X = np.asarray(X, dtype=float).reshape(-1, self.n, 2)
+        X = np.asarray(X, dtype=float)
+        # With no goto to place (n = 0) the sample count cannot be inferred from the size.
+        X = X.reshape(len(X) if self.n == 0 else -1, self.n, 2)
         m = len(X)
         p, costs = self.planner, self.costs
         robot = costs.profile == "robot"
