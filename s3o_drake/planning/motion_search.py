@@ -60,7 +60,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
-from s3o_drake.abstraction.task_feasibility import MotionFeasibility
+from s3o_drake.abstraction.motion_feasibility import MotionFeasibility
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.task_planner import Action
 from s3o_drake.planning.time_model import CostModel

@@ -23,7 +23,7 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from s3o_drake.abstraction.task_feasibility import MotionFeasibility
+from s3o_drake.abstraction.motion_feasibility import MotionFeasibility
 from s3o_drake.planning.motion_search import GRID_CELL, MotionResult, SequenceProblem
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.task_planner import START, TaskPlanResult, plan_problem

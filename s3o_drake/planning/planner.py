@@ -65,7 +65,7 @@ from s3o_drake.abstraction import (
     build_abstraction,
     voronoi_partition,
 )
-from s3o_drake.abstraction.task_feasibility import MotionFeasibility, as_motion_feasibility
+from s3o_drake.abstraction.motion_feasibility import MotionFeasibility, as_motion_feasibility
 from s3o_drake.abstraction.voronoi import VoronoiPartition
 from s3o_drake.angles import facing_yaw
 from s3o_drake.known_world import KnownWorld
