@@ -1,8 +1,10 @@
-"""The location grid: one lattice, Fea^m once, one joint-feasibility rule and its fallbacks."""
+"""The location grid: one lattice, Fea^m once, one joint-feasibility rule and its fallbacks,
+shared by Fea^t, the representative points and the motion search."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import shapely
 from shapely.geometry import box
 
@@ -18,6 +20,7 @@ from s3o_drake.abstraction import (
 )
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.planner import plan_task
 from s3o_drake.scenario import load_scenario
 
 
@@ -97,3 +100,26 @@ def test_a_sliver_has_its_representative_point():
     location = region_location(sliver, HeatmapFeasibility(_rings(scenario)), ["plate_a"])
     assert location.fallback is GridFallback.NO_POINT
     assert len(location.points) == 1 and sliver.contains(shapely.Point(location.points[0]))
+
+
+@pytest.mark.parametrize("method", ["S3O-GROP*", "V-GROP", "V-PETLON"])
+def test_planner_shares_one_grid(method, monkeypatch):
+    """The S3O methods plan on the abstraction's grid, the V- searches on one of the plain
+    partition; V-PETLON reads no grid, and no search rasterises a region of its own."""
+    from s3o_drake.planning import motion_search
+
+    def no_own_grid(*args, **kwargs):
+        raise AssertionError("a region rasterised outside the plan's grid")
+
+    monkeypatch.setattr(motion_search, "region_location", no_own_grid)
+    if method == "V-PETLON":
+        monkeypatch.setattr(LocationGrid, "location", no_own_grid)
+    scenario, known, _ = _scene()
+    result = plan_task(known, method=method, heatmaps=_rings(scenario), seed=0)
+    assert result.plan is not None and result.plan.actions
+    if method == "V-PETLON":
+        assert result.grid is None
+    elif method.startswith("S3O"):
+        assert result.grid is result.abstraction.grid
+    else:
+        assert result.grid is not None and result.abstraction is None

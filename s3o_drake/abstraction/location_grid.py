@@ -1,7 +1,8 @@
 """The location grid: the base positions a location stands for, and Fea^m at each of them.
 
-A location is the union of some Voronoi cells (`voronoi.py`). Fea^t (`task_feasibility.py`)
-reads a location through this grid:
+A location is the union of some Voronoi cells (`voronoi.py`). Fea^t (`task_feasibility.py`),
+the planner's representative points and the motion search's starting points and draws
+(`planning/planner.py`, `planning/motion_search.py`) all read a location through this grid:
 
 - Lattice. The centres of a regular grid of `GRID_CELL` (5 cm), anchored at multiples of
   the cell so that the grids of different scenes and regions line up, over the bounding box

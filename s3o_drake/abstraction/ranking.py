@@ -85,7 +85,8 @@ class Abstraction:
     elapsed: float
     """Wall time of candidate generation and scoring (s)."""
     grid: LocationGrid
-    """The location grid Fea^t was computed on."""
+    """The location grid Fea^t was computed on: the planner's representative points and
+    motion search read the same one."""
     infeasible: list[str] = field(default_factory=list)
     """Dishes whose Fea^t is 0 even alone (unreachable ones included)."""
     _make: Callable[[Partition, float], StateSpace] | None = field(default=None, repr=False)
