@@ -11,6 +11,7 @@ from shapely.ops import unary_union
 
 from s3o_drake.abstraction import (
     HeatmapFeasibility,
+    LocationGrid,
     TaskFeasibility,
     build_abstraction,
     connected_partitions,
@@ -270,7 +271,8 @@ def test_components_combined_rank_like_enumerating_the_whole_graph():
     components = connected_components(4, abstraction.partition.adjacency)
     assert len(components) == 2  # the two tables are far apart
     cost = scenario.planner.gamma / scenario.planner.reward
-    task = TaskFeasibility(abstraction.partition, heatmaps, samples=100, seed=scenario.seed)
+    task = TaskFeasibility(LocationGrid.of(abstraction.partition, heatmaps), samples=100,
+                           seed=scenario.seed)
     brute = sorted(task.score(p) - cost * len(p)
                    for p in connected_partitions(4, abstraction.partition.adjacency))[::-1]
     assert abstraction.count == len(brute)

@@ -33,7 +33,8 @@ from s3o_drake.abstraction.candidates import (
     connected_components,
     generate_candidates,
 )
-from s3o_drake.abstraction.task_feasibility import DEFAULT_GRID_CELL, TaskFeasibility
+from s3o_drake.abstraction.location_grid import GRID_CELL, LocationGrid
+from s3o_drake.abstraction.task_feasibility import TaskFeasibility
 from s3o_drake.abstraction.voronoi import VoronoiPartition, voronoi_partition
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.robot import INSCRIBED_RADIUS
@@ -83,6 +84,9 @@ class Abstraction:
     """Each adjacency component's generated partitions and ranking values, best first."""
     elapsed: float
     """Wall time of candidate generation and scoring (s)."""
+    grid: LocationGrid
+    """The location grid Fea^t was computed on: the planner's representative points and
+    motion search read the same one."""
     infeasible: list[str] = field(default_factory=list)
     """Dishes whose Fea^t is 0 even alone (unreachable ones included)."""
     _make: Callable[[Partition, float], StateSpace] | None = field(default=None, repr=False)
@@ -197,14 +201,15 @@ def rank(partition: VoronoiPartition, task: TaskFeasibility, *, top_k: int,
                        probabilities=top_k_distribution([max(s.value, 0.0) for s in best]),
                        plain_voronoi=plain_space, complete=complete, exhaustive=exhaustive,
                        count=count, components=per_component,
-                       elapsed=time.perf_counter() - start, infeasible=infeasible,
+                       elapsed=time.perf_counter() - start, grid=task.grid,
+                       infeasible=infeasible,
                        _make=state_space)
 
 
 def build_abstraction(known: KnownWorld, feasibility, *,
                       dishes: Sequence[str] | None = None, seed: int | None = None,
                       clearance: float = INSCRIBED_RADIUS, joint_threshold: float = 0.0,
-                      grid_cell: float = DEFAULT_GRID_CELL,
+                      grid_cell: float = GRID_CELL,
                       location_cost: float | None = None, max_count: int = 100_000,
                       time_limit: float = 5.0,
                       exhaustive_max_dishes: int = EXHAUSTIVE_MAX_DISHES,
@@ -213,16 +218,17 @@ def build_abstraction(known: KnownWorld, feasibility, *,
     distribution.
 
     `feasibility` is Fea^m: a `MotionFeasibility`, a mapping dish -> Heatmap or a list of
-    Heatmaps. Reach, N, K and the seed default to the planner's settings and the
-    scenario's seed; `location_cost` to γ / λ.
+    Heatmaps, evaluated once on the location grid (`location_grid.py`; cell `grid_cell`,
+    joint rule at `joint_threshold`), which the result carries. Reach, N, K and the seed
+    default to the planner's settings and the scenario's seed; `location_cost` to γ / λ.
     """
     planner = known.planner
     if location_cost is None:
         location_cost = planner.gamma / planner.reward if planner.reward > 0 else 0.0
     partition = voronoi_partition(known, dishes=dishes, clearance=clearance)
-    task = TaskFeasibility(partition, feasibility, samples=planner.location_samples,
-                           seed=known.settings.seed if seed is None else seed,
-                           joint_threshold=joint_threshold, grid_cell=grid_cell)
+    grid = LocationGrid.of(partition, feasibility, threshold=joint_threshold, cell=grid_cell)
+    task = TaskFeasibility(grid, samples=planner.location_samples,
+                           seed=known.settings.seed if seed is None else seed)
     return rank(partition, task, top_k=planner.top_k, location_cost=location_cost,
                 max_count=max_count,
                 time_limit=time_limit, exhaustive_max_dishes=exhaustive_max_dishes,

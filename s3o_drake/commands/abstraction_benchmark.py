@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from s3o_drake.abstraction.location_grid import LocationGrid
 from s3o_drake.abstraction.ranking import build_abstraction, rank
 from s3o_drake.abstraction.task_feasibility import TaskFeasibility
 from s3o_drake.abstraction.voronoi import voronoi_partition
@@ -122,8 +123,8 @@ def _synthetic_row(label: str, scene: Scenario, perceived: list, heatmaps: dict,
     t0 = time.perf_counter()
     partition = voronoi_partition(KnownWorld.of(scene, perceived_chairs=perceived))
     partition.adjacency = adjacency
-    task = TaskFeasibility(partition, heatmaps, samples=scene.planner.location_samples,
-                           seed=scene.seed)
+    task = TaskFeasibility(LocationGrid.of(partition, heatmaps),
+                           samples=scene.planner.location_samples, seed=scene.seed)
     planner = scene.planner
     abstraction = rank(partition, task, top_k=planner.top_k,
                        location_cost=planner.gamma / planner.reward)

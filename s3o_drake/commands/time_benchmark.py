@@ -39,7 +39,7 @@ from s3o_drake.evaluation.store import ResultStore
 from s3o_drake.execution.execute import execute
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.motion_search import GRID_CELL, SequenceProblem, location_regions
+from s3o_drake.planning.motion_search import SequenceProblem, location_regions
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.time_model import MODEL_FILE, CostModel
 from s3o_drake.resources import TASKS_DIR
@@ -124,7 +124,7 @@ def evaluation_cost(scenario: Scenario, *, generations: int = 20, population: in
         best = np.inf
         for _ in range(repeats):
             problem = SequenceProblem(sequence, regions, fea, nav, known.pose,
-                                      costs.planner, None, GRID_CELL, costs)
+                                      costs.planner, None, costs)
             nav._endpoint_cache.clear()  # each repeat starts cold, as a new search does
             t0 = time.perf_counter()
             for X in batches:

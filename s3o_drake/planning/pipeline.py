@@ -5,7 +5,7 @@ the planner's settings name (`planner.feasibility`: "oracle", the Drake check of
 world, or "fcn", the network on the overhead depth image the KnownWorld carries), then plans
 with the method (`planner.plan_task`: one navigation map, the abstraction, clingo, the motion
 search). It returns a `PlanningResult`: the plan or the reason there is none, with the
-heatmaps, the navigation map and the state spaces it was made on.
+heatmaps, the navigation map, the state spaces and the location grid it was made on.
 
 The S3OPlanner system, `run`, the benchmarks and the evaluation plan through it; a replan is
 the same call with a newer KnownWorld (`KnownWorld.moved`).

@@ -21,10 +21,17 @@ The plan of highest utility wins (V-PETLON: least navigation cost).
 
 Costs for the task planner. Location-to-location costs are the collision-free path lengths
 between the locations' representative points, divided by v, x10, as integers. A location's
-representative point is its best standing spot: the point of its 5 cm grid with the
-highest joint Fea^m (the grid GROP* starts from, `motion_search.RegionGrid`), among the
-20 best the first that can be driven to from the start. The motion search then moves the
-stops, so these costs only rank the visiting orders.
+representative point is its best standing spot: the point of its location grid with the
+highest summed Fea^m under the joint-feasibility rule (the location GROP* starts from and
+GROP draws from, `abstraction/location_grid.py`), among the 20 best the first that can be
+driven to from the start. The motion search then moves the stops, so these costs only rank
+the visiting orders.
+
+One location grid per plan. Fea^m is evaluated once on the 5 cm location grid of the
+plan's Voronoi partition (built with the abstraction for the S3O methods, on the plain
+partition for V-GROP*/V-GROP; V-PETLON, which never samples a grid, builds none). Fea^t,
+the representative points and the motion searches read its locations, cached per (group,
+dishes); the result carries it.
 
 Budget. `time_budget` (default `scenario.planner.time_budget`) is a cap, not a target:
 planning stops when every iteration is searched. One deadline is checked between stages,
@@ -38,9 +45,10 @@ budget by their own duration.
 Workers. With `workers > 1` the motion searches (one per task-level sequence) run in that
 many worker processes while this process goes on with the next state space's task
 planning. The workers are forked once the navigation map, the abstraction and Fea^m exist,
-so they inherit them instead of rebuilding or unpickling them; only a sequence and its
-regions travel to a worker, and a `MotionResult` back. They never call Drake. Where fork is
-not available (not Linux) the searches run in this process.
+so they inherit them (and the location grid) instead of rebuilding or unpickling them;
+only a sequence, its regions and its locations' groups travel to a worker, and a
+`MotionResult` back. They never call Drake. Where fork is not available (not Linux) the
+searches run in this process.
 
 Determinism. All randomness comes from generators seeded with (seed, purpose, iteration,
 sequence), and results are compared in submission order, so the same seed gives the same
@@ -65,14 +73,13 @@ from s3o_drake.abstraction import (
     build_abstraction,
     voronoi_partition,
 )
-from s3o_drake.abstraction.task_feasibility import MotionFeasibility, as_motion_feasibility
+from s3o_drake.abstraction.location_grid import LocationGrid
+from s3o_drake.abstraction.motion_feasibility import as_motion_feasibility
 from s3o_drake.abstraction.voronoi import VoronoiPartition
 from s3o_drake.angles import facing_yaw
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.motion_search import (
-    GRID_CELL,
     MotionResult,
-    RegionGrid,
     grop,
     grop_star,
     location_regions,
@@ -127,6 +134,9 @@ class PlanningResult:
     """The plain Voronoi cells of the dishes (every method but the empty plan)."""
     abstraction: Abstraction | None = None
     """S3O's ranked state spaces (the S3O methods; None for the V- methods)."""
+    grid: LocationGrid | None = None
+    """The location grid Fea^t, the representative points and the motion search read
+    (None for V-PETLON, which samples no grid, and the empty plan)."""
     planning_time: float = 0.0
     """Wall time (s) spent: perception, Fea^m and the search (the plan's own figure)."""
 
@@ -145,12 +155,12 @@ _inherited: dict | None = None
 
 
 def _search_job(job: tuple) -> MotionResult:
-    actions, regions, seed_key = job
+    actions, regions, groups, seed_key = job
     s = _inherited
     assert s is not None, "search workers must be forked by _Searches"
     return s["search"](actions, regions, s["fea"], s["nav"], s["start"], s["planner"],
                        rng=np.random.default_rng(seed_key), deadline=s["deadline"],
-                       costs=s["costs"])
+                       costs=s["costs"], grid=s["grid"], groups=groups)
 
 
 class _Searches:
@@ -158,13 +168,13 @@ class _Searches:
     come back in submission order."""
 
     def __init__(self, workers: int, search: Callable[..., MotionResult], fea, nav, start,
-                 planner, deadline: float, costs: CostModel):
+                 planner, deadline: float, costs: CostModel, grid: LocationGrid):
         global _inherited
         # Workers stop a little early: collecting their results and letting them go takes
         # time too, and the budget must hold for the whole call.
         slack = WORKER_SLACK * max(0.0, deadline - time.monotonic()) if workers > 1 else 0.0
         self._shared = dict(search=search, fea=fea, nav=nav, start=start, planner=planner,
-                            deadline=deadline - slack, costs=costs)
+                            deadline=deadline - slack, costs=costs, grid=grid)
         self._pool: ProcessPoolExecutor | None = None
         self._pending: list[tuple[object, Future | MotionResult]] = []
         if workers > 1 and "fork" in multiprocessing.get_all_start_methods():
@@ -172,8 +182,8 @@ class _Searches:
             self._pool = ProcessPoolExecutor(max_workers=workers,
                                              mp_context=multiprocessing.get_context("fork"))
 
-    def submit(self, key: object, actions, regions, seed_key: list[int]) -> None:
-        job = (actions, regions, seed_key)
+    def submit(self, key: object, actions, regions, groups, seed_key: list[int]) -> None:
+        job = (actions, regions, groups, seed_key)
         if self._pool is None:
             global _inherited
             _inherited = self._shared
@@ -218,19 +228,20 @@ def _order(abstraction: Abstraction, rng: np.random.Generator) -> list[StateSpac
 
 
 def representative_points(regions: Mapping[str, BaseGeometry], groups: Sequence[Sequence[str]],
-                          names: Sequence[str], feasibility: MotionFeasibility,
-                          nav: NavigationMap, start: np.ndarray) -> dict[str, np.ndarray | None]:
-    """Each location's best standing spot (see the module docstring); None for an empty
-    region or one with no drivable spot among its best candidates."""
+                          names: Sequence[str], grid: LocationGrid, nav: NavigationMap,
+                          start: np.ndarray) -> dict[str, np.ndarray | None]:
+    """Each location's best standing spot on the plan's location grid (see the module
+    docstring); None for an empty region or one with no drivable spot among its best
+    candidates."""
     out: dict[str, np.ndarray | None] = {}
     for name, group in zip(names, groups, strict=True):
         region = regions[name]
         if region.is_empty or region.area <= 0:
             out[name] = None
             continue
-        grid = RegionGrid(region, list(group), feasibility, GRID_CELL)
-        ranked = np.argsort(-grid.weight, kind="stable")[:REPRESENTATIVE_CANDIDATES]
-        P = grid.points[ranked]
+        location = grid.location(group)
+        ranked = np.argsort(-location.weight, kind="stable")[:REPRESENTATIVE_CANDIDATES]
+        P = location.points[ranked]
         lengths = nav.path_lengths(np.broadcast_to(start, P.shape), P)
         ok = np.flatnonzero(np.isfinite(lengths))
         out[name] = P[ok[0]].copy() if len(ok) else None
@@ -343,12 +354,16 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
 
     t = time.monotonic()
     abstraction: Abstraction | None = None
+    grid: LocationGrid | None = None
     if method.startswith("S3O"):
         abstraction = build_abstraction(
             known, fea, seed=seed, time_limit=max(0.0, min(5.0, deadline - time.monotonic())))
         partition: VoronoiPartition = abstraction.partition
+        grid = abstraction.grid
     else:
         partition = voronoi_partition(known)
+        if method != "V-PETLON":  # PETLON draws its goals uniformly: it reads no grid
+            grid = LocationGrid.of(partition, fea)
     timing["abstraction"] = time.monotonic() - t
     expired("the abstraction")
     cells = dict(zip(partition.dishes, partition.cells, strict=True))
@@ -388,10 +403,11 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     search = grop if method.endswith("GROP") else grop_star
 
     tasks: dict[tuple[tuple[str, ...], ...], tuple[TaskPlanResult, dict[str, BaseGeometry]]] = {}
-    searches_run = _Searches(workers, search, fea, nav, start, planner, deadline, costs)
+    assert grid is not None
+    searches_run = _Searches(workers, search, fea, nav, start, planner, deadline, costs, grid)
     try:
         best, searches, samples = _search_spaces(
-            spaces, tasks, searches_run, cells, partition, fea, nav, start, planner,
+            spaces, tasks, searches_run, cells, partition, grid, nav, start, planner,
             n_sequences, seed, deadline, timing, expired)
     finally:
         searches_run.close()
@@ -404,11 +420,11 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     made = _assemble(method, seed, best, known, nav, timing,
                      time.monotonic() - t_start + feasibility_time, searches, samples, complete)
     return PlanningResult(known=known, method=method, seed=int(seed), plan=made, navigation=nav,
-                          partition=partition, abstraction=abstraction,
+                          partition=partition, abstraction=abstraction, grid=grid,
                           planning_time=made.planning_time)
 
 
-def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, fea, nav, start,
+def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, grid, nav, start,
                    planner, n_sequences, seed, deadline, timing, expired):
     """Task planning per state space here, motion searches through `searches_run`; the
     best result (ties: the first submitted), and how many searches and samples ran.
@@ -418,10 +434,10 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, fea
         if expired("the motion search", not submitted):
             break
         t = time.monotonic()
+        names = [f"l{k}" for k in range(len(groups))]
         if groups not in tasks:
-            names = [f"l{k}" for k in range(len(groups))]
             regions = location_regions(groups, cells)
-            points = representative_points(regions, groups, names, fea, nav, start)
+            points = representative_points(regions, groups, names, grid, nav, start)
             costs = location_costs(points, nav, start, planner.speed)
             lost = sorted(set(partition.unreachable)
                           | {d for n, g in zip(names, groups, strict=True)
@@ -448,7 +464,8 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, fea
                 break
             t = time.monotonic()
             searches_run.submit((groups, regions, unreachable, score), sequence.actions,
-                                regions, [seed, _SEARCH, it, j])
+                                regions, dict(zip(names, groups, strict=True)),
+                                [seed, _SEARCH, it, j])
             submitted = True
             timing["motion_search"] += time.monotonic() - t
     t = time.monotonic()
