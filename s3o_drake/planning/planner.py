@@ -23,8 +23,8 @@ Costs for the task planner. Location-to-location costs are the collision-free pa
 between the locations' representative points, divided by v, x10, as integers. A location's
 representative point is its best standing spot: the point of its location grid with the
 highest summed Fea^m under the joint-feasibility rule (the location GROP* starts from and
-GROP draws from, `abstraction/location_grid.py`), among the 20 best the first that can be
-driven to from the start. The motion search then moves the stops, so these costs only rank
+GROP draws from, `abstraction/location_grid.py`; ties to the point nearest the Fea^m-weighted
+centroid), among the 20 best the first that can be driven to from the start. The motion search then moves the stops, so these costs only rank
 the visiting orders.
 
 One location grid per plan. Fea^m is evaluated once on the 5 cm location grid of the
@@ -240,8 +240,14 @@ def representative_points(regions: Mapping[str, BaseGeometry], groups: Sequence[
             out[name] = None
             continue
         location = grid.location(group)
-        ranked = np.argsort(-location.weight, kind="stable")[:REPRESENTATIVE_CANDIDATES]
-        P = location.points[ranked]
+        w, points = location.weight, location.points
+        # Ties (a plateau of equal Fea^m) go to the point nearest the Fea^m-weighted
+        # centroid, as for GROP*'s initial point: not to whichever the lattice lists first.
+        centroid = (w[:, None] * points).sum(axis=0) / w.sum() if w.sum() > 0 else \
+            points.mean(axis=0)
+        near = np.linalg.norm(points - centroid, axis=1)
+        ranked = np.lexsort((near, -w))[:REPRESENTATIVE_CANDIDATES]
+        P = points[ranked]
         lengths = nav.path_lengths(np.broadcast_to(start, P.shape), P)
         ok = np.flatnonzero(np.isfinite(lengths))
         out[name] = P[ok[0]].copy() if len(ok) else None
