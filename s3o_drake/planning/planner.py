@@ -23,9 +23,9 @@ Costs for the task planner. Location-to-location costs are the collision-free pa
 between the locations' representative points, divided by v, x10, as integers. A location's
 representative point is its best standing spot: the point of its location grid with the
 highest summed Fea^m under the joint-feasibility rule (the location GROP* starts from and
-GROP draws from, `abstraction/location_grid.py`; ties to the point nearest the Fea^m-weighted
-centroid), among the 20 best the first that can be driven to from the start. The motion search then moves the stops, so these costs only rank
-the visiting orders.
+GROP draws from, `abstraction/location_grid.py`; ties to the point nearest the
+Fea^m-weighted centroid), among the 20 best the first that can be driven to from the start.
+The motion search then moves the stops, so these costs only rank the visiting orders.
 
 One location grid per plan. Fea^m is evaluated once on the 5 cm location grid of the
 plan's Voronoi partition (built with the abstraction for the S3O methods, on the plain
