@@ -3,7 +3,7 @@
 `ChairPerception(scenario)(color, depth, label)` returns the unmapped chairs' poses
 [x, y, yaw]; `perceived_chairs(scenario, images)` is the one-call form, and
 `perceive_known_world` makes the planner's `KnownWorld` of them. See `chairs`
-for the method and `benchmark` for its accuracy on the shipped tasks.
+for the method and `s3o_drake.commands.perception_benchmark` for its accuracy.
 """
 
 from s3o_drake.perception.chairs import (
