@@ -1,14 +1,24 @@
-"""Where the project's model files and shipped tasks live, and a Drake parser that finds
-them."""
+"""Where the project's shipped files live (models, scenarios, the diagrams' pictures), and a
+Drake parser that finds the models. Every path to a shipped file is made here."""
 
 from pathlib import Path
 
 from pydrake.multibody.parsing import Parser
 
 PACKAGE_NAME = "s3o_drake"
-MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
-TASKS_DIR = MODELS_DIR.parent / "scenarios" / "generated"
-"""The shipped benchmark tasks (`python -m s3o_drake.generate --count 100 --seed 0`)."""
+REPO_DIR = Path(__file__).resolve().parent.parent
+"""The checkout the package is installed from (`pip install -e .`)."""
+MODELS_DIR = REPO_DIR / "models"
+SCENARIOS_DIR = REPO_DIR / "scenarios"
+RESTAURANT = SCENARIOS_DIR / "restaurant.yaml"
+"""The default scenario: the restaurant of the paper's benchmark."""
+TASKS_DIR = SCENARIOS_DIR / "generated"
+"""The shipped benchmark tasks (`python -m s3o_drake.commands.generate --count 100 --seed 0`)."""
+DIAGRAMS_DIR = REPO_DIR / "diagrams"
+ROBOT_URDF = MODELS_DIR / "robot" / "mobile_manipulator.urdf"
+FCN_WEIGHTS = MODELS_DIR / "fcn" / "fcn.pt"
+REACHABILITY_MAP = MODELS_DIR / "reachability_map.npz"
+TIME_MODEL = MODELS_DIR / "time_model.yaml"
 
 
 def models_dir() -> Path:

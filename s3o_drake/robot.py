@@ -67,6 +67,9 @@ BASE_LENGTH = 0.62
 BASE_WIDTH = 0.56
 #: Circumscribed radius of the footprint (m), for inflating obstacles.
 BASE_RADIUS = math.hypot(BASE_LENGTH / 2, BASE_WIDTH / 2)
+#: Inscribed radius (m): the largest disc inside the footprint, whatever its yaw. Closer than
+#: this to an obstacle the base collides at every yaw, so standing spots keep at least this.
+INSCRIBED_RADIUS = BASE_WIDTH / 2
 
 #: Position of ur_base_link in base_link (m); see the URDF's header for the reasons.
 ARM_MOUNT_XYZ = (0.15, 0.0, 0.75)
@@ -169,3 +172,12 @@ def footprint_polygon(x: float, y: float, yaw: float) -> Polygon:
     R_WB = np.array([[c, -s], [s, c]])
     p_WC = p_BC @ R_WB.T + np.array([x, y])
     return Polygon(p_WC)
+
+
+#: How often (s) the execution systems of the full diagram look at their inputs: commands,
+#: reports and grips change a few times a minute, and a 50 ms reaction is invisible next
+#: to seconds-long motions, while every periodic event costs a state copy per firing.
+#: (Trajectories are evaluated at every plant step regardless.) A property of the robot's
+#: controllers, here at the bottom because the time model counts the hand-over between
+#: commands.
+CONTROL_PERIOD = 0.05

@@ -11,6 +11,7 @@ from shapely.ops import unary_union
 
 from s3o_drake.abstraction import (
     HeatmapFeasibility,
+    LocationGrid,
     TaskFeasibility,
     build_abstraction,
     connected_partitions,
@@ -21,6 +22,7 @@ from s3o_drake.abstraction import (
 from s3o_drake.abstraction.candidates import best_sums, connected_components
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.scenario import Dish, Room, Scenario, Table, load_scenario
 
 SMALL = Path(__file__).resolve().parent.parent / "scenarios" / "small"
@@ -28,6 +30,11 @@ SMALL = Path(__file__).resolve().parent.parent / "scenarios" / "small"
 
 def _chairs(scenario: Scenario) -> list[list[float]]:
     return [c.pose for c in scenario.chairs]
+
+
+def _known(scenario, perceived_chairs) -> KnownWorld:
+    """What the planner knows in `scenario` with these perceived chairs."""
+    return KnownWorld.of(scenario, perceived_chairs=perceived_chairs)
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +54,7 @@ def opposite_sides():
 
 def test_dishes_30_cm_apart_merge_in_the_top_ranked_state_space(two_dishes):
     scenario, heatmaps = two_dishes
-    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
+    abstraction = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps)
     assert abstraction.partition.edges() == [(0, 1)]
     assert abstraction.best.groups == (("plate_a", "cup_b"),)
     assert all(v > 0.5 for v in abstraction.best.task_feasibility.values())
@@ -57,7 +64,7 @@ def test_dishes_30_cm_apart_merge_in_the_top_ranked_state_space(two_dishes):
 
 def test_dishes_on_opposite_sides_are_never_one_location(opposite_sides):
     scenario, heatmaps = opposite_sides
-    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
+    abstraction = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps)
     assert abstraction.partition.edges() == []
     assert all(len(s.groups) == 2 for s in abstraction.ranked)
     assert abstraction.best.groups == (("bowl_north",), ("bowl_south",))
@@ -66,10 +73,10 @@ def test_dishes_on_opposite_sides_are_never_one_location(opposite_sides):
 @pytest.mark.parametrize("name", ["two_dishes", "opposite_sides"])
 def test_cell_areas_add_up_to_the_reachable_free_area(name):
     scenario = load_scenario(SMALL / f"{name}.yaml")
-    partition = voronoi_partition(scenario, _chairs(scenario))
+    partition = voronoi_partition(_known(scenario, _chairs(scenario)))
     discs = unary_union([Point(*d.position).buffer(scenario.planner.reach, quad_segs=32)
                          for d in scenario.dishes])
-    reachable_free = free_space(scenario, _chairs(scenario)).intersection(discs)
+    reachable_free = free_space(_known(scenario, _chairs(scenario))).intersection(discs)
     assert reachable_free.area > 0.5
     assert sum(c.area for c in partition.cells) == pytest.approx(reachable_free.area, rel=1e-6)
     # The cells do not overlap.
@@ -78,7 +85,7 @@ def test_cell_areas_add_up_to_the_reachable_free_area(name):
 
 def test_sym_agrees_with_nearest_dish_on_random_points(two_dishes):
     scenario, _ = two_dishes
-    partition = voronoi_partition(scenario, _chairs(scenario))
+    partition = voronoi_partition(_known(scenario, _chairs(scenario)))
     rng = np.random.default_rng(0)
     x_min, y_min, x_max, y_max = scenario.room.bounds
     points = rng.uniform([x_min, y_min], [x_max, y_max], (500, 2))
@@ -102,7 +109,7 @@ def test_sym_agrees_with_nearest_dish_on_random_points(two_dishes):
 
 def test_sym_of_a_state_space_maps_to_the_merged_location(two_dishes):
     scenario, heatmaps = two_dishes
-    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
+    abstraction = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps)
     merged, plain = abstraction.best, abstraction.plain_voronoi
     for cell in abstraction.partition.cells:
         p = cell.representative_point().coords[0]
@@ -113,8 +120,8 @@ def test_sym_of_a_state_space_maps_to_the_merged_location(two_dishes):
 
 def test_ranking_is_the_same_on_a_second_run(two_dishes):
     scenario, heatmaps = two_dishes
-    first = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
-    second = build_abstraction(scenario, list(heatmaps), perceived_chairs=_chairs(scenario))
+    first = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps)
+    second = build_abstraction(_known(scenario, _chairs(scenario)), list(heatmaps))
     assert [(s.groups, s.score, s.task_feasibility) for s in first.ranked] == \
         [(s.groups, s.score, s.task_feasibility) for s in second.ranked]
     np.testing.assert_array_equal(first.probabilities, second.probabilities)
@@ -138,7 +145,7 @@ def _ones(scenario: Scenario) -> list[Heatmap]:
 
 def test_a_dish_that_no_free_position_reaches_scores_0_and_is_reported():
     scenario = _blocked_dish_scene()
-    abstraction = build_abstraction(scenario, _ones(scenario), perceived_chairs=[])
+    abstraction = build_abstraction(_known(scenario, []), _ones(scenario))
     assert abstraction.unreachable == ["far"]
     assert abstraction.infeasible == ["far"]
     assert abstraction.partition.cells[0].is_empty
@@ -175,7 +182,7 @@ def test_candidate_counts_match_the_connected_partitions_of_known_graphs(n):
 
 def test_top_k_distribution_sums_to_1(two_dishes):
     scenario, heatmaps = two_dishes
-    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
+    abstraction = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps)
     assert len(abstraction.top_k) <= scenario.planner.top_k
     assert math.isclose(abstraction.probabilities.sum(), 1.0)
     assert np.all(abstraction.probabilities >= 0)
@@ -188,8 +195,8 @@ def test_top_k_distribution_sums_to_1(two_dishes):
 
 def test_beam_search_finds_the_exhaustive_best(two_dishes):
     scenario, heatmaps = two_dishes
-    exhaustive = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
-    beam = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario),
+    exhaustive = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps)
+    beam = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps,
                              exhaustive_max_dishes=0)
     assert not beam.exhaustive
     assert beam.best.groups == exhaustive.best.groups
@@ -205,24 +212,24 @@ def test_any_feasibility_source_with_values_works(two_dishes):
         def values(self, dish, points):
             return self.inner.values(dish, points)
 
-    by_heatmaps = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario))
-    by_source = build_abstraction(scenario, Source(), perceived_chairs=_chairs(scenario))
+    by_heatmaps = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps)
+    by_source = build_abstraction(_known(scenario, _chairs(scenario)), Source())
     assert [s.score for s in by_heatmaps.ranked] == [s.score for s in by_source.ranked]
 
 
 def test_unmapped_chairs_count_only_when_passed_as_perceived(two_dishes):
     scenario, _ = two_dishes
     assert not any(c.mapped for c in scenario.chairs)
-    without = free_space(scenario, [])
-    with_chair = free_space(scenario, _chairs(scenario))
+    without = free_space(_known(scenario, []))
+    with_chair = free_space(_known(scenario, _chairs(scenario)))
     assert with_chair.area < without.area - 0.1
     mapped = replace(scenario, chairs=[replace(c, mapped=True) for c in scenario.chairs])
-    assert free_space(mapped, []).area == pytest.approx(with_chair.area)
+    assert free_space(_known(mapped, [])).area == pytest.approx(with_chair.area)
 
 
 def test_paper_ranking_without_location_cost_still_keeps_scores(two_dishes):
     scenario, heatmaps = two_dishes
-    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=_chairs(scenario),
+    abstraction = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps,
                                     location_cost=0.0)
     scores = [s.score for s in abstraction.ranked]
     assert scores == sorted(scores, reverse=True)
@@ -260,11 +267,12 @@ def _two_table_scene() -> tuple[Scenario, list[Heatmap]]:
 
 def test_components_combined_rank_like_enumerating_the_whole_graph():
     scenario, heatmaps = _two_table_scene()
-    abstraction = build_abstraction(scenario, heatmaps, perceived_chairs=[])
+    abstraction = build_abstraction(_known(scenario, []), heatmaps)
     components = connected_components(4, abstraction.partition.adjacency)
     assert len(components) == 2  # the two tables are far apart
     cost = scenario.planner.gamma / scenario.planner.reward
-    task = TaskFeasibility(abstraction.partition, heatmaps, samples=100, seed=scenario.seed)
+    task = TaskFeasibility(LocationGrid.of(abstraction.partition, heatmaps), samples=100,
+                           seed=scenario.seed)
     brute = sorted(task.score(p) - cost * len(p)
                    for p in connected_partitions(4, abstraction.partition.adjacency))[::-1]
     assert abstraction.count == len(brute)
@@ -280,7 +288,7 @@ def test_benchmark_help_and_bad_input(tmp_path):
     import subprocess
     import sys
 
-    command = [sys.executable, "-m", "s3o_drake.abstraction.benchmark"]
+    command = [sys.executable, "-m", "s3o_drake.commands.abstraction_benchmark"]
     result = subprocess.run([*command, "--help"], capture_output=True, text=True, check=True)
     assert "--counts" in result.stdout and "<= 1 s" in result.stdout
     for bad in (["--counts", "0"], ["--scenario", str(tmp_path / "nope.yaml")], ["--fast"]):

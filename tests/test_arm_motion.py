@@ -1,7 +1,8 @@
 """Arm motion for execution: RRT-Connect on Drake's checker, timing, and pickup plans.
 
-The scene is scenarios/small/two_dishes.yaml: a table (x 1.4..2.6, y 2.1..2.9, top at 0.75 m)
-with a plate and a cup 0.2 m inside its free south edge; the robot faces them from y = 1.45.
+The scene (tests/conftest.py) is scenarios/small/two_dishes.yaml: a table (x 1.4..2.6, y
+2.1..2.9, top at 0.75 m) with a plate and a cup 0.2 m inside its free south edge; the robot
+faces them from y = 1.45.
 """
 
 import itertools
@@ -12,7 +13,14 @@ import numpy as np
 import pytest
 from pydrake.math import RigidTransform
 
-from s3o_drake.execution.arm_motion import (
+from s3o_drake.angles import facing_yaw
+from s3o_drake.feasibility import ik
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.grasps import rotation_for
+from s3o_drake.feasibility.pickup_geometry import LIFT_HEIGHT, X_WA, moved
+from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.manipulation.arm_motion import (
     ARM,
     CORNER_ROUNDINGS,
     STILL_DURATION,
@@ -23,36 +31,18 @@ from s3o_drake.execution.arm_motion import (
     rounded_corners,
     time_parameterize,
 )
-from s3o_drake.execution.pickup import (
+from s3o_drake.manipulation.pickup import (
     FINGER_MAX_VELOCITY,
     SEGMENT_NAMES,
     plan_pickup,
     segment_limits,
 )
-from s3o_drake.feasibility import ik
-from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.grasps import rotation_for
-from s3o_drake.feasibility.landing import facing_yaw
-from s3o_drake.feasibility.pickup_geometry import LIFT_HEIGHT, X_WA, moved
-from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.robot import ARM_STOW, GRIPPER_CLOSED, GRIPPER_OPEN
 from s3o_drake.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
-SCENE = REPO / "scenarios" / "small" / "two_dishes.yaml"
 # Facing north towards the table's free edge, 0.65 m from it.
 FRONT = np.array([1.85, 1.45, math.pi / 2])
-
-
-@pytest.fixture(scope="module")
-def scene():
-    return FeasibilityScene(load_scenario(SCENE))
-
-
-@pytest.fixture(scope="module")
-def checker(scene):
-    return FeasibilityChecker(scene, ReachabilityMap.load())
 
 
 @pytest.fixture(scope="module")

@@ -9,6 +9,8 @@ import pytest
 from pydrake.common.value import AbstractValue
 
 from s3o_drake.angles import wrap
+from s3o_drake.execution.base_navigator import BaseNavigator
+from s3o_drake.execution.messages import BaseCommand, CommandState
 from s3o_drake.planning.base_motion import (
     BaseProfile,
     backs_away,
@@ -18,8 +20,6 @@ from s3o_drake.planning.base_motion import (
 )
 from s3o_drake.robot import NUM_POSITIONS
 from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.base_navigator import BaseNavigator
-from s3o_drake.systems.commands import BaseCommand
 
 REPO = Path(__file__).resolve().parent.parent
 PROFILE = BaseProfile(speed=0.4)
@@ -124,6 +124,6 @@ def test_the_navigator_plays_the_profile_time():
         # Its status turns done settle_time after the motion ends, not before.
         end = motion.duration + profile.settle_time
         context.SetTime(end - 1e-6)
-        assert navigator.GetOutputPort("status").Eval(context).state == "running"
+        assert navigator.GetOutputPort("status").Eval(context).state is CommandState.RUNNING
         context.SetTime(end + 1e-6)
-        assert navigator.GetOutputPort("status").Eval(context).state == "done"
+        assert navigator.GetOutputPort("status").Eval(context).state is CommandState.DONE

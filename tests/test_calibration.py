@@ -10,7 +10,7 @@ from pathlib import Path
 import cv2
 import pytest
 
-from s3o_drake.calibration import main
+from s3o_drake.commands.calibration import main
 from s3o_drake.evaluation.calibration import (
     RecordsError,
     binomial_interval,
@@ -19,7 +19,7 @@ from s3o_drake.evaluation.calibration import (
     grouped,
     read_records,
 )
-from s3o_drake.systems.commands import PickupRecord
+from s3o_drake.execution.messages import PickupRecord
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -192,7 +192,7 @@ def _bad_inputs(tmp_path: Path) -> list[tuple[list[str], str]]:
 def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path):
     for argv, message in _bad_inputs(tmp_path):
         out = tmp_path / "out"
-        result = subprocess.run([sys.executable, "-m", "s3o_drake.calibration", *argv,
+        result = subprocess.run([sys.executable, "-m", "s3o_drake.commands.calibration", *argv,
                                  "--out", str(out)], capture_output=True, text=True,
                                 cwd=REPO)
         assert result.returncode == 2, (argv, result.stderr)
@@ -201,7 +201,7 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path):
 
 
 def test_help_is_the_module_docstring():
-    result = subprocess.run([sys.executable, "-m", "s3o_drake.calibration", "--help"],
+    result = subprocess.run([sys.executable, "-m", "s3o_drake.commands.calibration", "--help"],
                             capture_output=True, text=True, check=True, cwd=REPO)
     for text in ("RESULTS", "--out", "--methods", "--by", "--bins", "ECE", "Brier",
                  "reliability.png", "calibration.json", "Exit status"):

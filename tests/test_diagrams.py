@@ -1,11 +1,11 @@
 """diagrams/ holds the pictures of the diagrams the code builds now."""
 
-from s3o_drake import diagrams
+from s3o_drake.commands import diagrams
 
 
 def test_committed_diagrams_are_current():
     stale = diagrams.stale()
-    assert not stale, f"{stale} out of date: run python -m s3o_drake.diagrams"
+    assert not stale, f"{stale} out of date: run python -m s3o_drake.commands.diagrams"
 
 
 def test_rendering_is_deterministic_and_names_every_system(tmp_path):

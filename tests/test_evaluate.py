@@ -14,8 +14,8 @@ from pathlib import Path
 import matplotlib.image
 import pytest
 
-from s3o_drake.calibration import main as calibration
-from s3o_drake.evaluate import main as evaluate
+from s3o_drake.commands.calibration import main as calibration
+from s3o_drake.commands.evaluate import main as evaluate
 from s3o_drake.evaluation.difficulty import difficulty_groups
 from s3o_drake.evaluation.jobs import RUN, Job
 from s3o_drake.evaluation.scheduler import run_jobs
@@ -28,7 +28,7 @@ from s3o_drake.evaluation.summary import (
     paired_comparison,
     summarize,
 )
-from s3o_drake.systems.commands import PickupRecord
+from s3o_drake.execution.messages import PickupRecord
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small"
@@ -291,7 +291,7 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, c
     tasks = _three_tasks(tmp_path / "tasks")
     out = tmp_path / "results"
     # Killed mid-study (the whole process group, as a crash or a lost machine would).
-    process = subprocess.Popen([sys.executable, "-m", "s3o_drake.evaluate",
+    process = subprocess.Popen([sys.executable, "-m", "s3o_drake.commands.evaluate",
                                 *_command(tasks, out)], cwd=REPO, start_new_session=True,
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     results = out / "results.jsonl"

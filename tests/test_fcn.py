@@ -6,7 +6,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from s3o_drake.feasibility import dataset, fcn_benchmark, train
+from s3o_drake.commands import dataset as dataset_command
+from s3o_drake.commands import fcn_benchmark
+from s3o_drake.commands import train as train_command
+from s3o_drake.feasibility import dataset, training
 from s3o_drake.feasibility.fcn import (
     CHANNELS,
     FcnFeasibility,
@@ -61,9 +64,9 @@ def one_thread():
 
 def test_training_lowers_the_loss_on_a_tiny_dataset(one_thread):
     inputs, labels, scenes = _synthetic(8, seed=0)
-    config = train.TrainConfig(seed=0, epochs=6, patience=6, batch=4, lr=5e-3, width=4,
+    config = training.TrainConfig(seed=0, epochs=6, patience=6, batch=4, lr=5e-3, width=4,
                                val_fraction=0.25)
-    result = train.train(inputs, labels, scenes, config, progress=False)
+    result = training.train(inputs, labels, scenes, config, progress=False)
     assert result.train_loss[-1] < 0.8 * result.train_loss[0]
     assert min(result.val_loss) < result.val_loss[0]
     assert 0 <= result.val_mae <= 1
@@ -80,7 +83,8 @@ def test_auroc_is_the_rank_statistic():
 
 def test_dataset_writes_scenes_and_a_rerun_resumes(tmp_path, monkeypatch):
     out = tmp_path / "data"
-    assert dataset.main(["--count", "1", "--seed", "1000", "--out", str(out), "--quiet"]) == 0
+    argv = ["--count", "1", "--seed", "1000", "--out", str(out), "--quiet"]
+    assert dataset_command.main(argv) == 0
     first = dataset.scene_path(out, 0)
     with np.load(first) as data:
         n = len(data["dishes"])
@@ -100,7 +104,8 @@ def test_dataset_writes_scenes_and_a_rerun_resumes(tmp_path, monkeypatch):
                 "index": np.array(index)}
 
     monkeypatch.setattr(dataset, "make_scene", fake_scene)
-    assert dataset.main(["--count", "2", "--seed", "1000", "--out", str(out), "--quiet"]) == 0
+    argv = ["--count", "2", "--seed", "1000", "--out", str(out), "--quiet"]
+    assert dataset_command.main(argv) == 0
     assert computed == [1]
     assert first.stat().st_mtime_ns == stamp
     loaded = dataset.load_dataset(out)
@@ -108,11 +113,11 @@ def test_dataset_writes_scenes_and_a_rerun_resumes(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize(("module", "argv", "field"), [
-    (dataset, ["--count", "0", "--out", "x"], "--count"),
-    (dataset, ["--count", "2", "--out", "x", "--workers", "0"], "--workers"),
-    (dataset, ["--count", "2"], "--out"),
-    (train, ["--data", "/nonexistent/fcn"], "--data"),
-    (train, ["--data", "x", "--lr", "-1"], "--lr"),
+    (dataset_command, ["--count", "0", "--out", "x"], "--count"),
+    (dataset_command, ["--count", "2", "--out", "x", "--workers", "0"], "--workers"),
+    (dataset_command, ["--count", "2"], "--out"),
+    (train_command, ["--data", "/nonexistent/fcn"], "--data"),
+    (train_command, ["--data", "x", "--lr", "-1"], "--lr"),
     (fcn_benchmark, ["--tasks", "0"], "--tasks"),
     (fcn_benchmark, ["--weights", "/nonexistent.pt"], "--weights"),
 ])

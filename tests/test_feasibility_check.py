@@ -1,8 +1,8 @@
 """Motion-level feasibility: the one check, the reachability map, exhaustive IK.
 
-The scene is scenarios/small/two_dishes.yaml: a 1.2 m x 0.8 m table (x 1.4..2.6, y 2.1..2.9,
-top at 0.75 m) with a plate and a cup 0.2 m inside its free south edge (y = 2.1) and a chair
-at its north side.
+The scene (tests/conftest.py) is scenarios/small/two_dishes.yaml: a 1.2 m x 0.8 m table (x
+1.4..2.6, y 2.1..2.9, top at 0.75 m) with a plate and a cup 0.2 m inside its free south edge
+(y = 2.1) and a chair at its north side.
 """
 
 import dataclasses
@@ -15,35 +15,26 @@ import numpy as np
 import pytest
 from pydrake.geometry import Role
 
+from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility import reachability as reach
 from s3o_drake.feasibility.agreement import sample_queries
-from s3o_drake.feasibility.check import (
-    CheckResult,
-    FeasibilityChecker,
-    arm_base_positions,
-    grasp_specs,
-)
+from s3o_drake.feasibility.check import CheckResult, FeasibilityChecker
+from s3o_drake.feasibility.grasp_targets import arm_base_positions, grasp_specs
 from s3o_drake.feasibility.grasps import grasps_for
 from s3o_drake.feasibility.ik import grasp_error, solve_grasp_ik, verify
-from s3o_drake.feasibility.landing import facing_yaw
+from s3o_drake.feasibility.reachability_build import build_map
 from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
 from s3o_drake.furniture import DISH_KINDS
 from s3o_drake.robot import ARM_BASE_LINK, GRASP_FRAME, add_robot, robot_positions
 from s3o_drake.scenario import Chair, load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
-SCENE = REPO / "scenarios" / "small" / "two_dishes.yaml"
 # In front of the plate, facing it (north), 0.34 m from the table's edge.
 FRONT_OF_PLATE = np.array([1.85, 1.45, math.pi / 2])
 # The check's tolerance on the grasp frame.
 POSITION_TOLERANCE = 0.01
 ANGLE_TOLERANCE = math.radians(3.0)
-
-
-@pytest.fixture(scope="module")
-def scene():
-    return FeasibilityScene(load_scenario(SCENE))
 
 
 @pytest.fixture(scope="module")
@@ -287,8 +278,8 @@ def test_missing_map_names_the_build_command(tmp_path):
 
 
 def test_small_build_round_trips_through_its_file(tmp_path):
-    built = reach.build_map(resolution=0.1, rho_range=(0.5, 0.7), height_range=(0.0, 0.1),
-                            workers=1, progress=False)
+    built = build_map(resolution=0.1, rho_range=(0.5, 0.7), height_range=(0.0, 0.1),
+                      workers=1, progress=False)
     path = tmp_path / "map.npz"
     path.write_bytes(built.to_bytes())
     loaded = reach.ReachabilityMap.load(path)
@@ -300,12 +291,12 @@ def test_small_build_round_trips_through_its_file(tmp_path):
 
 def test_build_command_rejects_bad_arguments_in_one_line():
     run = subprocess.run(
-        [sys.executable, "-m", "s3o_drake.feasibility.reachability", "build",
+        [sys.executable, "-m", "s3o_drake.commands.build_reachability", "build",
          "--resolution", "0.5"], capture_output=True, text=True, cwd=REPO)
     assert run.returncode == 2
     assert run.stderr.count("\n") == 1 and "--resolution" in run.stderr
     help_text = subprocess.run(
-        [sys.executable, "-m", "s3o_drake.feasibility.reachability", "--help"],
+        [sys.executable, "-m", "s3o_drake.commands.build_reachability", "--help"],
         capture_output=True, text=True, cwd=REPO).stdout
     assert "inverse reachability map" in help_text and "build" in help_text
 

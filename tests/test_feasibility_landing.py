@@ -1,33 +1,22 @@
 """Where the base stands when it picks: the execution's landing, as Fea^m models it."""
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.landing import (
     CHECK_STEP_XY,
     FINAL_APPROACH,
     TURN_TOLERANCE,
-    facing_yaw,
     pickup_poses,
     stop_short,
     turn_until,
 )
-from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.scenario import load_scenario
 
-REPO = Path(__file__).resolve().parent.parent
-# A table x 1.4..2.6, y 2.1..2.9; plate_a at (1.85, 2.3), 0.2 m inside its free south edge.
-SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
-
-
-@pytest.fixture(scope="module")
-def checker():
-    return FeasibilityChecker(FeasibilityScene(load_scenario(SMALL)), ReachabilityMap.load())
+# `checker` (tests/conftest.py) is on scenarios/small/two_dishes.yaml: a table x 1.4..2.6,
+# y 2.1..2.9; plate_a at (1.85, 2.3), 0.2 m inside its free south edge.
 
 
 def test_a_target_inside_the_table_stops_short_at_its_edge(checker):

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
-from s3o_drake.feasibility.landing import facing_yaw
 from s3o_drake.feasibility.oracle import FeasibilityOracle
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
@@ -97,7 +97,7 @@ def test_heatmaps_do_not_depend_on_the_worker_count():
 
 
 def test_benchmark_rejects_bad_arguments_in_one_line(capsys):
-    from s3o_drake.feasibility.benchmark import main as benchmark_main
+    from s3o_drake.commands.feasibility_benchmark import main as benchmark_main
 
     with pytest.raises(SystemExit) as info:
         benchmark_main(["--queries", "3"])

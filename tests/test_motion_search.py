@@ -10,8 +10,9 @@ import shapely
 from shapely.geometry import Point, box
 
 from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
-from s3o_drake.angles import wrap
+from s3o_drake.angles import facing_yaw, wrap
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.motion_search import (
     PENALTY,
     MotionResult,
@@ -20,7 +21,6 @@ from s3o_drake.planning.motion_search import (
     location_regions,
 )
 from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.planning.plan import facing_yaw
 from s3o_drake.planning.time_model import CostModel
 from s3o_drake.scenario import load_scenario
 
@@ -34,6 +34,11 @@ def _grid(size: float = 4.0) -> tuple[np.ndarray, np.ndarray]:
     return np.meshgrid(xs, xs)  # X[i, j] = x of column j, Y[i, j] = y of row i
 
 
+def _known(scenario, perceived_chairs) -> KnownWorld:
+    """What the planner knows in `scenario` with these perceived chairs."""
+    return KnownWorld.of(scenario, perceived_chairs=perceived_chairs)
+
+
 def _ring(center, radius: float = 0.6, width: float = 0.3) -> np.ndarray:
     """Fea^m peaking on a circle around the dish, 0 beyond `width` from it."""
     X, Y = _grid()
@@ -45,8 +50,8 @@ def _ring(center, radius: float = 0.6, width: float = 0.3) -> np.ndarray:
 def scene():
     scenario = load_scenario("scenarios/small/two_dishes.yaml")
     chairs = [c.pose for c in scenario.chairs if not c.mapped]
-    nav = NavigationMap(scenario, chairs)
-    partition = voronoi_partition(scenario, chairs)
+    nav = NavigationMap(_known(scenario, chairs).obstacles)
+    partition = voronoi_partition(_known(scenario, chairs))
     regions = location_regions([["plate_a"], ["cup_b"]],
                                dict(zip(partition.dishes, partition.cells, strict=True)))
     fea = HeatmapFeasibility([Heatmap(d.name, _ring(d.position), 0.0, 0.0, CELL)
@@ -55,7 +60,7 @@ def scene():
 
 
 def _hand_utility(result: MotionResult, scenario, nav, fea) -> float:
-    """Σ R(a) of DESIGN.md 2.6 from single, unbatched queries."""
+    """Σ R(a) (GROP*'s utility) from single, unbatched queries."""
     p = scenario.planner
     here = np.asarray(scenario.robot.start[:2], float)
     k, total = 0, 0.0
@@ -122,7 +127,7 @@ def test_robot_profile_costs_by_hand(scene, sequence):
     time of the navigator's motions, the stop's turns and the pickups, query by query."""
     scenario, nav, regions, fea = scene
     regions = {**regions, "l01": regions["l0"].union(regions["l1"])}
-    costs = CostModel.for_scenario(scenario)
+    costs = CostModel.for_known(KnownWorld.perfect(scenario))
     result = grop_star(sequence, regions, fea, nav, scenario.robot.start, scenario.planner,
                        seed=2, costs=costs)
     assert result.valid
@@ -181,7 +186,7 @@ def test_prefers_the_near_spot():
     """One location with two equally feasible spots: the one near the start wins (the far
     spot is larger so that the initial point starts in it)."""
     scenario = load_scenario("scenarios/small/two_dishes.yaml")
-    nav = NavigationMap(scenario, [])
+    nav = NavigationMap(_known(scenario, []).obstacles)
     X, Y = _grid()
     near, far = (0.9, 1.2), (3.1, 1.2)
     values = ((np.hypot(X - near[0], Y - near[1]) < 0.2)

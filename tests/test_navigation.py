@@ -9,15 +9,11 @@ import shapely
 from shapely.geometry import LineString
 
 from s3o_drake.abstraction.voronoi import free_space
+from s3o_drake.commands.navigation_benchmark import benchmark, main
 from s3o_drake.feasibility.scene import ENVIRONMENT_PADDING
-from s3o_drake.planning.navigation import (
-    DRIVE_RADIUS,
-    INSCRIBED_RADIUS,
-    INSCRIBED_TOLERANCE,
-    NavigationMap,
-    main,
-)
-from s3o_drake.robot import BASE_RADIUS
+from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.navigation import DRIVE_RADIUS, INSCRIBED_TOLERANCE, NavigationMap
+from s3o_drake.robot import BASE_RADIUS, INSCRIBED_RADIUS
 from s3o_drake.scenario import Room, Scenario, Table, load_scenario
 
 RESTAURANT = "scenarios/restaurant.yaml"
@@ -25,6 +21,11 @@ RESTAURANT = "scenarios/restaurant.yaml"
 
 def _room(tables=()) -> Scenario:
     return Scenario(room=Room(bounds=[0.0, 0.0, 6.0, 4.0]), tables=list(tables))
+
+
+def _known(scenario, perceived_chairs) -> KnownWorld:
+    """What the planner knows in `scenario` with these perceived chairs."""
+    return KnownWorld.of(scenario, perceived_chairs=perceived_chairs)
 
 
 def _one_table() -> Scenario:
@@ -35,12 +36,12 @@ def _one_table() -> Scenario:
 def restaurant():
     scenario = load_scenario(RESTAURANT)
     perceived = [list(c.pose) for c in scenario.chairs if not c.mapped]
-    return scenario, perceived, NavigationMap(scenario, perceived)
+    return scenario, perceived, NavigationMap(_known(scenario, perceived).obstacles)
 
 
 def _free_points(scenario, perceived, n, seed=0) -> np.ndarray:
     """Positions the abstraction calls free, near the dishes (where CMA-ES samples)."""
-    region = free_space(scenario, perceived)
+    region = free_space(_known(scenario, perceived))
     dishes = np.array([d.position for d in scenario.dishes])
     rng = np.random.default_rng(seed)
     out = np.zeros((0, 2))
@@ -57,7 +58,7 @@ def test_radii():
 
 
 def test_empty_room_is_straight_line():
-    nav = NavigationMap(_room(), [])
+    nav = NavigationMap(_known(_room(), []).obstacles)
     p, q = [1.0, 1.0], [5.0, 3.2]
     assert nav.path_length(p, q) == pytest.approx(math.dist(p, q), abs=1e-9)
     path = nav.path(p, q)
@@ -65,7 +66,7 @@ def test_empty_room_is_straight_line():
 
 
 def test_around_a_table_matches_the_analytic_shortest_path():
-    nav = NavigationMap(_one_table(), [])
+    nav = NavigationMap(_known(_one_table(), []).obstacles)
     p, q = np.array([1.5, 2.0]), np.array([4.5, 2.0])
     r = DRIVE_RADIUS
     # Around the rounded rectangle (table offset by r): tangent, arc, top, arc, tangent.
@@ -118,7 +119,7 @@ def test_paths_keep_their_clearances(restaurant):
 
 
 def test_band_point_next_to_a_table_is_reachable():
-    nav = NavigationMap(_one_table(), [])
+    nav = NavigationMap(_known(_one_table(), []).obstacles)
     spot = [3.0, 2.3 + 0.33]  # 0.33 m from the table's edge: free, not driveable
     assert not nav.driveable.contains(shapely.Point(spot))
     length = nav.path_length([1.0, 3.5], spot)
@@ -137,18 +138,19 @@ def test_enclosed_goal_is_unreachable():
         angle = k * math.pi / 2
         chairs.append([*(centre + 0.8 * np.array([math.cos(angle), math.sin(angle)])),
                        angle + math.pi])
-    nav = NavigationMap(scenario, chairs)
+    nav = NavigationMap(_known(scenario, chairs).obstacles)
     assert nav.exact_clearance(centre)[0] >= INSCRIBED_RADIUS
     assert nav.path_length([0.8, 0.8], centre) == math.inf
     assert nav.path([0.8, 0.8], centre) is None
     # The same chairs, not perceived: free.
-    assert math.isfinite(NavigationMap(scenario, []).path_length([0.8, 0.8], centre))
+    free = NavigationMap(_known(scenario, []).obstacles)
+    assert math.isfinite(free.path_length([0.8, 0.8], centre))
 
 
 def test_perceived_chairs_change_the_path():
     p, q = [1.0, 2.0], [5.0, 2.0]
-    without = NavigationMap(_room(), [])
-    with_chair = NavigationMap(_room(), [[3.0, 2.0, 0.3]])
+    without = NavigationMap(_known(_room(), []).obstacles)
+    with_chair = NavigationMap(_known(_room(), [[3.0, 2.0, 0.3]]).obstacles)
     assert without.path_length(p, q) == pytest.approx(4.0)
     assert with_chair.path_length(p, q) > 4.0 + 0.05
     assert len(with_chair.path(p, q)) > 2
@@ -163,7 +165,7 @@ def test_symmetric_deterministic_and_batched(restaurant):
     np.testing.assert_allclose(forward, backward, rtol=1e-9, atol=1e-9)
     single = np.array([nav.path_length(p, q) for p, q in zip(P, Q, strict=True)])
     np.testing.assert_array_equal(forward, single)
-    again = NavigationMap(scenario, perceived).path_lengths(P, Q)
+    again = NavigationMap(_known(scenario, perceived).obstacles).path_lengths(P, Q)
     np.testing.assert_array_equal(forward, again)
     straight = np.linalg.norm(P - Q, axis=1)
     finite = np.isfinite(forward)
@@ -205,13 +207,13 @@ def test_cli(capsys):
 
 def test_fast_visibility_agrees_with_the_exact_segment_test(restaurant):
     scenario, perceived, fast = restaurant
-    exact = NavigationMap(scenario, perceived, fast_visibility=False)
+    exact = NavigationMap(_known(scenario, perceived).obstacles, fast_visibility=False)
     points = _free_points(scenario, perceived, 400, seed=4)
     V = fast.vertices
     mi, vi = np.nonzero(np.ones((len(points), len(V)), dtype=bool))
-    sees = fast._sees(points[mi], vi)
+    sees = fast._sight.polygons.sees(points[mi], vi)
     assert 0.05 < sees.mean() < 0.95
-    np.testing.assert_array_equal(sees, ~fast._blocked(points[mi], V[vi]))
+    np.testing.assert_array_equal(sees, ~fast._blocking_edges.blocked(points[mi], V[vi]))
     np.testing.assert_array_equal(fast.path_lengths(points[:200], points[200:]),
                                   exact.path_lengths(points[:200], points[200:]))
 
@@ -221,7 +223,7 @@ def test_lengths_match_an_independent_visibility_graph():
     from scipy.sparse.csgraph import shortest_path
 
     scenario = _one_table()
-    nav = NavigationMap(scenario, [[1.6, 2.9, 0.4], [4.4, 1.2, 2.0]])
+    nav = NavigationMap(_known(scenario, [[1.6, 2.9, 0.4], [4.4, 1.2, 2.0]]).obstacles)
     region = nav.driveable.buffer(1e-7)
     rng = np.random.default_rng(6)
     points = rng.uniform([0.4, 0.4], [5.6, 3.6], (200, 2))
@@ -243,10 +245,8 @@ def test_lengths_match_an_independent_visibility_graph():
 
 
 def test_benchmark_reports_figures(restaurant):
-    from s3o_drake.planning.navigation import benchmark
-
     scenario, perceived, _ = restaurant
-    figures = benchmark(scenario, perceived, queries=50)
+    figures = benchmark(_known(scenario, perceived), queries=50)
     assert figures["vertices"] > 0
     assert figures["cma_like_batch50_ms"] > 0
     assert 0.9 < figures["finite_fraction"] <= 1.0
@@ -273,7 +273,7 @@ def test_a_full_endpoint_cache_starts_afresh_without_losing_the_batch(monkeypatc
     from s3o_drake.planning import navigation
 
     monkeypatch.setattr(navigation, "_ENDPOINT_CACHE_SIZE", 4)
-    nav = NavigationMap(_room(), [])
+    nav = NavigationMap(_known(_room(), []).obstacles)
     P = np.array([[1.0, 1.0], [1.2, 1.0], [1.4, 1.0]])
     Q = np.array([[2.0, 2.0], [2.0, 1.8], [2.0, 1.6]])
     first = nav.path_lengths(P, Q)
@@ -287,7 +287,7 @@ def test_furniture_in_a_row_does_not_open_a_way_through_the_middle():
     vertices at the tables' edge line are collinear, and a chord along that line crosses
     no edge properly. The benchmark's robot drove into small_2 on such a path."""
     scenario = load_scenario("scenarios/generated/task_010.yaml")
-    nav = NavigationMap(scenario, [c.pose for c in scenario.chairs if not c.mapped])
+    nav = NavigationMap(KnownWorld.perfect(scenario).obstacles)
     path = nav.path([3.349, 1.567], [8.969, 2.589])
     assert path is not None
     # Interior segments keep the driving clearance (the first and the last join stops).

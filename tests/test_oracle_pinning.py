@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from s3o_drake.execution.pinning import executed, sample_poses, summarize
+from s3o_drake.commands.oracle_pinning import executed, sample_poses, summarize
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.feasibility.pickup_geometry import catch_probability, grasp_tolerance
 from s3o_drake.scenario import load_scenario

@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from s3o_drake.commands.perception_benchmark import match, true_chairs
 from s3o_drake.perception import ChairPerception, draw_chairs, perceived_chairs
-from s3o_drake.perception.benchmark import match, true_chairs
 from s3o_drake.scenario import load_scenario
-from s3o_drake.world import render_overhead
+from s3o_drake.world.builder import render_overhead
 
 REPO = Path(__file__).resolve().parent.parent
 CENTRE_TOLERANCE = 0.05  # m: the target
@@ -60,7 +60,7 @@ def test_mapped_chairs_are_not_reported(two_dishes):
 
 
 def test_takes_the_images_as_the_world_diagram_produces_them(two_dishes):
-    from s3o_drake.world import build_world_diagram, robot_hold_state
+    from s3o_drake.world.builder import build_world_diagram, robot_hold_state
 
     scenario, _ = two_dishes
     diagram = build_world_diagram(scenario)

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from s3o_drake.execution.pickup_benchmark import (
+from s3o_drake.commands.pickup_benchmark import (
     TIMINGS,
     main,
     trapezoid_duration,

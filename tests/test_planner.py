@@ -11,11 +11,12 @@ from shapely.geometry import Point
 
 from s3o_drake.abstraction import voronoi_partition
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
-from s3o_drake.planning.planner import METHODS, PlanningTimeoutError, plan
+from s3o_drake.planning.planner import PlanningTimeoutError, plan_task
 from s3o_drake.planning.task_planner import TaskProblem, check_plan
 from s3o_drake.planning.time_model import TimeModel
-from s3o_drake.scenario import load_scenario
+from s3o_drake.scenario import METHODS, load_scenario
 
 SCENES = ("two_dishes", "opposite_sides")
 
@@ -30,6 +31,17 @@ def scenes():
         chairs = [c.pose for c in scenario.chairs if not c.mapped]
         out[name] = (scenario, heatmaps, chairs)
     return out
+
+
+def _known(scenario, perceived_chairs) -> KnownWorld:
+    """What the planner knows in `scenario` with these perceived chairs."""
+    return KnownWorld.of(scenario, perceived_chairs=perceived_chairs)
+
+
+def plan(scenario, *, perceived_chairs, **kwargs) -> TaskMotionPlan:
+    """The plan of `scenario` from its start with these perceived chairs: the planner's own
+    call, `plan_task`, which raises when no plan can be made."""
+    return plan_task(_known(scenario, perceived_chairs), **kwargs).plan
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +69,7 @@ def test_valid_plan_for_every_method(scenes, plans, scene, method):
     assert {a.dish for a in p.pickups} == {d.name for d in scenario.dishes}
     assert math.isfinite(p.utility) and math.isfinite(p.predicted_time)
     # Poses: inside their location's region, facing the dish picked next; paths end there.
-    partition = voronoi_partition(scenario, chairs)
+    partition = voronoi_partition(_known(scenario, chairs))
     cells = dict(zip(partition.dishes, partition.cells, strict=True))
     dish_xy = {d.name: np.asarray(d.position) for d in scenario.dishes}
     here = np.asarray(scenario.robot.start[:2], float)
@@ -71,7 +83,7 @@ def test_valid_plan_for_every_method(scenes, plans, scene, method):
             assert yaw == pytest.approx(math.atan2(d[1], d[0]))
             assert np.allclose(a.path[0], here) and np.allclose(a.path[-1], (x, y))
             here = np.array([x, y])
-    # Utility as DESIGN.md 2.6 defines it, under the robot cost profile (the default): the
+    # Utility as GROP* defines it, under the robot cost profile (the default): the
     # costs are the predicted execution time (without its once-per-plan start and end),
     # the gains λ Fea^m (the paper profile: tests/test_time_model.py).
     pl = scenario.planner

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from s3o_drake.planning.benchmark import long_run, main, summarize
+from s3o_drake.commands.planning_benchmark import long_run, main, summarize
 from s3o_drake.resources import shipped_tasks
 from s3o_drake.scenario import load_scenario
 
@@ -73,7 +73,7 @@ def test_resumes_from_the_tasks_in_its_json_file(tmp_path, monkeypatch, capsys) 
     one with other settings is planned."""
     import json
 
-    from s3o_drake.planning import benchmark
+    from s3o_drake.commands import planning_benchmark as benchmark
 
     path = tmp_path / "bench.jsonl"
     settings = {"method": "S3O-GROP*", "seed": 0, "workers": 2, "factor": 10}

@@ -14,12 +14,12 @@ from pathlib import Path
 import cv2
 import pytest
 
-from s3o_drake.angles import wrap
+from s3o_drake.angles import facing_yaw, wrap
 from s3o_drake.camera import overhead_camera
-from s3o_drake.planning.plan import TaskMotionPlan, facing_yaw
-from s3o_drake.run import main as run_main
+from s3o_drake.commands.run import main as run_main
+from s3o_drake.execution.messages import PickupRecord
+from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.scenario import dump_scenario, load_scenario
-from s3o_drake.systems.commands import PickupRecord
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from s3o_drake.run import main as run_main
+from s3o_drake.commands.run import main as run_main
 from s3o_drake.scenario import (
     METHODS,
     ScenarioError,

@@ -1,14 +1,14 @@
 """ArmController: pickups planned from the real robot and dish, played, gripped and reported.
 
-The scene is scenarios/small/two_dishes.yaml: a table (x 1.4..2.6, y 2.1..2.9, top at 0.75 m)
-with a plate at (1.85, 2.3) and a cup at (2.15, 2.3); the robot faces them from y = 1.45.
+The scene (tests/conftest.py) is scenarios/small/two_dishes.yaml: a table (x 1.4..2.6, y
+2.1..2.9, top at 0.75 m) with a plate at (1.85, 2.3) and a cup at (2.15, 2.3); the robot
+faces them from y = 1.45.
 """
 
 import dataclasses
 import inspect
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,37 +24,18 @@ from pydrake.systems.primitives import (
     VectorLogSink,
 )
 
-from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.execution.arm_controller import REACH_NOISE_STREAM, ArmController
+from s3o_drake.execution.messages import CommandState, PickCommand, Status
 from s3o_drake.feasibility.grasps import RIM_INSET
 from s3o_drake.feasibility.pickup_geometry import grasp_tolerance
-from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
-from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.arm_controller import REACH_NOISE_STREAM, ArmController
-from s3o_drake.systems.commands import GripEvent, PickCommand, Status
-from s3o_drake.world import build_world_diagram
+from s3o_drake.world.builder import build_world_diagram
+from s3o_drake.world.dish_messages import DishPoses, DishState, GripEvent
 
-REPO = Path(__file__).resolve().parent.parent
-SCENE = REPO / "scenarios" / "small" / "two_dishes.yaml"
 FRONT_OF_PLATE = np.array([1.85, 1.45, math.pi / 2])
 STOWED = np.concatenate([ARM_STOW, GRIPPER_OPEN])
 PLANNING_REASONS = ("no_ik", "no_path", "base_collision")
-
-
-@pytest.fixture(scope="module")
-def scenario():
-    return load_scenario(SCENE)
-
-
-@pytest.fixture(scope="module")
-def scene(scenario):
-    return FeasibilityScene(scenario)
-
-
-@pytest.fixture(scope="module")
-def checker(scene):
-    return FeasibilityChecker(scene)
 
 
 def _controller(scenario, scene, checker, **kwargs):
@@ -110,7 +91,7 @@ def test_ports_and_idle_hold(scenario, scene, checker):
         _step(arm, context, t)
         desired, _, status = _outputs(arm, context)
         np.testing.assert_allclose(desired, np.concatenate([bent, np.zeros(8)]))
-        assert status.state == "idle"
+        assert status.state is CommandState.IDLE
 
 
 def test_pickup_plays_grips_places_and_ends_done(scenario, scene, checker):
@@ -120,7 +101,7 @@ def test_pickup_plays_grips_places_and_ends_done(scenario, scene, checker):
     t0 = 0.5
     record = _play(arm, context, t0)
     _, first, _, status = record[0]
-    assert status == Status(1, "running")
+    assert status == Status(1, CommandState.RUNNING)
     np.testing.assert_allclose(first[:8], STOWED, atol=1e-9)  # starts where the arm is
     held = [r[0] for r in record if r[2].dish == "plate_a"]
     assert held, "the gripper never held the plate"
@@ -129,7 +110,7 @@ def test_pickup_plays_grips_places_and_ends_done(scenario, scene, checker):
     assert t0 < held[0] and held[-1] < record[-1][0]
     assert all(r[2].placed == () for r in record if r[0] <= held[-1])
     t_end, last, grip, status = record[-1]
-    assert status == Status(1, "done")
+    assert status == Status(1, CommandState.DONE)
     assert grip == GripEvent("", ("plate_a",))
     np.testing.assert_allclose(last, np.concatenate([STOWED, np.zeros(8)]), atol=1e-9)
     assert 3.0 < t_end - t0 < 40.0
@@ -140,7 +121,7 @@ def test_pickup_plays_grips_places_and_ends_done(scenario, scene, checker):
     _step(arm, context, t_end + 1.0)
     desired, grip, status = _outputs(arm, context)
     np.testing.assert_allclose(desired, last)
-    assert status == Status(1, "done") and grip.placed == ("plate_a",)
+    assert status == Status(1, CommandState.DONE) and grip.placed == ("plate_a",)
 
 
 def _grasp_point(arm, context, scene, base, dish):
@@ -157,8 +138,9 @@ def test_grasp_aims_at_where_the_dish_really_is(scenario, scene, checker):
     for shift in (0.0, 0.03):
         arm, context = _controller(scenario, scene, checker, noise=False)
         _fix_robot(arm, context)
-        poses = {d.name: RigidTransform([d.position[0] + (shift if d.name == "plate_a" else 0),
-                                         d.position[1], 0.75]) for d in scenario.dishes}
+        poses = DishPoses(
+            (d.name, RigidTransform([d.position[0] + (shift if d.name == "plate_a" else 0),
+                                     d.position[1], 0.75])) for d in scenario.dishes)
         arm.GetInputPort("dish_poses").FixValue(context, poses)
         arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="plate_a"))
         points[shift] = _grasp_point(arm, context, scene, FRONT_OF_PLATE, "plate_a")
@@ -173,13 +155,14 @@ def test_base_too_far_fails_with_a_reason(scenario, scene, checker):
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=4, dish="plate_a"))
     _step(arm, context, 0.0)
     desired, grip, status = _outputs(arm, context)
-    assert status.id == 4 and status.state == "failed" and status.reason in PLANNING_REASONS
+    assert status.id == 4 and status.state is CommandState.FAILED
+    assert status.reason in PLANNING_REASONS
     np.testing.assert_allclose(desired, np.concatenate([STOWED, np.zeros(8)]))
     assert grip == GripEvent()
     # Unknown dishes fail by name, too.
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=5, dish="teapot"))
     _step(arm, context, 0.01)
-    assert _outputs(arm, context)[2] == Status(5, "failed", "unknown_dish")
+    assert _outputs(arm, context)[2] == Status(5, CommandState.FAILED, "unknown_dish")
 
 
 def test_grasp_tolerances_follow_the_gripper_geometry():
@@ -206,7 +189,7 @@ def test_large_reach_noise_misses_or_fails_without_raising(scenario, scene, chec
             assert "plate_a" not in record[-1][2].placed
         outcomes.append(status)
         t = record[-1][0] + 0.25
-    failed = [s for s in outcomes if s.state == "failed"]
+    failed = [s for s in outcomes if s.state is CommandState.FAILED]
     assert failed and all(s.reason in (*PLANNING_REASONS, "missed") for s in failed)
     # Missed or not, each report says how far off the reach was drawn.
     assert all(s.reach_noise is not None and len(s.reach_noise) == 2 for s in outcomes)
@@ -241,7 +224,7 @@ def test_no_reach_noise_is_reported_with_the_noise_off(scenario, scene, checker)
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=4, dish="plate_a"))
     _step(arm, context, 0.0)
     status = _outputs(arm, context)[2]
-    assert status.state == "failed" and status.reach_noise is None
+    assert status.state is CommandState.FAILED and status.reach_noise is None
 
 
 # ------------------------------------------------------------------------- simulated
@@ -275,7 +258,7 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
         builder.Connect(world.GetOutputPort("dish_poses"), arm.GetInputPort("dish_poses"))
         builder.Connect(arm.GetOutputPort("grip"), world.GetInputPort("grip"))
     else:
-        poses = {d.name: RigidTransform([*d.position, 0.75]) for d in start.dishes}
+        poses = DishPoses((d.name, RigidTransform([*d.position, 0.75])) for d in start.dishes)
         dishes = builder.AddSystem(ConstantValueSource(AbstractValue.Make(poses)))
         builder.Connect(dishes.get_output_port(), arm.GetInputPort("dish_poses"))
     builder.Connect(base.get_output_port(), mux.get_input_port(0))
@@ -294,7 +277,7 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     arm_context = arm.GetMyContextFromRoot(context)
     simulator.Initialize()
     simulator.AdvanceTo(0.05)  # plans at t = 0
-    assert arm.GetOutputPort("status").Eval(arm_context) == Status(1, "running")
+    assert arm.GetOutputPort("status").Eval(arm_context) == Status(1, CommandState.RUNNING)
     wall = time.perf_counter()
     t_end = 0.05
     while not arm.GetOutputPort("status").Eval(arm_context).finished and t_end < 40.0:
@@ -303,7 +286,7 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     wall = time.perf_counter() - wall
     print(f"\nsimulated {t_end - 0.05:.2f} s in {wall:.2f} s: real-time rate "
           f"{(t_end - 0.05) / wall:.2f}")
-    assert arm.GetOutputPort("status").Eval(arm_context) == Status(1, "done")
+    assert arm.GetOutputPort("status").Eval(arm_context) == Status(1, CommandState.DONE)
     assert arm.GetOutputPort("grip").Eval(arm_context).placed == ("plate_a",)
 
     desired = desired_log.FindLog(context).data()
@@ -331,4 +314,4 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     assert base_drift < 0.01
     if tracked:
         states = world.GetOutputPort("dish_states").Eval(world.GetMyContextFromRoot(context))
-        assert states["plate_a"] == "tray" and states["cup_b"] == "table"
+        assert states["plate_a"] is DishState.TRAY and states["cup_b"] is DishState.TABLE

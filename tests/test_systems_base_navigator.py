@@ -3,7 +3,6 @@ collisions; alone (forced updates, Eval at chosen times) and driving the world's
 
 import math
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,27 +17,12 @@ from pydrake.systems.primitives import (
 )
 
 from s3o_drake.angles import wrap as wrap_angle
-from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.execution.base_navigator import BaseNavigator
+from s3o_drake.execution.messages import BaseCommand, CommandState, Status
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
-from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.base_navigator import BaseNavigator
-from s3o_drake.systems.commands import BaseCommand, Status
-from s3o_drake.world import build_world_diagram
+from s3o_drake.world.builder import build_world_diagram
 
-REPO = Path(__file__).resolve().parent.parent
 V = 0.4  # the scenario's planner speed (default)
-
-
-@pytest.fixture(scope="module")
-def scenario():
-    scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
-    assert scenario.planner.speed == V
-    return scenario
-
-
-@pytest.fixture(scope="module")
-def scene(scenario):
-    return FeasibilityScene(scenario)
 
 
 def _robot_state(x: float, y: float, yaw: float) -> np.ndarray:
@@ -93,6 +77,7 @@ def test_without_command_holds_the_initial_base_pose(scenario):
 
 
 def test_drives_the_path_at_v_and_lands_on_the_pose(scenario):
+    assert scenario.planner.speed == V
     alone = _Alone(_navigator(scenario))
     # An L: east 1 m, then north 1 m, then face west.
     command = BaseCommand(id=1, path=((0.6, 0.6), (1.6, 0.6), (1.6, 1.6)),
@@ -101,7 +86,7 @@ def test_drives_the_path_at_v_and_lands_on_the_pose(scenario):
     # Mid first leg (already facing east): cruising at v along +x.
     a, status = alone.at(1.5)
     b, _ = alone.at(2.0)
-    assert status.id == 1 and status.state == "running"
+    assert status.id == 1 and status.state is CommandState.RUNNING
     np.testing.assert_allclose(a[3:], [V, 0, 0], atol=1e-12)
     assert b[0] - a[0] == pytest.approx(0.5 * V)
     assert a[1] == pytest.approx(0.6) and a[2] == pytest.approx(0.0)
@@ -109,7 +94,7 @@ def test_drives_the_path_at_v_and_lands_on_the_pose(scenario):
     np.testing.assert_allclose(final[:2], command.pose[:2], atol=1e-3)
     assert wrap_angle(final[2] - math.pi) == pytest.approx(0.0, abs=1e-9)
     np.testing.assert_allclose(final[3:], 0.0)
-    assert status == Status(id=1, state="done")
+    assert status == Status(id=1, state=CommandState.DONE)
 
     # The pose stays on the path (x = 0.6 -> 1.6 at y = 0.6, then y up at x = 1.6) and
     # yaw only turns (0 -> pi/2 -> pi) while xy stands still.
@@ -127,9 +112,9 @@ def test_status_waits_for_the_settle_time(scenario):
     alone = _Alone(_navigator(scenario, settle_time=0.3))
     alone.send(BaseCommand(id=4, path=((0.6, 0.6), (1.0, 0.6)), pose=(1.0, 0.6, 0.0)))
     # 0.4 m with v = 0.4 m/s and 1 m/s^2 ramps: 1.4 s of motion.
-    assert alone.at(1.35)[1].state == "running"
-    assert alone.at(1.6)[1].state == "running"
-    assert alone.at(1.75)[1] == Status(id=4, state="done")
+    assert alone.at(1.35)[1].state is CommandState.RUNNING
+    assert alone.at(1.6)[1].state is CommandState.RUNNING
+    assert alone.at(1.75)[1] == Status(id=4, state=CommandState.DONE)
 
 
 def test_command_id_0_stops_where_the_motion_is(scenario):
@@ -171,7 +156,7 @@ def test_landing_noise_is_seeded_per_command(scenario):
             alone.send(earlier)
         alone.send(command, t=5.0)
         final, status = alone.final()
-        assert status == Status(id=2, state="done")
+        assert status == Status(id=2, state=CommandState.DONE)
         landings.append(final[:3])
     np.testing.assert_allclose(landings[0][:2], expected[:2], atol=1e-9)
     assert wrap_angle(landings[0][2] - expected[2]) == pytest.approx(0.0, abs=1e-9)
@@ -188,15 +173,15 @@ def test_a_path_through_the_table_fails_blocked_before_it(scenario, scene):
     alone = _Alone(_navigator(scenario, scene), base=(0.6, 2.5, 0.0))
     alone.send(BaseCommand(id=3, path=((0.6, 2.5), (3.4, 2.5)), pose=(3.4, 2.5, 0.0)))
     final, status = alone.final()
-    assert status == Status(id=3, state="failed", reason="blocked")
+    assert status == Status(id=3, state=CommandState.FAILED, reason="blocked")
     assert 0.9 < final[0] < 1.4  # stopped in front of the table (the deck fits under its top)
     assert final[1] == pytest.approx(2.5)
     q = scene.q(final[:3])
     assert scene.checker.CheckConfigCollisionFree(q)
     # Within one check step of the first colliding pose.
     assert not scene.checker.CheckConfigCollisionFree(scene.q(final[:3] + np.array([0.021, 0, 0])))
-    # Running until the cut: "running" then "failed".
-    assert alone.at(1.0)[1].state == "running"
+    # Running until the cut, then failed.
+    assert alone.at(1.0)[1].state is CommandState.RUNNING
 
 
 def test_a_colliding_landing_ends_done_at_the_last_free_pose(scenario, scene):
@@ -204,7 +189,7 @@ def test_a_colliding_landing_ends_done_at_the_last_free_pose(scenario, scene):
     alone = _Alone(_navigator(scenario, scene), base=(2.0, 0.8, math.pi / 2))
     alone.send(BaseCommand(id=5, path=((2.0, 0.8), (2.0, 1.9)), pose=(2.0, 1.9, math.pi / 2)))
     final, status = alone.final()
-    assert status == Status(id=5, state="done")
+    assert status == Status(id=5, state=CommandState.DONE)
     assert 1.4 < final[1] < 1.9 and final[0] == pytest.approx(2.0)
     assert scene.checker.CheckConfigCollisionFree(scene.q(final[:3]))
 
@@ -214,7 +199,7 @@ def test_free_path_with_scene_is_untouched(scenario, scene):
     alone.send(BaseCommand(id=1, path=((0.6, 0.6), (3.0, 0.6)), pose=(3.0, 0.6, 0.0)))
     final, status = alone.final()
     np.testing.assert_allclose(final[:3], [3.0, 0.6, 0.0], atol=1e-9)
-    assert status == Status(id=1, state="done")
+    assert status == Status(id=1, state=CommandState.DONE)
 
 
 def test_backs_out_of_a_stop_too_tight_to_turn_in(scenario, scene):
@@ -229,7 +214,7 @@ def test_backs_out_of_a_stop_too_tight_to_turn_in(scenario, scene):
     alone = _Alone(_navigator(scenario, scene), base=tuple(base))
     alone.send(BaseCommand(id=4, path=((1.4, 1.78), (3.2, 1.2)), pose=(3.2, 1.2, 0.0)))
     final, status = alone.final()
-    assert status == Status(id=4, state="done")
+    assert status == Status(id=4, state=CommandState.DONE)
     np.testing.assert_allclose(final[:3], [3.2, 1.2, 0.0], atol=1e-9)
     # It first drove straight back (yaw unchanged, y decreasing), then turned.
     early, _ = alone.at(0.5)
@@ -274,7 +259,7 @@ def test_drives_the_plant_to_the_goal_in_simulation(scenario):
     state, status, sim_time, wall = _drive_in_world(scenario, command)
     print(f"\nbase navigator in the world: {sim_time:.1f} s simulated in {wall:.2f} s "
           f"({sim_time / wall:.0f}x real time)")
-    assert status == Status(id=1, state="done")
+    assert status == Status(id=1, state=CommandState.DONE)
     np.testing.assert_allclose(state[:2], command.pose[:2], atol=0.02)
     assert wrap_angle(state[2] - command.pose[2]) == pytest.approx(0.0, abs=0.02)
     np.testing.assert_allclose(state[3:9], ARM_STOW, atol=0.01)  # the arm held still
@@ -290,7 +275,7 @@ def test_a_turn_command_turns_where_the_base_stands(scenario):
     assert np.all(np.diff(poses[:, 2]) >= 0)  # straight to yaw 1.0, no detour
     final, status = alone.final()
     np.testing.assert_allclose(final[:3], [1.0, 1.0, 1.0])
-    assert status == Status(id=1, state="done")
+    assert status == Status(id=1, state=CommandState.DONE)
     # 1 rad: 0.4 s ramps to 0.8 rad/s and back, 0.68 rad at 0.8 rad/s; then the settle time.
-    assert alone.at(0.4 + 0.85 + 0.4 + 0.3 - 1e-6)[1].state == "running"
-    assert alone.at(0.4 + 0.85 + 0.4 + 0.3 + 1e-6)[1].state == "done"
+    assert alone.at(0.4 + 0.85 + 0.4 + 0.3 - 1e-6)[1].state is CommandState.RUNNING
+    assert alone.at(0.4 + 0.85 + 0.4 + 0.3 + 1e-6)[1].state is CommandState.DONE

@@ -18,12 +18,13 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
 
 from s3o_drake.camera import overhead_camera
 from s3o_drake.robot import robot_desired_state, robot_positions
 from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.geometry_mirror import GeometryMirror
-from s3o_drake.world import build_world_diagram, robot_render_labels
+from s3o_drake.world.builder import build_world_diagram, robot_render_labels
+from s3o_drake.world.geometry_mirror import AddGeometryMirror
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -53,10 +54,17 @@ def _original() -> tuple[SceneGraph, object, object]:
     return scene_graph, source, frame
 
 
+def _mirror(original: SceneGraph, source):
+    """The copy and the mirror, in a built diagram (returned: it owns them)."""
+    builder = DiagramBuilder()
+    copy = builder.AddSystem(SceneGraph())
+    mirror = AddGeometryMirror(builder, original=original, copy=copy, sources=[source])
+    return copy, mirror, builder.Build()
+
+
 def test_mirror_copies_perception_geometry_only_with_its_labels():
     original, source, _ = _original()
-    copy = SceneGraph()
-    mirror = GeometryMirror(original=original, copy=copy, sources=[source])
+    copy, mirror, _diagram = _mirror(original, source)
     inspector = copy.model_inspector()
     assert inspector.NumGeometriesWithRole(Role.kPerception) == 2
     assert inspector.NumGeometriesWithRole(Role.kIllustration) == 0
@@ -72,8 +80,7 @@ def test_mirror_copies_perception_geometry_only_with_its_labels():
 
 def test_mirror_moves_the_twin_where_the_original_frame_is():
     original, source, frame = _original()
-    copy = SceneGraph()
-    mirror = GeometryMirror(original=original, copy=copy, sources=[source])
+    copy, mirror, _diagram = _mirror(original, source)
     context = mirror.CreateDefaultContext()
     X_WF = RigidTransform([1.0, -2.0, 0.3])
     poses = FramePoseVector()

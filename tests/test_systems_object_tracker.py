@@ -1,14 +1,15 @@
 """ObjectTracker: dishes start on their tables, ride in the gripper, land on the tray or floor."""
 
 import base64
+import copy
+import json
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
-from pydrake.geometry import Meshcat, SceneGraph
+from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
-from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
@@ -24,31 +25,51 @@ from s3o_drake.robot import (
     robot_desired_state,
     robot_positions,
 )
-from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.commands import GripEvent
-from s3o_drake.systems.object_tracker import ObjectTracker
-from s3o_drake.world import build_world_diagram, populate_plant, robot_hold_state
+from s3o_drake.world.builder import build_world_diagram, populate_plant, robot_hold_state
+from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
+from s3o_drake.world.object_tracker import AddObjectTracker
 
-REPO = Path(__file__).resolve().parent.parent
-SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
 ARM_REACHING = np.array([0.3, -0.6, 1.2, -2.2, -1.571, 0.4])
 
 
 @pytest.fixture(scope="module")
-def scenario():
-    return load_scenario(SMALL)
-
-
-@pytest.fixture(scope="module")
 def tracker_and_plant(scenario):
-    plant = MultibodyPlant(0.0)
-    scene_graph = SceneGraph()
-    plant.RegisterAsSourceForSceneGraph(scene_graph)
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.0), builder)
     models = populate_plant(plant, scene_graph, scenario, dishes=False)
     plant.Finalize()
-    tracker = ObjectTracker(scenario=scenario, plant=plant, robot=models.robot,
-                            scene_graph=scene_graph)
-    return tracker, plant, models.robot
+    tracker = AddObjectTracker(builder, scenario=scenario, plant=plant, robot=models.robot,
+                               scene_graph=scene_graph)
+    diagram = builder.Build()  # owns the systems: held until the module's tests are done
+    yield tracker, plant, models.robot
+    del diagram
+
+
+def test_adding_a_tracker_needs_a_finalized_plant(scenario):
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.0), builder)
+    models = populate_plant(plant, scene_graph, scenario, dishes=False)
+    sources = scene_graph.model_inspector().num_sources()
+    with pytest.raises(ValueError, match="finalized"):
+        AddObjectTracker(builder, scenario=scenario, plant=plant, robot=models.robot,
+                         scene_graph=scene_graph)
+    assert scene_graph.model_inspector().num_sources() == sources  # nothing registered
+
+
+def test_dish_messages_are_read_only_and_print_as_words():
+    states = DishStates({"plate_a": DishState.TRAY, "cup_b": DishState.TABLE})
+    assert states.named(DishState.TRAY) == ("plate_a",) and states.named(DishState.DROPPED) == ()
+    assert str(DishState.TRAY) == f"{DishState.TRAY}" == "tray"
+    assert json.dumps(dict(states)) == '{"plate_a": "tray", "cup_b": "table"}'
+    with pytest.raises(TypeError):
+        states["cup_b"] = DishState.DROPPED
+    with pytest.raises(AttributeError):
+        states._values = {}
+    poses = DishPoses({"plate_a": RigidTransform([1.0, 2.0, 0.75])})
+    copied = copy.deepcopy(poses)  # as Drake copies port values
+    assert isinstance(copied, DishPoses) and copied["plate_a"] is not poses["plate_a"]
+    np.testing.assert_array_equal(copied["plate_a"].translation(), [1.0, 2.0, 0.75])
+    assert copy.deepcopy(states) == states
 
 
 def _frames(plant, robot, q) -> tuple[RigidTransform, RigidTransform]:
@@ -76,10 +97,10 @@ class _Driver:
         self.tracker.CalcForcedUnrestrictedUpdate(self.context, updated.get_mutable_state())
         self.context.SetTimeStateAndParametersFrom(updated)
 
-    def poses(self) -> dict[str, RigidTransform]:
+    def poses(self) -> DishPoses:
         return self.tracker.GetOutputPort("dish_poses").Eval(self.context)
 
-    def states(self) -> dict[str, str]:
+    def states(self) -> DishStates:
         return self.tracker.GetOutputPort("dish_states").Eval(self.context)
 
 
@@ -99,7 +120,7 @@ def test_ports_and_names(tracker_and_plant, scenario):
 def test_dishes_start_on_their_tables(tracker_and_plant, scenario):
     driver = _Driver(tracker_and_plant[0])
     heights = {t.name: t.height for t in scenario.tables}
-    assert driver.states() == {"plate_a": "table", "cup_b": "table"}
+    assert driver.states() == {"plate_a": DishState.TABLE, "cup_b": DishState.TABLE}
     for dish in scenario.dishes:
         X_WD = driver.poses()[dish.name]
         np.testing.assert_allclose(X_WD.translation(), [*dish.position, heights[dish.table]])
@@ -108,6 +129,10 @@ def test_dishes_start_on_their_tables(tracker_and_plant, scenario):
     assert len(frame_poses.ids()) == 2
     for frame_id in frame_poses.ids():
         assert frame_poses.value(frame_id).translation()[2] == pytest.approx(0.75)
+    # The output holds copies: a reader that changes one does not move the dish.
+    driver.poses()["plate_a"].set_translation([0.0, 0.0, 0.0])
+    driver.set(robot_positions(1.2, 2.0, 0.0), GripEvent())  # a fresh Eval
+    np.testing.assert_allclose(driver.poses()["plate_a"].translation(), [1.85, 2.3, 0.75])
 
 
 def test_gripped_dish_follows_the_grasp_frame_then_lands_on_the_tray(tracker_and_plant):
@@ -117,7 +142,7 @@ def test_gripped_dish_follows_the_grasp_frame_then_lands_on_the_tray(tracker_and
     q1 = robot_positions(1.2, 2.0, 0.1, ARM_REACHING)
     driver.set(q1, GripEvent(dish="plate_a"))
     driver.update()
-    assert driver.states() == {"plate_a": "gripper", "cup_b": "table"}
+    assert driver.states() == {"plate_a": DishState.GRIPPER, "cup_b": DishState.TABLE}
     _assert_same_pose(driver.poses()["plate_a"], X_WD0)  # picked up where it stood
 
     # The arm and base move: the dish keeps its pose in the grasp frame.
@@ -127,12 +152,12 @@ def test_gripped_dish_follows_the_grasp_frame_then_lands_on_the_tray(tracker_and
     X_WG2, X_WT2 = _frames(plant, robot, q2)
     _assert_same_pose(driver.poses()["plate_a"], X_WG2 @ X_WG1.inverse() @ X_WD0)
     driver.update()  # no change of grip: nothing happens
-    assert driver.states()["plate_a"] == "gripper"
+    assert driver.states()["plate_a"] is DishState.GRIPPER
 
     # Released after being placed: on the tray's floor, inside the rim.
     driver.set(q2, GripEvent(dish="", placed=("plate_a",)))
     driver.update()
-    assert driver.states() == {"plate_a": "tray", "cup_b": "table"}
+    assert driver.states() == {"plate_a": DishState.TRAY, "cup_b": DishState.TABLE}
     X_TD = X_WT2.inverse() @ driver.poses()["plate_a"]
     radius = DISH_SHAPES["plate"].radius
     x, y, z = X_TD.translation()
@@ -147,7 +172,7 @@ def test_gripped_dish_follows_the_grasp_frame_then_lands_on_the_tray(tracker_and
     _, X_WT3 = _frames(plant, robot, q3)
     _assert_same_pose(driver.poses()["plate_a"], X_WT3 @ X_TD)
     driver.update()
-    assert driver.states()["plate_a"] == "tray"
+    assert driver.states()["plate_a"] is DishState.TRAY
 
 
 def test_released_dish_not_placed_drops_to_the_floor(tracker_and_plant):
@@ -163,7 +188,7 @@ def test_released_dish_not_placed_drops_to_the_floor(tracker_and_plant):
 
     driver.set(q_moved, GripEvent())
     driver.update()
-    assert driver.states() == {"plate_a": "table", "cup_b": "dropped"}
+    assert driver.states() == {"plate_a": DishState.TABLE, "cup_b": DishState.DROPPED}
     X_WD = driver.poses()["cup_b"]
     np.testing.assert_allclose(X_WD.translation(), [p_held[0], p_held[1], 0.0], atol=1e-9)
     # It stays there whatever the robot does next.
@@ -180,7 +205,7 @@ def test_tracker_in_a_periodic_simulation_picks_up_when_gripped(tracker_and_plan
     tracker.GetInputPort("robot_state").FixValue(context, robot_desired_state(q))
     tracker.GetInputPort("grip").FixValue(context, GripEvent(dish="cup_b"))
     simulator.AdvanceTo(0.05)
-    assert tracker.GetOutputPort("dish_states").Eval(context)["cup_b"] == "gripper"
+    assert tracker.GetOutputPort("dish_states").Eval(context)["cup_b"] is DishState.GRIPPER
 
 
 def _world_with_robot_held(scenario, grip: GripEvent, meshcat=None):
@@ -209,7 +234,7 @@ def test_world_with_tracked_dishes_sees_them_on_the_tables(scenario):
 
     heights = {t.name: t.height for t in scenario.tables}
     assert world.GetOutputPort("dish_states").Eval(world_context) == {
-        "plate_a": "table", "cup_b": "table"}
+        "plate_a": DishState.TABLE, "cup_b": DishState.TABLE}
     poses = world.GetOutputPort("dish_poses").Eval(world_context)
     camera = overhead_camera(scenario)
     depth = world.GetOutputPort("overhead_depth_image").Eval(world_context).data[:, :, 0]
@@ -233,7 +258,7 @@ def test_world_with_tracked_dishes_sees_them_on_the_tables(scenario):
 def test_world_with_a_gripped_dish_holds_it_where_the_robot_holds_still(scenario):
     world, simulator, world_context = _world_with_robot_held(scenario, GripEvent(dish="plate_a"))
     simulator.AdvanceTo(0.1)
-    assert world.GetOutputPort("dish_states").Eval(world_context)["plate_a"] == "gripper"
+    assert world.GetOutputPort("dish_states").Eval(world_context)["plate_a"] is DishState.GRIPPER
     p_WD = world.GetOutputPort("dish_poses").Eval(world_context)["plate_a"].translation()
     np.testing.assert_allclose(p_WD, [1.85, 2.3, 0.75], atol=2e-3)
 

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
+from s3o_drake.execution.messages import NO_COMMAND, PickupRecord, Status
+from s3o_drake.execution.s3o_planner import S3OPlanner, scenario_unmapped_chairs
 from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.robot import robot_desired_state, robot_positions
 from s3o_drake.scenario import load_scenario
-from s3o_drake.systems.commands import NO_COMMAND, PickupRecord, Status
-from s3o_drake.systems.s3o_planner import S3OPlanner, scenario_unmapped_chairs
 
 SCENE = "scenarios/small/opposite_sides.yaml"
 
@@ -63,7 +63,9 @@ def test_plans_at_initialization(planned, scenario):
     progress = system.GetOutputPort("progress").Eval(context)
     assert progress.total == len(plan.actions) and not progress.finished
     assert system.GetOutputPort("base_command").Eval(context).id == NO_COMMAND
-    assert system.planning_time(context) > 0
+    assert system.GetOutputPort("planning_time").Eval(context)[0] > 0
+    result = system.GetOutputPort("planning_result").Eval(context)
+    assert result.plan is plan and result.navigation is not None and result.heatmaps
 
 
 def test_walks_the_plan_on_the_controllers_reports(scenario):
@@ -127,14 +129,15 @@ def test_perception_decides_the_obstacles(scenario):
 
     def perceive(color, depth, label):
         seen.append((color.shape, depth.shape, label.shape))
-        return []
+        return [[1.0, 1.0, 0.0]]
 
     system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0, perceive=perceive)
-    known = system.known_scenario([[1.0, 1.0, 0.0]])
-    assert [c.pose for c in known.chairs if not c.mapped] == [[1.0, 1.0, 0.0]]
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
     assert seen == [((8, 8, 4), (8, 8), (8, 8))]
+    known = system.GetOutputPort("planning_result").Eval(context).known
+    assert known.perceived_chairs == ((1.0, 1.0, 0.0),)
+    assert known.settings.chairs == [c for c in scenario.chairs if c.mapped]
 
 
 def test_turns_to_face_each_further_dish_before_picking_it():
@@ -246,7 +249,7 @@ def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
         context, Status(id=turn.id, state="failed", reason="blocked"))
     _step(system, context)
     progress = system.GetOutputPort("progress").Eval(context)
-    assert progress.outcomes[-1] == ("pickup", second.dish, "failed: turn blocked")
+    assert tuple(progress.outcomes[-1]) == ("pickup", second.dish, "failed: turn blocked")
     done, blocked = progress.pickups
     assert (done.dish, done.outcome, blocked.dish) == (first.dish, "done", second.dish)
     assert done.actual_pose == pytest.approx(goto.pose)

@@ -8,10 +8,19 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource
 
-from s3o_drake.systems.commands import PickupRecord, PlanProgress
-from s3o_drake.systems.task_monitor import TaskMonitor
+from s3o_drake.execution.messages import (
+    ActionOutcome,
+    CommandState,
+    PickupRecord,
+    PlanProgress,
+    RunReport,
+    Status,
+)
+from s3o_drake.execution.task_monitor import TaskMonitor
+from s3o_drake.world.dish_messages import DishState, DishStates
 
-STATES = {"plate_a": "tray", "cup_b": "dropped", "bowl_c": "tray", "plate_d": "table"}
+STATES = DishStates({"plate_a": DishState.TRAY, "cup_b": DishState.DROPPED,
+                     "bowl_c": DishState.TRAY, "plate_d": DishState.TABLE})
 RECORDS = (
     PickupRecord(dish="plate_a", kind="plate", method="S3O-GROP*", predicted=0.97,
                  source="fcn", planned_pose=(1.0, 2.0, 0.5), actual_pose=(1.05, 1.9, 0.52),
@@ -21,8 +30,10 @@ RECORDS = (
                  outcome="missed", reach_noise=(0.03, 0.02)),
 )
 DONE = PlanProgress(step=4, total=4, finished=True, reason="plan complete",
-                    outcomes=(("goto", "l1", "done"), ("pickup", "plate_a", "done"),
-                              ("pickup", "cup_b", "failed: missed")), pickups=RECORDS)
+                    outcomes=(ActionOutcome("goto", "l1", done=True),
+                              ActionOutcome("pickup", "plate_a", done=True),
+                              ActionOutcome("pickup", "cup_b", done=False, reason="missed")),
+                    pickups=RECORDS)
 
 
 def _fixed(monitor: TaskMonitor, context, progress: PlanProgress, states=STATES):
@@ -42,9 +53,10 @@ def test_report_counts_the_dishes_on_the_tray():
     _fixed(monitor, context, PlanProgress(step=2, total=4))
     context.SetTime(3.0)
     report = monitor.GetOutputPort("report").Eval(context)
-    assert report == {"dishes": 4, "collected": 2, "collected_dishes": ["bowl_c", "plate_a"],
-                      "execution_time": 3.0, "finished": False, "reason": "", "outcomes": [],
-                      "pickups": []}
+    assert isinstance(report, RunReport)
+    assert report.to_dict() == {
+        "dishes": 4, "collected": 2, "collected_dishes": ["bowl_c", "plate_a"],
+        "execution_time": 3.0, "finished": False, "reason": "", "outcomes": [], "pickups": []}
 
 
 def test_execution_time_is_when_the_plan_finished():
@@ -55,9 +67,9 @@ def test_execution_time_is_when_the_plan_finished():
     _force_check(monitor, context)
     context.SetTime(14.0)
     report = monitor.GetOutputPort("report").Eval(context)
-    assert report["finished"] and report["reason"] == "plan complete"
-    assert report["execution_time"] == pytest.approx(12.5)
-    assert report["outcomes"] == [["goto", "l1", "done"], ["pickup", "plate_a", "done"],
+    assert report.finished and report.reason == "plan complete"
+    assert report.execution_time == pytest.approx(12.5)
+    assert report.to_dict()["outcomes"] == [["goto", "l1", "done"], ["pickup", "plate_a", "done"],
                                   ["pickup", "cup_b", "failed: missed"]]
 
 
@@ -65,7 +77,7 @@ def test_report_carries_the_pickup_records_as_plain_json():
     monitor = TaskMonitor()
     context = monitor.CreateDefaultContext()
     _fixed(monitor, context, DONE)
-    pickups = monitor.GetOutputPort("report").Eval(context)["pickups"]
+    pickups = monitor.GetOutputPort("report").Eval(context).to_dict()["pickups"]
     assert pickups[1] == {"dish": "cup_b", "kind": "cup", "method": "S3O-GROP*",
                           "predicted": 0.6, "source": "fcn", "planned_pose": [1.0, 2.0, 0.5],
                           "actual_pose": [1.05, 1.9, 0.8], "outcome": "missed",
@@ -89,9 +101,9 @@ def test_simulation_ends_settle_time_after_the_plan_finishes():
     assert status.reason() == status.ReturnReason.kReachedTerminationCondition
     assert context.get_time() == pytest.approx(1.5, abs=0.011)
     report = monitor.GetOutputPort("report").Eval(context)
-    assert report["execution_time"] == pytest.approx(1.0, abs=0.011)
-    assert report["collected"] == 2 and report["finished"]
-    assert [p["outcome"] for p in report["pickups"]] == ["done", "missed"]
+    assert report.execution_time == pytest.approx(1.0, abs=0.011)
+    assert report.collected == 2 and report.finished
+    assert [p.outcome for p in report.pickups] == ["done", "missed"]
 
 
 def test_simulation_ends_at_the_time_limit():
@@ -110,8 +122,8 @@ def test_simulation_ends_at_the_time_limit():
     context = monitor.GetMyContextFromRoot(simulator.get_context())
     assert context.get_time() == pytest.approx(2.0, abs=0.011)
     report = monitor.GetOutputPort("report").Eval(context)
-    assert report["reason"] == "time limit" and not report["finished"]
-    assert report["execution_time"] == pytest.approx(2.0, abs=0.011)
+    assert report.reason == "time limit" and not report.finished
+    assert report.execution_time == pytest.approx(2.0, abs=0.011)
 
 
 @pytest.mark.parametrize("change, field", [
@@ -127,6 +139,16 @@ def test_a_bad_pickup_record_is_refused_by_field(change, field):
     if field != "reach_noise":  # optional: None when no noise was drawn
         with pytest.raises(ValueError, match=field):
             PickupRecord.from_dict(data)
+
+
+def test_a_status_carries_a_command_state_that_prints_as_its_word():
+    status = Status(3, "done")  # a word is taken as its state
+    assert status.state is CommandState.DONE and status.finished
+    assert status == Status(3, CommandState.DONE) and not Status(4).finished
+    assert str(status.state) == f"{status.state}" == "done"
+    assert json.dumps(status.state) == '"done"'
+    with pytest.raises(ValueError):
+        Status(3, "finished")
 
 
 def test_bad_arguments_are_refused():

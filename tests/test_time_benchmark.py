@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from s3o_drake.execution import time_benchmark
-from s3o_drake.execution.time_benchmark import main, summarize
+from s3o_drake.commands import time_benchmark
+from s3o_drake.commands.time_benchmark import main, summarize
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -51,7 +51,7 @@ def test_summary_splits_runs_with_failures():
                                          (["--tasks", "nowhere"], "--tasks"),
                                          (["--method", "RRT"], "--method")])
 def test_bad_input_is_one_line_and_status_2(tmp_path, argv, field):
-    result = subprocess.run([sys.executable, "-m", "s3o_drake.execution.time_benchmark", *argv],
+    result = subprocess.run([sys.executable, "-m", "s3o_drake.commands.time_benchmark", *argv],
                             capture_output=True, text=True, cwd=REPO)
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and field in result.stderr

@@ -1,4 +1,4 @@
-"""Candidate state spaces: partitions of the dishes into groups of adjacent cells (DESIGN.md 2.3).
+"""Candidate state spaces: partitions of the dishes into groups of adjacent cells.
 
 A candidate is a partition of the dish indices into groups whose cells form a connected
 piece of the adjacency graph; each group is one merged location. A partition is a tuple

@@ -1,13 +1,13 @@
 """Score and rank candidate state spaces; the top-K distribution the planner samples from.
 
-`build_abstraction` is the one entry point (DESIGN.md 2.2-2.4): Voronoi cells of the
+`build_abstraction` is the one entry point (S3O's steps 2-4): Voronoi cells of the
 free space, candidate partitions, task-level feasibility of every group, Score, rank.
 
 Ranking value. The paper ranks by Score = Σ_o Fea^t(l(o), o) alone. That Score barely
 moves when two close dishes merge (both stay about as feasible), and Fea^m and Fea^t
 are Monte-Carlo estimates, so plain Voronoi and a sensible merge differ by noise. The
 planner's own utility settles it: every location costs at least one `goto`, γ = 20,
-against λ = 150 per unit of pickup feasibility (DESIGN.md 2.6). Candidates are therefore
+against λ = 150 per unit of pickup feasibility (GROP*'s utility). Candidates are therefore
 ranked by Score - c·|L| with the location cost c = γ / λ (0.133 by default; pass
 `location_cost=0` for the paper's ranking): a merge wins unless it loses more than c of
 summed Fea^t. Remaining ties (within 1e-9) go to fewer locations, then the canonical
@@ -33,9 +33,11 @@ from s3o_drake.abstraction.candidates import (
     connected_components,
     generate_candidates,
 )
-from s3o_drake.abstraction.task_feasibility import DEFAULT_GRID_CELL, TaskFeasibility
-from s3o_drake.abstraction.voronoi import INSCRIBED_RADIUS, VoronoiPartition, voronoi_partition
-from s3o_drake.scenario import Scenario
+from s3o_drake.abstraction.location_grid import GRID_CELL, LocationGrid
+from s3o_drake.abstraction.task_feasibility import TaskFeasibility
+from s3o_drake.abstraction.voronoi import VoronoiPartition, voronoi_partition
+from s3o_drake.known_world import KnownWorld
+from s3o_drake.robot import INSCRIBED_RADIUS
 
 KEEP = 1000
 """How many of the best candidates are kept, scored and ranked in full."""
@@ -82,6 +84,9 @@ class Abstraction:
     """Each adjacency component's generated partitions and ranking values, best first."""
     elapsed: float
     """Wall time of candidate generation and scoring (s)."""
+    grid: LocationGrid
+    """The location grid Fea^t was computed on: the planner's representative points and
+    motion search read the same one."""
     infeasible: list[str] = field(default_factory=list)
     """Dishes whose Fea^t is 0 even alone (unreachable ones included)."""
     _make: Callable[[Partition, float], StateSpace] | None = field(default=None, repr=False)
@@ -196,34 +201,34 @@ def rank(partition: VoronoiPartition, task: TaskFeasibility, *, top_k: int,
                        probabilities=top_k_distribution([max(s.value, 0.0) for s in best]),
                        plain_voronoi=plain_space, complete=complete, exhaustive=exhaustive,
                        count=count, components=per_component,
-                       elapsed=time.perf_counter() - start, infeasible=infeasible,
+                       elapsed=time.perf_counter() - start, grid=task.grid,
+                       infeasible=infeasible,
                        _make=state_space)
 
 
-def build_abstraction(scenario: Scenario, feasibility, *,
-                      perceived_chairs: Sequence[Sequence[float]],
+def build_abstraction(known: KnownWorld, feasibility, *,
                       dishes: Sequence[str] | None = None, seed: int | None = None,
                       clearance: float = INSCRIBED_RADIUS, joint_threshold: float = 0.0,
-                      grid_cell: float = DEFAULT_GRID_CELL,
+                      grid_cell: float = GRID_CELL,
                       location_cost: float | None = None, max_count: int = 100_000,
                       time_limit: float = 5.0,
                       exhaustive_max_dishes: int = EXHAUSTIVE_MAX_DISHES,
                       beam_width: int = DEFAULT_BEAM_WIDTH) -> Abstraction:
-    """S3O's state-space computation for a scenario, ranked, with the top-K distribution.
+    """S3O's state-space computation for what the robot knows, ranked, with the top-K
+    distribution.
 
     `feasibility` is Fea^m: a `MotionFeasibility`, a mapping dish -> Heatmap or a list of
-    Heatmaps. `perceived_chairs` are the poses [x, y, yaw] of the chairs perception
-    reports (mapped chairs come from the scenario). Reach, N, K and the seed default to
-    the scenario's planner settings and seed; `location_cost` to γ / λ.
+    Heatmaps, evaluated once on the location grid (`location_grid.py`; cell `grid_cell`,
+    joint rule at `joint_threshold`), which the result carries. Reach, N, K and the seed
+    default to the planner's settings and the scenario's seed; `location_cost` to γ / λ.
     """
-    planner = scenario.planner
+    planner = known.planner
     if location_cost is None:
         location_cost = planner.gamma / planner.reward if planner.reward > 0 else 0.0
-    partition = voronoi_partition(scenario, perceived_chairs, dishes=dishes,
-                                  clearance=clearance)
-    task = TaskFeasibility(partition, feasibility, samples=scenario.planner.location_samples,
-                           seed=scenario.seed if seed is None else seed,
-                           joint_threshold=joint_threshold, grid_cell=grid_cell)
+    partition = voronoi_partition(known, dishes=dishes, clearance=clearance)
+    grid = LocationGrid.of(partition, feasibility, threshold=joint_threshold, cell=grid_cell)
+    task = TaskFeasibility(grid, samples=planner.location_samples,
+                           seed=known.settings.seed if seed is None else seed)
     return rank(partition, task, top_k=planner.top_k, location_cost=location_cost,
                 max_count=max_count,
                 time_limit=time_limit, exhaustive_max_dishes=exhaustive_max_dishes,

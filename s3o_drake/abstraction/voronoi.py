@@ -1,8 +1,8 @@
-"""The Voronoi partition of the free base-position space: one cell per dish (DESIGN.md 2.2).
+"""The Voronoi partition of the free base-position space: one cell per dish.
 
 Free space. A base position y is a candidate if the base standing there can be free of
-the room's walls, the tables and the chairs the planner knows (mapped chairs, plus the
-chairs it perceives, passed explicitly), and if some dish lies within `reach` of it.
+the room's walls, the tables and the chairs the planner knows (the mapped chairs and the
+ones it perceived: the KnownWorld's obstacles), and if some dish lies within `reach` of it.
 Obstacles and walls are inflated by `clearance`, by default the base's *inscribed*
 radius BASE_WIDTH / 2 = 0.28 m, not its circumscribed radius BASE_RADIUS = 0.418 m:
 
@@ -35,37 +35,18 @@ from shapely.geometry import MultiPoint, Point, Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
-from s3o_drake.furniture import chair_footprint, table_footprint
-from s3o_drake.robot import BASE_WIDTH
-from s3o_drake.scenario import Scenario
-from s3o_drake.validation import room_polygon
+from s3o_drake.known_world import KnownWorld
+from s3o_drake.robot import INSCRIBED_RADIUS
 
-INSCRIBED_RADIUS = BASE_WIDTH / 2
-"""The radius of the largest disc inside the base's footprint, whatever its yaw (m)."""
 ADJACENCY_MIN_LENGTH = 0.01
 """Cells touching along less than this (m) are not adjacent (a corner is not a border)."""
 _EMPTY_AREA = 1e-9  # m^2; cells smaller than this are empty
 
 
-def mapped_chair_poses(scenario: Scenario) -> list[list[float]]:
-    """The poses [x, y, yaw] of the chairs on the robot's map."""
-    return [list(c.pose) for c in scenario.chairs if c.mapped]
-
-
-def free_space(scenario: Scenario, perceived_chairs: Sequence[Sequence[float]], *,
-               clearance: float = INSCRIBED_RADIUS) -> BaseGeometry:
-    """Base positions clear of walls, tables, mapped and the given perceived chairs.
-
-    `perceived_chairs` are poses [x, y, yaw]; unmapped chairs of the scenario are never
-    read here, because the planner only knows what its perception reports.
-    """
-    room = room_polygon(scenario).buffer(-clearance, join_style="mitre")
-    obstacles = [table_footprint(t.center, t.yaw, t.size) for t in scenario.tables]
-    poses = mapped_chair_poses(scenario) + [list(p) for p in perceived_chairs]
-    obstacles += [chair_footprint(p) for p in poses]
-    if not obstacles:
-        return room
-    return room.difference(unary_union(obstacles).buffer(clearance, quad_segs=16))
+def free_space(known: KnownWorld, *, clearance: float = INSCRIBED_RADIUS) -> BaseGeometry:
+    """Base positions clear of the walls, the tables and the chairs the robot knows
+    (mapped and perceived; never the true unmapped ones) by `clearance`."""
+    return known.obstacles.free_space(clearance)
 
 
 @dataclass
@@ -150,19 +131,19 @@ def _adjacency(cells: list[BaseGeometry]) -> list[set[int]]:
     return adjacency
 
 
-def voronoi_partition(scenario: Scenario, perceived_chairs: Sequence[Sequence[float]], *,
-                      dishes: Sequence[str] | None = None, clearance: float = INSCRIBED_RADIUS,
+def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
+                      clearance: float = INSCRIBED_RADIUS,
                       reach: float | None = None) -> VoronoiPartition:
-    """The Voronoi cells of the scenario's dishes (default: all) over the free space.
+    """The Voronoi cells of the known world's dishes (default: all) over the free space.
 
-    `reach` defaults to `scenario.planner.reach`.
+    `reach` defaults to the planner's `reach`.
     """
-    reach = scenario.planner.reach if reach is None else reach
-    by_name = {d.name: d for d in scenario.dishes}
+    reach = known.planner.reach if reach is None else reach
+    by_name = {d.name: d for d in known.dishes}
     names = list(dishes) if dishes is not None else list(by_name)
     p_WO = np.array([by_name[n].position for n in names], dtype=float).reshape(-1, 2)
-    free = free_space(scenario, perceived_chairs, clearance=clearance)
-    envelope = room_polygon(scenario)
+    free = free_space(known, clearance=clearance)
+    envelope = known.obstacles.room
     regions = _voronoi_regions(p_WO, envelope) if len(names) else []
     cells = []
     for p, region in zip(p_WO, regions, strict=True):

@@ -34,8 +34,8 @@ import numpy as np
 from scipy.stats import beta
 
 from s3o_drake.evaluation.store import ResultStore
+from s3o_drake.execution.messages import PickupRecord
 from s3o_drake.io import write_atomically
-from s3o_drake.systems.commands import PickupRecord
 
 HIGH = 0.9
 """Pickups predicted at or above this are the ones a plan counts on."""

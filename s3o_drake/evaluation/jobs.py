@@ -71,7 +71,7 @@ def benchmark_scenario(path: str) -> Scenario:
 
 
 def _run(job: Job) -> dict:
-    from s3o_drake.run import execute  # heavy imports stay in the workers
+    from s3o_drake.execution.execute import execute  # heavy imports stay in the workers
 
     run = execute(benchmark_scenario(job.path), method=job.method, seed=job.seed,
                   meshcat=None, progress=False)

@@ -1,1 +1,3 @@
-"""What the execution diagram's controllers use: arm motion planning and pickup plans."""
+"""Execution in the Drake simulation: the diagram builder (diagram.py), `execute()`
+(execute.py), one LeafSystem per file (s3o_planner, base_navigator, arm_controller,
+task_monitor) and the messages they send each other (messages.py)."""

@@ -24,16 +24,15 @@ from pydrake.geometry import Meshcat
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import MatrixGain, Multiplexer
 
+from s3o_drake.execution.arm_controller import ArmController
+from s3o_drake.execution.base_navigator import BaseNavigator
+from s3o_drake.execution.s3o_planner import Perceive, S3OPlanner
+from s3o_drake.execution.task_monitor import TaskMonitor
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.robot import NUM_POSITIONS
+from s3o_drake.robot import CONTROL_PERIOD, NUM_POSITIONS
 from s3o_drake.scenario import Scenario
-from s3o_drake.systems.arm_controller import ArmController
-from s3o_drake.systems.base_navigator import BaseNavigator
-from s3o_drake.systems.commands import CONTROL_PERIOD
-from s3o_drake.systems.s3o_planner import Perceive, S3OPlanner
-from s3o_drake.systems.task_monitor import TaskMonitor
-from s3o_drake.world import build_world_diagram, robot_render_labels
+from s3o_drake.world.builder import build_world_diagram, robot_render_labels
 
 TIME_LIMIT = 1800.0
 """Simulated seconds after which an execution is stopped whatever its state."""

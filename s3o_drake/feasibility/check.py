@@ -19,7 +19,8 @@ with the arm mounted on the base's x axis, that yaw also points the arm base A a
 (dx, dy, dz).
 
 Two methods give the same answers. On 2,750 random queries in the restaurant and ten generated
-tasks (`python -m s3o_drake.feasibility.agreement`), 718 of them with a collision-free base,
+tasks (`python -m s3o_drake.commands.reachability_agreement`), 718 of them with a
+collision-free base,
 they disagreed twice (99.7% of those, 99.9% of all): both times the map found a configuration
 whose clearance lies within IK's 0.1 mm margin of the 1 cm, which IK then could not certify.
 
@@ -38,8 +39,9 @@ whose clearance lies within IK's 0.1 mm margin of the 1 cm, which IK then could 
   random configurations.
 
 `check_many` gives exactly `check`'s answers for many base poses at once: the geometry is
-vectorised in numpy, out-of-reach queries are settled without a collision query, and the
-collision checks go in batches through `CheckConfigsCollisionFree`.
+vectorised in numpy (s3o_drake/feasibility/grasp_targets.py), out-of-reach queries are
+settled without a collision query, and the collision checks go in batches through
+`CheckConfigsCollisionFree`.
 """
 
 from collections.abc import Iterator
@@ -48,11 +50,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from s3o_drake.feasibility import ik
-from s3o_drake.feasibility import kinematics as kin
+from s3o_drake.feasibility.grasp_targets import (
+    RANDOM_SEEDS,
+    GraspSpec,
+    exhaustive_ik_seeds,
+    grasp_specs,
+    reach_offset_rows,
+    target_geometry,
+)
 from s3o_drake.feasibility.grasps import Grasp, grasps_for
-from s3o_drake.feasibility.reachability import R_KIND, ReachabilityMap, place
+from s3o_drake.feasibility.reachability import ReachabilityMap, place
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.robot import ARM_MOUNT_XYZ, ARM_STOW, GRIPPER_OPEN
+from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN
 
 REASONS = ("ok", "base_collision", "out_of_reach", "arm_collision", "no_ik")
 METHODS = ("map", "ik")
@@ -69,12 +78,6 @@ MAP_LIFT = 0.9 * ik.POSITION_TOLERANCE
 #: (inside IK's angle tolerance), approach axis dipping: the wrist, 0.3 m behind the grasp
 #: point, then clears the table by 1 cm more, as IK finds it.
 SIDE_PITCH = 0.9 * ik.ANGLE_TOLERANCE
-#: Exhaustive IK: random seeds after the closed-form ones and ARM_STOW.
-RANDOM_SEEDS = 2
-#: Reach probe of exhaustive IK (m): a target with no closed-form solution gets IK only if
-#: some target this close (in ρ and h) has one; tilting within the angle tolerance moves the
-#: wrist by about 1 cm, so 3 cm is safely beyond what IK could still reach.
-PROBE_OFFSETS = np.array([0.0, -0.01, 0.01, -0.02, 0.02, -0.03, 0.03])
 
 
 @dataclass
@@ -93,48 +96,6 @@ class CheckResult:
     q: np.ndarray | None
     grasp: str | None
     reason: str
-
-
-def arm_base_positions(bases: np.ndarray) -> np.ndarray:
-    """p_WA (n, 3) for base poses (n, 3): `FeasibilityScene.p_WA`, vectorised (as in
-    `FeasibilityChecker._geometry`)."""
-    x, y, yaw = bases[:, 0], bases[:, 1], bases[:, 2]
-    c, s = np.cos(yaw), np.sin(yaw)
-    mx, my, mz = ARM_MOUNT_XYZ
-    return np.stack([x + c * mx - s * my, y + s * mx + c * my, np.full_like(x, mz)], axis=1)
-
-
-@dataclass(frozen=True)
-class GraspSpec:
-    """A dish kind's grasp, independent of where the robot stands (from `grasps_for`).
-
-    The grasp point is `inset` nearer to A than the dish's centre, `z_offset` above the table
-    top; the gripper is turned by `wrist_turn` about the approach axis.
-    """
-
-    kind: str
-    wrist_turn: float
-    inset: float
-    z_offset: float
-
-
-def grasp_specs(dish_kind: str) -> list[GraspSpec]:
-    """The grasps of a dish kind, read off `grasps_for` (so both stay one definition)."""
-    grasps = grasps_for(dish_kind, np.zeros(2), 0.0, np.array([-1.0, 0.0, 0.0]))
-    return [GraspSpec(g.kind, g.wrist_turn, 1.0 - g.rho, g.height) for g in grasps]
-
-
-def _offsets(offsets: np.ndarray, n: int) -> np.ndarray:
-    """Reach offsets as (n, 3): rows of (dx, dy) or (dx, dy, dz)."""
-    offsets = np.asarray(offsets, dtype=float)
-    if offsets.size in (2 * n, 3 * n) and n > 0:
-        offsets = offsets.reshape(n, -1)
-    if offsets.shape != (n, 3) and offsets.shape != (n, 2):
-        raise ValueError(f"reach offsets: expected {n} rows of 2 or 3 values, "
-                         f"got shape {offsets.shape}")
-    if offsets.shape[1] == 2:
-        offsets = np.column_stack([offsets, np.zeros(n)])
-    return offsets
 
 
 @dataclass
@@ -196,7 +157,7 @@ class FeasibilityChecker:
               reach_offset: np.ndarray | None = None) -> CheckResult:
         """Whether the robot standing at `base` (x, y, yaw) can pick `dish`; see the module."""
         bases = np.asarray(base, dtype=float).reshape(1, 3)
-        offsets = None if reach_offset is None else _offsets(reach_offset, 1)
+        offsets = None if reach_offset is None else reach_offset_rows(reach_offset, 1)
         if self.method == "map":
             return self._check_one(bases, dish, offsets)
         out = self._run(bases, dish, offsets, details=True)
@@ -211,7 +172,7 @@ class FeasibilityChecker:
         """`check(...).feasible` for base poses (n, 3) and reach offsets (n, 3): bool (n,)."""
         bases = np.asarray(bases, dtype=float).reshape(-1, 3)
         if reach_offsets is not None:
-            reach_offsets = _offsets(reach_offsets, len(bases))
+            reach_offsets = reach_offset_rows(reach_offsets, len(bases))
         if len(bases) == 0:
             return np.zeros(0, dtype=bool)
         return self._run(bases, dish, reach_offsets, details=False).feasible
@@ -229,7 +190,7 @@ class FeasibilityChecker:
         configurations q (n, 11) (NaN where infeasible) and the grasp kinds (None there)."""
         bases = np.asarray(bases, dtype=float).reshape(-1, 3)
         if reach_offsets is not None:
-            reach_offsets = _offsets(reach_offsets, len(bases))
+            reach_offsets = reach_offset_rows(reach_offsets, len(bases))
         if len(bases) == 0:
             return np.zeros(0, dtype=bool), np.zeros((0, 11)), []
         out = self._run(bases, dish, reach_offsets, details=False)
@@ -246,7 +207,7 @@ class FeasibilityChecker:
         "base_collision" and nothing else. Picking needs more than a grasp (a pre-grasp, a
         lift), so `pickup_geometry` goes on to the next one when the first does not do."""
         bases = np.asarray(base, dtype=float).reshape(1, 3)
-        offsets = None if reach_offset is None else _offsets(reach_offset, 1)
+        offsets = None if reach_offset is None else reach_offset_rows(reach_offset, 1)
         if self.method == "map":
             results = self._map_grasps(bases[0], dish, offsets)
         else:
@@ -267,28 +228,15 @@ class FeasibilityChecker:
     def _target(self, dish: str, reach_offset: np.ndarray | None) -> tuple[np.ndarray, float]:
         p_WD, table_height = self.scene.dish_p_WD(dish)
         if reach_offset is not None:
-            offset = _offsets(reach_offset, 1)[0]
+            offset = reach_offset_rows(reach_offset, 1)[0]
             return p_WD + offset[:2], table_height + offset[2]
         return p_WD, table_height
 
     def _geometry(self, bases: np.ndarray, dish: str, offsets: np.ndarray | None):
-        """Per spec: (ρ, h, bearing relative to A's x axis) arrays, each (n,).
-
-        `grasps_for`'s geometry for many base poses at once (a test holds them equal).
-        """
+        """Per spec: (ρ, h, bearing relative to A's x axis) arrays, each (n,)
+        (`grasp_targets.target_geometry`)."""
         p_WD, table_height = self.scene.dish_p_WD(dish)
-        x, y, yaw = bases[:, 0], bases[:, 1], bases[:, 2]
-        c, s = np.cos(yaw), np.sin(yaw)
-        mx, my, mz = ARM_MOUNT_XYZ
-        dx = p_WD[0] - (x + c * mx - s * my)
-        dy = p_WD[1] - (y + s * mx + c * my)
-        h = np.full_like(dx, table_height - mz)
-        if offsets is not None:
-            dx, dy, h = dx + offsets[:, 0], dy + offsets[:, 1], h + offsets[:, 2]
-        distance = np.hypot(dx, dy)
-        relative = kin.wrap(np.arctan2(dy, dx) - yaw)
-        return [(distance - spec.inset, h + spec.z_offset, relative)
-                for spec in self._specs_for(dish)]
+        return target_geometry(self._specs_for(dish), p_WD, table_height, bases, offsets)
 
     def base_free(self, bases: np.ndarray) -> np.ndarray:
         """Whether base poses (n, 3) are inside the room and collision-free with the arm
@@ -508,26 +456,4 @@ class FeasibilityChecker:
                     break
             if not batch.feasible[row]:
                 batch.reason[row] = REASONS.index("no_ik" if tried else "out_of_reach")
-
-
-def exhaustive_ik_seeds(spec: GraspSpec, rho: float, h: float, bearing: float,
-                        random_seeds: int = RANDOM_SEEDS) -> np.ndarray | None:
-    """Seeds of exhaustive IK for one grasp, or None when the target is surely out of reach.
-
-    The arm's closed-form solutions at the target (every branch), or, when it has none, at
-    the nearest probe target within 3 cm that has some; then ARM_STOW and random seeds.
-    """
-    R = np.broadcast_to(R_KIND[spec.kind], (len(PROBE_OFFSETS) ** 2, 3, 3))
-    d_rho, d_h = np.meshgrid(PROBE_OFFSETS, PROBE_OFFSETS, indexing="ij")
-    order = np.argsort(np.hypot(d_rho, d_h).ravel(), kind="stable")
-    p = np.stack([rho + d_rho.ravel(), np.zeros(d_rho.size), h + d_h.ravel()], axis=1)[order]
-    solutions = kin.inverse(R, p)
-    R_check, p_check = kin.forward(np.nan_to_num(solutions))
-    angle, distance = kin.pose_error(R_check, p_check, R[:, None], p[:, None])
-    exact = ~np.isnan(solutions).any(axis=-1) & (angle < 1e-6) & (distance < 1e-6)
-    hits = np.flatnonzero(exact.any(axis=1))
-    if hits.size == 0:
-        return None
-    closed_form = place(solutions[hits[0]][exact[hits[0]]], bearing, spec.wrist_turn)
-    return np.vstack([closed_form, ARM_STOW, ik.random_arm_seeds(random_seeds)])
 

@@ -21,11 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.geometry import Box, Capsule, Cylinder, Role, Sphere
-from shapely.ops import unary_union
 
-from s3o_drake.furniture import DistanceField, chair_footprint, table_footprint
+from s3o_drake.furniture import DistanceField
+from s3o_drake.known_world import Obstacles
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, robot_positions
-from s3o_drake.scenario import Scenario
 
 #: Raster cell (m): fine enough that the one-cell-diagonal allowance costs little.
 FIELD_RESOLUTION = 0.02
@@ -68,13 +67,11 @@ def robot_horizontal_radius(plant, scene_graph_inspector, robot, context) -> flo
 class BaseClearance:
     """Which base positions are certainly collision-free (see the module docstring)."""
 
-    def __init__(self, scenario: Scenario, *, robot_radius: float, padding: float,
+    def __init__(self, obstacles: Obstacles, *, robot_radius: float, padding: float,
                  resolution: float = FIELD_RESOLUTION):
-        shapes = [table_footprint(t.center, t.yaw, t.size) for t in scenario.tables]
-        shapes += [chair_footprint(list(c.pose)) for c in scenario.chairs]
-        self.bounds = scenario.room.bounds
+        self.bounds = obstacles.room.bounds
         # A cell counts as occupied when any of it touches an obstacle.
-        self._field = DistanceField.of(unary_union(shapes), self.bounds, resolution,
+        self._field = DistanceField.of(obstacles.union, self.bounds, resolution,
                                        grow=resolution / math.sqrt(2))
         self.required = robot_radius + padding + SAFETY_MARGIN + resolution * math.sqrt(2)
         """Field distance (m) beyond which a base position is certainly free."""

@@ -43,10 +43,11 @@ from torch import nn
 from s3o_drake.camera import OverheadCamera, back_project, overhead_camera
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE, Heatmap
 from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES
+from s3o_drake.resources import FCN_WEIGHTS
 from s3o_drake.scenario import Dish, Scenario
-from s3o_drake.world import render_overhead
+from s3o_drake.world.builder import render_overhead
 
-DEFAULT_WEIGHTS = Path(__file__).resolve().parents[2] / "models" / "fcn" / "fcn.pt"
+DEFAULT_WEIGHTS = FCN_WEIGHTS
 """The shipped network (see models/fcn/README.md for the commands that made it)."""
 CHANNELS = ("height", "unobserved", "dish", "dx", "dy", *(f"kind_{k}" for k in DISH_KINDS))
 
@@ -186,7 +187,7 @@ class FcnFeasibility:
 
     @classmethod
     def load(cls, path: Path) -> "FcnFeasibility":
-        """Reads a checkpoint written by `s3o_drake.feasibility.train`."""
+        """Reads a checkpoint written by `s3o_drake.feasibility.training`."""
         checkpoint = torch.load(Path(path), map_location="cpu", weights_only=True)
         model = FeasibilityUNet(**checkpoint["config"])
         model.load_state_dict(checkpoint["state_dict"])

@@ -18,24 +18,29 @@ from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE, FeasibilityOracle, Heatmap
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.known_world import Obstacles
 from s3o_drake.scenario import Scenario
 
 _worker_oracle: FeasibilityOracle | None = None
 
 
 def make_oracle(scenario: Scenario, *, method: str = "map",
-                reachability: Path | None = None) -> FeasibilityOracle:
-    """Scene, checker and oracle for a scenario (ground-truth chairs: those it lists)."""
-    scene = FeasibilityScene(scenario)
+                reachability: Path | None = None,
+                obstacles: Obstacles | None = None) -> FeasibilityOracle:
+    """Scene, checker and oracle for a scenario (ground-truth chairs: those it lists);
+    `obstacles` are its furniture's footprints when the caller has them already."""
+    scene = FeasibilityScene(scenario, obstacles=obstacles)
     rmap = ReachabilityMap.shared(reachability) if method == "map" else None
     return FeasibilityOracle(FeasibilityChecker(scene, rmap, method=method),
                              scenario.uncertainty)
 
 
-def _init_worker(scenario: Scenario, method: str, reachability: Path | None) -> None:
+def _init_worker(scenario: Scenario, method: str, reachability: Path | None,
+                 obstacles: Obstacles | None = None) -> None:
     global _worker_oracle
     logging.getLogger("drake").setLevel(logging.WARNING)  # one line per worker is noise
-    _worker_oracle = make_oracle(scenario, method=method, reachability=reachability)
+    _worker_oracle = make_oracle(scenario, method=method, reachability=reachability,
+                                 obstacles=obstacles)
 
 
 def _heatmap_job(job: tuple) -> Heatmap:
@@ -49,25 +54,27 @@ def compute_heatmaps(scenario: Scenario, dishes: Sequence[str] | None = None, *,
                      workers: int = 1, size: float = CROP_SIZE,
                      cells: int = CROP_CELLS, whole_room: bool = False,
                      method: str = "map", reachability: Path | None = None,
-                     progress: bool = True) -> list[Heatmap]:
+                     progress: bool = True, obstacles: Obstacles | None = None
+                     ) -> list[Heatmap]:
     """Heatmaps of the dishes (default: all), in their order.
 
     Crops of `size` metres at `cells` x `cells` around each dish, or, with
-    `whole_room=True`, the whole room at a cell of `size` metres.
+    `whole_room=True`, the whole room at a cell of `size` metres. `obstacles`: the
+    scenario's furniture footprints, when the caller has them (a KnownWorld's).
     """
     names = list(dishes) if dishes is not None else [d.name for d in scenario.dishes]
     jobs = [(name, size, cells, whole_room) for name in names]
     bar = tqdm(total=len(jobs), desc="feasibility heatmaps", unit="dish", disable=not progress)
     results: list[Heatmap] = []
     if workers <= 1 or len(jobs) <= 1:
-        _init_worker(scenario, method, reachability)
+        _init_worker(scenario, method, reachability, obstacles)
         for job in jobs:
             results.append(_heatmap_job(job))
             bar.update()
     else:
         # Spawned, not forked: a fork would copy Drake's thread pools mid-use and hang.
         with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_init_worker,
-                                 initargs=(scenario, method, reachability),
+                                 initargs=(scenario, method, reachability, obstacles),
                                  mp_context=multiprocessing.get_context("spawn")) as pool:
             for heatmap in pool.map(_heatmap_job, jobs):
                 results.append(heatmap)

@@ -1,8 +1,8 @@
 """Where the base really stands when it picks: the landing as the execution realises it.
 
 The navigation noise T^n moves the landing target; the execution then decides where the base
-stands, and Fea^m must model that, not the raw noisy target (DESIGN.md: a model that counts
-a landing "into" a table as a failure is pessimistic next to tables):
+stands, and Fea^m must model that, not the raw noisy target (a model that counts a
+landing "into" a table as a failure is pessimistic next to tables):
 
 1. The base drives towards the noisy target and, checking its poses every
    `CHECK_STEP_XY` along the way, stops at the last free pose short of a collision; a
@@ -23,7 +23,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from s3o_drake.angles import wrap
+from s3o_drake.angles import facing_yaw, wrap
 
 #: Sampling of a motion for the collision check: one pose per this much travel (m, rad).
 CHECK_STEP_XY = 0.02
@@ -37,12 +37,6 @@ _STEPS_PER_CALL = 5
 
 #: Vectorised free-pose test: base poses (n, 3) -> bool (n,).
 FreeTest = Callable[[np.ndarray], np.ndarray]
-
-
-def facing_yaw(base_xy: np.ndarray, p_WD: np.ndarray) -> np.ndarray:
-    """Base yaw (rad) that faces the dish at p_WD from base position(s) (..., 2)."""
-    delta = np.asarray(p_WD, dtype=float)[:2] - np.asarray(base_xy, dtype=float)[..., :2]
-    return np.arctan2(delta[..., 1], delta[..., 0])
 
 
 def stop_short(free: FreeTest, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

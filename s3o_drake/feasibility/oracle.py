@@ -27,7 +27,7 @@ Two ways to compute it:
   where S changes between neighbouring points, and blurred with
   `scipy.ndimage.gaussian_filter`. What this leaves out (the drive's heading
   taken along the line to the dish, a yaw within `TURN_TOLERANCE` of facing taken as
-  facing) is measured against `probabilities` by `python -m s3o_drake.execution.pinning`.
+  facing) is measured against `probabilities` by `python -m s3o_drake.commands.oracle_pinning`.
 """
 
 import math
@@ -36,8 +36,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
+from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.landing import facing_yaw, pickup_poses, stop_short
+from s3o_drake.feasibility.landing import pickup_poses, stop_short
 from s3o_drake.feasibility.pickup_geometry import (
     catch_probability,
     grasp_tolerance,

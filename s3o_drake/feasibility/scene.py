@@ -20,6 +20,7 @@ from s3o_drake.feasibility.clearance import (
     CertainCollision,
     robot_horizontal_radius,
 )
+from s3o_drake.known_world import Obstacles
 from s3o_drake.robot import (
     ARM_BASE_LINK,
     ARM_MOUNT_XYZ,
@@ -29,7 +30,7 @@ from s3o_drake.robot import (
     robot_positions,
 )
 from s3o_drake.scenario import Scenario
-from s3o_drake.world import populate_plant
+from s3o_drake.world.builder import populate_plant
 
 # Robot-environment clearance of a feasible configuration (m): the arm stays at least 1 cm
 # from every obstacle, and the base keeps the same small margin.
@@ -43,7 +44,10 @@ EDGE_STEP = 0.05
 class FeasibilityScene:
     """Robot and environment for IK and collision queries, built once per scene."""
 
-    def __init__(self, scenario: Scenario, *, padding: float = ENVIRONMENT_PADDING):
+    def __init__(self, scenario: Scenario, *, padding: float = ENVIRONMENT_PADDING,
+                 obstacles: Obstacles | None = None):
+        """`obstacles`: the footprints of the scenario's furniture, when the caller has them
+        already (a KnownWorld's); made from the scenario otherwise."""
         self.scenario = scenario
         builder = RobotDiagramBuilder(time_step=0.0)
         self.models = populate_plant(builder.plant(), builder.scene_graph(), scenario)
@@ -62,8 +66,9 @@ class FeasibilityScene:
         inspector = self.diagram.scene_graph().model_inspector()
         self.robot_radius = robot_horizontal_radius(self.plant, inspector, self.robot, context)
         """Horizontal reach (m) of the robot's collision geometry with the arm stowed."""
-        self.clearance = BaseClearance(scenario, robot_radius=self.robot_radius,
-                                       padding=padding)
+        self.clearance = BaseClearance(
+            Obstacles.of_scenario(scenario) if obstacles is None else obstacles,
+            robot_radius=self.robot_radius, padding=padding)
         self.collision = CertainCollision.of_scene(self.plant, inspector, self.robot, context)
         """Base positions that need no collision query (see `clearance`)."""
 

@@ -1,10 +1,18 @@
 """Perception from the overhead camera: what the robot's map lacks (the chairs).
 
 `ChairPerception(scenario)(color, depth, label)` returns the unmapped chairs' poses
-[x, y, yaw]; `perceived_chairs(scenario, images)` is the one-call form. See `chairs`
-for the method and `benchmark` for its accuracy on the shipped tasks.
+[x, y, yaw]; `perceived_chairs(scenario, images)` is the one-call form, and
+`perceive_known_world` makes the planner's `KnownWorld` of them. See `chairs`
+for the method and `s3o_drake.commands.perception_benchmark` for its accuracy.
 """
 
-from s3o_drake.perception.chairs import ChairPerception, draw_chairs, perceived_chairs
+from s3o_drake.perception.chairs import (
+    ChairPerception,
+    Perceive,
+    draw_chairs,
+    perceive_known_world,
+    perceived_chairs,
+)
 
-__all__ = ["ChairPerception", "draw_chairs", "perceived_chairs"]
+__all__ = ["ChairPerception", "Perceive", "draw_chairs", "perceive_known_world",
+           "perceived_chairs"]

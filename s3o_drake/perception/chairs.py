@@ -38,6 +38,7 @@ away from the backrest.
 """
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -47,6 +48,7 @@ from scipy.optimize import minimize
 from s3o_drake import furniture as fu
 from s3o_drake.angles import wrap
 from s3o_drake.camera import OverheadCamera, back_project, overhead_camera
+from s3o_drake.known_world import KnownWorld, OverheadImages
 from s3o_drake.robot import footprint_polygon
 from s3o_drake.scenario import Scenario
 
@@ -261,17 +263,23 @@ def blobs(obstacle: np.ndarray, cell: float) -> np.ndarray:
     return labels
 
 
+#: A perception function: (colour RGBA, depth (m), label) images -> chair poses [x, y, yaw].
+Perceive = Callable[[np.ndarray, np.ndarray, np.ndarray], list[list[float]]]
+
 class ChairPerception:
     """Finds the unmapped chairs in the overhead images: `__call__(color, depth, label)`.
 
     Constructed with what the robot knows (its map): the scenario's room, tables, mapped
-    chairs, camera and the robot's start pose. The scenario's unmapped chairs are never
+    chairs and camera, and where the robot stands. The scenario's unmapped chairs are never
     read. Returns the chairs' poses [x, y, yaw] (the seat's centre and the direction it
     faces), sorted by x then y so that the output does not depend on blob numbering.
     """
 
-    def __init__(self, scenario: Scenario, *, cell: float | None = None):
-        """`cell`: the top-view grid's cell (m); default one camera pixel on the floor."""
+    def __init__(self, scenario: Scenario, *, pose: Sequence[float] | None = None,
+                 cell: float | None = None):
+        """`pose`: where the robot stands, (x, y, yaw) (default: the scenario's start);
+        its own pixels are explained by it. `cell`: the top-view grid's cell (m); default
+        one camera pixel on the floor."""
         self._camera = overhead_camera(scenario)
         if cell is None:
             cell = scenario.camera.height / self._camera.focal
@@ -285,7 +293,8 @@ class ChairPerception:
                   for t in scenario.tables]
         shapes += [fu.chair_footprint(c.pose).buffer(MAP_MARGIN)
                    for c in scenario.chairs if c.mapped]
-        shapes.append(footprint_polygon(*scenario.robot.start).buffer(ROBOT_MARGIN))
+        here = scenario.robot.start if pose is None else pose
+        shapes.append(footprint_polygon(*here).buffer(ROBOT_MARGIN))
         self._map_shapes = shapes
         self._explained: np.ndarray | None = None
 
@@ -430,3 +439,21 @@ def draw_chairs(scenario: Scenario, color: np.ndarray, poses: list[list[float]],
             tick = pixels([(x, y), (x + 0.25 * math.cos(yaw), y + 0.25 * math.sin(yaw))])
             cv2.line(image, tuple(tick[0, 0]), tuple(tick[1, 0]), rgb, width, cv2.LINE_AA)
     return image
+
+
+def perceive_known_world(scenario: Scenario, images: tuple[np.ndarray, np.ndarray, np.ndarray],
+                         *, pose: Sequence[float], dishes: Sequence[str],
+                         perceive: Perceive | None = None,
+                         robot_labels: frozenset[int] = frozenset()) -> KnownWorld:
+    """What the robot knows, standing at `pose` with `dishes` left, from the overhead
+    (color, depth, label) images: its map (the scenario's mapped furniture), the chairs
+    perception finds (`perceive`, default ChairPerception from where the robot stands),
+    and the images the learned Fea^m reads (`robot_labels`: the robot's own pixels)."""
+    color, depth, label = images
+    depth = np.asarray(depth)[..., 0] if np.ndim(depth) == 3 else np.asarray(depth)
+    label = np.asarray(label)[..., 0] if np.ndim(label) == 3 else np.asarray(label)
+    find = perceive or ChairPerception(scenario, pose=pose)
+    chairs = find(color, depth, label)
+    return KnownWorld.of(scenario, perceived_chairs=chairs, pose=pose, dishes=dishes,
+                         overhead=OverheadImages(depth=depth, label=label,
+                                                 robot_labels=robot_labels))

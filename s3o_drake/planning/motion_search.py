@@ -1,4 +1,4 @@
-"""Motion-level search: base positions for a task-level sequence (DESIGN.md 2.6).
+"""Motion-level search: base positions for a task-level sequence.
 
 Given one task-level sequence (`TaskPlan.actions`: ("goto", location) / ("pickup", dish)),
 the motion search picks one base position (x, y) per `goto` inside that location's region
@@ -21,11 +21,19 @@ Two searches with the same budget (default `cma_generations x cma_population` = 
 samples) and the same result type:
 
 - `grop_star` (GROP*): one CMA-ES (`cma`) over the stacked positions (2 x gotos
-  dimensions). Generation 0 is a greedy starting guess (`RegionGrid.initial_point`)
+  dimensions). Generation 0 is a greedy starting guess (`initial_point`)
   plus population - 1 draws from the Fea^m heatmaps; CMA-ES's mean starts at the best of
   them, so GROP* never ends below its own starting guess and starts in a good basin.
 - `grop` (GROP, the baseline): every sample draws each goto's position independently from
   the location's Fea^m heatmap (grid cell centres, probability ∝ Fea^m), best kept.
+
+Both read a location through the plan's location grid (`abstraction/location_grid.py`:
+`grid` and `groups`, the dishes whose cells make each location), the grid that Fea^t and
+the planner's representative points read: its points, and per point the summed Fea^m of
+the dishes picked there under the one joint-feasibility rule, with its named fallbacks
+(no joint point: all points weigh; no grid point in a sliver: its representative point).
+Called without a grid, each region gets its own on the same lattice
+(`location_grid.region_location`).
 
 Regions and penalty. CMA-ES's proposals are resampled until every position lies in its
 region (cma's own constraint handling, as in `ask_and_eval`; rejected proposals cost no
@@ -53,6 +61,7 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import cma
 import numpy as np
@@ -60,7 +69,8 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
-from s3o_drake.abstraction.task_feasibility import MotionFeasibility
+from s3o_drake.abstraction.location_grid import GridLocation, LocationGrid, region_location
+from s3o_drake.abstraction.motion_feasibility import MotionFeasibility
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.task_planner import Action
 from s3o_drake.planning.time_model import CostModel
@@ -71,8 +81,6 @@ PENALTY = 1e4
 sample scores far above it (a real plan's utility is of order ±10^3)."""
 UNREACHABLE_STEP = 100.0
 """Extra penalty per leg with an infinite path length, so fewer such legs rank higher."""
-GRID_CELL = 0.05
-"""Spacing (m) of the grid of candidate positions per region (initial points, GROP)."""
 SIGMA_FRACTION = 0.03
 """CMA-ES's initial step size as a fraction of the mean region extent. Small on purpose:
 generation 0 already starts in a good basin; measured on the restaurant (5 gotos, ring
@@ -124,66 +132,42 @@ class MotionResult:
         return self.history[-1] if self.history else np.zeros((0, len(self.locations), 2))
 
 
-class RegionGrid:
-    """Grid cell centres inside one region and their summed Fea^m for the dishes picked
-    there: the sampling distribution of GROP and the starting point of GROP*."""
+def initial_point(location: GridLocation, previous: np.ndarray, reward: float,
+                  speed: float) -> np.ndarray:
+    """The grid point of `location` that maximises λ·ΣFea^m - |previous p| / v: the utility
+    of this goto with the straight line standing in for the path length (a cheap lower
+    bound), so that of two equally feasible spots the nearer one is the start. Ties go to
+    the point nearest the Fea^m-weighted centroid; an all-zero weight gives the region's
+    representative point."""
+    w, points = location.weight, location.points
+    if w.sum() <= 0:
+        return location.representative_point()
+    centroid = (w[:, None] * points).sum(axis=0) / w.sum()
+    score = reward * w - np.linalg.norm(points - previous, axis=1) / speed
+    best = np.flatnonzero(score >= score.max() - 1e-9)
+    k = best[np.argmin(np.linalg.norm(points[best] - centroid, axis=1))]
+    return points[k].copy()
 
-    def __init__(self, region: BaseGeometry, dishes: Sequence[str],
-                 feasibility: MotionFeasibility, cell: float):
-        self.region = region
-        x0, y0, x1, y1 = region.bounds
-        xs = np.arange(x0 + cell / 2, x1, cell)
-        ys = np.arange(y0 + cell / 2, y1, cell)
-        gx, gy = np.meshgrid(xs, ys, indexing="ij")
-        P = np.column_stack([gx.ravel(), gy.ravel()])
-        inside = shapely.contains_xy(region, P[:, 0], P[:, 1]) if len(P) else np.zeros(0, bool)
-        P = P[inside]
-        if len(P) == 0:  # a sliver thinner than a cell: its representative point
-            rp = region.representative_point()
-            P = np.array([[rp.x, rp.y]])
-        self.points = P
-        F = np.array([feasibility.values(d, P) for d in dishes]).reshape(len(dishes), len(P))
-        weight = F.sum(axis=0)
-        # A merged location counts a position only where every one of its dishes is
-        # feasible (the reference's rule, as in Fea^t), when there is such a position.
-        joint = (F > 0).all(axis=0)
-        if len(dishes) > 1 and joint.any():
-            weight = np.where(joint, weight, 0.0)
-        self.weight = weight
-        bx0, by0, bx1, by1 = region.bounds
-        self.extent = max(bx1 - bx0, by1 - by0)
 
-    def initial_point(self, previous: np.ndarray, reward: float, speed: float) -> np.ndarray:
-        """The grid point that maximises λ·ΣFea^m - |previous p| / v: the utility of this
-        goto with the straight line standing in for the path length (a cheap lower bound),
-        so that of two equally feasible spots the nearer one is the start. Ties go to the
-        point nearest the Fea^m-weighted centroid; an all-zero heatmap gives the region's
-        representative point."""
-        w = self.weight
-        if w.sum() <= 0:
-            rp = self.region.representative_point()
-            return np.array([rp.x, rp.y])
-        centroid = (w[:, None] * self.points).sum(axis=0) / w.sum()
-        score = reward * w - np.linalg.norm(self.points - previous, axis=1) / speed
-        best = np.flatnonzero(score >= score.max() - 1e-9)
-        k = best[np.argmin(np.linalg.norm(self.points[best] - centroid, axis=1))]
-        return self.points[k].copy()
-
-    def draw(self, rng: np.random.Generator, n: int) -> np.ndarray:
-        """n positions drawn ∝ Fea^m (uniformly over the grid if Fea^m is 0 everywhere)."""
-        w = self.weight
-        p = w / w.sum() if w.sum() > 0 else np.full(len(w), 1.0 / len(w))
-        return self.points[rng.choice(len(self.points), size=n, p=p)]
+def draw(location: GridLocation, rng: np.random.Generator, n: int) -> np.ndarray:
+    """n grid points of `location` drawn ∝ its weight (uniformly if it is 0 everywhere)."""
+    w = location.weight
+    p = w / w.sum() if w.sum() > 0 else np.full(len(w), 1.0 / len(w))
+    return location.points[rng.choice(len(location.points), size=n, p=p)]
 
 
 class SequenceProblem:
     """One sequence prepared for evaluation: gotos, pickups, regions, costs (`costs`: the
-    cost profile and the time prediction; None: the paper's costs from `planner`)."""
+    cost profile and the time prediction; None: the paper's costs from `planner`), and
+    the grid locations of its gotos (`grid` and `groups`: see the module docstring)."""
 
     def __init__(self, sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
                  feasibility: MotionFeasibility, nav: NavigationMap,
                  start_xy: Sequence[float], planner: Planner, pickup_duration: float | None,
-                 grid_cell: float, costs: CostModel | None = None):
+                 costs: CostModel | None = None, *, grid: LocationGrid | None = None,
+                 groups: Mapping[str, Sequence[str]] | None = None):
+        if grid is not None and groups is None:
+            raise ValueError("a location grid needs the groups of dishes of the locations")
         self.actions = tuple((str(a), str(b)) for a, b in sequence)
         self.start = np.asarray(start_xy, dtype=float)[:2]
         self.nav = nav
@@ -209,8 +193,25 @@ class SequenceProblem:
         self.regions = [regions[loc] for loc in locations]
         for region in self.regions:
             shapely.prepare(region)
-        self.grids = [RegionGrid(region, [d for g, d in picks if g == k], feasibility, grid_cell)
-                      for k, region in enumerate(self.regions)]
+        self._grid = grid
+        self._groups = groups
+
+    @cached_property
+    def grids(self) -> list[GridLocation]:
+        """Each goto's grid location with the dishes picked there. Built on first use, so
+        that a sequence that is only scored (PETLON's) reads no grid."""
+        if self._grid is not None:
+            assert self._groups is not None
+            return [self._grid.location(self._groups[loc], dishes)
+                    for loc, dishes in zip(self.locations, self.stop_dishes, strict=True)]
+        return [region_location(region, self.feasibility, dishes)
+                for region, dishes in zip(self.regions, self.stop_dishes, strict=True)]
+
+    @cached_property
+    def extent(self) -> float:
+        """The mean over the gotos' regions of their bounding box's larger side (m)."""
+        sides = [max(x1 - x0, y1 - y0) for x0, y0, x1, y1 in (r.bounds for r in self.regions)]
+        return float(np.mean(sides))
 
     @property
     def n(self) -> int:
@@ -229,7 +230,9 @@ class SequenceProblem:
         (or the robot profile, where the costs are the times), predicted execution times
         (m,) (NaN otherwise and where invalid) of samples X (m, n, 2), with one path query
         batch for all valid samples."""
-        X = np.asarray(X, dtype=float).reshape(-1, self.n, 2)
+        X = np.asarray(X, dtype=float)
+        # With no goto to place (n = 0) the sample count cannot be inferred from the size.
+        X = X.reshape(len(X) if self.n == 0 else -1, self.n, 2)
         m = len(X)
         p, costs = self.planner, self.costs
         robot = costs.profile == "robot"
@@ -352,9 +355,10 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
               planner: Planner, *, seed: int | None = None,
               rng: np.random.Generator | None = None, generations: int | None = None,
               population: int | None = None, pickup_duration: float | None = None,
-              deadline: float | None = None, grid_cell: float = GRID_CELL,
-              costs: CostModel | None = None) -> MotionResult:
-    """GROP*: CMA-ES over one base position per goto of `sequence` (DESIGN.md 2.6).
+              deadline: float | None = None, costs: CostModel | None = None,
+              grid: LocationGrid | None = None,
+              groups: Mapping[str, Sequence[str]] | None = None) -> MotionResult:
+    """GROP*: CMA-ES over one base position per goto of `sequence`.
 
     `regions` maps each location name to its region (shapely, e.g. the union of its dishes'
     Voronoi cells). Budget: `generations` (default planner.cma_generations) x `population`
@@ -362,11 +366,13 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     batch; `costs` is the cost profile (None: the paper's, from `planner`). `deadline` (a
     `time.monotonic()` value) ends the search before a generation that would, at the pace
     of the previous one, end past it. `seed` or `rng` (rng wins) makes it deterministic.
-    Returns the best sample seen.
+    The starting guess and generation 0's draws come from the plan's location grid `grid`,
+    where `groups` names the dishes whose cells make each location (None: each region is
+    rasterised on its own). Returns the best sample seen.
     """
     t0 = time.monotonic()
     problem = SequenceProblem(sequence, regions, feasibility, nav, start_xy, planner,
-                              pickup_duration, grid_cell, costs)
+                              pickup_duration, costs, grid=grid, groups=groups)
     generations = planner.cma_generations if generations is None else generations
     population = planner.cma_population if population is None else population
     if problem.n == 0:  # nothing to place: the sequence's utility is fixed
@@ -378,14 +384,14 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     rng0 = np.random.default_rng(_seed_of(seed, rng))
     x0, previous = [], problem.start
     for g in problem.grids:
-        previous = g.initial_point(previous, planner.reward, planner.speed)
+        previous = initial_point(g, previous, planner.reward, planner.speed)
         x0.append(previous)
     X = np.stack([np.stack(x0)] * population)
     if population > 1:
-        X[1:] = np.stack([g.draw(rng0, population - 1) for g in problem.grids], axis=1)
+        X[1:] = np.stack([draw(g, rng0, population - 1) for g in problem.grids], axis=1)
     tally = _Tally()
     tally.add(X, problem.evaluate(X)[0])
-    sigma = max(MIN_SIGMA, SIGMA_FRACTION * float(np.mean([g.extent for g in problem.grids])))
+    sigma = max(MIN_SIGMA, SIGMA_FRACTION * problem.extent)
     rest = generations - 1
     options = {
         "popsize": population, "seed": _seed_of(seed, rng) + 1, "verbose": -9,
@@ -416,15 +422,16 @@ def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
          planner: Planner, *, seed: int | None = None, rng: np.random.Generator | None = None,
          generations: int | None = None, population: int | None = None,
          pickup_duration: float | None = None, deadline: float | None = None,
-         grid_cell: float = GRID_CELL, costs: CostModel | None = None) -> MotionResult:
+         costs: CostModel | None = None, grid: LocationGrid | None = None,
+         groups: Mapping[str, Sequence[str]] | None = None) -> MotionResult:
     """GROP (the baseline): the same budget as `grop_star`, each sample drawing every
     goto's position from its location's Fea^m grid (∝ Fea^m, only where Fea^m > 0 unless
     it is 0 everywhere), no adaptation; the best utility is kept. Batches of `population`
     are costed together (one `path_lengths` call each) so `deadline` is checked as often
-    as in GROP*."""
+    as in GROP*. `grid` and `groups` as in `grop_star`."""
     t0 = time.monotonic()
     problem = SequenceProblem(sequence, regions, feasibility, nav, start_xy, planner,
-                              pickup_duration, grid_cell, costs)
+                              pickup_duration, costs, grid=grid, groups=groups)
     generations = planner.cma_generations if generations is None else generations
     population = planner.cma_population if population is None else population
     if problem.n == 0:
@@ -433,7 +440,7 @@ def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     tally = _Tally()
     for _ in range(generations):
         t_batch = time.monotonic()
-        X = np.stack([g.draw(rng, population) for g in problem.grids], axis=1)
+        X = np.stack([draw(g, rng, population) for g in problem.grids], axis=1)
         tally.add(X, problem.evaluate(X)[0])
         # As in GROP*: no batch that would end past the deadline.
         if deadline is not None and 2 * time.monotonic() - t_batch >= deadline:

@@ -1,4 +1,4 @@
-"""The navigation map: collision-free path lengths and paths for the base (DESIGN.md 2.6).
+"""The navigation map: collision-free path lengths and paths for the base.
 
 GROP*'s utility charges `len(y, y') / v` per `goto` (the paper's cost profile), with `len`
 the collision-free path length on the map, or the base navigator's motion time along the
@@ -6,9 +6,8 @@ path (`path_times`, the robot's cost profile); CMA-ES evaluates it thousands of 
 plan at continuous, clustered points, so it must be exact enough to rank samples and cheap
 (<= 0.2 ms).
 
-Obstacles: the tables and the mapped chairs of the scenario, plus the chairs the planner
-perceives, passed explicitly (the scenario's unmapped chairs are never read here), and
-the room's walls.
+Obstacles: what the robot knows (`KnownWorld.obstacles`): the room's walls, the tables, the
+mapped chairs and the chairs it perceived (the true unmapped chairs are never read here).
 
 Two radii (the base is a 0.62 x 0.56 m rectangle):
 
@@ -31,7 +30,7 @@ or touching an obstacle, or outside the room) is not a position of the base at a
 `path_length` returns inf and `path` returns None for it (no exception, so that CMA-ES
 can score such samples with its penalty).
 
-Design (measured with `python -m s3o_drake.planning.navigation --benchmark`):
+Design (measured with `python -m s3o_drake.commands.navigation_benchmark --benchmark`):
 
 - Occupancy grid + Euclidean distance field (`scipy.ndimage.distance_transform_edt`) at
   `resolution`: `clearance(P)` is an O(1) lookup per point. It classifies most endpoints
@@ -47,7 +46,7 @@ Design (measured with `python -m s3o_drake.planning.navigation --benchmark`):
   sees, restricted to tangent vertices (a shortest path leaves a point along a tangent to
   an obstacle), plus the endpoint segments of the rule above. "p sees vertex u" is a
   binary search in u's visibility polygon, precomputed at build time by ray casting (see
-  `_build_visibility_polygons`), so it costs O(log n) instead of O(edges); it agrees with
+  `visibility.VisibilityPolygons`), so it costs O(log n) instead of O(edges); it agrees with
   the exact segment test (checked in the tests). Endpoints are cached by their exact
   coordinates, so a repeated endpoint (the robot's start, the end of one goto that starts
   the next) costs nothing the second time.
@@ -58,25 +57,24 @@ Design (measured with `python -m s3o_drake.planning.navigation --benchmark`):
 
 from __future__ import annotations
 
+import dataclasses
 import math
-import sys
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
 from scipy.sparse.csgraph import shortest_path
-from shapely.geometry import Point, Polygon
+from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
 from s3o_drake.angles import wrap
-from s3o_drake.furniture import DistanceField, chair_footprint, table_footprint
+from s3o_drake.furniture import DistanceField
+from s3o_drake.known_world import Obstacles
 from s3o_drake.planning.base_motion import BaseProfile, chain_time
-from s3o_drake.robot import BASE_RADIUS, BASE_WIDTH
-from s3o_drake.scenario import Scenario
-from s3o_drake.validation import room_polygon
+from s3o_drake.planning.visibility import BlockingEdges, VertexSight, cross, rings
+from s3o_drake.robot import BASE_RADIUS, INSCRIBED_RADIUS
 
 DRIVE_MARGIN = 0.02
 """Added to the circumscribed radius along paths (m): the execution's collision check keeps
@@ -86,8 +84,6 @@ found runs of every method blocked so, e.g. task_010 next to a wall)."""
 DRIVE_RADIUS = BASE_RADIUS + DRIVE_MARGIN
 """Clearance kept along a path: the base's circumscribed radius plus DRIVE_MARGIN, safe at
 any yaw (m)."""
-INSCRIBED_RADIUS = BASE_WIDTH / 2
-"""Clearance an endpoint (a standing spot) needs at least (m)."""
 INSCRIBED_TOLERANCE = 1e-3
 """An endpoint's clearance may fall this short of INSCRIBED_RADIUS (m): the abstraction's
 free space is a polygon (`buffer(..., quad_segs=16)`) whose boundary comes ~0.3 mm closer."""
@@ -120,35 +116,29 @@ class NavigationMap:
     `path` are the queries. Deterministic: no randomness, ties broken by index.
     """
 
-    def __init__(self, scenario: Scenario, perceived_chairs: Sequence[Sequence[float]], *,
-                 resolution: float = 0.05, quad_segs: int = 4, fast_visibility: bool = True):
-        """`perceived_chairs`: poses [x, y, yaw] reported by perception; mapped chairs come
-        from the scenario. `resolution` (m) is the occupancy grid's cell size.
-        `fast_visibility=False` tests what an endpoint sees with the exact segment test
+    def __init__(self, obstacles: Obstacles, *, resolution: float = 0.05, quad_segs: int = 4,
+                 fast_visibility: bool = True):
+        """`obstacles`: what the robot knows (`KnownWorld.obstacles`: the walls, the tables,
+        the mapped and the perceived chairs). `resolution` (m) is the occupancy grid's cell
+        size. `fast_visibility=False` tests what an endpoint sees with the exact segment test
         instead of the precomputed visibility polygons (a reference for tests)."""
         self.fast_visibility = fast_visibility
         if resolution <= 0:
             raise ValueError(f"resolution must be positive, got {resolution}")
         self.resolution = float(resolution)
-        self.room = room_polygon(scenario)
-        footprints = [table_footprint(t.center, t.yaw, t.size) for t in scenario.tables]
-        poses = [list(c.pose) for c in scenario.chairs if c.mapped]
-        poses += [list(map(float, p)) for p in perceived_chairs]
-        for p in poses:
-            if len(p) != 3:
-                raise ValueError(f"a chair pose is [x, y, yaw], got {p}")
-        footprints += [chair_footprint(p) for p in poses]
-        self.footprints: list[Polygon] = footprints
-        self.obstacles: BaseGeometry = unary_union(footprints) if footprints else Polygon()
+        self.room = obstacles.room
+        self.footprints: list[Polygon] = list(obstacles.footprints)
+        self.obstacles: BaseGeometry = obstacles.union
         """The union of the true footprints (not inflated)."""
         # What the exact tests measure clearance to: footprints and the walls.
         self._walls = self.room.exterior
-        self._solid = unary_union([self.obstacles.boundary, self._walls]) if footprints \
+        self._solid = unary_union([self.obstacles.boundary, self._walls]) if self.footprints \
             else self._walls
         shapely.prepare(self._solid)
         self._build_grid()
         self._build_graph(quad_segs)
         self._endpoint_cache: dict[tuple[float, float], _Endpoint] = {}
+        self._sealed = False
         self._route_tables: dict[BaseProfile, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     # ----------------------------------------------------------------------------- grid
@@ -201,29 +191,17 @@ class NavigationMap:
         shapely.prepare(self.driveable)
         self._driveable_inner = self.driveable.buffer(-2 * _SLACK)
         shapely.prepare(self._driveable_inner)
-        # Blocking edges (segments a path must not cross).
-        edges = []
-        for ring in _rings(blocking):
-            c = np.asarray(ring.coords)
-            edges.append(np.hstack([c[:-1], c[1:]]))
-        self._edges = np.vstack(edges) if edges else np.zeros((0, 4))
-        counts = np.array([len(e) for e in edges], dtype=int)
-        self._ring_count = counts
-        self._ring_start = np.cumsum(counts) - counts
-        self._ring_lo = np.array([e.reshape(-1, 2).min(axis=0) for e in edges]).reshape(-1, 2)
-        self._ring_hi = np.array([e.reshape(-1, 2).max(axis=0) for e in edges]).reshape(-1, 2)
-        self._edge_lo = np.minimum(self._edges[:, :2], self._edges[:, 2:])
-        self._edge_hi = np.maximum(self._edges[:, :2], self._edges[:, 2:])
+        self._blocking_edges = BlockingEdges(blocking)
         # Convex vertices of the slightly larger polygons, inside the driveable room.
         verts, prev, nxt = [], [], []
-        for ring in _rings(outer):
+        for ring in rings(outer):
             c = np.asarray(ring.coords)[:-1]
             if ring.is_ccw is False:  # orient so the obstacle is on the left
                 c = c[::-1]
             n = len(c)
             for k in range(n):
                 a, b, d = c[k - 1], c[k], c[(k + 1) % n]
-                turn = _cross(b - a, d - b)
+                turn = cross(b - a, d - b)
                 if turn > _EPS:  # convex corner of the obstacle: a path may bend here
                     verts.append(b)
                     prev.append(a)
@@ -233,16 +211,14 @@ class NavigationMap:
             np.zeros(0, dtype=bool)
         self.vertices = V[keep]
         """Graph nodes: convex vertices of the inflated obstacles (k, 2)."""
-        self._prev = np.array(prev).reshape(-1, 2)[keep]
-        self._next = np.array(nxt).reshape(-1, 2)[keep]
-        self._prev_len = np.linalg.norm(self._prev - self.vertices, axis=1)
-        self._next_len = np.linalg.norm(self._next - self.vertices, axis=1)
+        prev = np.array(prev).reshape(-1, 2)[keep]
+        nxt = np.array(nxt).reshape(-1, 2)[keep]
         n = len(self.vertices)
         weights = np.zeros((n, n))
         if n:
             ii, jj = np.triu_indices(n, k=1)
             A, B = self.vertices[ii], self.vertices[jj]
-            free = ~self._blocked(A, B)
+            free = ~self._blocking_edges.blocked(A, B)
             # A chord between two vertices of one polygon may run inside it without
             # crossing an edge; its midpoint tells.
             mid = (A + B) / 2
@@ -265,119 +241,26 @@ class NavigationMap:
                                                 return_predecessors=True)
         else:
             self._D, self._pred = np.zeros((0, 0)), np.zeros((0, 0), dtype=int)
-        self._build_visibility_polygons()
-
-    def _build_visibility_polygons(self, eps: float = 1e-9) -> None:
-        """Each graph vertex's visibility polygon, as rays sorted by angle.
-
-        Rays from vertex v towards every blocking vertex (and eps to either side) hit the
-        blocking edges (or a box around the room) at points h; between two consecutive
-        rays the boundary of what v sees is the segment between their hits, because no
-        blocking vertex lies strictly between them. So "p sees v" is a binary search on
-        the angle of p - v and one comparison: O(log n), against O(edges) for the exact
-        segment test, and exact up to eps-wide wedges (~1e-8 m).
-        """
-        n = len(self.vertices)
-        self._ray_key = np.zeros(0)
-        if not n:
-            return
-        x0, y0, x1, y1 = self.room.buffer(1.0, join_style="mitre").bounds
-        box_c = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
-        box_e = np.hstack([box_c, np.roll(box_c, -1, axis=0)])
-        edges = np.vstack([self._edges, box_e])
-        targets = np.unique(np.vstack([self._edges[:, :2], box_c]), axis=0)
-        e0, ed = edges[:, :2], edges[:, 2:] - edges[:, :2]
-        keys, hits = [], []
-        for i, v in enumerate(self.vertices):
-            base = np.arctan2(targets[:, 1] - v[1], targets[:, 0] - v[0])
-            ang = np.unique(np.concatenate([base - eps, base, base + eps]) % (2 * np.pi))
-            d = np.stack([np.cos(ang), np.sin(ang)], axis=1)  # (r, 2)
-            w = e0[None, :, :] - v[None, None, :]  # (1, e, 2)
-            denom = _cross2(d[:, None, :], ed[None, :, :])  # (r, e)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = _cross2(w, ed[None]) / denom
-                u = _cross2(w, d[:, None, :]) / denom
-            valid = (np.abs(denom) > 1e-15) & (t > 0) & (u >= 0) & (u <= 1)
-            rho = np.where(valid, t, np.inf).min(axis=1)
-            h = v + d * rho[:, None]
-            # Wrap around: the last ray before angle 0 and the first after 2 pi.
-            ang = np.concatenate([[ang[-1] - 2 * np.pi], ang, [ang[0] + 2 * np.pi]])
-            h = np.vstack([h[-1:], h, h[:1]])
-            keys.append(ang + 8.0 * i)
-            hits.append(h)
-        self._ray_key = np.concatenate(keys)
-        self._ray_hit = np.vstack(hits)
-
-    def _sees(self, P: np.ndarray, vi: np.ndarray) -> np.ndarray:
-        """Whether point P[k] sees graph vertex vi[k], from the visibility polygons."""
-        if not len(vi):
-            return np.zeros(0, dtype=bool)
-        V = self.vertices[vi]
-        dp = P - V
-        ang = np.arctan2(dp[:, 1], dp[:, 0]) % (2 * np.pi)
-        pos = np.searchsorted(self._ray_key, ang + 8.0 * vi)
-        pos = np.clip(pos, 1, len(self._ray_key) - 1)
-        h0, h1 = self._ray_hit[pos - 1], self._ray_hit[pos]
-        dh = h1 - h0
-        dist = np.linalg.norm(dp, axis=1)
-        u = dp / np.maximum(dist, _EPS)[:, None]
-        denom = _cross2(u, dh)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rho = _cross2(h0 - V, dh) / denom
-        near = np.minimum(np.linalg.norm(h0 - V, axis=1), np.linalg.norm(h1 - V, axis=1))
-        rho = np.where(np.abs(denom) > 1e-12, rho, near)
-        return dist < rho
-
-    def _blocked(self, A: np.ndarray, B: np.ndarray, chunk: int = 20_000) -> np.ndarray:
-        """Whether segments A[i] -> B[i] properly cross a blocking edge (m,) bool.
-
-        Two bounding-box filters first (segment against each obstacle ring, then against
-        each edge of the rings it meets), the orientation test only on the (segment,
-        edge) pairs left: a segment meets few edges, so this is several times faster than
-        testing them all.
-        """
-        m = len(A)
-        out = np.zeros(m, dtype=bool)
-        if not m or not len(self._edges):
-            return out
-        if m <= 4:  # few segments: one test against every edge costs fewer numpy calls
-            a, b = A[:, None, :], B[:, None, :]
-            p0, p1 = self._edges[None, :, :2], self._edges[None, :, 2:]
-            ed, sd = p1 - p0, b - a
-            hit = ((_cross2(ed, a - p0) * _cross2(ed, b - p0) < 0)
-                   & (_cross2(sd, p0 - a) * _cross2(sd, p1 - a) < 0))
-            return hit.any(axis=1)
-        lo, hi = np.minimum(A, B), np.maximum(A, B)
-        rlo, rhi = self._ring_lo, self._ring_hi
-        for s in range(0, m, chunk):
-            sl, sh = lo[s:s + chunk], hi[s:s + chunk]
-            near = ((sl[:, None, 0] <= rhi[None, :, 0]) & (sh[:, None, 0] >= rlo[None, :, 0])
-                    & (sl[:, None, 1] <= rhi[None, :, 1]) & (sh[:, None, 1] >= rlo[None, :, 1]))
-            ki, ri = np.nonzero(near)
-            if not len(ki):
-                continue
-            counts = self._ring_count[ri]
-            offsets = np.repeat(np.cumsum(counts) - counts, counts)
-            ei = np.arange(counts.sum()) - offsets + np.repeat(self._ring_start[ri], counts)
-            ki = np.repeat(ki, counts)
-            keep = ((sl[ki, 0] <= self._edge_hi[ei, 0]) & (sh[ki, 0] >= self._edge_lo[ei, 0])
-                    & (sl[ki, 1] <= self._edge_hi[ei, 1]) & (sh[ki, 1] >= self._edge_lo[ei, 1]))
-            ki, ei = ki[keep] + s, ei[keep]
-            a, b = A[ki], B[ki]
-            p0, p1 = self._edges[ei, :2], self._edges[ei, 2:]
-            ed, sd = p1 - p0, b - a
-            d1 = _cross2(ed, a - p0)
-            d2 = _cross2(ed, b - p0)
-            d3 = _cross2(sd, p0 - a)
-            d4 = _cross2(sd, p1 - a)
-            out[ki[(d1 * d2 < 0) & (d3 * d4 < 0)]] = True
-        return out
+        self._sight = VertexSight(self.vertices, prev, nxt, self._blocking_edges, self.room)
 
     # ------------------------------------------------------------------------ endpoints
+    def seal(self) -> None:
+        """Stops memoising: later queries compute what the caches lack without storing it,
+        and work on copies of what they hold, so the map no longer changes. The execution
+        seals the plan's map before Drake's state copies share it."""
+        self._sealed = True
+
     def _prepare(self, P: np.ndarray) -> list[_Endpoint]:
         """Endpoints for points (m, 2), from the cache or computed in one batch."""
         P = np.asarray(P, dtype=float).reshape(-1, 2)
         keys = [(float(x), float(y)) for x, y in P]
+        if self._sealed:
+            # Copies: `_see` fills in what an endpoint sees, and the cache must not change.
+            missing = sorted({k for k in keys if k not in self._endpoint_cache})
+            fresh = dict(zip(missing, self._compute_endpoints(np.array(missing)), strict=True)) \
+                if missing else {}
+            return [dataclasses.replace(self._endpoint_cache[k]) if k in self._endpoint_cache
+                    else fresh[k] for k in keys]
         todo = sorted({k for k in keys if k not in self._endpoint_cache})
         if todo:
             if len(self._endpoint_cache) + len(todo) > _ENDPOINT_CACHE_SIZE:
@@ -430,38 +313,11 @@ class NavigationMap:
         for s in range(0, len(todo), 2000):  # chunks bound the (points x vertices) arrays
             chunk = todo[s:s + 2000]
             E = np.array([e.entry for e in chunk])
-            seen = self._visible(E, np.ones(len(chunk), dtype=bool))
+            seen = self._sight.visible(E, np.ones(len(chunk), dtype=bool),
+                                       fast=self.fast_visibility)
             for e, idx in zip(chunk, seen, strict=True):
                 e.seen = idx
                 e.seen_d = np.linalg.norm(self.vertices[idx] - e.entry, axis=1)
-
-    def _visible(self, E: np.ndarray, ok: np.ndarray) -> list[np.ndarray]:
-        """For each point, the tangent graph vertices it sees (indices)."""
-        n = len(self.vertices)
-        m = len(E)
-        if not n:
-            return [np.zeros(0, int) for _ in range(m)]
-        V = self.vertices
-        dv = V[None, :, :] - E[:, None, :]  # (m, n, 2)
-        # Sines of the angles between p -> v and v's two edges: v is a tangent vertex
-        # when both edges lie on one side of the line. Nearly collinear edges (|sin| <
-        # 0.01) count too: the slack offsets can put a point just on the wrong side, and
-        # an extra candidate only costs time (every candidate is a real path).
-        dist = np.maximum(np.linalg.norm(dv, axis=2), _EPS)
-        s1 = _cross2(dv, (self._prev - V)[None]) / (dist * self._prev_len[None])
-        s2 = _cross2(dv, (self._next - V)[None]) / (dist * self._next_len[None])
-        tangent = ((s1 * s2 >= 0) | (np.minimum(np.abs(s1), np.abs(s2)) < 0.01)) \
-            & ok[:, None]
-        mi, vi = np.nonzero(tangent)
-        free = self._sees(E[mi], vi) if self.fast_visibility else ~self._blocked(E[mi], V[vi])
-        result: list[np.ndarray] = [np.zeros(0, int) for _ in range(m)]
-        mi, vi = mi[free], vi[free]
-        if len(mi):
-            splits = np.flatnonzero(np.diff(mi)) + 1
-            for group_m, group_v in zip(np.split(mi, splits), np.split(vi, splits),
-                                        strict=True):
-                result[group_m[0]] = group_v
-        return result
 
     # -------------------------------------------------------------------------- queries
     def _pair_length(self, a: _Endpoint, b: _Endpoint, direct: bool) -> tuple[float, int, int]:
@@ -497,7 +353,7 @@ class NavigationMap:
             idx = np.flatnonzero(valid)
             ea = np.array([A[i].entry for i in idx])
             eb = np.array([B[i].entry for i in idx])
-            direct[idx] = ~self._blocked(ea, eb)
+            direct[idx] = ~self._blocking_edges.blocked(ea, eb)
             detour = idx[~direct[idx]]
             self._see([A[i] for i in detour] + [B[i] for i in detour])
         return [self._pair_length(a, b, bool(d)) for a, b, d in zip(A, B, direct, strict=True)], \
@@ -599,6 +455,8 @@ class NavigationMap:
             h_in[i, j] = np.where(single, edge_heading[i, j], h_in[i, kk])
             h_out[i, j] = edge_heading[kk, j]
             done[i, j] = True
+        if self._sealed:
+            return h_in, h_out, time_ij
         self._route_tables[profile] = (h_in, h_out, time_ij)
         return self._route_tables[profile]
 
@@ -632,130 +490,3 @@ class NavigationMap:
         while route[-1] != i:
             route.append(int(self._pred[i, route[-1]]))
         return route[::-1]
-
-
-def _cross(u: np.ndarray, v: np.ndarray) -> float:
-    return float(u[0] * v[1] - u[1] * v[0])
-
-
-def _cross2(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
-
-
-def _rings(geometry: BaseGeometry) -> list:
-    """Exterior and interior rings of a (multi)polygon."""
-    if geometry.is_empty:
-        return []
-    polygons = getattr(geometry, "geoms", [geometry])
-    rings = []
-    for poly in polygons:
-        rings.append(poly.exterior)
-        rings.extend(poly.interiors)
-    return rings
-
-
-# ---------------------------------------------------------------------------- benchmark
-def benchmark(scenario: Scenario, perceived_chairs: Sequence[Sequence[float]], *,
-              queries: int = 2000, seed: int = 0) -> dict[str, float]:
-    """Times the map's build and path-length queries on CMA-ES-like workloads.
-
-    Points are drawn uniformly from the abstraction's free space within reach (1 m) of
-    the dishes: (a) independent pairs, (b) pairs jittered by 3 cm around 10 centre
-    pairs, as CMA-ES's late generations are, and (c) the same as (b) with one endpoint
-    fixed (the robot's start), and (d) CMA-ES-like generations (10 samples of a 5-goto
-    sequence, one batch of 50 pairs). Returns milliseconds per query: cold (empty
-    endpoint cache) for single calls and batches of 10, warm (the same queries again).
-    """
-    from s3o_drake.abstraction.voronoi import free_space
-
-    rng = np.random.default_rng(seed)
-    t0 = time.perf_counter()
-    nav = NavigationMap(scenario, perceived_chairs)
-    build = time.perf_counter() - t0
-    free = free_space(scenario, perceived_chairs)
-    dishes = np.array([d.position for d in scenario.dishes], float).reshape(-1, 2)
-    near = unary_union([Point(*d).buffer(scenario.planner.reach) for d in dishes]) \
-        if len(dishes) else nav.room
-    region = free.intersection(near)
-    x0, y0, x1, y1 = region.bounds
-
-    def draw(n: int) -> np.ndarray:
-        out = np.zeros((0, 2))
-        while len(out) < n:
-            c = rng.uniform([x0, y0], [x1, y1], size=(4 * n, 2))
-            out = np.vstack([out, c[shapely.contains_xy(region, c[:, 0], c[:, 1])]])
-        return out[:n]
-
-    uniform = (draw(queries), draw(queries))
-    centres_p, centres_q = draw(10), draw(10)
-    pick = rng.integers(0, 10, queries)
-    jitter = (centres_p[pick] + rng.normal(0, 0.03, (queries, 2)),
-              centres_q[pick] + rng.normal(0, 0.03, (queries, 2)))
-    start = np.asarray(scenario.robot.start[:2], float)
-    fixed = (np.repeat(start[None], queries, axis=0), jitter[1])
-    result = {"build_s": build, "vertices": float(len(nav.vertices))}
-    for name, (P, Q) in {"uniform": uniform, "jitter": jitter, "from_start": fixed}.items():
-        for batch in (1, 10):
-            nav._endpoint_cache.clear()
-            t0 = time.perf_counter()
-            for s in range(0, queries, batch):
-                nav.path_lengths(P[s:s + batch], Q[s:s + batch])
-            result[f"{name}_batch{batch}_ms"] = (time.perf_counter() - t0) / queries * 1e3
-        t0 = time.perf_counter()  # warm: the same queries again, endpoints cached
-        for s in range(0, queries, 10):
-            nav.path_lengths(P[s:s + 10], Q[s:s + 10])
-        result[f"{name}_warm_batch10_ms"] = (time.perf_counter() - t0) / queries * 1e3
-    # CMA-ES-like: each generation, 10 samples of a 5-goto sequence from the start, each
-    # pose jittered by 3 cm around its centre; one batch of 50 pairs per generation, the
-    # end of one goto the start of the next.
-    nav._endpoint_cache.clear()
-    chain = draw(5)
-    generations = max(1, queries // 50)
-    t0 = time.perf_counter()
-    for _ in range(generations):
-        poses = chain[None] + rng.normal(0, 0.03, (10, 5, 2))
-        stops = np.concatenate([np.repeat(start[None, None], 10, axis=0), poses], axis=1)
-        nav.path_lengths(stops[:, :-1].reshape(-1, 2), stops[:, 1:].reshape(-1, 2))
-    result["cma_like_batch50_ms"] = (time.perf_counter() - t0) / (generations * 50) * 1e3
-    lengths = nav.path_lengths(*uniform)
-    straight = np.linalg.norm(uniform[0] - uniform[1], axis=1)
-    finite = np.isfinite(lengths)
-    result["finite_fraction"] = float(finite.mean())
-    result["mean_detour_ratio"] = float(np.mean(lengths[finite] / np.maximum(straight[finite],
-                                                                             1e-9)))
-    return result
-
-
-def main(argv: list[str] | None = None) -> int:
-    """`python -m s3o_drake.planning.navigation [scenario] --benchmark`."""
-    from s3o_drake.cli import ArgumentParser, doc_formatter, fail
-    from s3o_drake.scenario import ScenarioError, load_scenario
-
-    parser = ArgumentParser(prog="python -m s3o_drake.planning.navigation",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("scenario", nargs="?", default="scenarios/restaurant.yaml",
-                        help="scenario YAML (default: scenarios/restaurant.yaml); its "
-                             "unmapped chairs play the perceived ones")
-    parser.add_argument("--benchmark", action="store_true",
-                        help="time path-length queries and print the figures")
-    parser.add_argument("--queries", type=int, default=2000, help="queries per workload")
-    args = parser.parse_args(argv)
-    if args.queries < 10:
-        parser.error(f"--queries must be at least 10, got {args.queries}")
-    try:
-        scenario = load_scenario(args.scenario)
-    except ScenarioError as e:
-        fail(str(e))
-    perceived = [list(c.pose) for c in scenario.chairs if not c.mapped]
-    if not args.benchmark:
-        nav = NavigationMap(scenario, perceived)
-        print(f"{len(nav.vertices)} graph vertices, grid {nav.occupancy.shape}, "
-              f"{len(nav._edges)} blocking edges")
-        return 0
-    for key, value in benchmark(scenario, perceived, queries=args.queries).items():
-        print(f"{key:28s} {value:.4f}")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

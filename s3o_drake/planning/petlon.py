@@ -1,4 +1,4 @@
-"""V-PETLON, the baseline without feasibility (DESIGN.md section 2, methods list).
+"""V-PETLON, the baseline without feasibility.
 
 PETLON plans in the plain Voronoi state space (one location per dish) and knows nothing
 about Fea^m: for each dish it takes a random obstacle-free base position near it (a
@@ -23,8 +23,8 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from s3o_drake.abstraction.task_feasibility import MotionFeasibility
-from s3o_drake.planning.motion_search import GRID_CELL, MotionResult, SequenceProblem
+from s3o_drake.abstraction.motion_feasibility import MotionFeasibility
+from s3o_drake.planning.motion_search import MotionResult, SequenceProblem
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.task_planner import START, TaskPlanResult, plan_problem
 from s3o_drake.planning.time_model import CostModel
@@ -110,8 +110,9 @@ def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
         t1 = time.monotonic()
         task_time += t1 - t0
         sequence = task.best.actions
+        # Scored only: the problem's grid locations (a search's starts) are never built.
         problem = SequenceProblem(sequence, regions, feasibility, nav, start, planner, None,
-                                  GRID_CELL, costs)
+                                  costs)
         X = np.array([points[loc] for loc in problem.locations]).reshape(-1, 2)
         motion = problem.result("PETLON", X, 1, 0.0, [], [])
         motion_time += time.monotonic() - t1

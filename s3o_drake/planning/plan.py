@@ -1,4 +1,4 @@
-"""The task-motion plan every method returns (DESIGN.md 2.5-2.7), and its JSON form.
+"""The task-motion plan every method returns and its JSON form.
 
 A `TaskMotionPlan` is what execution and the benchmark read: the state space it was
 planned in, the actions in order (each `goto` with the base pose it drives to and the
@@ -12,7 +12,6 @@ exact, tuples come back as tuples), and `write` writes it atomically.
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -61,7 +60,7 @@ class TaskMotionPlan:
     locations: tuple[str, ...]
     actions: tuple[PlanAction, ...]
     utility: float
-    """Σ R(a) (DESIGN.md 2.6) of the plan: expected, with Fea^m as the pickup success."""
+    """Σ R(a) (GROP*'s utility) of the plan: expected, with Fea^m as the pickup success."""
     predicted_time: float
     """The simulated execution time the plan should take (s), as planned: exact landings,
     every action done (planning/time_model.py)."""
@@ -184,9 +183,3 @@ def samples_tuple(samples: Any) -> tuple[tuple[tuple[float, float], ...], ...]:
 
 def _nested_lists(samples: tuple) -> list:
     return [[list(p) for p in sample] for sample in samples]
-
-
-def facing_yaw(position: tuple[float, float] | Any, target: tuple[float, float] | Any) -> float:
-    """Yaw (rad) of a base at `position` facing `target`; 0 when they coincide."""
-    dx, dy = float(target[0]) - float(position[0]), float(target[1]) - float(position[1])
-    return math.atan2(dy, dx) if (dx or dy) else 0.0

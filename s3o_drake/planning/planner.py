@@ -1,6 +1,8 @@
-"""The planner: every compared method by name, under one time budget (DESIGN.md 2.5-2.7).
+"""The planner: every compared method by name, under one time budget.
 
-`plan(scenario, method=..., heatmaps=..., perceived_chairs=..., seed=...)` runs
+`plan_task(known, method=..., heatmaps=..., seed=...)` plans from what the robot knows (a
+`KnownWorld`) with Fea^m given; the planning pipeline (`pipeline.plan_from`) computes Fea^m
+and calls it. It runs
 
 - **S3O-GROP*** : the top-K S3O state spaces, searched in an order drawn from the
   normalised top-K scores (weighted sampling *without* replacement, so that each of them is
@@ -19,10 +21,17 @@ The plan of highest utility wins (V-PETLON: least navigation cost).
 
 Costs for the task planner. Location-to-location costs are the collision-free path lengths
 between the locations' representative points, divided by v, x10, as integers. A location's
-representative point is its best standing spot: the point of its 5 cm grid with the
-highest joint Fea^m (the grid GROP* starts from, `motion_search.RegionGrid`), among the
-20 best the first that can be driven to from the start. The motion search then moves the
-stops, so these costs only rank the visiting orders.
+representative point is its best standing spot: the point of its location grid with the
+highest summed Fea^m under the joint-feasibility rule (the location GROP* starts from and
+GROP draws from, `abstraction/location_grid.py`; ties to the point nearest the
+Fea^m-weighted centroid), among the 20 best the first that can be driven to from the start.
+The motion search then moves the stops, so these costs only rank the visiting orders.
+
+One location grid per plan. Fea^m is evaluated once on the 5 cm location grid of the
+plan's Voronoi partition (built with the abstraction for the S3O methods, on the plain
+partition for V-GROP*/V-GROP; V-PETLON, which never samples a grid, builds none). Fea^t,
+the representative points and the motion searches read its locations, cached per (group,
+dishes); the result carries it.
 
 Budget. `time_budget` (default `scenario.planner.time_budget`) is a cap, not a target:
 planning stops when every iteration is searched. One deadline is checked between stages,
@@ -36,9 +45,10 @@ budget by their own duration.
 Workers. With `workers > 1` the motion searches (one per task-level sequence) run in that
 many worker processes while this process goes on with the next state space's task
 planning. The workers are forked once the navigation map, the abstraction and Fea^m exist,
-so they inherit them instead of rebuilding or unpickling them; only a sequence and its
-regions travel to a worker, and a `MotionResult` back. They never call Drake. Where fork is
-not available (not Linux) the searches run in this process.
+so they inherit them (and the location grid) instead of rebuilding or unpickling them;
+only a sequence, its regions and its locations' groups travel to a worker, and a
+`MotionResult` back. They never call Drake. Where fork is not available (not Linux) the
+searches run in this process.
 
 Determinism. All randomness comes from generators seeded with (seed, purpose, iteration,
 sequence), and results are compared in submission order, so the same seed gives the same
@@ -63,26 +73,20 @@ from s3o_drake.abstraction import (
     build_abstraction,
     voronoi_partition,
 )
-from s3o_drake.abstraction.task_feasibility import MotionFeasibility, as_motion_feasibility
+from s3o_drake.abstraction.location_grid import LocationGrid
+from s3o_drake.abstraction.motion_feasibility import as_motion_feasibility
 from s3o_drake.abstraction.voronoi import VoronoiPartition
+from s3o_drake.angles import facing_yaw
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.motion_search import (
-    GRID_CELL,
     MotionResult,
-    RegionGrid,
     grop,
     grop_star,
     location_regions,
 )
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.petlon import COST_SCALE, petlon
-from s3o_drake.planning.plan import (
-    Goto,
-    Pickup,
-    PlanAction,
-    TaskMotionPlan,
-    facing_yaw,
-    samples_tuple,
-)
+from s3o_drake.planning.plan import Goto, Pickup, PlanAction, TaskMotionPlan, samples_tuple
 from s3o_drake.planning.task_planner import (
     START,
     TaskPlanningTimeoutError,
@@ -90,10 +94,8 @@ from s3o_drake.planning.task_planner import (
     plan_problem,
 )
 from s3o_drake.planning.time_model import CostModel
-from s3o_drake.scenario import Scenario
+from s3o_drake.scenario import METHODS
 
-METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random")
-"""The methods DESIGN.md section 2 compares, by name."""
 REPRESENTATIVE_CANDIDATES = 20
 """Best grid points tried (by joint Fea^m) for a location's representative point."""
 WORKER_SLACK = 0.03
@@ -112,6 +114,33 @@ class PlanningTimeoutError(PlanningError, TimeoutError):
     """The time budget expired before any plan was found."""
 
 
+@dataclass(frozen=True)
+class PlanningResult:
+    """What planning from a KnownWorld produced: the plan, or why there is none, and what
+    the plan was made on, so that execution and the pictures use the same things."""
+
+    known: KnownWorld
+    """What the robot knew: the plan starts at `known.pose`."""
+    method: str
+    seed: int
+    plan: TaskMotionPlan | None
+    error: str = ""
+    """Why there is no plan ("" when there is one)."""
+    heatmaps: tuple = ()
+    """The Fea^m heatmaps the plan was made with."""
+    navigation: NavigationMap | None = None
+    """The navigation map the plan was costed on; the execution re-paths its drives on it."""
+    partition: VoronoiPartition | None = None
+    """The plain Voronoi cells of the dishes (every method but the empty plan)."""
+    abstraction: Abstraction | None = None
+    """S3O's ranked state spaces (the S3O methods; None for the V- methods)."""
+    grid: LocationGrid | None = None
+    """The location grid Fea^t, the representative points and the motion search read
+    (None for V-PETLON, which samples no grid, and the empty plan)."""
+    planning_time: float = 0.0
+    """Wall time (s) spent: perception, Fea^m and the search (the plan's own figure)."""
+
+
 @dataclass
 class _Best:
     motion: MotionResult
@@ -126,12 +155,12 @@ _inherited: dict | None = None
 
 
 def _search_job(job: tuple) -> MotionResult:
-    actions, regions, seed_key = job
+    actions, regions, groups, seed_key = job
     s = _inherited
     assert s is not None, "search workers must be forked by _Searches"
     return s["search"](actions, regions, s["fea"], s["nav"], s["start"], s["planner"],
                        rng=np.random.default_rng(seed_key), deadline=s["deadline"],
-                       costs=s["costs"])
+                       costs=s["costs"], grid=s["grid"], groups=groups)
 
 
 class _Searches:
@@ -139,13 +168,13 @@ class _Searches:
     come back in submission order."""
 
     def __init__(self, workers: int, search: Callable[..., MotionResult], fea, nav, start,
-                 planner, deadline: float, costs: CostModel):
+                 planner, deadline: float, costs: CostModel, grid: LocationGrid):
         global _inherited
         # Workers stop a little early: collecting their results and letting them go takes
         # time too, and the budget must hold for the whole call.
         slack = WORKER_SLACK * max(0.0, deadline - time.monotonic()) if workers > 1 else 0.0
         self._shared = dict(search=search, fea=fea, nav=nav, start=start, planner=planner,
-                            deadline=deadline - slack, costs=costs)
+                            deadline=deadline - slack, costs=costs, grid=grid)
         self._pool: ProcessPoolExecutor | None = None
         self._pending: list[tuple[object, Future | MotionResult]] = []
         if workers > 1 and "fork" in multiprocessing.get_all_start_methods():
@@ -153,8 +182,8 @@ class _Searches:
             self._pool = ProcessPoolExecutor(max_workers=workers,
                                              mp_context=multiprocessing.get_context("fork"))
 
-    def submit(self, key: object, actions, regions, seed_key: list[int]) -> None:
-        job = (actions, regions, seed_key)
+    def submit(self, key: object, actions, regions, groups, seed_key: list[int]) -> None:
+        job = (actions, regions, groups, seed_key)
         if self._pool is None:
             global _inherited
             _inherited = self._shared
@@ -199,19 +228,26 @@ def _order(abstraction: Abstraction, rng: np.random.Generator) -> list[StateSpac
 
 
 def representative_points(regions: Mapping[str, BaseGeometry], groups: Sequence[Sequence[str]],
-                          names: Sequence[str], feasibility: MotionFeasibility,
-                          nav: NavigationMap, start: np.ndarray) -> dict[str, np.ndarray | None]:
-    """Each location's best standing spot (see the module docstring); None for an empty
-    region or one with no drivable spot among its best candidates."""
+                          names: Sequence[str], grid: LocationGrid, nav: NavigationMap,
+                          start: np.ndarray) -> dict[str, np.ndarray | None]:
+    """Each location's best standing spot on the plan's location grid (see the module
+    docstring); None for an empty region or one with no drivable spot among its best
+    candidates."""
     out: dict[str, np.ndarray | None] = {}
     for name, group in zip(names, groups, strict=True):
         region = regions[name]
         if region.is_empty or region.area <= 0:
             out[name] = None
             continue
-        grid = RegionGrid(region, list(group), feasibility, GRID_CELL)
-        ranked = np.argsort(-grid.weight, kind="stable")[:REPRESENTATIVE_CANDIDATES]
-        P = grid.points[ranked]
+        location = grid.location(group)
+        w, points = location.weight, location.points
+        # Ties (a plateau of equal Fea^m) go to the point nearest the Fea^m-weighted
+        # centroid, as for GROP*'s initial point: not to whichever the lattice lists first.
+        centroid = (w[:, None] * points).sum(axis=0) / w.sum() if w.sum() > 0 else \
+            points.mean(axis=0)
+        near = np.linalg.norm(points - centroid, axis=1)
+        ranked = np.lexsort((near, -w))[:REPRESENTATIVE_CANDIDATES]
+        P = points[ranked]
         lengths = nav.path_lengths(np.broadcast_to(start, P.shape), P)
         ok = np.flatnonzero(np.isfinite(lengths))
         out[name] = P[ok[0]].copy() if len(ok) else None
@@ -233,14 +269,14 @@ def location_costs(points: Mapping[str, np.ndarray | None], nav: NavigationMap, 
             if a != b and b != START and np.isfinite(L[i, j])}
 
 
-def _assemble(method: str, seed: int, best: _Best, scenario: Scenario, nav: NavigationMap,
+def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: NavigationMap,
               timing: dict[str, float], planning_time: float, searches: int, samples: int,
               complete: bool) -> TaskMotionPlan:
     """The TaskMotionPlan of the winning motion result: poses facing the next dish, paths
     from the navigation map."""
     motion = best.motion
-    dish_xy = {d.name: d.position for d in scenario.dishes}
-    here = np.asarray(scenario.robot.start[:2], dtype=float)
+    dish_xy = {d.name: d.position for d in known.dishes}
+    here = np.asarray(known.pose[:2], dtype=float)
     location = "start"
     actions: list[PlanAction] = []
     k = 0
@@ -270,10 +306,11 @@ def _assemble(method: str, seed: int, best: _Best, scenario: Scenario, nav: Navi
                           late_samples=samples_tuple(motion.late))
 
 
-def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequence[Sequence[float]],
-         seed: int, time_budget: float | None = None, n_sequences: int = 3, workers: int = 1,
-         feasibility_time: float = 0.0) -> TaskMotionPlan:
-    """Plans the scenario's task with the named method (see the module docstring).
+def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
+              time_budget: float | None = None, n_sequences: int = 3, workers: int = 1,
+              feasibility_time: float = 0.0) -> PlanningResult:
+    """Plans the collection of the known world's dishes from its pose with the named
+    method (see the module docstring).
 
     `heatmaps`: Fea^m (a `MotionFeasibility`, a mapping dish -> Heatmap or a list of
     Heatmaps); `feasibility_time` is how long computing them took (s), added to the
@@ -283,21 +320,23 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
     """
     _check_method(method)
     t_start = time.monotonic()
-    budget = scenario.planner.time_budget if time_budget is None else float(time_budget)
+    budget = known.planner.time_budget if time_budget is None else float(time_budget)
     deadline = t_start + budget
-    planner = scenario.planner
+    planner = known.planner
     fea = as_motion_feasibility(heatmaps)
-    start = np.asarray(scenario.robot.start[:2], dtype=float)
+    start = np.asarray(known.pose[:2], dtype=float)
     timing = {"feasibility": float(feasibility_time), "navigation": 0.0, "abstraction": 0.0,
               "task_planning": 0.0, "motion_search": 0.0}
     searches = samples = 0
     best: _Best | None = None
     complete = True
-    if not scenario.dishes:  # nothing to collect: the empty plan is the optimal one
-        return TaskMotionPlan(method=method, seed=int(seed), groups=(), locations=(),
-                              actions=(), utility=0.0, predicted_time=0.0,
-                              planning_time=float(feasibility_time) + time.monotonic() - t_start,
-                              timing=timing)
+    if not known.dishes:  # nothing to collect: the empty plan is the optimal one
+        empty = TaskMotionPlan(method=method, seed=int(seed), groups=(), locations=(),
+                               actions=(), utility=0.0, predicted_time=0.0,
+                               planning_time=float(feasibility_time) + time.monotonic() - t_start,
+                               timing=timing)
+        return PlanningResult(known=known, method=method, seed=int(seed), plan=empty,
+                              planning_time=empty.planning_time)
 
     def expired(stage: str, fatal: bool = True) -> bool:
         """Whether the deadline passed (the plan is then incomplete); raises when it did
@@ -312,8 +351,8 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
         return True
 
     t = time.monotonic()
-    nav = NavigationMap(scenario, perceived_chairs)
-    costs = CostModel.for_scenario(scenario)
+    nav = NavigationMap(known.obstacles)
+    costs = CostModel.for_known(known)
     # The graph routes' motion times, once, before search workers fork and inherit them.
     nav.route_table(costs.base)
     timing["navigation"] = time.monotonic() - t
@@ -321,13 +360,16 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
 
     t = time.monotonic()
     abstraction: Abstraction | None = None
+    grid: LocationGrid | None = None
     if method.startswith("S3O"):
         abstraction = build_abstraction(
-            scenario, fea, perceived_chairs=perceived_chairs, seed=seed,
-            time_limit=max(0.0, min(5.0, deadline - time.monotonic())))
+            known, fea, seed=seed, time_limit=max(0.0, min(5.0, deadline - time.monotonic())))
         partition: VoronoiPartition = abstraction.partition
+        grid = abstraction.grid
     else:
-        partition = voronoi_partition(scenario, perceived_chairs)
+        partition = voronoi_partition(known)
+        if method != "V-PETLON":  # PETLON draws its goals uniformly: it reads no grid
+            grid = LocationGrid.of(partition, fea)
     timing["abstraction"] = time.monotonic() - t
     expired("the abstraction")
     cells = dict(zip(partition.dishes, partition.cells, strict=True))
@@ -344,9 +386,12 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
         complete = result.draws == iterations
         unreachable = tuple(sorted(set(result.task.unreachable) | set(partition.unreachable)))
         best = _Best(result.motion, groups, regions, unreachable, None)
-        return _assemble(method, seed, best, scenario, nav, timing,
+        made = _assemble(method, seed, best, known, nav, timing,
                          time.monotonic() - t_start + feasibility_time, result.draws,
                          result.draws, complete)
+        return PlanningResult(known=known, method=method, seed=int(seed), plan=made,
+                              navigation=nav, partition=partition,
+                              planning_time=made.planning_time)
 
     # The state spaces to search, one per iteration.
     rng = np.random.default_rng([seed, _ORDER])
@@ -364,10 +409,11 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
     search = grop if method.endswith("GROP") else grop_star
 
     tasks: dict[tuple[tuple[str, ...], ...], tuple[TaskPlanResult, dict[str, BaseGeometry]]] = {}
-    searches_run = _Searches(workers, search, fea, nav, start, planner, deadline, costs)
+    assert grid is not None
+    searches_run = _Searches(workers, search, fea, nav, start, planner, deadline, costs, grid)
     try:
         best, searches, samples = _search_spaces(
-            spaces, tasks, searches_run, cells, partition, fea, nav, start, planner,
+            spaces, tasks, searches_run, cells, partition, grid, nav, start, planner,
             n_sequences, seed, deadline, timing, expired)
     finally:
         searches_run.close()
@@ -377,24 +423,27 @@ def plan(scenario: Scenario, *, method: str, heatmaps, perceived_chairs: Sequenc
         expired("the motion search")
         raise PlanningError(f"{method}: no valid plan (every motion search ended outside its "
                             f"regions or on an undrivable leg)")
-    return _assemble(method, seed, best, scenario, nav, timing,
+    made = _assemble(method, seed, best, known, nav, timing,
                      time.monotonic() - t_start + feasibility_time, searches, samples, complete)
+    return PlanningResult(known=known, method=method, seed=int(seed), plan=made, navigation=nav,
+                          partition=partition, abstraction=abstraction, grid=grid,
+                          planning_time=made.planning_time)
 
 
-def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, fea, nav, start,
+def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, grid, nav, start,
                    planner, n_sequences, seed, deadline, timing, expired):
     """Task planning per state space here, motion searches through `searches_run`; the
     best result (ties: the first submitted), and how many searches and samples ran.
-    `expired(stage, fatal)` is plan()'s: fatal until a search has been submitted."""
+    `expired(stage, fatal)` is plan_task()'s: fatal until a search has been submitted."""
     submitted = False
     for it, (groups, score) in enumerate(spaces):
         if expired("the motion search", not submitted):
             break
         t = time.monotonic()
+        names = [f"l{k}" for k in range(len(groups))]
         if groups not in tasks:
-            names = [f"l{k}" for k in range(len(groups))]
             regions = location_regions(groups, cells)
-            points = representative_points(regions, groups, names, fea, nav, start)
+            points = representative_points(regions, groups, names, grid, nav, start)
             costs = location_costs(points, nav, start, planner.speed)
             lost = sorted(set(partition.unreachable)
                           | {d for n, g in zip(names, groups, strict=True)
@@ -421,7 +470,8 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, fea
                 break
             t = time.monotonic()
             searches_run.submit((groups, regions, unreachable, score), sequence.actions,
-                                regions, [seed, _SEARCH, it, j])
+                                regions, dict(zip(names, groups, strict=True)),
+                                [seed, _SEARCH, it, j])
             submitted = True
             timing["motion_search"] += time.monotonic() - t
     t = time.monotonic()

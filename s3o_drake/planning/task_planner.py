@@ -1,4 +1,4 @@
-"""The clingo task planner (DESIGN.md 2.5): task-level sequences of `goto`/`pickup` actions.
+"""The clingo task planner: task-level sequences of `goto`/`pickup` actions.
 
 The domain (fluents, actions, preconditions, effects, goal, objective) is declarative, in
 `domain.lp` beside this file; Python only writes the problem facts, runs clingo under a

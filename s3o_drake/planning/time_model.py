@@ -20,7 +20,7 @@ execution time is predicted as
 - T_0: the start and the end of the run (the first command starts a control period after
   t = 0; the run ends when the planner reads the last report, without the next hand-over).
 
-γ, δ and T_0 are derived by `python -m s3o_drake.execution.derive_times` and recorded in
+γ, δ and T_0 are derived by `python -m s3o_drake.commands.derive_times` and recorded in
 models/time_model.yaml (`TimeModel`), which everything reads: the pickup's duration is the
 arm's, and changes with it (re-run the command after changing the arm's motion).
 
@@ -50,22 +50,18 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
-from s3o_drake.angles import wrap
+from s3o_drake.angles import facing_yaw, wrap
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.base_motion import SETTLE_TIME, BaseProfile
-from s3o_drake.resources import MODELS_DIR
-from s3o_drake.scenario import Planner, Scenario
+from s3o_drake.resources import TIME_MODEL
+from s3o_drake.robot import CONTROL_PERIOD
+from s3o_drake.scenario import Planner
 
 if TYPE_CHECKING:  # only for hints: the systems import this module for their period
     from s3o_drake.planning.navigation import NavigationMap
 
-#: How often (s) the execution systems of the full diagram look at their inputs: commands,
-#: reports and grips change a few times a minute, and a 50 ms reaction is invisible next
-#: to seconds-long motions, while every periodic event costs a state copy per firing.
-#: (Trajectories are evaluated at every plant step regardless.) Here, below the systems,
-#: because the hand-over between commands is part of the time model.
-CONTROL_PERIOD = 0.05
-MODEL_FILE = MODELS_DIR / "time_model.yaml"
+MODEL_FILE = TIME_MODEL
 FORMAT = "s3o_drake.TimeModel/1"
 PICKUP_FORMS = ("constant", "per_kind", "linear", "per_kind_linear", "per_kind_grasp",
                 "per_kind_grasp_linear", "per_kind_grasp_quadratic")
@@ -202,7 +198,7 @@ class TimeModel:
 def _load(path: str) -> TimeModel:
     if not Path(path).is_file():
         raise FileNotFoundError(f"{path}: no time model; make it with "
-                                "`python -m s3o_drake.execution.derive_times`")
+                                "`python -m s3o_drake.commands.derive_times`")
     return TimeModel.from_dict(yaml.safe_load(Path(path).read_text()))
 
 
@@ -251,12 +247,12 @@ class CostModel:
         return cls(planner, profile="paper")
 
     @classmethod
-    def for_scenario(cls, scenario: Scenario, time_model: TimeModel | None = None) -> CostModel:
-        """The scenario's cost profile, with its dishes and start for the time prediction."""
+    def for_known(cls, known: KnownWorld, time_model: TimeModel | None = None) -> CostModel:
+        """The planner's cost profile, with the dishes that remain and where the robot
+        stands for the time prediction."""
         dishes = {d.name: DishPlace((float(d.position[0]), float(d.position[1])), d.kind)
-                  for d in scenario.dishes}
-        return cls(scenario.planner, dishes=dishes, start=scenario.robot.start,
-                   time_model=time_model)
+                  for d in known.dishes}
+        return cls(known.planner, dishes=dishes, start=known.pose, time_model=time_model)
 
     @property
     def gamma(self) -> float:
@@ -276,10 +272,8 @@ class CostModel:
         return self.pickup_times(dish, where)
 
     def facing(self, where: np.ndarray, dish: str) -> np.ndarray:
-        """Yaw (m,) of base positions `where` (m, 2) facing `dish` (plan.facing_yaw)."""
-        d = np.asarray(self.dishes[dish].xy) - np.asarray(where, float).reshape(-1, 2)
-        yaw = np.arctan2(d[:, 1], d[:, 0])
-        return np.where((d[:, 0] == 0) & (d[:, 1] == 0), 0.0, yaw)
+        """Yaw (m,) of base positions `where` (m, 2) facing `dish`."""
+        return facing_yaw(np.asarray(where, float).reshape(-1, 2), self.dishes[dish].xy)
 
     def stop_turns(self, where: np.ndarray, yaw: np.ndarray,
                    dishes: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:

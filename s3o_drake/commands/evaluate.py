@@ -1,0 +1,196 @@
+"""Benchmark study: plan and execute every task x method x seed, group the tasks by
+difficulty, and write the paper's Fig. 5 and Table I.
+
+    python -m s3o_drake.commands.evaluate --tasks DIR --methods all --seeds 3 --out results/
+           [--workers N | --scheduler tcp://HOST:PORT] [--limit N] [--quiet] [--summarize]
+
+Each run plans the task (the scenario file) with the method, the noise and the planner's
+randomness drawn from the seed, and executes the plan in the full Drake simulation, as
+`python -m s3o_drake.run` does but without the playback. It records whether every dish was
+collected (task completion), the share of dishes collected, the execution time (simulated)
+and the planning time, and per executed pickup the plan's Fea^m against the outcome (read
+by `python -m s3o_drake.commands.calibration`). Seeds are 0 to N-1.
+
+Difficulty (the paper's measure): Σ_o ∫ Fea^m(y, o) dy, the expected area from which each
+dish can be picked, from the Drake oracle under the scenario's noise model, summed over the
+task's dishes. Tasks are sorted by it and split into thirds: easy, moderate, difficult.
+
+Written to --out:
+  results.jsonl     one line per finished run, written as it finishes (the resume log)
+  difficulty.jsonl  one line per task: its pickable area, per dish and in all
+  results.csv       one row per run, with the task's area and group
+  results.json      settings, areas, groups, the per-group figures, the claims, the paired
+                    comparison, every run
+  figure5.png       completion rate and execution time per group and method (Fig. 5)
+  table1.png        S3O-GROP* against S3O-Random per group (Table I)
+  summary.md        the same as Markdown tables, the claims checked, S3O-GROP* against each
+                    method on the same tasks (wins, losses, sign test, time saved),
+                    completion under other splits of the tasks (hardest dish, area per
+                    dish, number of dishes), why dishes were lost, errors if any
+
+--summarize writes those from the runs finished so far and runs nothing (safe beside a
+running study: the result files are only read).
+
+Scale-out: a local pool of --workers spawned processes (default: one per core), or, with
+--scheduler, the workers of a Dask distributed cluster (they need s3o_drake installed; each
+run plans with one search process, the parallelism being across runs). Interrupted or
+crashed, the same command resumes: finished runs are read back from results.jsonl and not
+run again; a run that ended in an error is tried again. Editing a task file makes its runs
+new ones. A progress bar shows the rate and the time left.
+
+Exit status: 0 when every run finished, 1 when some ended in an error (listed in
+summary.md), 2 on bad input (nothing is written), 130 when interrupted (finished runs kept).
+"""
+
+import os
+import re
+import signal
+import sys
+from pathlib import Path
+
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.evaluation.difficulty import GROUPS, difficulty_groups
+from s3o_drake.evaluation.jobs import DIFFICULTY, RUN, Job, file_digest
+from s3o_drake.evaluation.scheduler import run_jobs
+from s3o_drake.evaluation.store import ResultStore
+from s3o_drake.evaluation.summary import markdown_tables, summarize, write_outputs
+from s3o_drake.scenario import METHODS, ScenarioError, load_scenario
+
+DIFFICULTY_SEED = 0
+"""The oracle's noise draws for the difficulty measure: one fixed seed, so that a task's
+group does not depend on how many seeds the study runs."""
+SCHEDULER = re.compile(r"^(tcp|tls|inproc|ucx)://\S+$")
+
+
+def parse_args(argv: list[str] | None):
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.evaluate", description=__doc__,
+                            formatter_class=doc_formatter())
+    parser.add_argument("--tasks", required=True, metavar="DIR",
+                        help="folder of task scenarios (*.yaml), e.g. scenarios/generated")
+    parser.add_argument("--methods", nargs="+", default=["all"], metavar="NAME",
+                        help=f"'all' or some of: {', '.join(METHODS)} (default all)")
+    parser.add_argument("--seeds", type=int, default=3, metavar="N",
+                        help="seeds 0..N-1 per task and method (default 3)")
+    parser.add_argument("--out", required=True, metavar="DIR", help="results folder")
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, metavar="N",
+                        help="local worker processes (default: one per core)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="a Dask scheduler, tcp://HOST:PORT, instead of the local pool")
+    parser.add_argument("--limit", type=int, metavar="N",
+                        help="only the first N tasks of the folder (by name)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.add_argument("--summarize", action="store_true",
+                        help="run nothing: write the tables and figures from the runs "
+                             "finished so far (e.g. while the study runs elsewhere)")
+    return parser.parse_args(argv)
+
+
+def _validate(args) -> tuple[list[Path], list[str]]:
+    folder = Path(args.tasks)
+    if not folder.is_dir():
+        fail(f"--tasks: no folder {folder}")
+    paths = sorted(folder.glob("*.yaml"))
+    if not paths:
+        fail(f"--tasks: no *.yaml task in {folder}")
+    if args.limit is not None:
+        if args.limit < 1:
+            fail(f"--limit: must be at least 1, got {args.limit}")
+        paths = paths[:args.limit]
+    for path in paths:
+        try:
+            load_scenario(path)
+        except ScenarioError as e:
+            fail(f"{path}: {e}")
+    if args.methods == ["all"]:
+        methods = list(METHODS)
+    else:
+        unknown = [m for m in args.methods if m not in METHODS]
+        if unknown:
+            fail(f"--methods: unknown method {unknown[0]!r} (choose from 'all', "
+                 f"{', '.join(METHODS)})")
+        methods = list(dict.fromkeys(args.methods))
+    if args.seeds < 1:
+        fail(f"--seeds: must be at least 1, got {args.seeds}")
+    if args.workers < 1:
+        fail(f"--workers: must be at least 1, got {args.workers}")
+    if args.scheduler is not None and not SCHEDULER.match(args.scheduler):
+        fail(f"--scheduler: expected an address like tcp://HOST:PORT, got {args.scheduler!r}")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        fail(f"--out: {out} is a file, not a folder")
+    return paths, methods
+
+
+def study_jobs(paths: list[Path], methods: list[str], seeds: int) -> tuple[list[Job],
+                                                                          list[Job]]:
+    """The difficulty jobs (one per task) and the run jobs, seed by seed, then task by task,
+    all methods of a task together: an interrupted study has whole comparisons done."""
+    digests = {p: file_digest(p) for p in paths}
+    difficulty = [Job(DIFFICULTY, p.stem, str(p), digests[p], DIFFICULTY_SEED) for p in paths]
+    runs = [Job(RUN, p.stem, str(p), digests[p], seed, method)
+            for seed in range(seeds) for p in paths for method in methods]
+    return difficulty, runs
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    paths, methods = _validate(args)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    difficulty_jobs, run_job_list = study_jobs(paths, methods, args.seeds)
+    difficulty_store = ResultStore(out / "difficulty.jsonl", read_only=args.summarize)
+    store = ResultStore(out / "results.jsonl", read_only=args.summarize)
+    print(f"{len(paths)} tasks x {len(methods)} methods x {args.seeds} seeds = "
+          f"{len(run_job_list)} runs; "
+          f"{sum(store.finished(j.key) for j in run_job_list)} already finished in {out}",
+          flush=True)
+    options = {"workers": args.workers, "scheduler": args.scheduler,
+               "progress": not args.quiet}
+    # `kill PID` stops the study like Ctrl-C: finished runs kept, workers shut down.
+    previous = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        if not args.summarize:
+            run_jobs(difficulty_jobs, difficulty_store, desc="difficulty", **options)
+            run_jobs(run_job_list, store, desc="runs", **options)
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: the finished runs are kept in {out / 'results.jsonl'}; "
+              "run the same command to go on", file=sys.stderr)
+        return 130
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+    wanted = {j.key for j in run_job_list}
+    runs = [r for r in store.rows() if r["key"] in wanted]
+    measured = [difficulty_store.get(j.key) for j in difficulty_jobs]
+    areas = {r["task"]: r["area"] for r in measured if r is not None and "error" not in r}
+    groups = difficulty_groups(areas)
+    settings = {"tasks": str(Path(args.tasks)), "task_count": len(paths), "methods": methods,
+                "seeds": list(range(args.seeds)), "difficulty_seed": DIFFICULTY_SEED,
+                "command": "python -m s3o_drake.commands.evaluate " + " ".join(
+                    sys.argv[1:] if argv is None else argv)}
+    dish_areas = {r["task"]: r["areas"] for r in measured
+                  if r is not None and "error" not in r}
+    written = write_outputs(out, runs, areas, groups, methods, settings, dish_areas)
+    print(markdown_tables(summarize(runs, groups, methods), methods))
+    print("Group sizes: " + ", ".join(
+        f"{g} {sum(v == g for v in groups.values())}" for g in GROUPS))
+    print("wrote " + ", ".join(str(p) for p in written))
+    if args.summarize:
+        left = sum(not store.finished(j.key) for j in run_job_list)
+        print(f"{left} of {len(run_job_list)} runs not finished yet; "
+              "the tables compare the methods on the finished (task, seed) pairs")
+    errors = [r for r in runs if "error" in r] + [r for r in measured
+                                                   if r is not None and "error" in r]
+    if errors:
+        print(f"{len(errors)} jobs ended in an error (see {out / 'summary.md'}); "
+              "run the same command to try them again", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,96 @@
+"""Benchmark the execution: how much faster than real time a plan runs, and the playback's size.
+
+    python -m s3o_drake.commands.execution_benchmark [--scenarios YAML ...] [--seeds 0 1 2]
+
+For each scenario (default: scenarios/restaurant.yaml, six dishes) and seed, plans with
+S3O-GROP* and executes the plan in the full diagram with the Meshcat recording on, as
+`python -m s3o_drake.run` does, and prints: dishes collected, simulated execution time, the
+simulation's wall time (planning excluded) and their ratio (target: at least 10x faster than
+real time), and the playback page's size, per simulated second and extrapolated to a
+five-minute execution (target: under 20 MB).
+
+--json FILE appends one JSON line per run as soon as it ends.
+"""
+
+import json
+import logging
+import statistics
+import sys
+from pathlib import Path
+
+from pydrake.geometry import Meshcat
+
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.execution.execute import execute
+from s3o_drake.resources import RESTAURANT
+from s3o_drake.scenario import ScenarioError, load_scenario
+
+RATE_TARGET = 10.0
+SIZE_TARGET_MB = 20.0
+FIVE_MINUTES = 300.0
+
+
+def measure(path: Path, seed: int) -> dict:
+    scenario = load_scenario(path)
+    run = execute(scenario, seed=seed, meshcat=Meshcat(), progress=False)
+    r = run.report
+    size = len(run.html.encode())
+    # The page holds the viewer and the scene once, then a share per simulated second.
+    empty = len(Meshcat().StaticHtml().encode())
+    per_second = (size - empty) / max(r["simulated_time"], 1e-9)
+    return {"scenario": str(path), "seed": seed, "dishes": r["dishes"],
+            "collected": r["collected"], "execution_time": r["execution_time"],
+            "simulated_time": r["simulated_time"], "wall_time": r["wall_time"],
+            "realtime_rate": r["realtime_rate"], "planning_time": r["planning_time"],
+            "playback_mb": size / 1e6, "playback_mb_per_s": per_second / 1e6,
+            "playback_mb_5min": (size + per_second * (FIVE_MINUTES - r["simulated_time"])) / 1e6}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.execution_benchmark",
+                            description=__doc__, formatter_class=doc_formatter())
+    parser.add_argument("--scenarios", nargs="+", metavar="YAML",
+                        default=[str(RESTAURANT)])
+    parser.add_argument("--seeds", nargs="+", type=int, default=[0], metavar="N")
+    parser.add_argument("--json", metavar="FILE", help="append one JSON line per run")
+    args = parser.parse_args(argv)
+    paths = [Path(p) for p in args.scenarios]
+    for path in paths:
+        try:
+            load_scenario(path)
+        except ScenarioError as e:
+            fail(f"{path}: {e}")
+    if any(s < 0 for s in args.seeds):
+        fail("--seeds: seeds are non-negative integers")
+    json_path = Path(args.json) if args.json else None
+    if json_path is not None and not json_path.parent.is_dir():
+        fail(f"--json: no folder {json_path.parent}")
+    logging.getLogger("drake").setLevel(logging.WARNING)
+
+    print(f"{'scenario':<16} {'seed':>4} {'dishes':>7} {'exec s':>7} {'wall s':>7} "
+          f"{'x real':>7} {'page MB':>8} {'MB/5min':>8}", flush=True)
+    rows = []
+    for path in paths:
+        for seed in args.seeds:
+            row = measure(path, seed)
+            rows.append(row)
+            print(f"{path.stem:<16} {seed:>4} {row['collected']:>3}/{row['dishes']:<3} "
+                  f"{row['execution_time']:7.1f} {row['wall_time']:7.1f} "
+                  f"{row['realtime_rate']:7.1f} {row['playback_mb']:8.2f} "
+                  f"{row['playback_mb_5min']:8.2f}", flush=True)
+            if json_path is not None:
+                with json_path.open("a") as out:
+                    out.write(json.dumps(row) + "\n")
+    rate = statistics.median(r["realtime_rate"] for r in rows)
+    slowest = min(r["realtime_rate"] for r in rows)
+    size = max(r["playback_mb_5min"] for r in rows)
+    print(f"real-time factor: median {rate:.1f}x, slowest run {slowest:.1f}x (target >= "
+          f"{RATE_TARGET:g}x in every run: {'met' if slowest >= RATE_TARGET else 'NOT met'}); "
+          "playback extrapolated to five "
+          f"minutes: at most {size:.1f} MB (target < {SIZE_TARGET_MB:g} MB: "
+          f"{'met' if size < SIZE_TARGET_MB else 'NOT met'})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

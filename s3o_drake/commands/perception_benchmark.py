@@ -1,0 +1,148 @@
+"""Benchmark chair perception: how close the perceived chairs are to the true ones.
+
+    python -m s3o_drake.commands.perception_benchmark --tasks 20
+
+For each of the first N shipped tasks (scenarios/generated/task_*.yaml; or the files given
+with --scenarios) the overhead camera renders the scene (the world diagram with the robot
+at its start), `ChairPerception` finds the unmapped chairs, and the detections are matched
+to the true unmapped chairs by the Hungarian method on centre distance
+(scipy.optimize.linear_sum_assignment). A true chair is detected when its match lies
+within 15 cm; a detection matched to nothing that close is a false positive.
+
+Prints a line per task and the summary: detection rate, false positives, median and
+95th-percentile centre error (m) and yaw error (rad) over the detected chairs, the share
+of all true chairs found within 5 cm (the target: all of them), and the perception time
+per scene (rendering excluded).
+
+--pictures DIR writes each task's overhead image with the perceived (green) and true
+(magenta) chair outlines as DIR/<task>.png.
+"""
+
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+from tqdm import tqdm
+
+from s3o_drake.angles import wrap
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
+from s3o_drake.io import write_atomically
+from s3o_drake.perception.chairs import ChairPerception, draw_chairs
+from s3o_drake.scenario import Scenario
+from s3o_drake.world.builder import render_overhead
+
+MATCH_RADIUS = 0.15
+"""A detection this close (m) to a true chair's centre counts as finding it."""
+TARGET_ERROR = 0.05
+"""The issue's target: perceived chairs within 5 cm of the truth."""
+
+
+def true_chairs(scenario: Scenario) -> list[list[float]]:
+    """The poses of the chairs the map lacks: what perception should find."""
+    return [list(c.pose) for c in scenario.chairs if not c.mapped]
+
+
+def match(truth: list[list[float]], found: list[list[float]]
+          ) -> list[tuple[int, int, float, float]]:
+    """Pairs (true index, found index, centre error m, yaw error rad) of the Hungarian
+    matching on centre distance; pairs farther apart than MATCH_RADIUS are left out."""
+    if not truth or not found:
+        return []
+    t, f = np.asarray(truth, dtype=float), np.asarray(found, dtype=float)
+    distance = np.linalg.norm(t[:, None, :2] - f[None, :, :2], axis=2)
+    pairs = []
+    for i, j in zip(*linear_sum_assignment(distance), strict=True):
+        if distance[i, j] <= MATCH_RADIUS:
+            yaw = abs(float(wrap(f[j, 2] - t[i, 2])))
+            pairs.append((int(i), int(j), float(distance[i, j]), yaw))
+    return pairs
+
+
+def benchmark_task(name: str, scenario: Scenario, pictures: Path | None) -> dict[str, Any]:
+    """One task's row: counts, errors and the perception time."""
+    images = render_overhead(scenario)[:3]
+    perception = ChairPerception(scenario)
+    start = time.perf_counter()
+    found = perception(*images)
+    elapsed = time.perf_counter() - start
+    truth = true_chairs(scenario)
+    pairs = match(truth, found)
+    if pictures is not None:
+        import cv2
+
+        picture = draw_chairs(scenario, images[0], found, truth=truth)
+        ok, png = cv2.imencode(".png", cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
+        if ok:
+            write_atomically(pictures / f"{name}.png", png.tobytes())
+    return {"task": name, "chairs": len(truth), "found": len(found), "detected": len(pairs),
+            "false_positives": len(found) - len(pairs),
+            "centre_errors": [p[2] for p in pairs], "yaw_errors": [p[3] for p in pairs],
+            "seconds": elapsed}
+
+
+def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Rates and error percentiles over all tasks."""
+    chairs = sum(r["chairs"] for r in rows)
+    centre = np.array([e for r in rows for e in r["centre_errors"]])
+    yaw = np.array([e for r in rows for e in r["yaw_errors"]])
+
+    def pct(values: np.ndarray, q: float) -> float:
+        return float(np.percentile(values, q)) if len(values) else math.nan
+
+    return {
+        "tasks": len(rows), "chairs": chairs,
+        "detection_rate": len(centre) / chairs if chairs else math.nan,
+        "false_positives": sum(r["false_positives"] for r in rows),
+        "median_centre_error_m": pct(centre, 50), "p95_centre_error_m": pct(centre, 95),
+        "max_centre_error_m": float(centre.max()) if len(centre) else math.nan,
+        "median_yaw_error_rad": pct(yaw, 50), "p95_yaw_error_rad": pct(yaw, 95),
+        "max_yaw_error_rad": float(yaw.max()) if len(yaw) else math.nan,
+        "within_5cm": float(np.sum(centre <= TARGET_ERROR)) / chairs if chairs else math.nan,
+        "median_seconds": float(np.median([r["seconds"] for r in rows])) if rows else math.nan,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.perception_benchmark",
+                            description=__doc__, formatter_class=doc_formatter())
+    parser.add_argument("--tasks", type=int, default=20,
+                        help="first N shipped tasks (default 20)")
+    parser.add_argument("--scenarios", nargs="+", metavar="YAML",
+                        help="these scenario files instead of the shipped tasks")
+    parser.add_argument("--pictures", metavar="DIR",
+                        help="write each task's overhead image with the chairs drawn here")
+    args = parser.parse_args(argv)
+    scenarios = task_scenarios(args.scenarios, args.tasks)
+    pictures = Path(args.pictures) if args.pictures else None
+    if pictures is not None and not pictures.is_dir():
+        fail(f"--pictures: no folder {pictures}")
+
+    rows = []
+    bar = tqdm(scenarios, desc="perception", unit="task", file=sys.stderr)
+    for name, scenario in bar:
+        row = benchmark_task(name, scenario, pictures)
+        rows.append(row)
+        worst = max(row["centre_errors"], default=math.nan)
+        tqdm.write(f"{name:<14} chairs {row['chairs']}  found {row['found']}  "
+                   f"detected {row['detected']}  false {row['false_positives']}  "
+                   f"worst centre error {worst:.3f} m  {row['seconds']:.2f} s")
+    s = summarize(rows)
+    print(f"\n{s['tasks']} tasks, {s['chairs']} unmapped chairs")
+    print(f"detection rate (within {MATCH_RADIUS:.2f} m): {s['detection_rate']:.3f}")
+    print(f"false positives: {s['false_positives']}")
+    print(f"centre error (m): median {s['median_centre_error_m']:.4f}, "
+          f"p95 {s['p95_centre_error_m']:.4f}, max {s['max_centre_error_m']:.4f}")
+    print(f"yaw error (rad): median {s['median_yaw_error_rad']:.4f}, "
+          f"p95 {s['p95_yaw_error_rad']:.4f}, max {s['max_yaw_error_rad']:.4f}")
+    print(f"within {TARGET_ERROR:.2f} m: {s['within_5cm']:.3f} of the chairs "
+          f"(target 1.0: {'met' if s['within_5cm'] >= 1.0 else 'NOT met'})")
+    print(f"perception time per scene: median {s['median_seconds']:.2f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

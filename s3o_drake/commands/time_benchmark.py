@@ -1,0 +1,239 @@
+"""Benchmark the time model: the plan's predicted execution time against the simulated one.
+
+    python -m s3o_drake.commands.time_benchmark [--tasks DIR | YAML ...] [--count N]
+        [--noise on off] [--method NAME] [--seed N] [--cost-profile robot|paper]
+        [--json FILE] [--evaluation]
+
+Plans and executes each task as `python -m s3o_drake.run` does (the scenario's settings,
+no playback), once with the simulated noise off (`run --no-noise`) and once with it on, and
+compares the plan's `predicted_time` with the report's `execution_time` (simulated, without
+the run's trailing hold time). Targets over the 100 generated tasks: the median of
+|predicted - simulated| / simulated at most 3 % with the noise off, 8 % with it on.
+
+With the noise on, the prediction is the time of the plan as planned: every landing exact
+and every action done. The execution differs where a landing's noise changes the drives and
+adds a turn before a stop's first pickup, where a pickup fails (a `no_ik` or `no_path`
+failure takes no arm time, a `missed` one the whole motion) and where a blocked drive ends
+the run early. Each row records the failures, and the summary gives the medians also over
+the runs where every action was done.
+
+--json FILE: one JSON line per (task, noise setting), written as each run ends; the same
+command resumes from the runs already in it (rows of another time model, method or seed are
+not reused). --evaluation instead measures the cost of one CMA-ES sample's evaluation
+under the robot and the paper cost profile on the tasks' plain Voronoi locations.
+"""
+
+import dataclasses
+import hashlib
+import logging
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
+from s3o_drake.evaluation.store import ResultStore
+from s3o_drake.execution.execute import execute
+from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.motion_search import SequenceProblem, location_regions
+from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.time_model import MODEL_FILE, CostModel
+from s3o_drake.resources import TASKS_DIR
+from s3o_drake.scenario import COST_PROFILES, METHODS, Scenario
+
+TARGETS = {"off": 0.03, "on": 0.08}
+"""Median |predicted - simulated| / simulated allowed, per noise setting."""
+
+
+def model_version(path: Path = MODEL_FILE) -> str:
+    """A short digest of the recorded time model: rows of another model are not reused."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:12]
+
+
+def measure(name: str, scenario: Scenario, *, method: str, seed: int, noise: bool) -> dict:
+    """One planned and simulated run: the prediction, the simulated time and what happened."""
+    run = execute(scenario, method=method, seed=seed, meshcat=None, noise=noise, progress=False)
+    report, plan = run.report, run.plan
+    outcomes = report["outcomes"]
+    failed: dict[str, int] = {}
+    for action, _, outcome in outcomes:
+        if outcome != "done":
+            key = f"{action} {outcome.removeprefix('failed: ')}"
+            failed[key] = failed.get(key, 0) + 1
+    predicted = plan.predicted_time if plan is not None else None
+    simulated = report["execution_time"]
+    row = {"task": name, "method": method, "seed": seed, "noise": noise,
+           "cost_profile": scenario.planner.cost_profile, "dishes": report["dishes"],
+           "collected": report["collected"], "actions": len(plan.actions) if plan else 0,
+           "executed": len(outcomes), "failed": failed,
+           "all_done": bool(plan) and len(outcomes) == len(plan.actions) and not failed,
+           "reason": report["reason"], "predicted_time": predicted, "execution_time": simulated,
+           "planning_time": report["planning_time"], "wall_time": report["wall_time"]}
+    if predicted is not None and simulated > 0:
+        row["rel_error"] = (predicted - simulated) / simulated
+    return row
+
+
+def summarize(rows: list[dict], noise: str) -> dict:
+    """Median and percentiles of |error| over the rows of one noise setting, and over those
+    where every action was done."""
+    mine = [r for r in rows if ("on" if r["noise"] else "off") == noise and "rel_error" in r]
+    out: dict = {"noise": noise, "runs": len(mine)}
+    for label, subset in (("all", mine), ("all_done", [r for r in mine if r["all_done"]])):
+        errors = np.array([r["rel_error"] for r in subset])
+        if not len(errors):
+            continue
+        a = np.abs(errors)
+        out[label] = {"runs": len(subset), "median_abs": float(np.median(a)),
+                      "p75_abs": float(np.percentile(a, 75)),
+                      "p90_abs": float(np.percentile(a, 90)), "max_abs": float(a.max()),
+                      "mean_signed": float(errors.mean())}
+    return out
+
+
+def evaluation_cost(scenario: Scenario, *, generations: int = 20, population: int = 10,
+                    repeats: int = 3, seed: int = 0) -> dict[str, float]:
+    """Seconds per CMA-ES sample of `SequenceProblem.evaluate` under each cost profile, on
+    the task's plain Voronoi locations visited in name order, CMA-ES-like samples (each
+    generation jittered by 3 cm around a centre), Fea^m 1 everywhere (the same for both
+    profiles). The paper profile's evaluation is the one the motion search had before the
+    time model (one path-length batch); the robot's adds the motion times."""
+    known = KnownWorld.perfect(scenario)
+    nav = NavigationMap(known.obstacles)
+    partition = voronoi_partition(known)
+    groups = [(d,) for d, cell in zip(partition.dishes, partition.cells, strict=True)
+              if not cell.is_empty]
+    regions = location_regions(groups, dict(zip(partition.dishes, partition.cells, strict=True)))
+    sequence = [a for k, (d,) in enumerate(groups) for a in (("goto", f"l{k}"), ("pickup", d))]
+    fea = HeatmapFeasibility([Heatmap(d.name, np.ones((80, 100)), 0.0, 0.0, 0.1)
+                              for d in scenario.dishes])
+    rng = np.random.default_rng(seed)
+    centre = np.array([np.array(regions[f"l{k}"].representative_point().coords[0])
+                       for k in range(len(groups))])
+    batches = [centre[None] + rng.normal(0.0, 0.03, (population, len(groups), 2))
+               for _ in range(generations)]
+    out = {}
+    for profile in ("paper", "robot"):
+        costs = CostModel.for_known(KnownWorld.perfect(dataclasses.replace(
+            scenario, planner=dataclasses.replace(scenario.planner, cost_profile=profile))))
+        nav.route_table(costs.base)
+        best = np.inf
+        for _ in range(repeats):
+            problem = SequenceProblem(sequence, regions, fea, nav, known.pose,
+                                      costs.planner, None, costs)
+            nav._endpoint_cache.clear()  # each repeat starts cold, as a new search does
+            t0 = time.perf_counter()
+            for X in batches:
+                problem.evaluate(X)
+            best = min(best, (time.perf_counter() - t0) / (generations * population))
+        out[profile] = best
+    out["ratio"] = out["robot"] / out["paper"]
+    return out
+
+
+def _print_summary(s: dict) -> None:
+    target = TARGETS[s["noise"]]
+    for label in ("all", "all_done"):
+        if label not in s:
+            continue
+        v = s[label]
+        verdict = "met" if v["median_abs"] <= target else "NOT met"
+        print(f"noise {s['noise']:>3} {label:>8}: {v['runs']:3d} runs, |error| median "
+              f"{100 * v['median_abs']:.2f} % (target {100 * target:g} %: {verdict}), p75 "
+              f"{100 * v['p75_abs']:.2f} %, p90 {100 * v['p90_abs']:.2f} %, max "
+              f"{100 * v['max_abs']:.2f} %; mean signed {100 * v['mean_signed']:+.2f} %")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.time_benchmark",
+                            description=__doc__, formatter_class=doc_formatter())
+    parser.add_argument("--tasks", nargs="+", default=[str(TASKS_DIR)], metavar="PATH",
+                        help="a folder of task_*.yaml (default scenarios/generated) or files")
+    parser.add_argument("--count", type=int, metavar="N", help="only the first N tasks")
+    parser.add_argument("--noise", nargs="+", choices=("off", "on"), default=["off", "on"],
+                        help="the simulated noise settings to run (default: off on)")
+    parser.add_argument("--method", default="S3O-GROP*", metavar="NAME",
+                        help=f"planning method (default S3O-GROP*), one of {', '.join(METHODS)}")
+    parser.add_argument("--seed", type=int, default=None, metavar="N",
+                        help="seed of every run (default: each scenario's own)")
+    parser.add_argument("--cost-profile", choices=COST_PROFILES,
+                        help="plan with this cost profile (default: each scenario's own); the "
+                             "prediction is the time model's under either")
+    parser.add_argument("--json", metavar="FILE", help="append one JSON line per run; resumes")
+    parser.add_argument("--evaluation", action="store_true",
+                        help="measure the CMA-ES evaluation cost per sample instead")
+    args = parser.parse_args(argv)
+    if args.method not in METHODS:
+        fail(f"--method: unknown method {args.method!r}; one of {', '.join(METHODS)}")
+    if args.seed is not None and args.seed < 0:
+        fail(f"--seed: must be a non-negative integer, got {args.seed}")
+    paths: list[Path] = []
+    for item in map(Path, args.tasks):
+        if item.is_dir():
+            paths += sorted(item.glob("task_*.yaml"))
+        elif item.is_file():
+            paths.append(item)
+        else:
+            fail(f"--tasks: no such folder or file {item}")
+    if args.count is not None:
+        if not 1 <= args.count <= len(paths):
+            fail(f"--count: must be between 1 and {len(paths)}, got {args.count}")
+        paths = paths[:args.count]
+    if not paths:
+        fail("--tasks: no task_*.yaml found")
+    tasks = task_scenarios([str(p) for p in paths], len(paths))
+    if args.cost_profile is not None:
+        tasks = [(name, dataclasses.replace(scenario, planner=dataclasses.replace(
+            scenario.planner, cost_profile=args.cost_profile))) for name, scenario in tasks]
+    json_path = Path(args.json) if args.json else None
+    if json_path is not None and not json_path.parent.is_dir():
+        fail(f"--json: no folder {json_path.parent}")
+    logging.getLogger("drake").setLevel(logging.WARNING)
+
+    if args.evaluation:
+        ratios = []
+        print(f"{'task':<10} {'paper ms':>9} {'robot ms':>9} {'ratio':>6}", flush=True)
+        for name, scenario in tasks:
+            r = evaluation_cost(scenario)
+            ratios.append(r["ratio"])
+            print(f"{name:<10} {1e3 * r['paper']:9.3f} {1e3 * r['robot']:9.3f} "
+                  f"{r['ratio']:6.2f}", flush=True)
+        print(f"evaluation cost per sample, robot / paper profile: median "
+              f"{statistics.median(ratios):.2f}x (range {min(ratios):.2f}-{max(ratios):.2f})")
+        return 0
+
+    store = ResultStore(json_path) if json_path is not None else None
+    version = model_version()
+    rows = []
+    print(f"{'task':<10} {'noise':>5} {'dishes':>7} {'predicted':>9} {'simulated':>9} "
+          f"{'error':>7}  failures", flush=True)
+    for name, scenario in tasks:
+        seed = scenario.seed if args.seed is None else args.seed
+        for noise in args.noise:
+            key = f"{name}|{args.method}|{seed}|{noise}|{scenario.planner.cost_profile}|{version}"
+            if store is not None and store.finished(key):
+                row = store.get(key)
+            else:
+                row = {"key": key, "time_model": version,
+                       **measure(name, scenario, method=args.method, seed=seed,
+                                 noise=noise == "on")}
+                if store is not None:
+                    store.append(row)
+            rows.append(row)
+            error = f"{100 * row['rel_error']:+6.2f}%" if "rel_error" in row else "    --"
+            predicted = row["predicted_time"]
+            print(f"{name:<10} {noise:>5} {row['collected']:>3}/{row['dishes']:<3} "
+                  f"{predicted if predicted is not None else float('nan'):9.1f} "
+                  f"{row['execution_time']:9.1f} {error}  "
+                  f"{', '.join(f'{k} x{v}' for k, v in row['failed'].items())}", flush=True)
+    for noise in args.noise:
+        _print_summary(summarize(rows, noise))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

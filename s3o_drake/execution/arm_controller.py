@@ -1,0 +1,238 @@
+"""The arm's part of execution: a `PickCommand` becomes a timed arm motion and grip events.
+
+A pickup is planned once, when its command arrives, from where the robot really is (base and
+arm from `robot_state`) towards where the dish really is (`dish_poses`), with the reach noise
+T^m added to the grasp target (`plan_pickup`'s `reach_offset`). The motion is then played
+back open-loop from the Context: the plant's PD actuators track it. Whether the gripper
+really holds the dish is decided by geometry, not by contact simulation: the noise must
+leave the real dish within the gripper's tolerance of the grasp point
+(`pickup_geometry.grasp_tolerance`).
+"""
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
+from pydrake.trajectories import Trajectory
+
+from s3o_drake.execution.messages import NO_COMMAND, CommandState, PickCommand, Status
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.pickup_geometry import caught
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.manipulation.pickup import plan_pickup
+from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.scenario import Scenario
+from s3o_drake.world.dish_messages import DishPoses, GripEvent
+
+#: The arm's and the fingers' positions among the robot's 11.
+ARM_AND_FINGERS = slice(3, NUM_POSITIONS)
+NUM_ARM_AND_FINGERS = NUM_POSITIONS - 3
+#: Stream tag of the reach noise in `numpy.random.default_rng([seed, tag, command id])`
+#: (the navigation noise has its own tag, so the two draws never share numbers).
+REACH_NOISE_STREAM = 2
+
+@dataclass(frozen=True)
+class _Activity:
+    """Everything the controller remembers (one abstract state).
+
+    `hold`: the arm's and fingers' 8 positions held while no motion plays; `trajectory`: the
+    motion playing (11 positions, t from 0 at `t_start`) or None; `t_grasp`, `t_release`:
+    when (since `t_start`) the gripper closes on and lets go of `dish`; `missed`: the reach
+    noise put the dish out of the gripper's tolerance; `reach_noise`: that noise (None with
+    the noise off), reported on every status of the command.
+    """
+
+    started: bool = False
+    command: int = NO_COMMAND
+    status: Status = field(default_factory=Status)
+    grip: GripEvent = field(default_factory=GripEvent)
+    hold: tuple[float, ...] = tuple(np.concatenate([ARM_STOW, GRIPPER_OPEN]))
+    dish: str = ""
+    trajectory: Trajectory | None = None
+    t_start: float = 0.0
+    t_grasp: float = 0.0
+    t_release: float = 0.0
+    missed: bool = False
+    reach_noise: tuple[float, float] | None = None
+
+    def __deepcopy__(self, memo: dict) -> "_Activity":
+        # Shared, not copied: every field is an immutable value, and the trajectory, the one
+        # C++ object, is made once by `_start` and never changed afterwards (an update
+        # makes a new _Activity). Drake copies the state before every update; a deep copy
+        # would clone the whole pickup trajectory every control period.
+        return self
+
+
+class ArmController(LeafSystem):
+    """Plans and plays the arm's motion of each `PickCommand`; reports grip and status.
+
+    Input ports:
+        pick_command: abstract PickCommand; a new non-zero `id` starts a pickup (one that
+            arrives while another plays starts when that one ends).
+        robot_state: vector (22), the robot's 11 positions then 11 velocities (base x, y,
+            yaw; 6 arm joints; 2 fingers).
+        dish_poses: abstract DishPoses, X_WD of each dish where it really is; unconnected:
+            the scenario's positions.
+    Output ports:
+        arm_desired_state: vector (16), the 6 arm and 2 finger positions, then their 8
+            velocities (for the plant's desired state, with the base's entries).
+        grip: abstract GripEvent; `dish` from the end of the pickup's "close" segment to
+            the end of its "release", `placed` gains it at the end of "release".
+        status: abstract Status of the latest command taken: its CommandState idle,
+            running, done or failed with reason "no_ik", "no_path", "base_collision",
+            "missed" or "unknown_dish"; its `reach_noise` is the reach error drawn for the
+            pickup (None with the noise off).
+
+    Every `control_period` an unrestricted update takes new commands and moves the
+    played motion's grip and status on; `arm_desired_state` follows the motion
+    continuously in time (a forced unrestricted update runs the same update on demand).
+    Before the first update, and between motions, the arm holds: at
+    first the configuration that `robot_state` shows at the first update, then where the
+    last motion ended (a failed plan leaves the arm where it is).
+    """
+
+    def __init__(self, *, scenario: Scenario, scene: FeasibilityScene,
+                 checker: FeasibilityChecker, seed: int | None = None,
+                 control_period: float = 0.01, noise: bool = True,
+                 plan_time_limit: float = 5.0) -> None:
+        super().__init__()
+        if control_period <= 0:
+            raise ValueError(f"control_period: expected a positive period, got {control_period}")
+        self._scene = scene
+        self._checker = checker
+        self._seed = scenario.seed if seed is None else int(seed)
+        self._reach_std = scenario.uncertainty.reach_std if noise else 0.0
+        self._plan_time_limit = plan_time_limit
+
+        self._command_port = self.DeclareAbstractInputPort(
+            "pick_command", AbstractValue.Make(PickCommand()))
+        self._robot_state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
+        self._dish_poses_port = self.DeclareAbstractInputPort(
+            "dish_poses", AbstractValue.Make(DishPoses()))
+        self._activity_index = self.DeclareAbstractState(AbstractValue.Make(_Activity()))
+        activity_ticket = {self.abstract_state_ticket(self._activity_index)}
+        self.DeclareVectorOutputPort(
+            "arm_desired_state", 2 * NUM_ARM_AND_FINGERS, self._calc_desired_state,
+            prerequisites_of_calc=activity_ticket | {self.time_ticket()})
+        self.DeclareAbstractOutputPort(
+            "grip", lambda: AbstractValue.Make(GripEvent()), self._calc_grip,
+            prerequisites_of_calc=activity_ticket)
+        self.DeclareAbstractOutputPort(
+            "status", lambda: AbstractValue.Make(Status()), self._calc_status,
+            prerequisites_of_calc=activity_ticket)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0, self._update)
+        # The same update on demand (`CalcForcedUnrestrictedUpdate`): tests and callers
+        # that step the controller by hand.
+        self.DeclareForcedUnrestrictedUpdateEvent(self._update)
+
+    # ----------------------------------------------------------------------------- outputs
+    def _activity(self, context: Context) -> _Activity:
+        return context.get_abstract_state(self._activity_index).get_value()
+
+    def _calc_desired_state(self, context: Context, output: BasicVector) -> None:
+        activity = self._activity(context)
+        trajectory = activity.trajectory
+        if trajectory is None:
+            output.SetFromVector(np.concatenate([activity.hold, np.zeros(NUM_ARM_AND_FINGERS)]))
+            return
+        t = min(max(context.get_time() - activity.t_start, 0.0), trajectory.end_time())
+        q = trajectory.value(t).ravel()[ARM_AND_FINGERS]
+        v = trajectory.EvalDerivative(t, 1).ravel()[ARM_AND_FINGERS]
+        output.SetFromVector(np.concatenate([q, v]))
+
+    def _calc_grip(self, context: Context, output: AbstractValue) -> None:
+        output.set_value(self._activity(context).grip)
+
+    def _calc_status(self, context: Context, output: AbstractValue) -> None:
+        output.set_value(self._activity(context).status)
+
+    # ------------------------------------------------------------------------------ update
+    def _update(self, context: Context, state: State) -> EventStatus:
+        activity = self._activity(context)
+        robot_state = self._robot_state_port.Eval(context)
+        if not activity.started:
+            activity = replace(activity, started=True,
+                               hold=tuple(robot_state[ARM_AND_FINGERS]))
+        if activity.trajectory is not None:
+            activity = self._advance(activity, context.get_time())
+        command = self._command_port.Eval(context)
+        if (activity.trajectory is None and command.id != NO_COMMAND
+                and command.id != activity.command):
+            activity = self._start(activity, command, context, robot_state)
+        state.get_mutable_abstract_state(self._activity_index).set_value(activity)
+        return EventStatus.Succeeded()
+
+    def _advance(self, activity: _Activity, time: float) -> _Activity:
+        """The playing motion's grip and status at `time`; at its end the arm holds there."""
+        elapsed = time - activity.t_start
+        held = not activity.missed and activity.t_grasp <= elapsed < activity.t_release
+        placed = activity.grip.placed
+        if (not activity.missed and elapsed >= activity.t_release
+                and activity.dish not in placed):
+            placed = (*placed, activity.dish)
+        activity = replace(activity, grip=GripEvent(activity.dish if held else "", placed))
+        trajectory = activity.trajectory
+        # The periodic update falls on the end time only up to rounding: a motion counts as
+        # ended within a nanosecond of it.
+        if elapsed < trajectory.end_time() - 1e-9:
+            return activity
+        end = trajectory.value(trajectory.end_time()).ravel()[ARM_AND_FINGERS]
+        status = (Status(activity.command, CommandState.FAILED, "missed", activity.reach_noise)
+                  if activity.missed
+                  else Status(activity.command, CommandState.DONE,
+                              reach_noise=activity.reach_noise))
+        return replace(activity, status=status, hold=tuple(end), trajectory=None)
+
+    def _start(self, activity: _Activity, command: PickCommand, context: Context,
+               robot_state: np.ndarray) -> _Activity:
+        """Plans `command`'s pickup; the motion plays from now, or the command fails."""
+        activity = replace(activity, command=command.id, dish=command.dish, missed=False,
+                           reach_noise=None)
+
+        def failed(reason: str) -> _Activity:
+            return replace(activity, status=Status(command.id, CommandState.FAILED, reason,
+                                                   activity.reach_noise))
+
+        dish = self._scene.dishes.get(command.dish)
+        if dish is None:
+            return failed("unknown_dish")
+        # The command's own stream: its noise and its planner seed do not depend on what
+        # ran before it; the draw is the same with the noise off, so is the planner's seed.
+        rng = np.random.default_rng([self._seed, REACH_NOISE_STREAM, command.id])
+        noise = rng.normal(0.0, 1.0, 2) * self._reach_std
+        plan_seed = int(rng.integers(2**31 - 1))
+        if self._reach_std > 0:  # reported, for the calibration of Fea^m against outcomes
+            activity = replace(activity, reach_noise=(float(noise[0]), float(noise[1])))
+        p_WD_scenario, _ = self._scene.dish_p_WD(command.dish)
+        p_WD = self._dish_xy(context, command.dish, p_WD_scenario)
+        # The checker's scene has the dish where the scenario put it: the offset carries
+        # both where it really is and the noise of reaching for it.
+        reach_offset = p_WD - p_WD_scenario + noise
+        q_now = np.asarray(robot_state[:NUM_POSITIONS], dtype=float)
+        try:
+            plan = plan_pickup(self._scene, self._checker, q_now[:3], command.dish,
+                               reach_offset=reach_offset, q_start=q_now, seed=plan_seed,
+                               time_limit=self._plan_time_limit)
+        except ValueError:
+            # The arm's path planner refuses a start in collision (the arm pushed into
+            # something, within the checker's padding): no path from here.
+            return failed("no_path")
+        if not plan.ok:
+            return failed(plan.reason)
+        ends = dict(zip((s.name for s in plan.segments),
+                        np.cumsum([s.duration for s in plan.segments]), strict=True))
+        return replace(
+            activity, status=Status(command.id, CommandState.RUNNING,
+                                    reach_noise=activity.reach_noise),
+            trajectory=plan.trajectory(),
+            t_start=context.get_time(), t_grasp=float(ends["close"]),
+            t_release=float(ends["release"]),
+            missed=not caught(noise, dish.kind))
+
+    def _dish_xy(self, context: Context, name: str, default: np.ndarray) -> np.ndarray:
+        if not self._dish_poses_port.HasValue(context):
+            return default
+        poses: DishPoses = self._dish_poses_port.Eval(context)
+        X_WD = poses.get(name)
+        return default if X_WD is None else np.asarray(X_WD.translation()[:2], dtype=float)

@@ -1,0 +1,335 @@
+"""The base's local planner and trajectory source: drives a `BaseCommand`'s path.
+
+A command's motion is a chain of segments, each either a turn in place or a straight drive
+(the base drives where it faces, or backs straight away from a stop when the path leaves
+behind it), with a trapezoidal speed profile: cruise at the planner's
+speed v (or `max_yaw_rate` when turning), accelerate and brake at a fixed rate so that the
+PD-controlled plant can follow. The landing is the command's pose plus the navigation noise
+T^n, drawn from the command's own random stream so that a seed fixes every landing whatever
+else happens in the run. Before the motion starts its poses are checked against the true
+world; a base that would collide stops at the last free pose, as a local planner
+stops short.
+"""
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
+
+from s3o_drake.execution.messages import NO_COMMAND, BaseCommand, CommandState, Status
+from s3o_drake.feasibility.landing import CHECK_STEP_XY, CHECK_STEP_YAW, FINAL_APPROACH
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.planning.base_motion import (
+    ACCELERATION,
+    SETTLE_TIME,
+    TINY,
+    YAW_ACCELERATION,
+    YAW_RATE,
+    motion_segments,
+    trapezoid,
+)
+from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
+from s3o_drake.scenario import Scenario
+
+#: How far (m) the base may back straight out of a tight stop before it turns, tried in
+#: turn when the direct motion is blocked.
+ESCAPE_STEPS = tuple(0.05 * k for k in range(1, 13))
+
+
+@dataclass(frozen=True)
+class _Segment:
+    """A straight move from pose `start` to pose `end` (x, y, yaw): a drive (xy changes) or a
+    turn (yaw changes), `length` m or rad long, run with a trapezoidal speed profile."""
+
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+    turn: bool
+    length: float
+    speed: float  # cruise speed actually reached (m/s or rad/s)
+    accel: float
+    duration: float
+
+    @staticmethod
+    def make(start, end, *, turn: bool, length: float, max_speed: float,
+             accel: float) -> "_Segment":
+        # The profile's arithmetic is the planner's too (planning/base_motion.py).
+        speed, duration = trapezoid(length, max_speed, accel)
+        return _Segment(tuple(map(float, start)), tuple(map(float, end)), turn, float(length),
+                        speed, accel, duration)
+
+    def at(self, tau: float) -> tuple[float, float]:
+        """Distance travelled and its rate, `tau` s after the segment began."""
+        tau = min(max(tau, 0.0), self.duration)
+        t_ramp = self.speed / self.accel
+        if tau < t_ramp:
+            return 0.5 * self.accel * tau**2, self.accel * tau
+        remaining = self.duration - tau
+        if remaining < t_ramp:
+            return self.length - 0.5 * self.accel * remaining**2, self.accel * remaining
+        return 0.5 * self.speed * t_ramp + self.speed * (tau - t_ramp), self.speed
+
+    def pose(self, s: float) -> np.ndarray:
+        """The pose after travelling `s` along the segment."""
+        a, b = np.asarray(self.start), np.asarray(self.end)
+        return a + (b - a) * (s / self.length)
+
+
+@dataclass(frozen=True)
+class _Motion:
+    """What the navigator is doing (its abstract state): command `id` started at `t0` (s),
+    playing `segments` from `hold` (the pose before the first one, and the pose kept when
+    there are none), ending in `outcome` (done or failed) with `reason`."""
+
+    id: int = NO_COMMAND
+    t0: float = 0.0
+    hold: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    segments: tuple[_Segment, ...] = ()
+    outcome: CommandState = CommandState.DONE
+    reason: str = ""
+    initialized: bool = False
+
+    def __deepcopy__(self, memo: dict) -> "_Motion":
+        # Immutable all the way down: Drake clones abstract state on every update, and a
+        # real deep copy of the segments was a sixth of the simulation's time.
+        return self
+
+    @property
+    def duration(self) -> float:
+        return sum(seg.duration for seg in self.segments)
+
+    @property
+    def end(self) -> np.ndarray:
+        return np.asarray(self.segments[-1].end if self.segments else self.hold)
+
+    def desired(self, t: float) -> np.ndarray:
+        """[x, y, yaw, xdot, ydot, yawdot] at time t."""
+        tau = t - self.t0
+        for seg in self.segments:
+            if tau < seg.duration:
+                # Plain floats: evaluated at every plant step, where numpy's per-call cost
+                # on three-element arrays dominated.
+                s, rate = seg.at(tau)
+                d = [(b - a) / seg.length for a, b in zip(seg.start, seg.end, strict=True)]
+                return np.array([a + di * s for a, di in zip(seg.start, d, strict=True)]
+                                + [di * rate for di in d])
+            tau -= seg.duration
+        return np.concatenate([self.end, np.zeros(3)])
+
+
+class BaseNavigator(LeafSystem):
+    """Drives the base along a `BaseCommand`'s path to its noisy landing pose.
+
+    Input ports:
+        base_command (abstract `BaseCommand`): a new `id` starts a command; id 0 holds still.
+        robot_state (vector 22): the robot's 11 positions then 11 velocities; the base pose
+            (x, y, yaw) is positions 0..2.
+    Output ports:
+        base_desired_state (vector 6): x, y, yaw (m, rad) then their rates (m/s, rad/s).
+        status (abstract `Status`): CommandState idle before any command, running while the
+            motion plays, then done (landed, possibly short of a colliding goal) or failed
+            with reason "blocked" (stopped far from the goal by a collision), `settle_time`
+            after the motion ended.
+
+    Every `control_period` s (and at initialization, and on a forced unrestricted update)
+    it compares the command's id with the one it executes; on a new id it plans the whole
+    motion from where the base actually is: the waypoints of `command.path` (the first is
+    replaced by the base's position, the last by the landing), each drive preceded by a turn
+    in place toward its heading, and a final turn to the landing yaw; a `turn` command only
+    turns, where the base stands. Yaw stays continuous (no 2 pi jumps), so the desired yaw
+    equals the landing's only modulo 2 pi.
+
+    The landing is `command.pose` + (dx, dy, dyaw) with dx, dy ~ N(0, nav_xy_std^2) and
+    dyaw ~ N(0, nav_yaw_std^2) from numpy.random.default_rng([seed, 1, command.id]), or
+    exactly `command.pose` with `noise=False`. With a `scene` (the true world), poses every
+    2 cm / 0.05 rad along the motion are checked (inside the room and collision-free, arm
+    stowed); the motion is cut at the last free pose before the first collision. A
+    collision within the last 0.5 m of driving or in the final turn ends the command done
+    there (landed short); an earlier one ends it failed, reason "blocked". Collisions at
+    the very start (the base already stands there) are ignored until the first free pose.
+    Before giving up on a blocked motion it tries, in turn, the first turn the other way
+    round and backing straight out by 5, 10, ... 60 cm before turning (a noisy landing can
+    leave the base where the rectangle cannot turn towards the path): the first of these
+    that is not blocked is driven.
+    """
+
+    def __init__(self, *, scenario: Scenario, scene: FeasibilityScene | None,
+                 seed: int | None = None, control_period: float = 0.01,
+                 max_yaw_rate: float = YAW_RATE, noise: bool = True,
+                 settle_time: float = SETTLE_TIME, acceleration: float = ACCELERATION,
+                 yaw_acceleration: float = YAW_ACCELERATION) -> None:
+        super().__init__()
+        self._speed = scenario.planner.speed
+        self._xy_std = scenario.uncertainty.nav_xy_std if noise else 0.0
+        self._yaw_std = scenario.uncertainty.nav_yaw_std if noise else 0.0
+        self._seed = scenario.seed if seed is None else seed
+        self._scene = scene
+        self._max_yaw_rate = max_yaw_rate
+        self._settle_time = settle_time
+        self._accel = acceleration
+        self._yaw_accel = yaw_acceleration
+
+        self._command_port = self.DeclareAbstractInputPort(
+            "base_command", AbstractValue.Make(BaseCommand()))
+        self._state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
+        # Until the initialization event reads robot_state, hold the scenario's start pose
+        # (where the world puts the robot by default).
+        start = tuple(float(v) for v in scenario.robot.start)
+        self._motion_index = self.DeclareAbstractState(
+            AbstractValue.Make(_Motion(hold=start)))
+        # Outputs depend on time and state only: no direct feedthrough from robot_state,
+        # so the navigator can close the loop with the plant.
+        prerequisites = {self.time_ticket(), self.abstract_state_ticket(self._motion_index)}
+        self.DeclareVectorOutputPort("base_desired_state", 6, self._calc_desired_state,
+                                     prerequisites_of_calc=prerequisites)
+        self.DeclareAbstractOutputPort("status", lambda: AbstractValue.Make(Status()),
+                                       self._calc_status, prerequisites_of_calc=prerequisites)
+        self.DeclareInitializationUnrestrictedUpdateEvent(self._update)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0, self._update)
+        self.DeclareForcedUnrestrictedUpdateEvent(self._update)
+
+    def _motion(self, context: Context) -> _Motion:
+        return context.get_abstract_state(self._motion_index).get_value()
+
+    def _update(self, context: Context, state: State) -> EventStatus:
+        motion = self._motion(context)
+        command: BaseCommand = self._command_port.Eval(context)
+        t = context.get_time()
+        if not motion.initialized:
+            base = self._state_port.Eval(context)[:3]
+            motion = _Motion(id=NO_COMMAND, hold=tuple(map(float, base)), initialized=True)
+        elif command.id == motion.id:
+            return EventStatus.DidNothing()
+        if command.id == NO_COMMAND:
+            # Cancelled (or never started): stop where the motion is now.
+            here = motion.desired(t)[:3]
+            new = _Motion(id=NO_COMMAND, t0=t, hold=tuple(map(float, here)), initialized=True)
+        else:
+            base = self._state_port.Eval(context)[:3]
+            new = self._plan(command, base, t)
+        state.get_mutable_abstract_state(self._motion_index).set_value(new)
+        return EventStatus.Succeeded()
+
+    def _landing(self, command: BaseCommand) -> np.ndarray:
+        """The pose (x, y, yaw) the command aims for: its pose plus the seeded noise T^n
+        (none for a turn in place)."""
+        if command.turn:
+            return np.asarray(command.pose, dtype=float)
+        rng = np.random.default_rng([self._seed, 1, command.id])
+        noise = rng.normal(0.0, 1.0, 3) * [self._xy_std, self._xy_std, self._yaw_std]
+        return np.asarray(command.pose, dtype=float) + noise
+
+    def _plan(self, command: BaseCommand, base: np.ndarray, t: float) -> _Motion:
+        target = self._landing(command)
+        waypoints = [np.asarray(base[:2], float)]
+        if not command.turn:
+            waypoints += [np.asarray(p, float) for p in command.path[1:-1]]
+            waypoints.append(target[:2])
+        # A turn turns where the base stands: its pose's x, y are where the planner saw the
+        # base a control period earlier, and the base has since drifted by micrometres (the
+        # arm's motion pushes it against its PD); driving there first meant turning towards
+        # that micro-drive, up to π/2 out of the way and back.
+        segments = self._segments(waypoints, float(base[2]), float(target[2]))
+        cut = self._cut_at_collision(segments)
+        if cut[1] is CommandState.FAILED:
+            # The noisy landing left the base where the turn towards the path hits something
+            # (a stop only keeps the inscribed radius): first turn the other way round,
+            # then back straight out (ESCAPE_STEPS) before turning.
+            yaw = float(base[2])
+            heading = np.array([math.cos(yaw), math.sin(yaw)])
+            # Built one at a time: the first that is not blocked ends the search.
+            escapes = itertools.chain(
+                [self._segments(waypoints, yaw, float(target[2]), long_way=True)],
+                (self._segments([waypoints[0], waypoints[0] - d * heading, *waypoints[1:]],
+                                yaw, float(target[2])) for d in ESCAPE_STEPS))
+            for escape in escapes:
+                escaped = self._cut_at_collision(escape)
+                if escaped[1] is not CommandState.FAILED:
+                    cut = escaped
+                    break
+        segments, outcome, reason = cut
+        hold = tuple(float(v) for v in base[:3])
+        return _Motion(id=command.id, t0=t, hold=hold, segments=tuple(segments),
+                       outcome=outcome, reason=reason, initialized=True)
+
+    def _segments(self, waypoints: list[np.ndarray], yaw: float, target_yaw: float, *,
+                  long_way: bool = False) -> list[_Segment]:
+        """Turn-then-drive segments through the waypoints, then the turn to `target_yaw`
+        (`base_motion.motion_segments`: the rule the planner's cost model times); with
+        `long_way`, the first turn goes the other way round."""
+        return [self._segment(s.start, s.end, turn=s.turn, length=s.length)
+                for s in motion_segments(waypoints, yaw, target_yaw, long_way=long_way)]
+
+    def _segment(self, start, end, *, turn: bool, length: float) -> _Segment:
+        if turn:
+            return _Segment.make(start, end, turn=True, length=length,
+                                 max_speed=self._max_yaw_rate, accel=self._yaw_accel)
+        return _Segment.make(start, end, turn=False, length=length, max_speed=self._speed,
+                             accel=self._accel)
+
+    def _cut_at_collision(self, segments: list[_Segment]
+                          ) -> tuple[list[_Segment], CommandState, str]:
+        """The segments up to the last free pose, and how the command ends (with the
+        failure's reason)."""
+        if self._scene is None or not segments:
+            return segments, CommandState.DONE, ""
+        # Samples: (segment index, distance along it, pose); index -1 is the start pose.
+        samples = [(-1, 0.0, np.asarray(segments[0].start))]
+        for i, seg in enumerate(segments):
+            n = max(1, math.ceil(seg.length / (CHECK_STEP_YAW if seg.turn else CHECK_STEP_XY)))
+            samples += [(i, seg.length * k / n, seg.pose(seg.length * k / n))
+                        for k in range(1, n + 1)]
+        free = self._free(np.array([pose for _, _, pose in samples]))
+        first_free = int(np.argmax(free)) if free.any() else len(free)
+        colliding = np.flatnonzero(~free[first_free:])
+        if colliding.size == 0:
+            return segments, CommandState.DONE, ""
+        hit = first_free + int(colliding[0])
+        last_i, last_s, _ = samples[hit - 1]
+        kept = list(segments[:last_i]) if last_i >= 0 else []
+        if last_i >= 0 and last_s > TINY:
+            seg = segments[last_i]
+            if last_s >= seg.length - TINY:
+                kept.append(seg)
+            else:
+                kept.append(self._segment(seg.start, seg.pose(last_s), turn=seg.turn,
+                                          length=last_s))
+        return kept, *self._outcome(segments, samples[hit])
+
+    @staticmethod
+    def _outcome(segments: list[_Segment], hit: tuple) -> tuple[CommandState, str]:
+        """Whether a collision at sample `hit` only shortens the landing or blocks the way."""
+        i, s, _ = hit
+        drives = [0.0 if seg.turn else seg.length for seg in segments]
+        final_turn = segments[i].turn and i == len(segments) - 1
+        travelled = sum(drives[:i]) + (0.0 if segments[i].turn else s)
+        if final_turn or travelled >= sum(drives) - FINAL_APPROACH:
+            return CommandState.DONE, ""
+        return CommandState.FAILED, "blocked"
+
+    def _free(self, poses: np.ndarray) -> np.ndarray:
+        """bool (n,): base poses inside the room and collision-free with the arm stowed."""
+        clearance = self._scene.clearance
+        free = clearance.in_room(poses[:, :2])
+        # Far from every obstacle needs no collision query (a sound shortcut).
+        query = free & ~clearance.certainly_free(poses[:, :2])
+        if query.any():
+            configs = [robot_positions(*p, arm=ARM_STOW, gripper=GRIPPER_OPEN)
+                       for p in poses[query]]
+            checked = self._scene.checker.CheckConfigsCollisionFree(configs)
+            free[query] = np.asarray(checked, dtype=bool)
+        return free
+
+    def _calc_desired_state(self, context: Context, output: BasicVector) -> None:
+        output.SetFromVector(self._motion(context).desired(context.get_time()))
+
+    def _calc_status(self, context: Context, output: AbstractValue) -> None:
+        motion = self._motion(context)
+        if motion.id == NO_COMMAND:
+            output.set_value(Status())
+        elif context.get_time() < motion.t0 + motion.duration + self._settle_time:
+            output.set_value(Status(id=motion.id, state=CommandState.RUNNING))
+        else:
+            output.set_value(Status(id=motion.id, state=motion.outcome, reason=motion.reason))

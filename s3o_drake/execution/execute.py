@@ -1,0 +1,107 @@
+"""Execute a scenario's task: build the execution diagram, plan at initialization, simulate
+until the task monitor ends the run, and collect what happened (`execute`). The `run`
+command (s3o_drake/commands/run.py) is a thin main over it."""
+
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.geometry import Meshcat
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import Diagram
+from tqdm import tqdm
+
+from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
+from s3o_drake.planning.pipeline import PlanningResult
+from s3o_drake.planning.plan import TaskMotionPlan
+from s3o_drake.scenario import Scenario
+from s3o_drake.world.builder import overhead_images
+
+
+@dataclass
+class Execution:
+    """What one planned and simulated run produced."""
+
+    diagram: Diagram
+    plan: TaskMotionPlan | None
+    report: dict
+    images: tuple[np.ndarray, np.ndarray]
+    """The overhead camera's colour (RGB) and depth (m) images at the start."""
+    result: PlanningResult | None
+    """The latest planning's result: what the plan was made on (the KnownWorld with the
+    perceived chairs, the heatmaps, the navigation map, the state spaces)."""
+    html: str | None  # the playback page; None when nothing was recorded
+
+
+def frame_room(meshcat: Meshcat, scenario: Scenario) -> None:
+    """Points Meshcat's camera at the room from above its south edge, so that the whole
+    restaurant is in view when the page opens (the default camera sits outside the walls)."""
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    center = np.array([(x_min + x_max) / 2, (y_min + y_max) / 2, 0.0])
+    span = max(x_max - x_min, y_max - y_min)
+    meshcat.SetCameraPose(center + np.array([0.0, -0.75 * span, 0.9 * span]), center)
+
+
+def execute(scenario: Scenario, *, method: str | None = None, seed: int | None = None,
+            meshcat: Meshcat | None, realtime: bool = False, noise: bool = True,
+            progress: bool = True) -> Execution:
+    """Builds the execution diagram, plans (at initialization) and simulates until the task
+    monitor ends the run; records the playback in `meshcat` (none without one: the
+    benchmark's runs)."""
+    diagram = build_execution_diagram(scenario, method=method, seed=seed, meshcat=meshcat,
+                                      noise=noise, progress_bar=progress,
+                                      show_collisions=realtime)
+    if meshcat is not None:
+        frame_room(meshcat, scenario)
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    planner = diagram.GetSubsystemByName("planner")
+    planner_context = planner.GetMyContextFromRoot(context)
+    simulator.Initialize()  # the planner plans here
+    world = diagram.GetSubsystemByName("world")
+    color, depth, _ = overhead_images(world, world.GetMyContextFromRoot(context))
+    images = (color[:, :, :3], depth)
+    plan = planner.GetOutputPort("plan").Eval(planner_context)
+    visualizer = None
+    if meshcat is not None:
+        visualizer = world.GetSubsystemByName("meshcat_visualizer")
+        visualizer.StartRecording(set_transforms_while_recording=realtime)
+    if realtime:
+        simulator.set_target_realtime_rate(1.0)
+    # Whole simulated seconds against the plan's predicted execution time.
+    expected = 1.0 if plan is None else plan.predicted_time
+    bar = tqdm(total=max(1, round(expected)), desc="executing", unit="sim s",
+               disable=not progress)
+
+    def show(root_context):
+        done = int(root_context.get_time())
+        if done > bar.n:
+            bar.update(done - bar.n)
+
+    simulator.set_monitor(show)
+    start = time.perf_counter()
+    failure = None
+    try:
+        simulator.AdvanceTo(TIME_LIMIT + 1.0)  # the task monitor ends it before
+    except RuntimeError as e:  # e.g. the contact solver diverging: report it, keep the data
+        failure = f"the simulation failed at t = {context.get_time():.2f} s: " \
+                  f"{str(e).splitlines()[0]}"
+    wall = time.perf_counter() - start
+    bar.close()
+    if visualizer is not None:
+        visualizer.StopRecording()
+        visualizer.PublishRecording()
+    monitor = diagram.GetSubsystemByName("task_monitor")
+    monitor_context = monitor.GetMyContextFromRoot(context)
+    # The RunReport as plain JSON data: what report.json and the evaluation's rows hold.
+    report = monitor.GetOutputPort("report").Eval(monitor_context).to_dict()
+    result = planner.GetOutputPort("planning_result").Eval(planner_context)
+    if failure is not None:
+        report.update(finished=False, reason=failure, execution_time=context.get_time())
+    planning_time = float(planner.GetOutputPort("planning_time").Eval(planner_context)[0])
+    report.update(planning_time=planning_time, wall_time=wall,
+                  realtime_rate=context.get_time() / wall if wall > 0 else float("inf"),
+                  simulated_time=context.get_time())
+    return Execution(diagram=diagram, plan=plan, report=report, images=images, result=result,
+                     html=None if meshcat is None else meshcat.StaticHtml())

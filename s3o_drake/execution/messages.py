@@ -1,0 +1,234 @@
+"""The messages the execution systems pass on their abstract-valued ports.
+
+The planner (`S3OPlanner`) numbers the plan's actions 1, 2, ... and emits at most one
+command per controller at a time; a controller starts a command when its `id` changes and
+reports on its status port, with the same `id`, when the command is done or has failed. The
+planner advances when the status of its current command says done (or gives up on a failed
+pickup and goes on with the next action, or stops at a failed goto). Id 0 means "no
+command": controllers hold still.
+
+`PickupRecord` is what the planner learns of each executed pickup (for the calibration of
+Fea^m, s3o_drake.evaluation.calibration); it travels in `PlanProgress` to the task monitor,
+whose `RunReport` is what a run reports (its `to_dict()` is report.json's data).
+
+All are frozen dataclasses: a port value is copied by Drake, and nothing may change it in
+place.
+"""
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+NO_COMMAND = 0
+
+
+class CommandState(str, Enum):
+    """Where a controller is with its latest command. A str Enum, so that a state compares
+    and serialises as the plain word ("idle", "running", "done", "failed")."""
+
+    IDLE = "idle"  # no command yet
+    RUNNING = "running"
+    DONE = "done"
+    FAILED = "failed"
+
+    def __str__(self) -> str:
+        # The word, not "CommandState.DONE": str() of a mixed-in Enum, and since Python 3.11
+        # also format() and f-strings, would otherwise name the class and the member.
+        return self.value
+
+
+@dataclass(frozen=True)
+class BaseCommand:
+    """Drive along `path` (the navigation map's waypoints, m; the first is where the base
+    is) and end at `pose` = (x, y, yaw); `id` 0 is no command. A `turn` turns in place to
+    the pose's yaw (its x, y are where the base stands) and lands without the navigation
+    noise T^n, which models arriving from a drive."""
+
+    id: int = NO_COMMAND
+    path: tuple[tuple[float, float], ...] = ()
+    pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    turn: bool = False
+
+
+@dataclass(frozen=True)
+class PickCommand:
+    """Pick `dish` from where the base stands and put it on the tray; `id` 0 is none."""
+
+    id: int = NO_COMMAND
+    dish: str = ""
+
+
+@dataclass(frozen=True)
+class Status:
+    """A controller's report on command `id`: its `state` (a CommandState: idle before any
+    command, running, done or failed), with the failure's `reason` (e.g. "no_ik",
+    "no_path", "missed", "base_collision", "blocked").
+
+    `reach_noise`: on the arm's reports of a pickup, the reach error T^m drawn for it
+    ((dx, dy), m, added to where the gripper aims); None when none was drawn (the
+    simulation's noise is off, the dish is unknown) and on the base's reports."""
+
+    id: int = NO_COMMAND
+    state: CommandState = CommandState.IDLE
+    reason: str = ""
+    reach_noise: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        # A state given as its word ("done") is stored as the CommandState, so that the
+        # port always carries the enum; a word that is no state is a ValueError.
+        if not isinstance(self.state, CommandState):
+            object.__setattr__(self, "state", CommandState(self.state))
+
+    @property
+    def finished(self) -> bool:
+        return self.state in (CommandState.DONE, CommandState.FAILED)
+
+
+@dataclass(frozen=True)
+class PickupRecord:
+    """One executed pickup, as calibration of Fea^m needs it: what the plan predicted from
+    where, where the base really stood, and what happened.
+
+    `dish`, `kind` (plate, bowl, cup); `method` that planned it; `predicted`: the plan's
+    Fea^m of the pickup (`Pickup.feasibility`) from its planned stop; `source`: the model
+    that gave it (`planner.feasibility`: "fcn" or "oracle"); `planned_pose`: the stop as
+    planned, (x, y, yaw) of the goto before the pickup (the plan's start pose when there
+    was none); `actual_pose`: the base's (x, y, yaw) when the pickup was commanded, after
+    any turn to face the dish (where a turn failed: where it stopped); `outcome`: "done",
+    or the failure's reason ("no_ik", "missed", "turn blocked", ...); `reach_noise`: the
+    reach error drawn, (dx, dy) m, None when none was drawn.
+    """
+
+    dish: str
+    kind: str
+    method: str
+    predicted: float
+    source: str
+    planned_pose: tuple[float, float, float]
+    actual_pose: tuple[float, float, float]
+    outcome: str
+    reach_noise: tuple[float, float] | None = None
+
+    @property
+    def succeeded(self) -> bool:
+        return self.outcome == "done"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON data (lists for the tuples)."""
+        return {"dish": self.dish, "kind": self.kind, "method": self.method,
+                "predicted": self.predicted, "source": self.source,
+                "planned_pose": list(self.planned_pose), "actual_pose": list(self.actual_pose),
+                "outcome": self.outcome,
+                "reach_noise": None if self.reach_noise is None else list(self.reach_noise)}
+
+    @classmethod
+    def from_dict(cls, data: Any) -> "PickupRecord":
+        """The record of `to_dict`'s data; ValueError naming the field when it is not one."""
+        if not isinstance(data, dict):
+            raise ValueError(f"expected a pickup record (an object), got {data!r:.60}")
+        missing = [f for f in ("dish", "kind", "method", "predicted", "source",
+                               "planned_pose", "actual_pose", "outcome") if f not in data]
+        if missing:
+            raise ValueError(f"pickup record without {missing[0]!r}")
+        for name in ("dish", "kind", "method", "source", "outcome"):
+            if not isinstance(data[name], str):
+                raise ValueError(f"{name}: expected a string, got {data[name]!r:.60}")
+        predicted = data["predicted"]
+        if (isinstance(predicted, bool) or not isinstance(predicted, int | float)
+                or not 0.0 <= predicted <= 1.0):
+            raise ValueError(f"predicted: expected a probability in [0, 1], got {predicted!r}")
+        noise = data.get("reach_noise")
+        return cls(dish=data["dish"], kind=data["kind"], method=data["method"],
+                   predicted=float(predicted), source=data["source"],
+                   planned_pose=_numbers(data["planned_pose"], 3, "planned_pose"),
+                   actual_pose=_numbers(data["actual_pose"], 3, "actual_pose"),
+                   outcome=data["outcome"],
+                   reach_noise=None if noise is None else _numbers(noise, 2, "reach_noise"))
+
+
+def _numbers(value: Any, count: int, name: str) -> tuple[float, ...]:
+    if (not isinstance(value, list | tuple) or len(value) != count
+            or not all(isinstance(v, int | float) and not isinstance(v, bool)
+                       and math.isfinite(v) for v in value)):
+        raise ValueError(f"{name}: expected {count} finite numbers, got {value!r:.60}")
+    return tuple(float(v) for v in value)
+
+
+@dataclass(frozen=True)
+class ActionOutcome:
+    """How one action of the plan ended: `action` ("goto" or "pickup"), its `argument` (the
+    location or the dish), whether it was `done`, and if not, the `reason`. It unpacks as
+    (action, argument, result), result "done" or "failed: <reason>", as report.json lists
+    it."""
+
+    action: str
+    argument: str
+    done: bool
+    reason: str = ""
+
+    @property
+    def result(self) -> str:
+        return "done" if self.done else f"failed: {self.reason}"
+
+    def __iter__(self):
+        return iter((self.action, self.argument, self.result))
+
+
+@dataclass(frozen=True)
+class PlanProgress:
+    """The planner's progress through its plan, for the task monitor.
+
+    `step`: the action being executed (1-based; 0 before a plan exists), of `total`.
+    `finished`: nothing more will happen (plan done, or it cannot go on: `reason` says
+    why, e.g. "plan complete", "goto 3 failed: blocked", "no plan: ...").
+    `outcomes`: per finished action, its ActionOutcome.
+    `pickups`: per finished pickup, in order, its `PickupRecord`.
+    """
+
+    step: int = 0
+    total: int = 0
+    finished: bool = False
+    reason: str = ""
+    outcomes: tuple[ActionOutcome, ...] = ()
+    pickups: tuple[PickupRecord, ...] = ()
+
+
+@dataclass(frozen=True)
+class RunReport:
+    """What the task monitor reports of a run.
+
+    `dishes`: how many the world has; `collected_dishes`: those on the tray, sorted;
+    `execution_time` (s): the simulated time at which the plan finished, else the time of
+    the report; `finished`: the plan is over; `reason`: why (`PlanProgress.reason`, or
+    "time limit"); `outcomes` and `pickups`: `PlanProgress`'s.
+    """
+
+    dishes: int = 0
+    collected_dishes: tuple[str, ...] = ()
+    execution_time: float = 0.0
+    finished: bool = False
+    reason: str = ""
+    outcomes: tuple[ActionOutcome, ...] = ()
+    pickups: tuple[PickupRecord, ...] = ()
+
+    @property
+    def collected(self) -> int:
+        """How many dishes are on the tray."""
+        return len(self.collected_dishes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON data, as report.json holds it (execute.py adds the timings): dishes,
+        collected, collected_dishes (a list), execution_time, finished, reason, outcomes
+        (a list of [action, argument, result] lists), pickups (`PickupRecord.to_dict()`
+        each)."""
+        return {
+            "dishes": self.dishes,
+            "collected": self.collected,
+            "collected_dishes": list(self.collected_dishes),
+            "execution_time": self.execution_time,
+            "finished": self.finished,
+            "reason": self.reason,
+            "outcomes": [list(outcome) for outcome in self.outcomes],
+            "pickups": [record.to_dict() for record in self.pickups],
+        }

@@ -1,0 +1,89 @@
+"""TaskMonitor: the run's report, and the end of the simulation."""
+
+import math
+
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
+
+from s3o_drake.execution.messages import PlanProgress, RunReport
+from s3o_drake.world.dish_messages import DishState, DishStates
+
+TIME_LIMIT_REASON = "time limit"
+
+
+class TaskMonitor(LeafSystem):
+    """Reports how many dishes are on the tray and stops the simulation when the plan is over.
+
+    A periodic check (`period`; also a forced discrete update) records the simulated time at
+    which `progress.finished` first holds, and ends the simulation once it has held for
+    `settle_time` (which lets the last dish come to rest on the tray), or as soon as the
+    simulated time reaches `time_limit` (reason "time limit"): the check returns
+    EventStatus.ReachedTermination, so `Simulator.AdvanceTo` returns early with
+    kReachedTerminationCondition.
+
+    Input ports:
+        progress: abstract PlanProgress (from the planner).
+        dish_states: abstract DishStates, the DishState of each dish (from the
+            ObjectTracker).
+    Output ports:
+        report: abstract RunReport: the dishes, those on the tray, the execution time (the
+            simulated time the plan finished, else the current time), whether and why the
+            plan finished, and progress's outcomes and pickup records (`to_dict()` gives
+            the plain JSON data that report.json holds).
+    """
+
+    def __init__(self, *, settle_time: float = 0.5, time_limit: float = 600.0,
+                 period: float = 0.01) -> None:
+        super().__init__()
+        if settle_time < 0 or time_limit <= 0 or period <= 0:
+            raise ValueError("settle_time must be >= 0, time_limit and period > 0")
+        self._settle_time = settle_time
+        self._time_limit = time_limit
+        self._progress_port = self.DeclareAbstractInputPort(
+            "progress", AbstractValue.Make(PlanProgress()))
+        self._dish_states_port = self.DeclareAbstractInputPort(
+            "dish_states", AbstractValue.Make(DishStates()))
+        # The simulated time at which progress first said finished; NaN while it has not.
+        self._finished_at_index = self.DeclareDiscreteState([math.nan])
+        self.DeclareAbstractOutputPort("report", lambda: AbstractValue.Make(RunReport()),
+                                       self._calc_report)
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._check)
+        self.DeclareForcedDiscreteUpdateEvent(self._check)
+
+    @property
+    def settle_time(self) -> float:
+        return self._settle_time
+
+    @property
+    def time_limit(self) -> float:
+        return self._time_limit
+
+    def _finished_at(self, context: Context) -> float:
+        return float(context.get_discrete_state(self._finished_at_index).GetAtIndex(0))
+
+    def _check(self, context: Context, discrete_state: DiscreteValues) -> EventStatus:
+        t = context.get_time()
+        finished_at = self._finished_at(context)
+        if math.isnan(finished_at) and self._progress_port.Eval(context).finished:
+            finished_at = t
+            discrete_state.get_mutable_vector(self._finished_at_index).SetAtIndex(0, t)
+        if t - finished_at >= self._settle_time:  # False while finished_at is NaN
+            return EventStatus.ReachedTermination(self, "plan finished")
+        if t >= self._time_limit:
+            return EventStatus.ReachedTermination(self, TIME_LIMIT_REASON)
+        return EventStatus.Succeeded()
+
+    def _calc_report(self, context: Context, output: AbstractValue) -> None:
+        progress = self._progress_port.Eval(context)
+        dish_states: DishStates = self._dish_states_port.Eval(context)
+        finished_at = self._finished_at(context)
+        t = context.get_time()
+        if not progress.finished and t >= self._time_limit:
+            reason = TIME_LIMIT_REASON
+        else:
+            reason = progress.reason
+        output.set_value(RunReport(
+            dishes=len(dish_states), collected_dishes=dish_states.named(DishState.TRAY),
+            execution_time=t if math.isnan(finished_at) else finished_at,
+            finished=bool(progress.finished), reason=reason, outcomes=progress.outcomes,
+            pickups=progress.pickups))

@@ -1,0 +1,170 @@
+"""What the robot knows when it plans: the `KnownWorld`, and its obstacle geometry, built once.
+
+The planner never sees the true world. It knows its map (the room, the tables and the mapped
+chairs, and the scenario's settings), the chairs its perception reports, the dishes that are
+still to be collected, and where it stands now. A `KnownWorld` holds exactly that; perception
+makes one from the overhead images (`s3o_drake.perception.perceive_known_world`), and the
+planning pipeline (`s3o_drake.planning.pipeline.plan_from`) plans from it. A replan is the
+same call with a newer KnownWorld: fewer dishes, another pose, chairs seen again.
+
+`Obstacles` is the known obstacles' geometry, made once per KnownWorld: the free base
+positions of the abstraction, the navigation map and the Drake oracle's base-clearance test
+all read it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+from shapely.geometry import Polygon, box
+from shapely.geometry.base import BaseGeometry
+from shapely.ops import unary_union
+
+from s3o_drake.furniture import chair_footprint, table_footprint
+from s3o_drake.scenario import Chair, Dish, Scenario
+
+Pose2 = tuple[float, float, float]
+"""A planar pose (x, y, yaw) in the world frame: m, m, rad."""
+
+
+def _pose(values: Iterable[float]) -> Pose2:
+    x, y, yaw = (float(v) for v in values)
+    return (x, y, yaw)
+
+
+@dataclass(frozen=True)
+class Obstacles:
+    """The known obstacles: the floor inside the walls, and the footprints of the tables and
+    of the chairs the robot knows (mapped and perceived), not inflated."""
+
+    room: Polygon
+    footprints: tuple[Polygon, ...]
+    _free: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    @classmethod
+    def of(cls, bounds: Sequence[float], tables: Iterable, chair_poses: Iterable[Pose2]
+           ) -> Obstacles:
+        shapes = [table_footprint(t.center, t.yaw, t.size) for t in tables]
+        shapes += [chair_footprint(list(p)) for p in chair_poses]
+        return cls(room=box(*bounds), footprints=tuple(shapes))
+
+    @classmethod
+    def of_scenario(cls, scenario: Scenario) -> Obstacles:
+        """Every chair the scenario lists, mapped or not: the true world's obstacles (what
+        the simulated robot collides with), or a known world's `as_scenario()`."""
+        return cls.of(scenario.room.bounds, scenario.tables, [c.pose for c in scenario.chairs])
+
+    @cached_property
+    def union(self) -> BaseGeometry:
+        """The union of the footprints (empty when there are none)."""
+        return unary_union(self.footprints) if self.footprints else Polygon()
+
+    def free_space(self, clearance: float) -> BaseGeometry:
+        """Positions at least `clearance` (m) from the walls and every footprint; made once
+        per clearance (the abstraction asks for it for every state space)."""
+        if clearance not in self._free:
+            room = self.room.buffer(-clearance, join_style="mitre")
+            self._free[clearance] = room if not self.footprints else \
+                room.difference(self.union.buffer(clearance, quad_segs=16))
+        return self._free[clearance]
+
+
+@dataclass(frozen=True)
+class OverheadImages:
+    """The overhead camera's depth image (m) and label image at planning time, and the labels
+    of the robot's own pixels: what the learned Fea^m (the FCN) reads."""
+
+    depth: np.ndarray
+    label: np.ndarray
+    robot_labels: frozenset[int] = frozenset()
+
+
+@dataclass(frozen=True)
+class KnownWorld:
+    """What the robot knows when it plans.
+
+    `settings` is the scenario as a map and its settings: the room, the tables, the mapped
+    chairs only (never the unmapped ones: the robot knows those only by perceiving them),
+    no dishes, and the planner's, noise and camera settings. The rest is what changes
+    between plans: the perceived chairs, the dishes that remain, and the robot's pose.
+    """
+
+    settings: Scenario
+    perceived_chairs: tuple[Pose2, ...]
+    dishes: tuple[Dish, ...]
+    pose: Pose2
+    overhead: OverheadImages | None = field(default=None, compare=False)
+
+    @classmethod
+    def of(cls, scenario: Scenario, *, perceived_chairs: Iterable[Sequence[float]],
+           pose: Sequence[float] | None = None, dishes: Iterable[str] | None = None,
+           overhead: OverheadImages | None = None) -> KnownWorld:
+        """The robot's knowledge in `scenario` with these perceived chairs, standing at
+        `pose` (default: the scenario's start) with `dishes` left (default: all)."""
+        left = None if dishes is None else set(dishes)
+        kept = tuple(d for d in scenario.dishes if left is None or d.name in left)
+        here = _pose(scenario.robot.start if pose is None else pose)
+        settings = dataclasses.replace(
+            scenario, chairs=[c for c in scenario.chairs if c.mapped], dishes=[],
+            robot=dataclasses.replace(scenario.robot, start=list(here)))
+        return cls(settings=settings, perceived_chairs=tuple(_pose(p) for p in perceived_chairs),
+                   dishes=kept, pose=here, overhead=overhead)
+
+    @classmethod
+    def perfect(cls, scenario: Scenario, **kwargs) -> KnownWorld:
+        """Perfect perception: the scenario's unmapped chairs exactly (tests, and benchmarks
+        that measure planning alone)."""
+        chairs = [c.pose for c in scenario.chairs if not c.mapped]
+        return cls.of(scenario, perceived_chairs=chairs, **kwargs)
+
+    def moved(self, *, pose: Sequence[float], dishes: Iterable[str],
+              perceived_chairs: Iterable[Sequence[float]] | None = None,
+              overhead: OverheadImages | None = None) -> KnownWorld:
+        """The same map later: the robot at `pose` with `dishes` left (and, when given, the
+        chairs and images of a new look)."""
+        left = set(dishes)
+        chairs = self.perceived_chairs if perceived_chairs is None else \
+            tuple(_pose(p) for p in perceived_chairs)
+        return dataclasses.replace(
+            self, pose=_pose(pose), dishes=tuple(d for d in self.dishes if d.name in left),
+            perceived_chairs=chairs, overhead=self.overhead if overhead is None else overhead,
+            settings=dataclasses.replace(self.settings, robot=dataclasses.replace(
+                self.settings.robot, start=list(_pose(pose)))))
+
+    @property
+    def planner(self):
+        return self.settings.planner
+
+    @property
+    def uncertainty(self):
+        return self.settings.uncertainty
+
+    @property
+    def mapped_chairs(self) -> tuple[Pose2, ...]:
+        return tuple(_pose(c.pose) for c in self.settings.chairs)
+
+    @property
+    def chair_poses(self) -> tuple[Pose2, ...]:
+        """Every chair the robot knows: mapped, then perceived."""
+        return self.mapped_chairs + self.perceived_chairs
+
+    @property
+    def dish_names(self) -> list[str]:
+        return [d.name for d in self.dishes]
+
+    @cached_property
+    def obstacles(self) -> Obstacles:
+        return Obstacles.of(self.settings.room.bounds, self.settings.tables, self.chair_poses)
+
+    def as_scenario(self) -> Scenario:
+        """The known world as a Scenario, for what builds a Drake plant of it (the oracle's
+        FeasibilityScene): the perceived chairs as unmapped chairs `perceived_<i>`, the
+        dishes that remain, the robot at its pose."""
+        seen = [Chair(name=f"perceived_{i}", pose=list(p), mapped=False)
+                for i, p in enumerate(self.perceived_chairs)]
+        return dataclasses.replace(self.settings, chairs=[*self.settings.chairs, *seen],
+                                   dishes=list(self.dishes))

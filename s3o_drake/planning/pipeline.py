@@ -1,0 +1,83 @@
+"""The planning pipeline: from what the robot knows to a plan, in one call.
+
+`plan_from(known)` computes the Fea^m heatmap of every dish that remains, from the source
+the planner's settings name (`planner.feasibility`: "oracle", the Drake check of the known
+world, or "fcn", the network on the overhead depth image the KnownWorld carries), then plans
+with the method (`planner.plan_task`: one navigation map, the abstraction, clingo, the motion
+search). It returns a `PlanningResult`: the plan or the reason there is none, with the
+heatmaps, the navigation map, the state spaces and the location grid it was made on.
+
+The S3OPlanner system, `run`, the benchmarks and the evaluation plan through it; a replan is
+the same call with a newer KnownWorld (`KnownWorld.moved`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Sequence
+
+from s3o_drake.camera import overhead_camera
+from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.planner import PlanningError, PlanningResult, plan_task
+from s3o_drake.planning.task_planner import TaskPlanningError
+from s3o_drake.scenario import FEASIBILITY_SOURCES, FeasibilitySource
+
+__all__ = ["PlanningResult", "heatmaps_for", "plan_from"]  # the pipeline's API
+
+
+def heatmaps_for(known: KnownWorld, *, source: str | None = None,
+                 progress: bool = False) -> list[Heatmap]:
+    """Every remaining dish's Fea^m heatmap, from `source` ("oracle" or "fcn"; default the
+    planner's `feasibility`)."""
+    source = known.planner.feasibility if source is None else source
+    if source not in FEASIBILITY_SOURCES:
+        raise ValueError(f"unknown feasibility source {source!r}; known: "
+                         f"{', '.join(FEASIBILITY_SOURCES)}")
+    if source == FeasibilitySource.FCN:
+        if known.overhead is None:
+            raise ValueError("planner.feasibility fcn: the network needs the overhead images, "
+                             "and this KnownWorld has none")
+        # Imported here: torch is heavy, and only this source needs it.
+        from s3o_drake.feasibility.fcn import FcnFeasibility, overhead_view, use_one_thread
+
+        view = overhead_view(overhead_camera(known.settings), known.overhead.depth,
+                             known.overhead.label, known.overhead.robot_labels)
+        use_one_thread()
+        return FcnFeasibility.shared().heatmaps(view, list(known.dishes))
+    return compute_heatmaps(known.as_scenario(), workers=1, progress=progress,
+                            obstacles=known.obstacles)
+
+
+def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None = None,
+              workers: int | None = None, time_budget: float | None = None,
+              n_sequences: int = 3, heatmaps: Sequence[Heatmap] | None = None,
+              feasibility: str | None = None, progress: bool = False,
+              started: float | None = None) -> PlanningResult:
+    """Plans from `known` (see the module docstring).
+
+    Method, seed, workers, budget and the Fea^m source (`feasibility`) default to the
+    planner's settings and the scenario's seed. `heatmaps` given are used as they are (a
+    second plan on the same Fea^m).
+    `started` is the `time.perf_counter()` at which the caller began (before perceiving),
+    so that the planning time counts perception too. A plan that cannot be made is a
+    result with `plan` None and `error` saying why; an unknown method raises ValueError.
+    """
+    t0 = time.perf_counter() if started is None else started
+    method = known.planner.method if method is None else method
+    seed = known.settings.seed if seed is None else int(seed)
+    workers = known.planner.workers if workers is None else workers
+    if heatmaps is None:
+        heatmaps = heatmaps_for(known, source=feasibility, progress=progress)
+    maps = tuple(heatmaps) if isinstance(heatmaps, (list, tuple)) else ()
+    try:
+        result = plan_task(known, method=method, heatmaps=heatmaps, seed=seed,
+                           time_budget=time_budget, n_sequences=n_sequences, workers=workers,
+                           feasibility_time=time.perf_counter() - t0)
+    except (PlanningError, TaskPlanningError) as e:
+        return PlanningResult(known=known, method=method, seed=seed, plan=None,
+                              error=f"no plan: {e}", heatmaps=maps,
+                              planning_time=time.perf_counter() - t0)
+    return dataclasses.replace(result, heatmaps=maps)

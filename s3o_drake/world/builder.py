@@ -1,0 +1,338 @@
+"""Builds the restaurant of a Scenario in Drake: plant, scene graph, overhead camera.
+
+`populate_plant` adds the room, tables, chairs, dishes and the robot to a MultibodyPlant;
+`build_world_diagram` wraps that in the simulation diagram with the overhead RgbdSensor
+and, when a Meshcat is passed in, its visualizers. Furniture and dishes are instances of
+the SDFormat templates in `models/furniture/`, welded to the world.
+"""
+
+from dataclasses import dataclass, field
+from string import Template
+
+import numpy as np
+from pydrake.geometry import (
+    Box,
+    ClippingRange,
+    ColorRenderCamera,
+    DepthRange,
+    DepthRenderCamera,
+    GeometryInstance,
+    IllustrationProperties,
+    MakeRenderEngineVtk,
+    Meshcat,
+    MeshcatVisualizer,
+    MeshcatVisualizerParams,
+    PerceptionProperties,
+    RenderCameraCore,
+    RenderEngineVtkParams,
+    Role,
+    SceneGraph,
+)
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.plant import (
+    AddMultibodyPlant,
+    CoulombFriction,
+    MultibodyPlant,
+    MultibodyPlantConfig,
+)
+from pydrake.multibody.tree import ModelInstanceIndex
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.sensors import RgbdSensor
+
+from s3o_drake import furniture as fu
+from s3o_drake.camera import overhead_camera
+from s3o_drake.resources import make_parser, models_dir
+from s3o_drake.robot import (
+    CONTROL_PERIOD,
+    ROBOT_JOINTS,
+    add_robot,
+    robot_desired_state,
+    robot_positions,
+)
+from s3o_drake.scenario import Chair, Dish, Scenario, Table
+from s3o_drake.world.geometry_mirror import AddGeometryMirror
+from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
+
+RENDERER = "vtk"
+FLOOR_RGBA = np.array([0.82, 0.80, 0.76, 1.0])
+WALL_RGBA = np.array([0.90, 0.90, 0.88, 1.0])
+
+
+@dataclass
+class WorldModels:
+    """The model instances a world holds, by scenario name."""
+
+    robot: ModelInstanceIndex
+    tables: dict[str, ModelInstanceIndex] = field(default_factory=dict)
+    chairs: dict[str, ModelInstanceIndex] = field(default_factory=dict)
+    dishes: dict[str, ModelInstanceIndex] = field(default_factory=dict)
+
+
+def _template(name: str) -> Template:
+    return Template((models_dir() / "furniture" / f"{name}.sdf.template").read_text())
+
+
+def _weld(plant: MultibodyPlant, model: ModelInstanceIndex, body: str, X_WB: RigidTransform):
+    plant.WeldFrames(plant.world_frame(), plant.GetBodyByName(body, model).body_frame(), X_WB)
+
+
+def _planar_pose(x: float, y: float, yaw: float, z: float = 0.0) -> RigidTransform:
+    return RigidTransform(RotationMatrix.MakeZRotation(yaw), [x, y, z])
+
+
+def table_sdf(table: Table) -> str:
+    size_x, size_y, thickness = table.size
+    leg_len = table.height - thickness
+    dx, dy = fu.table_leg_offsets(table.size)[-1]
+    return _template("table").substitute(
+        name=table.name, mass=10.0 + 20.0 * size_x * size_y, size_x=size_x, size_y=size_y,
+        thickness=thickness, top_z=table.height - thickness / 2, leg_w=fu.TABLE_LEG_WIDTH,
+        leg_len=leg_len, leg_z=leg_len / 2, leg_dx=dx, leg_dy=dy)
+
+
+def chair_sdf(chair: Chair, rgba: str = "0.55 0.16 0.12 1") -> str:
+    back_x, back_z = fu.chair_back_offset()
+    leg_len = fu.CHAIR_SEAT_HEIGHT - fu.CHAIR_SEAT_THICKNESS
+    return _template("chair").substitute(
+        name=chair.name, rgba=rgba,
+        seat_z=fu.CHAIR_SEAT_HEIGHT - fu.CHAIR_SEAT_THICKNESS / 2, seat_d=fu.CHAIR_SEAT_DEPTH,
+        seat_w=fu.CHAIR_SEAT_WIDTH, seat_t=fu.CHAIR_SEAT_THICKNESS,
+        back_x=back_x, back_z=fu.CHAIR_SEAT_HEIGHT + back_z, back_pitch=-fu.CHAIR_BACK_TILT,
+        back_t=fu.CHAIR_BACK_THICKNESS, back_w=fu.CHAIR_BACK_WIDTH, back_h=fu.CHAIR_BACK_HEIGHT,
+        leg_w=fu.CHAIR_LEG_WIDTH, leg_len=leg_len, leg_z=leg_len / 2,
+        leg_dx=fu.CHAIR_SEAT_DEPTH / 2 - fu.CHAIR_LEG_WIDTH,
+        leg_dy=fu.CHAIR_SEAT_WIDTH / 2 - fu.CHAIR_LEG_WIDTH)
+
+
+def dish_sdf(dish: Dish) -> str:
+    shape = fu.DISH_SHAPES[dish.kind]
+    mass = {"plate": 0.4, "bowl": 0.3, "cup": 0.25}[dish.kind]
+    r, h = shape.radius, shape.height
+    return _template("dish").substitute(
+        name=dish.name, radius=r, height=h, half_h=h / 2, mass=mass,
+        ixx=mass * (3 * r * r + h * h) / 12, izz=mass * r * r / 2,
+        rgba=" ".join(f"{c:g}" for c in shape.rgba))
+
+
+def _add_room(plant: MultibodyPlant, scenario: Scenario) -> None:
+    """Floor (seen, not collided with) and four walls, on the world body."""
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    cx, cy = (x_min + x_max) / 2, (y_min + y_max) / 2
+    size_x, size_y = x_max - x_min, y_max - y_min
+    t, h = scenario.room.wall_thickness, scenario.room.wall_height
+    world = plant.world_body()
+    floor_margin = 2 * t + 2 * scenario.camera.margin
+    plant.RegisterVisualGeometry(
+        world, RigidTransform([cx, cy, -0.005]),
+        Box(size_x + floor_margin, size_y + floor_margin, 0.01), "floor", FLOOR_RGBA)
+    walls = {
+        "wall_south": ([cx, y_min - t / 2, h / 2], [size_x + 2 * t, t, h]),
+        "wall_north": ([cx, y_max + t / 2, h / 2], [size_x + 2 * t, t, h]),
+        "wall_west": ([x_min - t / 2, cy, h / 2], [t, size_y, h]),
+        "wall_east": ([x_max + t / 2, cy, h / 2], [t, size_y, h]),
+    }
+    for name, (p_WW, size) in walls.items():
+        X = RigidTransform(p_WW)
+        plant.RegisterVisualGeometry(world, X, Box(*size), name, WALL_RGBA)
+        plant.RegisterCollisionGeometry(world, X, Box(*size), name, CoulombFriction(0.5, 0.5))
+
+
+def populate_plant(plant: MultibodyPlant, scene_graph: SceneGraph | None, scenario: Scenario,
+                   *, unmapped_chairs: bool = True, dishes: bool = True) -> WorldModels:
+    """Adds the scenario's room, furniture, dishes and robot to an unfinalized plant.
+
+    `unmapped_chairs=False` leaves out the chairs the robot's map does not have (what a
+    planner may assume); `dishes=False` leaves out the dishes (for systems that own them).
+    """
+    parser = make_parser(plant, scene_graph)
+    _add_room(plant, scenario)
+    models = WorldModels(robot=add_robot(parser))
+    plant.set_gravity_enabled(models.robot, False)  # the arm's controller compensates it
+    q0 = robot_positions(*scenario.robot.start)
+    for name, q in zip(ROBOT_JOINTS, q0, strict=True):
+        plant.GetJointByName(name, models.robot).set_default_positions([q])
+
+    for table in scenario.tables:
+        (model,) = parser.AddModelsFromString(table_sdf(table), "sdf")
+        _weld(plant, model, "table", _planar_pose(table.center[0], table.center[1], table.yaw))
+        models.tables[table.name] = model
+    for chair in scenario.chairs:
+        if not (chair.mapped or unmapped_chairs):
+            continue
+        (model,) = parser.AddModelsFromString(chair_sdf(chair), "sdf")
+        _weld(plant, model, "chair", _planar_pose(*chair.pose))
+        models.chairs[chair.name] = model
+    if dishes:
+        heights = {t.name: t.height for t in scenario.tables}
+        for dish in scenario.dishes:
+            (model,) = parser.AddModelsFromString(dish_sdf(dish), "sdf")
+            X_WD = _planar_pose(dish.position[0], dish.position[1], 0.0, heights[dish.table])
+            _weld(plant, model, "dish", X_WD)
+            models.dishes[dish.name] = model
+    return models
+
+
+def _add_overhead_camera(builder: DiagramBuilder, plant: MultibodyPlant,
+                         scene_graph: SceneGraph, tracker: ObjectTracker | None,
+                         scenario: Scenario) -> RgbdSensor:
+    """The overhead RgbdSensor, looking at a perception-only mirror of `scene_graph`
+    (world/geometry_mirror.py): the mirror's poses, and the renderer's, are updated only
+    when an image is evaluated, not at every plant step."""
+    camera_scene_graph = builder.AddNamedSystem("camera_scene_graph", SceneGraph())
+    camera_scene_graph.AddRenderer(RENDERER, MakeRenderEngineVtk(RenderEngineVtkParams()))
+    sources = [plant.get_source_id()] + ([] if tracker is None else [tracker.source_id])
+    mirror = AddGeometryMirror(builder, original=scene_graph, copy=camera_scene_graph,
+                               sources=sources)
+    builder.Connect(plant.get_geometry_pose_output_port(), mirror.get_input_port(0))
+    if tracker is not None:
+        builder.Connect(tracker.GetOutputPort("geometry_pose"), mirror.get_input_port(1))
+    camera = overhead_camera(scenario)
+    far = scenario.camera.height + 1.0
+    core = RenderCameraCore(RENDERER, camera.info(), ClippingRange(0.05, far), RigidTransform())
+    sensor = builder.AddNamedSystem("overhead_camera", RgbdSensor(
+        parent_id=camera_scene_graph.world_frame_id(), X_PB=camera.X_WC,
+        color_camera=ColorRenderCamera(core, show_window=False),
+        depth_camera=DepthRenderCamera(core, DepthRange(0.05, far))))
+    builder.Connect(camera_scene_graph.get_query_output_port(), sensor.query_object_input_port())
+    return sensor
+
+
+def _add_object_tracker(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
+                        scenario: Scenario, robot: ModelInstanceIndex) -> ObjectTracker:
+    tracker = AddObjectTracker(builder, scenario=scenario, plant=plant, robot=robot,
+                               scene_graph=scene_graph, period=CONTROL_PERIOD)
+    builder.ExportInput(tracker.GetInputPort("grip"), "grip")
+    builder.ExportOutput(tracker.GetOutputPort("dish_poses"), "dish_poses")
+    builder.ExportOutput(tracker.GetOutputPort("dish_states"), "dish_states")
+    return tracker
+
+
+def _anchor_fixed_geometry(plant: MultibodyPlant, scene_graph: SceneGraph,
+                           models: WorldModels) -> None:
+    """Hands the welded furniture's and dishes' visual geometry (illustration and
+    perception roles) to anchored copies.
+
+    The plant reports a pose for every body's frame at every step, welded or not: the render
+    engine then moves each of those geometries (for the restaurant that tripled the cost of
+    a simulation step) and a Meshcat recording keeps a track per frame (three quarters of
+    the playback's size). These bodies never move, so their visual roles go to anchored
+    copies (same shape, pose and properties, render label included): camera and Meshcat show
+    exactly what they showed, and only the robot and the tracked dishes are moved. Their
+    collision geometry stays with the plant's bodies.
+    """
+    inspector = scene_graph.model_inspector()
+    source = scene_graph.RegisterSource("fixed_visuals")
+    context = plant.CreateDefaultContext()
+    fixed = [*models.tables.values(), *models.chairs.values(), *models.dishes.values()]
+    for instance in fixed:
+        for body_index in plant.GetBodyIndices(instance):
+            X_WB = plant.EvalBodyPoseInWorld(context, plant.get_body(body_index))
+            frame = plant.GetBodyFrameIdOrThrow(body_index)
+            visuals = set(inspector.GetGeometries(frame, Role.kPerception)) | set(
+                inspector.GetGeometries(frame, Role.kIllustration))
+            for geometry in sorted(visuals, key=lambda g: g.get_value()):
+                copy = GeometryInstance(X_WB @ inspector.GetPoseInFrame(geometry),
+                                        inspector.GetShape(geometry),
+                                        inspector.GetName(geometry))
+                perception = inspector.GetPerceptionProperties(geometry)
+                if perception is not None:
+                    copy.set_perception_properties(PerceptionProperties(perception))
+                    scene_graph.RemoveRole(plant.get_source_id(), geometry, Role.kPerception)
+                illustration = inspector.GetIllustrationProperties(geometry)
+                if illustration is not None:
+                    copy.set_illustration_properties(IllustrationProperties(illustration))
+                    scene_graph.RemoveRole(plant.get_source_id(), geometry, Role.kIllustration)
+                scene_graph.RegisterAnchoredGeometry(source, copy)
+
+
+def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
+                        track_dishes: bool = False, show_collisions: bool = True) -> Diagram:
+    """The simulated restaurant as one named Diagram ("s3o_world").
+
+    Input ports:  robot_desired_state (positions then velocities of the robot's 11 joints,
+                  tracked by the joints' PD actuators)
+    Output ports: robot_state, overhead_color_image, overhead_depth_image,
+                  overhead_label_image, query_object, body_poses
+
+    With `track_dishes`, the dishes are not welded into the plant: an ObjectTracker
+    ("object_tracker") owns their geometry and moves them with the gripper and the tray,
+    and the diagram also has
+    Input ports:  grip (abstract GripEvent; unconnected: the gripper holds nothing)
+    Output ports: dish_poses (abstract DishPoses, X_WD), dish_states (abstract DishStates)
+    (world/dish_messages.py).
+
+    With a Meshcat, adds an illustration visualizer ("meshcat_visualizer", which can record
+    for playback) and, with `show_collisions`, a hidden collision-geometry one (for a person
+    watching live; it is not in a recording and costs a quarter of a step's time).
+    """
+    builder = DiagramBuilder()
+    config = MultibodyPlantConfig(time_step=scenario.simulation.time_step,
+                                  discrete_contact_approximation="sap")
+    plant, scene_graph = AddMultibodyPlant(config, builder)
+    plant.set_name("plant")
+    models = populate_plant(plant, scene_graph, scenario, dishes=not track_dishes)
+    plant.Finalize()
+    _anchor_fixed_geometry(plant, scene_graph, models)
+    tracker = None
+    if track_dishes:
+        tracker = _add_object_tracker(builder, plant, scene_graph, scenario, models.robot)
+
+    sensor = _add_overhead_camera(builder, plant, scene_graph, tracker, scenario)
+    builder.ExportInput(plant.get_desired_state_input_port(models.robot), "robot_desired_state")
+    builder.ExportOutput(plant.get_state_output_port(models.robot), "robot_state")
+    builder.ExportOutput(sensor.color_image_output_port(), "overhead_color_image")
+    builder.ExportOutput(sensor.depth_image_32F_output_port(), "overhead_depth_image")
+    builder.ExportOutput(sensor.label_image_output_port(), "overhead_label_image")
+    builder.ExportOutput(scene_graph.get_query_output_port(), "query_object")
+    builder.ExportOutput(plant.get_body_poses_output_port(), "body_poses")
+
+    if meshcat is not None:
+        params = MeshcatVisualizerParams(publish_period=scenario.simulation.publish_period)
+        visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
+        visualizer.set_name("meshcat_visualizer")
+        if show_collisions:
+            collision = MeshcatVisualizerParams(
+                role=Role.kProximity, prefix="collision", visible_by_default=False,
+                publish_period=scenario.simulation.publish_period)
+            MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, collision).set_name(
+                "meshcat_collision")
+
+    diagram = builder.Build()
+    diagram.set_name("s3o_world")
+    return diagram
+
+
+def overhead_images(world: Diagram, context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The overhead camera's colour (H, W, 4) RGBA, depth (H, W) m and label (H, W) images,
+    from a world diagram and its context."""
+    color = world.GetOutputPort("overhead_color_image").Eval(context).data
+    depth = world.GetOutputPort("overhead_depth_image").Eval(context).data
+    label = world.GetOutputPort("overhead_label_image").Eval(context).data
+    return np.array(color, copy=True), np.array(depth[:, :, 0]), np.array(label[:, :, 0])
+
+
+def robot_render_labels(world: Diagram) -> frozenset[int]:
+    """The render labels of the robot's geometry in a world diagram: the robot knows its
+    own body when it sees it."""
+    plant = world.GetSubsystemByName("plant")
+    inspector = world.GetSubsystemByName("scene_graph").model_inspector()
+    labels = set()
+    for body in plant.GetBodyIndices(plant.GetModelInstanceByName("robot")):
+        for g in inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(body), Role.kPerception):
+            labels.add(int(inspector.GetPerceptionProperties(g).GetProperty("label", "id")))
+    return frozenset(labels)
+
+
+def render_overhead(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                 frozenset[int]]:
+    """One render of the scenario's world with the robot holding its start pose:
+    `overhead_images` and the robot's render labels."""
+    world = build_world_diagram(scenario)
+    context = world.CreateDefaultContext()
+    world.GetInputPort("robot_desired_state").FixValue(context, robot_hold_state(scenario))
+    return (*overhead_images(world, context), robot_render_labels(world))
+
+
+def robot_hold_state(scenario: Scenario) -> np.ndarray:
+    """The robot's desired state that holds its start pose (positions, zero velocities)."""
+    return robot_desired_state(robot_positions(*scenario.robot.start))

@@ -1,0 +1,323 @@
+"""ObjectTracker: the dishes as geometry that follows the gripper and the tray.
+
+The dishes are not bodies of the plant (the contact solver would have to hold a plate in a
+parallel gripper, which the execution does not need); `AddObjectTracker` registers their
+geometry with the SceneGraph and adds the system that moves it by the rules of `GripEvent`.
+The values on its ports are in world/dish_messages.py.
+"""
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import (
+    CollisionFilterDeclaration,
+    Cylinder,
+    FrameId,
+    FramePoseVector,
+    GeometryFrame,
+    GeometryInstance,
+    GeometrySet,
+    IllustrationProperties,
+    PerceptionProperties,
+    ProximityProperties,
+    RenderLabel,
+    Rgba,
+    SceneGraph,
+    SourceId,
+)
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import ModelInstanceIndex
+from pydrake.systems.framework import (
+    Context,
+    DiagramBuilder,
+    EventStatus,
+    LeafSystem,
+    State,
+    ValueProducer,
+)
+
+from s3o_drake.furniture import DISH_SHAPES
+from s3o_drake.robot import (
+    BASE_LINK,
+    GRASP_FRAME,
+    NUM_POSITIONS,
+    TRAY_INNER_LENGTH,
+    TRAY_INNER_WIDTH,
+    TRAY_LINK,
+)
+from s3o_drake.scenario import Scenario
+from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
+
+
+@dataclass(frozen=True)
+class _Track:
+    """Where one dish is: its `state` and its pose X_RD relative to the frame R that the
+    state implies (W on a table or the floor, the grasp frame G in the gripper, the tray T).
+    """
+
+    dish: str
+    state: DishState
+    X_RD: RigidTransform
+
+    def __deepcopy__(self, memo: dict) -> "_Track":
+        # Shared, not copied: the fields are frozen, and X_RD, the one mutable object, is
+        # the tracker's alone (its outputs get copies or products of it) and is never
+        # changed in place (an update makes new _Tracks). Drake deep-copies the state around
+        # every update event; real copies of the transforms cost a simulation of the
+        # restaurant's world at rest about 7% of its time.
+        return self
+
+
+#: The tracker's abstract state: a _Track per dish, in the scenario's order. Immutable: an
+#: update makes a new tuple.
+_Tracks = tuple[_Track, ...]
+
+
+def _upright(x: float, y: float, z: float, R: RotationMatrix) -> RigidTransform:
+    """A pose at (x, y, z) that keeps only R's turn about z: a set-down dish stands up."""
+    m = R.matrix()
+    return RigidTransform(RotationMatrix.MakeZRotation(math.atan2(m[1, 0], m[0, 0])), [x, y, z])
+
+
+def AddObjectTracker(builder: DiagramBuilder, *, scenario: Scenario, plant: MultibodyPlant,
+                     robot: ModelInstanceIndex, scene_graph: SceneGraph, period: float = 0.01,
+                     name: str = "object_tracker") -> "ObjectTracker":
+    """Registers the scenario's dishes with `scene_graph` and adds their ObjectTracker to
+    `builder`, named `name`, connected to the plant's state of `robot` (robot_state) and to
+    the scene graph (geometry_pose); grip and the dish outputs are the caller's to connect.
+
+    Each dish D becomes a frame of a geometry source `name`, named after the dish, with one
+    cylinder (its bottom face's centre at D's origin) that has illustration, perception
+    (colour, depth and a render label of its own, after the plant's) and proximity roles.
+
+    Call it after the plant is finalized and every other geometry is registered: the
+    dishes are filtered out of all collision pairs that exist then, because the plant
+    rejects contact results involving geometry it does not own.
+    """
+    if not plant.is_finalized():
+        raise ValueError("AddObjectTracker needs a finalized plant")
+    source_id = scene_graph.RegisterSource(name)
+    # Labels after every body of the plant: the plant labels its geometry by body index.
+    first_label = plant.num_bodies()
+    frame_ids: dict[str, FrameId] = {}
+    labels: dict[str, int] = {}
+    for i, dish in enumerate(scenario.dishes):
+        shape = DISH_SHAPES[dish.kind]
+        frame_id = scene_graph.RegisterFrame(source_id, GeometryFrame(dish.name))
+        geometry = GeometryInstance(RigidTransform([0.0, 0.0, shape.height / 2]),
+                                    Cylinder(shape.radius, shape.height), f"{dish.name}_body")
+        rgba = Rgba(*shape.rgba)
+        illustration = IllustrationProperties()
+        illustration.AddProperty("phong", "diffuse", rgba)
+        geometry.set_illustration_properties(illustration)
+        label = RenderLabel(first_label + i)
+        perception = PerceptionProperties()
+        perception.AddProperty("phong", "diffuse", rgba)
+        perception.AddProperty("label", "id", label)
+        geometry.set_perception_properties(perception)
+        geometry.set_proximity_properties(ProximityProperties())
+        scene_graph.RegisterGeometry(source_id, frame_id, geometry)
+        frame_ids[dish.name] = frame_id
+        labels[dish.name] = int(label)
+    # The plant rejects contact results that involve geometry it does not own, so the
+    # dishes' proximity geometry is kept out of all collision pairs (it still answers
+    # queries that ignore the filters, e.g. signed distance to a point or a named pair).
+    inspector = scene_graph.model_inspector()
+    dish_geometries = GeometrySet(list(frame_ids.values()))
+    scene_graph.collision_filter_manager().Apply(
+        CollisionFilterDeclaration()
+        .ExcludeWithin(dish_geometries)
+        .ExcludeBetween(dish_geometries, GeometrySet(inspector.GetAllGeometryIds())))
+
+    tracker = builder.AddNamedSystem(name, ObjectTracker(
+        scenario=scenario, plant=plant, robot=robot, source_id=source_id,
+        frame_ids=frame_ids, labels=labels, period=period))
+    builder.Connect(plant.get_state_output_port(robot), tracker.GetInputPort("robot_state"))
+    builder.Connect(tracker.GetOutputPort("geometry_pose"),
+                    scene_graph.get_source_pose_port(source_id))
+    return tracker
+
+
+class ObjectTracker(LeafSystem):
+    """Moves the dishes' geometry with the gripper, the tray, or not at all.
+
+    `AddObjectTracker` registers the geometry and constructs it: `source_id` is the
+    geometry source, `frame_ids` each dish's frame in it, `labels` each dish's render label.
+
+    A dish starts on its table. When `grip.dish` names it, it is in the gripper and keeps
+    the pose relative to the grasp frame G that it had at that moment. When it is no longer
+    named, it lands on the tray if it is in `grip.placed` (upright on the tray's floor,
+    where it was released, kept inside the rim), else it is dropped: upright on the floor
+    below where it was. The states change at a periodic update (`period`) and at a forced
+    unrestricted update; the poses of held dishes follow the robot's state continuously.
+
+    Input ports:
+        robot_state: vector (22): the robot's 11 positions then 11 velocities.
+        grip: abstract GripEvent; unconnected means the gripper holds nothing.
+    Output ports:
+        geometry_pose: FramePoseVector, for scene_graph.get_source_pose_port(source_id).
+        dish_poses: abstract DishPoses, X_WD per dish.
+        dish_states: abstract DishStates, the DishState of each dish (table, gripper,
+            tray or dropped).
+    """
+
+    def __init__(self, *, scenario: Scenario, plant: MultibodyPlant, robot: ModelInstanceIndex,
+                 source_id: SourceId, frame_ids: Mapping[str, FrameId],
+                 labels: Mapping[str, int], period: float = 0.01) -> None:
+        super().__init__()
+        if not plant.is_finalized():
+            raise ValueError("ObjectTracker needs a finalized plant")
+        names = tuple(d.name for d in scenario.dishes)
+        for given, what in ((frame_ids, "frame_ids"), (labels, "labels")):
+            if set(given) != set(names):
+                raise ValueError(f"{what}: expected the dishes {names}, got {tuple(given)}")
+        self._plant = plant
+        self._G = plant.GetFrameByName(GRASP_FRAME, robot)
+        self._robot = robot
+        # The tray is welded to the base link, which the planar joints place at (x, y, yaw):
+        # the carried dishes follow from the first three positions without the plant's
+        # kinematics at every step.
+        default = plant.CreateDefaultContext()
+        self._X_BT = plant.GetFrameByName(TRAY_LINK, robot).CalcPose(
+            default, plant.GetFrameByName(BASE_LINK, robot))
+        self._source_id = source_id
+        self._names = names
+        self._frame_ids = dict(frame_ids)
+        self._labels = dict(labels)
+        self._radii = {d.name: DISH_SHAPES[d.kind].radius for d in scenario.dishes}
+        heights = {t.name: t.height for t in scenario.tables}
+        # As world.populate_plant welds the dishes: bottom centre on the table top.
+        initial = tuple(
+            _Track(d.name, DishState.TABLE,
+                   RigidTransform([d.position[0], d.position[1], heights[d.table]]))
+            for d in scenario.dishes)
+
+        self._robot_state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
+        self._grip_port = self.DeclareAbstractInputPort("grip", AbstractValue.Make(GripEvent()))
+        self._tracks_index = self.DeclareAbstractState(AbstractValue.Make(initial))
+        # A plant context per system context, kept as a cache entry: kinematics of the
+        # gripper and tray without a Python attribute that changes during simulation.
+        self._plant_context_cache = self.DeclareCacheEntry(
+            "plant context at the robot's positions",
+            ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
+                          calc=self._calc_plant_context),
+            {self._robot_state_port.ticket()})
+
+        self.DeclareAbstractOutputPort(
+            "geometry_pose", lambda: AbstractValue.Make(FramePoseVector()),
+            self._calc_geometry_pose)
+        self.DeclareAbstractOutputPort(
+            "dish_poses", lambda: AbstractValue.Make(DishPoses()), self._calc_dish_poses)
+        self.DeclareAbstractOutputPort(
+            "dish_states", lambda: AbstractValue.Make(DishStates()), self._calc_dish_states)
+        # Transitions only (the held dishes' poses are computed from the robot's live state),
+        # so a 10 ms delay on grasp and release costs nothing visible and saves copying the
+        # abstract state at every plant step.
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._update_tracks)
+        self.DeclareForcedUnrestrictedUpdateEvent(self._update_tracks)
+
+    @property
+    def source_id(self) -> SourceId:
+        """The SceneGraph source id of the dishes' geometry."""
+        return self._source_id
+
+    @property
+    def dish_names(self) -> tuple[str, ...]:
+        return self._names
+
+    @property
+    def labels(self) -> dict[str, int]:
+        """The render label of each dish in the overhead label image."""
+        return dict(self._labels)
+
+    def _calc_plant_context(self, context: Context, value: AbstractValue) -> None:
+        plant_context = value.get_mutable_value()
+        q = self._robot_state_port.Eval(context)[:NUM_POSITIONS]
+        self._plant.SetPositions(plant_context, self._robot, q)
+
+    def _frames(self, context: Context) -> tuple[RigidTransform, RigidTransform]:
+        """X_WG (grasp frame) and X_WT (tray) at the robot's current positions."""
+        plant_context = self._plant_context_cache.Eval(context)
+        return self._G.CalcPoseInWorld(plant_context), self._tray_pose(context)
+
+    def _grip(self, context: Context) -> GripEvent:
+        if not self._grip_port.HasValue(context):
+            return GripEvent()
+        return self._grip_port.Eval(context)
+
+    def _tray_pose(self, context: Context) -> RigidTransform:
+        """X_WT from the base's planar joints alone."""
+        x, y, yaw = self._robot_state_port.Eval(context)[:3]
+        return RigidTransform(RotationMatrix.MakeZRotation(yaw), [x, y, 0.0]) @ self._X_BT
+
+    def _tracks(self, context: Context) -> _Tracks:
+        return context.get_abstract_state(self._tracks_index).get_value()
+
+    def _world_poses(self, context: Context) -> list[tuple[str, RigidTransform]]:
+        """(dish, X_WD) per dish; X_WD may be the state's own transform: read it only."""
+        tracks = self._tracks(context)
+        states = {t.state for t in tracks}
+        reference = {}
+        if DishState.GRIPPER in states:
+            reference[DishState.GRIPPER] = self._G.CalcPoseInWorld(
+                self._plant_context_cache.Eval(context))
+        if DishState.TRAY in states:
+            reference[DishState.TRAY] = self._tray_pose(context)
+        poses = []
+        for track in tracks:
+            X_WR = reference.get(track.state)
+            poses.append((track.dish, track.X_RD if X_WR is None else X_WR @ track.X_RD))
+        return poses
+
+    def _calc_geometry_pose(self, context: Context, output: AbstractValue) -> None:
+        poses = FramePoseVector()
+        for name, X_WD in self._world_poses(context):
+            poses.set_value(self._frame_ids[name], X_WD)
+        output.set_value(poses)
+
+    def _calc_dish_poses(self, context: Context, output: AbstractValue) -> None:
+        # Copies: the output must not share the state's transforms.
+        output.set_value(DishPoses((name, RigidTransform(X_WD))
+                                   for name, X_WD in self._world_poses(context)))
+
+    def _calc_dish_states(self, context: Context, output: AbstractValue) -> None:
+        output.set_value(DishStates((t.dish, t.state) for t in self._tracks(context)))
+
+    def _update_tracks(self, context: Context, state: State) -> EventStatus:
+        tracks = self._tracks(context)
+        grip = self._grip(context)
+        changes = {t.dish for t in tracks
+                   if (t.dish == grip.dish) != (t.state is DishState.GRIPPER)}
+        if not changes:
+            return EventStatus.DidNothing()
+        X_WG, X_WT = self._frames(context)
+        X_WD_now = dict(self._world_poses(context))
+
+        def moved(track: _Track) -> _Track:
+            name = track.dish
+            if name not in changes:
+                return track
+            X_WD = X_WD_now[name]
+            if name == grip.dish:
+                return _Track(name, DishState.GRIPPER, X_WG.inverse() @ X_WD)
+            if name in grip.placed:
+                return _Track(name, DishState.TRAY, self._on_tray(name, X_WT.inverse() @ X_WD))
+            p = X_WD.translation()
+            return _Track(name, DishState.DROPPED, _upright(p[0], p[1], 0.0, X_WD.rotation()))
+
+        state.get_mutable_abstract_state(self._tracks_index).set_value(
+            tuple(moved(t) for t in tracks))
+        return EventStatus.Succeeded()
+
+    def _on_tray(self, name: str, X_TD: RigidTransform) -> RigidTransform:
+        """X_TD set down on the tray's floor (z = 0 in T) and kept inside its rim."""
+        radius = self._radii[name]
+        half_x = max(TRAY_INNER_LENGTH / 2 - radius, 0.0)
+        half_y = max(TRAY_INNER_WIDTH / 2 - radius, 0.0)
+        x, y, _ = X_TD.translation()
+        return _upright(float(np.clip(x, -half_x, half_x)), float(np.clip(y, -half_y, half_y)),
+                        0.0, X_TD.rotation())

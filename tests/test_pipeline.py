@@ -1,0 +1,120 @@
+"""What the robot knows (KnownWorld) and the planning pipeline that plans from it."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from s3o_drake.abstraction.voronoi import free_space
+from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.known_world import KnownWorld, Obstacles
+from s3o_drake.planning.pipeline import heatmaps_for, plan_from
+from s3o_drake.planning.plan import Goto
+from s3o_drake.scenario import Chair
+
+
+@pytest.fixture(scope="module")
+def known(scenario) -> KnownWorld:
+    return KnownWorld.perfect(scenario)
+
+
+@pytest.fixture(scope="module")
+def heatmaps(known):
+    """Coarse oracle heatmaps of the known world (32 x 32 cells: fast)."""
+    return compute_heatmaps(known.as_scenario(), cells=32, progress=False,
+                            obstacles=known.obstacles)
+
+
+def test_the_known_world_holds_the_map_and_what_was_perceived_never_the_truth(scenario):
+    """The unmapped chair of the scenario is not in the KnownWorld unless perceived; mapped
+    chairs are, and the obstacles are exactly those."""
+    blind = KnownWorld.of(scenario, perceived_chairs=[])
+    assert blind.chair_poses == () and blind.settings.chairs == []
+    assert blind.pose == tuple(scenario.robot.start)
+    assert [d.name for d in blind.dishes] == ["plate_a", "cup_b"]
+    assert len(blind.obstacles.footprints) == len(scenario.tables)
+    seen = KnownWorld.of(scenario, perceived_chairs=[[3.0, 1.0, 0.5]], pose=[1.0, 1.2, 0.3],
+                         dishes=["cup_b"])
+    assert seen.perceived_chairs == ((3.0, 1.0, 0.5),) and seen.pose == (1.0, 1.2, 0.3)
+    assert seen.dish_names == ["cup_b"]
+    # Mapped chairs are part of the map.
+    mapped = dataclasses.replace(scenario, chairs=[Chair(name="c", pose=[3.0, 1.0, 0.5],
+                                                         mapped=True)])
+    assert KnownWorld.of(mapped, perceived_chairs=[]).chair_poses == ((3.0, 1.0, 0.5),)
+
+
+def test_as_scenario_is_the_known_world_for_the_drake_oracle(scenario):
+    known = KnownWorld.of(scenario, perceived_chairs=[[3.0, 1.0, 0.5]], pose=[1.0, 1.2, 0.3],
+                          dishes=["cup_b"])
+    s = known.as_scenario()
+    assert [(c.name, c.pose, c.mapped) for c in s.chairs] == [("perceived_0", [3.0, 1.0, 0.5],
+                                                                False)]
+    assert [d.name for d in s.dishes] == ["cup_b"] and s.robot.start == [1.0, 1.2, 0.3]
+    assert s.tables == scenario.tables and s.planner == scenario.planner
+    # The oracle's clearance test of the known world sees the same obstacles.
+    assert Obstacles.of_scenario(s).union.equals(known.obstacles.union)
+
+
+def test_the_obstacle_geometry_is_built_once_and_shared(known):
+    assert known.obstacles is known.obstacles
+    assert free_space(known) is free_space(known)  # made once per clearance
+    # Perfect perception: the scenario's chair, whose footprint is the last obstacle and
+    # no free base position.
+    x, y, _ = known.perceived_chairs[0]
+    assert np.hypot(x - 2.0, y - 3.35) < 1e-9
+    chair = known.obstacles.footprints[-1]
+    assert chair.contains(chair.representative_point())
+    assert not free_space(known).intersects(chair)
+
+
+def test_moved_keeps_the_map_and_changes_what_changes(known):
+    later = known.moved(pose=[1.5, 1.0, 0.2], dishes=["plate_a"])
+    assert later.pose == (1.5, 1.0, 0.2) and later.dish_names == ["plate_a"]
+    assert later.perceived_chairs == known.perceived_chairs
+    assert later.settings.tables == known.settings.tables
+    assert later.as_scenario().robot.start == [1.5, 1.0, 0.2]
+
+
+def test_plan_from_returns_the_plan_and_what_it_was_made_on(known, heatmaps):
+    result = plan_from(known, method="S3O-GROP*", seed=0, workers=1, heatmaps=heatmaps)
+    assert result.error == "" and result.plan is not None
+    plan = result.plan
+    assert {a.dish for a in plan.pickups} == {"plate_a", "cup_b"}
+    assert result.known is known and result.heatmaps == tuple(heatmaps)
+    assert result.partition is not None and result.abstraction is not None
+    assert result.abstraction.partition is result.partition
+    # The plan starts where the robot stands, and its drives are paths on its own map.
+    first = next(a for a in plan.actions if isinstance(a, Goto))
+    assert first.path[0] == pytest.approx(known.pose[:2])
+    assert result.navigation.path_length(first.path[0], first.path[-1]) == \
+        pytest.approx(first.length, rel=1e-6)
+    assert result.planning_time == plan.planning_time > 0
+    # The V- methods search the plain cells: no abstraction.
+    plain = plan_from(known, method="V-GROP*", seed=0, workers=1, heatmaps=heatmaps)
+    assert plain.plan is not None and plain.abstraction is None
+    assert sorted(plain.plan.groups) == [("cup_b",), ("plate_a",)]
+
+
+def test_a_plan_that_cannot_be_made_is_a_result_that_says_why(known, heatmaps):
+    result = plan_from(known, method="S3O-GROP*", seed=0, workers=1, heatmaps=heatmaps,
+                       time_budget=0.0)
+    assert result.plan is None and result.error.startswith("no plan:")
+    assert result.heatmaps == tuple(heatmaps) and result.planning_time >= 0
+
+
+def test_a_replan_from_a_later_pose_plans_what_remains(known, heatmaps):
+    later = known.moved(pose=[1.2, 1.4, 0.0], dishes=["cup_b"])
+    result = plan_from(later, method="V-GROP*", seed=0, workers=1,
+                       heatmaps=[h for h in heatmaps if h.dish == "cup_b"])
+    assert [a.dish for a in result.plan.pickups] == ["cup_b"]
+    first = next(a for a in result.plan.actions if isinstance(a, Goto))
+    assert first.path[0] == pytest.approx((1.2, 1.4))
+
+
+def test_feasibility_sources_are_checked(known):
+    with pytest.raises(ValueError, match="unknown feasibility source"):
+        heatmaps_for(known, source="guess")
+    with pytest.raises(ValueError, match="overhead images"):
+        heatmaps_for(known, source="fcn")  # perfect perception carries no images
+    with pytest.raises(ValueError, match="unknown planning method"):
+        plan_from(known, method="S3O-GROP**", heatmaps=[])
