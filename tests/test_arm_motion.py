@@ -188,6 +188,18 @@ def test_a_straight_edge_gets_the_time_optimal_trapezoid(plant):
         _assert_within_limits_and_at_rest(timed.trajectory, [q0, q1], v, a)
 
 
+def test_waypoints_a_hair_apart_are_one(plant):
+    """Waypoints 5e-11 rad apart (closer than Drake's trajectories accept as breaks; it aborts
+    the process) are merged, and the motion is the one without the repeat."""
+    q0, q1 = np.zeros(11), np.zeros(11)
+    q1[ARM] = [0.5, -0.25, 0.3, 0.0, 0.1, 0.2]
+    hair = q0.copy()
+    hair[ARM.start] += 5e-11
+    timed = time_parameterize(np.stack([q0, hair, q1]), plant)
+    plain = time_parameterize(np.stack([q0, q1]), plant)
+    assert timed.duration == pytest.approx(plain.duration, rel=1e-9)
+
+
 def test_stops_at_each_waypoint_on_the_straight_edges(scene, plant, around_the_table_edge):
     """Without a checker the motion stays on the checked straight edges and stops at each
     waypoint; within lower limits given per position."""

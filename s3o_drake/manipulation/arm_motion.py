@@ -254,11 +254,17 @@ def joint_limits(plant: MultibodyPlant) -> tuple[np.ndarray, np.ndarray]:
     return (plant.GetVelocityUpperLimits().copy(), plant.GetAccelerationUpperLimits().copy())
 
 
+#: Waypoints nearer than this (rad, in the positions' space) are one. Drake's trajectories
+#: abort the process (not an exception) on breaks closer than 1e-10, and the arc length is
+#: a trajectory's breaks: a planner's waypoints 1e-11 apart killed a whole benchmark run.
+MIN_STEP = 1e-9
+
+
 def _distinct(path: np.ndarray) -> np.ndarray:
-    """The waypoints without consecutive repeats (a repeat is a segment of zero length)."""
+    """The waypoints without consecutive repeats (closer than MIN_STEP)."""
     keep = [0]
     for i in range(1, len(path)):
-        if np.linalg.norm(path[i] - path[keep[-1]]) > 1e-12:
+        if np.linalg.norm(path[i] - path[keep[-1]]) > MIN_STEP:
             keep.append(i)
     return path[keep]
 
