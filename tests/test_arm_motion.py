@@ -188,16 +188,24 @@ def test_a_straight_edge_gets_the_time_optimal_trapezoid(plant):
         _assert_within_limits_and_at_rest(timed.trajectory, [q0, q1], v, a)
 
 
-def test_waypoints_a_hair_apart_are_one(plant):
-    """Waypoints 5e-11 rad apart (closer than Drake's trajectories accept as breaks; it aborts
-    the process) are merged, and the motion is the one without the repeat."""
+@pytest.mark.parametrize("gap", [5e-11, 1e-8, 5e-6])
+def test_waypoints_a_hair_apart_are_one(plant, gap):
+    """Waypoints a hair apart (TOPPRA's time scaling of so short an edge has breaks closer
+    than Drake's trajectories accept, which ends the process; 1e-8 rad did so in the time
+    benchmark) are merged, at the start and at the end, and the motion is the one without
+    the repeat, ending exactly at the last waypoint."""
     q0, q1 = np.zeros(11), np.zeros(11)
     q1[ARM] = [0.5, -0.25, 0.3, 0.0, 0.1, 0.2]
-    hair = q0.copy()
-    hair[ARM.start] += 5e-11
-    timed = time_parameterize(np.stack([q0, hair, q1]), plant)
+    hair, end_hair = q0.copy(), q1.copy()
+    hair[ARM.start] += gap
+    end_hair[ARM.start] += gap
     plain = time_parameterize(np.stack([q0, q1]), plant)
-    assert timed.duration == pytest.approx(plain.duration, rel=1e-9)
+    timed = time_parameterize(np.stack([q0, hair, q1]), plant)
+    assert timed.duration == pytest.approx(plain.duration, rel=1e-4)
+    to_end = time_parameterize(np.stack([q0, q1, end_hair]), plant)
+    trajectory = to_end.trajectory
+    np.testing.assert_allclose(trajectory.value(trajectory.end_time()).ravel(), end_hair,
+                               atol=1e-12)
 
 
 def test_stops_at_each_waypoint_on_the_straight_edges(scene, plant, around_the_table_edge):

@@ -84,7 +84,10 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     failure = None
     try:
         simulator.AdvanceTo(TIME_LIMIT + 1.0)  # the task monitor ends it before
-    except RuntimeError as e:  # e.g. the contact solver diverging: report it, keep the data
+    # A RuntimeError is e.g. the contact solver diverging; pydrake raises SystemExit for a
+    # failed Drake requirement (DRAKE_DEMAND) inside a system. Either ends this run, reported
+    # with the data so far, and not the study that called it.
+    except (RuntimeError, SystemExit) as e:
         failure = f"the simulation failed at t = {context.get_time():.2f} s: " \
                   f"{str(e).splitlines()[0]}"
     wall = time.perf_counter() - start

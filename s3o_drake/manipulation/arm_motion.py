@@ -254,18 +254,25 @@ def joint_limits(plant: MultibodyPlant) -> tuple[np.ndarray, np.ndarray]:
     return (plant.GetVelocityUpperLimits().copy(), plant.GetAccelerationUpperLimits().copy())
 
 
-#: Waypoints nearer than this (rad, in the positions' space) are one. Drake's trajectories
-#: abort the process (not an exception) on breaks closer than 1e-10, and the arc length is
-#: a trajectory's breaks: a planner's waypoints 1e-11 apart killed a whole benchmark run.
-MIN_STEP = 1e-9
+#: Waypoints nearer than this (rad, in the positions' space) are one. TOPPRA times a
+#: straight edge on a grid of at least GRID_MIN_POINTS points, and the time scaling it
+#: returns is a trajectory whose breaks Drake requires 1e-10 s apart (a failed requirement
+#: ends the process): an edge 1e-8 rad long (two planner waypoints that differ by rounding)
+#: broke that and ended the time benchmark. At 1e-5 rad the shortest edge takes about 2 ms
+#: at the arm's accelerations, its grid steps are microseconds, and the merged waypoint moves
+#: the gripper by at most 10 µm.
+MIN_STEP = 1e-5
 
 
 def _distinct(path: np.ndarray) -> np.ndarray:
-    """The waypoints without consecutive repeats (closer than MIN_STEP)."""
+    """The waypoints without consecutive repeats (closer than MIN_STEP); the first and the
+    last waypoint are kept exactly (a repeat of the last replaces the one before it)."""
     keep = [0]
     for i in range(1, len(path)):
         if np.linalg.norm(path[i] - path[keep[-1]]) > MIN_STEP:
             keep.append(i)
+        elif i == len(path) - 1 and len(keep) > 1:
+            keep[-1] = i
     return path[keep]
 
 
