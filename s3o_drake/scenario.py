@@ -13,10 +13,7 @@ Vectors are lists (yaml_load_typed supports neither tuples nor Literal); units a
 angles radians, positions in the world frame W (z up, the floor at z = 0).
 """
 
-import dataclasses
-import math
 import re
-import typing
 from dataclasses import dataclass, field
 from enum import Enum
 from pathlib import Path
@@ -27,6 +24,7 @@ from shapely.geometry import Polygon, box
 
 from s3o_drake.furniture import DISH_KINDS, chair_footprint, dish_footprint, table_footprint
 from s3o_drake.robot import footprint_polygon
+from s3o_drake.yaml_checks import FieldError, check_finite, check_structure
 
 # The methods of the paper's comparison: S3O-GROP* and its ablations and baselines.
 METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random")
@@ -44,6 +42,23 @@ class FeasibilitySource(str, Enum):
 FEASIBILITY_SOURCES = tuple(s.value for s in FeasibilitySource)
 # The utility's costs: our robot's recorded time model, or the paper's values.
 COST_PROFILES = ("robot", "paper")
+
+
+class Recovery(str, Enum):
+    """What execution does when an action fails (the field `execution.recovery` holds the
+    value)."""
+
+    NONE = "none"
+    """The paper's open loop: a failed pickup is given up, a blocked drive ends the run."""
+    RETRY = "retry"
+    """Check each stop from the localised pose, correct it by a short move, retry a failed
+    pickup."""
+    REPLAN = "replan"
+    """All of retry, and a replan of the dishes that remain after a blocked drive or a dish
+    that fails all its tries."""
+
+
+RECOVERY_MODES = tuple(r.value for r in Recovery)
 
 
 class ScenarioError(ValueError):
@@ -152,6 +167,11 @@ class Uncertainty:
     nav_xy_std: float = 0.10
     nav_yaw_std: float = 0.05
     reach_std: float = 0.01
+    localization_xy_std: float = 0.02
+    """How far off (m, per axis) the robot's estimate of its own pose is after it lands:
+    what the recovery's stop check believes (execution.recovery)."""
+    localization_yaw_std: float = 0.02
+    """The same for the heading (rad)."""
 
 
 @dataclass
@@ -182,6 +202,28 @@ class Simulation:
 
 
 @dataclass
+class ExecutionSettings:
+    """What execution does when an action fails (see `Recovery`), and its limits."""
+
+    recovery: str = "replan"
+    """none | retry | replan. `run` uses it as given; `evaluate` runs its own --recovery
+    (default none, the paper's protocol)."""
+    min_feasibility: float = 0.5
+    """A stop whose Fea^m, at the localised pose, is below this is corrected before the
+    pickup."""
+    correction_radius: float = 0.3
+    """How far (m) a corrective move may go from the localised pose."""
+    max_corrections: int = 2
+    """Corrective moves before one pickup attempt, at most."""
+    max_tries: int = 3
+    """Pickup attempts per dish and plan, at most."""
+    max_replans: int = 4
+    """Replans per run, at most."""
+    replan_budget: float = 60.0
+    """Wall-clock cap (s) on one replan (the first plan has planner.time_budget)."""
+
+
+@dataclass
 class Outputs:
     directory: str = ""
     """Output folder; empty means out/<scenario file stem>/."""
@@ -206,59 +248,8 @@ class Scenario:
     uncertainty: Uncertainty = field(default_factory=Uncertainty)
     camera: Camera = field(default_factory=Camera)
     simulation: Simulation = field(default_factory=Simulation)
+    execution: ExecutionSettings = field(default_factory=ExecutionSettings)
     outputs: Outputs = field(default_factory=Outputs)
-
-
-def _type_name(value) -> str:
-    return "null" if value is None else type(value).__name__
-
-
-def _check_structure(value, schema, path: str) -> None:
-    """Checks raw YAML data against a schema type; raises ScenarioError with the path."""
-    origin = typing.get_origin(schema)
-    if dataclasses.is_dataclass(schema):
-        if not isinstance(value, dict):
-            raise ScenarioError(path, f"expected a mapping of fields, got {value!r}")
-        fields = {f.name: f for f in dataclasses.fields(schema)}
-        hints = typing.get_type_hints(schema)
-        for key, item in value.items():
-            child = f"{path}.{key}" if path else str(key)
-            if key not in fields:
-                known = ", ".join(fields)
-                raise ScenarioError(child, f"unknown field (known fields: {known})")
-            _check_structure(item, hints[key], child)
-    elif origin is list:
-        (item_type,) = typing.get_args(schema)
-        if not isinstance(value, list):
-            raise ScenarioError(path, f"expected a list, got {value!r}")
-        for i, item in enumerate(value):
-            _check_structure(item, item_type, f"{path}[{i}]")
-    elif schema is bool:
-        if not isinstance(value, bool):
-            raise ScenarioError(path, f"expected true or false, got {value!r}")
-    elif schema is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ScenarioError(path, f"expected an integer, got {value!r}")
-    elif schema is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ScenarioError(path, f"expected a number, got {value!r}")
-    elif schema is str:
-        if not isinstance(value, str):
-            raise ScenarioError(path, f"expected a string, got {_type_name(value)} {value!r}")
-    else:  # pragma: no cover - a schema type this checker does not know
-        raise TypeError(f"unsupported schema type {schema} at {path}")
-
-
-def _check_finite(value, path: str) -> None:
-    """NaN or inf anywhere is an error, whatever the field."""
-    if dataclasses.is_dataclass(value):
-        for f in dataclasses.fields(value):
-            _check_finite(getattr(value, f.name), f"{path}.{f.name}" if path else f.name)
-    elif isinstance(value, list):
-        for i, item in enumerate(value):
-            _check_finite(item, f"{path}[{i}]")
-    elif isinstance(value, float) and not math.isfinite(value):
-        raise ScenarioError(path, f"must be a finite number, got {value}")
 
 
 # Validation: the rules a scenario's values must meet, each error naming its field.
@@ -406,8 +397,22 @@ def _validate_settings(scenario: Scenario) -> None:
         _at_least(getattr(p, name), 0.0, f"planner.{name}", strict=True)
 
     u = scenario.uncertainty
-    for name in ("nav_xy_std", "nav_yaw_std", "reach_std"):
+    for name in ("nav_xy_std", "nav_yaw_std", "reach_std", "localization_xy_std",
+                 "localization_yaw_std"):
         _at_least(getattr(u, name), 0.0, f"uncertainty.{name}")
+
+    e = scenario.execution
+    if e.recovery not in RECOVERY_MODES:
+        raise ScenarioError("execution.recovery", f"unknown mode {e.recovery!r} (expected one "
+                                                  f"of: {', '.join(RECOVERY_MODES)})")
+    if not 0.0 <= e.min_feasibility <= 1.0:
+        raise ScenarioError("execution.min_feasibility",
+                            f"must be a probability in [0, 1], got {e.min_feasibility:g}")
+    _at_least(e.correction_radius, 0.0, "execution.correction_radius")
+    _at_least(e.max_corrections, 0, "execution.max_corrections")
+    _at_least(e.max_tries, 1, "execution.max_tries")
+    _at_least(e.max_replans, 0, "execution.max_replans")
+    _at_least(e.replan_budget, 0.0, "execution.replan_budget", strict=True)
 
     c = scenario.camera
     tallest = max([t.height for t in scenario.tables] + [scenario.room.wall_height])
@@ -441,12 +446,14 @@ def parse_scenario(text: str) -> Scenario:
         raise ScenarioError(where, f"not valid YAML: {problem}") from None
     if raw is None:
         raw = {}
-    _check_structure(raw, Scenario, "")
     try:
+        check_structure(raw, Scenario, "")
         scenario = yaml_load_typed(schema=Scenario, data=text)
+        check_finite(scenario, "")
+    except FieldError as e:
+        raise ScenarioError(e.path, e.message) from None
     except RuntimeError as e:  # the structure check should have caught it; keep one line
         raise ScenarioError("", str(e).splitlines()[0]) from None
-    _check_finite(scenario, "")
     validate_scenario(scenario)
     return scenario
 

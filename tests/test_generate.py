@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from s3o_drake.commands.generate import main as generate_main
-from s3o_drake.scenario import load_scenario
+from s3o_drake.scenario import load_scenario, parse_scenario
 from s3o_drake.task_generation import generate_task
 
 REPO = Path(__file__).resolve().parent.parent
@@ -64,7 +64,10 @@ def test_shipped_benchmark_tasks_are_what_the_generator_makes(tmp_path):
     generate_main(["--count", "3", "--seed", "0", "--out", str(tmp_path), "--quiet"])
     for name in ("task_000.yaml", "task_001.yaml", "task_002.yaml"):
         made, kept = (tmp_path / name).read_text(), (shipped / name).read_text()
-        # The first line names the command as it was run: the shipped tasks were made
-        # before the commands moved to s3o_drake.commands (same generator, same seed).
-        assert made.split("\n", 1)[1] == kept.split("\n", 1)[1]
+        # The same scenario, read back: the shipped files predate settings added since
+        # (execution, the localisation noise), which they take at their defaults, and their
+        # first line names the command as it was run before the commands moved to
+        # s3o_drake.commands. Rewriting them would change the digests that key the
+        # studies' stored runs.
+        assert parse_scenario(made) == parse_scenario(kept)
         assert "generate --seed 0`" in kept.split("\n", 1)[0]

@@ -18,11 +18,13 @@ from s3o_drake.scenario import load_scenario
 SCENE = "scenarios/small/opposite_sides.yaml"
 
 
-def _with_oracle(scenario):
+def _with_oracle(scenario, recovery="none"):
     """These tests feed blank images: the heatmaps come from the Drake oracle (the FCN reads
-    the images; tests/test_run.py runs it end to end)."""
-    return dataclasses.replace(scenario, planner=dataclasses.replace(
-        scenario.planner, feasibility="oracle"))
+    the images; tests/test_run.py runs it end to end). They walk the paper's open loop
+    unless they say otherwise (tests/test_recovery.py has the recoveries)."""
+    return dataclasses.replace(
+        scenario, planner=dataclasses.replace(scenario.planner, feasibility="oracle"),
+        execution=dataclasses.replace(scenario.execution, recovery=recovery))
 
 
 @pytest.fixture(scope="module")

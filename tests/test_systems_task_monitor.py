@@ -1,5 +1,6 @@
 """TaskMonitor: reports the dishes on the tray and ends the simulation when the plan is over."""
 
+import dataclasses
 import json
 
 import pytest
@@ -13,6 +14,7 @@ from s3o_drake.execution.messages import (
     CommandState,
     PickupRecord,
     PlanProgress,
+    RecoveryRecord,
     RunReport,
     Status,
 )
@@ -56,7 +58,8 @@ def test_report_counts_the_dishes_on_the_tray():
     assert isinstance(report, RunReport)
     assert report.to_dict() == {
         "dishes": 4, "collected": 2, "collected_dishes": ["bowl_c", "plate_a"],
-        "execution_time": 3.0, "finished": False, "reason": "", "outcomes": [], "pickups": []}
+        "execution_time": 3.0, "finished": False, "reason": "", "outcomes": [], "pickups": [],
+        "recoveries": [], "unreachable": []}
 
 
 def test_execution_time_is_when_the_plan_finished():
@@ -81,11 +84,28 @@ def test_report_carries_the_pickup_records_as_plain_json():
     assert pickups[1] == {"dish": "cup_b", "kind": "cup", "method": "S3O-GROP*",
                           "predicted": 0.6, "source": "fcn", "planned_pose": [1.0, 2.0, 0.5],
                           "actual_pose": [1.05, 1.9, 0.8], "outcome": "missed",
-                          "reach_noise": [0.03, 0.02]}
+                          "reach_noise": [0.03, 0.02], "attempt": 1}
     # Through JSON and back: the same records.
     again = json.loads(json.dumps(pickups))
     assert tuple(PickupRecord.from_dict(p) for p in again) == RECORDS
     assert [r.succeeded for r in RECORDS] == [True, False]
+
+
+def test_report_carries_the_recoveries_and_the_unreachable_dishes():
+    monitor = TaskMonitor()
+    context = monitor.CreateDefaultContext()
+    correction = RecoveryRecord("correction", "cup_b", "stop check at (1.00, 2.00): not "
+                                "feasible", "moved 0.10 m to (1.10, 2.00)", "done", 20.0, 24.5)
+    replan = RecoveryRecord("replan", "", "goto l2 failed: blocked", "planned 1 dish from "
+                            "(1.10, 2.00): 2 actions", "done", 30.0, 30.0, planning_time=2.5)
+    _fixed(monitor, context, dataclasses.replace(DONE, recoveries=(correction, replan),
+                                                 unreachable=("bowl_c",)))
+    report = monitor.GetOutputPort("report").Eval(context).to_dict()
+    assert report["unreachable"] == ["bowl_c"]
+    first, second = json.loads(json.dumps(report["recoveries"]))
+    assert first["kind"] == "correction" and first["cost"] == pytest.approx(4.5)
+    assert second["kind"] == "replan" and second["cost"] == 0.0
+    assert second["planning_time"] == 2.5
 
 
 def test_simulation_ends_settle_time_after_the_plan_finishes():

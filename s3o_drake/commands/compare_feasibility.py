@@ -22,15 +22,17 @@ from pydrake.geometry import Meshcat
 
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, first_tasks
 from s3o_drake.execution.execute import execute
-from s3o_drake.scenario import FEASIBILITY_SOURCES, load_scenario
+from s3o_drake.scenario import FEASIBILITY_SOURCES, Recovery, load_scenario
 
 SOURCES = FEASIBILITY_SOURCES
 
 
 def run_task(path: Path, source: str, seed: int) -> dict:
     scenario = load_scenario(path)
-    scenario = dataclasses.replace(scenario, planner=dataclasses.replace(
-        scenario.planner, feasibility=source))
+    # Open loop (the paper's): a model's worth shows in what its plan does unaided.
+    scenario = dataclasses.replace(
+        scenario, planner=dataclasses.replace(scenario.planner, feasibility=source),
+        execution=dataclasses.replace(scenario.execution, recovery=Recovery.NONE.value))
     run = execute(scenario, seed=seed, meshcat=Meshcat(), progress=False)
     r = run.report
     return {"task": path.stem, "source": source, "seed": seed, "dishes": r["dishes"],

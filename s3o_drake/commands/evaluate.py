@@ -2,14 +2,20 @@
 difficulty, and write the paper's Fig. 5 and Table I.
 
     python -m s3o_drake.commands.evaluate --tasks DIR --methods all --seeds 3 --out results/
-           [--workers N | --scheduler tcp://HOST:PORT] [--limit N] [--quiet] [--summarize]
+           [--recovery none|retry|replan] [--workers N | --scheduler tcp://HOST:PORT]
+           [--limit N] [--quiet] [--summarize]
 
 Each run plans the task (the scenario file) with the method, the noise and the planner's
 randomness drawn from the seed, and executes the plan in the full Drake simulation, as
 `python -m s3o_drake.run` does but without the playback. It records whether every dish was
 collected (task completion), the share of dishes collected, the execution time (simulated)
 and the planning time, and per executed pickup the plan's Fea^m against the outcome (read
-by `python -m s3o_drake.commands.calibration`). Seeds are 0 to N-1.
+by `python -m s3o_drake.commands.calibration`), and the recoveries. Seeds are 0 to N-1.
+
+--recovery sets every run's `execution.recovery`, whatever the task files say: "none" (the
+default) is the paper's open loop, the protocol of its study; "retry" corrects stops and
+retries pickups; "replan" also replans what remains after a blocked drive or a dish that
+fails its tries (docs/execution.md). Runs of another recovery are other runs.
 
 Difficulty (the paper's measure): Σ_o ∫ Fea^m(y, o) dy, the expected area from which each
 dish can be picked, from the Drake oracle under the scenario's noise model, summed over the
@@ -54,7 +60,7 @@ from s3o_drake.evaluation.jobs import DIFFICULTY, RUN, Job, file_digest
 from s3o_drake.evaluation.scheduler import run_jobs
 from s3o_drake.evaluation.store import ResultStore
 from s3o_drake.evaluation.summary import markdown_tables, summarize, write_outputs
-from s3o_drake.scenario import METHODS, ScenarioError, load_scenario
+from s3o_drake.scenario import METHODS, RECOVERY_MODES, Recovery, ScenarioError, load_scenario
 
 DIFFICULTY_SEED = 0
 """The oracle's noise draws for the difficulty measure: one fixed seed, so that a task's
@@ -72,6 +78,9 @@ def parse_args(argv: list[str] | None):
     parser.add_argument("--seeds", type=int, default=3, metavar="N",
                         help="seeds 0..N-1 per task and method (default 3)")
     parser.add_argument("--out", required=True, metavar="DIR", help="results folder")
+    parser.add_argument("--recovery", choices=RECOVERY_MODES, default=Recovery.NONE.value,
+                        help="what execution does when an action fails (default none: the "
+                             "paper's open loop)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, metavar="N",
                         help="local worker processes (default: one per core)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
@@ -121,13 +130,13 @@ def _validate(args) -> tuple[list[Path], list[str]]:
     return paths, methods
 
 
-def study_jobs(paths: list[Path], methods: list[str], seeds: int) -> tuple[list[Job],
-                                                                          list[Job]]:
+def study_jobs(paths: list[Path], methods: list[str], seeds: int,
+               recovery: str = Recovery.NONE.value) -> tuple[list[Job], list[Job]]:
     """The difficulty jobs (one per task) and the run jobs, seed by seed, then task by task,
     all methods of a task together: an interrupted study has whole comparisons done."""
     digests = {p: file_digest(p) for p in paths}
     difficulty = [Job(DIFFICULTY, p.stem, str(p), digests[p], DIFFICULTY_SEED) for p in paths]
-    runs = [Job(RUN, p.stem, str(p), digests[p], seed, method)
+    runs = [Job(RUN, p.stem, str(p), digests[p], seed, method, recovery)
             for seed in range(seeds) for p in paths for method in methods]
     return difficulty, runs
 
@@ -141,7 +150,7 @@ def main(argv: list[str] | None = None) -> int:
     paths, methods = _validate(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    difficulty_jobs, run_job_list = study_jobs(paths, methods, args.seeds)
+    difficulty_jobs, run_job_list = study_jobs(paths, methods, args.seeds, args.recovery)
     difficulty_store = ResultStore(out / "difficulty.jsonl", read_only=args.summarize)
     store = ResultStore(out / "results.jsonl", read_only=args.summarize)
     print(f"{len(paths)} tasks x {len(methods)} methods x {args.seeds} seeds = "

@@ -43,7 +43,7 @@ from s3o_drake.planning.motion_search import SequenceProblem, location_regions
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.time_model import MODEL_FILE, CostModel
 from s3o_drake.resources import TASKS_DIR
-from s3o_drake.scenario import COST_PROFILES, METHODS, Scenario
+from s3o_drake.scenario import COST_PROFILES, METHODS, Recovery, Scenario
 
 TARGETS = {"off": 0.03, "on": 0.08}
 """Median |predicted - simulated| / simulated allowed, per noise setting."""
@@ -55,7 +55,11 @@ def model_version(path: Path = MODEL_FILE) -> str:
 
 
 def measure(name: str, scenario: Scenario, *, method: str, seed: int, noise: bool) -> dict:
-    """One planned and simulated run: the prediction, the simulated time and what happened."""
+    """One planned and simulated run: the prediction, the simulated time and what happened.
+    The run is open loop (execution.recovery none): the prediction is of the plan as
+    planned, and recoveries are the execution's own (docs/execution.md)."""
+    scenario = dataclasses.replace(scenario, execution=dataclasses.replace(
+        scenario.execution, recovery=Recovery.NONE.value))
     run = execute(scenario, method=method, seed=seed, meshcat=None, noise=noise, progress=False)
     report, plan = run.report, run.plan
     outcomes = report["outcomes"]

@@ -22,8 +22,9 @@ DIFFICULTY = "difficulty"
 
 @dataclass(frozen=True)
 class Job:
-    """`kind` "run": plan `task` (the scenario at `path`) with `method` and `seed`, execute;
-    `kind` "difficulty": the task's pickable area (the oracle's noise drawn from `seed`)."""
+    """`kind` "run": plan `task` (the scenario at `path`) with `method` and `seed`, execute
+    with `recovery` (the scenario's `execution.recovery` replaced); `kind` "difficulty": the
+    task's pickable area (the oracle's noise drawn from `seed`)."""
 
     kind: str
     task: str
@@ -31,11 +32,14 @@ class Job:
     digest: str  # of the scenario file's contents: an edited task is a new task
     seed: int
     method: str = ""
+    recovery: str = "none"
 
     @property
     def key(self) -> str:
-        """Identifies the job's result in a store."""
-        return f"{self.kind}/{self.task}@{self.digest}/{self.method}/{self.seed}"
+        """Identifies the job's result in a store (open-loop runs keep the key they had
+        before recovery existed, so that their stores resume)."""
+        key = f"{self.kind}/{self.task}@{self.digest}/{self.method}/{self.seed}"
+        return key if self.recovery == "none" else f"{key}/{self.recovery}"
 
 
 def file_digest(path: Path) -> str:
@@ -62,18 +66,20 @@ def run_job(job: Job) -> dict:
             "job_seconds": time.perf_counter() - start}
 
 
-def benchmark_scenario(path: str) -> Scenario:
+def benchmark_scenario(path: str, recovery: str = "none") -> Scenario:
     """The task as the benchmark runs it: searches in this process (the parallelism is
-    across runs, and a forked search pool inside a pool worker would oversubscribe it)."""
+    across runs, and a forked search pool inside a pool worker would oversubscribe it),
+    with `recovery`."""
     scenario = load_scenario(Path(path))
-    return dataclasses.replace(scenario, planner=dataclasses.replace(scenario.planner,
-                                                                     workers=1))
+    return dataclasses.replace(
+        scenario, planner=dataclasses.replace(scenario.planner, workers=1),
+        execution=dataclasses.replace(scenario.execution, recovery=recovery))
 
 
 def _run(job: Job) -> dict:
     from s3o_drake.execution.execute import execute  # heavy imports stay in the workers
 
-    run = execute(benchmark_scenario(job.path), method=job.method, seed=job.seed,
+    run = execute(benchmark_scenario(job.path, job.recovery), method=job.method, seed=job.seed,
                   meshcat=None, progress=False)
     r = run.report
     return {"dishes": r["dishes"], "collected": r["collected"],
@@ -84,7 +90,8 @@ def _run(job: Job) -> dict:
             "planned": run.plan is not None, "finished": bool(r.get("finished", True)),
             "reason": r.get("reason", ""), "realtime_rate": r["realtime_rate"],
             "outcomes": [f"{action} {arg}: {outcome}" for action, arg, outcome in r["outcomes"]],
-            "pickups": r["pickups"]}
+            "pickups": r["pickups"], "recoveries": r["recoveries"],
+            "unreachable": r["unreachable"]}
 
 
 def _difficulty(job: Job) -> dict:

@@ -23,6 +23,7 @@ import numpy as np
 from scipy.stats import binomtest
 
 from s3o_drake.evaluation.difficulty import GROUPS, difficulty_groups
+from s3o_drake.evaluation.recovery_summary import recovery_figures, recovery_table
 
 METHOD = "S3O-GROP*"
 ABLATION = "S3O-Random"
@@ -272,7 +273,8 @@ def failure_table(runs: Sequence[dict], methods: Sequence[str]) -> str:
             _, _, result = outcome.partition(": ")
             if result.startswith("failed"):
                 mine[outcome.split(" ", 1)[0] + " " + result] += 1
-        planned = sum(o.startswith("pickup ") for o in r["outcomes"])
+        # Distinct dishes: with recovery a dish's retries are pickups of their own.
+        planned = len({o.split(":", 1)[0] for o in r["outcomes"] if o.startswith("pickup ")})
         mine["not planned or not reached"] += r["dishes"] - planned
     reasons = sorted({k for c in counts.values() for k in c if k != "runs"})
     lines = ["| reason | " + " | ".join(methods) + " |", "|---|" + "---|" * len(methods),
@@ -369,6 +371,10 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
         lines += ["", "**Other splits of the tasks** (completion rate; does the paper's "
                   "measure separate the hard tasks?)", "",
                   other_measures_table(runs, dish_areas, methods, groups)]
+    if dish_areas and any("recoveries" in r for r in runs):
+        lines += ["", "**Recovery** (recoveries by kind and their cost; dishes the Drake "
+                  "oracle can pick from some free pose against those collected)", "",
+                  recovery_table(recovery_figures(runs, methods, dish_areas))]
     lines += ["", "**Why dishes were not collected** (failed actions by reason; dishes that "
               "no pickup was planned for or that a failed goto left behind)", "",
               failure_table(runs, methods)]

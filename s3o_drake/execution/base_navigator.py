@@ -147,7 +147,8 @@ class BaseNavigator(LeafSystem):
     2 cm / 0.05 rad along the motion are checked (inside the room and collision-free, arm
     stowed); the motion is cut at the last free pose before the first collision. A
     collision within the last 0.5 m of driving or in the final turn ends the command done
-    there (landed short); an earlier one ends it failed, reason "blocked". Collisions at
+    there (landed short); an earlier one, or one in the turn before the first drive (however
+    short the drive), ends it failed, reason "blocked". Collisions at
     the very start (the base already stands there) are ignored until the first free pose.
     Before giving up on a blocked motion it tries, in turn, the first turn the other way
     round and backing straight out by 5, 10, ... 60 cm before turning (a noisy landing can
@@ -305,7 +306,11 @@ class BaseNavigator(LeafSystem):
         drives = [0.0 if seg.turn else seg.length for seg in segments]
         final_turn = segments[i].turn and i == len(segments) - 1
         travelled = sum(drives[:i]) + (0.0 if segments[i].turn else s)
-        if final_turn or travelled >= sum(drives) - FINAL_APPROACH:
+        # A turn before any driving that collides is no landing short, however short the
+        # drive after it (a corrective move of 10 cm next to a table): it is blocked, so that
+        # the escapes (the other way round, backing out first) get their try.
+        turn_first = segments[i].turn and travelled == 0.0 and sum(drives) > 0.0
+        if not turn_first and (final_turn or travelled >= sum(drives) - FINAL_APPROACH):
             return CommandState.DONE, ""
         return CommandState.FAILED, "blocked"
 

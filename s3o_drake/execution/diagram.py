@@ -57,8 +57,9 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
                             show_collisions: bool = False) -> Diagram:
     """The whole system (see the module docstring), named "s3o_execution".
 
-    `noise=False` turns off the simulated navigation and reaching noise (the planner still
-    plans with the scenario's noise model). `perceive` replaces the planner's perception.
+    `noise=False` turns off the simulated navigation, reaching and localisation noise (the
+    planner still plans with the scenario's noise model). `perceive` replaces the planner's
+    perception.
     `show_collisions` adds Meshcat's (hidden) collision-geometry view, for live watching.
     The task monitor ends the simulation `scenario.simulation.hold_time` after the plan has
     ended, or at `time_limit` simulated seconds.
@@ -72,7 +73,7 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     planner = builder.AddNamedSystem("planner", S3OPlanner(
         scenario=scenario, method=method, seed=seed, perceive=perceive,
         progress_bar=progress_bar, control_period=CONTROL_PERIOD,
-        robot_labels=robot_render_labels(world)))
+        robot_labels=robot_render_labels(world), noise=noise))
     navigator = builder.AddNamedSystem("base_navigator", BaseNavigator(
         scenario=scenario, scene=truth, seed=seed, noise=noise, control_period=CONTROL_PERIOD))
     arm = builder.AddNamedSystem("arm_controller", ArmController(

@@ -13,6 +13,7 @@ from pydrake.systems.framework import Diagram
 from tqdm import tqdm
 
 from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
+from s3o_drake.perception import Perceive
 from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.scenario import Scenario
@@ -45,12 +46,13 @@ def frame_room(meshcat: Meshcat, scenario: Scenario) -> None:
 
 def execute(scenario: Scenario, *, method: str | None = None, seed: int | None = None,
             meshcat: Meshcat | None, realtime: bool = False, noise: bool = True,
-            progress: bool = True) -> Execution:
+            progress: bool = True, perceive: Perceive | None = None) -> Execution:
     """Builds the execution diagram, plans (at initialization) and simulates until the task
     monitor ends the run; records the playback in `meshcat` (none without one: the
-    benchmark's runs)."""
+    benchmark's runs). `perceive` replaces the planner's perception of the chairs (at
+    every plan and replan)."""
     diagram = build_execution_diagram(scenario, method=method, seed=seed, meshcat=meshcat,
-                                      noise=noise, progress_bar=progress,
+                                      perceive=perceive, noise=noise, progress_bar=progress,
                                       show_collisions=realtime)
     if meshcat is not None:
         frame_room(meshcat, scenario)

@@ -97,7 +97,9 @@ class PickupRecord:
     was none); `actual_pose`: the base's (x, y, yaw) when the pickup was commanded, after
     any turn to face the dish (where a turn failed: where it stopped); `outcome`: "done",
     or the failure's reason ("no_ik", "missed", "turn blocked", ...); `reach_noise`: the
-    reach error drawn, (dx, dy) m, None when none was drawn.
+    reach error drawn, (dx, dy) m, None when none was drawn; `attempt`: 1 for the plan's
+    pickup, 2, 3, ... for the recovery's retries of it (whose `planned_pose` and
+    `predicted` are those of the corrected stop, where there was a correction).
     """
 
     dish: str
@@ -109,6 +111,7 @@ class PickupRecord:
     actual_pose: tuple[float, float, float]
     outcome: str
     reach_noise: tuple[float, float] | None = None
+    attempt: int = 1
 
     @property
     def succeeded(self) -> bool:
@@ -120,7 +123,8 @@ class PickupRecord:
                 "predicted": self.predicted, "source": self.source,
                 "planned_pose": list(self.planned_pose), "actual_pose": list(self.actual_pose),
                 "outcome": self.outcome,
-                "reach_noise": None if self.reach_noise is None else list(self.reach_noise)}
+                "reach_noise": None if self.reach_noise is None else list(self.reach_noise),
+                "attempt": self.attempt}
 
     @classmethod
     def from_dict(cls, data: Any) -> "PickupRecord":
@@ -139,12 +143,16 @@ class PickupRecord:
                 or not 0.0 <= predicted <= 1.0):
             raise ValueError(f"predicted: expected a probability in [0, 1], got {predicted!r}")
         noise = data.get("reach_noise")
+        attempt = data.get("attempt", 1)  # records written before retries existed: 1
+        if isinstance(attempt, bool) or not isinstance(attempt, int) or attempt < 1:
+            raise ValueError(f"attempt: expected a positive integer, got {attempt!r:.60}")
         return cls(dish=data["dish"], kind=data["kind"], method=data["method"],
                    predicted=float(predicted), source=data["source"],
                    planned_pose=_numbers(data["planned_pose"], 3, "planned_pose"),
                    actual_pose=_numbers(data["actual_pose"], 3, "actual_pose"),
                    outcome=data["outcome"],
-                   reach_noise=None if noise is None else _numbers(noise, 2, "reach_noise"))
+                   reach_noise=None if noise is None else _numbers(noise, 2, "reach_noise"),
+                   attempt=attempt)
 
 
 def _numbers(value: Any, count: int, name: str) -> tuple[float, ...]:
@@ -153,6 +161,40 @@ def _numbers(value: Any, count: int, name: str) -> tuple[float, ...]:
                        and math.isfinite(v) for v in value)):
         raise ValueError(f"{name}: expected {count} finite numbers, got {value!r:.60}")
     return tuple(float(v) for v in value)
+
+
+@dataclass(frozen=True)
+class RecoveryRecord:
+    """One recovery of the run: what failed, what was done, and what it cost.
+
+    `kind`: "correction" (a short move to a better stop before a pickup), "retry" (a failed
+    pickup tried again), "replan" (the dishes that remain planned again) or "give_up" (a
+    dish left after its tries and replans); `dish`: the dish concerned ("" for a replan
+    after a blocked drive); `trigger`: what failed or what the stop check found; `action`:
+    what was done; `result`: "done", or how it ended ("failed: blocked", "no plan: ...");
+    `started`, `ended`: simulated time (s) of the recovery's own motion (equal for a replan,
+    which takes no simulated time); `planning_time`: wall time (s) a replan took.
+    """
+
+    kind: str
+    dish: str
+    trigger: str
+    action: str
+    result: str
+    started: float
+    ended: float
+    planning_time: float = 0.0
+
+    @property
+    def cost(self) -> float:
+        """The simulated time (s) the recovery's motion took."""
+        return self.ended - self.started
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON data, as report.json lists it (with `cost`)."""
+        return {"kind": self.kind, "dish": self.dish, "trigger": self.trigger,
+                "action": self.action, "result": self.result, "started": self.started,
+                "ended": self.ended, "cost": self.cost, "planning_time": self.planning_time}
 
 
 @dataclass(frozen=True)
@@ -184,6 +226,9 @@ class PlanProgress:
     why, e.g. "plan complete", "goto 3 failed: blocked", "no plan: ...").
     `outcomes`: per finished action, its ActionOutcome.
     `pickups`: per finished pickup, in order, its `PickupRecord`.
+    `recoveries`: per recovery, in order, its `RecoveryRecord`.
+    `unreachable`: dishes no free pose of the known world can pick (the plans' Fea^m is 0
+    wherever the base may stand), sorted.
     """
 
     step: int = 0
@@ -192,6 +237,8 @@ class PlanProgress:
     reason: str = ""
     outcomes: tuple[ActionOutcome, ...] = ()
     pickups: tuple[PickupRecord, ...] = ()
+    recoveries: tuple[RecoveryRecord, ...] = ()
+    unreachable: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -201,7 +248,7 @@ class RunReport:
     `dishes`: how many the world has; `collected_dishes`: those on the tray, sorted;
     `execution_time` (s): the simulated time at which the plan finished, else the time of
     the report; `finished`: the plan is over; `reason`: why (`PlanProgress.reason`, or
-    "time limit"); `outcomes` and `pickups`: `PlanProgress`'s.
+    "time limit"); `outcomes`, `pickups`, `recoveries` and `unreachable`: `PlanProgress`'s.
     """
 
     dishes: int = 0
@@ -211,6 +258,8 @@ class RunReport:
     reason: str = ""
     outcomes: tuple[ActionOutcome, ...] = ()
     pickups: tuple[PickupRecord, ...] = ()
+    recoveries: tuple[RecoveryRecord, ...] = ()
+    unreachable: tuple[str, ...] = ()
 
     @property
     def collected(self) -> int:
@@ -221,7 +270,7 @@ class RunReport:
         """Plain JSON data, as report.json holds it (execute.py adds the timings): dishes,
         collected, collected_dishes (a list), execution_time, finished, reason, outcomes
         (a list of [action, argument, result] lists), pickups (`PickupRecord.to_dict()`
-        each)."""
+        each), recoveries (`RecoveryRecord.to_dict()` each), unreachable (a list)."""
         return {
             "dishes": self.dishes,
             "collected": self.collected,
@@ -231,4 +280,6 @@ class RunReport:
             "reason": self.reason,
             "outcomes": [list(outcome) for outcome in self.outcomes],
             "pickups": [record.to_dict() for record in self.pickups],
+            "recoveries": [record.to_dict() for record in self.recoveries],
+            "unreachable": list(self.unreachable),
         }

@@ -15,9 +15,21 @@ later pickups assumed that stop). Each finished pickup also leaves a `PickupReco
 the outcome, the reach noise the arm drew): the executions against which Fea^m is
 calibrated.
 
-Replanning (later issues): a change of the optional `replan_request` input's value plans
-again from the robot's current pose for the dishes not yet collected (the state keeps the
-new plan and starts it from its first action).
+That is the paper's open loop, `execution.recovery: none`. With `retry`, before each
+pickup the robot localises and checks the stop (s3o_drake/execution/recovery.py): when the
+pickup test fails from where it believes it stands, or the plan's Fea^m there is below
+`execution.min_feasibility`, it makes a corrective move to the best nearby stop (at most
+`max_corrections` per attempt), and a failed pickup is tried again, after a move where the
+arm found no way (at most `max_tries` attempts per dish and plan). With `replan`, also a
+blocked drive, or a dish that failed all its tries, makes the planner plan the dishes that
+remain from where the robot believes it stands, with the same pipeline and
+`execution.replan_budget`, and go on (at most `max_replans` per run; a dish that failed all
+its tries in PLANS_PER_DISH plans is left). Dishes that no free pose of the known world
+can pick are reported on `progress.unreachable`, and every recovery as a `RecoveryRecord`.
+
+A change of the optional `replan_request` input's value also plans again from the robot's
+current pose for the dishes not yet collected (the state keeps the new plan and starts it
+from its first action).
 """
 
 from __future__ import annotations
@@ -41,14 +53,19 @@ from s3o_drake.execution.messages import (
     PickCommand,
     PickupRecord,
     PlanProgress,
+    RecoveryRecord,
     Status,
 )
+from s3o_drake.execution.recovery import MIN_CORRECTION, StopCheck, describe_move, localise
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
 from s3o_drake.perception import Perceive, perceive_known_world
 from s3o_drake.planning.pipeline import PlanningResult, plan_from
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
 from s3o_drake.robot import CONTROL_PERIOD, NUM_POSITIONS
-from s3o_drake.scenario import Scenario
+from s3o_drake.scenario import Recovery, Scenario
+
+#: A dish that fails all its tries in this many plans is left (execution.recovery replan).
+PLANS_PER_DISH = 2
 
 
 def scenario_unmapped_chairs(scenario: Scenario) -> Perceive:
@@ -68,6 +85,7 @@ class _Execution:
     result: PlanningResult | None = None
     """The latest planning's result: the plan, and what it was made on (the KnownWorld,
     the heatmaps, the navigation map that re-paths the drives from where the base is)."""
+    check: StopCheck | None = None  # the recovery's stop check on that result
     step: int = 0  # index into plan.actions of the action being executed
     command_id: int = NO_COMMAND  # id of the command sent for `step` (0: none yet)
     turning: bool = False  # the command out is the turn in place before a pickup
@@ -79,20 +97,47 @@ class _Execution:
     pickups: tuple[PickupRecord, ...] = ()
     pick_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """The base's pose when the current pickup's PickCommand was sent."""
+    pick_started: float = 0.0  # simulated time the current PickCommand was sent
     finished: bool = False
     reason: str = ""
     replan_seen: float = 0.0
     planning_time: float = 0.0
     """Wall time (s) spent planning, summed over plans."""
+    # The recovery (execution.recovery other than none), for the pickup at `step`:
+    checked: bool = False  # the stop check has accepted (or could not better) the stop
+    correcting: bool = False  # the command out is a corrective move
+    corrections: int = 0  # corrective moves before this attempt
+    tries: int = 0  # failed attempts at this pickup, this plan
+    force_move: bool = False  # the last attempt failed where it stood: move before the next
+    last_failure: str = ""  # why the last attempt failed (a retry's trigger)
+    pending: tuple[str, str, float] = ("", "", 0.0)  # a correction's trigger, action, start
+    stop: tuple[tuple[float, float, float], float] | None = None
+    """The corrected stop and its Fea^m, when a correction moved the base for this pickup."""
+    recoveries: tuple[RecoveryRecord, ...] = ()
+    unreachable: tuple[str, ...] = ()
+    replans: int = 0
+    exhausted: tuple[str, ...] = ()  # a dish per plan in which it failed all its tries
+    given_up: tuple[str, ...] = ()
 
     @property
     def plan(self) -> TaskMotionPlan | None:
         return None if self.result is None else self.result.plan
 
+    @property
+    def collected(self) -> set[str]:
+        return {o.argument for o in self.outcomes if o.action == "pickup" and o.done}
+
+    def next_step(self, **changes) -> _Execution:
+        """On to the next action, every per-pickup field reset."""
+        return dataclasses.replace(
+            self, step=self.step + 1, command_id=NO_COMMAND, turning=False, turned=False,
+            checked=False, correcting=False, corrections=0, tries=0, force_move=False,
+            last_failure="", stop=None, **changes)
+
     def __deepcopy__(self, memo) -> _Execution:
         # Immutable: frozen, and the navigation map is sealed after planning (its queries
         # memoise nothing more), so Drake's copies may share it; a copy would only cost
-        # (the map is megabytes).
+        # (the map is megabytes). The stop check only caches its oracle.
         return self
 
 
@@ -108,8 +153,9 @@ class S3OPlanner(LeafSystem):
       replan_request (1, optional): a change of its value asks for a new plan.
     Output ports:
       base_command (abstract BaseCommand), pick_command (abstract PickCommand);
-      progress (abstract PlanProgress: an ActionOutcome per finished action, and a
-        PickupRecord per finished pickup);
+      progress (abstract PlanProgress: an ActionOutcome per finished action, a
+        PickupRecord per finished pickup, a RecoveryRecord per recovery, the unreachable
+        dishes);
       plan (abstract TaskMotionPlan, or None before planning / when none could be made);
       planning_result (abstract PlanningResult, or None before planning: the latest plan
         and what it was made on, the KnownWorld, heatmaps, navigation map and state spaces);
@@ -119,8 +165,11 @@ class S3OPlanner(LeafSystem):
     def __init__(self, *, scenario: Scenario, method: str | None = None, seed: int | None = None,
                  perceive: Perceive | None = None, workers: int | None = None,
                  control_period: float = CONTROL_PERIOD, progress_bar: bool = False,
-                 robot_labels: frozenset[int] = frozenset()):
+                 robot_labels: frozenset[int] = frozenset(), noise: bool = True):
         super().__init__()
+        self._settings = scenario.execution
+        self._recovery = Recovery(scenario.execution.recovery)
+        self._noise = noise  # the localisation's noise (the simulation's noise switch)
         self._scenario = scenario
         self._method = method or scenario.planner.method
         self._seed = scenario.seed if seed is None else int(seed)
@@ -143,7 +192,7 @@ class S3OPlanner(LeafSystem):
                                                           AbstractValue.Make(Status()))
         self._arm_status = self.DeclareAbstractInputPort("arm_status",
                                                          AbstractValue.Make(Status()))
-        self._replan = self.DeclareVectorInputPort("replan_request", 1)
+        self._replan_port = self.DeclareVectorInputPort("replan_request", 1)
         self._state = self.DeclareAbstractState(AbstractValue.Make(_Execution()))
         self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
         self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0, self._step)
@@ -177,8 +226,17 @@ class S3OPlanner(LeafSystem):
     def _execution(self, context: Context) -> _Execution:
         return context.get_abstract_state(int(self._state)).get_value()
 
+    def _pose(self, context: Context) -> np.ndarray:
+        """The base's true pose (x, y, yaw)."""
+        return np.asarray(self._robot_state.Eval(context))[:3].copy()
+
+    def _belief(self, context: Context, e: _Execution) -> np.ndarray:
+        """Where the robot believes it stands now (localised, execution.recovery)."""
+        return localise(self._pose(context), uncertainty=self._scenario.uncertainty,
+                        seed=self._seed, command_id=e.next_id, noise=self._noise)
+
     def _plan(self, context: Context, execution: _Execution, *, start: np.ndarray,
-              dishes: Sequence[str]) -> _Execution:
+              dishes: Sequence[str], budget: float | None = None) -> _Execution:
         """A new plan from base pose `start` for `dishes`, or a finished execution saying
         why there is none."""
         t0 = time.perf_counter()
@@ -186,92 +244,216 @@ class S3OPlanner(LeafSystem):
         known = perceive_known_world(self._scenario, images, pose=start, dishes=dishes,
                                      perceive=self._perceive, robot_labels=self._robot_labels)
         result = plan_from(known, method=self._method, seed=self._seed, workers=self._workers,
-                           progress=self._progress_bar, started=t0)
+                           time_budget=budget, progress=self._progress_bar, started=t0)
         if result.navigation is not None:
             result.navigation.seal()
         spent = execution.planning_time + time.perf_counter() - t0
         if result.plan is None:
-            return dataclasses.replace(execution, result=result, finished=True,
+            return dataclasses.replace(execution, result=result, check=None, finished=True,
                                        reason=result.error, planning_time=spent)
-        return dataclasses.replace(execution, result=result, step=0, command_id=NO_COMMAND,
-                                   finished=not result.plan.actions,
-                                   reason="" if result.plan.actions else "plan complete",
-                                   planning_time=spent)
+        unreachable = tuple(sorted(set(execution.unreachable) | set(result.plan.unreachable)))
+        check = StopCheck(known, result.heatmaps) if self._recovery != Recovery.NONE else None
+        return dataclasses.replace(
+            execution, result=result, check=check, step=-1, unreachable=unreachable,
+            planning_time=spent, finished=not result.plan.actions,
+            reason="" if result.plan.actions else "plan complete").next_step()
+
+    def _replan(self, context: Context, e: _Execution, *, trigger: str,
+                dish: str = "") -> _Execution:
+        """The dishes that remain planned again from where the robot believes it stands
+        (execution.recovery replan), or the execution finished where that is not allowed."""
+        remaining = [d.name for d in self._scenario.dishes
+                     if d.name not in e.collected and d.name not in e.given_up
+                     and d.name not in e.unreachable]
+        if not remaining:
+            return dataclasses.replace(e, finished=True, reason="plan complete")
+        belief = self._belief(context, e)
+        t = context.get_time()
+        before = e.planning_time
+        e = self._plan(context, dataclasses.replace(e, replans=e.replans + 1), start=belief,
+                       dishes=remaining, budget=self._settings.replan_budget)
+        plan = e.plan
+        result = "done" if plan is not None else e.reason
+        action = (f"planned {len(remaining)} dish{'es' if len(remaining) > 1 else ''} from "
+                  f"({belief[0]:.2f}, {belief[1]:.2f})"
+                  + (f": {len(plan.actions)} actions" if plan is not None else ""))
+        record = RecoveryRecord("replan", dish, trigger, action, result, t, t,
+                                planning_time=e.planning_time - before)
+        return dataclasses.replace(e, recoveries=(*e.recoveries, record))
 
     # ------------------------------------------------------------------------- events
     def _initialize(self, context: Context, state: State) -> None:
-        start = np.asarray(self._robot_state.Eval(context))[:3]
-        execution = self._plan(context, _Execution(), start=start,
+        execution = self._plan(context, _Execution(), start=self._pose(context),
                                dishes=[d.name for d in self._scenario.dishes])
-        if self._replan.HasValue(context):
-            execution = dataclasses.replace(execution,
-                                            replan_seen=float(self._replan.Eval(context)[0]))
+        if self._replan_port.HasValue(context):
+            execution = dataclasses.replace(
+                execution, replan_seen=float(self._replan_port.Eval(context)[0]))
         state.get_mutable_abstract_state(int(self._state)).set_value(execution)
 
     def _step(self, context: Context, state: State) -> None:
         execution = self._execution(context)
-        if self._replan.HasValue(context):
-            request = float(self._replan.Eval(context)[0])
+        if self._replan_port.HasValue(context):
+            request = float(self._replan_port.Eval(context)[0])
             if request != execution.replan_seen:
-                collected = {o.argument for o in execution.outcomes
-                             if o.action == "pickup" and o.done}
-                remaining = [d.name for d in self._scenario.dishes if d.name not in collected]
-                start = np.asarray(self._robot_state.Eval(context))[:3]
+                remaining = [d.name for d in self._scenario.dishes
+                             if d.name not in execution.collected]
                 execution = self._plan(context, dataclasses.replace(
                     execution, finished=False, reason="", replan_seen=request),
-                    start=start, dishes=remaining)
+                    start=self._pose(context), dishes=remaining)
         if not execution.finished and execution.plan is not None:
             execution = self._advance(context, execution)
         state.get_mutable_abstract_state(int(self._state)).set_value(execution)
 
+    def _send_base(self, e: _Execution, command: BaseCommand, **changes) -> _Execution:
+        return dataclasses.replace(e, command_id=command.id, next_id=command.id + 1,
+                                   base_command=command, **changes)
+
+    def _drive(self, e: _Execution, cid: int, here: np.ndarray, pose: Sequence[float],
+               planned: Sequence | None = None) -> BaseCommand:
+        """A drive from `here` to `pose` on the plan's navigation map (else along `planned`,
+        the plan's own waypoints, or straight)."""
+        nav = e.result.navigation
+        path = nav.path(here[:2], pose[:2]) if nav is not None else None
+        if path is None:
+            rest = np.asarray(planned)[1:] if planned is not None else np.asarray([pose[:2]])
+            path = np.vstack([here[:2], rest])
+        return BaseCommand(id=cid, path=tuple((float(x), float(y)) for x, y in path),
+                           pose=tuple(float(v) for v in pose))
+
     def _advance(self, context: Context, e: _Execution) -> _Execution:
-        actions = e.plan.actions
-        action = actions[e.step]
-        if e.command_id == NO_COMMAND:  # send the command for this step
-            cid = e.next_id
-            if isinstance(action, Goto):
-                here = np.asarray(self._robot_state.Eval(context))[:2]
-                nav = e.result.navigation
-                path = nav.path(here, action.pose[:2]) if nav is not None else None
-                if path is None:  # no way from where it stands: drive the planned path
-                    path = np.vstack([here, np.asarray(action.path)[1:]])
-                command = BaseCommand(id=cid, path=tuple((float(x), float(y)) for x, y in path),
-                                      pose=tuple(float(v) for v in action.pose))
-                return dataclasses.replace(e, command_id=cid, next_id=cid + 1,
-                                           base_command=command)
-            x, y, yaw = np.asarray(self._robot_state.Eval(context))[:3]
-            facing = facing_yaw((x, y), self._dish_xy[action.dish])
-            if not e.turned and abs(wrap(facing - yaw)) > TURN_TOLERANCE:
-                # Fea^m assumed the base faces the dish it picks; the stop faced the first.
-                turn = BaseCommand(id=cid, path=((float(x), float(y)),),
-                                   pose=(float(x), float(y), float(facing)), turn=True)
-                return dataclasses.replace(e, command_id=cid, next_id=cid + 1,
-                                           base_command=turn, turning=True)
-            return dataclasses.replace(e, command_id=cid, next_id=cid + 1, turned=True,
-                                       pick_command=PickCommand(id=cid, dish=action.dish),
-                                       pick_pose=(float(x), float(y), float(yaw)))
-        goto = isinstance(action, Goto) or e.turning
-        status: Status = (self._base_status if goto else self._arm_status).Eval(context)
+        action = e.plan.actions[e.step]
+        if e.command_id == NO_COMMAND:
+            return self._send(context, e, action)
+        base = isinstance(action, Goto) or e.turning or e.correcting
+        status: Status = (self._base_status if base else self._arm_status).Eval(context)
         if status.id != e.command_id or not status.finished:
             return e
         done = status.state == CommandState.DONE
+        if e.correcting:
+            return self._corrected(context, e, done, status.reason)
         if e.turning and done:
             return dataclasses.replace(e, command_id=NO_COMMAND, turning=False, turned=True)
-        goto = isinstance(action, Goto)
-        name, arg = ("goto", action.location) if goto else ("pickup", action.dish)
-        outcome = ActionOutcome(name, arg, done=done and not e.turning,
-                                reason=f"turn {status.reason}" if e.turning else
-                                "" if done else status.reason)
-        pickups = e.pickups
-        if not goto:
-            pickups = (*pickups, self._record(context, e, action, status))
-        e = dataclasses.replace(e, outcomes=(*e.outcomes, outcome),
-                                pickups=pickups, command_id=NO_COMMAND, step=e.step + 1,
-                                turning=False, turned=False)
-        if goto and not done:
-            return dataclasses.replace(e, finished=True,
-                                       reason=f"goto {arg} failed: {status.reason}")
-        if e.step >= len(actions):
+        if isinstance(action, Goto):
+            outcome = ActionOutcome("goto", action.location, done=done,
+                                    reason="" if done else status.reason)
+            e = dataclasses.replace(e, outcomes=(*e.outcomes, outcome))
+            if done:
+                return self._after(e.next_step())
+            trigger = f"goto {action.location} failed: {status.reason}"
+            if self._recovery == Recovery.REPLAN and e.replans < self._settings.max_replans:
+                return self._replan(context, e, trigger=trigger)
+            return dataclasses.replace(e, finished=True, reason=trigger)
+        return self._picked(context, e, action, status)
+
+    def _send(self, context: Context, e: _Execution, action) -> _Execution:
+        """The command for the action at `e.step` (a stop check first, when recovering)."""
+        cid = e.next_id
+        here = self._pose(context)
+        if isinstance(action, Goto):
+            return self._send_base(e, self._drive(e, cid, here, action.pose, action.path))
+        if e.check is not None and not e.checked:
+            corrected = self._check_stop(context, e, action.dish)
+            if corrected is not None:
+                return corrected
+            e = dataclasses.replace(e, checked=True)
+        x, y, yaw = here
+        facing = facing_yaw((x, y), self._dish_xy[action.dish])
+        if not e.turned and abs(wrap(facing - yaw)) > TURN_TOLERANCE:
+            # Fea^m assumed the base faces the dish it picks; the stop faced the first.
+            turn = BaseCommand(id=cid, path=((float(x), float(y)),),
+                               pose=(float(x), float(y), float(facing)), turn=True)
+            return self._send_base(e, turn, turning=True)
+        return dataclasses.replace(e, command_id=cid, next_id=cid + 1, turned=True,
+                                   pick_command=PickCommand(id=cid, dish=action.dish),
+                                   pick_pose=(float(x), float(y), float(yaw)),
+                                   pick_started=context.get_time())
+
+    def _check_stop(self, context: Context, e: _Execution, dish: str) -> _Execution | None:
+        """A corrective move's command when the stop check asks for one and allows it."""
+        if e.corrections >= self._settings.max_corrections:
+            return None
+        belief = self._belief(context, e)
+        if not e.force_move:
+            verdict = e.check.assess(belief, dish)
+            if verdict.acceptable(self._settings.min_feasibility):
+                return None
+            trigger = ("not feasible" if not verdict.feasible else
+                       f"Fea^m {verdict.feasibility:.2f} < {self._settings.min_feasibility:g}")
+            trigger = f"stop check at ({belief[0]:.2f}, {belief[1]:.2f}): {trigger}"
+        else:
+            trigger = f"pickup failed: {e.last_failure}"
+        best = e.check.correction(belief, dish, self._settings.correction_radius)
+        if best is None or (not e.force_move
+                            and np.linalg.norm(best[0] - belief[:2]) < MIN_CORRECTION):
+            return None
+        target, feasibility = best
+        # The base drives by what it believes: a target in the map is reached as far off
+        # as the robot's belief of where it stood.
+        here = self._pose(context)
+        aim = target + (here[:2] - belief[:2])
+        pose = (float(aim[0]), float(aim[1]), float(facing_yaw(aim, self._dish_xy[dish])))
+        command = self._drive(e, e.next_id, here, pose)
+        stop = ((float(target[0]), float(target[1]), pose[2]), feasibility)
+        return self._send_base(
+            e, command, correcting=True, corrections=e.corrections + 1, turned=False,
+            pending=(trigger, describe_move(belief, target), context.get_time()), stop=stop)
+
+    def _corrected(self, context: Context, e: _Execution, done: bool,
+                   reason: str) -> _Execution:
+        """A corrective move ended: recorded; the stop is checked again from the landing."""
+        trigger, action, started = e.pending
+        record = RecoveryRecord("correction", self._current_dish(e), trigger, action,
+                                "done" if done else f"failed: {reason}", started,
+                                context.get_time())
+        return dataclasses.replace(e, command_id=NO_COMMAND, correcting=False, checked=False,
+                                   force_move=False, recoveries=(*e.recoveries, record))
+
+    def _current_dish(self, e: _Execution) -> str:
+        action = e.plan.actions[e.step]
+        return action.dish if isinstance(action, Pickup) else ""
+
+    def _picked(self, context: Context, e: _Execution, action: Pickup,
+                status: Status) -> _Execution:
+        """A pickup attempt (or the turn before it) ended: recorded, then retried, replanned
+        or left, as execution.recovery says."""
+        done = status.state == CommandState.DONE and not e.turning
+        reason = f"turn {status.reason}" if e.turning else "" if done else status.reason
+        outcome = ActionOutcome("pickup", action.dish, done=done, reason=reason)
+        e = dataclasses.replace(
+            e, outcomes=(*e.outcomes, outcome),
+            pickups=(*e.pickups, self._record(context, e, action, status)))
+        if e.tries > 0:  # this attempt was a retry
+            t = context.get_time()
+            record = RecoveryRecord("retry", action.dish, e.last_failure,
+                                    f"try {e.tries + 1} of {self._settings.max_tries}",
+                                    "done" if done else f"failed: {reason}",
+                                    e.pick_started if not e.turning else t, t)
+            e = dataclasses.replace(e, recoveries=(*e.recoveries, record))
+        if done or e.check is None or reason == "unknown_dish":
+            return self._after(e.next_step())
+        if e.tries + 1 < self._settings.max_tries:
+            # Tried again after a check of the stop; where the arm found no way from where
+            # the base stood, the base moves first.
+            return dataclasses.replace(
+                e, tries=e.tries + 1, command_id=NO_COMMAND, turning=False, turned=False,
+                checked=False, corrections=0, force_move=reason != "missed",
+                last_failure=reason)
+        trigger = f"{action.dish} failed {e.tries + 1} tries (last: {reason})"
+        exhausted = (*e.exhausted, action.dish)
+        if (self._recovery == Recovery.REPLAN and e.replans < self._settings.max_replans
+                and exhausted.count(action.dish) < PLANS_PER_DISH):
+            return self._replan(context, dataclasses.replace(e, exhausted=exhausted),
+                                trigger=trigger, dish=action.dish)
+        t = context.get_time()
+        give_up = RecoveryRecord("give_up", action.dish, trigger, "left on the table",
+                                 "done", t, t)
+        return self._after(e.next_step(exhausted=exhausted,
+                                       given_up=(*e.given_up, action.dish),
+                                       recoveries=(*e.recoveries, give_up)))
+
+    def _after(self, e: _Execution) -> _Execution:
+        """The execution after an action: finished at the end of the plan."""
+        if e.step >= len(e.plan.actions):
             return dataclasses.replace(e, finished=True, reason="plan complete")
         return e
 
@@ -279,25 +461,30 @@ class S3OPlanner(LeafSystem):
                 status: Status) -> PickupRecord:
         """The record of the pickup at `e.step`, which `status` has just finished."""
         if e.turning:  # the turn to face the dish failed: no pick, the base stopped here
-            actual = tuple(float(v) for v in np.asarray(self._robot_state.Eval(context))[:3])
+            actual = tuple(float(v) for v in self._pose(context))
             outcome, noise = f"turn {status.reason}", None
         else:
             actual = e.pick_pose
             outcome = "done" if status.state == CommandState.DONE else status.reason
             noise = status.reach_noise
-        # The stop the prediction was made for: the latest goto's pose, else where the
-        # plan started.
-        stop = next((a.pose for a in reversed(e.plan.actions[:e.step]) if isinstance(a, Goto)),
-                    e.result.known.pose)
+        if e.stop is not None:  # a correction moved the base: its stop and Fea^m
+            stop, predicted = e.stop
+        else:
+            # The stop the prediction was made for: the latest goto's pose, else where the
+            # plan started.
+            stop = next((a.pose for a in reversed(e.plan.actions[:e.step])
+                         if isinstance(a, Goto)), e.result.known.pose)
+            predicted = float(action.feasibility)
         return PickupRecord(dish=action.dish, kind=self._dish_kind[action.dish],
-                            method=self._method, predicted=float(action.feasibility),
+                            method=self._method, predicted=float(predicted),
                             source=e.result.known.planner.feasibility,
                             planned_pose=tuple(float(v) for v in stop), actual_pose=actual,
-                            outcome=outcome, reach_noise=noise)
+                            outcome=outcome, reach_noise=noise, attempt=e.tries + 1)
 
     def _calc_progress(self, context: Context, out) -> None:
         e = self._execution(context)
         total = len(e.plan.actions) if e.plan is not None else 0
         out.set_value(PlanProgress(step=min(e.step + 1, total) if total else 0, total=total,
                                    finished=e.finished, reason=e.reason, outcomes=e.outcomes,
-                                   pickups=e.pickups))
+                                   pickups=e.pickups, recoveries=e.recoveries,
+                                   unreachable=e.unreachable))

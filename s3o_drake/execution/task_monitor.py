@@ -28,7 +28,8 @@ class TaskMonitor(LeafSystem):
     Output ports:
         report: abstract RunReport: the dishes, those on the tray, the execution time (the
             simulated time the plan finished, else the current time), whether and why the
-            plan finished, and progress's outcomes and pickup records (`to_dict()` gives
+            plan finished, and progress's outcomes, pickup and recovery records and
+            unreachable dishes (`to_dict()` gives
             the plain JSON data that report.json holds).
     """
 
@@ -86,4 +87,5 @@ class TaskMonitor(LeafSystem):
             dishes=len(dish_states), collected_dishes=dish_states.named(DishState.TRAY),
             execution_time=t if math.isnan(finished_at) else finished_at,
             finished=bool(progress.finished), reason=reason, outcomes=progress.outcomes,
-            pickups=progress.pickups))
+            pickups=progress.pickups, recoveries=progress.recoveries,
+            unreachable=progress.unreachable))

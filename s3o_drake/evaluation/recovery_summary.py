@@ -1,0 +1,73 @@
+"""What recovery did in a study's runs (`evaluate --recovery retry|replan`): the table of
+summary.md's recovery section.
+
+Per method, over the runs that finished without an error: the recoveries by kind, their
+simulated cost per run, the replans' planning time, the dishes the Drake oracle can pick
+from some free pose of the true world (the task's per-dish pickable area from the
+difficulty measure is positive) against those collected, and the runs that ended before
+their plan did (a blocked drive past the replan limit, no plan, the time limit or a failed
+simulation): with recovery none of these should remain while something could be tried.
+"""
+
+from collections import defaultdict
+from collections.abc import Mapping, Sequence
+
+KINDS = ("correction", "retry", "replan", "give_up")
+
+
+def collected_dishes(run: Mapping) -> set[str]:
+    """The dishes a run put on the tray, from its pickup records."""
+    return {p["dish"] for p in run.get("pickups", []) if p.get("outcome") == "done"}
+
+
+def recovery_figures(runs: Sequence[Mapping], methods: Sequence[str],
+                     dish_areas: Mapping[str, Mapping[str, float]]) -> dict[str, dict]:
+    """The figures of the module docstring, per method."""
+    figures: dict[str, dict] = {}
+    for method in methods:
+        mine = [r for r in runs if r.get("method") == method and "error" not in r]
+        counts: dict[str, int] = defaultdict(int)
+        cost = planning = 0.0
+        pickable = collected_pickable = ended_early = 0
+        missed: list[str] = []
+        for r in mine:
+            for record in r.get("recoveries", []):
+                counts[record["kind"]] += 1
+                cost += record["cost"]
+                planning += record["planning_time"]
+            areas = dish_areas.get(r["task"], {})
+            can = {d for d, area in areas.items() if area > 0}
+            got = collected_dishes(r)
+            pickable += len(can)
+            collected_pickable += len(can & got)
+            missed += [f"{r['task']}/{d}" for d in sorted(can - got)]
+            if r.get("reason") != "plan complete":
+                ended_early += 1
+        runs_n = len(mine)
+        figures[method] = {
+            "runs": runs_n, "complete": sum(bool(r.get("complete")) for r in mine),
+            "recoveries": dict(counts),
+            "runs_with_recovery": sum(bool(r.get("recoveries")) for r in mine),
+            "cost_per_run": cost / runs_n if runs_n else 0.0,
+            "replan_planning_per_run": planning / runs_n if runs_n else 0.0,
+            "pickable": pickable, "pickable_collected": collected_pickable,
+            "pickable_missed": missed, "ended_early": ended_early}
+    return figures
+
+
+def recovery_table(figures: Mapping[str, Mapping]) -> str:
+    """The figures as a Markdown table, methods as columns."""
+    methods = list(figures)
+    rows = [("runs", lambda f: str(f["runs"])),
+            ("completion", lambda f: f"{f['complete'] / f['runs']:.2f}" if f["runs"] else "-"),
+            ("runs with a recovery", lambda f: str(f["runs_with_recovery"]))]
+    rows += [(f"{kind}s", lambda f, k=kind: str(f["recoveries"].get(k, 0))) for kind in KINDS]
+    rows += [("recovery motion per run (simulated s)", lambda f: f"{f['cost_per_run']:.1f}"),
+             ("replanning per run (wall s)", lambda f: f"{f['replan_planning_per_run']:.1f}"),
+             ("pickable dishes collected",
+              lambda f: f"{f['pickable_collected']} of {f['pickable']}"),
+             ("runs ended before their plan", lambda f: str(f["ended_early"]))]
+    lines = ["| | " + " | ".join(methods) + " |", "|---|" + "---|" * len(methods)]
+    lines += [f"| {name} | " + " | ".join(cell(figures[m]) for m in methods) + " |"
+              for name, cell in rows]
+    return "\n".join(lines) + "\n"

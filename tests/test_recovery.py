@@ -1,0 +1,264 @@
+"""Execution that recovers (execution.recovery): the stop check alone, the S3OPlanner's
+corrections, retries and replans driven by hand, and each inside a short simulation."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+import pytest
+
+from s3o_drake.angles import facing_yaw
+from s3o_drake.execution.execute import execute
+from s3o_drake.execution.messages import Status
+from s3o_drake.execution.recovery import StopCheck, localise
+from s3o_drake.execution.s3o_planner import S3OPlanner, scenario_unmapped_chairs
+from s3o_drake.feasibility.heatmaps import make_oracle
+from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.pipeline import heatmaps_for
+from s3o_drake.planning.plan import Goto, Pickup
+from s3o_drake.robot import robot_desired_state, robot_positions
+from s3o_drake.scenario import Uncertainty, load_scenario
+from tests.test_systems_s3o_planner import _context, _step, _with_oracle
+
+SCENE = "scenarios/small/opposite_sides.yaml"
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return _with_oracle(load_scenario(SCENE), recovery="replan")
+
+
+@pytest.fixture(scope="module")
+def check(scenario):
+    known = KnownWorld.perfect(scenario)
+    return StopCheck(known, tuple(heatmaps_for(known, source="oracle")))
+
+
+def test_localisation_is_seeded_per_landing_and_exact_without_noise():
+    pose = np.array([1.0, 2.0, 0.5])
+    noise = Uncertainty(localization_xy_std=0.02, localization_yaw_std=0.02)
+    a = localise(pose, uncertainty=noise, seed=3, command_id=7)
+    assert np.array_equal(a, localise(pose, uncertainty=noise, seed=3, command_id=7))
+    assert not np.array_equal(a, localise(pose, uncertainty=noise, seed=3, command_id=8))
+    assert 0 < np.linalg.norm(a[:2] - pose[:2]) < 0.1
+    assert np.array_equal(localise(pose, uncertainty=noise, seed=3, command_id=7, noise=False),
+                          pose)
+    many = np.array([localise(pose, uncertainty=noise, seed=3, command_id=i)
+                     for i in range(400)])
+    assert np.std(many[:, 0]) == pytest.approx(0.02, rel=0.2)
+
+
+def test_a_stop_out_of_reach_is_corrected_to_a_feasible_one_nearby(scenario, check):
+    dish = np.array([2.5, 1.65])  # bowl_south, 0.15 m inside the table's south edge
+    out_of_reach = np.array([2.5, 0.5])  # 1.15 m from the dish: beyond the arm
+    verdict = check.assess(out_of_reach, "bowl_south")
+    assert not verdict.feasible and not verdict.acceptable(0.5)
+    target, feasibility = check.correction(out_of_reach, "bowl_south", radius=0.3)
+    assert np.linalg.norm(target - out_of_reach) <= 0.3 + 1e-9
+    assert feasibility == check.feasibility(target, "bowl_south") > 0.5
+    # The true world agrees: the arm can pick the dish from the corrected stop.
+    pose = np.array([*target, facing_yaw(target, dish)])
+    assert make_oracle(scenario).success(pose[None], "bowl_south")[0]
+    # Nothing within reach of the correction: no correction.
+    assert check.correction(np.array([0.5, 0.5]), "bowl_south", radius=0.3) is None
+
+
+def _planner(scenario, **changes):
+    scenario = dataclasses.replace(scenario, execution=dataclasses.replace(
+        scenario.execution, **changes))
+    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0, noise=False,
+                        perceive=scenario_unmapped_chairs(scenario))
+    context = _context(system, scenario)
+    system.ExecuteInitializationEvents(context)
+    return system, context
+
+
+def _land(system, context, pose):
+    system.GetInputPort("robot_state").FixValue(
+        context, robot_desired_state(robot_positions(*pose)))
+
+
+def _finish(system, context, port, command, state="done", reason=""):
+    system.GetInputPort(port).FixValue(context, Status(id=command.id, state=state,
+                                                       reason=reason))
+    _step(system, context)
+
+
+def _first_stop(system, context):
+    """Sends the plan's first goto; returns it and its pickup."""
+    goto, pickup = system.GetOutputPort("plan").Eval(context).actions[:2]
+    assert isinstance(goto, Goto) and isinstance(pickup, Pickup)
+    _step(system, context)
+    return goto, pickup, system.GetOutputPort("base_command").Eval(context)
+
+
+def test_a_landing_out_of_reach_gets_a_corrective_move_then_the_pick(scenario):
+    system, context = _planner(scenario)
+    goto, pickup, command = _first_stop(system, context)
+    dish = next(d for d in scenario.dishes if d.name == pickup.dish).position
+    away = np.asarray(goto.pose[:2]) - dish
+    landing = np.asarray(dish) + away * (1.0 + 0.35 / np.linalg.norm(away))  # 35 cm further
+    _land(system, context, (*landing, facing_yaw(landing, dish)))
+    _finish(system, context, "base_status", command)
+    _step(system, context)  # the stop check: a corrective move, not a pick
+    move = system.GetOutputPort("base_command").Eval(context)
+    assert move.id > command.id and not move.turn
+    assert np.linalg.norm(np.asarray(move.pose[:2]) - landing) <= 0.3 + 1e-9
+    assert system.GetOutputPort("pick_command").Eval(context).id == 0
+    _land(system, context, move.pose)
+    _finish(system, context, "base_status", move)
+    _step(system, context)
+    pick = system.GetOutputPort("pick_command").Eval(context)
+    assert pick.dish == pickup.dish and pick.id > move.id
+    _finish(system, context, "arm_status", pick)
+    progress = system.GetOutputPort("progress").Eval(context)
+    (correction,) = progress.recoveries
+    assert correction.kind == "correction" and correction.dish == pickup.dish
+    assert "not feasible" in correction.trigger and correction.result == "done"
+    (record,) = progress.pickups
+    assert record.succeeded and record.planned_pose[:2] == pytest.approx(move.pose[:2])
+    # Its prediction is the Fea^m of the corrected stop, the stop it was picked from.
+    heatmaps = system.GetOutputPort("planning_result").Eval(context).heatmaps
+    heatmap = next(h for h in heatmaps if h.dish == pickup.dish)
+    assert record.predicted == heatmap.value_at(np.asarray(move.pose[:2])) > 0.5
+
+
+def test_failed_pickups_are_retried_then_left_with_retry(scenario):
+    system, context = _planner(scenario, recovery="retry", max_tries=3)
+    goto, pickup, command = _first_stop(system, context)
+    _land(system, context, goto.pose)
+    _finish(system, context, "base_status", command)
+    _step(system, context)
+    first = system.GetOutputPort("pick_command").Eval(context)
+    # A miss: tried again from where the base stands.
+    _finish(system, context, "arm_status", first, "failed", "missed")
+    _step(system, context)
+    second = system.GetOutputPort("pick_command").Eval(context)
+    assert second.dish == pickup.dish and second.id > first.id
+    # No IK from here: the base moves before the third try.
+    _finish(system, context, "arm_status", second, "failed", "no_ik")
+    _step(system, context)
+    move = system.GetOutputPort("base_command").Eval(context)
+    assert move.id > second.id and not move.turn
+    _land(system, context, move.pose)
+    _finish(system, context, "base_status", move)
+    _step(system, context)
+    third = system.GetOutputPort("pick_command").Eval(context)
+    assert third.id > move.id
+    _finish(system, context, "arm_status", third, "failed", "no_ik")
+    progress = system.GetOutputPort("progress").Eval(context)
+    assert [r.attempt for r in progress.pickups] == [1, 2, 3]
+    assert [r.kind for r in progress.recoveries] == ["retry", "correction", "retry", "give_up"]
+    assert progress.recoveries[-1].dish == pickup.dish
+    assert not progress.finished  # on with the next dish
+    _step(system, context)
+    assert system.GetOutputPort("base_command").Eval(context).id > third.id
+
+
+def test_a_blocked_drive_is_replanned_from_where_the_robot_stands(scenario):
+    system, context = _planner(scenario)
+    _goto, _, command = _first_stop(system, context)
+    stopped = (1.2, 0.8, 0.3)
+    _land(system, context, stopped)
+    _finish(system, context, "base_status", command, "failed", "blocked")
+    progress = system.GetOutputPort("progress").Eval(context)
+    (replan,) = progress.recoveries
+    assert replan.kind == "replan" and replan.trigger.endswith("failed: blocked")
+    assert replan.result == "done" and replan.planning_time > 0 and not progress.finished
+    result = system.GetOutputPort("planning_result").Eval(context)
+    assert result.known.pose[:2] == pytest.approx(stopped[:2])
+    assert {a.dish for a in result.plan.pickups} == {d.name for d in scenario.dishes}
+    _step(system, context)
+    again = system.GetOutputPort("base_command").Eval(context)
+    assert again.id > command.id and again.path[0] == pytest.approx(stopped[:2])
+
+
+def test_with_no_recovery_a_blocked_drive_still_ends_the_run(scenario):
+    system, context = _planner(scenario, recovery="none")
+    _, _, command = _first_stop(system, context)
+    _finish(system, context, "base_status", command, "failed", "blocked")
+    progress = system.GetOutputPort("progress").Eval(context)
+    assert progress.finished and not progress.recoveries
+
+
+# ------------------------------------------------------------------ short simulations
+def _run(path, recovery, **kwargs):
+    scenario = load_scenario(path)
+    uncertainty = kwargs.pop("uncertainty", None)
+    scenario = dataclasses.replace(
+        scenario, planner=dataclasses.replace(scenario.planner, feasibility="oracle"),
+        execution=dataclasses.replace(scenario.execution, recovery=recovery),
+        uncertainty=uncertainty or scenario.uncertainty)
+    scenario = dataclasses.replace(scenario, simulation=dataclasses.replace(
+        scenario.simulation, publish_period=1.0))
+    return execute(scenario, meshcat=None, progress=False, **kwargs).report
+
+
+def test_in_simulation_a_landing_out_of_reach_is_corrected():
+    """Seed 4 with 35 cm landing noise: the open loop lands out of the arm's reach of the
+    south bowl and fails it (no_ik); with recovery the stop is corrected and both are
+    collected."""
+    noisy = Uncertainty(nav_xy_std=0.35)
+    open_loop = _run(SCENE, "none", seed=4, uncertainty=noisy)
+    assert ["pickup", "bowl_south", "failed: no_ik"] in open_loop["outcomes"]
+    recovered = _run(SCENE, "replan", seed=4, uncertainty=noisy)
+    assert recovered["collected"] == 2
+    corrections = [r for r in recovered["recoveries"] if r["kind"] == "correction"]
+    assert corrections and corrections[0]["dish"] == "bowl_south"
+    assert corrections[0]["cost"] > 0
+
+
+def test_in_simulation_a_blocked_path_is_replanned():
+    """Perception misses the two chairs that close the west aisle at first: the first drive
+    is blocked; the replan sees them and goes round the east end."""
+    scenario = load_scenario("scenarios/small/blocked_aisle.yaml")
+    chairs = [list(c.pose) for c in scenario.chairs]
+    looks = []
+
+    def perceive(color, depth, label):
+        looks.append(1)
+        return [] if len(looks) == 1 else [list(c) for c in chairs]
+
+    report = _run("scenarios/small/blocked_aisle.yaml", "replan", perceive=perceive)
+    assert report["outcomes"][0] == ["goto", "l0", "failed: blocked"]
+    (replan,) = report["recoveries"]
+    assert replan["kind"] == "replan" and len(looks) == 2
+    assert report["collected"] == 1 and report["reason"] == "plan complete"
+
+
+def test_in_simulation_a_dish_behind_a_wall_is_reported_unreachable_quickly():
+    start = time.perf_counter()
+    report = _run("scenarios/small/behind_wall.yaml", "replan")
+    assert time.perf_counter() - start < 120  # no hang: seconds, not the time limit
+    assert report["unreachable"] == ["plate_back"]
+    assert report["collected_dishes"] == ["bowl_front"] and report["finished"]
+
+
+def test_a_study_s_recovery_figures_count_what_the_runs_report():
+    from s3o_drake.evaluation.recovery_summary import recovery_figures, recovery_table
+
+    def pickup(dish, outcome):
+        return {"dish": dish, "outcome": outcome}
+
+    runs = [
+        {"task": "t0", "method": "M", "complete": True, "reason": "plan complete",
+         "pickups": [pickup("a", "no_ik"), pickup("a", "done"), pickup("b", "done")],
+         "recoveries": [{"kind": "correction", "cost": 4.0, "planning_time": 0.0},
+                        {"kind": "retry", "cost": 7.0, "planning_time": 0.0}]},
+        {"task": "t1", "method": "M", "complete": False, "reason": "goto l1 failed: blocked",
+         "pickups": [pickup("c", "done")],
+         "recoveries": [{"kind": "replan", "cost": 0.0, "planning_time": 3.0}]},
+        {"task": "t1", "method": "M", "error": "RuntimeError: x"},
+    ]
+    areas = {"t0": {"a": 0.5, "b": 0.2}, "t1": {"c": 0.4, "d": 0.3, "e": 0.0}}
+    f = recovery_figures(runs, ["M"], areas)["M"]
+    assert f["runs"] == 2 and f["complete"] == 1 and f["runs_with_recovery"] == 2
+    assert f["recoveries"] == {"correction": 1, "retry": 1, "replan": 1}
+    assert f["cost_per_run"] == pytest.approx(5.5)
+    assert f["replan_planning_per_run"] == pytest.approx(1.5)
+    # e cannot be picked from any free pose: not counted against the run.
+    assert (f["pickable"], f["pickable_collected"]) == (4, 3)
+    assert f["pickable_missed"] == ["t1/d"] and f["ended_early"] == 1
+    assert "| pickable dishes collected | 3 of 4 |" in recovery_table({"M": f})
