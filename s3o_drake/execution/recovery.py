@@ -10,9 +10,10 @@ left), never on the true world:
   turned to face the dish (the Drake oracle's success test, `FeasibilityOracle.success`:
   grasp, pre-grasp, lift and tray, collision-free on the known map), and the plan's Fea^m
   there (its heatmap of the dish);
-- `correction`: where to move instead: the heatmap cell of highest Fea^m within
-  `execution.correction_radius` of the believed position (nearest first among equals)
-  whose centre passes the same test, facing the dish. The corrective drive lands with the
+- `correction`: where to move instead: among the heatmap cells within
+  `execution.correction_radius` of the believed position whose centre passes the same test,
+  facing the dish, those of (nearly) the highest Fea^m, and of these the one the base
+  reaches soonest by the navigator's motion (turn, drive, turn). The corrective drive lands with the
   navigation noise like any other, which is what Fea^m, an expectation over it, rates.
 
 The oracle is built on first use for each KnownWorld (about a second: the known world's
@@ -30,6 +31,7 @@ from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.feasibility.oracle import FeasibilityOracle, Heatmap
 from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.base_motion import BaseProfile
 from s3o_drake.scenario import Uncertainty
 
 #: Stream tag of the localisation noise in `numpy.random.default_rng([seed, tag, command
@@ -37,6 +39,8 @@ from s3o_drake.scenario import Uncertainty
 LOCALIZATION_STREAM = 3
 #: A corrective move shorter than this (m) is not worth a drive: the stop stays.
 MIN_CORRECTION = 0.02
+#: Stops within this much of the best Fea^m nearby are as good: the quickest to reach wins.
+CORRECTION_SLACK = 0.02
 
 
 def localise(pose: np.ndarray, *, uncertainty: Uncertainty, seed: int, command_id: int,
@@ -69,6 +73,7 @@ class StopCheck:
 
     def __init__(self, known: KnownWorld, heatmaps: tuple[Heatmap, ...]):
         self._known = known
+        self._profile = BaseProfile(speed=known.planner.speed)
         self._heatmaps = {h.dish: h for h in heatmaps}
         self._oracle: FeasibilityOracle | None = None
         self._dish_xy = {d.name: np.asarray(d.position, dtype=float) for d in known.dishes}
@@ -97,26 +102,33 @@ class StopCheck:
 
     def correction(self, position: np.ndarray, dish: str, radius: float
                    ) -> tuple[np.ndarray, float] | None:
-        """The best stop for `dish` within `radius` of `position`, and its Fea^m: the cell
-        of highest Fea^m whose centre passes the pickup test (nearest first among equal
-        Fea^m); None when no cell there does."""
+        """The best stop for `dish` within `radius` of the believed pose `position` (x, y,
+        yaw), and its Fea^m: among the cells whose centre passes the pickup test, those
+        within CORRECTION_SLACK of the highest Fea^m, the one the base reaches soonest
+        (turns included: a move along its heading beats one across it); None when no cell
+        there passes."""
         heatmap = self._heatmaps.get(dish)
         if heatmap is None or radius <= 0.0:
             return None
-        here = np.asarray(position, dtype=float)[:2]
+        here = np.asarray(position, dtype=float)
         centers = heatmap.centers().reshape(-1, 2)
         values = heatmap.values.ravel()
-        distance = np.linalg.norm(centers - here, axis=1)
+        distance = np.linalg.norm(centers - here[:2], axis=1)
         near = np.flatnonzero((distance <= radius) & (values > 0.0))
         if near.size == 0:
             return None
-        # Best Fea^m first; among cells that round to the same Fea^m, the nearest.
-        order = near[np.lexsort((distance[near], -np.round(values[near], 3)))]
-        ok = self._success(centers[order], dish)
-        for index, passes in zip(order, ok, strict=True):
-            if passes:
-                return centers[index].copy(), float(values[index])
-        return None
+        passing = near[self._success(centers[near], dish)]
+        if passing.size == 0:
+            return None
+        best = values[passing].max()
+        good = passing[values[passing] >= best - CORRECTION_SLACK]
+        yaw = float(here[2]) if here.size > 2 else 0.0
+        dish_xy = self._dish_xy[dish]
+        times = [self._profile.motion_time([here[:2], centers[i]], yaw,
+                                           float(facing_yaw(centers[i], dish_xy)))
+                 for i in good]
+        chosen = good[int(np.argmin(times))]
+        return centers[chosen].copy(), float(values[chosen])
 
 
 def describe_move(start: np.ndarray, target: np.ndarray) -> str:
