@@ -20,6 +20,7 @@ from s3o_drake.abstraction import (
     voronoi_partition,
 )
 from s3o_drake.abstraction.candidates import best_sums, connected_components
+from s3o_drake.abstraction.voronoi import ARM_REACH
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.known_world import KnownWorld
@@ -127,20 +128,32 @@ def test_ranking_is_the_same_on_a_second_run(two_dishes):
     np.testing.assert_array_equal(first.probabilities, second.probabilities)
 
 
-def _blocked_dish_scene() -> Scenario:
-    """A dish in the middle of a 2.4 m square table (1.2 m from every edge) and one that
-    stands at the edge of a small table."""
+def _blocked_dish_scene(side: float = 3.2) -> Scenario:
+    """A dish in the middle of a `side` m square table (3.2 m: 1.6 m from every edge, beyond
+    the arm's full reach from any free position) and one that stands at the edge of a small
+    table."""
     return Scenario(
         seed=3, room=Room(bounds=[0.0, 0.0, 6.0, 4.0]),
-        tables=[Table(name="big", center=[1.7, 2.0], size=[2.4, 2.4, 0.04]),
+        tables=[Table(name="big", center=[1.8, 2.0], size=[side, side, 0.04]),
                 Table(name="small", center=[4.8, 2.0], size=[0.8, 0.8, 0.04])],
-        dishes=[Dish(name="far", table="big", position=[1.7, 2.0], kind="plate"),
+        dishes=[Dish(name="far", table="big", position=[1.8, 2.0], kind="plate"),
                 Dish(name="near", table="small", position=[4.8, 1.75], kind="cup")])
 
 
 def _ones(scenario: Scenario) -> list[Heatmap]:
     """Fea^m = 1 everywhere: isolates the geometry from the feasibility source."""
     return [Heatmap(d.name, np.ones((80, 120)), 0.0, 0.0, 0.05) for d in scenario.dishes]
+
+
+def test_a_dish_beyond_the_planner_s_reach_gets_its_cell_within_the_arm_s():
+    """1.2 m from every edge of a 2.4 m table: no free position within the planner's 1 m,
+    but some within the arm's full reach, which Fea^m then rates."""
+    scenario = _blocked_dish_scene(side=2.4)
+    partition = voronoi_partition(_known(scenario, []))
+    assert partition.unreachable == []
+    far = partition.cells[partition.dishes.index("far")]
+    dish = Point(1.8, 2.0)
+    assert far.distance(dish) > 1.0 and far.hausdorff_distance(dish) <= ARM_REACH + 1e-3
 
 
 def test_a_dish_that_no_free_position_reaches_scores_0_and_is_reported():

@@ -367,3 +367,17 @@ def test_a_broken_task_file_is_named(tmp_path, capsys):
         evaluate(["--tasks", str(tasks), "--out", str(tmp_path / "r")])
     assert exit_info.value.code == 2
     assert "bad.yaml" in capsys.readouterr().err
+
+
+def test_each_task_draws_noise_of_its_own_and_the_methods_share_it():
+    """A study seed alone seeded every task's noise streams alike (the same landing error on
+    every task's 10th command); the run seed mixes in the task's own seed."""
+    from s3o_drake.evaluation.jobs import RUN, Job, run_seed
+
+    seeds = {run_seed(task_seed, 0) for task_seed in range(200)}
+    assert len(seeds) == 200  # every task its own
+    assert run_seed(907713895, 0) == run_seed(907713895, 0)  # deterministic
+    assert run_seed(907713895, 0) != run_seed(907713895, 1)  # and per study seed
+    a = Job(RUN, "task_000", "t.yaml", "abc", 0, "S3O-GROP*")
+    b = Job(RUN, "task_000", "t.yaml", "abc", 0, "V-PETLON")
+    assert a.key.endswith("/task-seeded") and a.key != b.key

@@ -21,9 +21,12 @@ the base radius".
 Cells. Dish o's cell is the free positions within `reach` of o that are closer to o than
 to any other dish. (A position closer to o than to a dish d within reach of it is also
 within reach of o, so "within reach of some dish" and "within reach of o" agree inside
-o's Voronoi region.) Cells are built with `shapely.voronoi_polygons` and clipped. Two
+o's Voronoi region.) The planner's `reach` (the paper's 1 m) is shorter than the arm's
+(about 1.35 m with a side grasp): a dish whose region has no free position within `reach`
+gets the free positions of its region within `ARM_REACH` instead, where Fea^m decides.
+Cells are built with `shapely.voronoi_polygons` and clipped. Two
 cells are adjacent when they share a boundary longer than `ADJACENCY_MIN_LENGTH`. A dish
-whose cell is empty is kept, with an empty cell, and listed in `unreachable`.
+whose cell is still empty is kept, with an empty cell, and listed in `unreachable`.
 """
 
 from collections.abc import Sequence
@@ -35,9 +38,14 @@ from shapely.geometry import MultiPoint, Point, Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
+from s3o_drake.feasibility.oracle import REACH_LIMIT
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.robot import INSCRIBED_RADIUS
 
+ARM_REACH = REACH_LIMIT
+"""How far (m) from a dish a base can stand and still pick it: the arm's full reach with a
+side grasp, and a margin (the oracle's limit). A dish whose cell is empty within the
+planner's `reach` gets its cell within this."""
 ADJACENCY_MIN_LENGTH = 0.01
 """Cells touching along less than this (m) are not adjacent (a corner is not a border)."""
 _EMPTY_AREA = 1e-9  # m^2; cells smaller than this are empty
@@ -147,8 +155,14 @@ def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
     regions = _voronoi_regions(p_WO, envelope) if len(names) else []
     cells = []
     for p, region in zip(p_WO, regions, strict=True):
-        disc = Point(*p).buffer(reach, quad_segs=32)
-        cell = region.intersection(disc).intersection(free)
+        cell = Polygon()
+        # Within `reach` first; a dish with nothing free there gets its region's free
+        # positions within the arm's full reach (Voronoi regions are disjoint, so the cells
+        # still partition the space).
+        for radius in (reach, max(reach, ARM_REACH)):
+            cell = region.intersection(Point(*p).buffer(radius, quad_segs=32)).intersection(free)
+            if cell.area > _EMPTY_AREA:
+                break
         cells.append(cell if cell.area > _EMPTY_AREA else Polygon())
     return VoronoiPartition(dishes=names, p_WO=p_WO, cells=cells, free=free, reach=reach,
                             adjacency=_adjacency(cells))

@@ -10,7 +10,10 @@ randomness drawn from the seed, and executes the plan in the full Drake simulati
 `python -m s3o_drake.run` does but without the playback. It records whether every dish was
 collected (task completion), the share of dishes collected, the execution time (simulated)
 and the planning time, and per executed pickup the plan's Fea^m against the outcome (read
-by `python -m s3o_drake.commands.calibration`), and the recoveries. Seeds are 0 to N-1.
+by `python -m s3o_drake.commands.calibration`), and the recoveries. Study seeds are 0 to
+N-1; a run draws its noise and planning from its own seed, mixed from the task's seed and
+the study seed (`jobs.run_seed`, recorded as `run_seed`), so that every task gets noise of
+its own while the methods compared on a task share it.
 
 --recovery sets every run's `execution.recovery`, whatever the task files say: "none" (the
 default) is the paper's open loop, the protocol of its study; "retry" corrects stops and

@@ -14,6 +14,8 @@ import traceback
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from s3o_drake.scenario import Scenario, load_scenario
 
 RUN = "run"
@@ -22,7 +24,8 @@ DIFFICULTY = "difficulty"
 
 @dataclass(frozen=True)
 class Job:
-    """`kind` "run": plan `task` (the scenario at `path`) with `method` and `seed`, execute
+    """`kind` "run": plan `task` (the scenario at `path`) with `method` and study seed `seed`
+    (the run's own seed is `run_seed` of the task's seed and it), execute
     with `recovery` (the scenario's `execution.recovery` replaced); `kind` "difficulty": the
     task's pickable area (the oracle's noise drawn from `seed`)."""
 
@@ -36,10 +39,22 @@ class Job:
 
     @property
     def key(self) -> str:
-        """Identifies the job's result in a store (open-loop runs keep the key they had
-        before recovery existed, so that their stores resume)."""
+        """Identifies the job's result in a store. Runs say that their noise is seeded per
+        task (`run_seed`): the runs of studies made before, when every task of a study seed
+        drew the same noise, are other runs."""
         key = f"{self.kind}/{self.task}@{self.digest}/{self.method}/{self.seed}"
+        if self.kind == RUN:
+            key += "/task-seeded"
         return key if self.recovery == "none" else f"{key}/{self.recovery}"
+
+
+def run_seed(task_seed: int, study_seed: int) -> int:
+    """The seed a run of a task draws its noise and planning from, for study seed
+    `study_seed`: the task's own seed and the study seed mixed. Every task gets draws of its
+    own (with the study seed alone, the noise streams, keyed by the seed and the command's
+    number, gave the 10th command of every task the same landing and every 15th the same
+    reach error), and the methods compared on a task share them."""
+    return int(np.random.SeedSequence([int(task_seed), int(study_seed)]).generate_state(1)[0])
 
 
 def file_digest(path: Path) -> str:
@@ -79,10 +94,11 @@ def benchmark_scenario(path: str, recovery: str = "none") -> Scenario:
 def _run(job: Job) -> dict:
     from s3o_drake.execution.execute import execute  # heavy imports stay in the workers
 
-    run = execute(benchmark_scenario(job.path, job.recovery), method=job.method, seed=job.seed,
-                  meshcat=None, progress=False)
+    scenario = benchmark_scenario(job.path, job.recovery)
+    seed = run_seed(scenario.seed, job.seed)
+    run = execute(scenario, method=job.method, seed=seed, meshcat=None, progress=False)
     r = run.report
-    return {"dishes": r["dishes"], "collected": r["collected"],
+    return {"run_seed": seed, "dishes": r["dishes"], "collected": r["collected"],
             "complete": r["collected"] == r["dishes"],
             "fraction": r["collected"] / r["dishes"] if r["dishes"] else 1.0,
             "execution_time": r["execution_time"], "planning_time": r["planning_time"],

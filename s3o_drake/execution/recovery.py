@@ -12,8 +12,9 @@ left), never on the true world:
   there (its heatmap of the dish);
 - `correction`: where to move instead: among the heatmap cells within
   `execution.correction_radius` of the believed position whose centre passes the same test,
-  facing the dish, those of (nearly) the highest Fea^m, and of these the one the base
-  reaches soonest by the navigator's motion (turn, drive, turn). The corrective drive lands with the
+  facing the dish, and that the base can drive off from again on the plan's navigation
+  map, those of (nearly) the highest Fea^m, and of these the one the base reaches soonest
+  by the navigator's motion (turn, drive, turn). The corrective drive lands with the
   navigation noise like any other, which is what Fea^m, an expectation over it, rates.
 
 The oracle is built on first use for each KnownWorld (about a second: the known world's
@@ -32,6 +33,7 @@ from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.feasibility.oracle import FeasibilityOracle, Heatmap
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.base_motion import BaseProfile
+from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.scenario import Uncertainty
 
 #: Stream tag of the localisation noise in `numpy.random.default_rng([seed, tag, command
@@ -71,8 +73,10 @@ class Assessment:
 class StopCheck:
     """Judges and corrects stops on one KnownWorld with its plan's heatmaps (see the module)."""
 
-    def __init__(self, known: KnownWorld, heatmaps: tuple[Heatmap, ...]):
+    def __init__(self, known: KnownWorld, heatmaps: tuple[Heatmap, ...],
+                 navigation: NavigationMap | None = None):
         self._known = known
+        self._navigation = navigation
         self._profile = BaseProfile(speed=known.planner.speed)
         self._heatmaps = {h.dish: h for h in heatmaps}
         self._oracle: FeasibilityOracle | None = None
@@ -115,6 +119,10 @@ class StopCheck:
         values = heatmap.values.ravel()
         distance = np.linalg.norm(centers - here[:2], axis=1)
         near = np.flatnonzero((distance <= radius) & (values > 0.0))
+        if near.size and self._navigation is not None:
+            # Only stops the base can drive off from again: a pocket it squeezed into by the
+            # known map would trap it for the rest of the plan.
+            near = near[self._navigation.drivable_from(centers[near])]
         if near.size == 0:
             return None
         passing = near[self._success(centers[near], dish)]

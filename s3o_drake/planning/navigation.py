@@ -250,6 +250,22 @@ class NavigationMap:
         seals the plan's map before Drake's state copies share it."""
         self._sealed = True
 
+    def drivable_from(self, P: np.ndarray) -> np.ndarray:
+        """bool (m,): whether the base can drive off from (and so to) each point (m, 2): it
+        is a base position the endpoint rule joins to the driveable region."""
+        return np.array([e.entry is not None for e in self._prepare(P)], dtype=bool)
+
+    def way_out(self, p: Sequence[float]) -> np.ndarray:
+        """`p` (2,) when it is a position the base can drive from (an endpoint the rule
+        joins to the driveable region), else the nearest point of the driveable region: where
+        a robot that stands at p, by the map inside or against an obstacle, should back out
+        to (the map errs; the robot is there)."""
+        p = np.asarray(p, dtype=float)[:2]
+        if self.drivable_from(p[None])[0]:
+            return p
+        line = shapely.shortest_line(shapely.points(p), self._driveable_inner)
+        return np.asarray(shapely.get_coordinates(line)[1], dtype=float)
+
     def _prepare(self, P: np.ndarray) -> list[_Endpoint]:
         """Endpoints for points (m, 2), from the cache or computed in one batch."""
         P = np.asarray(P, dtype=float).reshape(-1, 2)

@@ -60,7 +60,9 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
 
     Method, seed, workers, budget and the Fea^m source (`feasibility`) default to the
     planner's settings and the scenario's seed. `heatmaps` given are used as they are (a
-    second plan on the same Fea^m).
+    second plan on the same Fea^m). With the network's Fea^m, dishes that the plan would
+    leave out as unreachable get the Drake oracle's heatmap instead, and the plan is made
+    again with them (within what remains of the budget).
     `started` is the `time.perf_counter()` at which the caller began (before perceiving),
     so that the planning time counts perception too. A plan that cannot be made is a
     result with `plan` None and `error` saying why; an unknown method raises ValueError.
@@ -72,12 +74,32 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
     if heatmaps is None:
         heatmaps = heatmaps_for(known, source=feasibility, progress=progress)
     maps = tuple(heatmaps) if isinstance(heatmaps, (list, tuple)) else ()
+    result = _plan(known, method, heatmaps, seed, time_budget, n_sequences, workers, t0)
+    source = known.planner.feasibility if feasibility is None else feasibility
+    lost = () if result.plan is None else result.plan.unreachable
+    if lost and source == FeasibilitySource.FCN and maps:
+        # The network is an approximation: before a dish is left out, the Drake check of
+        # the known world decides (a few seconds per dish, and only for these).
+        exact = dict(zip(lost, compute_heatmaps(known.as_scenario(), list(lost), workers=1,
+                                                progress=False, obstacles=known.obstacles),
+                         strict=True))
+        maps = tuple(exact.get(h.dish, h) for h in maps)
+        if any(h.values.max() > 0.0 for h in exact.values()):
+            budget = known.planner.time_budget if time_budget is None else time_budget
+            left = max(budget - (time.perf_counter() - t0), 1.0)
+            result = _plan(known, method, maps, seed, left, n_sequences, workers, t0)
+    return dataclasses.replace(result, heatmaps=maps)
+
+
+def _plan(known: KnownWorld, method: str, heatmaps, seed: int, time_budget: float | None,
+          n_sequences: int, workers: int, t0: float) -> PlanningResult:
+    """`plan_task`, a PlanningError becoming a result that says why there is no plan."""
+    maps = tuple(heatmaps) if isinstance(heatmaps, (list, tuple)) else ()
     try:
-        result = plan_task(known, method=method, heatmaps=heatmaps, seed=seed,
-                           time_budget=time_budget, n_sequences=n_sequences, workers=workers,
-                           feasibility_time=time.perf_counter() - t0)
+        return plan_task(known, method=method, heatmaps=heatmaps, seed=seed,
+                         time_budget=time_budget, n_sequences=n_sequences, workers=workers,
+                         feasibility_time=time.perf_counter() - t0)
     except (PlanningError, TaskPlanningError) as e:
         return PlanningResult(known=known, method=method, seed=seed, plan=None,
                               error=f"no plan: {e}", heatmaps=maps,
                               planning_time=time.perf_counter() - t0)
-    return dataclasses.replace(result, heatmaps=maps)

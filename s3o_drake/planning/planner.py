@@ -276,7 +276,8 @@ def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: Navig
     from the navigation map."""
     motion = best.motion
     dish_xy = {d.name: d.position for d in known.dishes}
-    here = np.asarray(known.pose[:2], dtype=float)
+    pose = np.asarray(known.pose[:2], dtype=float)
+    here = nav.way_out(pose)
     location = "start"
     actions: list[PlanAction] = []
     k = 0
@@ -287,6 +288,8 @@ def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: Navig
             path = nav.path(here, y)
             if path is None:
                 raise PlanningError(f"goto {arg}: no path from {here.tolist()} to {y.tolist()}")
+            if k == 0 and not np.array_equal(here, pose):  # backing out first
+                path = np.vstack([pose, path])
             yaw = facing_yaw(y, dish_xy[nxt]) if nxt is not None else facing_yaw(path[-2], y)
             actions.append(Goto(location=arg, pose=(float(y[0]), float(y[1]), float(yaw)),
                                 path=tuple((float(p[0]), float(p[1])) for p in path),
@@ -352,7 +355,11 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
 
     t = time.monotonic()
     nav = NavigationMap(known.obstacles)
-    costs = CostModel.for_known(known)
+    # Where the robot stands may be no base position of the known map (after a blocked
+    # drive it stands against a chair the map knows only roughly): planning starts from
+    # the nearest driveable point, and the first drive backs out to it.
+    start = nav.way_out(start)
+    costs = CostModel.for_known(known, start=start)
     # The graph routes' motion times, once, before search workers fork and inherit them.
     nav.route_table(costs.base)
     timing["navigation"] = time.monotonic() - t

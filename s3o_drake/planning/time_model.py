@@ -247,12 +247,14 @@ class CostModel:
         return cls(planner, profile="paper")
 
     @classmethod
-    def for_known(cls, known: KnownWorld, time_model: TimeModel | None = None) -> CostModel:
+    def for_known(cls, known: KnownWorld, time_model: TimeModel | None = None, *,
+                  start: Sequence[float] | None = None) -> CostModel:
         """The planner's cost profile, with the dishes that remain and where the robot
-        stands for the time prediction."""
+        stands (or `start`, (x, y[, yaw]): where its plan starts) for the time prediction."""
         dishes = {d.name: DishPlace((float(d.position[0]), float(d.position[1])), d.kind)
                   for d in known.dishes}
-        return cls(known.planner, dishes=dishes, start=known.pose, time_model=time_model)
+        pose = known.pose if start is None else (*np.asarray(start, float)[:2], known.pose[2])
+        return cls(known.planner, dishes=dishes, start=pose, time_model=time_model)
 
     @property
     def gamma(self) -> float:
