@@ -24,6 +24,29 @@ def fail(message: str) -> NoReturn:
     sys.exit(EXIT_BAD_INPUT)
 
 
+def read_scenario(path: str | Path, option: str = "") -> "Scenario":
+    """Loads a scenario file for a command. A bad one (missing, a folder, not YAML, a bad
+    field) is one line on stderr naming the file once and the field, and exit status 2
+    (`option`, such as "--base", says which argument gave the file). An empty or
+    comment-only file is all defaults."""
+    from s3o_drake.scenario import ScenarioError, load_scenario
+
+    try:
+        return load_scenario(path)
+    except ScenarioError as e:
+        fail(f"{option}: {e}" if option else str(e))
+
+
+def read_base(path: str | Path) -> "Scenario":
+    """The base scenario of generated tasks (--base): a scenario file with tables to put the
+    dishes on; anything else is one line and exit status 2."""
+    base = read_scenario(path, "--base")
+    if not base.tables:
+        fail(f"--base: {path}: tables: none to put dishes on (an empty file is all defaults: "
+             "a room without tables)")
+    return base
+
+
 def first_tasks(count: int) -> list[Path]:
     """The first `count` shipped tasks; a bad count (--tasks) is one line and exit 2."""
     from s3o_drake.resources import shipped_tasks
@@ -37,16 +60,8 @@ def first_tasks(count: int) -> list[Path]:
 def task_scenarios(files: list[str] | None, count: int) -> list[tuple[str, "Scenario"]]:
     """(name, scenario) of a benchmark's tasks: the scenario `files` when given, else the
     first `count` shipped tasks; a bad count (--tasks) or file is one line and exit 2."""
-    from s3o_drake.scenario import ScenarioError, load_scenario
-
     paths = [Path(p) for p in files] if files else first_tasks(count)
-    scenarios = []
-    for path in paths:
-        try:
-            scenarios.append((path.stem, load_scenario(path)))
-        except ScenarioError as e:
-            fail(f"{path}: {e}")
-    return scenarios
+    return [(path.stem, read_scenario(path)) for path in paths]
 
 
 def doc_formatter() -> type[argparse.HelpFormatter]:

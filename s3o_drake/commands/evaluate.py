@@ -54,13 +54,13 @@ import signal
 import sys
 from pathlib import Path
 
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
 from s3o_drake.evaluation.difficulty import GROUPS, difficulty_groups
 from s3o_drake.evaluation.jobs import DIFFICULTY, RUN, Job, file_digest
 from s3o_drake.evaluation.scheduler import run_jobs
 from s3o_drake.evaluation.store import ResultStore
 from s3o_drake.evaluation.summary import markdown_tables, summarize, write_outputs
-from s3o_drake.scenario import METHODS, RECOVERY_MODES, Recovery, ScenarioError, load_scenario
+from s3o_drake.scenario import METHODS, RECOVERY_MODES, Recovery
 
 DIFFICULTY_SEED = 0
 """The oracle's noise draws for the difficulty measure: one fixed seed, so that a task's
@@ -106,10 +106,7 @@ def _validate(args) -> tuple[list[Path], list[str]]:
             fail(f"--limit: must be at least 1, got {args.limit}")
         paths = paths[:args.limit]
     for path in paths:
-        try:
-            load_scenario(path)
-        except ScenarioError as e:
-            fail(f"{path}: {e}")
+        read_scenario(path)
     if args.methods == ["all"]:
         methods = list(METHODS)
     else:

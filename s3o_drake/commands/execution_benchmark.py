@@ -20,10 +20,10 @@ from pathlib import Path
 
 from pydrake.geometry import Meshcat
 
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
 from s3o_drake.execution.execute import execute
 from s3o_drake.resources import RESTAURANT
-from s3o_drake.scenario import ScenarioError, load_scenario
+from s3o_drake.scenario import load_scenario
 
 RATE_TARGET = 10.0
 SIZE_TARGET_MB = 20.0
@@ -56,10 +56,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     paths = [Path(p) for p in args.scenarios]
     for path in paths:
-        try:
-            load_scenario(path)
-        except ScenarioError as e:
-            fail(f"{path}: {e}")
+        read_scenario(path)
     if any(s < 0 for s in args.seeds):
         fail("--seeds: seeds are non-negative integers")
     json_path = Path(args.json) if args.json else None

@@ -18,12 +18,10 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_base
 from s3o_drake.io import write_atomically
 from s3o_drake.scenario import (
-    ScenarioError,
     dump_scenario,
-    load_scenario,
 )
 from s3o_drake.task_generation import (
     DEFAULT_BASE,
@@ -47,10 +45,7 @@ def main(argv: list[str] | None = None) -> int:
         fail(f"--count: must be at least 1, got {args.count}")
     if args.seed < 0:
         fail(f"--seed: must be a non-negative integer, got {args.seed}")
-    try:
-        base = load_scenario(args.base)
-    except ScenarioError as e:
-        fail(f"--base {args.base}: {e}")
+    base = read_base(args.base)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} exists and is not a folder")

@@ -60,7 +60,7 @@ import cv2
 from pydrake.geometry import Meshcat
 
 from s3o_drake.camera import orthophoto, overhead_camera
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
 from s3o_drake.execution.execute import (
     Execution,
     execute,
@@ -78,8 +78,6 @@ from s3o_drake.scenario import (
     METHODS,
     RECOVERY_MODES,
     Scenario,
-    ScenarioError,
-    load_scenario,
     scenario_stem,
 )
 
@@ -185,10 +183,10 @@ def main(argv: list[str] | None = None) -> int:
                              "planner still plans with the scenario's noise model)")
     args = parser.parse_args(argv)
 
-    try:
-        scenario = load_scenario(args.scenario)
-    except ScenarioError as e:
-        fail(f"{args.scenario}: {e}")
+    scenario = read_scenario(args.scenario)
+    if not scenario.dishes:
+        fail(f"{args.scenario}: dishes: none to collect (an empty file is all defaults: "
+             "a room without tables or dishes)")
     if args.method is not None and args.method not in METHODS:
         fail(f"--method: unknown method {args.method!r}; one of {', '.join(METHODS)}")
     if args.feasibility is not None:
