@@ -18,12 +18,9 @@ import statistics
 import sys
 from pathlib import Path
 
-from pydrake.geometry import Meshcat
-
+# Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
-from s3o_drake.execution.execute import execute
 from s3o_drake.resources import RESTAURANT
-from s3o_drake.scenario import load_scenario
 
 RATE_TARGET = 10.0
 SIZE_TARGET_MB = 20.0
@@ -31,6 +28,11 @@ FIVE_MINUTES = 300.0
 
 
 def measure(path: Path, seed: int) -> dict:
+    from pydrake.geometry import Meshcat
+
+    from s3o_drake.execution.execute import execute
+    from s3o_drake.scenario import load_scenario
+
     scenario = load_scenario(path)
     run = execute(scenario, seed=seed, meshcat=Meshcat(), progress=False)
     r = run.report

@@ -50,36 +50,24 @@ a failed pickup or a blocked drive: the summary says which), 2 on bad input (one
 stderr naming the field; nothing is written).
 """
 
-import dataclasses
+from __future__ import annotations
+
 import json
 import logging
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import cv2
-from pydrake.geometry import Meshcat
-
-from s3o_drake.camera import orthophoto, overhead_camera
+# Light imports only: --help and bad arguments answer before Drake, OpenCV, torch and
+# matplotlib load (main imports them once the arguments are parsed).
+from s3o_drake.choices import FEASIBILITY_SOURCES, METHODS, RECOVERY_MODES
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
-from s3o_drake.execution.execute import (
-    Execution,
-    execute,
-)
 from s3o_drake.io import write_atomically
-from s3o_drake.planning.pictures import (
-    feasibility_figure,
-    plan_figure,
-    search_figure,
-    state_space_figure,
-)
 from s3o_drake.planning.plan import Goto, TaskMotionPlan
-from s3o_drake.scenario import (
-    FEASIBILITY_SOURCES,
-    METHODS,
-    RECOVERY_MODES,
-    Scenario,
-    scenario_stem,
-)
+
+if TYPE_CHECKING:
+    from s3o_drake.execution.execute import Execution
+    from s3o_drake.scenario import Scenario
 
 TOP_VIEW_CELL = 0.02  # m per pixel of the pictures' top view
 
@@ -136,6 +124,14 @@ def describe_execution(report: dict) -> str:
 
 def _write_pictures(scenario: Scenario, run: Execution, out: Path) -> list[Path]:
     """The pictures of what the plan was made on (the latest planning's result)."""
+    from s3o_drake.camera import orthophoto, overhead_camera
+    from s3o_drake.planning.pictures import (
+        feasibility_figure,
+        plan_figure,
+        search_figure,
+        state_space_figure,
+    )
+
     written = []
     result = run.result
     heatmaps = list(result.heatmaps) if result is not None else []
@@ -183,6 +179,10 @@ def main(argv: list[str] | None = None) -> int:
                              "planner still plans with the scenario's noise model)")
     args = parser.parse_args(argv)
 
+    import dataclasses
+
+    from s3o_drake.scenario import scenario_stem
+
     scenario = read_scenario(args.scenario)
     if not scenario.dishes:
         fail(f"{args.scenario}: dishes: none to collect (an empty file is all defaults: "
@@ -201,6 +201,11 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out or scenario.outputs.directory or Path("out") / scenario_stem(args.scenario))
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} exists and is not a folder")
+
+    import cv2
+    from pydrake.geometry import Meshcat
+
+    from s3o_drake.execution.execute import execute
 
     if not args.meshcat:  # the recording needs a Meshcat, but nobody is watching it live
         logging.getLogger("drake").setLevel(logging.WARNING)
