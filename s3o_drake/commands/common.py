@@ -6,9 +6,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 if TYPE_CHECKING:
+    from pydrake.geometry import Meshcat
+
     from s3o_drake.scenario import Scenario
 
 EXIT_BAD_INPUT = 2
+MESHCAT_HOST = "localhost"
+"""Where the commands' Meshcat listens: this machine only, unless --host says otherwise."""
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -45,6 +49,18 @@ def read_base(path: str | Path) -> "Scenario":
         fail(f"--base: {path}: tables: none to put dishes on (an empty file is all defaults: "
              "a room without tables)")
     return base
+
+
+def start_meshcat(host: str = MESHCAT_HOST) -> "Meshcat":
+    """A Meshcat server that listens on `host` only (by default localhost: the live view
+    and the recording are not served to the network); a host it cannot listen on is one
+    line (--host) and exit status 2."""
+    from pydrake.geometry import Meshcat, MeshcatParams
+
+    try:
+        return Meshcat(MeshcatParams(host=host))
+    except RuntimeError as e:
+        fail(f"--host: cannot listen on {host!r}: {str(e).splitlines()[0]}")
 
 
 def first_tasks(count: int) -> list[Path]:

@@ -19,7 +19,13 @@ import sys
 from pathlib import Path
 
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
+from s3o_drake.commands.common import (
+    ArgumentParser,
+    doc_formatter,
+    fail,
+    read_scenario,
+    start_meshcat,
+)
 from s3o_drake.resources import RESTAURANT
 
 RATE_TARGET = 10.0
@@ -28,17 +34,15 @@ FIVE_MINUTES = 300.0
 
 
 def measure(path: Path, seed: int) -> dict:
-    from pydrake.geometry import Meshcat
-
     from s3o_drake.execution.execute import execute
     from s3o_drake.scenario import load_scenario
 
     scenario = load_scenario(path)
-    run = execute(scenario, seed=seed, meshcat=Meshcat(), progress=False)
+    run = execute(scenario, seed=seed, meshcat=start_meshcat(), progress=False)
     r = run.report
     size = len(run.html.encode())
     # The page holds the viewer and the scene once, then a share per simulated second.
-    empty = len(Meshcat().StaticHtml().encode())
+    empty = len(start_meshcat().StaticHtml().encode())
     per_second = (size - empty) / max(r["simulated_time"], 1e-9)
     return {"scenario": str(path), "seed": seed, "dishes": r["dishes"],
             "collected": r["collected"], "execution_time": r["execution_time"],
