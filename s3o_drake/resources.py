@@ -2,8 +2,10 @@
 Drake parser that finds the models. Every path to a shipped file is made here."""
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from pydrake.multibody.parsing import Parser
+if TYPE_CHECKING:  # pydrake is imported where a parser is made, so that the paths are light
+    from pydrake.multibody.parsing import Parser
 
 PACKAGE_NAME = "s3o_drake"
 REPO_DIR = Path(__file__).resolve().parent.parent
@@ -36,8 +38,10 @@ def shipped_tasks() -> list[Path]:
     return sorted(TASKS_DIR.glob("task_*.yaml"))
 
 
-def make_parser(plant, scene_graph=None) -> Parser:
+def make_parser(plant, scene_graph=None) -> "Parser":
     """A Parser for `plant` that resolves package://s3o_drake/... URLs."""
+    from pydrake.multibody.parsing import Parser
+
     parser = Parser(plant, scene_graph) if scene_graph is not None else Parser(plant)
     packages = parser.package_map()
     if not packages.Contains(PACKAGE_NAME):

@@ -15,59 +15,35 @@ angles radians, positions in the world frame W (z up, the floor at z = 0).
 
 import re
 from dataclasses import dataclass, field
-from enum import Enum
 from pathlib import Path
 
 import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from shapely.geometry import Polygon, box
 
+from s3o_drake.choices import (  # noqa: F401 (re-exported: the fields hold these values)
+    COST_PROFILES,
+    FEASIBILITY_SOURCES,
+    METHODS,
+    RECOVERY_MODES,
+    FeasibilitySource,
+    Recovery,
+)
 from s3o_drake.furniture import DISH_KINDS, chair_footprint, dish_footprint, table_footprint
 from s3o_drake.robot import footprint_polygon
 from s3o_drake.yaml_checks import FieldError, check_finite, check_structure
 
-# The methods of the paper's comparison: S3O-GROP* and its ablations and baselines.
-METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random")
-# Where the planner's Fea^m heatmaps come from: the Drake check, or the learned network.
-class FeasibilitySource(str, Enum):
-    """Where the planner's Fea^m heatmaps come from (the field `planner.feasibility` holds
-    the value: yaml_load_typed reads no Enum)."""
-
-    ORACLE = "oracle"
-    """The Drake check of the known world under the noise model."""
-    FCN = "fcn"
-    """The network of models/fcn/, on the overhead depth image."""
-
-
-FEASIBILITY_SOURCES = tuple(s.value for s in FeasibilitySource)
-# The utility's costs: our robot's recorded time model, or the paper's values.
-COST_PROFILES = ("robot", "paper")
-
-
-class Recovery(str, Enum):
-    """What execution does when an action fails (the field `execution.recovery` holds the
-    value)."""
-
-    NONE = "none"
-    """The paper's open loop: a failed pickup is given up, a blocked drive ends the run."""
-    RETRY = "retry"
-    """Check each stop from the localised pose, correct it by a short move, retry a failed
-    pickup."""
-    REPLAN = "replan"
-    """All of retry, and a replan of the dishes that remain after a blocked drive or a dish
-    that fails all its tries."""
-
-
-RECOVERY_MODES = tuple(r.value for r in Recovery)
-
 
 class ScenarioError(ValueError):
-    """A problem with a scenario, located by its field path (`dishes[3].table`)."""
+    """A problem with a scenario, located by its field path (`dishes[3].table`) and, when it
+    was read from a file, the file (`load_scenario`): str() names each once, as
+    `file: field: problem`."""
 
-    def __init__(self, path: str, message: str):
-        super().__init__(f"{path}: {message}" if path else message)
+    def __init__(self, path: str, message: str, file: str = ""):
+        super().__init__(": ".join(part for part in (file, path, message) if part))
         self.path = path
         self.message = message
+        self.file = file
 
 
 @dataclass
@@ -444,8 +420,8 @@ def parse_scenario(text: str) -> Scenario:
         where = f"line {mark.line + 1}" if mark is not None else "YAML"
         problem = getattr(e, "problem", None) or str(e).splitlines()[0]
         raise ScenarioError(where, f"not valid YAML: {problem}") from None
-    if raw is None:
-        raw = {}
+    if raw is None:  # an empty or comment-only file: every field has its default
+        raw, text = {}, "{}"
     try:
         check_structure(raw, Scenario, "")
         scenario = yaml_load_typed(schema=Scenario, data=text)
@@ -459,15 +435,21 @@ def parse_scenario(text: str) -> Scenario:
 
 
 def load_scenario(path: str | Path) -> Scenario:
-    """Loads and validates a scenario file; raises ScenarioError naming the field."""
+    """Loads and validates a scenario file; raises ScenarioError naming the file and the field.
+    An empty or comment-only file is all defaults, as `{}` is."""
     path = Path(path)
+    if path.is_dir():
+        raise ScenarioError("", "is a folder, not a scenario file", file=str(path))
     if not path.is_file():
-        raise ScenarioError(str(path), "no such scenario file")
+        raise ScenarioError("", "no such scenario file", file=str(path))
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as e:
-        raise ScenarioError(str(path), f"cannot read: {e}") from None
-    return parse_scenario(text)
+        raise ScenarioError("", f"cannot read: {e}", file=str(path)) from None
+    try:
+        return parse_scenario(text)
+    except ScenarioError as e:
+        raise ScenarioError(e.path, e.message, file=str(path)) from None
 
 
 def dump_scenario(scenario: Scenario) -> str:

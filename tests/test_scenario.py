@@ -161,10 +161,64 @@ def test_not_yaml_names_the_line(tmp_path):
 
 
 def test_missing_file_is_bad_input(tmp_path, capsys):
+    missing = tmp_path / "nope.yaml"
     with pytest.raises(SystemExit) as info:
-        run_main([str(tmp_path / "nope.yaml")])
+        run_main([str(missing), "--out", str(tmp_path / "out")])
     assert info.value.code == 2
-    assert "no such scenario file" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert err == f"error: {missing}: no such scenario file\n"  # the path once
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_folder_is_not_a_scenario_file(tmp_path, capsys):
+    with pytest.raises(SystemExit) as info:
+        run_main([str(tmp_path), "--out", str(tmp_path / "out")])
+    assert info.value.code == 2
+    assert capsys.readouterr().err == f"error: {tmp_path}: is a folder, not a scenario file\n"
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_bad_field_in_a_file_names_the_file_once(tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("room: {bounds: [0, 0, 4]}\n")
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(bad)
+    assert (info.value.file, info.value.path) == (str(bad), "room.bounds")
+    with pytest.raises(SystemExit) as exit_info:
+        run_main([str(bad), "--out", str(tmp_path / "out")])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {bad}: room.bounds: ") and err.count(str(bad)) == 1
+
+
+@pytest.mark.parametrize("text", ["", "\n", "# only a comment\n", "{}\n"],
+                         ids=["empty", "blank line", "comment only", "empty mapping"])
+def test_an_empty_file_is_all_defaults(text, tmp_path, capsys):
+    # The README: every field has a default. A file with none is the defaults, as {} is.
+    path = tmp_path / "empty.yaml"
+    path.write_text(text)
+    assert load_scenario(path) == parse_scenario("{}")
+    assert parse_scenario("{}").dishes == []
+    # With no dishes there is nothing to run: one line naming the field, exit 2, no output.
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as info:
+        run_main([str(path), "--out", str(out)])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {path}: dishes: ") and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_an_empty_base_is_bad_input_to_generate(tmp_path, capsys):
+    from s3o_drake.commands.generate import main as generate_main
+
+    path = tmp_path / "empty.yaml"
+    path.write_text("# nothing\n")
+    with pytest.raises(SystemExit) as info:
+        generate_main(["--base", str(path), "--count", "1", "--out", str(tmp_path / "out")])
+    assert info.value.code == 2
+    assert capsys.readouterr().err.startswith(f"error: --base: {path}: tables: ")
+    assert not (tmp_path / "out").exists()
 
 
 def test_nan_is_caught_even_in_yaml_spelling():

@@ -36,12 +36,12 @@ from s3o_drake.abstraction.location_grid import LocationGrid
 from s3o_drake.abstraction.ranking import build_abstraction, rank
 from s3o_drake.abstraction.task_feasibility import TaskFeasibility
 from s3o_drake.abstraction.voronoi import voronoi_partition
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES
 from s3o_drake.known_world import KnownWorld
-from s3o_drake.scenario import Dish, Scenario, ScenarioError, load_scenario, validate_scenario
+from s3o_drake.scenario import Dish, Scenario, ScenarioError, validate_scenario
 from s3o_drake.task_generation import DEFAULT_BASE, DISH_GAP, EDGE_MARGIN
 
 TARGETS = {7: 1.0, 30: 5.0}  # dishes -> seconds
@@ -166,8 +166,8 @@ def main(argv: list[str] | None = None) -> int:
     for name in ("cells", "workers"):
         if getattr(args, name) < 1:
             fail(f"--{name}: must be at least 1, got {getattr(args, name)}")
+    base = read_scenario(args.scenario)
     try:
-        base = load_scenario(args.scenario)
         largest = with_dish_count(base, max(args.counts), args.seed)
         if args.dense_table not in {t.name for t in base.tables}:
             raise ScenarioError("--dense-table", f"no table named {args.dense_table!r}")
@@ -175,8 +175,7 @@ def main(argv: list[str] | None = None) -> int:
         dense = with_dish_count(replace(base, chairs=[]), max(args.dense), args.seed,
                                 table=longest) if args.dense else None
     except ScenarioError as e:
-        fail(str(e) if e.path.startswith("--") or e.path == args.scenario
-             else f"{args.scenario}: {e}")
+        fail(str(e) if e.path.startswith("--") else f"{args.scenario}: {e}")
     scenes = [(n, "", largest) for n in args.counts]
     scenes += [(n, f" ({longest})", dense) for n in args.dense]
     perceived = [c.pose for c in base.chairs if not c.mapped]

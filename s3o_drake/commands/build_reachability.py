@@ -20,22 +20,26 @@ of the joint angles), verifies it by forward kinematics and, where it is not yet
 tolerance, moves it onto the target with a few Newton steps; so the answer does not depend on
 the grid's resolution, and a target beyond the arm's reach has no candidates.
 
-    python -m s3o_drake.commands.build_reachability build [--out models/reachability_map.npz]
+    python -m s3o_drake.commands.build_reachability build [--out out/reachability_map.npz]
                                                        [--workers 2] [--resolution 0.01]
 
 builds the map deterministically with worker processes (a few minutes on two cores) and writes
-it atomically, with its settings, as a compressed .npz; `ReachabilityMap.load()` reads it.
+it atomically, with its settings, as a compressed .npz; `ReachabilityMap.load()` reads the
+shipped one, models/reachability_map.npz, which only `--out models/reachability_map.npz`
+replaces.
 """
 
 import math
 import sys
 from pathlib import Path
 
+# Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.feasibility.reachability import DEFAULT_PATH
-from s3o_drake.feasibility.reachability_build import RESOLUTION, build_map
 from s3o_drake.io import write_atomically
-from s3o_drake.resources import MODELS_DIR
+from s3o_drake.resources import REACHABILITY_MAP, REPO_DIR
+
+DEFAULT_OUT = Path("out") / REACHABILITY_MAP.name
+"""Where the map goes unless --out says otherwise: not over the shipped one."""
 
 
 def _positive(text: str) -> float:
@@ -56,25 +60,32 @@ def main(argv: list[str] | None = None) -> int:
                                        "(the same file content, build time and date aside, "
                                        "whatever --workers), about 6 minutes on two cores "
                                        "at the default resolution.")
-    build.add_argument("--out", metavar="NPZ", default=str(DEFAULT_PATH),
-                       help=f"output file (default {DEFAULT_PATH.relative_to(MODELS_DIR.parent)})")
+    build.add_argument("--out", metavar="NPZ", default=str(DEFAULT_OUT),
+                       help=f"output file (default {DEFAULT_OUT}; the shipped map is replaced "
+                            f"only when told: --out {REACHABILITY_MAP.relative_to(REPO_DIR)})")
     build.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
-    build.add_argument("--resolution", type=_positive, default=RESOLUTION,
-                       help=f"grid step in metres (default {RESOLUTION})")
+    build.add_argument("--resolution", type=_positive,
+                       help="grid step in metres (default: the shipped map's, "
+                            "reachability_build.RESOLUTION)")
     build.add_argument("--quiet", action="store_true", help="no progress bar")
     args = parser.parse_args(argv)
+    from s3o_drake.feasibility.reachability_build import RESOLUTION, build_map
+
+    if args.resolution is None:
+        args.resolution = RESOLUTION
     if args.workers < 1:
         fail(f"--workers: must be at least 1, got {args.workers}")
     if not 0.002 <= args.resolution <= 0.1:
         fail(f"--resolution: must be between 0.002 and 0.1 m, got {args.resolution}")
     out = Path(args.out)
-    if not out.parent.is_dir():
-        fail(f"--out: folder {out.parent} does not exist")
     if out.is_dir():
         fail(f"--out: {out} is a folder")
+    if any(folder.exists() and not folder.is_dir() for folder in out.parents):
+        fail(f"--out: {out.parent} is not a folder")
     reach_map = build_map(resolution=args.resolution, workers=args.workers,
                           progress=not args.quiet)
     data = reach_map.to_bytes()
+    out.parent.mkdir(parents=True, exist_ok=True)
     write_atomically(out, data)
     s = reach_map.settings
     print(f"wrote {out} ({len(data) / 1e6:.2f} MB): nodes {s['nodes']}, configurations "

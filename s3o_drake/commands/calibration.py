@@ -35,17 +35,10 @@ import json
 import sys
 from pathlib import Path
 
+# Light imports only: the heavy ones come after the arguments are parsed.
+from s3o_drake.choices import METHODS
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.evaluation.calibration import (
-    RecordsError,
-    calibrate_records,
-    figures_table,
-    grouped,
-    read_records,
-    reliability_figure,
-)
 from s3o_drake.io import write_atomically
-from s3o_drake.scenario import METHODS
 
 
 def parse_args(argv: list[str] | None):
@@ -76,6 +69,15 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} is a file, not a folder")
+    from s3o_drake.evaluation.calibration import (
+        RecordsError,
+        calibrate_records,
+        figures_table,
+        grouped,
+        read_records,
+        reliability_figure,
+    )
+
     try:
         records = read_records(args.results)
     except RecordsError as e:

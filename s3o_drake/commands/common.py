@@ -6,9 +6,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 if TYPE_CHECKING:
+    from pydrake.geometry import Meshcat
+
     from s3o_drake.scenario import Scenario
 
 EXIT_BAD_INPUT = 2
+MESHCAT_HOST = "localhost"
+"""Where the commands' Meshcat listens: this machine only, unless --host says otherwise."""
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -24,6 +28,41 @@ def fail(message: str) -> NoReturn:
     sys.exit(EXIT_BAD_INPUT)
 
 
+def read_scenario(path: str | Path, option: str = "") -> "Scenario":
+    """Loads a scenario file for a command. A bad one (missing, a folder, not YAML, a bad
+    field) is one line on stderr naming the file once and the field, and exit status 2
+    (`option`, such as "--base", says which argument gave the file). An empty or
+    comment-only file is all defaults."""
+    from s3o_drake.scenario import ScenarioError, load_scenario
+
+    try:
+        return load_scenario(path)
+    except ScenarioError as e:
+        fail(f"{option}: {e}" if option else str(e))
+
+
+def read_base(path: str | Path) -> "Scenario":
+    """The base scenario of generated tasks (--base): a scenario file with tables to put the
+    dishes on; anything else is one line and exit status 2."""
+    base = read_scenario(path, "--base")
+    if not base.tables:
+        fail(f"--base: {path}: tables: none to put dishes on (an empty file is all defaults: "
+             "a room without tables)")
+    return base
+
+
+def start_meshcat(host: str = MESHCAT_HOST) -> "Meshcat":
+    """A Meshcat server that listens on `host` only (by default localhost: the live view
+    and the recording are not served to the network); a host it cannot listen on is one
+    line (--host) and exit status 2."""
+    from pydrake.geometry import Meshcat, MeshcatParams
+
+    try:
+        return Meshcat(MeshcatParams(host=host))
+    except RuntimeError as e:
+        fail(f"--host: cannot listen on {host!r}: {str(e).splitlines()[0]}")
+
+
 def first_tasks(count: int) -> list[Path]:
     """The first `count` shipped tasks; a bad count (--tasks) is one line and exit 2."""
     from s3o_drake.resources import shipped_tasks
@@ -37,16 +76,8 @@ def first_tasks(count: int) -> list[Path]:
 def task_scenarios(files: list[str] | None, count: int) -> list[tuple[str, "Scenario"]]:
     """(name, scenario) of a benchmark's tasks: the scenario `files` when given, else the
     first `count` shipped tasks; a bad count (--tasks) or file is one line and exit 2."""
-    from s3o_drake.scenario import ScenarioError, load_scenario
-
     paths = [Path(p) for p in files] if files else first_tasks(count)
-    scenarios = []
-    for path in paths:
-        try:
-            scenarios.append((path.stem, load_scenario(path)))
-        except ScenarioError as e:
-            fail(f"{path}: {e}")
-    return scenarios
+    return [(path.stem, read_scenario(path)) for path in paths]
 
 
 def doc_formatter() -> type[argparse.HelpFormatter]:

@@ -18,9 +18,13 @@ import statistics
 import sys
 from pathlib import Path
 
-from pydrake.geometry import Meshcat
-
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, first_tasks
+from s3o_drake.commands.common import (
+    ArgumentParser,
+    doc_formatter,
+    fail,
+    first_tasks,
+    start_meshcat,
+)
 from s3o_drake.execution.execute import execute
 from s3o_drake.scenario import FEASIBILITY_SOURCES, Recovery, load_scenario
 
@@ -33,7 +37,7 @@ def run_task(path: Path, source: str, seed: int) -> dict:
     scenario = dataclasses.replace(
         scenario, planner=dataclasses.replace(scenario.planner, feasibility=source),
         execution=dataclasses.replace(scenario.execution, recovery=Recovery.NONE.value))
-    run = execute(scenario, seed=seed, meshcat=Meshcat(), progress=False)
+    run = execute(scenario, seed=seed, meshcat=start_meshcat(), progress=False)
     r = run.report
     return {"task": path.stem, "source": source, "seed": seed, "dishes": r["dishes"],
             "collected": r["collected"], "complete": r["collected"] == r["dishes"],

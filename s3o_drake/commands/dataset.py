@@ -22,13 +22,12 @@ import json
 import sys
 from pathlib import Path
 
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_base
 from s3o_drake.feasibility.dataset import (
     MANIFEST,
     build_dataset,
 )
 from s3o_drake.io import write_atomically
-from s3o_drake.scenario import ScenarioError, load_scenario
 from s3o_drake.task_generation import DEFAULT_BASE
 
 
@@ -50,10 +49,7 @@ def main(argv: list[str] | None = None) -> int:
         fail(f"--seed: must be a non-negative integer, got {args.seed}")
     if args.workers < 1:
         fail(f"--workers: must be at least 1, got {args.workers}")
-    try:
-        load_scenario(args.base)
-    except (ScenarioError, OSError) as e:
-        fail(f"--base {args.base}: {e}")
+    read_base(args.base)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} exists and is not a folder")

@@ -1,7 +1,7 @@
 """Derive the planner's time model from the robot's own motions, and record it.
 
     python -m s3o_drake.commands.derive_times [--samples 400] [--seed 0]
-                                               [--out models/time_model.yaml]
+                                               [--out out/time_model.yaml]
 
 Pickups: from the shipped tasks (scenarios/restaurant.yaml and scenarios/generated/, in name
 order, a share of the samples each), draws base positions up to 0.5 m beyond the planner's
@@ -55,10 +55,12 @@ from s3o_drake.planning.time_model import (
     TimeModel,
     command_overheads,
 )
-from s3o_drake.resources import RESTAURANT, shipped_tasks
+from s3o_drake.resources import REPO_DIR, RESTAURANT, TIME_MODEL, shipped_tasks
 from s3o_drake.robot import CONTROL_PERIOD
 from s3o_drake.scenario import load_scenario
 
+DEFAULT_OUT = Path("out") / TIME_MODEL.name
+"""Where the model goes unless --out says otherwise: not over the shipped one."""
 FOLDS = 5
 CANDIDATES_PER_ROUND = 64
 ROUNDS = 5
@@ -260,21 +262,26 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--samples", type=int, default=400,
                         help="pickups to plan (default 400)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
-    parser.add_argument("--out", default=str(MODEL_FILE),
-                        help="where to write the model (default models/time_model.yaml)")
+    parser.add_argument("--out", default=str(DEFAULT_OUT),
+                        help=f"where to write the model (default {DEFAULT_OUT}; the shipped "
+                             f"model is replaced only when told: --out "
+                             f"{MODEL_FILE.relative_to(REPO_DIR)})")
     args = parser.parse_args(argv)
     if args.samples < 2 * FOLDS:
         fail(f"--samples: must be at least {2 * FOLDS}, got {args.samples}")
     if args.seed < 0:
         fail(f"--seed: must be a non-negative integer, got {args.seed}")
     out = Path(args.out)
-    if not out.parent.is_dir():
-        fail(f"--out: no folder {out.parent}")
+    if out.is_dir():
+        fail(f"--out: {out} is a folder")
+    if any(folder.exists() and not folder.is_dir() for folder in out.parents):
+        fail(f"--out: {out.parent} is not a folder")
     logging.getLogger("drake").setLevel(logging.WARNING)
     command = ("python -m s3o_drake.commands.derive_times "
                f"--samples {args.samples} --seed {args.seed}")
     t0 = time.perf_counter()
     model, rows = derive(args.samples, args.seed, command)
+    out.parent.mkdir(parents=True, exist_ok=True)
     write_model(model, out)
     print(f"{len(rows)} pickups planned in {time.perf_counter() - t0:.0f} s, "
           f"{model.provenance['samples']} ok")

@@ -51,19 +51,21 @@ Exit status: 0 when every run finished, 1 when some ended in an error (listed in
 summary.md), 2 on bad input (nothing is written), 130 when interrupted (finished runs kept).
 """
 
+from __future__ import annotations
+
 import os
 import re
 import signal
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.evaluation.difficulty import GROUPS, difficulty_groups
-from s3o_drake.evaluation.jobs import DIFFICULTY, RUN, Job, file_digest
-from s3o_drake.evaluation.scheduler import run_jobs
-from s3o_drake.evaluation.store import ResultStore
-from s3o_drake.evaluation.summary import markdown_tables, summarize, write_outputs
-from s3o_drake.scenario import METHODS, RECOVERY_MODES, Recovery, ScenarioError, load_scenario
+# Light imports only: the heavy ones come after the arguments are parsed.
+from s3o_drake.choices import METHODS, RECOVERY_MODES, Recovery
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
+
+if TYPE_CHECKING:
+    from s3o_drake.evaluation.jobs import Job
 
 DIFFICULTY_SEED = 0
 """The oracle's noise draws for the difficulty measure: one fixed seed, so that a task's
@@ -109,10 +111,7 @@ def _validate(args) -> tuple[list[Path], list[str]]:
             fail(f"--limit: must be at least 1, got {args.limit}")
         paths = paths[:args.limit]
     for path in paths:
-        try:
-            load_scenario(path)
-        except ScenarioError as e:
-            fail(f"{path}: {e}")
+        read_scenario(path)
     if args.methods == ["all"]:
         methods = list(METHODS)
     else:
@@ -137,6 +136,8 @@ def study_jobs(paths: list[Path], methods: list[str], seeds: int,
                recovery: str = Recovery.NONE.value) -> tuple[list[Job], list[Job]]:
     """The difficulty jobs (one per task) and the run jobs, seed by seed, then task by task,
     all methods of a task together: an interrupted study has whole comparisons done."""
+    from s3o_drake.evaluation.jobs import DIFFICULTY, RUN, Job, file_digest
+
     digests = {p: file_digest(p) for p in paths}
     difficulty = [Job(DIFFICULTY, p.stem, str(p), digests[p], DIFFICULTY_SEED) for p in paths]
     runs = [Job(RUN, p.stem, str(p), digests[p], seed, method, recovery)
@@ -151,6 +152,11 @@ def _interrupt(signum, frame) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     paths, methods = _validate(args)
+    from s3o_drake.evaluation.difficulty import GROUPS, difficulty_groups
+    from s3o_drake.evaluation.scheduler import run_jobs
+    from s3o_drake.evaluation.store import ResultStore
+    from s3o_drake.evaluation.summary import markdown_tables, summarize, write_outputs
+
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     difficulty_jobs, run_job_list = study_jobs(paths, methods, args.seeds, args.recovery)

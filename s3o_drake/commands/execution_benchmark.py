@@ -18,12 +18,15 @@ import statistics
 import sys
 from pathlib import Path
 
-from pydrake.geometry import Meshcat
-
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.execution.execute import execute
+# Light imports only: the heavy ones come after the arguments are parsed.
+from s3o_drake.commands.common import (
+    ArgumentParser,
+    doc_formatter,
+    fail,
+    read_scenario,
+    start_meshcat,
+)
 from s3o_drake.resources import RESTAURANT
-from s3o_drake.scenario import ScenarioError, load_scenario
 
 RATE_TARGET = 10.0
 SIZE_TARGET_MB = 20.0
@@ -31,12 +34,15 @@ FIVE_MINUTES = 300.0
 
 
 def measure(path: Path, seed: int) -> dict:
+    from s3o_drake.execution.execute import execute
+    from s3o_drake.scenario import load_scenario
+
     scenario = load_scenario(path)
-    run = execute(scenario, seed=seed, meshcat=Meshcat(), progress=False)
+    run = execute(scenario, seed=seed, meshcat=start_meshcat(), progress=False)
     r = run.report
     size = len(run.html.encode())
     # The page holds the viewer and the scene once, then a share per simulated second.
-    empty = len(Meshcat().StaticHtml().encode())
+    empty = len(start_meshcat().StaticHtml().encode())
     per_second = (size - empty) / max(r["simulated_time"], 1e-9)
     return {"scenario": str(path), "seed": seed, "dishes": r["dishes"],
             "collected": r["collected"], "execution_time": r["execution_time"],
@@ -56,10 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     paths = [Path(p) for p in args.scenarios]
     for path in paths:
-        try:
-            load_scenario(path)
-        except ScenarioError as e:
-            fail(f"{path}: {e}")
+        read_scenario(path)
     if any(s < 0 for s in args.seeds):
         fail("--seeds: seeds are non-negative integers")
     json_path = Path(args.json) if args.json else None

@@ -35,7 +35,13 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, first_tasks
+from s3o_drake.commands.common import (
+    ArgumentParser,
+    doc_formatter,
+    fail,
+    first_tasks,
+    read_scenario,
+)
 from s3o_drake.feasibility.fcn import (
     CHANNELS,
     FcnFeasibility,
@@ -48,7 +54,6 @@ from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.io import write_atomically
 from s3o_drake.resources import FCN_WEIGHTS
-from s3o_drake.scenario import ScenarioError, load_scenario
 
 WEIGHTS = FCN_WEIGHTS
 REPEATS = 5
@@ -107,12 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     pictures = Path(args.pictures) if args.pictures else None
     if pictures is not None and pictures.exists() and not pictures.is_dir():
         fail(f"--pictures: {pictures} exists and is not a folder")
-    scenarios = []
-    for path in tasks:
-        try:
-            scenarios.append((path.stem, load_scenario(path)))
-        except ScenarioError as e:
-            fail(f"{path}: {e}")
+    scenarios = [(path.stem, read_scenario(path)) for path in tasks]
 
     logging.getLogger("drake").setLevel(logging.WARNING)
     torch.set_num_threads(args.threads)

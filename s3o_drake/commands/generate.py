@@ -16,19 +16,10 @@ Existing files are overwritten; a file is written whole or not at all.
 import sys
 from pathlib import Path
 
-from tqdm import tqdm
-
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+# Light imports only: the heavy ones come after the arguments are parsed.
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_base
 from s3o_drake.io import write_atomically
-from s3o_drake.scenario import (
-    ScenarioError,
-    dump_scenario,
-    load_scenario,
-)
-from s3o_drake.task_generation import (
-    DEFAULT_BASE,
-    generate_task,
-)
+from s3o_drake.resources import RESTAURANT
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -38,7 +29,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--out", metavar="DIR", default="scenarios/generated",
                         help="output folder (default scenarios/generated)")
-    parser.add_argument("--base", metavar="YAML", default=str(DEFAULT_BASE),
+    parser.add_argument("--base", metavar="YAML", default=str(RESTAURANT),
                         help="scenario whose room, tables, robot start and settings every "
                              "task keeps (default scenarios/restaurant.yaml)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -47,10 +38,12 @@ def main(argv: list[str] | None = None) -> int:
         fail(f"--count: must be at least 1, got {args.count}")
     if args.seed < 0:
         fail(f"--seed: must be a non-negative integer, got {args.seed}")
-    try:
-        base = load_scenario(args.base)
-    except ScenarioError as e:
-        fail(f"--base {args.base}: {e}")
+    from tqdm import tqdm
+
+    from s3o_drake.scenario import dump_scenario
+    from s3o_drake.task_generation import generate_task
+
+    base = read_base(args.base)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} exists and is not a folder")

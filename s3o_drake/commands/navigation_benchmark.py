@@ -93,8 +93,7 @@ def benchmark(known: KnownWorld, *, queries: int = 2000, seed: int = 0) -> dict[
 
 def main(argv: list[str] | None = None) -> int:
     """`python -m s3o_drake.commands.navigation_benchmark [scenario] --benchmark`."""
-    from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-    from s3o_drake.scenario import ScenarioError, load_scenario
+    from s3o_drake.commands.common import ArgumentParser, doc_formatter, read_scenario
 
     parser = ArgumentParser(prog="python -m s3o_drake.commands.navigation_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
@@ -107,10 +106,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.queries < 10:
         parser.error(f"--queries must be at least 10, got {args.queries}")
-    try:
-        scenario = load_scenario(args.scenario)
-    except ScenarioError as e:
-        fail(str(e))
+    scenario = read_scenario(args.scenario)
     known = KnownWorld.perfect(scenario)
     if not args.benchmark:
         nav = NavigationMap(known.obstacles)

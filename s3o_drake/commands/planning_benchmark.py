@@ -42,14 +42,14 @@ import statistics
 import sys
 import time
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
+# Light imports only: the heavy ones come after the arguments are parsed.
+from s3o_drake.choices import METHODS
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
-from s3o_drake.feasibility.heatmaps import compute_heatmaps
-from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.pipeline import plan_from
-from s3o_drake.scenario import METHODS, Scenario
+
+if TYPE_CHECKING:
+    from s3o_drake.scenario import Scenario
 
 STAGES = ("feasibility", "navigation", "abstraction", "task_planning", "motion_search")
 TIME_TARGET = 5.0
@@ -68,6 +68,10 @@ def long_run(scenario: Scenario, factor: int) -> Scenario:
 def benchmark_task(name: str, scenario: Scenario, *, method: str, seed: int, workers: int,
                    factor: int) -> dict[str, Any]:
     """One task's row: heatmaps, the paper-count plan, the long run, their utility ratio."""
+    from s3o_drake.feasibility.heatmaps import compute_heatmaps
+    from s3o_drake.known_world import KnownWorld
+    from s3o_drake.planning.pipeline import plan_from
+
     row: dict[str, Any] = {"task": name, "dishes": len(scenario.dishes), "method": method,
                            "seed": seed, "workers": workers, "factor": factor}
     # The planner is given the scenario's unmapped chairs exactly: this benchmark measures
@@ -198,6 +202,8 @@ def main(argv: list[str] | None = None) -> int:
     done = {} if json_path is None or args.fresh else _finished(json_path, settings)
     if json_path is not None and args.fresh:
         json_path.unlink(missing_ok=True)
+
+    from s3o_drake.feasibility.reachability import ReachabilityMap
 
     start = time.perf_counter()
     ReachabilityMap.shared().prepare_all()

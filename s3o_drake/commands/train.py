@@ -1,6 +1,9 @@
 """Train the feasibility FCN on the oracle-labelled crops of `s3o_drake.feasibility.dataset`.
 
-    python -m s3o_drake.commands.train --data out/fcn_data --out models/fcn --seed 0
+    python -m s3o_drake.commands.train --data out/fcn_data [--out out/fcn] --seed 0
+
+writes the weights to out/fcn/ unless --out says otherwise; `--out models/fcn` replaces the
+shipped ones that the planner reads.
 
 The scenes (not the crops: the dishes of one scene share a room) are split at random into
 training and validation (--val-fraction). Inputs are normalised per channel with the
@@ -23,25 +26,23 @@ import json
 import sys
 from pathlib import Path
 
-import numpy as np
-import torch
-
+# Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.feasibility.dataset import load_dataset
-from s3o_drake.feasibility.fcn import CHANNELS
-from s3o_drake.feasibility.training import (
-    TrainConfig,
-    save,
-    train,
-)
+from s3o_drake.feasibility.train_config import TrainConfig
+from s3o_drake.resources import FCN_WEIGHTS, REPO_DIR
+
+DEFAULT_OUT = Path("out") / "fcn"
+"""Where the weights go unless --out says otherwise: not over the shipped models/fcn/."""
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m s3o_drake.commands.train", description=__doc__,
                             formatter_class=doc_formatter())
     parser.add_argument("--data", metavar="DIR", required=True, help="dataset folder")
-    parser.add_argument("--out", metavar="DIR", default="models/fcn",
-                        help="output folder (default models/fcn)")
+    parser.add_argument("--out", metavar="DIR", default=str(DEFAULT_OUT),
+                        help=f"output folder (default {DEFAULT_OUT}; the shipped weights are "
+                             f"replaced only when told: --out "
+                             f"{FCN_WEIGHTS.parent.relative_to(REPO_DIR)})")
     defaults = TrainConfig()
     for name, kind in (("seed", int), ("epochs", int), ("patience", int), ("batch", int),
                        ("lr", float), ("width", int), ("val_fraction", float)):
@@ -63,6 +64,13 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} exists and is not a folder")
+    import numpy as np
+    import torch
+
+    from s3o_drake.feasibility.dataset import load_dataset
+    from s3o_drake.feasibility.fcn import CHANNELS
+    from s3o_drake.feasibility.training import save, train
+
     try:
         data = load_dataset(Path(args.data))
     except (FileNotFoundError, OSError, KeyError, ValueError) as e:

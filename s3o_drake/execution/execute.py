@@ -3,6 +3,7 @@ until the task monitor ends the run, and collect what happened (`execute`). The 
 command (s3o_drake/commands/run.py) is a thin main over it."""
 
 
+import sys
 import time
 from dataclasses import dataclass
 
@@ -71,8 +72,14 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
         visualizer.StartRecording(set_transforms_while_recording=realtime)
     if realtime:
         simulator.set_target_realtime_rate(1.0)
+        # The pacing counts from the simulator's statistics, which Initialize() started
+        # before the planning; reset, the live view is paced from the first simulated second.
+        simulator.ResetStatistics()
     # Whole simulated seconds against the plan's predicted execution time.
     expected = 1.0 if plan is None else plan.predicted_time
+    if progress:
+        print(f"simulating the execution ({expected:.0f} s predicted"
+              f"{', in real time' if realtime else ''})", file=sys.stderr, flush=True)
     bar = tqdm(total=max(1, round(expected)), desc="executing", unit="sim s",
                disable=not progress)
 

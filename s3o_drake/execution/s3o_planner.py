@@ -35,6 +35,7 @@ from its first action).
 from __future__ import annotations
 
 import dataclasses
+import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -240,9 +241,18 @@ class S3OPlanner(LeafSystem):
         """A new plan from base pose `start` for `dishes`, or a finished execution saying
         why there is none."""
         t0 = time.perf_counter()
+        if self._progress_bar:  # say what is happening as it happens (stderr, with the bars)
+            print(f"perceiving the unmapped chairs in the overhead camera's images "
+                  f"({len(dishes)} dishes to plan for)", file=sys.stderr, flush=True)
         images = tuple(np.asarray(port.Eval(context).data) for port in self._images)
         known = perceive_known_world(self._scenario, images, pose=start, dishes=dishes,
                                      perceive=self._perceive, robot_labels=self._robot_labels)
+        if self._progress_bar:
+            planner = self._scenario.planner
+            print(f"planning with {self._method or planner.method} (Fea^m from "
+                  f"{planner.feasibility}) within a budget of "
+                  f"{planner.time_budget if budget is None else budget:g} s",
+                  file=sys.stderr, flush=True)
         result = plan_from(known, method=self._method, seed=self._seed, workers=self._workers,
                            time_budget=budget, progress=self._progress_bar, started=t0)
         if result.navigation is not None:

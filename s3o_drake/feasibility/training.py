@@ -30,23 +30,10 @@ from torch import nn
 from tqdm import tqdm
 
 from s3o_drake.feasibility.fcn import CHANNELS, FeasibilityUNet, auroc
+from s3o_drake.feasibility.train_config import TrainConfig
 from s3o_drake.io import write_atomically
 
 OFFSET_CHANNELS = [CHANNELS.index("dx"), CHANNELS.index("dy")]
-
-
-@dataclass
-class TrainConfig:
-    """Hyper-parameters of one training run."""
-
-    seed: int = 0
-    epochs: int = 60
-    patience: int = 6
-    batch: int = 32
-    lr: float = 3e-3
-    width: int = 8
-    val_fraction: float = 0.15
-    rotate: bool = True
 
 
 @dataclass

@@ -1,0 +1,41 @@
+"""The named choices of a scenario's settings (methods, feasibility sources, cost profiles,
+recovery modes). Nothing heavy is imported here, so that the commands can name the choices in
+their --help before they import Drake."""
+
+from enum import Enum
+
+# The methods of the paper's comparison: S3O-GROP* and its ablations and baselines.
+METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random")
+
+
+# Where the planner's Fea^m heatmaps come from: the Drake check, or the learned network.
+class FeasibilitySource(str, Enum):
+    """Where the planner's Fea^m heatmaps come from (the field `planner.feasibility` holds
+    the value: yaml_load_typed reads no Enum)."""
+
+    ORACLE = "oracle"
+    """The Drake check of the known world under the noise model."""
+    FCN = "fcn"
+    """The network of models/fcn/, on the overhead depth image."""
+
+
+FEASIBILITY_SOURCES = tuple(s.value for s in FeasibilitySource)
+# The utility's costs: our robot's recorded time model, or the paper's values.
+COST_PROFILES = ("robot", "paper")
+
+
+class Recovery(str, Enum):
+    """What execution does when an action fails (the field `execution.recovery` holds the
+    value)."""
+
+    NONE = "none"
+    """The paper's open loop: a failed pickup is given up, a blocked drive ends the run."""
+    RETRY = "retry"
+    """Check each stop from the localised pose, correct it by a short move, retry a failed
+    pickup."""
+    REPLAN = "replan"
+    """All of retry, and a replan of the dishes that remain after a blocked drive or a dish
+    that fails all its tries."""
+
+
+RECOVERY_MODES = tuple(r.value for r in Recovery)
