@@ -13,9 +13,10 @@ from s3o_drake.angles import facing_yaw
 from s3o_drake.execution.execute import execute
 from s3o_drake.execution.messages import Status
 from s3o_drake.execution.recovery import StopCheck, localise
-from s3o_drake.execution.s3o_planner import S3OPlanner, scenario_unmapped_chairs
+from s3o_drake.execution.s3o_planner import S3OPlanner
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.known_world import KnownWorld
+from s3o_drake.perception import scenario_unmapped_chairs
 from s3o_drake.planning.pipeline import heatmaps_for
 from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.robot import robot_desired_state, robot_positions

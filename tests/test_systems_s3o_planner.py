@@ -10,7 +10,8 @@ import pytest
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.execution.messages import NO_COMMAND, PickupRecord, Status
-from s3o_drake.execution.s3o_planner import S3OPlanner, scenario_unmapped_chairs
+from s3o_drake.execution.s3o_planner import S3OPlanner
+from s3o_drake.perception import scenario_unmapped_chairs
 from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.robot import robot_desired_state, robot_positions
 from s3o_drake.scenario import load_scenario

@@ -19,9 +19,9 @@ from s3o_drake.angles import facing_yaw, wrap
 from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.diagram import build_execution_diagram
 from s3o_drake.execution.messages import BaseCommand
-from s3o_drake.execution.s3o_planner import scenario_unmapped_chairs
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.known_world import KnownWorld
+from s3o_drake.perception import scenario_unmapped_chairs
 from s3o_drake.planning import base_motion
 from s3o_drake.planning.base_motion import BaseProfile
 from s3o_drake.planning.navigation import NavigationMap

@@ -69,13 +69,6 @@ from s3o_drake.scenario import Recovery, Scenario
 PLANS_PER_DISH = 2
 
 
-def scenario_unmapped_chairs(scenario: Scenario) -> Perceive:
-    """Perfect perception, for tests and comparisons: the scenario's unmapped chairs
-    exactly, whatever the images show."""
-    chairs = [list(map(float, c.pose)) for c in scenario.chairs if not c.mapped]
-    return lambda color, depth, label: [list(c) for c in chairs]
-
-
 @dataclass(frozen=True)
 class _Execution:
     """The planner's abstract state: the plan and where execution stands.

@@ -2,7 +2,8 @@
 
 `ChairPerception(scenario)(color, depth, label)` returns the unmapped chairs' poses
 [x, y, yaw]; `perceived_chairs(scenario, images)` is the one-call form, and
-`perceive_known_world` makes the planner's `KnownWorld` of them. See `chairs`
+`perceive_known_world` makes the planner's `KnownWorld` of them;
+`scenario_unmapped_chairs(scenario)` is perfect perception, for tests and comparisons. See `chairs`
 for the method and `s3o_drake.commands.perception_benchmark` for its accuracy.
 """
 
@@ -12,7 +13,8 @@ from s3o_drake.perception.chairs import (
     draw_chairs,
     perceive_known_world,
     perceived_chairs,
+    scenario_unmapped_chairs,
 )
 
 __all__ = ["ChairPerception", "Perceive", "draw_chairs", "perceive_known_world",
-           "perceived_chairs"]
+           "perceived_chairs", "scenario_unmapped_chairs"]

@@ -441,6 +441,13 @@ def draw_chairs(scenario: Scenario, color: np.ndarray, poses: list[list[float]],
     return image
 
 
+def scenario_unmapped_chairs(scenario: Scenario) -> Perceive:
+    """Perfect perception, for tests and comparisons: the scenario's unmapped chairs
+    exactly, whatever the images show."""
+    chairs = [list(map(float, c.pose)) for c in scenario.chairs if not c.mapped]
+    return lambda color, depth, label: [list(c) for c in chairs]
+
+
 def perceive_known_world(scenario: Scenario, images: tuple[np.ndarray, np.ndarray, np.ndarray],
                          *, pose: Sequence[float], dishes: Sequence[str],
                          perceive: Perceive | None = None,

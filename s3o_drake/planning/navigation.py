@@ -30,29 +30,8 @@ or touching an obstacle, or outside the room) is not a position of the base at a
 `path_length` returns inf and `path` returns None for it (no exception, so that CMA-ES
 can score such samples with its penalty).
 
-Design (measured with `python -m s3o_drake.commands.navigation_benchmark --benchmark`):
-
-- Occupancy grid + Euclidean distance field (`scipy.ndimage.distance_transform_edt`) at
-  `resolution`: `clearance(P)` is an O(1) lookup per point. It classifies most endpoints
-  without geometry (clearly driveable / clearly not a base position); only points within
-  1.5 cells of a threshold go to the exact shapely test.
-- Visibility graph for the lengths, which are exact on the polygonal map (any-angle, no
-  grid error): obstacles inflated by DRIVE_RADIUS as polygons that circumscribe the round
-  offset (arcs of `quad_segs` segments per quarter, so at most ~0.8 cm over-inflation with
-  the default 4), their convex vertices as nodes, all-pairs shortest distances
-  precomputed once (`scipy.sparse.csgraph`).
-- Per query, len(p, q) = |p q| if p sees q (one exact segment-crossing test), else
-  min over u, w of |p u| + D[u, w] + |w q| over the vertices u that p sees and w that q
-  sees, restricted to tangent vertices (a shortest path leaves a point along a tangent to
-  an obstacle), plus the endpoint segments of the rule above. "p sees vertex u" is a
-  binary search in u's visibility polygon, precomputed at build time by ray casting (see
-  `visibility.VisibilityPolygons`), so it costs O(log n) instead of O(edges); it agrees with
-  the exact segment test (checked in the tests). Endpoints are cached by their exact
-  coordinates, so a repeated endpoint (the robot's start, the end of one goto that starts
-  the next) costs nothing the second time.
-- Batch queries (`path_lengths`) amortise numpy's per-call overhead: use them from the
-  motion search (one batch per CMA-ES generation). A single `path_length` call costs
-  ~0.4 ms, mostly numpy call overhead.
+Design: docs/planning.md ("The navigation map's design"), measured with
+`python -m s3o_drake.commands.navigation_benchmark --benchmark`.
 """
 
 from __future__ import annotations
