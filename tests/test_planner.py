@@ -10,7 +10,9 @@ import pytest
 from shapely.geometry import Point
 
 from s3o_drake.abstraction import voronoi_partition
+from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
 from s3o_drake.planning.planner import PlanningTimeoutError, plan_task
@@ -31,6 +33,13 @@ def scenes():
         chairs = [c.pose for c in scenario.chairs if not c.mapped]
         out[name] = (scenario, heatmaps, chairs)
     return out
+
+
+@pytest.fixture(scope="module")
+def known_checkers(scenes):
+    """Per scene, the execution's base check on the world the planner knows."""
+    return {name: FeasibilityChecker(FeasibilityScene(_known(sc, chairs).as_scenario()))
+            for name, (sc, _, chairs) in scenes.items()}
 
 
 def _known(scenario, perceived_chairs) -> KnownWorld:
@@ -61,7 +70,7 @@ def _problem(p: TaskMotionPlan) -> TaskProblem:
 
 @pytest.mark.parametrize("scene", SCENES)
 @pytest.mark.parametrize("method", METHODS)
-def test_valid_plan_for_every_method(scenes, plans, scene, method):
+def test_valid_plan_for_every_method(scenes, plans, known_checkers, scene, method):
     scenario, _, chairs = scenes[scene]
     p = plans[scene, method]
     assert p.method == method and p.unreachable == ()
@@ -82,6 +91,9 @@ def test_valid_plan_for_every_method(scenes, plans, scene, method):
             d = dish_xy[nxt.dish] - (x, y)
             assert yaw == pytest.approx(math.atan2(d[1], d[0]))
             assert np.allclose(a.path[0], here) and np.allclose(a.path[-1], (x, y))
+            # Free as planned: the base at the stop, facing the dish, collides with nothing
+            # the planner knows (feasibility/stops.py).
+            assert known_checkers[scene].base_free(np.array([a.pose]))[0]
             here = np.array([x, y])
     # Utility as GROP* defines it, under the robot cost profile (the default): the
     # costs are the predicted execution time (without its once-per-plan start and end),

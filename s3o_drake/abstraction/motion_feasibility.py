@@ -53,3 +53,10 @@ def as_motion_feasibility(source) -> MotionFeasibility:
     if isinstance(source, MotionFeasibility):
         return source
     raise TypeError(f"not a Fea^m source: {type(source).__name__}")
+
+
+def heatmap_tuple(source) -> tuple[Heatmap, ...]:
+    """The Heatmaps of a list, tuple or mapping of them; () for any other Fea^m source."""
+    if isinstance(source, Mapping):
+        return tuple(source.values())
+    return tuple(source) if isinstance(source, (list, tuple)) else ()

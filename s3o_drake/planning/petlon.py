@@ -3,7 +3,9 @@
 PETLON plans in the plain Voronoi state space (one location per dish) and knows nothing
 about Fea^m: for each dish it takes a random obstacle-free base position near it (a
 uniform draw from the dish's Voronoi cell, i.e. free of mapped and perceived obstacles
-and within reach, and drivable from the start on the navigation map), and then the
+and within reach, where the base facing the dish is collision-free (`free`, the known
+world's free-stop test of `feasibility/stops.py`), and drivable from the start on the
+navigation map), and then the
 task-level order that is optimal for navigation (the clingo task planner with the path
 lengths between those positions as costs). Several such draws are made and the one with
 the least navigation cost is kept: PETLON optimises cost, never feasibility.
@@ -16,8 +18,9 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import shapely
@@ -34,6 +37,9 @@ COST_SCALE = 10.0
 """Task-planner costs are seconds x 10, rounded (clingo optimises integers)."""
 DRAWS_PER_POSITION = 100
 """Rejection rounds (of 32 points each) to find a drivable point of a cell."""
+
+#: Which base positions (n, 2) facing a dish are collision-free: (points, dish) -> bool (n,).
+FreeTest = Callable[[np.ndarray, str], np.ndarray]
 
 
 @dataclass
@@ -52,8 +58,11 @@ class PetlonResult:
 
 
 def random_position(region: BaseGeometry, nav: NavigationMap, start: np.ndarray,
-                    rng: np.random.Generator) -> np.ndarray | None:
-    """A uniform point of `region` that the base can drive to from `start`, or None.
+                    rng: np.random.Generator,
+                    free: Callable[[np.ndarray], np.ndarray] | None = None
+                    ) -> np.ndarray | None:
+    """A uniform point of `region` that the base can drive to from `start`, and where
+    `free` (points (n, 2) -> bool (n,); None: any) holds, or None.
 
     Uniform by rejection in the bounding box; a point the navigation map cannot reach
     (e.g. in the band between the inscribed and the circumscribed radius with no straight
@@ -65,6 +74,8 @@ def random_position(region: BaseGeometry, nav: NavigationMap, start: np.ndarray,
     for _ in range(DRAWS_PER_POSITION):
         P = np.column_stack([rng.uniform(x0, x1, 32), rng.uniform(y0, y1, 32)])
         P = P[shapely.contains_xy(region, P[:, 0], P[:, 1])]
+        if len(P) and free is not None:
+            P = P[free(P)]
         if len(P) == 0:
             continue
         lengths = nav.path_lengths(np.broadcast_to(start, P.shape), P)
@@ -78,11 +89,12 @@ def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
            feasibility: MotionFeasibility, nav: NavigationMap, start_xy: Sequence[float],
            planner: Planner, *, rng: np.random.Generator, draws: int = 1,
            unreachable: Sequence[str] = (), deadline: float | None = None,
-           costs: CostModel | None = None) -> PetlonResult:
+           costs: CostModel | None = None, free: FreeTest | None = None) -> PetlonResult:
     """V-PETLON over the state space `groups` (location k named "l{k}", its region in
     `regions`): `draws` random position sets, each ordered optimally for navigation, the
     cheapest kept. At least one draw is made; `deadline` (time.monotonic) stops further
-    draws; `costs` scores the kept plan (None: the paper's costs). Raises
+    draws; `costs` scores the kept plan (None: the paper's costs); `free` keeps the draws
+    to positions where the base facing the location's dish is free (None: any). Raises
     `TaskPlanningError` if no dish can be planned."""
     start = np.asarray(start_xy, dtype=float)[:2]
     names = [f"l{k}" for k in range(len(groups))]
@@ -93,7 +105,9 @@ def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
         if i and deadline is not None and time.monotonic() >= deadline:
             break
         t0 = time.monotonic()
-        points = {n: random_position(regions[n], nav, start, rng) for n in names}
+        points = {n: random_position(regions[n], nav, start, rng,
+                                     None if free is None else partial(free, dish=g[0]))
+                  for n, g in zip(names, groups, strict=True)}
         nodes = [n for n in names if points[n] is not None]
         P = np.array([points[n] for n in nodes] + [start]).reshape(-1, 2)
         keys = [*nodes, START]

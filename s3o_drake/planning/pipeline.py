@@ -88,7 +88,8 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
             budget = known.planner.time_budget if time_budget is None else time_budget
             left = max(budget - (time.perf_counter() - t0), 1.0)
             result = _plan(known, method, maps, seed, left, n_sequences, workers, t0)
-    return dataclasses.replace(result, heatmaps=maps)
+    # The plan's own heatmaps: Fea^m restricted to free stops, as the plan was made.
+    return dataclasses.replace(result, heatmaps=result.heatmaps or maps)
 
 
 def _plan(known: KnownWorld, method: str, heatmaps, seed: int, time_budget: float | None,

@@ -17,7 +17,8 @@ and calls it. It runs
   order, K draws, the cheapest kept; Fea^m only scores it (`petlon.py`);
 - **S3O-Random**: K state spaces drawn uniformly among all candidates, GROP* on each.
 
-The plan of highest utility wins (V-PETLON: least navigation cost).
+The plan of highest utility wins (V-PETLON: least navigation cost). Every method commands
+only stops that are free as planned (Fea^m 0 elsewhere, `feasibility/stops.py`).
 
 Costs for the task planner. Location-to-location costs are the collision-free path lengths
 between the locations' representative points, divided by v, x10, as integers. A location's
@@ -74,9 +75,10 @@ from s3o_drake.abstraction import (
     voronoi_partition,
 )
 from s3o_drake.abstraction.location_grid import LocationGrid
-from s3o_drake.abstraction.motion_feasibility import as_motion_feasibility
+from s3o_drake.abstraction.motion_feasibility import as_motion_feasibility, heatmap_tuple
 from s3o_drake.abstraction.voronoi import VoronoiPartition
 from s3o_drake.angles import facing_yaw
+from s3o_drake.feasibility.stops import FreeStops
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.motion_search import (
     MotionResult,
@@ -87,6 +89,7 @@ from s3o_drake.planning.motion_search import (
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.petlon import COST_SCALE, petlon
 from s3o_drake.planning.plan import Goto, Pickup, PlanAction, TaskMotionPlan, samples_tuple
+from s3o_drake.planning.result import PlanningResult
 from s3o_drake.planning.task_planner import (
     START,
     TaskPlanningTimeoutError,
@@ -112,33 +115,6 @@ class PlanningError(RuntimeError):
 
 class PlanningTimeoutError(PlanningError, TimeoutError):
     """The time budget expired before any plan was found."""
-
-
-@dataclass(frozen=True)
-class PlanningResult:
-    """What planning from a KnownWorld produced: the plan, or why there is none, and what
-    the plan was made on, so that execution and the pictures use the same things."""
-
-    known: KnownWorld
-    """What the robot knew: the plan starts at `known.pose`."""
-    method: str
-    seed: int
-    plan: TaskMotionPlan | None
-    error: str = ""
-    """Why there is no plan ("" when there is one)."""
-    heatmaps: tuple = ()
-    """The Fea^m heatmaps the plan was made with."""
-    navigation: NavigationMap | None = None
-    """The navigation map the plan was costed on; the execution re-paths its drives on it."""
-    partition: VoronoiPartition | None = None
-    """The plain Voronoi cells of the dishes (every method but the empty plan)."""
-    abstraction: Abstraction | None = None
-    """S3O's ranked state spaces (the S3O methods; None for the V- methods)."""
-    grid: LocationGrid | None = None
-    """The location grid Fea^t, the representative points and the motion search read
-    (None for V-PETLON, which samples no grid, and the empty plan)."""
-    planning_time: float = 0.0
-    """Wall time (s) spent: perception, Fea^m and the search (the plan's own figure)."""
 
 
 @dataclass
@@ -326,7 +302,6 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     budget = known.planner.time_budget if time_budget is None else float(time_budget)
     deadline = t_start + budget
     planner = known.planner
-    fea = as_motion_feasibility(heatmaps)
     start = np.asarray(known.pose[:2], dtype=float)
     timing = {"feasibility": float(feasibility_time), "navigation": 0.0, "abstraction": 0.0,
               "task_planning": 0.0, "motion_search": 0.0}
@@ -352,6 +327,12 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
             raise PlanningTimeoutError(f"{method}: the time budget of {budget:g} s expired during "
                                   f"{stage}, before any plan was found")
         return True
+
+    t = time.monotonic()  # only stops free as planned are commanded (feasibility/stops.py)
+    stops = FreeStops(known)
+    fea = as_motion_feasibility(heatmaps := stops.restrict_source(heatmaps))
+    timing["feasibility"] += time.monotonic() - t
+    expired("the free stops")
 
     t = time.monotonic()
     nav = NavigationMap(known.obstacles)
@@ -387,7 +368,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         regions = location_regions(groups, cells)
         result = petlon(groups, regions, fea, nav, start, planner,
                         rng=np.random.default_rng([seed, _PETLON]), draws=iterations,
-                        unreachable=partition.unreachable, deadline=deadline, costs=costs)
+                        unreachable=partition.unreachable, deadline=deadline, costs=costs,
+                        free=stops.free)
         timing["task_planning"] += result.task_time
         timing["motion_search"] += result.motion_time
         complete = result.draws == iterations
@@ -397,8 +379,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
                          time.monotonic() - t_start + feasibility_time, result.draws,
                          result.draws, complete)
         return PlanningResult(known=known, method=method, seed=int(seed), plan=made,
-                              navigation=nav, partition=partition,
-                              planning_time=made.planning_time)
+                              heatmaps=heatmap_tuple(heatmaps), navigation=nav,
+                              partition=partition, planning_time=made.planning_time)
 
     # The state spaces to search, one per iteration.
     rng = np.random.default_rng([seed, _ORDER])
@@ -433,8 +415,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     made = _assemble(method, seed, best, known, nav, timing,
                      time.monotonic() - t_start + feasibility_time, searches, samples, complete)
     return PlanningResult(known=known, method=method, seed=int(seed), plan=made, navigation=nav,
-                          partition=partition, abstraction=abstraction, grid=grid,
-                          planning_time=made.planning_time)
+                          heatmaps=heatmap_tuple(heatmaps), partition=partition, grid=grid,
+                          abstraction=abstraction, planning_time=made.planning_time)
 
 
 def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, grid, nav, start,

@@ -1,0 +1,102 @@
+"""Stops the planner may command: base poses that are free in the world the robot knows.
+
+Fea^m(y, o) models a base *sent to* y facing o: where that pose collides, the landing
+model (`landing.stop_short`) has the base step back along its heading, towards free space.
+The execution does not drive that way: the BaseNavigator stops at the last free pose along
+the path it drives, which comes in from wherever the previous stop was. At a planned stop
+that collides the two disagree, and the calibration study measured it: on 152 executed
+pickups (26 generated tasks, S3O-GROP* and V-PETLON, seed 0), the 28 planned at stops
+that collide in the true world succeeded 0.86 of the time at ECE 0.14, every `no_ik`
+among them, against 0.98 and ECE 0.02 at free stops (docs/calibration.md).
+
+So the planner commands only stops that are free as planned: the robot, arm stowed, at the
+stop and facing the dish, passes the known world's collision check (`FeasibilityChecker.
+base_free`: its map, the perceived chairs, the remaining dishes; the same check and
+padding as the execution's). Only the landing noise can then push the base into a
+collision, by a few centimetres, where stepping back along the heading and along the path
+end close together.
+
+- `FreeStops.restrict(heatmap)` sets Fea^m to 0 in the cells where a stop is not free:
+  the cell's centre and its four corners must be free, so that a continuous position of
+  the motion search inside a kept cell is free too (the heatmap is read per cell).
+- `FreeStops.free(points, dish)` tests exact positions (V-PETLON's random goals).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from s3o_drake.angles import facing_yaw
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.known_world import KnownWorld
+
+#: A cell's centre and corners, in cells from its lower-left corner.
+_CORNERS = ((0, 0), (0, 1), (1, 0), (1, 1))
+
+
+class FreeStops:
+    """The known world's free-stop test (see the module docstring)."""
+
+    def __init__(self, known: KnownWorld):
+        scene = FeasibilityScene(known.as_scenario(), obstacles=known.obstacles)
+        # Only base_free is asked: no reachability map is needed ("ik" loads none).
+        self._checker = FeasibilityChecker(scene, method="ik")
+        self._p_WD = {d: scene.dish_p_WD(d)[0][:2] for d in known.dish_names}
+
+    def free(self, points: np.ndarray, dish: str) -> np.ndarray:
+        """Whether the base at each position of `points` (n, 2), facing `dish`, is
+        collision-free in the known world: bool (n,)."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        if len(points) == 0:
+            return np.zeros(0, dtype=bool)
+        yaw = facing_yaw(points, self._p_WD[dish])
+        return self._checker.base_free(np.column_stack([points, yaw]))
+
+    def free_cells(self, heatmap: Heatmap) -> np.ndarray:
+        """Cells (rows, cols) of `heatmap` with Fea^m > 0 whose centre and four corners are
+        free stops for its dish; cells with Fea^m 0 are not tested (False)."""
+        values = heatmap.values
+        rows, cols = values.shape
+        need = values > 0
+        corner_need = np.zeros((rows + 1, cols + 1), dtype=bool)
+        for di, dj in _CORNERS:
+            corner_need[di:di + rows, dj:dj + cols] |= need
+        corner_free = self._lattice_free(heatmap, corner_need, 0.0)
+        centre_free = self._lattice_free(heatmap, need, 0.5)
+        ok = need & centre_free
+        for di, dj in _CORNERS:
+            ok &= corner_free[di:di + rows, dj:dj + cols]
+        return ok
+
+    def restrict(self, heatmap: Heatmap) -> Heatmap:
+        """`heatmap` with Fea^m 0 wherever a stop is not free (`free_cells`)."""
+        return dataclasses.replace(heatmap, values=np.where(self.free_cells(heatmap),
+                                                            heatmap.values, 0.0))
+
+    def restrict_all(self, heatmaps: Sequence[Heatmap]) -> tuple[Heatmap, ...]:
+        """`restrict` of each heatmap whose dish the known world holds (others as given)."""
+        return tuple(self.restrict(h) if h.dish in self._p_WD else h for h in heatmaps)
+
+    def restrict_source(self, heatmaps):
+        """`restrict_all` of a list, tuple or mapping (dish -> Heatmap) of heatmaps, in a
+        container of the same kind; any other Fea^m source is returned as given."""
+        if isinstance(heatmaps, Mapping):
+            return dict(zip(heatmaps, self.restrict_all(list(heatmaps.values())), strict=True))
+        if isinstance(heatmaps, (list, tuple)):
+            return self.restrict_all(heatmaps)
+        return heatmaps
+
+    def _lattice_free(self, heatmap: Heatmap, where: np.ndarray, offset: float) -> np.ndarray:
+        """Free-stop test at the lattice points (x0 + (j + offset) cell, y0 + (i + offset)
+        cell) where `where` (i, j) holds; False elsewhere."""
+        out = np.zeros(where.shape, dtype=bool)
+        i, j = np.nonzero(where)
+        points = np.column_stack([heatmap.x0 + (j + offset) * heatmap.cell,
+                                  heatmap.y0 + (i + offset) * heatmap.cell])
+        out[i, j] = self.free(points, heatmap.dish)
+        return out
