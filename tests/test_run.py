@@ -41,7 +41,7 @@ def test_without_noise_every_dish_is_collected(exact_run):
     report = json.loads((out / "report.json").read_text())
     assert report["collected"] == report["dishes"] == 2
     assert sorted(report["collected_dishes"]) == ["cup_b", "plate_a"]
-    assert report["finished"] and report["reason"] == "plan complete"
+    assert report["finished"] and report["reason"] == "plan ended"
     assert all(outcome == "done" for _, _, outcome in report["outcomes"])
     # Execution time is simulated time: the drive and two pickups of 10-20 s each; the
     # plan predicted it (tests/test_time_model.py holds the model to the simulation).
@@ -175,3 +175,45 @@ def test_the_learned_heatmaps_plan_by_the_scenario_switch(tmp_path):
     assert run_main([str(SMALL), "--out", str(out), "--no-noise", "--feasibility", "fcn"]) == 0
     report = json.loads((out / "report.json").read_text())
     assert report["feasibility"] == "fcn" and report["collected"] == 2
+
+
+def _report(**changes) -> dict:
+    """A report.json's data as the run writes it, for the summary's words."""
+    report = {"dishes": 2, "collected": 2, "collected_dishes": ["cup_b", "plate_a"],
+              "execution_time": 40.0, "finished": True, "reason": "plan ended",
+              "outcomes": [["goto", "l0", "done"], ["pickup", "plate_a", "done"],
+                           ["pickup", "cup_b", "done"]],
+              "pickups": [], "recoveries": [], "unreachable": [], "planning_time": 3.861,
+              "wall_time": 4.0, "realtime_rate": 10.0, "simulated_time": 41.0}
+    return {**report, **changes}
+
+
+def test_the_summary_says_complete_only_when_every_dish_was_collected():
+    from s3o_drake.commands.run import describe_execution
+
+    assert describe_execution(_report()).endswith("plan ended: every dish collected.")
+    missed = _report(collected=1, collected_dishes=["plate_a"], outcomes=[
+        ["goto", "l0", "done"], ["pickup", "plate_a", "done"], ["pickup", "cup_b",
+                                                                 "failed: no_ik"]])
+    text = describe_execution(missed)
+    assert text.endswith("plan ended: 1 pickup failed (cup_b).") and "complete" not in text
+    # A failed attempt that a retry made good is no failure of the run.
+    retried = _report(outcomes=[["goto", "l0", "done"], ["pickup", "cup_b", "failed: no_ik"],
+                                ["pickup", "cup_b", "done"], ["pickup", "plate_a", "done"]])
+    assert describe_execution(retried).endswith("plan ended: every dish collected.")
+    lost = _report(collected=1, collected_dishes=["plate_a"], unreachable=["cup_b"])
+    assert describe_execution(lost).endswith("plan ended: 1 dish unreachable (cup_b).")
+    blocked = _report(reason="goto l0 failed: blocked", collected=0, collected_dishes=[])
+    assert describe_execution(blocked).endswith("; goto l0 failed: blocked.")
+
+
+def test_the_terminal_reports_one_planning_time(exact_run):
+    """The plan's "planned in" and the summary's "planning took" are one figure when the
+    run planned once (the planner sums the plans' own planning times)."""
+    _, out, printed = exact_run
+    report = json.loads((out / "report.json").read_text())
+    assert not any(r["kind"] == "replan" for r in report["recoveries"])
+    plan = TaskMotionPlan.read(out / "plan.json")
+    assert report["planning_time"] == pytest.approx(plan.planning_time, abs=1e-9)
+    figures = set(re.findall(r"(?:planned in|planning took) ([0-9.]+) s", printed))
+    assert figures == {f"{plan.planning_time:.2f}"}

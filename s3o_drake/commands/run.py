@@ -70,6 +70,7 @@ from s3o_drake.commands.common import (
     read_scenario,
     start_meshcat,
 )
+from s3o_drake.execution.messages import ran_to_end
 from s3o_drake.io import write_atomically
 from s3o_drake.planning.plan import Goto, TaskMotionPlan
 
@@ -122,12 +123,34 @@ def describe_execution(report: dict) -> str:
     if report.get("unreachable"):
         lines.append(f"Unreachable (no free pose of the known map can pick them): "
                      f"{', '.join(report['unreachable'])}")
+    plans = 1 + sum(r["kind"] == "replan" for r in recoveries)
     lines.append(f"Collected {report['collected']} of {report['dishes']} dishes in "
                  f"{report['execution_time']:.1f} s of execution (simulated); planning took "
-                 f"{report['planning_time']:.1f} s; simulated {report['simulated_time']:.1f} s "
-                 f"in {report['wall_time']:.1f} s ({report['realtime_rate']:.1f}x real time); "
-                 f"{report['reason']}.")
+                 f"{report['planning_time']:.2f} s"
+                 + (f" in all ({plans} plans)" if plans > 1 else "")
+                 + f"; simulated {report['simulated_time']:.1f} s in {report['wall_time']:.1f} s "
+                 f"({report['realtime_rate']:.1f}x real time); {ending(report)}.")
     return "\n".join(lines)
+
+
+def ending(report: dict) -> str:
+    """Why the run ended, in words that are true: a plan that ran to its end says which
+    dishes it did not collect (a failed pickup is not "complete")."""
+    if not ran_to_end(report["reason"]):
+        return report["reason"]  # e.g. "goto l1 failed: blocked", "no plan: ..."
+    collected = set(report["collected_dishes"])
+    unreachable = [d for d in report.get("unreachable", []) if d not in collected]
+    failed = sorted({dish for action, dish, outcome in report["outcomes"]
+                     if action == "pickup" and outcome != "done"} - collected - set(unreachable))
+    missed = [f"{len(failed)} pickup{'s' if len(failed) > 1 else ''} failed "
+              f"({', '.join(failed)})"] if failed else []
+    if unreachable:
+        missed.append(f"{len(unreachable)} dish{'es' if len(unreachable) > 1 else ''} "
+                      f"unreachable ({', '.join(unreachable)})")
+    if not missed and report["collected"] == report["dishes"]:
+        return "plan ended: every dish collected"
+    return "plan ended: " + ("; ".join(missed) or
+                             f"{report['dishes'] - report['collected']} dishes not collected")
 
 
 def _write_pictures(scenario: Scenario, run: Execution, out: Path) -> list[Path]:
