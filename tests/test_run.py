@@ -217,3 +217,26 @@ def test_the_terminal_reports_one_planning_time(exact_run):
     assert report["planning_time"] == pytest.approx(plan.planning_time, abs=1e-9)
     figures = set(re.findall(r"(?:planned in|planning took) ([0-9.]+) s", printed))
     assert figures == {f"{plan.planning_time:.2f}"}
+
+
+def test_the_terminal_numbers_stops_and_names_locations_as_plan_json(exact_run):
+    _, out, printed = exact_run
+    plan = TaskMotionPlan.read(out / "plan.json")
+    for k, goto in enumerate(plan.gotos, 1):
+        assert f"goto {goto.location:<4} (stop {k}) to" in printed
+
+
+def test_the_outputs_show_the_latest_plan():
+    """After a replan the outputs show the plan of what remained (and the state space it
+    searched); when the replan found none, the plan before it."""
+    import types
+
+    from s3o_drake.commands.run import latest_plan
+
+    first, replanned = object(), object()
+    run = types.SimpleNamespace(plan=first, result=types.SimpleNamespace(plan=replanned))
+    assert latest_plan(run) is replanned
+    run.result.plan = None
+    assert latest_plan(run) is first
+    run.result = None
+    assert latest_plan(run) is first
