@@ -4,9 +4,12 @@ clear of the dish names (checked on the labels the figure functions return, not 
 import numpy as np
 import pytest
 
+from s3o_drake.camera import overhead_camera
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.pictures import (
+    feasibility_figure,
+    overhead_figure,
     plan_figure,
     search_figure,
     state_space_figure,
@@ -73,3 +76,25 @@ def test_the_state_space_picture_says_the_rank_of_the_one_the_plan_searched(resu
     ranks = [i for i, s in enumerate(result.abstraction.ranked)
              if {frozenset(g) for g in s.groups} == {frozenset(g) for g in result.plan.groups}]
     assert ranks and f"ranked {ranks[0] + 1} of {result.abstraction.count}" in title
+
+
+def test_feasibility_shows_each_dish_in_a_panel_of_its_own(scenario, heatmaps, top_view,
+                                                            tmp_path):
+    labels = feasibility_figure(scenario, top_view, heatmaps, tmp_path / "feasibility.png")
+    assert labels.panels == tuple(h.dish for h in heatmaps) == ("plate_a", "cup_b")
+    assert (tmp_path / "feasibility.png").stat().st_size > 10_000
+
+
+def test_overhead_picture_has_axes_in_metres(scenario, tmp_path):
+    """The camera's image is drawn over the floor it sees: its outer pixels' edges are the
+    extent's corners, and the room lies inside."""
+    camera = overhead_camera(scenario)
+    x0, x1, y0, y1 = camera.floor_extent()
+    assert camera.pixel_of([x0, y1, 0.0]) == pytest.approx([-0.5, -0.5])
+    assert camera.pixel_of([x1, y0, 0.0]) == pytest.approx([camera.width - 0.5,
+                                                            camera.height - 0.5])
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    assert x0 < x_min < x_max < x1 and y0 < y_min < y_max < y1
+    color = np.full((camera.height, camera.width, 3), 120, dtype=np.uint8)
+    labels = overhead_figure(scenario, camera, color, tmp_path / "overhead.png")
+    assert "metres" in labels.title and (tmp_path / "overhead.png").stat().st_size > 5_000

@@ -15,7 +15,6 @@ import cv2
 import pytest
 
 from s3o_drake.angles import facing_yaw, wrap
-from s3o_drake.camera import overhead_camera
 from s3o_drake.commands.run import main as run_main
 from s3o_drake.execution.messages import PickupRecord
 from s3o_drake.planning.plan import TaskMotionPlan
@@ -87,13 +86,11 @@ def test_outputs_are_written_and_open(exact_run):
     for name in ("table", "chair", "plate_a", "cup_b", "base_link", "gripper_base",
                  "animation"):
         assert name.encode() in commands, name
-    image = cv2.imread(str(out / "overhead.png"))
-    camera = overhead_camera(load_scenario(SMALL))
-    assert image is not None and image.shape == (camera.height, camera.width, 3)
-    assert image.std() > 10  # a picture, not a blank
-    for name in ("feasibility.png", "state_space.png", "plan.png", "search.png"):
+    for name in ("overhead.png", "feasibility.png", "state_space.png", "plan.png",
+                 "search.png"):
         picture = cv2.imread(str(out / name))
         assert picture is not None and picture.shape[0] > 300, name
+        assert picture.std() > 10, name  # a picture, not a blank
 
 
 @pytest.mark.skipif(shutil.which("chromium") is None, reason="needs Chromium (.ci/run installs it)")

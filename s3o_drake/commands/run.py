@@ -37,10 +37,10 @@ Outputs, in `out/<scenario file stem>/` unless --out or `outputs.directory` says
   plan.json       the task-motion plan (actions, base poses, paths, expected utility,
                   predicted time, Fea^m per pickup, planning time and its breakdown)
   playback.html   a self-contained Meshcat recording of the execution; open it in a browser
-  overhead.png    the overhead camera's colour image at the start
+  overhead.png    the overhead camera's colour image at the start, axes in metres
   feasibility.png each dish's Fea^m heatmap (4 m x 4 m, 64 x 64 cells) as the planner used
                   it (planner.feasibility: the network, or the Drake check under the
-                  scenario's noise) over a top view of the room
+                  scenario's noise) over a top view of the room, a panel per dish
   state_space.png the S3O state space the plan searched and its rank (Voronoi cells of
                   the free base positions, merged where that scores best) over the same
                   heatmaps, locations named as in plan.json
@@ -165,6 +165,7 @@ def _write_pictures(scenario: Scenario, run: Execution, plan: TaskMotionPlan | N
     from s3o_drake.camera import orthophoto, overhead_camera
     from s3o_drake.planning.pictures import (
         feasibility_figure,
+        overhead_figure,
         plan_figure,
         search_figure,
         state_space_figure,
@@ -173,6 +174,9 @@ def _write_pictures(scenario: Scenario, run: Execution, plan: TaskMotionPlan | N
     written = []
     camera = overhead_camera(scenario)
     color, depth = run.images
+    if scenario.outputs.overhead:
+        overhead_figure(scenario, camera, color, out / "overhead.png")
+        written.append(out / "overhead.png")
     result = run.result
     heatmaps = list(result.heatmaps) if result is not None else []
     if not heatmaps and plan is None:
@@ -257,8 +261,6 @@ def main(argv: list[str] | None = None) -> int:
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} exists and is not a folder")
 
-    import cv2
-
     from s3o_drake.execution.execute import execute
 
     if not args.meshcat:  # the recording needs a Meshcat, but nobody is watching it live
@@ -283,10 +285,6 @@ def main(argv: list[str] | None = None) -> int:
     if scenario.outputs.playback:
         write_atomically(out / "playback.html", run.html)
         written.append(out / "playback.html")
-    if scenario.outputs.overhead:
-        _, png = cv2.imencode(".png", cv2.cvtColor(run.images[0], cv2.COLOR_RGB2BGR))
-        write_atomically(out / "overhead.png", png.tobytes())
-        written.append(out / "overhead.png")
     written += _write_pictures(scenario, run, plan, out)
 
     plans = 1 + sum(r["kind"] == "replan" for r in report.get("recoveries", []))

@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from matplotlib.text import Text
 
     from s3o_drake.abstraction.ranking import StateSpace
+    from s3o_drake.camera import OverheadCamera
     from s3o_drake.planning.plan import TaskMotionPlan
     from s3o_drake.planning.planner import PlanningResult
 
@@ -181,29 +182,65 @@ def _scenario_dishes(scenario: Scenario, unreachable: Sequence[str] = (),
 
 def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
                        path: Path, *, title: str = "") -> Labels:
-    """Each dish's Fea^m heatmap over the top view of the room (the paper's Fig. 3, left).
+    """Each dish's Fea^m heatmap in a panel of its own over the top view (small multiples:
+    where one dish's map overlaps another's, both stay readable), zoomed to the heatmap's
+    crop; the panel's dish is named, the others are small grey dots.
 
     `top_view` is an orthophoto of the room (row 0 north) spanning `scenario.room.bounds`.
-    Where two crops overlap, the larger probability shows.
     """
     x_min, y_min, x_max, y_max = scenario.room.bounds
-    fig, ax = plt.subplots(figsize=(10, 10 * (y_max - y_min) / (x_max - x_min)))
-    ax.imshow(top_view, extent=(x_min, x_max, y_min, y_max), origin="upper")
-    image = _heatmap_layer(ax, scenario, heatmaps, alpha=0.75)
-    fig.colorbar(image, ax=ax, fraction=0.03, pad=0.02, label="Fea$^m$ (probability of a pick)")
-    for dish in scenario.dishes:
-        ax.plot(*dish.position, marker="o", markersize=5, color="cyan", markeredgecolor="k")
-        ax.annotate(dish.name, dish.position, xytext=(4, 4), textcoords="offset points",
-                    fontsize=8, color="k",
-                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "alpha": 0.7})
-    ax.set_xlim(x_min, x_max)
-    ax.set_ylim(y_min, y_max)
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
+    cols = min(3, max(1, len(heatmaps)))
+    rows = max(1, -(-len(heatmaps) // cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 4.4 * rows + 0.6), squeeze=False)
+    where = {d.name: d.position for d in scenario.dishes}
+    image = None
+    for ax, heatmap in zip(axes.flat, heatmaps, strict=False):
+        hx0, hx1, hy0, hy1 = heatmap.extent
+        limits = (max(hx0, x_min), max(hy0, y_min), min(hx1, x_max), min(hy1, y_max))
+        _room_axes(scenario, top_view, ax, limits)
+        shown = np.ma.masked_where(heatmap.values <= 0.0, heatmap.values)
+        image = ax.imshow(shown, extent=heatmap.extent, origin="lower", cmap="plasma",
+                          vmin=0.0, vmax=1.0, alpha=0.75, interpolation="nearest")
+        others = [p for name, p in where.items() if name != heatmap.dish]
+        if others:
+            ax.plot(*np.asarray(others).T, marker="o", markersize=3, color="0.6",
+                    linestyle="none")
+        names, marks = _name_dishes(ax, [(heatmap.dish, where[heatmap.dish], "cyan", False)])
+        _declutter(ax, names, marks)
+        ax.set_title(heatmap.dish, fontsize=11)
+    for ax in axes.flat[len(heatmaps):]:
+        ax.set_visible(False)
+    if image is not None:
+        fig.colorbar(image, ax=axes, fraction=0.03, pad=0.02,
+                     label="Fea$^m$ (probability of a pick)")
     title = title or "Motion-level feasibility of each dish (base yaw facing the dish)"
-    ax.set_title(title)
+    fig.suptitle(title)
     write_atomically(path, _figure_bytes(fig))
     return Labels(title=title, panels=tuple(h.dish for h in heatmaps))
+
+
+def overhead_figure(scenario: Scenario, camera: "OverheadCamera", color: np.ndarray,
+                    path: Path) -> Labels:
+    """The overhead camera's colour image with axes in metres: the camera looks straight
+    down, so its pixels are a uniform grid on the floor, and the axes are true there
+    (tables and chairs stand taller and lean outwards by perspective). The room's walls
+    are outlined."""
+    from shapely.geometry import box
+    from shapely.plotting import plot_polygon
+
+    x0, x1, y0, y1 = camera.floor_extent()
+    fig, ax = plt.subplots(figsize=(10, 10 * (y1 - y0) / (x1 - x0)))
+    ax.imshow(color, extent=(x0, x1, y0, y1), origin="upper")
+    plot_polygon(box(*scenario.room.bounds), ax=ax, add_points=False, facecolor="none",
+                 edgecolor="white", linewidth=1.0, linestyle="--")
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    title = "The overhead camera's image (axes: metres on the floor; dashed: the room)"
+    ax.set_title(title)
+    write_atomically(path, _figure_bytes(fig))
+    return Labels(title=title)
 
 
 def _searched_state(result: "PlanningResult") -> tuple["StateSpace | None", int | None]:
