@@ -423,7 +423,8 @@ def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan"
     crowded = _declutter(ax, labels + fea_labels, marks)
     count = len(plan.gotos)
     title = title or (f"{plan.method}: {count} stop{'s' if count != 1 else ''} "
-                      f"(number · location), {len(plan.pickups)} pickups, predicted "
+                      f"(number · location), {len(plan.pickups)} pickup"
+                      f"{'s' if len(plan.pickups) != 1 else ''}, predicted "
                       f"{plan.predicted_time:.0f} s, utility {plan.utility:.1f} "
                       "(on the dotted lines: Fea$^m$)")
     ax.set_title(title, fontsize=11)
