@@ -46,6 +46,14 @@ class OverheadCamera:
                         (v - self.height / 2 + 0.5) * depth / f, depth])
         return self.X_WC @ p_C
 
+    def floor_extent(self) -> tuple[float, float, float, float]:
+        """(x_min, x_max, y_min, y_max) of the floor the image spans, edge to edge of its
+        outer pixels: looking straight down, the pixels are a uniform grid on the floor,
+        so this is the extent to draw the image at (matplotlib's `extent`)."""
+        x_min, y_max = self.point_at(-0.5, -0.5, 0.0)[:2]
+        x_max, y_min = self.point_at(self.width - 0.5, self.height - 0.5, 0.0)[:2]
+        return float(x_min), float(x_max), float(y_min), float(y_max)
+
 
 def overhead_camera(scenario: Scenario) -> OverheadCamera:
     """The camera that sees the whole room (and the margin) at the scenario's resolution."""

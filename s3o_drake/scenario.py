@@ -208,7 +208,7 @@ class Outputs:
     feasibility: bool = True
     """Draw each dish's Fea^m heatmap (feasibility.png)."""
     state_space: bool = True
-    """Draw the top-ranked S3O state space over the heatmaps (state_space.png)."""
+    """Draw the S3O state space the plan searched, with its rank (state_space.png)."""
 
 
 @dataclass

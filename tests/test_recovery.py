@@ -226,7 +226,7 @@ def test_in_simulation_a_blocked_path_is_replanned():
     assert report["outcomes"][0] == ["goto", "l0", "failed: blocked"]
     (replan,) = report["recoveries"]
     assert replan["kind"] == "replan" and len(looks) == 2
-    assert report["collected"] == 1 and report["reason"] == "plan complete"
+    assert report["collected"] == 1 and report["reason"] == "plan ended"
 
 
 def test_in_simulation_a_dish_behind_a_wall_is_reported_unreachable_quickly():
@@ -252,13 +252,18 @@ def test_a_study_s_recovery_figures_count_what_the_runs_report():
          "pickups": [pickup("c", "done")],
          "recoveries": [{"kind": "replan", "cost": 0.0, "planning_time": 3.0}]},
         {"task": "t1", "method": "M", "error": "RuntimeError: x"},
+        # Results written before issue 18 said "plan complete" for a plan that ran to its
+        # end; those of now say "plan ended". Neither ended early.
+        {"task": "t2", "method": "M", "complete": False, "reason": "plan ended",
+         "pickups": [pickup("f", "no_ik")], "recoveries": []},
     ]
-    areas = {"t0": {"a": 0.5, "b": 0.2}, "t1": {"c": 0.4, "d": 0.3, "e": 0.0}}
+    areas = {"t0": {"a": 0.5, "b": 0.2}, "t1": {"c": 0.4, "d": 0.3, "e": 0.0},
+             "t2": {"f": 0.0}}
     f = recovery_figures(runs, ["M"], areas)["M"]
-    assert f["runs"] == 2 and f["complete"] == 1 and f["runs_with_recovery"] == 2
+    assert f["runs"] == 3 and f["complete"] == 1 and f["runs_with_recovery"] == 2
     assert f["recoveries"] == {"correction": 1, "retry": 1, "replan": 1}
-    assert f["cost_per_run"] == pytest.approx(5.5)
-    assert f["replan_planning_per_run"] == pytest.approx(1.5)
+    assert f["cost_per_run"] == pytest.approx(11.0 / 3)
+    assert f["replan_planning_per_run"] == pytest.approx(1.0)
     # e cannot be picked from any free pose: not counted against the run.
     assert (f["pickable"], f["pickable_collected"]) == (4, 3)
     assert f["pickable_missed"] == ["t1/d"] and f["ended_early"] == 1

@@ -105,7 +105,7 @@ def test_walks_the_plan_on_the_controllers_reports(scenario):
         _step(system, context)  # reads the report, advances
     assert sent == sorted(set(sent))  # a fresh id per command
     progress = system.GetOutputPort("progress").Eval(context)
-    assert progress.finished and progress.reason == "plan complete"
+    assert progress.finished and progress.reason == "plan ended"
     outcomes = [o for _, _, o in progress.outcomes]
     assert outcomes.count("failed: missed") == 1 and len(outcomes) == len(plan.actions)
 

@@ -31,7 +31,7 @@ RECORDS = (
                  planned_pose=(1.0, 2.0, 0.5), actual_pose=(1.05, 1.9, 0.8),
                  outcome="missed", reach_noise=(0.03, 0.02)),
 )
-DONE = PlanProgress(step=4, total=4, finished=True, reason="plan complete",
+DONE = PlanProgress(step=4, total=4, finished=True, reason="plan ended",
                     outcomes=(ActionOutcome("goto", "l1", done=True),
                               ActionOutcome("pickup", "plate_a", done=True),
                               ActionOutcome("pickup", "cup_b", done=False, reason="missed")),
@@ -70,7 +70,7 @@ def test_execution_time_is_when_the_plan_finished():
     _force_check(monitor, context)
     context.SetTime(14.0)
     report = monitor.GetOutputPort("report").Eval(context)
-    assert report.finished and report.reason == "plan complete"
+    assert report.finished and report.reason == "plan ended"
     assert report.execution_time == pytest.approx(12.5)
     assert report.to_dict()["outcomes"] == [["goto", "l1", "done"], ["pickup", "plate_a", "done"],
                                   ["pickup", "cup_b", "failed: missed"]]

@@ -37,13 +37,15 @@ Outputs, in `out/<scenario file stem>/` unless --out or `outputs.directory` says
   plan.json       the task-motion plan (actions, base poses, paths, expected utility,
                   predicted time, Fea^m per pickup, planning time and its breakdown)
   playback.html   a self-contained Meshcat recording of the execution; open it in a browser
-  overhead.png    the overhead camera's colour image at the start
+  overhead.png    the overhead camera's colour image at the start, axes in metres
   feasibility.png each dish's Fea^m heatmap (4 m x 4 m, 64 x 64 cells) as the planner used
                   it (planner.feasibility: the network, or the Drake check under the
-                  scenario's noise) over a top view of the room
-  state_space.png the top-ranked S3O state space (Voronoi cells of the free base positions,
-                  merged where that scores best) over the same heatmaps
-  plan.png        the plan over the top view: paths, stops, which dish from which stop
+                  scenario's noise) over a top view of the room, a panel per dish
+  state_space.png the S3O state space the plan searched and its rank (Voronoi cells of
+                  the free base positions, merged where that scores best) over the same
+                  heatmaps, locations named as in plan.json
+  plan.png        the plan over the top view: paths, stops ("1 · l2": the first stop, at
+                  location l2), which dish from which stop
   search.png      the winning CMA-ES search's first and last generation (the paper's Fig. 4)
 
 Exit status: 0 when every dish was collected, 1 when the task was not completed (no plan,
@@ -70,6 +72,7 @@ from s3o_drake.commands.common import (
     read_scenario,
     start_meshcat,
 )
+from s3o_drake.execution.messages import ran_to_end
 from s3o_drake.io import write_atomically
 from s3o_drake.planning.plan import Goto, TaskMotionPlan
 
@@ -81,14 +84,17 @@ TOP_VIEW_CELL = 0.02  # m per pixel of the pictures' top view
 
 
 def describe_plan(p: TaskMotionPlan) -> str:
-    """The plan as a person reads it: one line per action, then the figures."""
+    """The plan as a person reads it: one line per action, then the figures. Locations are
+    named as in plan.json and state_space.png, stops numbered as in plan.png."""
     lines = [f"{p.method} plan (seed {p.seed}): {len(p.gotos)} stops, {len(p.pickups)} pickups"
              + (f", unreachable: {', '.join(p.unreachable)}" if p.unreachable else "")]
+    stops = 0
     for i, a in enumerate(p.actions, 1):
         if isinstance(a, Goto):
+            stops += 1
             x, y, yaw = a.pose
-            lines.append(f"  {i:2d}. goto {a.location:<4} to ({x:5.2f}, {y:5.2f}) m, "
-                         f"yaw {yaw:+.2f} rad, path {a.length:.2f} m")
+            lines.append(f"  {i:2d}. goto {a.location:<4} (stop {stops}) to ({x:5.2f}, "
+                         f"{y:5.2f}) m, yaw {yaw:+.2f} rad, path {a.length:.2f} m")
         else:
             lines.append(f"  {i:2d}. pickup {a.dish} (Fea^m {a.feasibility:.2f})")
     t = p.timing
@@ -122,45 +128,87 @@ def describe_execution(report: dict) -> str:
     if report.get("unreachable"):
         lines.append(f"Unreachable (no free pose of the known map can pick them): "
                      f"{', '.join(report['unreachable'])}")
+    plans = 1 + sum(r["kind"] == "replan" for r in recoveries)
     lines.append(f"Collected {report['collected']} of {report['dishes']} dishes in "
                  f"{report['execution_time']:.1f} s of execution (simulated); planning took "
-                 f"{report['planning_time']:.1f} s; simulated {report['simulated_time']:.1f} s "
-                 f"in {report['wall_time']:.1f} s ({report['realtime_rate']:.1f}x real time); "
-                 f"{report['reason']}.")
+                 f"{report['planning_time']:.2f} s"
+                 + (f" in all ({plans} plans)" if plans > 1 else "")
+                 + f"; simulated {report['simulated_time']:.1f} s in {report['wall_time']:.1f} s "
+                 f"({report['realtime_rate']:.1f}x real time); {ending(report)}.")
     return "\n".join(lines)
 
 
-def _write_pictures(scenario: Scenario, run: Execution, out: Path) -> list[Path]:
-    """The pictures of what the plan was made on (the latest planning's result)."""
+def ending(report: dict) -> str:
+    """Why the run ended, in words that are true: a plan that ran to its end says which
+    dishes it did not collect (a failed pickup is not "complete")."""
+    if not ran_to_end(report["reason"]):
+        return report["reason"]  # e.g. "goto l1 failed: blocked", "no plan: ..."
+    collected = set(report["collected_dishes"])
+    unreachable = [d for d in report.get("unreachable", []) if d not in collected]
+    failed = sorted({dish for action, dish, outcome in report["outcomes"]
+                     if action == "pickup" and outcome != "done"} - collected - set(unreachable))
+    missed = [f"{len(failed)} pickup{'s' if len(failed) > 1 else ''} failed "
+              f"({', '.join(failed)})"] if failed else []
+    if unreachable:
+        missed.append(f"{len(unreachable)} dish{'es' if len(unreachable) > 1 else ''} "
+                      f"unreachable ({', '.join(unreachable)})")
+    if not missed and report["collected"] == report["dishes"]:
+        return "plan ended: every dish collected"
+    return "plan ended: " + ("; ".join(missed) or
+                             f"{report['dishes'] - report['collected']} dishes not collected")
+
+
+def _write_pictures(scenario: Scenario, run: Execution, plan: TaskMotionPlan | None,
+                    out: Path) -> list[Path]:
+    """The pictures of `plan` and what it was made on (the latest planning's result), so
+    that they name its locations and stops as plan.json does."""
     from s3o_drake.camera import orthophoto, overhead_camera
     from s3o_drake.planning.pictures import (
         feasibility_figure,
+        overhead_figure,
         plan_figure,
         search_figure,
         state_space_figure,
     )
 
     written = []
+    camera = overhead_camera(scenario)
+    color, depth = run.images
+    if scenario.outputs.overhead:
+        overhead_figure(scenario, camera, color, out / "overhead.png")
+        written.append(out / "overhead.png")
     result = run.result
     heatmaps = list(result.heatmaps) if result is not None else []
-    if not heatmaps and run.plan is None:
+    if not heatmaps and plan is None:
         return written
-    color, depth = run.images
-    top_view = orthophoto(overhead_camera(scenario), color, depth, scenario.room.bounds,
-                          TOP_VIEW_CELL)
+    top_view = orthophoto(camera, color, depth, scenario.room.bounds, TOP_VIEW_CELL)
     if heatmaps and scenario.outputs.feasibility:
         feasibility_figure(scenario, top_view, heatmaps, out / "feasibility.png")
         written.append(out / "feasibility.png")
-    if run.plan is not None and result.partition is not None and scenario.outputs.state_space:
+    # The state space only of the result that holds the plan (a replan that found none
+    # leaves the plan before it, whose state space is not kept).
+    made_on = result is not None and result.plan is plan
+    if plan is not None and made_on and result.partition is not None \
+            and scenario.outputs.state_space:
         state_space_figure(scenario, top_view, result, out / "state_space.png")
         written.append(out / "state_space.png")
-    if run.plan is not None:
-        plan_figure(scenario, top_view, run.plan, out / "plan.png", start=result.known.pose)
+    if plan is not None:
+        start = result.known.pose if made_on else None
+        plan_figure(scenario, top_view, plan, out / "plan.png", start=start)
         written.append(out / "plan.png")
-        if run.plan.early_samples:
-            search_figure(scenario, top_view, heatmaps, run.plan, out / "search.png")
+        if plan.early_samples:
+            search_figure(scenario, top_view, heatmaps, plan, out / "search.png")
             written.append(out / "search.png")
     return written
+
+
+def latest_plan(run: Execution) -> TaskMotionPlan | None:
+    """The plan the outputs show: the latest one (after replans, the plan of what
+    remained), or the one before it when a replan found none."""
+    if run.result is not None and run.result.plan is not None:
+        return run.result.plan
+    return run.plan
+
 
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m s3o_drake.run", description=__doc__,
@@ -213,8 +261,6 @@ def main(argv: list[str] | None = None) -> int:
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} exists and is not a folder")
 
-    import cv2
-
     from s3o_drake.execution.execute import execute
 
     if not args.meshcat:  # the recording needs a Meshcat, but nobody is watching it live
@@ -232,24 +278,27 @@ def main(argv: list[str] | None = None) -> int:
               "noise": not args.no_noise, **run.report}
     write_atomically(out / "report.json", json.dumps(report, indent=1) + "\n")
     written = [out / "report.json"]
-    if run.plan is not None:
-        run.plan.write(out / "plan.json")
+    plan = latest_plan(run)
+    if plan is not None:
+        plan.write(out / "plan.json")
         written.append(out / "plan.json")
     if scenario.outputs.playback:
         write_atomically(out / "playback.html", run.html)
         written.append(out / "playback.html")
-    if scenario.outputs.overhead:
-        _, png = cv2.imencode(".png", cv2.cvtColor(run.images[0], cv2.COLOR_RGB2BGR))
-        write_atomically(out / "overhead.png", png.tobytes())
-        written.append(out / "overhead.png")
-    written += _write_pictures(scenario, run, out)
+    written += _write_pictures(scenario, run, plan, out)
 
-    if run.plan is not None:
-        print(describe_plan(run.plan))
+    plans = 1 + sum(r["kind"] == "replan" for r in report.get("recoveries", []))
+    if plan is not None:
+        if plans > 1:
+            print(f"The latest of {plans} plans (plan.json; the execution below lists the "
+                  "actions of every plan):")
+        print(describe_plan(plan))
     print(describe_execution(report))
     if run.plan is not None:
+        # The prediction made before the execution began: the first plan's.
         predicted, simulated = run.plan.predicted_time, report["execution_time"]
-        print(f"Execution time: predicted {predicted:.1f} s, simulated {simulated:.1f} s "
+        first = f" by the first of {plans} plans" if plans > 1 else ""
+        print(f"Execution time: predicted {predicted:.1f} s{first}, simulated {simulated:.1f} s "
               f"({100 * (predicted - simulated) / max(simulated, 1e-9):+.1f} %; the prediction "
               "is the plan as planned: exact landings, every action done).")
     for path in written:

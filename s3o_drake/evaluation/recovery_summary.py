@@ -12,6 +12,8 @@ simulation): with recovery none of these should remain while something could be 
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
 
+from s3o_drake.execution.messages import ran_to_end
+
 KINDS = ("correction", "retry", "replan", "give_up")
 
 
@@ -41,7 +43,7 @@ def recovery_figures(runs: Sequence[Mapping], methods: Sequence[str],
             pickable += len(can)
             collected_pickable += len(can & got)
             missed += [f"{r['task']}/{d}" for d in sorted(can - got)]
-            if r.get("reason") != "plan complete":
+            if not ran_to_end(r.get("reason")):
                 ended_early += 1
         runs_n = len(mine)
         figures[method] = {

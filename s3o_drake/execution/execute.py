@@ -6,6 +6,7 @@ command (s3o_drake/commands/run.py) is a thin main over it."""
 import sys
 import time
 from dataclasses import dataclass
+from typing import TextIO
 
 import numpy as np
 from pydrake.geometry import Meshcat
@@ -34,6 +35,37 @@ class Execution:
     """The latest planning's result: what the plan was made on (the KnownWorld with the
     perceived chairs, the heatmaps, the navigation map, the state spaces)."""
     html: str | None  # the playback page; None when nothing was recorded
+
+
+class SimulatedSeconds:
+    """The execution's progress bar: whole simulated seconds against the predicted
+    execution time.
+
+    The prediction is a plan's, made before the noise, the corrections and the replans:
+    the simulation often runs longer. Past the prediction the total grows with the
+    simulated time (the bar stays full and says how long it has run) instead of counting
+    past 100 %; at the end the total is the simulated time, whatever was predicted.
+    """
+
+    def __init__(self, expected: float, *, disable: bool = False,
+                 file: TextIO | None = None) -> None:
+        self.bar = tqdm(total=max(1, round(expected)), desc="executing", unit="sim s",
+                        disable=disable, file=file)
+
+    def show(self, t: float) -> None:
+        """Moves the bar to simulated time `t` (s)."""
+        done = int(t)
+        if done > self.bar.total:
+            self.bar.total = done
+        if done > self.bar.n:
+            self.bar.update(done - self.bar.n)
+
+    def close(self, t: float) -> None:
+        """Ends the bar at simulated time `t`: done, against the time it really took."""
+        done = max(1, int(t))
+        self.bar.total = done
+        self.bar.update(done - self.bar.n)
+        self.bar.close()
 
 
 def frame_room(meshcat: Meshcat, scenario: Scenario) -> None:
@@ -80,15 +112,8 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     if progress:
         print(f"simulating the execution ({expected:.0f} s predicted"
               f"{', in real time' if realtime else ''})", file=sys.stderr, flush=True)
-    bar = tqdm(total=max(1, round(expected)), desc="executing", unit="sim s",
-               disable=not progress)
-
-    def show(root_context):
-        done = int(root_context.get_time())
-        if done > bar.n:
-            bar.update(done - bar.n)
-
-    simulator.set_monitor(show)
+    bar = SimulatedSeconds(expected, disable=not progress)
+    simulator.set_monitor(lambda root_context: bar.show(root_context.get_time()))
     start = time.perf_counter()
     failure = None
     try:
@@ -100,7 +125,7 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
         failure = f"the simulation failed at t = {context.get_time():.2f} s: " \
                   f"{str(e).splitlines()[0]}"
     wall = time.perf_counter() - start
-    bar.close()
+    bar.close(context.get_time())
     if visualizer is not None:
         visualizer.StopRecording()
         visualizer.PublishRecording()

@@ -22,6 +22,17 @@ from typing import Any
 
 NO_COMMAND = 0
 
+PLAN_ENDED = "plan ended"
+"""`PlanProgress.reason` when the plan ran to its last action (or nothing was left to
+plan). Not "complete": pickups may have failed on the way; the outcomes say which."""
+_PLAN_ENDED_BEFORE = "plan complete"  # PLAN_ENDED as results written before issue 18 say it
+
+
+def ran_to_end(reason: str | None) -> bool:
+    """Whether a run's `reason` says its plan ran to the end (rather than a blocked drive,
+    no plan, the time limit or a failed simulation); reads earlier results' word too."""
+    return reason in (PLAN_ENDED, _PLAN_ENDED_BEFORE)
+
 
 class CommandState(str, Enum):
     """Where a controller is with its latest command. A str Enum, so that a state compares
@@ -223,7 +234,7 @@ class PlanProgress:
 
     `step`: the action being executed (1-based; 0 before a plan exists), of `total`.
     `finished`: nothing more will happen (plan done, or it cannot go on: `reason` says
-    why, e.g. "plan complete", "goto 3 failed: blocked", "no plan: ...").
+    why: PLAN_ENDED, or e.g. "goto 3 failed: blocked", "no plan: ...").
     `outcomes`: per finished action, its ActionOutcome.
     `pickups`: per finished pickup, in order, its `PickupRecord`.
     `recoveries`: per recovery, in order, its `RecoveryRecord`.

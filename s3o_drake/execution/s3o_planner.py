@@ -48,6 +48,7 @@ from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 from s3o_drake.angles import facing_yaw, wrap
 from s3o_drake.execution.messages import (
     NO_COMMAND,
+    PLAN_ENDED,
     ActionOutcome,
     BaseCommand,
     CommandState,
@@ -250,7 +251,9 @@ class S3OPlanner(LeafSystem):
                            time_budget=budget, progress=self._progress_bar, started=t0)
         if result.navigation is not None:
             result.navigation.seal()
-        spent = execution.planning_time + time.perf_counter() - t0
+        # The sum of the plans' own planning times (each from before its perception), so
+        # that one plan's planning time is the run's: the terminal reports one figure.
+        spent = execution.planning_time + result.planning_time
         if result.plan is None:
             return dataclasses.replace(execution, result=result, check=None, finished=True,
                                        reason=result.error, planning_time=spent)
@@ -260,7 +263,7 @@ class S3OPlanner(LeafSystem):
         return dataclasses.replace(
             execution, result=result, check=check, step=-1, unreachable=unreachable,
             planning_time=spent, finished=not result.plan.actions,
-            reason="" if result.plan.actions else "plan complete").next_step()
+            reason="" if result.plan.actions else PLAN_ENDED).next_step()
 
     def _replan(self, context: Context, e: _Execution, *, trigger: str,
                 dish: str = "") -> _Execution:
@@ -270,7 +273,7 @@ class S3OPlanner(LeafSystem):
                      if d.name not in e.collected and d.name not in e.given_up
                      and d.name not in e.unreachable]
         if not remaining:
-            return dataclasses.replace(e, finished=True, reason="plan complete")
+            return dataclasses.replace(e, finished=True, reason=PLAN_ENDED)
         belief = self._belief(context, e)
         t = context.get_time()
         before = e.planning_time
@@ -458,7 +461,7 @@ class S3OPlanner(LeafSystem):
     def _after(self, e: _Execution) -> _Execution:
         """The execution after an action: finished at the end of the plan."""
         if e.step >= len(e.plan.actions):
-            return dataclasses.replace(e, finished=True, reason="plan complete")
+            return dataclasses.replace(e, finished=True, reason=PLAN_ENDED)
         return e
 
     def _record(self, context: Context, e: _Execution, action: Pickup,

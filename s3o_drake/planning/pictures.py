@@ -1,7 +1,13 @@
 """Pictures a person reads faster than numbers: heatmaps, state spaces, the motion search
-and the plan over the top view of the room."""
+and the plan over the top view of the room.
+
+Each figure function returns its `Labels`: the names it put on the picture, so that what
+the pictures say can be checked against plan.json without reading pixels. Labels are
+placed where they cover no dish name, mark or label placed before them (`_declutter`).
+"""
 
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -17,9 +23,96 @@ from s3o_drake.io import write_atomically
 from s3o_drake.scenario import Scenario
 
 if TYPE_CHECKING:
+    from matplotlib.text import Text
+
     from s3o_drake.abstraction.ranking import StateSpace
+    from s3o_drake.camera import OverheadCamera
     from s3o_drake.planning.plan import TaskMotionPlan
     from s3o_drake.planning.planner import PlanningResult
+
+
+@dataclass(frozen=True)
+class Labels:
+    """What a picture names.
+
+    `locations`: each location it shows, by name, with the dishes it gives it (plan.png:
+    picked from that location's stop; state_space.png: the location's cells). `stops`:
+    plan.png's stop labels in visiting order, "1 · l2" (stop number · location). `panels`:
+    feasibility.png's panels, a dish each. `overlaps`: labels that found no spot clear of
+    the dish names, marks and other labels (0 unless the picture is crowded).
+    """
+
+    title: str = ""
+    locations: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    stops: tuple[str, ...] = ()
+    panels: tuple[str, ...] = ()
+    overlaps: int = 0
+
+
+def stop_label(number: int, location: str) -> str:
+    """plan.png's label of the `number`-th stop (1-based), at `location`."""
+    return f"{number} · {location}"
+
+
+_NAME_BOX = {"boxstyle": "round,pad=0.15", "fc": "white", "alpha": 0.7}
+_Spot = tuple[float, float, str, str]  # x, y (data), horizontal and vertical alignment
+
+
+def _pixels_per_metre(ax) -> tuple[float, float]:
+    (x0, y0), (x1, y1) = ax.transData.transform([(0.0, 0.0), (1.0, 1.0)])
+    return x1 - x0, y1 - y0
+
+
+def _around(ax, xy: Sequence[float], marker_size: float) -> list[_Spot]:
+    """Spots for a label beside a marker of `marker_size` points at `xy`, just clear of
+    it: above right first, then the other diagonals, the sides, above and below."""
+    gap = marker_size * ax.figure.dpi / 72.0 / 2.0 + 3.0  # pixels: its radius, a margin
+    sx, sy = _pixels_per_metre(ax)
+    dx, dy = gap / sx, gap / sy
+    x, y = xy[0], xy[1]
+    return [(x + dx, y + dy, "left", "bottom"), (x + dx, y - dy, "left", "top"),
+            (x - dx, y + dy, "right", "bottom"), (x - dx, y - dy, "right", "top"),
+            (x + dx, y, "left", "center"), (x - dx, y, "right", "center"),
+            (x, y + dy, "center", "bottom"), (x, y - dy, "center", "top")]
+
+
+def _along(ax, a: Sequence[float], b: Sequence[float]) -> list[_Spot]:
+    """Spots for a label on the segment a-b, from its middle outwards, then beside it."""
+    a, b = np.asarray(a[:2], dtype=float), np.asarray(b[:2], dtype=float)
+    spots: list[_Spot] = [(*(a + t * (b - a)), "center", "center")
+                          for t in (0.5, 0.4, 0.6, 0.3, 0.7, 0.2, 0.8)]
+    sx, sy = _pixels_per_metre(ax)
+    normal = np.array([a[1] - b[1], b[0] - a[0]]) / max(np.linalg.norm(b - a), 1e-9)
+    for side in (1.0, -1.0):
+        for t in (0.5, 0.35, 0.65):
+            x, y = a + t * (b - a) + side * 12.0 * normal / np.array([sx, sy])
+            spots.append((x, y, "center", "center"))
+    return spots
+
+
+def _declutter(ax, labels: Sequence[tuple["Text", Sequence[_Spot]]],
+               marks: Sequence = ()) -> int:
+    """Places each label, in order, at the first of its spots where its box clears the
+    `marks` (single-point markers) and the labels placed before it; a label with no clear
+    spot takes its first. Returns how many labels could not be cleared.
+
+    Order is priority: dish names first, so that nothing else covers them.
+    """
+    renderer = ax.figure.canvas.get_renderer()
+    taken = [mark.get_window_extent(renderer) for mark in marks]
+    crowded = 0
+    for text, spots in labels:
+        for x, y, ha, va in [*spots, spots[0]]:
+            text.set_position((x, y))
+            text.set_horizontalalignment(ha)
+            text.set_verticalalignment(va)
+            box = text.get_window_extent(renderer).padded(2.0)  # the name box's margin
+            if not any(box.overlaps(other) for other in taken):
+                break
+        else:
+            crowded += 1
+        taken.append(box)
+    return crowded
 
 
 def _figure_bytes(fig) -> bytes:
@@ -53,29 +146,101 @@ def _heatmap_layer(ax, scenario: Scenario, heatmaps: Sequence[Heatmap], *, alpha
                      cmap="plasma", vmin=0.0, vmax=1.0, alpha=alpha, interpolation="nearest")
 
 
-def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
-                       path: Path, *, title: str = "") -> None:
-    """Each dish's Fea^m heatmap over the top view of the room (the paper's Fig. 3, left).
-
-    `top_view` is an orthophoto of the room (row 0 north) spanning `scenario.room.bounds`.
-    Where two crops overlap, the larger probability shows.
-    """
+def _room_axes(scenario: Scenario, top_view: np.ndarray, ax,
+               limits: Sequence[float] | None = None) -> None:
+    """The top view in metres; `limits` (x_min, y_min, x_max, y_max) zoom in."""
     x_min, y_min, x_max, y_max = scenario.room.bounds
-    fig, ax = plt.subplots(figsize=(10, 10 * (y_max - y_min) / (x_max - x_min)))
     ax.imshow(top_view, extent=(x_min, x_max, y_min, y_max), origin="upper")
-    image = _heatmap_layer(ax, scenario, heatmaps, alpha=0.75)
-    fig.colorbar(image, ax=ax, fraction=0.03, pad=0.02, label="Fea$^m$ (probability of a pick)")
-    for dish in scenario.dishes:
-        ax.plot(*dish.position, marker="o", markersize=5, color="cyan", markeredgecolor="k")
-        ax.annotate(dish.name, dish.position, xytext=(4, 4), textcoords="offset points",
-                    fontsize=8, color="k",
-                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "alpha": 0.7})
+    x_min, y_min, x_max, y_max = scenario.room.bounds if limits is None else limits
     ax.set_xlim(x_min, x_max)
     ax.set_ylim(y_min, y_max)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(title or "Motion-level feasibility of each dish (base yaw facing the dish)")
+
+
+def _name_dishes(ax, dishes: Sequence[tuple[str, Sequence[float], object, bool]],
+                 *, fontsize: float = 8, marker_size: float = 6):
+    """Marks each dish (name, position, colour, unreachable: a red cross) and names it;
+    returns the names with their spots and the marks, for `_declutter`."""
+    names, marks = [], []
+    for name, p, colour, lost in dishes:
+        (mark,) = ax.plot(p[0], p[1], marker="x" if lost else "o",
+                          markersize=marker_size + (2 if lost else 0),
+                          color="red" if lost else colour,
+                          markeredgecolor="red" if lost else "k", linestyle="none")
+        marks.append(mark)
+        text = ax.text(p[0], p[1], name + (" (unreachable)" if lost else ""),
+                       fontsize=fontsize, color="k", bbox=_NAME_BOX)
+        names.append((text, _around(ax, p, mark.get_markersize())))
+    return names, marks
+
+
+def _scenario_dishes(scenario: Scenario, unreachable: Sequence[str] = (),
+                     colour="cyan") -> list[tuple[str, Sequence[float], object, bool]]:
+    return [(d.name, d.position, colour, d.name in unreachable) for d in scenario.dishes]
+
+
+def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
+                       path: Path, *, title: str = "") -> Labels:
+    """Each dish's Fea^m heatmap in a panel of its own over the top view (small multiples:
+    where one dish's map overlaps another's, both stay readable), zoomed to the heatmap's
+    crop; the panel's dish is named, the others are small grey dots.
+
+    `top_view` is an orthophoto of the room (row 0 north) spanning `scenario.room.bounds`.
+    """
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    cols = min(3, max(1, len(heatmaps)))
+    rows = max(1, -(-len(heatmaps) // cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 4.4 * rows + 0.6), squeeze=False)
+    where = {d.name: d.position for d in scenario.dishes}
+    image = None
+    for ax, heatmap in zip(axes.flat, heatmaps, strict=False):
+        hx0, hx1, hy0, hy1 = heatmap.extent
+        limits = (max(hx0, x_min), max(hy0, y_min), min(hx1, x_max), min(hy1, y_max))
+        _room_axes(scenario, top_view, ax, limits)
+        shown = np.ma.masked_where(heatmap.values <= 0.0, heatmap.values)
+        image = ax.imshow(shown, extent=heatmap.extent, origin="lower", cmap="plasma",
+                          vmin=0.0, vmax=1.0, alpha=0.75, interpolation="nearest")
+        others = [p for name, p in where.items() if name != heatmap.dish]
+        if others:
+            ax.plot(*np.asarray(others).T, marker="o", markersize=3, color="0.6",
+                    linestyle="none")
+        names, marks = _name_dishes(ax, [(heatmap.dish, where[heatmap.dish], "cyan", False)])
+        _declutter(ax, names, marks)
+        ax.set_title(heatmap.dish, fontsize=11)
+    for ax in axes.flat[len(heatmaps):]:
+        ax.set_visible(False)
+    if image is not None:
+        fig.colorbar(image, ax=axes, fraction=0.03, pad=0.02,
+                     label="Fea$^m$ (probability of a pick)")
+    title = title or "Motion-level feasibility of each dish (base yaw facing the dish)"
+    fig.suptitle(title)
     write_atomically(path, _figure_bytes(fig))
+    return Labels(title=title, panels=tuple(h.dish for h in heatmaps))
+
+
+def overhead_figure(scenario: Scenario, camera: "OverheadCamera", color: np.ndarray,
+                    path: Path) -> Labels:
+    """The overhead camera's colour image with axes in metres: the camera looks straight
+    down, so its pixels are a uniform grid on the floor, and the axes are true there
+    (tables and chairs stand taller and lean outwards by perspective). The room's walls
+    are outlined."""
+    from shapely.geometry import box
+    from shapely.plotting import plot_polygon
+
+    x0, x1, y0, y1 = camera.floor_extent()
+    fig, ax = plt.subplots(figsize=(10, 10 * (y1 - y0) / (x1 - x0)))
+    ax.imshow(color, extent=(x0, x1, y0, y1), origin="upper")
+    plot_polygon(box(*scenario.room.bounds), ax=ax, add_points=False, facecolor="none",
+                 edgecolor="white", linewidth=1.0, linestyle="--")
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    title = "The overhead camera's image (axes: metres on the floor; dashed: the room)"
+    ax.set_title(title)
+    write_atomically(path, _figure_bytes(fig))
+    return Labels(title=title)
 
 
 def _searched_state(result: "PlanningResult") -> tuple["StateSpace | None", int | None]:
@@ -90,8 +255,19 @@ def _searched_state(result: "PlanningResult") -> tuple["StateSpace | None", int 
     return None, None
 
 
+def _outline(ax, geometry, **style) -> None:
+    """Draws the polygons of `geometry` (a cell or a union of cells) with `style`;
+    `label` goes to the first one only (one legend entry)."""
+    from shapely.plotting import plot_polygon
+
+    for polygon in getattr(geometry, "geoms", [geometry]):
+        if polygon.geom_type == "Polygon" and polygon.area > 0:
+            plot_polygon(polygon, ax=ax, add_points=False, **style)
+            style["label"] = None
+
+
 def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "PlanningResult",
-                       path: Path, *, title: str = "") -> None:
+                       path: Path, *, title: str = "") -> Labels:
     """The state space the plan used, over the top view and the heatmaps (the paper's
     Fig. 3, right).
 
@@ -100,20 +276,19 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "Planni
     marked in their location's colour; unreachable dishes (empty cells) get a red cross.
     The title says where the abstraction ranked this state space, when it did.
     """
-    from shapely.plotting import plot_polygon
-
     plan, partition = result.plan, result.partition
     state, rank = _searched_state(result)
     index = {d: i for i, d in enumerate(partition.dishes)}
     x_min, y_min, x_max, y_max = scenario.room.bounds
     fig, ax = plt.subplots(figsize=(10, 10 * (y_max - y_min) / (x_max - x_min)))
-    ax.imshow(top_view, extent=(x_min, x_max, y_min, y_max), origin="upper")
+    _room_axes(scenario, top_view, ax)
     if result.heatmaps:
         image = _heatmap_layer(ax, scenario, result.heatmaps, alpha=0.45)
         fig.colorbar(image, ax=ax, fraction=0.03, pad=0.02,
                      label="Fea$^m$ (probability of a pick)")
     colours = plt.get_cmap("tab10")
     unreachable = set(partition.unreachable) | set(plan.unreachable)
+    dishes, locations = [], {}
     for k, (names, location_name) in enumerate(zip(plan.groups, plan.locations, strict=True)):
         colour = colours(k % 10)
         group = [index[n] for n in names]
@@ -121,34 +296,24 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "Planni
         fea = "" if state is None else \
             " (Fea$^t$ " + ", ".join(f"{state.task_feasibility[n]:.2f}" for n in names) + ")"
         label = f"{location_name}: {' + '.join(names)}{fea}"
-        if not location.is_empty:
-            for polygon in getattr(location, "geoms", [location]):
-                if polygon.geom_type != "Polygon" or polygon.area <= 0:
-                    continue
-                plot_polygon(polygon, ax=ax, add_points=False, facecolor=(*colour[:3], 0.3),
-                             edgecolor=colour, linewidth=2.0, label=label)
-                label = None
-            if len(group) > 1:  # the merged cells' former borders
-                for i in group:
-                    cell = partition.cells[i]
-                    if not cell.is_empty:
-                        for polygon in getattr(cell, "geoms", [cell]):
-                            if polygon.geom_type == "Polygon":
-                                plot_polygon(polygon, ax=ax, add_points=False,
-                                             facecolor="none", edgecolor=colour,
-                                             linewidth=0.8, linestyle="--")
-        for i, name in zip(group, names, strict=True):
-            _mark_dish(ax, partition.p_WO[i], name, colour, name in unreachable,
-                       label if label and location.is_empty else None)
-    for name in sorted(unreachable - {n for g in plan.groups for n in g}):
-        _mark_dish(ax, partition.p_WO[index[name]], name, "red", True, None)
+        locations[location_name] = tuple(names)
+        if location.is_empty:  # the legend still names it, with the dishes' marker
+            ax.plot([], [], marker="x", color="red", linestyle="none", label=label)
+        _outline(ax, location, facecolor=(*colour[:3], 0.3), edgecolor=colour,
+                 linewidth=2.0, label=label)
+        if len(group) > 1:  # the merged cells' former borders
+            for i in group:
+                _outline(ax, partition.cells[i], facecolor="none", edgecolor=colour,
+                         linewidth=0.8, linestyle="--")
+        dishes += [(n, partition.p_WO[i], colour, n in unreachable)
+                   for i, n in zip(group, names, strict=True)]
+    placed = {d[0] for d in dishes}
+    dishes += [(n, partition.p_WO[index[n]], "red", True) for n in sorted(unreachable - placed)]
+    names, marks = _name_dishes(ax, dishes, marker_size=7)
+    crowded = _declutter(ax, names, marks)
     ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.08), fontsize=8, ncol=2,
               frameon=False)
-    ax.set_xlim(x_min, x_max)
-    ax.set_ylim(y_min, y_max)
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    locations = f"{len(plan.groups)} location" + ("" if len(plan.groups) == 1 else "s")
+    count = f"{len(plan.groups)} location" + ("" if len(plan.groups) == 1 else "s")
     abstraction = result.abstraction
     if abstraction is None:
         where = "the plain Voronoi state space (no merging)"
@@ -161,40 +326,14 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "Planni
             "beam search"
         where = (f"the state space ranked {rank + 1} of {abstraction.count} ({search}), "
                  f"Score {state.score:.2f}, p = {p_rank:.2f}")
-    ax.set_title(title or f"{plan.method} searched {where}: {locations}")
+    title = title or f"{plan.method} searched {where}: {count}"
+    ax.set_title(title)
     write_atomically(path, _figure_bytes(fig))
-
-
-def _mark_dish(ax, p: np.ndarray, name: str, colour, unreachable: bool, label) -> None:
-    ax.plot(*p, marker="x" if unreachable else "o", markersize=7,
-            color="red" if unreachable else colour,
-            markeredgecolor="red" if unreachable else "k", linestyle="none", label=label)
-    ax.annotate(name, p, xytext=(4, 4), textcoords="offset points", fontsize=8, color="k",
-                bbox={"boxstyle": "round,pad=0.15", "fc": "white", "alpha": 0.7})
-
-
-def _room_axes(scenario: Scenario, top_view: np.ndarray, ax) -> None:
-    x_min, y_min, x_max, y_max = scenario.room.bounds
-    ax.imshow(top_view, extent=(x_min, x_max, y_min, y_max), origin="upper")
-    ax.set_xlim(x_min, x_max)
-    ax.set_ylim(y_min, y_max)
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-
-
-def _dish_marks(ax, scenario: Scenario, unreachable: Sequence[str] = ()) -> None:
-    for dish in scenario.dishes:
-        lost = dish.name in unreachable
-        ax.plot(*dish.position, marker="x" if lost else "o", markersize=7 if lost else 5,
-                color="red" if lost else "cyan", markeredgecolor="red" if lost else "k",
-                linestyle="none")
-        ax.annotate(dish.name + (" (unreachable)" if lost else ""), dish.position,
-                    xytext=(4, 4), textcoords="offset points", fontsize=7, color="k",
-                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "alpha": 0.7})
+    return Labels(title=title, locations=locations, overlaps=crowded)
 
 
 def search_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
-                  plan: "TaskMotionPlan", path: Path) -> None:
+                  plan: "TaskMotionPlan", path: Path) -> Labels:
     """The winning motion search's samples of its first and last generation over the
     heatmaps, one colour per goto (the paper's Fig. 4): CMA-ES starts spread over the
     feasible regions and ends concentrated where the utility is highest."""
@@ -203,18 +342,22 @@ def search_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[H
     fig, axes = plt.subplots(1, 2, figsize=(16, 8 * aspect + 0.8))
     colours = plt.get_cmap("tab10")
     gotos = plan.gotos
+    crowded = 0
     for ax, samples, name in ((axes[0], plan.early_samples, "first"),
                               (axes[1], plan.late_samples, "last")):
         _room_axes(scenario, top_view, ax)
         if heatmaps:
             _heatmap_layer(ax, scenario, heatmaps, alpha=0.45)
-        _dish_marks(ax, scenario, plan.unreachable)
+        names, marks = _name_dishes(ax, _scenario_dishes(scenario, plan.unreachable),
+                                    fontsize=7, marker_size=5)
+        crowded += _declutter(ax, names, marks)
         points = np.asarray(samples, dtype=float).reshape(len(samples), -1, 2)
         for k, goto in enumerate(gotos):
             colour = colours(k % 10)
             if points.size:
                 ax.scatter(points[:, k, 0], points[:, k, 1], s=22, color=colour,
-                           edgecolors="k", linewidths=0.4, label=f"goto {goto.location}")
+                           edgecolors="k", linewidths=0.4,
+                           label=f"goto {stop_label(k + 1, goto.location)}")
             ax.plot(*goto.pose[:2], marker="*", markersize=18, markerfacecolor="none",
                     markeredgecolor=colour, markeredgewidth=2.0)
         ax.set_title(f"{plan.method}: samples of the {name} generation "
@@ -222,44 +365,68 @@ def search_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[H
         if gotos and points.size:
             ax.legend(loc="upper left", fontsize=8, framealpha=0.8)
     write_atomically(path, _figure_bytes(fig))
+    return Labels(title=plan.method, stops=tuple(stop_label(k + 1, g.location)
+                                                 for k, g in enumerate(gotos)),
+                  overlaps=crowded)
 
 
 def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan",
-                path: Path, *, start: Sequence[float] | None = None, title: str = "") -> None:
-    """The plan over the top view: the driven paths, each stop with its heading, and
-    thin lines from each stop to the dishes picked there; unreachable dishes crossed."""
+                path: Path, *, start: Sequence[float] | None = None, title: str = "") -> Labels:
+    """The plan over the top view: the driven paths, each stop with its heading and its
+    label "k · l" (the k-th stop, at location l as plan.json names it), thin lines from
+    each stop to the dishes picked there with their Fea^m, unreachable dishes crossed.
+    Dish names are placed first and nothing covers them."""
     x_min, y_min, x_max, y_max = scenario.room.bounds
     fig, ax = plt.subplots(figsize=(10, 10 * (y_max - y_min) / (x_max - x_min)))
     _room_axes(scenario, top_view, ax)
-    _dish_marks(ax, scenario, plan.unreachable)
+    labels, marks = _name_dishes(ax, _scenario_dishes(scenario, plan.unreachable),
+                                 fontsize=7, marker_size=5)
+    fea_labels = []  # after the stops': the numbers may move furthest from their place
     colours = plt.get_cmap("tab10")
     dish_xy = {d.name: d.position for d in scenario.dishes}
     start = scenario.robot.start if start is None else start
-    ax.plot(start[0], start[1], marker="s", markersize=10, color="white", markeredgecolor="k")
-    ax.annotate("start", start[:2], xytext=(6, -12), textcoords="offset points", fontsize=8)
-    stop, colour, k = start[:2], "white", -1
+    (mark,) = ax.plot(start[0], start[1], marker="s", markersize=10, color="white",
+                      markeredgecolor="k")
+    marks.append(mark)
+    labels.append((ax.text(start[0], start[1], "start", fontsize=8),
+                   _around(ax, start, mark.get_markersize())[1:]))
+    stops: list[str] = []
+    locations: dict[str, tuple[str, ...]] = {}
+    stop, colour, location = start[:2], "white", ""
     for action in plan.actions:
         if hasattr(action, "path"):
-            k += 1
-            colour = colours(k % 10)
+            colour = colours(len(stops) % 10)
+            location = action.location
+            stops.append(stop_label(len(stops) + 1, location))
+            locations.setdefault(location, ())
             p = np.asarray(action.path)
             ax.plot(p[:, 0], p[:, 1], color=colour, linewidth=2.5, alpha=0.9)
             x, y, yaw = action.pose
             ax.annotate("", (x + 0.35 * np.cos(yaw), y + 0.35 * np.sin(yaw)), (x, y),
                         arrowprops={"arrowstyle": "->", "color": "k", "lw": 1.5})
-            ax.plot(x, y, marker="o", markersize=14, color=colour, markeredgecolor="k")
-            ax.annotate(str(k + 1), (x, y), ha="center", va="center", fontsize=8,
-                        fontweight="bold")
+            (mark,) = ax.plot(x, y, marker="o", markersize=11, color=colour,
+                              markeredgecolor="k")
+            marks.append(mark)
+            text = ax.text(x, y, stops[-1], fontsize=8, fontweight="bold",
+                           bbox={"boxstyle": "round,pad=0.2", "fc": "white",
+                                 "ec": colour, "lw": 1.5})
+            labels.append((text, _around(ax, (x, y), mark.get_markersize())))
             stop = (x, y)
         else:
             d = dish_xy[action.dish]
+            locations[location] += (action.dish,)
             ax.plot([stop[0], d[0]], [stop[1], d[1]], color=colour, linewidth=1.0,
                     linestyle=":")
-            ax.annotate(f"{action.feasibility:.2f}", ((stop[0] + d[0]) / 2, (stop[1] + d[1]) / 2),
-                        fontsize=7, color="k", ha="center",
-                        bbox={"boxstyle": "round,pad=0.1", "fc": "white", "alpha": 0.6})
-    stops = len(plan.gotos)
-    ax.set_title(title or f"{plan.method}: {stops} stop{'s' if stops != 1 else ''}, "
-                          f"{len(plan.pickups)} pickups, predicted {plan.predicted_time:.0f} s, "
-                          f"utility {plan.utility:.1f} (numbers on the dotted lines: Fea$^m$)")
+            text = ax.text(0.0, 0.0, f"{action.feasibility:.2f}", fontsize=7, color="k",
+                           bbox={"boxstyle": "round,pad=0.1", "fc": "white", "alpha": 0.6})
+            fea_labels.append((text, _along(ax, stop, d)))
+    crowded = _declutter(ax, labels + fea_labels, marks)
+    count = len(plan.gotos)
+    title = title or (f"{plan.method}: {count} stop{'s' if count != 1 else ''} "
+                      f"(number · location), {len(plan.pickups)} pickup"
+                      f"{'s' if len(plan.pickups) != 1 else ''}, predicted "
+                      f"{plan.predicted_time:.0f} s, utility {plan.utility:.1f} "
+                      "(on the dotted lines: Fea$^m$)")
+    ax.set_title(title, fontsize=11)
     write_atomically(path, _figure_bytes(fig))
+    return Labels(title=title, locations=locations, stops=tuple(stops), overlaps=crowded)
