@@ -66,6 +66,29 @@ def test_a_stop_out_of_reach_is_corrected_to_a_feasible_one_nearby(scenario, che
     assert check.correction(np.array([0.5, 0.5]), "bowl_south", radius=0.3) is None
 
 
+def test_where_the_robot_stands_is_rated_by_the_model_and_moves_go_to_free_stops(scenario):
+    """The stop check rates the believed position with the model's Fea^m (the robot stands
+    there: whether a stop *sent* there would collide is not the question), and corrects
+    only to free stops, the plan's heatmap cells with Fea^m > 0."""
+    from s3o_drake.feasibility.stops import FreeStops
+
+    known = KnownWorld.perfect(scenario)
+    model = tuple(heatmaps_for(known, source="oracle"))
+    plan = FreeStops(known).restrict_all(model)
+    check = StopCheck(known, plan, model_heatmaps=model)
+    south = next(h for h in model if h.dish == "bowl_south")
+    kept = next(h for h in plan if h.dish == "bowl_south")
+    centers = south.centers()
+    # A cell the model rates well that the free-stop rule dropped (a corner by the table).
+    dropped = np.argwhere((south.values > 0.5) & (kept.values == 0.0))
+    assert len(dropped)
+    here = centers[tuple(dropped[0])]
+    assert check.feasibility(here, "bowl_south") == south.values[tuple(dropped[0])] > 0.5
+    assert StopCheck(known, plan).feasibility(here, "bowl_south") == 0.0  # the plan's value
+    target, _ = check.correction(np.array([*here, 0.0]), "bowl_south", radius=0.3)
+    assert kept.value_at(target) > 0.0
+
+
 def _planner(scenario, **changes):
     scenario = dataclasses.replace(scenario, execution=dataclasses.replace(
         scenario.execution, **changes))

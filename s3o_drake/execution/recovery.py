@@ -8,10 +8,12 @@ left), never on the true world:
 
 - `assess`: whether the ArmController's pickup test passes from the believed position,
   turned to face the dish (the Drake oracle's success test, `FeasibilityOracle.success`:
-  grasp, pre-grasp, lift and tray, collision-free on the known map), and the plan's Fea^m
-  there (its heatmap of the dish);
+  grasp, pre-grasp, lift and tray, collision-free on the known map), and the model's Fea^m
+  there (the dish's heatmap before the free-stop rule: the robot stands there already,
+  so whether a stop *sent* there would collide is no longer the question);
 - `correction`: where to move instead: among the heatmap cells within
-  `execution.correction_radius` of the believed position whose centre passes the same test,
+  `execution.correction_radius` of the believed position that are free stops (Fea^m > 0
+  in the plan's heatmaps, `feasibility/stops.py`) and whose centre passes the same test,
   facing the dish, and that the base can drive off from again on the plan's navigation
   map, those of (nearly) the highest Fea^m, and of these the one the base reaches soonest
   by the navigator's motion (turn, drive, turn). The corrective drive lands with the
@@ -74,11 +76,16 @@ class StopCheck:
     """Judges and corrects stops on one KnownWorld with its plan's heatmaps (see the module)."""
 
     def __init__(self, known: KnownWorld, heatmaps: tuple[Heatmap, ...],
-                 navigation: NavigationMap | None = None):
+                 navigation: NavigationMap | None = None, *,
+                 model_heatmaps: tuple[Heatmap, ...] = ()):
+        """`heatmaps`: the plan's (corrective stops are chosen on them); `model_heatmaps`:
+        the same before the free-stop rule (rating where the robot stands; default
+        `heatmaps`)."""
         self._known = known
         self._navigation = navigation
         self._profile = BaseProfile(speed=known.planner.speed)
         self._heatmaps = {h.dish: h for h in heatmaps}
+        self._model = {h.dish: h for h in (model_heatmaps or heatmaps)}
         self._oracle: FeasibilityOracle | None = None
         self._dish_xy = {d.name: np.asarray(d.position, dtype=float) for d in known.dishes}
 
@@ -94,8 +101,8 @@ class StopCheck:
         return self._oracle.success(poses, dish)
 
     def feasibility(self, position: np.ndarray, dish: str) -> float:
-        """The plan's Fea^m of `dish` from base position `position` (0 off its heatmap)."""
-        heatmap = self._heatmaps.get(dish)
+        """The model's Fea^m of `dish` from base position `position` (0 off its heatmap)."""
+        heatmap = self._model.get(dish)
         return 0.0 if heatmap is None else heatmap.value_at(np.asarray(position, float)[:2])
 
     def assess(self, position: np.ndarray, dish: str) -> Assessment:

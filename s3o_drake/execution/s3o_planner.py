@@ -258,7 +258,8 @@ class S3OPlanner(LeafSystem):
             return dataclasses.replace(execution, result=result, check=None, finished=True,
                                        reason=result.error, planning_time=spent)
         unreachable = tuple(sorted(set(execution.unreachable) | set(result.plan.unreachable)))
-        check = (StopCheck(known, result.heatmaps, result.navigation)
+        check = (StopCheck(known, result.heatmaps, result.navigation,
+                           model_heatmaps=result.model_heatmaps)
                  if self._recovery != Recovery.NONE else None)
         return dataclasses.replace(
             execution, result=result, check=check, step=-1, unreachable=unreachable,

@@ -89,7 +89,8 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
             left = max(budget - (time.perf_counter() - t0), 1.0)
             result = _plan(known, method, maps, seed, left, n_sequences, workers, t0)
     # The plan's own heatmaps: Fea^m restricted to free stops, as the plan was made.
-    return dataclasses.replace(result, heatmaps=result.heatmaps or maps)
+    return dataclasses.replace(result, heatmaps=result.heatmaps or maps,
+                               model_heatmaps=result.model_heatmaps or maps)
 
 
 def _plan(known: KnownWorld, method: str, heatmaps, seed: int, time_budget: float | None,

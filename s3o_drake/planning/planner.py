@@ -330,6 +330,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
 
     t = time.monotonic()  # only stops free as planned are commanded (feasibility/stops.py)
     stops = FreeStops(known)
+    model_heatmaps = heatmap_tuple(heatmaps)
     fea = as_motion_feasibility(heatmaps := stops.restrict_source(heatmaps))
     timing["feasibility"] += time.monotonic() - t
     expired("the free stops")
@@ -380,7 +381,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
                          result.draws, complete)
         return PlanningResult(known=known, method=method, seed=int(seed), plan=made,
                               heatmaps=heatmap_tuple(heatmaps), navigation=nav,
-                              partition=partition, planning_time=made.planning_time)
+                              model_heatmaps=model_heatmaps, partition=partition,
+                              planning_time=made.planning_time)
 
     # The state spaces to search, one per iteration.
     rng = np.random.default_rng([seed, _ORDER])
@@ -416,6 +418,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
                      time.monotonic() - t_start + feasibility_time, searches, samples, complete)
     return PlanningResult(known=known, method=method, seed=int(seed), plan=made, navigation=nav,
                           heatmaps=heatmap_tuple(heatmaps), partition=partition, grid=grid,
+                          model_heatmaps=model_heatmaps,
                           abstraction=abstraction, planning_time=made.planning_time)
 
 

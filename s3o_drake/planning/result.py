@@ -27,6 +27,9 @@ class PlanningResult:
     heatmaps: tuple = ()
     """The Fea^m heatmaps the plan was made with: Fea^m 0 where a stop is not free
     (`feasibility/stops.py`)."""
+    model_heatmaps: tuple = ()
+    """The same before the free-stop rule: the model's Fea^m of a pickup from each position,
+    which rates where the robot really stands (the stop check of recovery)."""
     navigation: NavigationMap | None = None
     """The navigation map the plan was costed on; the execution re-paths its drives on it."""
     partition: VoronoiPartition | None = None
