@@ -213,7 +213,8 @@ def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Seque
     if image is not None:
         fig.colorbar(image, ax=axes, fraction=0.03, pad=0.02,
                      label="Fea$^m$ (probability of a pick)")
-    title = title or "Motion-level feasibility of each dish (base yaw facing the dish)"
+    title = title or ("Motion-level feasibility of each dish, as the plan used it (base facing "
+                      "the dish; 0 where a stop sent there would collide)")
     fig.suptitle(title)
     write_atomically(path, _figure_bytes(fig))
     return Labels(title=title, panels=tuple(h.dish for h in heatmaps))
