@@ -32,17 +32,10 @@ class HeatmapFeasibility:
             self.heatmaps = {h.dish: h for h in heatmaps}
 
     def values(self, dish: str, points: np.ndarray) -> np.ndarray:
-        points = np.asarray(points, dtype=float).reshape(-1, 2)
         heatmap = self.heatmaps.get(dish)
         if heatmap is None:
-            return np.zeros(len(points))
-        j = np.floor((points[:, 0] - heatmap.x0) / heatmap.cell).astype(int)
-        i = np.floor((points[:, 1] - heatmap.y0) / heatmap.cell).astype(int)
-        rows, cols = heatmap.values.shape
-        inside = (i >= 0) & (i < rows) & (j >= 0) & (j < cols)
-        out = np.zeros(len(points))
-        out[inside] = heatmap.values[i[inside], j[inside]]
-        return out
+            return np.zeros(len(np.asarray(points, dtype=float).reshape(-1, 2)))
+        return heatmap.values_at(points)
 
 
 def as_motion_feasibility(source) -> MotionFeasibility:

@@ -92,6 +92,18 @@ class Heatmap:
         ys = self.y0 + (np.arange(rows) + 0.5) * self.cell
         return np.stack(np.meshgrid(xs, ys), axis=-1)
 
+    def values_at(self, points: np.ndarray) -> np.ndarray:
+        """The probability of the cell holding each point of `points` (n, 2): (n,), 0
+        outside the grid."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        j = np.floor((points[:, 0] - self.x0) / self.cell).astype(int)
+        i = np.floor((points[:, 1] - self.y0) / self.cell).astype(int)
+        rows, cols = self.values.shape
+        inside = (i >= 0) & (i < rows) & (j >= 0) & (j < cols)
+        out = np.zeros(len(points))
+        out[inside] = self.values[i[inside], j[inside]]
+        return out
+
     def value_at(self, p: np.ndarray) -> float:
         """The probability of the cell holding the point p (0 outside the grid)."""
         j = math.floor((p[0] - self.x0) / self.cell)

@@ -19,13 +19,15 @@ end close together.
 - `FreeStops.restrict(heatmap)` sets Fea^m to 0 in the cells where a stop is not free:
   the cell's centre and its four corners must be free, so that a continuous position of
   the motion search inside a kept cell is free too (the heatmap is read per cell).
-- `FreeStops.free(points, dish)` tests exact positions (V-PETLON's random goals).
+- `FreeStops.free(points, dish)` tests exact positions; `goal_test` adds to it that the
+  position lies in no cell the rule dropped (V-PETLON's random goals: a free position in a
+  dropped cell would be planned with Fea^m 0, though the model rates it higher).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -90,6 +92,23 @@ class FreeStops:
         if isinstance(heatmaps, (list, tuple)):
             return self.restrict_all(heatmaps)
         return heatmaps
+
+    def goal_test(self, model: Sequence[Heatmap], plan: Sequence[Heatmap]
+                  ) -> Callable[[np.ndarray, str], np.ndarray]:
+        """(points (n, 2), dish) -> bool (n,): free stops (`free`) that lie in no cell that
+        `restrict` dropped, i.e. where `plan` (the restricted `model`) reads 0 and `model`
+        does not. Dishes without heatmaps: `free` alone."""
+        model_of = {h.dish: h for h in model}
+        plan_of = {h.dish: h for h in plan}
+
+        def test(points: np.ndarray, dish: str) -> np.ndarray:
+            ok = self.free(points, dish)
+            if dish in model_of and dish in plan_of:
+                ok &= ~((model_of[dish].values_at(points) > 0)
+                        & (plan_of[dish].values_at(points) == 0))
+            return ok
+
+        return test
 
     def _lattice_free(self, heatmap: Heatmap, where: np.ndarray, offset: float) -> np.ndarray:
         """Free-stop test at the lattice points (x0 + (j + offset) cell, y0 + (i + offset)

@@ -370,7 +370,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         result = petlon(groups, regions, fea, nav, start, planner,
                         rng=np.random.default_rng([seed, _PETLON]), draws=iterations,
                         unreachable=partition.unreachable, deadline=deadline, costs=costs,
-                        free=stops.free)
+                        free=stops.goal_test(model_heatmaps, heatmap_tuple(heatmaps)))
         timing["task_planning"] += result.task_time
         timing["motion_search"] += result.motion_time
         complete = result.draws == iterations
