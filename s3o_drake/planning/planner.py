@@ -329,7 +329,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         return True
 
     t = time.monotonic()  # only stops free as planned are commanded (feasibility/stops.py)
-    stops = FreeStops(known)
+    stops = FreeStops.of(known)
     model_heatmaps = heatmap_tuple(heatmaps)
     fea = as_motion_feasibility(heatmaps := stops.restrict_source(heatmaps))
     timing["feasibility"] += time.monotonic() - t
