@@ -270,6 +270,12 @@ def _at_most(value: float, high: float, path: str) -> None:
         raise ScenarioError(path, f"must be at most {high:g}, got {value:g}")
 
 
+def _choice(value: str, choices, path: str, what: str) -> None:
+    if value not in choices:
+        raise ScenarioError(path, f"unknown {what} {quoted(value)} (expected one of: "
+                                  f"{', '.join(choices)})")
+
+
 def _name(name: str, path: str, seen: dict[str, str]) -> None:
     if not _NAME.fullmatch(name):  # match() with $ would let a name end in a newline
         raise ScenarioError(
@@ -334,12 +340,10 @@ def validate_scenario(scenario: Scenario) -> None:
     for i, dish in enumerate(scenario.dishes):
         path = f"dishes[{i}]"
         _name(dish.name, f"{path}.name", names)
-        if dish.kind not in DISH_KINDS:
-            raise ScenarioError(f"{path}.kind", f"unknown kind {dish.kind!r} "
-                                                f"(expected one of: {', '.join(DISH_KINDS)})")
+        _choice(dish.kind, DISH_KINDS, f"{path}.kind", "kind")
         if dish.table not in table_by_name:
             known = ", ".join(table_by_name) or "none"
-            raise ScenarioError(f"{path}.table", f"no table named {dish.table!r} (tables: "
+            raise ScenarioError(f"{path}.table", f"no table named {quoted(dish.table)} (tables: "
                                                  f"{known})")
         _numbers(dish.position, f"{path}.position", 2)
         table = table_by_name[dish.table]
@@ -371,16 +375,9 @@ def _validate_settings(scenario: Scenario) -> None:
     _at_least(scenario.room.wall_thickness, 0.0, "room.wall_thickness", strict=True)
 
     p = scenario.planner
-    if p.method not in METHODS:
-        raise ScenarioError("planner.method", f"unknown method {p.method!r} (expected one of: "
-                                              f"{', '.join(METHODS)})")
-    if p.feasibility not in FEASIBILITY_SOURCES:
-        raise ScenarioError("planner.feasibility", f"unknown source {p.feasibility!r} (expected "
-                                                   f"one of: {', '.join(FEASIBILITY_SOURCES)})")
-    if p.cost_profile not in COST_PROFILES:
-        raise ScenarioError("planner.cost_profile", f"unknown profile {p.cost_profile!r} "
-                                                    f"(expected one of: "
-                                                    f"{', '.join(COST_PROFILES)})")
+    _choice(p.method, METHODS, "planner.method", "method")
+    _choice(p.feasibility, FEASIBILITY_SOURCES, "planner.feasibility", "source")
+    _choice(p.cost_profile, COST_PROFILES, "planner.cost_profile", "profile")
     _at_least(p.top_k, 1, "planner.top_k")
     _at_least(p.cma_generations, 1, "planner.cma_generations")
     _at_least(p.cma_population, 2, "planner.cma_population")
@@ -400,9 +397,7 @@ def _validate_settings(scenario: Scenario) -> None:
         _at_least(getattr(u, name), 0.0, f"uncertainty.{name}")
 
     e = scenario.execution
-    if e.recovery not in RECOVERY_MODES:
-        raise ScenarioError("execution.recovery", f"unknown mode {e.recovery!r} (expected one "
-                                                  f"of: {', '.join(RECOVERY_MODES)})")
+    _choice(e.recovery, RECOVERY_MODES, "execution.recovery", "mode")
     if not 0.0 <= e.min_feasibility <= 1.0:
         raise ScenarioError("execution.min_feasibility",
                             f"must be a probability in [0, 1], got {e.min_feasibility:g}")

@@ -11,6 +11,7 @@ default) must pass validation and reach the simulation's set-up.
 import contextlib
 import copy
 import io
+import os
 import re
 import subprocess
 import sys
@@ -31,11 +32,13 @@ BASES = [REPO / "scenarios" / "restaurant.yaml",
          *sorted((REPO / "scenarios" / "small").glob("*.yaml")),
          REPO / "scenarios" / "generated" / "task_000.yaml"]
 DOCUMENTS = {path.name: yaml.safe_load(path.read_text()) for path in BASES}
-# Bounded: the suite stays fast; the soak command runs many more.
-EXAMPLES = settings(max_examples=40, deadline=None, database=None,
+# Bounded: the suite stays fast. S3O_PROPERTY_EXAMPLES=1000 tries many more.
+EXAMPLES = settings(max_examples=int(os.environ.get("S3O_PROPERTY_EXAMPLES", "40")),
+                    deadline=None, database=None,
                     suppress_health_check=[HealthCheck.too_slow])
 # A field path as the validator writes it: tables[0].size[2], planner.top_k, [''] ...
-FIELD = re.compile(r"^(\w+|\[[^\]]*\])(\[\d+\]|\[[^\]]*\]|\.\w+)*$")
+_KEY = r"""\[(?:'(?:[^'\\]|\\.)*'|"(?:[^"\\]|\\.)*"|[^\]'"]*)\]"""  # [0], ['a b'], [None]
+FIELD = re.compile(rf"^(\w+|{_KEY})({_KEY}|\.\w+)*$")
 PLACEHOLDER = "zz_mutation_placeholder"
 
 
