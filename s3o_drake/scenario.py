@@ -17,7 +17,6 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from shapely.geometry import Polygon, box
 
@@ -31,7 +30,12 @@ from s3o_drake.choices import (  # noqa: F401 (re-exported: the fields hold thes
 )
 from s3o_drake.furniture import DISH_KINDS, chair_footprint, dish_footprint, table_footprint
 from s3o_drake.robot import footprint_polygon
-from s3o_drake.yaml_checks import FieldError, check_finite, check_structure
+from s3o_drake.yaml_checks import (
+    FieldError,
+    check_structure,
+    load_yaml,
+    quoted,
+)
 
 
 class ScenarioError(ValueError):
@@ -235,10 +239,17 @@ _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 _AREA_TOL = 1e-6
 # Free space the robot needs around its footprint at the start (m).
 START_CLEARANCE = 0.02
+# Counts in the settings beyond these would not end within any time budget: one CMA-ES
+# generation, one location's samples or one action's tries would outlast it. Search
+# processes beyond MAX_WORKERS would only wait on each other and the memory.
+MAX_COUNT = 10_000
+MAX_WORKERS = 64
 
 
 def _fmt(values) -> str:
-    return "[" + ", ".join(f"{v:g}" if isinstance(v, float) else repr(v) for v in values) + "]"
+    # At most six values: a message is one short line, however long the list in the file.
+    shown = [f"{v:g}" if isinstance(v, float) else repr(v) for v in values[:6]]
+    return "[" + ", ".join(shown + (["..."] if len(values) > 6 else [])) + "]"
 
 
 def _numbers(values: list[float], path: str, count: int, what: str = "numbers",
@@ -254,10 +265,22 @@ def _at_least(value: float, low: float, path: str, strict: bool = False) -> None
         raise ScenarioError(path, f"must be {relation} {low:g}, got {value:g}")
 
 
+def _at_most(value: float, high: float, path: str) -> None:
+    if value > high:
+        raise ScenarioError(path, f"must be at most {high:g}, got {value:g}")
+
+
+def _choice(value: str, choices, path: str, what: str) -> None:
+    if value not in choices:
+        raise ScenarioError(path, f"unknown {what} {quoted(value)} (expected one of: "
+                                  f"{', '.join(choices)})")
+
+
 def _name(name: str, path: str, seen: dict[str, str]) -> None:
-    if not _NAME.match(name):
+    if not _NAME.fullmatch(name):  # match() with $ would let a name end in a newline
         raise ScenarioError(
-            path, f"must start with a letter and hold only letters, digits and _, got {name!r}")
+            path, f"must start with a letter and hold only letters, digits and _, got "
+                  f"{quoted(name)}")
     if name in seen:
         raise ScenarioError(path, f"duplicate name {name!r} (also {seen[name]})")
     seen[name] = path
@@ -317,12 +340,10 @@ def validate_scenario(scenario: Scenario) -> None:
     for i, dish in enumerate(scenario.dishes):
         path = f"dishes[{i}]"
         _name(dish.name, f"{path}.name", names)
-        if dish.kind not in DISH_KINDS:
-            raise ScenarioError(f"{path}.kind", f"unknown kind {dish.kind!r} "
-                                                f"(expected one of: {', '.join(DISH_KINDS)})")
+        _choice(dish.kind, DISH_KINDS, f"{path}.kind", "kind")
         if dish.table not in table_by_name:
             known = ", ".join(table_by_name) or "none"
-            raise ScenarioError(f"{path}.table", f"no table named {dish.table!r} (tables: "
+            raise ScenarioError(f"{path}.table", f"no table named {quoted(dish.table)} (tables: "
                                                  f"{known})")
         _numbers(dish.position, f"{path}.position", 2)
         table = table_by_name[dish.table]
@@ -343,6 +364,8 @@ def validate_scenario(scenario: Scenario) -> None:
 
 
 def _validate_settings(scenario: Scenario) -> None:
+    # Numeric drawers (numpy's SeedSequence) take no negative seed.
+    _at_least(scenario.seed, 0, "seed")
     bounds = scenario.room.bounds
     _numbers(bounds, "room.bounds", 4, what="numbers [x_min, y_min, x_max, y_max]")
     if bounds[2] - bounds[0] < 1.0 or bounds[3] - bounds[1] < 1.0:
@@ -352,21 +375,17 @@ def _validate_settings(scenario: Scenario) -> None:
     _at_least(scenario.room.wall_thickness, 0.0, "room.wall_thickness", strict=True)
 
     p = scenario.planner
-    if p.method not in METHODS:
-        raise ScenarioError("planner.method", f"unknown method {p.method!r} (expected one of: "
-                                              f"{', '.join(METHODS)})")
-    if p.feasibility not in FEASIBILITY_SOURCES:
-        raise ScenarioError("planner.feasibility", f"unknown source {p.feasibility!r} (expected "
-                                                   f"one of: {', '.join(FEASIBILITY_SOURCES)})")
-    if p.cost_profile not in COST_PROFILES:
-        raise ScenarioError("planner.cost_profile", f"unknown profile {p.cost_profile!r} "
-                                                    f"(expected one of: "
-                                                    f"{', '.join(COST_PROFILES)})")
+    _choice(p.method, METHODS, "planner.method", "method")
+    _choice(p.feasibility, FEASIBILITY_SOURCES, "planner.feasibility", "source")
+    _choice(p.cost_profile, COST_PROFILES, "planner.cost_profile", "profile")
     _at_least(p.top_k, 1, "planner.top_k")
     _at_least(p.cma_generations, 1, "planner.cma_generations")
     _at_least(p.cma_population, 2, "planner.cma_population")
     _at_least(p.location_samples, 1, "planner.location_samples")
     _at_least(p.workers, 1, "planner.workers")
+    _at_most(p.workers, MAX_WORKERS, "planner.workers")
+    for name in ("top_k", "cma_generations", "cma_population", "location_samples"):
+        _at_most(getattr(p, name), MAX_COUNT, f"planner.{name}")
     for name in ("delta", "gamma", "reward"):
         _at_least(getattr(p, name), 0.0, f"planner.{name}")
     for name in ("speed", "reach", "time_budget"):
@@ -378,9 +397,7 @@ def _validate_settings(scenario: Scenario) -> None:
         _at_least(getattr(u, name), 0.0, f"uncertainty.{name}")
 
     e = scenario.execution
-    if e.recovery not in RECOVERY_MODES:
-        raise ScenarioError("execution.recovery", f"unknown mode {e.recovery!r} (expected one "
-                                                  f"of: {', '.join(RECOVERY_MODES)})")
+    _choice(e.recovery, RECOVERY_MODES, "execution.recovery", "mode")
     if not 0.0 <= e.min_feasibility <= 1.0:
         raise ScenarioError("execution.min_feasibility",
                             f"must be a probability in [0, 1], got {e.min_feasibility:g}")
@@ -389,6 +406,10 @@ def _validate_settings(scenario: Scenario) -> None:
     _at_least(e.max_tries, 1, "execution.max_tries")
     _at_least(e.max_replans, 0, "execution.max_replans")
     _at_least(e.replan_budget, 0.0, "execution.replan_budget", strict=True)
+    for name in ("max_corrections", "max_tries", "max_replans"):
+        _at_most(getattr(e, name), MAX_COUNT, f"execution.{name}")
+    if "\0" in scenario.outputs.directory:  # no file system takes it in a path
+        raise ScenarioError("outputs.directory", "must not hold a NUL character")
 
     c = scenario.camera
     tallest = max([t.height for t in scenario.tables] + [scenario.room.wall_height])
@@ -414,21 +435,14 @@ def _validate_settings(scenario: Scenario) -> None:
 def parse_scenario(text: str) -> Scenario:
     """Parses and validates scenario YAML text; raises ScenarioError."""
     try:
-        raw = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f"line {mark.line + 1}" if mark is not None else "YAML"
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise ScenarioError(where, f"not valid YAML: {problem}") from None
-    if raw is None:  # an empty or comment-only file: every field has its default
-        raw, text = {}, "{}"
-    try:
+        raw = load_yaml(text)
+        if raw is None:  # an empty or comment-only file: every field has its default
+            raw, text = {}, "{}"
         check_structure(raw, Scenario, "")
         scenario = yaml_load_typed(schema=Scenario, data=text)
-        check_finite(scenario, "")
     except FieldError as e:
         raise ScenarioError(e.path, e.message) from None
-    except RuntimeError as e:  # the structure check should have caught it; keep one line
+    except (RuntimeError, ValueError) as e:  # the checks should have caught it; keep one line
         raise ScenarioError("", str(e).splitlines()[0]) from None
     validate_scenario(scenario)
     return scenario
@@ -443,9 +457,15 @@ def load_scenario(path: str | Path) -> Scenario:
     if not path.is_file():
         raise ScenarioError("", "no such scenario file", file=str(path))
     try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as e:
-        raise ScenarioError("", f"cannot read: {e}", file=str(path)) from None
+        data = path.read_bytes()
+    except OSError as e:
+        raise ScenarioError("", f"cannot read: {e.strerror or e}", file=str(path)) from None
+    try:
+        text = data.decode("utf-8")  # YAML's encoding, whatever the locale's is
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        raise ScenarioError(f"line {line}", f"not UTF-8 text (byte 0x{data[e.start]:02x} at "
+                                            f"offset {e.start})", file=str(path)) from None
     try:
         return parse_scenario(text)
     except ScenarioError as e:

@@ -66,8 +66,13 @@ def test_dishes_30_cm_apart_merge_in_the_top_ranked_state_space(two_dishes):
 def test_dishes_on_opposite_sides_are_never_one_location(opposite_sides):
     scenario, heatmaps = opposite_sides
     abstraction = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps)
-    assert abstraction.partition.edges() == []
-    assert all(len(s.groups) == 2 for s in abstraction.ranked)
+    # Their Voronoi regions border each other across the table, so merging them is a
+    # candidate; no stop serves both, so it scores nothing and is never the one searched.
+    assert abstraction.partition.edges() == [(0, 1)]
+    merged = [s for s in abstraction.ranked if len(s.groups) == 1]
+    assert all(s.score == pytest.approx(0.0, abs=1e-9) for s in merged)
+    assert all(p == 0.0 for s, p in zip(abstraction.top_k, abstraction.probabilities,
+                                          strict=True) if len(s.groups) == 1)
     assert abstraction.best.groups == (("bowl_north",), ("bowl_south",))
 
 
@@ -308,3 +313,21 @@ def test_benchmark_help_and_bad_input(tmp_path):
         result = subprocess.run([*command, *bad], capture_output=True, text=True, cwd=tmp_path)
         assert result.returncode == 2, bad
         assert result.stderr.count("\n") == 1, result.stderr
+
+
+def test_a_chair_between_two_cells_does_not_keep_their_dishes_apart():
+    """task_002: a chair splits the floor in front of cup_1 and plate_1 on the bar. The
+    cup's own cell picks it from nowhere; the plate's cell holds the stops that pick both.
+    Adjacent by their Voronoi regions, the two may merge, and S3O's best state space does."""
+    scenario = load_scenario(Path("scenarios/generated/task_002.yaml"))
+    known = KnownWorld.perfect(scenario)
+    partition = voronoi_partition(known)
+    cup, plate = partition.dishes.index("cup_1"), partition.dishes.index("plate_1")
+    assert not partition.cells[cup].buffer(1e-3).intersects(partition.cells[plate])
+    assert plate in partition.adjacency[cup]
+    heatmaps = compute_heatmaps(known.as_scenario(), ["cup_1", "plate_1"], progress=False,
+                                obstacles=known.obstacles)
+    alone = build_abstraction(known, heatmaps, dishes=["cup_1", "plate_1"])
+    assert alone.plain_voronoi.task_feasibility["cup_1"] < 0.05
+    assert alone.best.groups == (("cup_1", "plate_1"),)
+    assert alone.best.task_feasibility["cup_1"] > 0.5

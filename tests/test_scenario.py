@@ -129,6 +129,21 @@ MALFORMED = [
      "expected a number"),
     ("chair overlaps chair", _append("chairs", {"name": "chair_2", "pose": [2.1, 3.4, 0.0]}),
      "chairs[1].pose", "overlaps chair 'chair'"),
+    # Found by the mutated files of tests/test_malformed_yaml.py (issue 19, item 1).
+    ("name ending in a newline", _set("tables", 0, "name", "table\n"), "tables[0].name",
+     "letters"),
+    ("negative seed", _set("seed", -1), "seed", "at least 0"),
+    ("huge number", _set("planner", {"time_budget": 1e300}), "planner.time_budget",
+     "at most 1e+06"),
+    ("int too large for a float", _set("planner", {"speed": 10**400}), "planner.speed",
+     "at most 1e+06"),
+    ("int beyond 64 bits", _set("seed", 2**64), "seed", "64-bit"),
+    ("too many workers", _set("planner", {"workers": 1000}), "planner.workers", "at most 64"),
+    ("a count no budget ends", _set("planner", {"location_samples": 10**9}),
+     "planner.location_samples", "at most 10000"),
+    ("NUL in the output folder", _set("outputs", {"directory": "out\0"}),
+     "outputs.directory", "NUL"),
+    ("odd unknown key", _set("robot", "", 1), "robot['']", "unknown field ''"),
 ]
 
 
@@ -225,3 +240,29 @@ def test_nan_is_caught_even_in_yaml_spelling():
     with pytest.raises(ScenarioError) as info:
         parse_scenario("planner: {reach: .nan}\n")
     assert info.value.path == "planner.reach"
+
+
+@pytest.mark.parametrize(("text", "path", "words"), [
+    ("planner: {top_k: 3, top_k: 4}\n", "planner.top_k", "duplicate key (also on line 1)"),
+    ("tables: " + "[" * 5000 + "]" * 5000 + "\n", "tables[0]", "nested more than 32"),
+    ("seed: 1\x07\n", "line 1", "unacceptable character #x0007"),
+], ids=["duplicate key", "deep nesting", "control character"])
+def test_what_yaml_itself_lets_through_is_named(text, path, words):
+    # PyYAML keeps the last of two equal keys and recurses once per level of nesting.
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(text)
+    assert info.value.path == path and words in info.value.message
+
+
+def test_exponents_without_a_dot_are_numbers():
+    # YAML 1.2 (and yaml_load_typed) read 1e-1 as a number; PyYAML's YAML 1.1, as a string.
+    scenario = parse_scenario("planner: {speed: 1e-1, reach: 1E0}\n")
+    assert (scenario.planner.speed, scenario.planner.reach) == (0.1, 1.0)
+
+
+def test_a_file_that_is_not_utf8_names_the_line(tmp_path):
+    path = tmp_path / "latin1.yaml"
+    path.write_bytes("seed: 1\n# café\n".encode("latin-1"))
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    assert info.value.path == "line 2" and "not UTF-8 text (byte 0xe9" in info.value.message

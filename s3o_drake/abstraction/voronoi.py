@@ -25,8 +25,13 @@ o's Voronoi region.) The planner's `reach` (the paper's 1 m) is shorter than the
 (about 1.35 m with a side grasp): a dish whose region has no free position within `reach`
 gets the free positions of its region within `ARM_REACH` instead, where Fea^m decides.
 Cells are built with `shapely.voronoi_polygons` and clipped. Two
-cells are adjacent when they share a boundary longer than `ADJACENCY_MIN_LENGTH`. A dish
-whose cell is still empty is kept, with an empty cell, and listed in `unreachable`.
+dishes with cells are adjacent when their Voronoi regions, within the radius their cells
+were cut with, share a boundary longer than `ADJACENCY_MIN_LENGTH`: an obstacle between the
+free cells does not keep them apart, since a stop in either may serve both. (On
+task_002 a chair splits the floor in front of a cup and a plate on the bar: the cup's own
+cell has Fea^m 0 everywhere, the plate's holds the only stops that pick the cup, and
+adjacency by the free cells' borders never let S3O merge them.) A dish whose cell is still
+empty is kept, with an empty cell, and listed in `unreachable`.
 """
 
 from collections.abc import Sequence
@@ -126,6 +131,8 @@ def _voronoi_regions(p_WO: np.ndarray, envelope: Polygon) -> list[BaseGeometry]:
 
 
 def _adjacency(cells: list[BaseGeometry]) -> list[set[int]]:
+    """Which of `cells` (the dishes' regions within reach; empty for a dish without a free
+    cell) share a border."""
     adjacency: list[set[int]] = [set() for _ in cells]
     nonempty = [i for i, c in enumerate(cells) if c.area > _EMPTY_AREA]
     for a_index, i in enumerate(nonempty):
@@ -153,16 +160,18 @@ def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
     free = free_space(known, clearance=clearance)
     envelope = known.obstacles.room
     regions = _voronoi_regions(p_WO, envelope) if len(names) else []
-    cells = []
+    cells, within = [], []
     for p, region in zip(p_WO, regions, strict=True):
         cell = Polygon()
         # Within `reach` first; a dish with nothing free there gets its region's free
         # positions within the arm's full reach (Voronoi regions are disjoint, so the cells
         # still partition the space).
         for radius in (reach, max(reach, ARM_REACH)):
-            cell = region.intersection(Point(*p).buffer(radius, quad_segs=32)).intersection(free)
+            near = region.intersection(Point(*p).buffer(radius, quad_segs=32))
+            cell = near.intersection(free)
             if cell.area > _EMPTY_AREA:
                 break
         cells.append(cell if cell.area > _EMPTY_AREA else Polygon())
+        within.append(near if cell.area > _EMPTY_AREA else Polygon())
     return VoronoiPartition(dishes=names, p_WO=p_WO, cells=cells, free=free, reach=reach,
-                            adjacency=_adjacency(cells))
+                            adjacency=_adjacency(within))

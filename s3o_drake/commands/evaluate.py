@@ -48,7 +48,9 @@ run again; a run that ended in an error is tried again. Editing a task file make
 new ones. A progress bar shows the rate and the time left.
 
 Exit status: 0 when every run finished, 1 when some ended in an error (listed in
-summary.md), 2 on bad input (nothing is written), 130 when interrupted (finished runs kept).
+summary.md) or a result could not be written (a full disk: one line says so; the finished
+runs are kept), 2 on bad input (nothing is written), 130 when interrupted (finished runs
+kept).
 """
 
 from __future__ import annotations
@@ -149,6 +151,12 @@ def _interrupt(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
+def _cannot_write(error: OSError, then: str) -> None:
+    """One line on stderr: what could not be written, why, and what was kept."""
+    where = f" {error.filename}" if error.filename else ""
+    print(f"error: cannot write{where}: {error.strerror or error}; {then}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     paths, methods = _validate(args)
@@ -178,6 +186,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\ninterrupted: the finished runs are kept in {out / 'results.jsonl'}; "
               "run the same command to go on", file=sys.stderr)
         return 130
+    except OSError as e:  # e.g. the disk full: the store kept every line it finished
+        _cannot_write(e, f"the finished runs are kept in {out / 'results.jsonl'}; make room "
+                         "and run the same command to go on")
+        return 1
     finally:
         signal.signal(signal.SIGTERM, previous)
 
@@ -192,7 +204,12 @@ def main(argv: list[str] | None = None) -> int:
                     sys.argv[1:] if argv is None else argv)}
     dish_areas = {r["task"]: r["areas"] for r in measured
                   if r is not None and "error" not in r}
-    written = write_outputs(out, runs, areas, groups, methods, settings, dish_areas)
+    try:
+        written = write_outputs(out, runs, areas, groups, methods, settings, dish_areas)
+    except OSError as e:
+        _cannot_write(e, f"the runs are kept in {out / 'results.jsonl'}; make room and "
+                         "run the same command with --summarize")
+        return 1
     print(markdown_tables(summarize(runs, groups, methods), methods))
     print("Group sizes: " + ", ".join(
         f"{g} {sum(v == g for v in groups.values())}" for g in GROUPS))

@@ -2,9 +2,11 @@
 
 Each finished job is one line, flushed and fsynced before the next is written, so a run
 that is killed loses at most the line it was writing. That cut-short line is cut off when
-the store is opened again (its job then runs again); every complete line is kept.
+the store is opened again (its job then runs again); every complete line is kept. A write
+that fails (a full disk) takes back what it wrote of its line before it raises.
 """
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -46,11 +48,24 @@ class ResultStore:
         return self._rows.get(key)
 
     def append(self, row: dict) -> None:
+        """Adds the row as one line, on disk when this returns. A write that fails (the
+        disk full: OSError ENOSPC) leaves no part of the line behind, so that the next
+        row does not run into it and make both unreadable; the error is raised."""
         if self.read_only:
             raise PermissionError(f"{self.path} was opened read-only")
-        line = json.dumps(row, sort_keys=True) + "\n"
-        with self.path.open("a") as f:
-            f.write(line)
-            f.flush()
-            os.fsync(f.fileno())
+        data = (json.dumps(row, sort_keys=True) + "\n").encode()
+        fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+        try:
+            size = os.fstat(fd).st_size
+            try:
+                written = 0
+                while written < len(data):  # os.write may write less than asked
+                    written += os.write(fd, data[written:])
+                os.fsync(fd)
+            except OSError as e:
+                with contextlib.suppress(OSError):  # truncating frees space; best effort
+                    os.ftruncate(fd, size)
+                raise OSError(e.errno, e.strerror, str(self.path)) from e  # names the file
+        finally:
+            os.close(fd)
         self._rows[row["key"]] = row

@@ -10,7 +10,7 @@ from typing import TextIO
 
 import numpy as np
 from pydrake.geometry import Meshcat
-from pydrake.systems.analysis import Simulator
+from pydrake.systems.analysis import InitializeParams, Simulator
 from pydrake.systems.framework import Diagram
 from tqdm import tqdm
 
@@ -20,6 +20,11 @@ from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.scenario import Scenario
 from s3o_drake.world.builder import overhead_images
+
+SOLVER_RESTARTS = 5
+"""Restarts of the contact solver from rest allowed in one run (`_simulate`)."""
+REST_SPEED = 1e-6
+"""A plant whose velocities are all below this (m/s, rad/s) stands still."""
 
 
 @dataclass
@@ -77,6 +82,38 @@ def frame_room(meshcat: Meshcat, scenario: Scenario) -> None:
     meshcat.SetCameraPose(center + np.array([0.0, -0.75 * span, 0.9 * span]), center)
 
 
+def _simulate(simulator: Simulator, plant) -> tuple[str | None, int]:
+    """Runs `simulator` until the task monitor ends the run; returns why it failed (None when
+    it did not) and how many times the contact solver was restarted.
+
+    SAP can fail to converge on a robot standing still with no contact at all: velocities
+    of 1e-12 m/s, the numerical dust of a PD-held rest, make its line search fail
+    (task_002, seed 4132582129: every run ended at t = 14.08 s, with a 0.01 s or a
+    0.005 s step). Such a state is at rest for any purpose, so its velocities are set to
+    exactly zero and the step is taken again, at most SOLVER_RESTARTS times per run.
+    Any other failure ends the run: a RuntimeError is e.g. the solver diverging in motion,
+    and pydrake raises SystemExit for a failed Drake requirement (DRAKE_DEMAND) inside a
+    system. Either is reported with the data so far, and not the study that called it.
+    """
+    context = simulator.get_mutable_context()
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    restarts = 0
+    while True:
+        try:
+            simulator.AdvanceTo(TIME_LIMIT + 1.0)  # the task monitor ends it before
+            return None, restarts
+        except (RuntimeError, SystemExit) as e:
+            message = str(e).splitlines()[0] if str(e) else type(e).__name__
+            at_rest = np.abs(plant.GetVelocities(plant_context)).max(initial=0.0) < REST_SPEED
+            if (isinstance(e, RuntimeError) and "SAP solver failed to converge" in message
+                    and at_rest and restarts < SOLVER_RESTARTS):
+                restarts += 1
+                plant.SetVelocities(plant_context, np.zeros(plant.num_velocities()))
+                simulator.Initialize(InitializeParams(suppress_initialization_events=True))
+                continue
+            return f"the simulation failed at t = {context.get_time():.2f} s: {message}", restarts
+
+
 def execute(scenario: Scenario, *, method: str | None = None, seed: int | None = None,
             meshcat: Meshcat | None, realtime: bool = False, noise: bool = True,
             progress: bool = True, perceive: Perceive | None = None) -> Execution:
@@ -115,15 +152,7 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     bar = SimulatedSeconds(expected, disable=not progress)
     simulator.set_monitor(lambda root_context: bar.show(root_context.get_time()))
     start = time.perf_counter()
-    failure = None
-    try:
-        simulator.AdvanceTo(TIME_LIMIT + 1.0)  # the task monitor ends it before
-    # A RuntimeError is e.g. the contact solver diverging; pydrake raises SystemExit for a
-    # failed Drake requirement (DRAKE_DEMAND) inside a system. Either ends this run, reported
-    # with the data so far, and not the study that called it.
-    except (RuntimeError, SystemExit) as e:
-        failure = f"the simulation failed at t = {context.get_time():.2f} s: " \
-                  f"{str(e).splitlines()[0]}"
+    failure, restarts = _simulate(simulator, world.GetSubsystemByName("plant"))
     wall = time.perf_counter() - start
     bar.close(context.get_time())
     if visualizer is not None:
@@ -137,7 +166,7 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     if failure is not None:
         report.update(finished=False, reason=failure, execution_time=context.get_time())
     planning_time = float(planner.GetOutputPort("planning_time").Eval(planner_context)[0])
-    report.update(planning_time=planning_time, wall_time=wall,
+    report.update(planning_time=planning_time, wall_time=wall, solver_restarts=restarts,
                   realtime_rate=context.get_time() / wall if wall > 0 else float("inf"),
                   simulated_time=context.get_time())
     return Execution(diagram=diagram, plan=plan, report=report, images=images, result=result,

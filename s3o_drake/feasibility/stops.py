@@ -39,10 +39,26 @@ from s3o_drake.known_world import KnownWorld
 
 #: A cell's centre and corners, in cells from its lower-left corner.
 _CORNERS = ((0, 0), (0, 1), (1, 0), (1, 1))
+#: Scenes kept for reuse (`FreeStops.of`): a replan, or a second plan of the same scene.
+_KEEP = 4
+_built: dict[str, FreeStops] = {}
 
 
 class FreeStops:
     """The known world's free-stop test (see the module docstring)."""
+
+    @classmethod
+    def of(cls, known: KnownWorld) -> FreeStops:
+        """The test for `known`, reused when a recent one was built for the same furniture,
+        chairs and dishes (building the collision checker takes about 0.3 s, a stage that a
+        small planning budget cannot interrupt)."""
+        seen = known.as_scenario()
+        key = repr((seen.room, seen.tables, seen.chairs, seen.dishes))
+        if key not in _built:
+            if len(_built) >= _KEEP:
+                _built.pop(next(iter(_built)))
+            _built[key] = cls(known)
+        return _built[key]
 
     def __init__(self, known: KnownWorld):
         scene = FeasibilityScene(known.as_scenario(), obstacles=known.obstacles)

@@ -48,8 +48,9 @@ many worker processes while this process goes on with the next state space's tas
 planning. The workers are forked once the navigation map, the abstraction and Fea^m exist,
 so they inherit them (and the location grid) instead of rebuilding or unpickling them;
 only a sequence, its regions and its locations' groups travel to a worker, and a
-`MotionResult` back. They never call Drake. Where fork is not available (not Linux) the
-searches run in this process.
+`MotionResult` back. They never call Drake. Where fork is not available (not Linux), or
+this process may not have children (a daemonic process: a Dask worker, a process pool's
+worker), the searches run in this process.
 
 Determinism. All randomness comes from generators seeded with (seed, purpose, iteration,
 sequence), and results are compared in submission order, so the same seed gives the same
@@ -148,12 +149,16 @@ class _Searches:
         global _inherited
         # Workers stop a little early: collecting their results and letting them go takes
         # time too, and the budget must hold for the whole call.
-        slack = WORKER_SLACK * max(0.0, deadline - time.monotonic()) if workers > 1 else 0.0
+        # A daemonic process (a Dask worker) that starts a pool fails with "daemonic
+        # processes are not allowed to have children": it searches here, to the same plan.
+        parallel = workers > 1 and "fork" in multiprocessing.get_all_start_methods() \
+            and not multiprocessing.current_process().daemon
+        slack = WORKER_SLACK * max(0.0, deadline - time.monotonic()) if parallel else 0.0
         self._shared = dict(search=search, fea=fea, nav=nav, start=start, planner=planner,
                             deadline=deadline - slack, costs=costs, grid=grid)
         self._pool: ProcessPoolExecutor | None = None
         self._pending: list[tuple[object, Future | MotionResult]] = []
-        if workers > 1 and "fork" in multiprocessing.get_all_start_methods():
+        if parallel:
             _inherited = self._shared
             self._pool = ProcessPoolExecutor(max_workers=workers,
                                              mp_context=multiprocessing.get_context("fork"))
@@ -329,7 +334,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         return True
 
     t = time.monotonic()  # only stops free as planned are commanded (feasibility/stops.py)
-    stops = FreeStops(known)
+    stops = FreeStops.of(known)
     model_heatmaps = heatmap_tuple(heatmaps)
     fea = as_motion_feasibility(heatmaps := stops.restrict_source(heatmaps))
     timing["feasibility"] += time.monotonic() - t
