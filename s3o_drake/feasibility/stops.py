@@ -65,6 +65,9 @@ class FreeStops:
         # Only base_free is asked: no reachability map is needed ("ik" loads none).
         self._checker = FeasibilityChecker(scene, method="ik")
         self._p_WD = {d: scene.dish_p_WD(d)[0][:2] for d in known.dish_names}
+        # The free cells of a heatmap depend only on its grid and which cells are asked: a
+        # second plan on the same heatmaps (a replan, the FCN's re-plan) reuses them.
+        self._cells: dict[tuple, np.ndarray] = {}
 
     def free(self, points: np.ndarray, dish: str) -> np.ndarray:
         """Whether the base at each position of `points` (n, 2), facing `dish`, is
@@ -81,6 +84,10 @@ class FreeStops:
         values = heatmap.values
         rows, cols = values.shape
         need = values > 0
+        key = (heatmap.dish, heatmap.x0, heatmap.y0, heatmap.cell, need.shape,
+               np.packbits(need).tobytes())
+        if key in self._cells:
+            return self._cells[key]
         corner_need = np.zeros((rows + 1, cols + 1), dtype=bool)
         for di, dj in _CORNERS:
             corner_need[di:di + rows, dj:dj + cols] |= need
@@ -89,6 +96,8 @@ class FreeStops:
         ok = need & centre_free
         for di, dj in _CORNERS:
             ok &= corner_free[di:di + rows, dj:dj + cols]
+        ok.setflags(write=False)  # shared by every caller that asks again
+        self._cells[key] = ok
         return ok
 
     def restrict(self, heatmap: Heatmap) -> Heatmap:
