@@ -30,7 +30,8 @@ def test_memory_is_the_longest_lived_worker():
 
 @pytest.mark.parametrize("args, field", [(["--plan", "-1"], "--plan"),
                                          (["--budget", "0"], "--budget"),
-                                         (["--limit", "nan"], "--limit")])
+                                         (["--limit", "nan"], "--limit"),
+                                         (["--execute-budget", "-1"], "--execute-budget")])
 def test_bad_arguments_are_one_line_and_exit_2(tmp_path, capsys, args, field):
     with pytest.raises(SystemExit) as e:
         main([*args, "--out", str(tmp_path / "o")])

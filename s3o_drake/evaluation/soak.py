@@ -51,16 +51,18 @@ class SoakJob:
 
 
 def soak_jobs(seed: int, plans: int, executions: int, budget: float,
-              max_dishes: int = 30) -> list[SoakJob]:
+              max_dishes: int = 30, execute_budget: float | None = None) -> list[SoakJob]:
     """The plan jobs of scenes 0..plans-1 with the execute jobs of scenes
-    0..executions-1 spread among them (so that a soak cut short has some of both)."""
+    0..executions-1 spread among them (so that a soak cut short has some of both);
+    executions plan with `execute_budget` (default `budget`)."""
+    run_budget = budget if execute_budget is None else execute_budget
     jobs: list[SoakJob] = []
     executed = 0
     for i in range(max(plans, executions)):
         if i < plans:
             jobs.append(SoakJob(PLAN, seed, i, budget, max_dishes=max_dishes))
         while executed < executions and executed * max(plans, 1) <= i * executions:
-            jobs.append(SoakJob(EXECUTE, seed, executed, budget,
+            jobs.append(SoakJob(EXECUTE, seed, executed, run_budget,
                                 METHODS[executed % len(METHODS)], max_dishes))
             executed += 1
     return jobs
@@ -111,12 +113,14 @@ def _execute(scene, job: SoakJob) -> dict:
     logging.getLogger("drake").setLevel(logging.WARNING)
     run = execute(scene, method=job.method, seed=scene.seed, meshcat=None, progress=False)
     r = run.report
-    fea = 0.0 if run.plan is None else float(run.plan.timing.get("feasibility", 0.0))
+    # Fea^m (perception, the network) comes before the planner's budget starts; without a
+    # plan there is no breakdown, and the overrun is not known (None).
+    fea = None if run.plan is None else float(run.plan.timing.get("feasibility", 0.0))
     return {"collected": r["collected"], "planned": run.plan is not None,
             "finished": bool(r.get("finished", True)), "reason": r.get("reason", ""),
             "planning_time": r["planning_time"], "feasibility_time": fea,
-            # Fea^m (perception, the network) comes before the planner's budget starts.
-            "overrun": r["planning_time"] - fea > job.budget * (1 + OVERRUN),
+            "overrun": None if fea is None else
+            r["planning_time"] - fea > job.budget * (1 + OVERRUN),
             "execution_time": r["execution_time"], "wall_time": r.get("wall_time", 0.0),
             "error": "" if run.result is None else run.result.error}
 
@@ -265,7 +269,7 @@ def summary_table(rows: Sequence[dict]) -> str:
             continue
         ok = [r for r in rs if "planned" in r]
         ratio = max(((r["planning_time"] - r["feasibility_time"]) / r["budget"]
-                     for r in ok), default=0.0)
+                     for r in ok if r["feasibility_time"] is not None), default=0.0)
         lines.append(f"| execute | {method} | {len(rs)} | {sum(r['planned'] for r in ok)} | "
                      f"{sum(not r['planned'] for r in ok)} | "
                      f"{sum(bool(r.get('crash')) for r in rs)} | "
