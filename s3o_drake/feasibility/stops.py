@@ -105,17 +105,26 @@ class FreeStops:
         return dataclasses.replace(heatmap, values=np.where(self.free_cells(heatmap),
                                                             heatmap.values, 0.0))
 
-    def restrict_all(self, heatmaps: Sequence[Heatmap]) -> tuple[Heatmap, ...]:
-        """`restrict` of each heatmap whose dish the known world holds (others as given)."""
-        return tuple(self.restrict(h) if h.dish in self._p_WD else h for h in heatmaps)
+    def restrict_all(self, heatmaps: Sequence[Heatmap],
+                     check: Callable[[], object] | None = None) -> tuple[Heatmap, ...]:
+        """`restrict` of each heatmap whose dish the known world holds (others as given).
+        `check` is called before each dish: the planner's deadline, which raises when it
+        has passed (30 dishes take about a second, more than a small budget)."""
+        out = []
+        for h in heatmaps:
+            if check is not None:
+                check()
+            out.append(self.restrict(h) if h.dish in self._p_WD else h)
+        return tuple(out)
 
-    def restrict_source(self, heatmaps):
+    def restrict_source(self, heatmaps, check: Callable[[], object] | None = None):
         """`restrict_all` of a list, tuple or mapping (dish -> Heatmap) of heatmaps, in a
         container of the same kind; any other Fea^m source is returned as given."""
         if isinstance(heatmaps, Mapping):
-            return dict(zip(heatmaps, self.restrict_all(list(heatmaps.values())), strict=True))
+            return dict(zip(heatmaps, self.restrict_all(list(heatmaps.values()), check),
+                            strict=True))
         if isinstance(heatmaps, (list, tuple)):
-            return self.restrict_all(heatmaps)
+            return self.restrict_all(heatmaps, check)
         return heatmaps
 
     def goal_test(self, model: Sequence[Heatmap], plan: Sequence[Heatmap]

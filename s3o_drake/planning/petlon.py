@@ -29,7 +29,12 @@ from shapely.geometry.base import BaseGeometry
 from s3o_drake.abstraction.motion_feasibility import MotionFeasibility
 from s3o_drake.planning.motion_search import MotionResult, SequenceProblem
 from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.planning.task_planner import START, TaskPlanResult, plan_problem
+from s3o_drake.planning.task_planner import (
+    START,
+    TaskPlanningTimeoutError,
+    TaskPlanResult,
+    plan_problem,
+)
 from s3o_drake.planning.time_model import CostModel
 from s3o_drake.scenario import Planner
 
@@ -57,21 +62,29 @@ class PetlonResult:
     draws: int
 
 
+class _ExpiredError(Exception):
+    """The deadline passed while drawing a goal."""
+
+
 def random_position(region: BaseGeometry, nav: NavigationMap, start: np.ndarray,
                     rng: np.random.Generator,
-                    free: Callable[[np.ndarray], np.ndarray] | None = None
-                    ) -> np.ndarray | None:
+                    free: Callable[[np.ndarray], np.ndarray] | None = None,
+                    deadline: float | None = None) -> np.ndarray | None:
     """A uniform point of `region` that the base can drive to from `start`, and where
     `free` (points (n, 2) -> bool (n,); None: any) holds, or None.
 
     Uniform by rejection in the bounding box; a point the navigation map cannot reach
     (e.g. in the band between the inscribed and the circumscribed radius with no straight
     way out) is redrawn, as PETLON's goal sampler would discard an unreachable goal.
+    Raises `_ExpiredError` when `deadline` (time.monotonic) passes first: a cell with no free
+    point costs all DRAWS_PER_POSITION rounds, seconds in a crowded scene.
     """
     if region.is_empty or region.area <= 0:
         return None
     x0, y0, x1, y1 = region.bounds
     for _ in range(DRAWS_PER_POSITION):
+        if deadline is not None and time.monotonic() >= deadline:
+            raise _ExpiredError
         P = np.column_stack([rng.uniform(x0, x1, 32), rng.uniform(y0, y1, 32)])
         P = P[shapely.contains_xy(region, P[:, 0], P[:, 1])]
         if len(P) and free is not None:
@@ -105,9 +118,17 @@ def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
         if i and deadline is not None and time.monotonic() >= deadline:
             break
         t0 = time.monotonic()
-        points = {n: random_position(regions[n], nav, start, rng,
-                                     None if free is None else partial(free, dish=g[0]))
-                  for n, g in zip(names, groups, strict=True)}
+        try:
+            points = {n: random_position(regions[n], nav, start, rng,
+                                         None if free is None else partial(free, dish=g[0]),
+                                         deadline)
+                      for n, g in zip(names, groups, strict=True)}
+        except _ExpiredError:
+            if best is not None:  # the draws so far stand
+                break
+            raise TaskPlanningTimeoutError(
+                "V-PETLON: the time budget expired while drawing the goals, before any "
+                "plan was found") from None
         nodes = [n for n in names if points[n] is not None]
         P = np.array([points[n] for n in nodes] + [start]).reshape(-1, 2)
         keys = [*nodes, START]
@@ -118,9 +139,17 @@ def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
                  for i_a, a in enumerate(keys) for i_b, b in enumerate(keys) if a != b}
         lost = set(unreachable) | {d for n, g in zip(names, groups, strict=True)
                                    if points[n] is None for d in g}
-        remaining = None if deadline is None else max(deadline - time.monotonic(), 0.5)
-        task = plan_problem(groups, task_costs, unreachable=sorted(lost), n_plans=1,
-                            time_limit=5.0 if remaining is None else min(5.0, remaining))
+        # The first draw's order gets a moment past the deadline (there is no plan
+        # without it); later draws only what remains, and are dropped if it runs out.
+        remaining = None if deadline is None else max(deadline - time.monotonic(),
+                                                      0.05 if best is not None else 0.5)
+        try:
+            task = plan_problem(groups, task_costs, unreachable=sorted(lost), n_plans=1,
+                                time_limit=5.0 if remaining is None else min(5.0, remaining))
+        except TaskPlanningTimeoutError:
+            if best is None:
+                raise
+            break
         t1 = time.monotonic()
         task_time += t1 - t0
         sequence = task.best.actions

@@ -77,16 +77,22 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
     result = _plan(known, method, heatmaps, seed, time_budget, n_sequences, workers, t0)
     source = known.planner.feasibility if feasibility is None else feasibility
     lost = () if result.plan is None else result.plan.unreachable
+    budget = known.planner.time_budget if time_budget is None else time_budget
     if lost and source == FeasibilitySource.FCN and maps:
         # The network is an approximation: before a dish is left out, the Drake check of
-        # the known world decides (a few seconds per dish, and only for these).
-        exact = dict(zip(lost, compute_heatmaps(known.as_scenario(), list(lost), workers=1,
-                                                progress=False, obstacles=known.obstacles),
-                         strict=True))
+        # the known world decides (a few seconds per dish, and only for these), within
+        # the budget: dish by dish while time is left, and the plan made again only if
+        # time is left for it (the random-scene soak of issue 19 found the rescue running
+        # several times over a small budget).
+        exact = {}
+        for dish in lost:
+            if time.perf_counter() - t0 >= budget:
+                break
+            exact[dish] = compute_heatmaps(known.as_scenario(), [dish], workers=1,
+                                           progress=False, obstacles=known.obstacles)[0]
         maps = tuple(exact.get(h.dish, h) for h in maps)
-        if any(h.values.max() > 0.0 for h in exact.values()):
-            budget = known.planner.time_budget if time_budget is None else time_budget
-            left = max(budget - (time.perf_counter() - t0), 1.0)
+        left = budget - (time.perf_counter() - t0)
+        if any(h.values.max() > 0.0 for h in exact.values()) and left > 0:
             result = _plan(known, method, maps, seed, left, n_sequences, workers, t0)
     # The plan's own heatmaps: Fea^m restricted to free stops, as the plan was made.
     return dataclasses.replace(result, heatmaps=result.heatmaps or maps,

@@ -235,6 +235,19 @@ def representative_points(regions: Mapping[str, BaseGeometry], groups: Sequence[
     return out
 
 
+def dead_dishes(groups: Sequence[Sequence[str]], grid: LocationGrid) -> set[str]:
+    """Dishes with Fea^m 0 at every point of their location: left out (unreachable), not
+    driven to, since the search would stand anywhere there, even where the base collides
+    (random scenes, issue 19). With the network's Fea^m the pipeline asks the oracle."""
+    dead = set()
+    for group in groups:
+        location = grid.location(group)
+        for row, dish in enumerate(location.dishes):
+            if not (location.fea[row] > 0).any():
+                dead.add(dish)
+    return dead
+
+
 def location_costs(points: Mapping[str, np.ndarray | None], nav: NavigationMap, start: np.ndarray,
                    speed: float) -> dict[tuple[str, str], float]:
     """Task-planner costs {(from, to): path length / v x COST_SCALE} between the
@@ -336,7 +349,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     t = time.monotonic()  # only stops free as planned are commanded (feasibility/stops.py)
     stops = FreeStops.of(known)
     model_heatmaps = heatmap_tuple(heatmaps)
-    fea = as_motion_feasibility(heatmaps := stops.restrict_source(heatmaps))
+    fea = as_motion_feasibility(heatmaps := stops.restrict_source(
+        heatmaps, lambda: expired("the free stops")))
     timing["feasibility"] += time.monotonic() - t
     expired("the free stops")
 
@@ -442,7 +456,7 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, gri
             regions = location_regions(groups, cells)
             points = representative_points(regions, groups, names, grid, nav, start)
             costs = location_costs(points, nav, start, planner.speed)
-            lost = sorted(set(partition.unreachable)
+            lost = sorted(set(partition.unreachable) | dead_dishes(groups, grid)
                           | {d for n, g in zip(names, groups, strict=True)
                              if points[n] is None for d in g})
             remaining = deadline - time.monotonic()

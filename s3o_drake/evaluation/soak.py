@@ -1,0 +1,295 @@
+"""The soak: many seeded random scenes, planned by every method and some executed, in a
+worker process watched for crashes, budget overruns, hangs and memory growth.
+
+Scene i is `random_scene(seed, i)` (s3o_drake/random_scenes.py: a room of random size,
+1 to 5 tables anywhere, 0 to 30 dishes, crowding chairs, sometimes a robot boxed in).
+A plan job plans it with every method through `plan_from`, on a cheap Fea^m
+(`plan_checks.ring_heatmaps`) so that the planner's own time is what is measured, under
+the budget, and checks every result (`plan_checks.plan_and_check`). An execute job runs
+the whole `execute()` (perception, the scenario's Fea^m source, planning, the Drake
+simulation, recovery) with one method, the methods taken in turn.
+
+Jobs run one at a time in one long-lived worker process, so that its memory over the jobs
+is what a long user session would see (its RSS is recorded after each job). A job that
+exceeds the wall-time limit is a hang: the worker is killed and a fresh one goes on; a
+worker that dies is a crash. Rows go to soak.jsonl as each job ends (the evaluation's
+ResultStore: a killed soak resumes where it stopped).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import time
+import traceback
+from collections.abc import Iterable, Sequence
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from s3o_drake.choices import METHODS
+from s3o_drake.evaluation.store import ResultStore
+
+PLAN, EXECUTE = "plan", "execute"
+OVERRUN = 0.05  # as plan_checks.OVERRUN: a run over its budget by more is an overrun
+
+
+@dataclass(frozen=True)
+class SoakJob:
+    """Plan scene `index` of `seed` with every method, or execute it with `method`."""
+
+    kind: str
+    seed: int
+    index: int
+    budget: float
+    method: str = ""
+    max_dishes: int = 30
+
+    @property
+    def key(self) -> str:
+        return (f"{self.kind}/{self.seed}/{self.index}/{self.method}/{self.budget:g}/"
+                f"{self.max_dishes}")
+
+
+def soak_jobs(seed: int, plans: int, executions: int, budget: float,
+              max_dishes: int = 30, execute_budget: float | None = None) -> list[SoakJob]:
+    """The plan jobs of scenes 0..plans-1 with the execute jobs of scenes
+    0..executions-1 spread among them (so that a soak cut short has some of both);
+    executions plan with `execute_budget` (default `budget`)."""
+    run_budget = budget if execute_budget is None else execute_budget
+    jobs: list[SoakJob] = []
+    executed = 0
+    for i in range(max(plans, executions)):
+        if i < plans:
+            jobs.append(SoakJob(PLAN, seed, i, budget, max_dishes=max_dishes))
+        while executed < executions and executed * max(plans, 1) <= i * executions:
+            jobs.append(SoakJob(EXECUTE, seed, executed, run_budget,
+                                METHODS[executed % len(METHODS)], max_dishes))
+            executed += 1
+    return jobs
+
+
+def _scene(job: SoakJob):
+    from s3o_drake.random_scenes import SceneShape, random_scene
+    from s3o_drake.scenario import Planner
+
+    return random_scene(job.seed, job.index, SceneShape(max_dishes=job.max_dishes),
+                        planner=Planner(time_budget=job.budget, workers=1))
+
+
+def run_soak_job(job: SoakJob) -> dict:
+    """Runs one job here; an exception is a crash row (type, message, traceback)."""
+    start = time.perf_counter()
+    try:
+        scene = _scene(job)
+        row: dict = {"dishes": len(scene.dishes), "tables": len(scene.tables),
+                     "chairs": len(scene.chairs), "crash": ""}
+        row.update(_plan(scene, job) if job.kind == PLAN else _execute(scene, job))
+    except Exception as e:  # the soak counts it
+        row = {"crash": f"{type(e).__name__}: {e}".splitlines()[0],
+               "traceback": traceback.format_exc(limit=8)}
+    return {"key": job.key, **asdict(job), **row, "seconds": time.perf_counter() - start}
+
+
+def _plan(scene, job: SoakJob) -> dict:
+    from s3o_drake.evaluation.plan_checks import plan_and_check, ring_heatmaps
+    from s3o_drake.feasibility.check import FeasibilityChecker
+    from s3o_drake.feasibility.scene import FeasibilityScene
+    from s3o_drake.known_world import KnownWorld
+
+    known = KnownWorld.perfect(scene)
+    checker = FeasibilityChecker(FeasibilityScene(known.as_scenario()))
+    methods = plan_and_check(known, heatmaps=ring_heatmaps(known), budget=job.budget,
+                             base_free=checker.base_free)
+    crashes = [m for m, r in methods.items() if r["crash"]]
+    return {"methods": methods, "crash": "; ".join(f"{m}: {methods[m]['crash']}"
+                                                   for m in crashes)}
+
+
+def _execute(scene, job: SoakJob) -> dict:
+    import logging
+
+    from s3o_drake.execution.execute import execute
+
+    logging.getLogger("drake").setLevel(logging.WARNING)
+    run = execute(scene, method=job.method, seed=scene.seed, meshcat=None, progress=False)
+    r = run.report
+    # Fea^m (perception, the network) comes before the planner's budget starts; without a
+    # plan there is no breakdown, and the overrun is not known (None).
+    fea = None if run.plan is None else float(run.plan.timing.get("feasibility", 0.0))
+    return {"collected": r["collected"], "planned": run.plan is not None,
+            "finished": bool(r.get("finished", True)), "reason": r.get("reason", ""),
+            "planning_time": r["planning_time"], "feasibility_time": fea,
+            "overrun": None if fea is None else
+            r["planning_time"] - fea > job.budget * (1 + OVERRUN),
+            "execution_time": r["execution_time"], "wall_time": r.get("wall_time", 0.0),
+            "error": "" if run.result is None else run.result.error}
+
+
+def _rss_mb() -> float:
+    import psutil
+
+    return psutil.Process().memory_info().rss / 2**20
+
+
+def _worker(conn) -> None:
+    """A worker process: runs the jobs it receives until it receives None."""
+    while True:
+        job = conn.recv()
+        if job is None:
+            return
+        row = run_soak_job(job)
+        row["rss_mb"] = _rss_mb()
+        conn.send(row)
+
+
+class _Worker:
+    def __init__(self) -> None:
+        ctx = multiprocessing.get_context("spawn")  # a fork would copy Drake's threads
+        self.conn, child = ctx.Pipe()
+        self.process = ctx.Process(target=_worker, args=(child,), daemon=True)
+        self.process.start()
+        child.close()
+        self.jobs = 0
+
+    def run(self, job: SoakJob, limit: float) -> dict:
+        """The job's row; a hang (no answer within `limit` s: the worker is killed) or a
+        crash of the worker becomes a row that says so."""
+        self.conn.send(job)
+        self.jobs += 1
+        if not self.conn.poll(limit):
+            self.stop(kill=True)
+            return {"key": job.key, **asdict(job), "hang": True, "crash": "",
+                    "seconds": limit}
+        try:
+            return self.conn.recv()
+        except (EOFError, OSError):
+            self.process.join(5)
+            return {"key": job.key, **asdict(job), "hang": False,
+                    "crash": f"the worker process died (exit code {self.process.exitcode})"}
+
+    def stop(self, kill: bool = False) -> None:
+        if not kill and self.process.is_alive():
+            try:
+                self.conn.send(None)
+            except OSError:
+                kill = True
+            self.process.join(10)
+        if self.process.is_alive():
+            self.process.kill()
+            self.process.join(10)
+        self.conn.close()
+
+
+def run_soak(jobs: Iterable[SoakJob], store: ResultStore, *, limit: float,
+             progress: bool = True) -> int:
+    """Runs the jobs the store has no row for, one at a time in a worker process (a new
+    one after a hang or a crash), storing each row as it ends; returns how many ran."""
+    from tqdm import tqdm
+
+    todo = [job for job in jobs if store.get(job.key) is None]
+    bar = tqdm(total=len(todo), desc="soak", unit="job", disable=not progress)
+    worker: _Worker | None = None
+    try:
+        for job in todo:
+            if worker is None or not worker.process.is_alive():
+                worker = _Worker()
+            start = time.perf_counter()
+            row = worker.run(job, limit)
+            row.update(worker=worker.process.pid, worker_job=worker.jobs,
+                       wall=time.perf_counter() - start)
+            row.setdefault("hang", False)
+            if row["hang"] or (row.get("crash") and "worker process died" in row["crash"]):
+                worker = None
+            store.append(row)
+            bar.update()
+            bar.set_postfix(tally(store.rows()), refresh=False)
+    finally:
+        bar.close()
+        if worker is not None:
+            worker.stop()
+    return len(todo)
+
+
+def tally(rows: Sequence[dict]) -> dict[str, int]:
+    """Crashes, overruns, hangs and faulty plans over the rows (per method for plans)."""
+    out = {"crashes": 0, "overruns": 0, "hangs": 0, "faults": 0}
+    for row in rows:
+        out["hangs"] += bool(row.get("hang"))
+        if row.get("kind") == PLAN and "methods" in row:
+            for r in row["methods"].values():
+                out["crashes"] += bool(r["crash"])
+                out["overruns"] += bool(r["overrun"])
+                out["faults"] += bool(r["faults"])
+        else:
+            out["crashes"] += bool(row.get("crash"))
+            out["overruns"] += bool(row.get("overrun"))
+    return out
+
+
+def memory(rows: Sequence[dict]) -> dict | None:
+    """RSS of the worker that ran the most jobs: first and last (MB), and the slope of a
+    line fitted over the second half of its jobs (MB per 100 jobs: the first ones load
+    Drake, the network and the caches, growth that stops); None without rows that carry
+    it."""
+    by_worker: dict[int, list[tuple[int, float]]] = {}
+    for row in rows:
+        if "rss_mb" in row:
+            by_worker.setdefault(row["worker"], []).append((row["worker_job"], row["rss_mb"]))
+    if not by_worker:
+        return None
+    series = sorted(max(by_worker.values(), key=len))
+    n = np.array([s[0] for s in series], float)
+    rss = np.array([s[1] for s in series], float)
+    half = len(series) // 2
+    slope = float(np.polyfit(n[half:], rss[half:], 1)[0]) * 100 if len(series) > 3 else 0.0
+    return {"jobs": len(series), "first_mb": float(rss[0]), "last_mb": float(rss[-1]),
+            "max_mb": float(rss.max()), "slope_mb_per_100_jobs": slope,
+            "workers": len(by_worker)}
+
+
+def summary_table(rows: Sequence[dict]) -> str:
+    """The soak's figures as Markdown: per method, plans and executions; then memory."""
+    lines = ["| kind | method | runs | planned | no plan | crashes | overruns | hangs | "
+             "faults | max s / budget |", "|---|---|---|---|---|---|---|---|---|---|"]
+    plans = [r for r in rows if r.get("kind") == PLAN]
+    for method in METHODS:
+        rs = [r["methods"][method] for r in plans if method in r.get("methods", {})]
+        hangs = sum(bool(r.get("hang")) for r in plans)
+        ratio = max((r["seconds"] / p["budget"] for p in plans
+                     for m, r in p.get("methods", {}).items() if m == method), default=0.0)
+        lines.append(f"| plan | {method} | {len(rs)} | {sum(r['planned'] for r in rs)} | "
+                     f"{sum(not r['planned'] and not r['crash'] for r in rs)} | "
+                     f"{sum(bool(r['crash']) for r in rs)} | "
+                     f"{sum(r['overrun'] for r in rs)} | {hangs} | "
+                     f"{sum(bool(r['faults']) for r in rs)} | {ratio:.3f} |")
+    executed = [r for r in rows if r.get("kind") == EXECUTE]
+    for method in METHODS:
+        rs = [r for r in executed if r["method"] == method]
+        if not rs:
+            continue
+        ok = [r for r in rs if "planned" in r]
+        ratio = max(((r["planning_time"] - r["feasibility_time"]) / r["budget"]
+                     for r in ok if r["feasibility_time"] is not None), default=0.0)
+        lines.append(f"| execute | {method} | {len(rs)} | {sum(r['planned'] for r in ok)} | "
+                     f"{sum(not r['planned'] for r in ok)} | "
+                     f"{sum(bool(r.get('crash')) for r in rs)} | "
+                     f"{sum(bool(r.get('overrun')) for r in rs)} | "
+                     f"{sum(bool(r.get('hang')) for r in rs)} | "
+                     f"{sum(not r['finished'] for r in ok)} | {ratio:.3f} |")
+    lines.append("")
+    lines.append("faults: plan jobs, plans that fail a check (plan_checks); execute jobs, "
+                 "runs the simulation did not finish.")
+    mem = memory(rows)
+    if mem is not None:
+        lines.append(f"memory (RSS of the worker that ran most jobs, {mem['jobs']} jobs): "
+                     f"first {mem['first_mb']:.0f} MB, last {mem['last_mb']:.0f} MB, max "
+                     f"{mem['max_mb']:.0f} MB, slope {mem['slope_mb_per_100_jobs']:+.1f} MB "
+                     f"per 100 jobs over its second half ({mem['workers']} worker "
+                     "process(es) in all)")
+    return "\n".join(lines)
+
+
+def scene_counts(rows: Sequence[dict]) -> tuple[int, int]:
+    """How many scenes were planned and how many executed."""
+    return (sum(r.get("kind") == PLAN for r in rows),
+            sum(r.get("kind") == EXECUTE for r in rows))

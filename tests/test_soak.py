@@ -1,0 +1,65 @@
+"""The soak command (issue 19, item 2): jobs, rows, resume, the summary, bad arguments."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from s3o_drake.commands.soak import main
+from s3o_drake.evaluation.soak import EXECUTE, PLAN, memory, soak_jobs
+
+
+def test_jobs_interleave_plans_and_executions_and_take_the_methods_in_turn():
+    jobs = soak_jobs(0, 10, 4, 2.0)
+    assert [j.index for j in jobs if j.kind == PLAN] == list(range(10))
+    runs = [j for j in jobs if j.kind == EXECUTE]
+    assert [j.index for j in runs] == [0, 1, 2, 3]
+    assert len({j.method for j in runs}) == 4
+    assert jobs.index(runs[-1]) < len(jobs) - 1  # spread among the plans, not all at the end
+    assert len({j.key for j in jobs}) == len(jobs)
+
+
+def test_memory_is_the_longest_lived_worker():
+    rows = [{"worker": 1, "worker_job": i + 1, "rss_mb": 100.0 + i} for i in range(8)]
+    rows += [{"worker": 2, "worker_job": 1, "rss_mb": 50.0}]
+    m = memory(rows)
+    assert m["jobs"] == 8 and m["first_mb"] == 100 and m["last_mb"] == 107
+    assert m["slope_mb_per_100_jobs"] == pytest.approx(100.0)
+
+
+@pytest.mark.parametrize("args, field", [(["--plan", "-1"], "--plan"),
+                                         (["--budget", "0"], "--budget"),
+                                         (["--limit", "nan"], "--limit"),
+                                         (["--execute-budget", "-1"], "--execute-budget")])
+def test_bad_arguments_are_one_line_and_exit_2(tmp_path, capsys, args, field):
+    with pytest.raises(SystemExit) as e:
+        main([*args, "--out", str(tmp_path / "o")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and field in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_soak_plans_executes_resumes_and_sums_up(tmp_path):
+    """3 small scenes planned by every method, 1 executed; then the same command again
+    runs nothing (resume) and prints the same table."""
+    cmd = [sys.executable, "-m", "s3o_drake.commands.soak", "--plan", "3", "--execute", "1",
+           "--seed", "4", "--dishes", "2", "--budget", "1", "--limit", "300", "--quiet",
+           "--out", str(tmp_path)]
+    first = subprocess.run(cmd, capture_output=True, text=True, timeout=240)
+    assert first.returncode == 0, first.stderr[-2000:]
+    rows = [json.loads(line) for line in (tmp_path / "soak.jsonl").read_text().splitlines()]
+    assert sorted(r["kind"] for r in rows) == [EXECUTE, PLAN, PLAN, PLAN]
+    for r in rows:
+        assert not r["crash"] and not r["hang"] and r["rss_mb"] > 0
+        if r["kind"] == PLAN:
+            assert all(m["planned"] or m["error"] for m in r["methods"].values())
+            assert not any(m["overrun"] or m["faults"] for m in r["methods"].values())
+    run = next(r for r in rows if r["kind"] == EXECUTE)
+    assert run["planned"] and run["finished"]
+    assert "3 scenes planned (every method), 1 executed" in first.stdout
+    assert (tmp_path / "summary.md").read_text().strip() == first.stdout.strip()
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert again.returncode == 0 and again.stdout == first.stdout
+    assert len((tmp_path / "soak.jsonl").read_text().splitlines()) == 4
