@@ -262,3 +262,48 @@ def test_a_task_without_dishes_has_the_empty_plan(method):
     assert not scenario.dishes
     p = plan(scenario, method=method, heatmaps=[], perceived_chairs=[], seed=0)
     assert p.actions == () and p.utility == 0.0 and p.complete
+
+
+def test_a_location_whose_best_spots_are_boxed_in_is_driven_to_elsewhere():
+    """task_004: the best stops by Fea^m for a dish lay in a corner that two chairs close
+    off, and the dish was left out as unreachable though spots of its location outside the
+    corner could pick it (0.99). The representative point is the best spot that can be
+    driven to; a location with no such spot has none."""
+    from shapely.geometry import box
+
+    from s3o_drake.known_world import Obstacles
+    from s3o_drake.planning.navigation import NavigationMap
+    from s3o_drake.planning.planner import REPRESENTATIVE_CANDIDATES, representative_points
+
+    # A pocket 1.5 m x 1 m in the room's lower-right corner, closed by two walls of boxes.
+    obstacles = Obstacles(room=box(0.0, 0.0, 6.0, 4.0),
+                          footprints=(box(4.0, 0.0, 4.2, 1.2), box(4.0, 1.0, 6.0, 1.2)))
+    nav = NavigationMap(obstacles)
+    xs, ys = np.meshgrid(np.linspace(4.5, 5.7, 8), np.linspace(0.3, 0.8, 4))
+    pocket = np.column_stack([xs.ravel(), ys.ravel()])
+    outside = np.array([[3.0, 2.0], [3.5, 2.5], [2.0, 3.0]])
+    start = np.array([1.0, 1.0])
+    assert not np.isfinite(nav.path_lengths(np.broadcast_to(start, pocket.shape), pocket)).any()
+    assert len(pocket) > REPRESENTATIVE_CANDIDATES  # more than the candidates asked first
+
+    class Location:  # what representative_points reads of a location grid's location
+        def __init__(self, points, weight):
+            self.points, self.weight = points, weight
+
+    class Grid:
+        def __init__(self, location):
+            self._location = location
+
+        def location(self, group):
+            return self._location
+
+    points = np.vstack([pocket, outside])
+    weight = np.concatenate([np.full(len(pocket), 0.99), [0.8, 0.9, 0.0]])
+    region = {"l0": box(0.0, 0.0, 6.0, 4.0)}
+    best = representative_points(region, [["bowl"]], ["l0"], Grid(Location(points, weight)),
+                                 nav, start)["l0"]
+    np.testing.assert_allclose(best, [3.5, 2.5])  # the best spot outside the pocket
+    only_pocket = Grid(Location(np.vstack([pocket, outside[2:]]),
+                                np.append(np.full(len(pocket), 0.99), 0.0)))
+    assert representative_points(region, [["bowl"]], ["l0"], only_pocket, nav, start)["l0"] \
+        is None  # a reachable spot with Fea^m 0 does not make the dish pickable

@@ -25,7 +25,8 @@ between the locations' representative points, divided by v, x10, as integers. A 
 representative point is its best standing spot: the point of its location grid with the
 highest summed Fea^m under the joint-feasibility rule (the location GROP* starts from and
 GROP draws from, `abstraction/location_grid.py`; ties to the point nearest the
-Fea^m-weighted centroid), among the 20 best the first that can be driven to from the start.
+Fea^m-weighted centroid), among the 20 best the first that can be driven to from the start;
+when none of them can (the best spots enclosed by chairs), the first of the rest that can.
 The motion search then moves the stops, so these costs only rank the visiting orders.
 
 One location grid per plan. Fea^m is evaluated once on the 5 cm location grid of the
@@ -212,8 +213,8 @@ def representative_points(regions: Mapping[str, BaseGeometry], groups: Sequence[
                           names: Sequence[str], grid: LocationGrid, nav: NavigationMap,
                           start: np.ndarray) -> dict[str, np.ndarray | None]:
     """Each location's best standing spot on the plan's location grid (see the module
-    docstring); None for an empty region or one with no drivable spot among its best
-    candidates."""
+    docstring); None for an empty region or one where no spot with Fea^m > 0 can be driven
+    to."""
     out: dict[str, np.ndarray | None] = {}
     for name, group in zip(names, groups, strict=True):
         region = regions[name]
@@ -227,12 +228,24 @@ def representative_points(regions: Mapping[str, BaseGeometry], groups: Sequence[
         centroid = (w[:, None] * points).sum(axis=0) / w.sum() if w.sum() > 0 else \
             points.mean(axis=0)
         near = np.linalg.norm(points - centroid, axis=1)
-        ranked = np.lexsort((near, -w))[:REPRESENTATIVE_CANDIDATES]
-        P = points[ranked]
-        lengths = nav.path_lengths(np.broadcast_to(start, P.shape), P)
-        ok = np.flatnonzero(np.isfinite(lengths))
-        out[name] = P[ok[0]].copy() if len(ok) else None
+        ranked = np.lexsort((near, -w))
+        out[name] = _first_drivable(points[ranked[:REPRESENTATIVE_CANDIDATES]], nav, start)
+        if out[name] is None:
+            # The best spots can all be enclosed (task_004: a corner boxed in by two
+            # chairs): the location is not lost while a spot of it with Fea^m > 0 can be
+            # driven to. Rare, so the whole location is asked only then.
+            rest = ranked[REPRESENTATIVE_CANDIDATES:]
+            out[name] = _first_drivable(points[rest[w[rest] > 0]], nav, start)
     return out
+
+
+def _first_drivable(P: np.ndarray, nav: NavigationMap, start: np.ndarray) -> np.ndarray | None:
+    """The first of the points (m, 2) that can be driven to from `start`, or None."""
+    if not len(P):
+        return None
+    lengths = nav.path_lengths(np.broadcast_to(start, P.shape), P)
+    ok = np.flatnonzero(np.isfinite(lengths))
+    return P[ok[0]].copy() if len(ok) else None
 
 
 def dead_dishes(groups: Sequence[Sequence[str]], grid: LocationGrid) -> set[str]:
