@@ -318,7 +318,8 @@ def test_benchmark_help_and_bad_input(tmp_path):
 def test_a_chair_between_two_cells_does_not_keep_their_dishes_apart():
     """task_002: a chair splits the floor in front of cup_1 and plate_1 on the bar. The
     cup's own cell picks it from nowhere; the plate's cell holds the stops that pick both.
-    Adjacent by their Voronoi regions, the two may merge, and S3O's best state space does."""
+    Adjacent by their Voronoi regions, the two may merge, and S3O's best state space does.
+    Apart, the cup claims the plate's positions that pick it (`voronoi.py`, claims)."""
     scenario = load_scenario(Path("scenarios/generated/task_002.yaml"))
     known = KnownWorld.perfect(scenario)
     partition = voronoi_partition(known)
@@ -328,6 +329,10 @@ def test_a_chair_between_two_cells_does_not_keep_their_dishes_apart():
     heatmaps = compute_heatmaps(known.as_scenario(), ["cup_1", "plate_1"], progress=False,
                                 obstacles=known.obstacles)
     alone = build_abstraction(known, heatmaps, dishes=["cup_1", "plate_1"])
-    assert alone.plain_voronoi.task_feasibility["cup_1"] < 0.05
+    claimed = alone.partition.claims
+    assert [i for i, _ in claimed] == [alone.partition.dishes.index("cup_1")]
+    assert claimed[0][1].intersects(partition.cells[plate])  # taken from the plate's cell
+    assert alone.plain_voronoi.task_feasibility["cup_1"] > 0.5
+    assert alone.plain_voronoi.task_feasibility["plate_1"] > 0.9  # the plate keeps its own
     assert alone.best.groups == (("cup_1", "plate_1"),)
     assert alone.best.task_feasibility["cup_1"] > 0.5

@@ -150,8 +150,12 @@ class LocationGrid:
         if not partition.dishes:
             return cls(np.zeros((0, 2)), np.zeros(0, dtype=int), [], [], source, [],
                        threshold=threshold, cell=cell)
-        points = _lattice(partition.p_WO.min(axis=0) - partition.reach,
-                          partition.p_WO.max(axis=0) + partition.reach, cell)
+        low = partition.p_WO.min(axis=0) - partition.reach
+        high = partition.p_WO.max(axis=0) + partition.reach
+        if partition.claims:  # claimed positions may lie beyond `reach` of every dish
+            x0, y0, x1, y1 = partition.bounds()
+            low, high = np.minimum(low, [x0, y0]), np.maximum(high, [x1, y1])
+        points = _lattice(low, high, cell)
         owner = partition.sym_many(points)
         keep = owner >= 0
         return cls(points[keep], owner[keep], partition.cells, partition.dishes, source,

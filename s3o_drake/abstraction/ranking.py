@@ -35,7 +35,7 @@ from s3o_drake.abstraction.candidates import (
 )
 from s3o_drake.abstraction.location_grid import GRID_CELL, LocationGrid
 from s3o_drake.abstraction.task_feasibility import TaskFeasibility
-from s3o_drake.abstraction.voronoi import VoronoiPartition, voronoi_partition
+from s3o_drake.abstraction.voronoi import Drivable, VoronoiPartition, voronoi_partition
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.robot import INSCRIBED_RADIUS
 
@@ -213,7 +213,8 @@ def build_abstraction(known: KnownWorld, feasibility, *,
                       location_cost: float | None = None, max_count: int = 100_000,
                       time_limit: float = 5.0,
                       exhaustive_max_dishes: int = EXHAUSTIVE_MAX_DISHES,
-                      beam_width: int = DEFAULT_BEAM_WIDTH) -> Abstraction:
+                      beam_width: int = DEFAULT_BEAM_WIDTH,
+                      drivable: Drivable | None = None) -> Abstraction:
     """S3O's state-space computation for what the robot knows, ranked, with the top-K
     distribution.
 
@@ -221,11 +222,14 @@ def build_abstraction(known: KnownWorld, feasibility, *,
     Heatmaps, evaluated once on the location grid (`location_grid.py`; cell `grid_cell`,
     joint rule at `joint_threshold`), which the result carries. Reach, N, K and the seed
     default to the planner's settings and the scenario's seed; `location_cost` to γ / λ.
+    `drivable` (points -> bool; None: all) says where the robot can drive to, for the
+    partition's claims (`voronoi.py`).
     """
     planner = known.planner
     if location_cost is None:
         location_cost = planner.gamma / planner.reward if planner.reward > 0 else 0.0
-    partition = voronoi_partition(known, dishes=dishes, clearance=clearance)
+    partition = voronoi_partition(known, dishes=dishes, clearance=clearance,
+                                  feasibility=feasibility, drivable=drivable)
     grid = LocationGrid.of(partition, feasibility, threshold=joint_threshold, cell=grid_cell)
     task = TaskFeasibility(grid, samples=planner.location_samples,
                            seed=known.settings.seed if seed is None else seed)

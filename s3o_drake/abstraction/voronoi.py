@@ -30,11 +30,23 @@ were cut with, share a boundary longer than `ADJACENCY_MIN_LENGTH`: an obstacle 
 free cells does not keep them apart, since a stop in either may serve both. (On
 task_002 a chair splits the floor in front of a cup and a plate on the bar: the cup's own
 cell has Fea^m 0 everywhere, the plate's holds the only stops that pick the cup, and
-adjacency by the free cells' borders never let S3O merge them.) A dish whose cell is still
-empty is kept, with an empty cell, and listed in `unreachable`.
+adjacency by the free cells' borders never let S3O merge them.)
+
+Claims. Given Fea^m (`feasibility`), a dish that the positions of its own cell the robot
+can drive to (`drivable`) pick at best with Fea^m below `CLAIM_BELOW` (or that has no cell)
+claims the positions within the arm's reach that it can drive to and that pick it better:
+they leave their cells and become its own, in place of the cell it had. Without claims every
+method left such a dish out as unreachable, or picked it at long odds, though the robot could
+pick it from elsewhere: task_032's bowl_1, whose own cell's free stops are boxed in by
+chairs, is picked at 0.87 from positions nearer a plate; task_055's plate_4 (0 in its own
+cell, 0.76 elsewhere). A stop in another dish's cell need not serve both dishes, so merging
+does not help. A claim takes nothing a cell needs: where a neighbour's only positions at or
+above `CLAIM_BELOW` are among those claimed, they stay the neighbour's (S3O can still merge
+the two). A dish whose cell is still empty is kept, with an empty cell, and listed in
+`unreachable`.
 """
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,6 +55,7 @@ from shapely.geometry import MultiPoint, Point, Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
+from s3o_drake.abstraction.motion_feasibility import MotionFeasibility, as_motion_feasibility
 from s3o_drake.feasibility.oracle import REACH_LIMIT
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.robot import INSCRIBED_RADIUS
@@ -53,6 +66,14 @@ side grasp, and a margin (the oracle's limit). A dish whose cell is empty within
 planner's `reach` gets its cell within this."""
 ADJACENCY_MIN_LENGTH = 0.01
 """Cells touching along less than this (m) are not adjacent (a corner is not a border)."""
+Drivable = Callable[[np.ndarray], np.ndarray]
+"""Which base positions (m, 2) the robot can drive to: bool (m,)."""
+CLAIM_BELOW = 0.5
+"""A dish whose own cell picks it at best with Fea^m below this claims the positions that
+pick it better (module docstring)."""
+CLAIM_STEP = 0.05
+"""Spacing (m) of the lattice on which a claim reads Fea^m: the location grid's, and on the
+same anchors, so that a claimed square's centre is one of the location grid's points."""
 _EMPTY_AREA = 1e-9  # m^2; cells smaller than this are empty
 
 
@@ -76,6 +97,10 @@ class VoronoiPartition:
     reach: float
     adjacency: list[set[int]] = field(default_factory=list)
     """adjacency[i]: indices of the dishes whose cells share a border with cell i."""
+    claims: list[tuple[int, BaseGeometry]] = field(default_factory=list)
+    """(dish index, positions) claimed by a dish its own cell served poorly (module
+    docstring), in the order they were made: a later claim wins where two meet. The claimed
+    positions are the dish's cell; the rest of its Voronoi region belongs to no cell."""
 
     @property
     def unreachable(self) -> list[str]:
@@ -102,7 +127,8 @@ class VoronoiPartition:
         return None
 
     def sym_many(self, points: np.ndarray) -> np.ndarray:
-        """Vectorised Sym by nearest dish: cell index per point (m, 2), -1 where none.
+        """Vectorised Sym by nearest dish, then the claims: cell index per point (m, 2), -1
+        where none.
 
         Agrees with `sym` except on cell borders (measure zero).
         """
@@ -113,7 +139,15 @@ class VoronoiPartition:
         nearest = np.argmin(distances, axis=1)
         near = distances[np.arange(len(points)), nearest] <= self.reach
         free = shapely.contains_xy(self.free, points[:, 0], points[:, 1])
-        return np.where(near & free, nearest, -1)
+        owner = np.where(near & free, nearest, -1)
+        for i, claimed in self.claims:
+            owner[owner == i] = -1  # a claim replaces the cell that served its dish poorly
+            owner[shapely.contains_xy(claimed, points[:, 0], points[:, 1])] = i
+        return owner
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """The bounding box (m) of the non-empty cells: where Sym can answer."""
+        return unary_union(self.cells).bounds
 
 
 def _voronoi_regions(p_WO: np.ndarray, envelope: Polygon) -> list[BaseGeometry]:
@@ -147,11 +181,14 @@ def _adjacency(cells: list[BaseGeometry]) -> list[set[int]]:
 
 
 def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
-                      clearance: float = INSCRIBED_RADIUS,
-                      reach: float | None = None) -> VoronoiPartition:
+                      clearance: float = INSCRIBED_RADIUS, reach: float | None = None,
+                      feasibility=None, drivable: Drivable | None = None) -> VoronoiPartition:
     """The Voronoi cells of the known world's dishes (default: all) over the free space.
 
-    `reach` defaults to the planner's `reach`.
+    `reach` defaults to the planner's `reach`. With `feasibility` (Fea^m: a
+    MotionFeasibility, a mapping dish -> Heatmap or a list of Heatmaps), a dish that its own
+    cell serves poorly claims the positions that serve it better (module docstring); only
+    positions where `drivable` (points (m, 2) -> bool (m,); None: all) holds count.
     """
     reach = known.planner.reach if reach is None else reach
     by_name = {d.name: d for d in known.dishes}
@@ -173,5 +210,82 @@ def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
                 break
         cells.append(cell if cell.area > _EMPTY_AREA else Polygon())
         within.append(near if cell.area > _EMPTY_AREA else Polygon())
+    claims = [] if feasibility is None else \
+        _claim(names, p_WO, cells, within, free, as_motion_feasibility(feasibility), drivable)
     return VoronoiPartition(dishes=names, p_WO=p_WO, cells=cells, free=free, reach=reach,
-                            adjacency=_adjacency(within))
+                            adjacency=_adjacency(within), claims=claims)
+
+
+def lattice_in(geometry: BaseGeometry, step: float = CLAIM_STEP) -> np.ndarray:
+    """The points (m, 2) inside `geometry` of the lattice of cell centres of spacing `step`
+    anchored at multiples of it (the location grid's lattice)."""
+    if geometry.is_empty:
+        return np.zeros((0, 2))
+    x0, y0, x1, y1 = geometry.bounds
+    xs = np.arange(np.floor(x0 / step) * step + step / 2, x1, step)
+    ys = np.arange(np.floor(y0 / step) * step + step / 2, y1, step)
+    points = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+    return points[shapely.contains_xy(geometry, points[:, 0], points[:, 1])]
+
+
+def _area(geometry: BaseGeometry) -> BaseGeometry:
+    """The polygons of `geometry` (a difference or an intersection can leave lines and
+    points beside them)."""
+    parts = [g for g in shapely.get_parts(geometry) if g.geom_type in ("Polygon", "MultiPolygon")]
+    return unary_union(parts) if parts else Polygon()
+
+
+def _claim(names: list[str], p_WO: np.ndarray, cells: list[BaseGeometry],
+           within: list[BaseGeometry], free: BaseGeometry, fea: MotionFeasibility,
+           drivable: Drivable | None) -> list[tuple[int, BaseGeometry]]:
+    """Lets each dish that its cell serves poorly claim the positions that serve it better
+    (module docstring); changes `cells` and `within` in place and returns the claims."""
+
+    reached: dict[tuple[int, int], bool] = {}  # by lattice index: path queries are the cost
+
+    def fea_at(dish: str, points: np.ndarray) -> np.ndarray:
+        """Fea^m on lattice `points`, 0 where the base cannot drive to."""
+        values = fea.values(dish, points)
+        if drivable is None:
+            return values
+        keys = [tuple(k) for k in np.floor(points / CLAIM_STEP).astype(int)]
+        ask = [n for n, k in enumerate(keys) if values[n] > 0 and k not in reached]
+        if ask:
+            reached.update(zip([keys[n] for n in ask], drivable(points[ask]), strict=True))
+        return np.array([v if v > 0 and reached[k] else 0.0 for v, k in zip(values, keys,
+                                                                              strict=True)])
+
+    def best(dish: str, geometry: BaseGeometry) -> float:
+        points = lattice_in(geometry)
+        return float(fea_at(dish, points).max()) if len(points) else 0.0
+
+    claims = []
+    for i, name in enumerate(names):
+        own = best(name, cells[i])
+        if own >= CLAIM_BELOW:
+            continue
+        points = lattice_in(Point(*p_WO[i]).buffer(ARM_REACH, quad_segs=32).intersection(free))
+        points = points[fea_at(name, points) > own]
+        if not len(points):
+            continue  # nowhere better to pick it from
+        half = CLAIM_STEP / 2
+        squares = shapely.box(points[:, 0] - half, points[:, 1] - half,
+                              points[:, 0] + half, points[:, 1] + half)
+        claimed = _area(unary_union(squares).intersection(free))
+        for j, cell in enumerate(cells):
+            if j != i and cell.intersects(claimed) and best(names[j], cell) >= CLAIM_BELOW \
+                    and best(names[j], cell.difference(claimed)) < CLAIM_BELOW:
+                claimed = _area(claimed.difference(cell))  # the neighbour's only good stops
+        if claimed.area <= _EMPTY_AREA:
+            continue
+        for j in range(len(cells)):
+            if j != i:
+                cells[j] = _area(cells[j].difference(claimed))
+                within[j] = _area(within[j].difference(claimed))
+        # The claim replaces the cell (feasibility-blind draws, V-PETLON's, would land
+        # there), and adds to the region that adjacency reads: S3O may still merge the dish
+        # with the neighbours of its Voronoi region.
+        cells[i] = claimed
+        within[i] = _area(unary_union([within[i], claimed]))
+        claims.append((i, claimed))
+    return claims

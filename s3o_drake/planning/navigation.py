@@ -234,6 +234,12 @@ class NavigationMap:
         is a base position the endpoint rule joins to the driveable region."""
         return np.array([e.entry is not None for e in self._prepare(P)], dtype=bool)
 
+    def reachable(self, start: Sequence[float], P: np.ndarray) -> np.ndarray:
+        """bool (m,): whether a collision-free path leads from `start` to each point (m, 2)."""
+        P = np.asarray(P, dtype=float).reshape(-1, 2)
+        start = np.broadcast_to(np.asarray(start, dtype=float)[:2], P.shape)
+        return np.isfinite(self.path_lengths(start, P))
+
     def way_out(self, p: Sequence[float]) -> np.ndarray:
         """`p` (2,) when it is a position the base can drive from (an endpoint the rule
         joins to the driveable region), else the nearest point of the driveable region: where

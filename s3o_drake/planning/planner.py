@@ -66,6 +66,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from shapely.geometry.base import BaseGeometry
@@ -384,11 +385,13 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     grid: LocationGrid | None = None
     if method.startswith("S3O"):
         abstraction = build_abstraction(
-            known, fea, seed=seed, time_limit=max(0.0, min(5.0, deadline - time.monotonic())))
+            known, fea, seed=seed, time_limit=max(0.0, min(5.0, deadline - time.monotonic())),
+            drivable=partial(nav.reachable, start))
         partition: VoronoiPartition = abstraction.partition
         grid = abstraction.grid
     else:
-        partition = voronoi_partition(known)
+        partition = voronoi_partition(known, feasibility=fea,
+                                      drivable=partial(nav.reachable, start))
         if method != "V-PETLON":  # PETLON draws its goals uniformly: it reads no grid
             grid = LocationGrid.of(partition, fea)
     timing["abstraction"] = time.monotonic() - t
