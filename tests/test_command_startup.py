@@ -13,7 +13,7 @@ HEAVY = ("pydrake", "torch", "cv2", "matplotlib")
 # The commands of the README's Usage list, by the module that `python -m` runs.
 COMMANDS = ["s3o_drake.run"] + [f"s3o_drake.commands.{name}" for name in (
     "run", "generate", "evaluate", "calibration", "diagrams", "planning_benchmark",
-    "execution_benchmark", "train", "build_reachability", "soak",
+    "execution_benchmark", "train", "build_reachability", "soak", "best_stops",
 )]
 
 

@@ -125,3 +125,32 @@ def test_feasibility_sources_are_checked(known):
         heatmaps_for(known, source="fcn")  # perfect perception carries no images
     with pytest.raises(ValueError, match="unknown planning method"):
         plan_from(known, method="S3O-GROP**", heatmaps=[])
+
+
+def test_best_stops_are_free_and_can_be_driven_to():
+    """A cup at the edge of two tables that close off the room's corner: the stops in the
+    corner pick it at 0.99 but cannot be driven to; the best stop a plan can command is
+    the one above the tables (0.6). A dish no such stop picks has 0."""
+    from s3o_drake.feasibility.oracle import Heatmap
+    from s3o_drake.planning.pipeline import best_stops
+    from s3o_drake.scenario import parse_scenario
+
+    scenario = parse_scenario("""
+seed: 4
+room: {bounds: [0.0, 0.0, 6.0, 4.0]}
+tables:
+  - {name: post, center: [4.0, 0.6], yaw: 0.0, size: [0.2, 1.2, 0.04], height: 0.75}
+  - {name: bar, center: [5.06, 1.1], yaw: 0.0, size: [1.88, 0.2, 0.04], height: 0.75}
+dishes:
+  - {name: cup, table: bar, position: [5.0, 1.1], kind: cup}
+  - {name: lost, table: bar, position: [5.6, 1.1], kind: cup}
+robot: {start: [1.0, 3.0, 0.0]}
+""")
+    known = KnownWorld.perfect(scenario)
+    grid = Heatmap("cup", np.zeros((80, 120)), 0.0, 0.0, 0.05)
+    c = grid.centers()
+    corner = (c[..., 0] > 4.6) & (c[..., 0] < 5.4) & (c[..., 1] > 0.4) & (c[..., 1] < 0.6)
+    above = (c[..., 0] > 4.7) & (c[..., 0] < 5.3) & (c[..., 1] > 1.7) & (c[..., 1] < 1.9)
+    cup = Heatmap("cup", np.where(corner, 0.99, np.where(above, 0.6, 0.0)), 0.0, 0.0, 0.05)
+    lost = Heatmap("lost", np.where(corner, 0.99, 0.0), 0.0, 0.0, 0.05)
+    assert best_stops(known, [cup, lost]) == {"cup": pytest.approx(0.6), "lost": 0.0}

@@ -273,7 +273,7 @@ def test_a_location_whose_best_spots_are_boxed_in_is_driven_to_elsewhere():
 
     from s3o_drake.known_world import Obstacles
     from s3o_drake.planning.navigation import NavigationMap
-    from s3o_drake.planning.planner import REPRESENTATIVE_CANDIDATES, representative_points
+    from s3o_drake.planning.task_costs import REPRESENTATIVE_CANDIDATES, representative_points
 
     # A pocket 1.5 m x 1 m in the room's lower-right corner, closed by two walls of boxes.
     obstacles = Obstacles(room=box(0.0, 0.0, 6.0, 4.0),

@@ -80,6 +80,27 @@ def task_scenarios(files: list[str] | None, count: int) -> list[tuple[str, "Scen
     return [(path.stem, read_scenario(path)) for path in paths]
 
 
+def task_files(items: list[str], count: int | None) -> list[Path]:
+    """The task files that --tasks names (folders: their task_*.yaml, sorted; files as
+    given), the first `count` (--count) of them; a missing one, a bad count or none at all
+    is one line and exit 2."""
+    paths: list[Path] = []
+    for item in map(Path, items):
+        if item.is_dir():
+            paths += sorted(item.glob("task_*.yaml"))
+        elif item.is_file():
+            paths.append(item)
+        else:
+            fail(f"--tasks: no such folder or file {item}")
+    if count is not None:
+        if not 1 <= count <= len(paths):
+            fail(f"--count: must be between 1 and {len(paths)}, got {count}")
+        paths = paths[:count]
+    if not paths:
+        fail("--tasks: no task_*.yaml found")
+    return paths
+
+
 def doc_formatter() -> type[argparse.HelpFormatter]:
     """Keeps the module docstring's line breaks in --help."""
     return argparse.RawDescriptionHelpFormatter

@@ -34,7 +34,13 @@ from pathlib import Path
 import numpy as np
 
 from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
+from s3o_drake.commands.common import (
+    ArgumentParser,
+    doc_formatter,
+    fail,
+    task_files,
+    task_scenarios,
+)
 from s3o_drake.evaluation.store import ResultStore
 from s3o_drake.execution.execute import execute
 from s3o_drake.feasibility.oracle import Heatmap
@@ -175,20 +181,7 @@ def main(argv: list[str] | None = None) -> int:
         fail(f"--method: unknown method {args.method!r}; one of {', '.join(METHODS)}")
     if args.seed is not None and args.seed < 0:
         fail(f"--seed: must be a non-negative integer, got {args.seed}")
-    paths: list[Path] = []
-    for item in map(Path, args.tasks):
-        if item.is_dir():
-            paths += sorted(item.glob("task_*.yaml"))
-        elif item.is_file():
-            paths.append(item)
-        else:
-            fail(f"--tasks: no such folder or file {item}")
-    if args.count is not None:
-        if not 1 <= args.count <= len(paths):
-            fail(f"--count: must be between 1 and {len(paths)}, got {args.count}")
-        paths = paths[:args.count]
-    if not paths:
-        fail("--tasks: no task_*.yaml found")
+    paths = task_files(args.tasks, args.count)
     tasks = task_scenarios([str(p) for p in paths], len(paths))
     if args.cost_profile is not None:
         tasks = [(name, dataclasses.replace(scenario, planner=dataclasses.replace(

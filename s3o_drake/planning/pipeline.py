@@ -17,15 +17,19 @@ import dataclasses
 import time
 from collections.abc import Sequence
 
+import numpy as np
+
 from s3o_drake.camera import overhead_camera
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.feasibility.stops import FreeStops
 from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.planner import PlanningError, PlanningResult, plan_task
 from s3o_drake.planning.task_planner import TaskPlanningError
 from s3o_drake.scenario import FEASIBILITY_SOURCES, FeasibilitySource
 
-__all__ = ["PlanningResult", "heatmaps_for", "plan_from"]  # the pipeline's API
+__all__ = ["PlanningResult", "best_stops", "heatmaps_for", "plan_from"]  # the pipeline's API
 
 
 def heatmaps_for(known: KnownWorld, *, source: str | None = None,
@@ -49,6 +53,33 @@ def heatmaps_for(known: KnownWorld, *, source: str | None = None,
         return FcnFeasibility.shared().heatmaps(view, list(known.dishes))
     return compute_heatmaps(known.as_scenario(), workers=1, progress=progress,
                             obstacles=known.obstacles)
+
+
+def best_stops(known: KnownWorld, heatmaps: Sequence[Heatmap] | None = None
+               ) -> dict[str, float]:
+    """Each remaining dish's highest Fea^m (`heatmaps`, default `heatmaps_for(known)`) over
+    the stops a plan may command from where the robot stands: free as planned
+    (`FreeStops`) and reachable by a collision-free drive. With a calibrated Fea^m their mean
+    is the pickup success that an open-loop plan standing at each dish's own best stop can
+    expect: no plan does better in expectation, whatever it trades for time."""
+    heatmaps = heatmaps_for(known) if heatmaps is None else heatmaps
+    nav = NavigationMap(known.obstacles)
+    start = nav.way_out(known.pose[:2])
+    best = {}
+    for heatmap in FreeStops.of(known).restrict_all(heatmaps):
+        centres = heatmap.centers().reshape(-1, 2)
+        values = heatmap.values.reshape(-1)
+        order = np.argsort(-values, kind="stable")
+        order = order[values[order] > 0]
+        best[heatmap.dish] = 0.0
+        # Best first, in batches: the first that can be driven to is the answer.
+        for k in range(0, len(order), 256):
+            batch = order[k:k + 256]
+            reached = np.flatnonzero(nav.reachable(start, centres[batch]))
+            if len(reached):
+                best[heatmap.dish] = float(values[batch[reached[0]]])
+                break
+    return best
 
 
 def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None = None,
