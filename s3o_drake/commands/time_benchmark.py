@@ -2,7 +2,7 @@
 
     python -m s3o_drake.commands.time_benchmark [--tasks DIR | YAML ...] [--count N]
         [--noise on off] [--method NAME] [--seed N] [--cost-profile robot|paper]
-        [--json FILE] [--evaluation]
+        [--json FILE] [--workers N] [--evaluation]
 
 Plans and executes each task as `python -m s3o_drake.run` does (the scenario's settings,
 no playback), once with the simulated noise off (`run --no-noise`) and once with it on, and
@@ -16,6 +16,9 @@ adds a turn before a stop's first pickup, where a pickup fails (a `no_ik` or `no
 failure takes no arm time, a `missed` one the whole motion) and where a blocked drive ends
 the run early. Each row records the failures, and the summary gives the medians also over
 the runs where every action was done.
+
+Each run executes in a worker process (--workers of them; replaced every few runs, since
+pydrake keeps every executed diagram: docs/reliability.md).
 
 --json FILE: one JSON line per (task, noise setting), written as each run ends; the same
 command resumes from the runs already in it (rows of another time model, method or seed are
@@ -41,6 +44,7 @@ from s3o_drake.commands.common import (
     task_files,
     task_scenarios,
 )
+from s3o_drake.evaluation.scheduler import local_pool
 from s3o_drake.evaluation.store import ResultStore
 from s3o_drake.execution.execute import execute
 from s3o_drake.feasibility.oracle import Heatmap
@@ -86,6 +90,14 @@ def measure(name: str, scenario: Scenario, *, method: str, seed: int, noise: boo
     if predicted is not None and simulated > 0:
         row["rel_error"] = (predicted - simulated) / simulated
     return row
+
+
+def _measure(job: tuple) -> dict:
+    """A worker's run of `measure`: ((key, name, scenario, seed, noise), method, version)."""
+    (key, name, scenario, seed, noise), method, version = job
+    logging.getLogger("drake").setLevel(logging.WARNING)
+    return {"key": key, "time_model": version,
+            **measure(name, scenario, method=method, seed=seed, noise=noise == "on")}
 
 
 def summarize(rows: list[dict], noise: str) -> dict:
@@ -174,6 +186,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="plan with this cost profile (default: each scenario's own); the "
                              "prediction is the time model's under either")
     parser.add_argument("--json", metavar="FILE", help="append one JSON line per run; resumes")
+    parser.add_argument("--workers", type=int, default=1, metavar="N",
+                        help="runs at once, each in a worker process (default 1)")
     parser.add_argument("--evaluation", action="store_true",
                         help="measure the CMA-ES evaluation cost per sample instead")
     args = parser.parse_args(argv)
@@ -181,6 +195,8 @@ def main(argv: list[str] | None = None) -> int:
         fail(f"--method: unknown method {args.method!r}; one of {', '.join(METHODS)}")
     if args.seed is not None and args.seed < 0:
         fail(f"--seed: must be a non-negative integer, got {args.seed}")
+    if args.workers < 1:
+        fail(f"--workers: must be at least 1, got {args.workers}")
     paths = task_files(args.tasks, args.count)
     tasks = task_scenarios([str(p) for p in paths], len(paths))
     if args.cost_profile is not None:
@@ -205,22 +221,30 @@ def main(argv: list[str] | None = None) -> int:
 
     store = ResultStore(json_path) if json_path is not None else None
     version = model_version()
+    runs = [(f"{name}|{args.method}|{seed}|{noise}|{scenario.planner.cost_profile}|{version}",
+             name, scenario, seed, noise)
+            for name, scenario in tasks
+            for seed in [scenario.seed if args.seed is None else args.seed]
+            for noise in args.noise]
+    pending = [run for run in runs if store is None or not store.finished(run[0])]
     rows = []
     print(f"{'task':<10} {'noise':>5} {'dishes':>7} {'predicted':>9} {'simulated':>9} "
           f"{'error':>7}  failures", flush=True)
-    for name, scenario in tasks:
-        seed = scenario.seed if args.seed is None else args.seed
-        for noise in args.noise:
-            key = f"{name}|{args.method}|{seed}|{noise}|{scenario.planner.cost_profile}|{version}"
+    # The runs execute in worker processes that are replaced now and then: pydrake keeps
+    # every executed diagram (evaluation/scheduler.TASKS_PER_CHILD), and a single process
+    # grew to 21 GB over 140 runs.
+    with local_pool(args.workers) as pool:
+        measured = pool.map(_measure, [(run, args.method, version) for run in pending])
+        for key, *_ in runs:
             if store is not None and store.finished(key):
                 row = store.get(key)
             else:
-                row = {"key": key, "time_model": version,
-                       **measure(name, scenario, method=args.method, seed=seed,
-                                 noise=noise == "on")}
+                row = next(measured)
                 if store is not None:
                     store.append(row)
             rows.append(row)
+            name = row["task"]
+            noise = "on" if row["noise"] else "off"
             error = f"{100 * row['rel_error']:+6.2f}%" if "rel_error" in row else "    --"
             predicted = row["predicted_time"]
             print(f"{name:<10} {noise:>5} {row['collected']:>3}/{row['dishes']:<3} "

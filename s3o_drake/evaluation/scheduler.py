@@ -29,7 +29,9 @@ from s3o_drake.evaluation.store import ResultStore
 
 TASKS_PER_CHILD = 10
 """Local workers are replaced after this many jobs: a Drake diagram per run leaves memory
-behind, and a long study must not grow without bound."""
+behind (pydrake 1.51 never frees a LeafSystem written in Python once it has been added to a
+DiagramBuilder, and with it the whole diagram: about 60-150 MB per executed run,
+docs/reliability.md), and a long study must not grow without bound."""
 
 
 def pending_jobs(jobs: Iterable[Job], store: ResultStore) -> list[Job]:
@@ -61,7 +63,7 @@ def run_jobs(jobs: Iterable[Job], store: ResultStore, *, workers: int = 2,
             _drive(client.get_executor(), todo, store, fn, window, bar)
         else:
             while todo:
-                with _local_pool(workers) as pool:
+                with local_pool(workers) as pool:
                     broken = _drive(pool, todo, store, fn, workers, bar)
                 for job in broken:
                     attempts[job.key] = attempts.get(job.key, 0) + 1
@@ -79,7 +81,9 @@ def run_jobs(jobs: Iterable[Job], store: ResultStore, *, workers: int = 2,
     return total
 
 
-def _local_pool(workers: int) -> ProcessPoolExecutor:
+def local_pool(workers: int) -> ProcessPoolExecutor:
+    """`workers` spawned processes, each replaced after TASKS_PER_CHILD jobs, that end
+    with this process: where a command executes many runs."""
     # Spawned, not forked: a fork would copy Drake's thread pools mid-use.
     return ProcessPoolExecutor(max_workers=workers,
                                mp_context=multiprocessing.get_context("spawn"),
