@@ -348,6 +348,8 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, c
     (["--workers", "0"], "--workers"),
     (["--scheduler", "localhost"], "--scheduler"),
     (["--limit", "0"], "--limit"),
+    (["--open-loop", "."], "--open-loop"),  # the study is open loop itself
+    (["--recovery", "replan", "--open-loop", "nowhere"], "--open-loop"),
 ])
 def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, args, field):
     out = tmp_path / "results"

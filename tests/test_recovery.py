@@ -291,3 +291,26 @@ def test_a_study_s_recovery_figures_count_what_the_runs_report():
     assert (f["pickable"], f["pickable_collected"]) == (4, 3)
     assert f["pickable_missed"] == ["t1/d"] and f["ended_early"] == 1
     assert "| pickable dishes collected | 3 of 4 |" in recovery_table({"M": f})
+
+
+def test_recovery_is_set_against_the_same_runs_in_open_loop():
+    """Each run with recovery meets its open-loop twin (task, method, run seed); the time
+    recovery adds counts only pairs where both collected every dish."""
+    from s3o_drake.evaluation.recovery_summary import recovery_figures, recovery_table
+
+    def run(task, seed, complete, time, recovery="replan"):
+        return {"task": task, "method": "M", "run_seed": seed, "complete": complete,
+                "execution_time": time, "reason": "plan ended", "recovery": recovery,
+                "pickups": [], "recoveries": []}
+
+    runs = [run("t0", 1, True, 110.0), run("t1", 2, True, 130.0), run("t2", 3, True, 90.0)]
+    open_loop = [run("t0", 1, True, 100.0, "none"), run("t1", 2, False, 60.0, "none"),
+                 run("t2", 4, True, 10.0, "none")]  # another seed: not t2's twin
+    f = recovery_figures(runs, ["M"], {}, open_loop)["M"]["open_loop"]
+    assert (f["pairs"], f["complete"], f["complete_with_recovery"]) == (2, 1, 2)
+    assert f["time"] == pytest.approx(80.0) and f["time_with_recovery"] == pytest.approx(120.0)
+    assert f["both_complete"] == 1 and f["extra_time_both_complete"] == pytest.approx(10.0)
+    table = recovery_table({"M": recovery_figures(runs, ["M"], {}, open_loop)["M"]})
+    assert "| completion, open loop -> recovery | 0.50 -> 1.00 |" in table
+    assert "| time recovery adds where both collected all (s, runs) | +10.0 (1) |" in table
+    assert "open loop" not in recovery_table({"M": recovery_figures(runs, ["M"], {})["M"]})

@@ -3,7 +3,7 @@ difficulty, and write the paper's Fig. 5 and Table I.
 
     python -m s3o_drake.commands.evaluate --tasks DIR --methods all --seeds 3 --out results/
            [--recovery none|retry|replan] [--workers N | --scheduler tcp://HOST:PORT]
-           [--limit N] [--quiet] [--summarize]
+           [--limit N] [--quiet] [--summarize] [--open-loop DIR]
 
 Each run plans the task (the scenario file) with the method, the noise and the planner's
 randomness drawn from the seed, and executes the plan in the full Drake simulation, as
@@ -18,7 +18,9 @@ its own while the methods compared on a task share it.
 --recovery sets every run's `execution.recovery`, whatever the task files say: "none" (the
 default) is the paper's open loop, the protocol of its study; "retry" corrects stops and
 retries pickups; "replan" also replans what remains after a blocked drive or a dish that
-fails its tries (docs/execution.md). Runs of another recovery are other runs.
+fails its tries (docs/execution.md). Runs of another recovery are other runs. --open-loop
+DIR names the same study run open loop (its --out): summary.md then sets each run against
+its open-loop twin (same task, method and run seed) for the time that recovery costs.
 
 Difficulty (the paper's measure): Σ_o ∫ Fea^m(y, o) dy, the expected area from which each
 dish can be picked, from the Drake oracle under the scenario's noise model, summed over the
@@ -95,6 +97,9 @@ def parse_args(argv: list[str] | None):
     parser.add_argument("--limit", type=int, metavar="N",
                         help="only the first N tasks of the folder (by name)")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.add_argument("--open-loop", metavar="DIR",
+                        help="with --recovery retry|replan: the same study run open loop "
+                             "(its --out), for the time recovery costs in summary.md")
     parser.add_argument("--summarize", action="store_true",
                         help="run nothing: write the tables and figures from the runs "
                              "finished so far (e.g. while the study runs elsewhere)")
@@ -126,6 +131,12 @@ def _validate(args) -> tuple[list[Path], list[str]]:
         fail(f"--seeds: must be at least 1, got {args.seeds}")
     if args.workers < 1:
         fail(f"--workers: must be at least 1, got {args.workers}")
+    if args.open_loop is not None:
+        if args.recovery == Recovery.NONE.value:
+            fail("--open-loop: compares a study with recovery (--recovery retry or replan) "
+                 "with its open-loop runs; this study is open loop")
+        if not (Path(args.open_loop) / "results.jsonl").is_file():
+            fail(f"--open-loop: no results.jsonl in {args.open_loop}")
     if args.scheduler is not None and not SCHEDULER.match(args.scheduler):
         fail(f"--scheduler: expected an address like tcp://HOST:PORT, got {args.scheduler!r}")
     out = Path(args.out)
@@ -204,8 +215,11 @@ def main(argv: list[str] | None = None) -> int:
                     sys.argv[1:] if argv is None else argv)}
     dish_areas = {r["task"]: r["areas"] for r in measured
                   if r is not None and "error" not in r}
+    open_loop = [] if args.open_loop is None else \
+        ResultStore(Path(args.open_loop) / "results.jsonl", read_only=True).rows()
     try:
-        written = write_outputs(out, runs, areas, groups, methods, settings, dish_areas)
+        written = write_outputs(out, runs, areas, groups, methods, settings, dish_areas,
+                                open_loop)
     except OSError as e:
         _cannot_write(e, f"the runs are kept in {out / 'results.jsonl'}; make room and "
                          "run the same command with --summarize")

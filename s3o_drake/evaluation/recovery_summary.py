@@ -7,6 +7,11 @@ from some free pose of the true world (the task's per-dish pickable area from th
 difficulty measure is positive) against those collected, and the runs that ended before
 their plan did (a blocked drive past the replan limit, no plan, the time limit or a failed
 simulation): with recovery none of these should remain while something could be tried.
+
+Given the same runs in open loop (`open_loop`: the same tasks, methods and run seeds, with
+`--recovery none`), it also sets each run against its open-loop twin: completion, the mean
+execution time of both, and the time recovery adds where both runs collected every dish
+(there the two did the same work, so the difference is what the recoveries cost).
 """
 
 from collections import defaultdict
@@ -23,8 +28,11 @@ def collected_dishes(run: Mapping) -> set[str]:
 
 
 def recovery_figures(runs: Sequence[Mapping], methods: Sequence[str],
-                     dish_areas: Mapping[str, Mapping[str, float]]) -> dict[str, dict]:
+                     dish_areas: Mapping[str, Mapping[str, float]],
+                     open_loop: Sequence[Mapping] = ()) -> dict[str, dict]:
     """The figures of the module docstring, per method."""
+    twins = {(r["task"], r["method"], r.get("run_seed")): r for r in open_loop
+             if "error" not in r and r.get("recovery", "none") == "none"}
     figures: dict[str, dict] = {}
     for method in methods:
         mine = [r for r in runs if r.get("method") == method and "error" not in r]
@@ -54,7 +62,24 @@ def recovery_figures(runs: Sequence[Mapping], methods: Sequence[str],
             "replan_planning_per_run": planning / runs_n if runs_n else 0.0,
             "pickable": pickable, "pickable_collected": collected_pickable,
             "pickable_missed": missed, "ended_early": ended_early}
+        pairs = [(r, twins[key]) for r in mine
+                 if (key := (r["task"], method, r.get("run_seed"))) in twins]
+        if pairs:
+            both = [(r, o) for r, o in pairs if r.get("complete") and o.get("complete")]
+            figures[method]["open_loop"] = {
+                "pairs": len(pairs),
+                "complete": sum(bool(o.get("complete")) for _, o in pairs),
+                "complete_with_recovery": sum(bool(r.get("complete")) for r, _ in pairs),
+                "time": _mean([o["execution_time"] for _, o in pairs]),
+                "time_with_recovery": _mean([r["execution_time"] for r, _ in pairs]),
+                "both_complete": len(both),
+                "extra_time_both_complete": _mean([r["execution_time"] - o["execution_time"]
+                                                   for r, o in both])}
     return figures
+
+
+def _mean(values: Sequence[float]) -> float:
+    return sum(values) / len(values) if values else float("nan")
 
 
 def recovery_table(figures: Mapping[str, Mapping]) -> str:
@@ -69,6 +94,18 @@ def recovery_table(figures: Mapping[str, Mapping]) -> str:
              ("pickable dishes collected",
               lambda f: f"{f['pickable_collected']} of {f['pickable']}"),
              ("runs ended before their plan", lambda f: str(f["ended_early"]))]
+    if all("open_loop" in figures[m] for m in methods):
+        rows += [("open loop: same runs", lambda f: str(f["open_loop"]["pairs"])),
+                 ("completion, open loop -> recovery",
+                  lambda f: "{:.2f} -> {:.2f}".format(
+                      f["open_loop"]["complete"] / f["open_loop"]["pairs"],
+                      f["open_loop"]["complete_with_recovery"] / f["open_loop"]["pairs"])),
+                 ("execution time, mean s, open loop -> recovery",
+                  lambda f: f"{f['open_loop']['time']:.1f} -> "
+                            f"{f['open_loop']['time_with_recovery']:.1f}"),
+                 ("time recovery adds where both collected all (s, runs)",
+                  lambda f: f"{f['open_loop']['extra_time_both_complete']:+.1f} "
+                            f"({f['open_loop']['both_complete']})")]
     lines = ["| | " + " | ".join(methods) + " |", "|---|" + "---|" * len(methods)]
     lines += [f"| {name} | " + " | ".join(cell(figures[m]) for m in methods) + " |"
               for name, cell in rows]

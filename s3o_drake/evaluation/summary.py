@@ -332,9 +332,11 @@ def plot_table_one(cells: Sequence[Cell], path: Path) -> None:
 
 def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
                   groups: dict[str, str], methods: Sequence[str], settings: dict,
-                  dish_areas: Mapping[str, Mapping[str, float]] | None = None) -> list[Path]:
+                  dish_areas: Mapping[str, Mapping[str, float]] | None = None,
+                  open_loop: Sequence[dict] = ()) -> list[Path]:
     """results.csv (one row per run), results.json (settings, groups, the cells, the runs),
-    figure5.png, table1.png and summary.md; returns the paths written."""
+    figure5.png, table1.png and summary.md; returns the paths written. `open_loop`: the
+    same runs without recovery, for the recovery section."""
     cells = summarize(runs, groups, methods)
     paired = paired_comparison(runs, methods)
     written = []
@@ -374,7 +376,7 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
     if dish_areas and any("recoveries" in r for r in runs):
         lines += ["", "**Recovery** (recoveries by kind and their cost; dishes the Drake "
                   "oracle can pick from some free pose against those collected)", "",
-                  recovery_table(recovery_figures(runs, methods, dish_areas))]
+                  recovery_table(recovery_figures(runs, methods, dish_areas, open_loop))]
     lines += ["", "**Why dishes were not collected** (failed actions by reason; dishes that "
               "no pickup was planned for or that a failed goto left behind)", "",
               failure_table(runs, methods)]
