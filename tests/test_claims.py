@@ -122,3 +122,15 @@ def test_petlon_finds_the_one_free_spot_of_a_sliver_cell():
     assert p is not None and free(p[None])[0]
     assert random_position(region, nav, np.array([3.0, 2.0]), np.random.default_rng(0),
                            lambda P: np.zeros(len(P), dtype=bool)) is None
+
+
+def test_no_claim_starts_after_the_deadline(known):
+    """A planner out of time plans on the cells as they are (the claims are uninterruptible
+    work that a small budget must not pay for)."""
+    import time
+
+    maps = [_heatmap("cup", BAND), _heatmap("plate", BAND, BELOW)]
+    late = voronoi_partition(known, feasibility=maps, deadline=time.monotonic() - 1.0)
+    assert late.claims == []
+    assert len(voronoi_partition(known, feasibility=maps,
+                                 deadline=time.monotonic() + 60.0).claims) == 1

@@ -229,7 +229,8 @@ def build_abstraction(known: KnownWorld, feasibility, *,
     if location_cost is None:
         location_cost = planner.gamma / planner.reward if planner.reward > 0 else 0.0
     partition = voronoi_partition(known, dishes=dishes, clearance=clearance,
-                                  feasibility=feasibility, drivable=drivable)
+                                  feasibility=feasibility, drivable=drivable,
+                                  deadline=time.monotonic() + time_limit)
     grid = LocationGrid.of(partition, feasibility, threshold=joint_threshold, cell=grid_cell)
     task = TaskFeasibility(grid, samples=planner.location_samples,
                            seed=known.settings.seed if seed is None else seed)

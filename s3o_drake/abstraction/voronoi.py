@@ -46,6 +46,7 @@ the two). A dish whose cell is still empty is kept, with an empty cell, and list
 `unreachable`.
 """
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -182,13 +183,16 @@ def _adjacency(cells: list[BaseGeometry]) -> list[set[int]]:
 
 def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
                       clearance: float = INSCRIBED_RADIUS, reach: float | None = None,
-                      feasibility=None, drivable: Drivable | None = None) -> VoronoiPartition:
+                      feasibility=None, drivable: Drivable | None = None,
+                      deadline: float | None = None) -> VoronoiPartition:
     """The Voronoi cells of the known world's dishes (default: all) over the free space.
 
     `reach` defaults to the planner's `reach`. With `feasibility` (Fea^m: a
     MotionFeasibility, a mapping dish -> Heatmap or a list of Heatmaps), a dish that its own
     cell serves poorly claims the positions that serve it better (module docstring); only
-    positions where `drivable` (points (m, 2) -> bool (m,); None: all) holds count.
+    positions where `drivable` (points (m, 2) -> bool (m,); None: all) holds count. No
+    claim starts after `deadline` (time.monotonic; None: none): a planner out of time plans
+    on the cells as they are.
     """
     reach = known.planner.reach if reach is None else reach
     by_name = {d.name: d for d in known.dishes}
@@ -211,7 +215,8 @@ def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
         cells.append(cell if cell.area > _EMPTY_AREA else Polygon())
         within.append(near if cell.area > _EMPTY_AREA else Polygon())
     claims = [] if feasibility is None else \
-        _claim(names, p_WO, cells, within, free, as_motion_feasibility(feasibility), drivable)
+        _claim(names, p_WO, cells, within, free, as_motion_feasibility(feasibility), drivable,
+               deadline)
     return VoronoiPartition(dishes=names, p_WO=p_WO, cells=cells, free=free, reach=reach,
                             adjacency=_adjacency(within), claims=claims)
 
@@ -239,7 +244,8 @@ def _area(geometry: BaseGeometry) -> BaseGeometry:
 
 def _claim(names: list[str], p_WO: np.ndarray, cells: list[BaseGeometry],
            within: list[BaseGeometry], free: BaseGeometry, fea: MotionFeasibility,
-           drivable: Drivable | None) -> list[tuple[int, BaseGeometry]]:
+           drivable: Drivable | None, deadline: float | None = None
+           ) -> list[tuple[int, BaseGeometry]]:
     """Lets each dish that its cell serves poorly claim the positions that serve it better
     (module docstring); changes `cells` and `within` in place and returns the claims."""
 
@@ -272,6 +278,8 @@ def _claim(names: list[str], p_WO: np.ndarray, cells: list[BaseGeometry],
 
     claims = []
     for i, name in enumerate(names):
+        if deadline is not None and time.monotonic() >= deadline:
+            break
         if serves(name, cells[i]):
             continue
         points = lattice_in(cells[i])

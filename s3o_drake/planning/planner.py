@@ -314,7 +314,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         partition: VoronoiPartition = abstraction.partition
         grid = abstraction.grid
     else:
-        partition = voronoi_partition(known, feasibility=fea,
+        partition = voronoi_partition(known, feasibility=fea, deadline=deadline,
                                       drivable=partial(nav.reachable, start))
         if method != "V-PETLON":  # PETLON draws its goals uniformly: it reads no grid
             grid = LocationGrid.of(partition, fea)
