@@ -42,11 +42,7 @@ from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
 from s3o_drake.abstraction.motion_feasibility import MotionFeasibility, as_motion_feasibility
-from s3o_drake.abstraction.voronoi import VoronoiPartition
-
-GRID_CELL = 0.05
-"""Spacing (m) of the location grid: the heatmaps' resolution, finer than the base's
-landing noise (σ = 0.10 m), so nothing the noise could tell apart is merged."""
+from s3o_drake.abstraction.voronoi import GRID_CELL, VoronoiPartition
 
 
 def joint_feasible(fea: np.ndarray, threshold: float = 0.0) -> np.ndarray:

@@ -72,9 +72,11 @@ Drivable = Callable[[np.ndarray], np.ndarray]
 CLAIM_BELOW = 0.5
 """A dish whose own cell picks it at best with Fea^m below this claims the positions that
 pick it better (module docstring)."""
-CLAIM_STEP = 0.05
-"""Spacing (m) of the lattice on which a claim reads Fea^m: the location grid's, and on the
-same anchors, so that a claimed square's centre is one of the location grid's points."""
+GRID_CELL = 0.05
+"""Spacing (m) of the location grid (`location_grid.py`), on which claims read Fea^m too,
+on the same anchors: a claimed square's centre is one of the location grid's points. The
+heatmaps' resolution, finer than the base's landing noise (σ = 0.10 m), so nothing the
+noise could tell apart is merged."""
 _EMPTY_AREA = 1e-9  # m^2; cells smaller than this are empty
 
 
@@ -221,7 +223,7 @@ def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
                             adjacency=_adjacency(within), claims=claims)
 
 
-def lattice_in(geometry: BaseGeometry, step: float = CLAIM_STEP) -> np.ndarray:
+def lattice_in(geometry: BaseGeometry, step: float = GRID_CELL) -> np.ndarray:
     """The points (m, 2) inside `geometry` of the lattice of cell centres of spacing `step`
     anchored at multiples of it (the location grid's lattice)."""
     if geometry.is_empty:
@@ -255,7 +257,7 @@ def _claim(names: list[str], p_WO: np.ndarray, cells: list[BaseGeometry],
         """`drivable` on lattice points, each asked once."""
         if drivable is None:
             return np.ones(len(points), dtype=bool)
-        keys = [tuple(k) for k in np.floor(points / CLAIM_STEP).astype(int)]
+        keys = [tuple(k) for k in np.floor(points / GRID_CELL).astype(int)]
         ask = [n for n, k in enumerate(keys) if k not in reached]
         if ask:
             reached.update(zip([keys[n] for n in ask], drivable(points[ask]), strict=True))
@@ -288,7 +290,7 @@ def _claim(names: list[str], p_WO: np.ndarray, cells: list[BaseGeometry],
         points = points[fea_at(name, points) > own]
         if not len(points):
             continue  # nowhere better to pick it from
-        half = CLAIM_STEP / 2
+        half = GRID_CELL / 2
         squares = shapely.box(points[:, 0] - half, points[:, 1] - half,
                               points[:, 0] + half, points[:, 1] + half)
         claimed = _area(unary_union(squares).intersection(free))
