@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from shapely.geometry import Point
 
 from s3o_drake.abstraction import LocationGrid, voronoi_partition
 from s3o_drake.feasibility.oracle import Heatmap
@@ -30,14 +31,23 @@ BAND = (3.85, 4.25, 1.7, 2.3)
 BELOW = (3.05, 3.6, 1.0, 1.4)
 
 
-def _heatmap(dish: str, *boxes: tuple[float, float, float, float]) -> Heatmap:
-    """Fea^m 0.9 inside the boxes (x0, x1, y0, y1), 0 elsewhere, on a 4 m grid over the room."""
+def _heatmap(dish: str, *boxes: tuple[float, float, float, float], value: float = 0.9,
+             low: tuple[float, float, float, float] | None = None) -> Heatmap:
+    """Fea^m `value` inside the boxes (x0, x1, y0, y1), 0.2 inside `low`, 0 elsewhere, on a
+    grid over the room."""
     grid = Heatmap(dish, np.zeros((80, 120)), 0.0, 0.0, 0.05)
     c = grid.centers()
-    inside = np.zeros(grid.values.shape, dtype=bool)
-    for x0, x1, y0, y1 in boxes:
-        inside |= (c[..., 0] > x0) & (c[..., 0] < x1) & (c[..., 1] > y0) & (c[..., 1] < y1)
-    return Heatmap(dish, np.where(inside, 0.9, 0.0), grid.x0, grid.y0, grid.cell)
+
+    def inside(*boxes):
+        mask = np.zeros(grid.values.shape, dtype=bool)
+        for x0, x1, y0, y1 in boxes:
+            mask |= (c[..., 0] > x0) & (c[..., 0] < x1) & (c[..., 1] > y0) & (c[..., 1] < y1)
+        return mask
+
+    values = np.where(inside(*boxes), value, 0.0)
+    if low is not None:
+        values = np.where(inside(low) & (values == 0.0), 0.2, values)
+    return Heatmap(dish, values, grid.x0, grid.y0, grid.cell)
 
 
 @pytest.fixture(scope="module")
@@ -134,3 +144,11 @@ def test_no_claim_starts_after_the_deadline(known):
     assert late.claims == []
     assert len(voronoi_partition(known, feasibility=maps,
                                  deadline=time.monotonic() + 60.0).claims) == 1
+
+
+def test_a_claim_takes_the_positions_that_pick_at_odds_like_the_best(known):
+    """Not every position with some chance: below the table the cup is picked at 0.2, right
+    of it at 0.9, and only the band is claimed (V-PETLON's goals are drawn from the claim)."""
+    maps = [_heatmap("cup", BAND, low=BELOW), _heatmap("plate", BAND, BELOW)]
+    (_, claimed), = voronoi_partition(known, feasibility=maps).claims
+    assert claimed.contains(Point(4.05, 2.0)) and not claimed.intersects(Point(3.3, 1.2))

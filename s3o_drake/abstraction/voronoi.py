@@ -34,8 +34,9 @@ adjacency by the free cells' borders never let S3O merge them.)
 
 Claims. Given Fea^m (`feasibility`), a dish that the positions of its own cell the robot
 can drive to (`drivable`) pick at best with Fea^m below `CLAIM_BELOW` (or that has no cell)
-claims the positions within the arm's reach that it can drive to and that pick it better:
-they leave their cells and become its own, in place of the cell it had. Without claims every
+claims the positions within the arm's reach that it can drive to and that pick it better,
+and at least `CLAIM_SHARE` as well as the best of them: they leave their cells and become
+its own, in place of the cell it had. Without claims every
 method left such a dish out as unreachable, or picked it at long odds, though the robot could
 pick it from elsewhere: task_032's bowl_1, whose own cell's free stops are boxed in by
 chairs, is picked at 0.87 from positions nearer a plate; task_055's plate_4 (0 in its own
@@ -72,6 +73,9 @@ Drivable = Callable[[np.ndarray], np.ndarray]
 CLAIM_BELOW = 0.5
 """A dish whose own cell picks it at best with Fea^m below this claims the positions that
 pick it better (module docstring)."""
+CLAIM_SHARE = 0.5
+"""A claim takes the positions that pick its dish at least this share of the best Fea^m
+of any it could claim."""
 GRID_CELL = 0.05
 """Spacing (m) of the location grid (`location_grid.py`), on which claims read Fea^m too,
 on the same anchors: a claimed square's centre is one of the location grid's points. The
@@ -287,9 +291,12 @@ def _claim(names: list[str], p_WO: np.ndarray, cells: list[BaseGeometry],
         points = lattice_in(cells[i])
         own = float(fea_at(name, points).max()) if len(points) else 0.0
         points = lattice_in(Point(*p_WO[i]).buffer(ARM_REACH, quad_segs=32).intersection(free))
-        points = points[fea_at(name, points) > own]
-        if not len(points):
+        values = fea_at(name, points)
+        if not len(points) or values.max() <= own:
             continue  # nowhere better to pick it from
+        # Where it is picked at odds like its best: a claim of every position with some
+        # chance gave V-PETLON's random goals Fea^m 0.01 (task_032's bowl_1, best 0.87).
+        points = points[(values > own) & (values >= CLAIM_SHARE * values.max())]
         half = GRID_CELL / 2
         squares = shapely.box(points[:, 0] - half, points[:, 1] - half,
                               points[:, 0] + half, points[:, 1] + half)
