@@ -71,14 +71,8 @@ def best_stops(known: KnownWorld, heatmaps: Sequence[Heatmap] | None = None
         values = heatmap.values.reshape(-1)
         order = np.argsort(-values, kind="stable")
         order = order[values[order] > 0]
-        best[heatmap.dish] = 0.0
-        # Best first, in batches: the first that can be driven to is the answer.
-        for k in range(0, len(order), 256):
-            batch = order[k:k + 256]
-            reached = np.flatnonzero(nav.reachable(start, centres[batch]))
-            if len(reached):
-                best[heatmap.dish] = float(values[batch[reached[0]]])
-                break
+        first = nav.first_reachable(start, centres[order])  # the best that can be reached
+        best[heatmap.dish] = 0.0 if first is None else float(values[order[first]])
     return best
 
 

@@ -48,23 +48,15 @@ def representative_points(regions: Mapping[str, BaseGeometry], groups: Sequence[
             points.mean(axis=0)
         near = np.linalg.norm(points - centroid, axis=1)
         ranked = np.lexsort((near, -w))
-        out[name] = _first_drivable(points[ranked[:REPRESENTATIVE_CANDIDATES]], nav, start)
-        if out[name] is None:
-            # The best spots can all be enclosed (task_004: a corner boxed in by two
-            # chairs): the location is not lost while a spot of it with Fea^m > 0 can be
-            # driven to. Rare, so the whole location is asked only then.
-            rest = ranked[REPRESENTATIVE_CANDIDATES:]
-            out[name] = _first_drivable(points[rest[w[rest] > 0]], nav, start)
+        # The best spots can all be enclosed (task_004: a corner boxed in by two chairs):
+        # the location is not lost while a spot of it with Fea^m > 0 can be driven to.
+        # The rest is asked only when none of the best can (rarely).
+        ranked = np.concatenate([ranked[:REPRESENTATIVE_CANDIDATES],
+                                 [k for k in ranked[REPRESENTATIVE_CANDIDATES:] if w[k] > 0]])
+        P = points[ranked.astype(int)]
+        first = nav.first_reachable(start, P, batch=REPRESENTATIVE_CANDIDATES)
+        out[name] = None if first is None else P[first].copy()
     return out
-
-
-def _first_drivable(P: np.ndarray, nav: NavigationMap, start: np.ndarray) -> np.ndarray | None:
-    """The first of the points (m, 2) that can be driven to from `start`, or None."""
-    if not len(P):
-        return None
-    lengths = nav.path_lengths(np.broadcast_to(start, P.shape), P)
-    ok = np.flatnonzero(np.isfinite(lengths))
-    return P[ok[0]].copy() if len(ok) else None
 
 
 def dead_dishes(groups: Sequence[Sequence[str]], grid: LocationGrid) -> set[str]:
