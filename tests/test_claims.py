@@ -152,3 +152,24 @@ def test_a_claim_takes_the_positions_that_pick_at_odds_like_the_best(known):
     maps = [_heatmap("cup", BAND, low=BELOW), _heatmap("plate", BAND, BELOW)]
     (_, claimed), = voronoi_partition(known, feasibility=maps).claims
     assert claimed.contains(Point(4.05, 2.0)) and not claimed.intersects(Point(3.3, 1.2))
+
+
+def test_petlon_gives_up_a_cell_without_a_free_spot_early():
+    """A cell with no free point cost all the rejection rounds (seconds in a crowded scene:
+    the soak's V-PETLON ran out of its budget on them); its lattice now tells early."""
+    from shapely.geometry import box
+
+    from s3o_drake.known_world import Obstacles
+    from s3o_drake.planning.navigation import NavigationMap
+    from s3o_drake.planning.petlon import DRAWS_PER_POSITION, LATTICE_AFTER, random_position
+
+    nav = NavigationMap(Obstacles(room=box(0.0, 0.0, 6.0, 4.0), footprints=()))
+    calls = []
+
+    def nowhere(points: np.ndarray) -> np.ndarray:
+        calls.append(len(points))
+        return np.zeros(len(points), dtype=bool)
+
+    assert random_position(box(1.0, 1.0, 2.0, 2.0), nav, np.array([3.0, 3.0]),
+                           np.random.default_rng(0), nowhere) is None
+    assert len(calls) == LATTICE_AFTER + 1 < DRAWS_PER_POSITION  # the rounds, then the lattice

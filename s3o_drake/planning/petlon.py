@@ -43,6 +43,8 @@ COST_SCALE = 10.0
 """Task-planner costs are seconds x 10, rounded (clingo optimises integers)."""
 DRAWS_PER_POSITION = 100
 """Rejection rounds (of 32 points each) to find a drivable point of a cell."""
+LATTICE_AFTER = 10
+"""Rounds without a point after which the cell's lattice is tested (`random_position`)."""
 
 #: Which base positions (n, 2) facing a dish are collision-free: (points, dish) -> bool (n,).
 FreeTest = Callable[[np.ndarray, str], np.ndarray]
@@ -77,15 +79,25 @@ def random_position(region: BaseGeometry, nav: NavigationMap, start: np.ndarray,
     Uniform by rejection in the bounding box; a point the navigation map cannot reach
     (e.g. in the band between the inscribed and the circumscribed radius with no straight
     way out) is redrawn, as PETLON's goal sampler would discard an unreachable goal.
-    Raises `_ExpiredError` when `deadline` (time.monotonic) passes first: a cell with no free
-    point costs all DRAWS_PER_POSITION rounds, seconds in a crowded scene.
+    When the first LATTICE_AFTER rounds find nothing, the region's lattice points are
+    tested: none passing ends the search (a cell with no free point cost all
+    DRAWS_PER_POSITION rounds, seconds in a crowded scene: the soak's V-PETLON spent its
+    5 s budget on them in 30 of 54 scenes); else the rounds go on, and if they all miss (a
+    sliver of free space in a large box, task_017's bowl_2: one lattice point in sixteen,
+    in a box 50 times the cell's area) the point is drawn among the passing lattice points.
+    Raises `_ExpiredError` when `deadline` (time.monotonic) passes first.
     """
     if region.is_empty or region.area <= 0:
         return None
     x0, y0, x1, y1 = region.bounds
-    for _ in range(DRAWS_PER_POSITION):
+    passing: np.ndarray | None = None
+    for k in range(DRAWS_PER_POSITION):
         if deadline is not None and time.monotonic() >= deadline:
             raise _ExpiredError
+        if k == LATTICE_AFTER:
+            passing = _passing_lattice(region, nav, start, free)
+            if not len(passing) and len(lattice_in(region)):
+                return None
         P = np.column_stack([rng.uniform(x0, x1, 32), rng.uniform(y0, y1, 32)])
         P = P[shapely.contains_xy(region, P[:, 0], P[:, 1])]
         if len(P) and free is not None:
@@ -96,14 +108,19 @@ def random_position(region: BaseGeometry, nav: NavigationMap, start: np.ndarray,
         ok = np.flatnonzero(np.isfinite(lengths))
         if len(ok):
             return P[ok[0]].copy()
-    # A region whose free, drivable part is a sliver of its bounding box defeats the rounds
-    # (task_017's bowl_2: one lattice point in sixteen, in a box 50 times the cell's area):
-    # the draw is then among the region's lattice points that pass.
+    if passing is None:
+        passing = _passing_lattice(region, nav, start, free)
+    return passing[rng.integers(len(passing))].copy() if len(passing) else None
+
+
+def _passing_lattice(region: BaseGeometry, nav: NavigationMap, start: np.ndarray,
+                     free: Callable[[np.ndarray], np.ndarray] | None) -> np.ndarray:
+    """The region's lattice points (`voronoi.lattice_in`) where `free` holds and that the
+    base can drive to from `start`."""
     P = lattice_in(region)
     if len(P) and free is not None:
         P = P[free(P)]
-    P = P[nav.reachable(start, P)] if len(P) else P
-    return P[rng.integers(len(P))].copy() if len(P) else None
+    return P[nav.reachable(start, P)] if len(P) else P
 
 
 def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
