@@ -240,18 +240,6 @@ class NavigationMap:
         start = np.broadcast_to(np.asarray(start, dtype=float)[:2], P.shape)
         return np.isfinite(self.path_lengths(start, P))
 
-    def first_reachable(self, start: Sequence[float], P: np.ndarray,
-                        batch: int = 256) -> int | None:
-        """The index of the first of the points (m, 2), in their order, that a path from
-        `start` reaches, or None; asked `batch` points at a time, so that a list in order
-        of preference costs one query when its first points can be reached."""
-        P = np.asarray(P, dtype=float).reshape(-1, 2)
-        for k in range(0, len(P), batch):
-            reached = np.flatnonzero(self.reachable(start, P[k:k + batch]))
-            if len(reached):
-                return k + int(reached[0])
-        return None
-
     def way_out(self, p: Sequence[float]) -> np.ndarray:
         """`p` (2,) when it is a position the base can drive from (an endpoint the rule
         joins to the driveable region), else the nearest point of the driveable region: where

@@ -26,6 +26,7 @@ from s3o_drake.feasibility.stops import FreeStops
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.planner import PlanningError, PlanningResult, plan_task
+from s3o_drake.planning.task_costs import first_reachable
 from s3o_drake.planning.task_planner import TaskPlanningError
 from s3o_drake.scenario import FEASIBILITY_SOURCES, FeasibilitySource
 
@@ -71,7 +72,7 @@ def best_stops(known: KnownWorld, heatmaps: Sequence[Heatmap] | None = None
         values = heatmap.values.reshape(-1)
         order = np.argsort(-values, kind="stable")
         order = order[values[order] > 0]
-        first = nav.first_reachable(start, centres[order])  # the best that can be reached
+        first = first_reachable(nav, start, centres[order])  # the best that can be reached
         best[heatmap.dish] = 0.0 if first is None else float(values[order[first]])
     return best
 

@@ -54,9 +54,22 @@ def representative_points(regions: Mapping[str, BaseGeometry], groups: Sequence[
         ranked = np.concatenate([ranked[:REPRESENTATIVE_CANDIDATES],
                                  [k for k in ranked[REPRESENTATIVE_CANDIDATES:] if w[k] > 0]])
         P = points[ranked.astype(int)]
-        first = nav.first_reachable(start, P, batch=REPRESENTATIVE_CANDIDATES)
+        first = first_reachable(nav, start, P, batch=REPRESENTATIVE_CANDIDATES)
         out[name] = None if first is None else P[first].copy()
     return out
+
+
+def first_reachable(nav: NavigationMap, start: Sequence[float], P: np.ndarray,
+                    batch: int = 256) -> int | None:
+    """The index of the first of the points (m, 2), in their order, that a drive from
+    `start` reaches on `nav`, or None; asked `batch` points at a time, so that a list in
+    order of preference costs one query when its first points can be reached."""
+    P = np.asarray(P, dtype=float).reshape(-1, 2)
+    for k in range(0, len(P), batch):
+        reached = np.flatnonzero(nav.reachable(start, P[k:k + batch]))
+        if len(reached):
+            return k + int(reached[0])
+    return None
 
 
 def dead_dishes(groups: Sequence[Sequence[str]], grid: LocationGrid) -> set[str]:
