@@ -63,3 +63,47 @@ def test_soak_plans_executes_resumes_and_sums_up(tmp_path):
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert again.returncode == 0 and again.stdout == first.stdout
     assert len((tmp_path / "soak.jsonl").read_text().splitlines()) == 4
+
+
+def test_memory_growth_is_told_per_kind_of_job_past_the_warm_up():
+    """Plan jobs should add nothing; an execute job adds what pydrake keeps."""
+    from s3o_drake.evaluation.soak import EXECUTE, PLAN, WARM_UP
+
+    rss, rows = 100.0, []
+    for i in range(WARM_UP + 6):
+        kind = EXECUTE if i % 2 else PLAN
+        rss += 500.0 if i < WARM_UP else (60.0 if kind == EXECUTE else 0.0)
+        rows.append({"worker": 1, "worker_job": i + 1, "rss_mb": rss, "kind": kind})
+    m = memory(rows)
+    assert m["plan_growth_mb"] == 0.0 and m["execute_growth_mb"] == 60.0
+
+
+def test_the_worker_is_replaced_after_its_executions(tmp_path, monkeypatch):
+    """pydrake keeps each executed diagram: a worker that has executed TASKS_PER_CHILD runs
+    is replaced, one that only plans is kept."""
+    from dataclasses import asdict
+
+    from s3o_drake.evaluation import scheduler, soak
+    from s3o_drake.evaluation.store import ResultStore
+
+    started = []
+
+    class FakeWorker:  # the worker process's interface, without the process
+        def __init__(self):
+            started.append(self)
+            self.jobs = self.executed = 0
+            self.process = type("P", (), {"pid": len(started), "is_alive": lambda s: True})()
+
+        def run(self, job, limit):
+            self.jobs += 1
+            return {"key": job.key, **asdict(job), "crash": "", "rss_mb": 1.0}
+
+        def stop(self, kill=False):
+            pass
+
+    monkeypatch.setattr(soak, "_Worker", FakeWorker)
+    monkeypatch.setattr(scheduler, "TASKS_PER_CHILD", 2)
+    jobs = [soak.SoakJob(EXECUTE if i in (1, 2, 4) else PLAN, 0, i, 5.0) for i in range(6)]
+    soak.run_soak(jobs, ResultStore(tmp_path / "soak.jsonl"), limit=60.0, progress=False)
+    # Jobs 0-2 in the first worker (its second execution ends it), 3-5 in the second.
+    assert [w.jobs for w in started] == [3, 3]

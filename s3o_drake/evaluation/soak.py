@@ -10,7 +10,10 @@ the whole `execute()` (perception, the scenario's Fea^m source, planning, the Dr
 simulation, recovery) with one method, the methods taken in turn.
 
 Jobs run one at a time in one long-lived worker process, so that its memory over the jobs
-is what a long user session would see (its RSS is recorded after each job). A job that
+is what a long user session would see (its RSS is recorded after each job), except that
+the worker is replaced after every 10 executions (`scheduler.TASKS_PER_CHILD`): pydrake
+keeps each executed diagram (docs/reliability.md), and 200 executions in one process would
+exhaust the machine. The summary gives the memory growth over one job of each kind. A job that
 exceeds the wall-time limit is a hang: the worker is killed and a fresh one goes on; a
 worker that dies is a crash. Rows go to soak.jsonl as each job ends (the evaluation's
 ResultStore: a killed soak resumes where it stopped).
@@ -31,6 +34,8 @@ from s3o_drake.evaluation.store import ResultStore
 
 PLAN, EXECUTE = "plan", "execute"
 OVERRUN = 0.05  # as plan_checks.OVERRUN: a run over its budget by more is an overrun
+WARM_UP = 5
+"""A worker's first jobs, whose memory growth is loading, not leaking (`memory`)."""
 
 
 @dataclass(frozen=True)
@@ -150,6 +155,7 @@ class _Worker:
         self.process.start()
         child.close()
         self.jobs = 0
+        self.executed = 0
 
     def run(self, job: SoakJob, limit: float) -> dict:
         """The job's row; a hang (no answer within `limit` s: the worker is killed) or a
@@ -186,6 +192,8 @@ def run_soak(jobs: Iterable[SoakJob], store: ResultStore, *, limit: float,
     one after a hang or a crash), storing each row as it ends; returns how many ran."""
     from tqdm import tqdm
 
+    from s3o_drake.evaluation.scheduler import TASKS_PER_CHILD
+
     todo = [job for job in jobs if store.get(job.key) is None]
     bar = tqdm(total=len(todo), desc="soak", unit="job", disable=not progress)
     worker: _Worker | None = None
@@ -200,6 +208,13 @@ def run_soak(jobs: Iterable[SoakJob], store: ResultStore, *, limit: float,
             row.setdefault("hang", False)
             if row["hang"] or (row.get("crash") and "worker process died" in row["crash"]):
                 worker = None
+            elif job.kind == EXECUTE:
+                worker.executed += 1
+                if worker.executed >= TASKS_PER_CHILD:
+                    # pydrake keeps every executed diagram (docs/reliability.md): 200
+                    # executions in one process would exhaust the machine's memory.
+                    worker.stop()
+                    worker = None
             store.append(row)
             bar.update()
             bar.set_postfix(tally(store.rows()), refresh=False)
@@ -244,7 +259,23 @@ def memory(rows: Sequence[dict]) -> dict | None:
     slope = float(np.polyfit(n[half:], rss[half:], 1)[0]) * 100 if len(series) > 3 else 0.0
     return {"jobs": len(series), "first_mb": float(rss[0]), "last_mb": float(rss[-1]),
             "max_mb": float(rss.max()), "slope_mb_per_100_jobs": slope,
-            "workers": len(by_worker)}
+            "workers": len(by_worker), **_growth_by_kind(rows)}
+
+
+def _growth_by_kind(rows: Sequence[dict]) -> dict[str, float]:
+    """The median RSS growth (MB) over one job of each kind, past each worker's first
+    WARM_UP jobs (they load Drake, the network and the caches): plan jobs should add
+    nothing; an execute job adds the diagram pydrake keeps (docs/reliability.md)."""
+    last: dict[int, float] = {}
+    growth: dict[str, list[float]] = {PLAN: [], EXECUTE: []}
+    for row in sorted((r for r in rows if "rss_mb" in r),
+                      key=lambda r: (r["worker"], r["worker_job"])):
+        before = last.get(row["worker"])
+        last[row["worker"]] = row["rss_mb"]
+        if before is not None and row["worker_job"] > WARM_UP and row.get("kind") in growth:
+            growth[row["kind"]].append(row["rss_mb"] - before)
+    return {f"{kind}_growth_mb": float(np.median(g)) if g else float("nan")
+            for kind, g in growth.items()}
 
 
 def summary_table(rows: Sequence[dict]) -> str:
@@ -285,7 +316,10 @@ def summary_table(rows: Sequence[dict]) -> str:
                      f"first {mem['first_mb']:.0f} MB, last {mem['last_mb']:.0f} MB, max "
                      f"{mem['max_mb']:.0f} MB, slope {mem['slope_mb_per_100_jobs']:+.1f} MB "
                      f"per 100 jobs over its second half ({mem['workers']} worker "
-                     "process(es) in all)")
+                     "process(es) in all); median growth over one job: plan "
+                     f"{mem['plan_growth_mb']:+.1f} MB, execute "
+                     f"{mem['execute_growth_mb']:+.1f} MB (pydrake keeps each executed "
+                     "diagram; the worker is replaced every 10 executions)")
     return "\n".join(lines)
 
 
