@@ -36,15 +36,14 @@ Claims. Given Fea^m (`feasibility`), a dish that the positions of its own cell t
 can drive to (`drivable`) pick at best with Fea^m below `CLAIM_BELOW` (or that has no cell)
 claims the positions within the arm's reach that it can drive to and that pick it better,
 and at least `CLAIM_SHARE` as well as the best of them: they leave their cells and become
-its own, in place of the cell it had. Without claims every
-method left such a dish out as unreachable, or picked it at long odds, though the robot could
-pick it from elsewhere: task_032's bowl_1, whose own cell's free stops are boxed in by
-chairs, is picked at 0.87 from positions nearer a plate; task_055's plate_4 (0 in its own
-cell, 0.76 elsewhere). A stop in another dish's cell need not serve both dishes, so merging
-does not help. A claim takes nothing a cell needs: where a neighbour's only positions at or
-above `CLAIM_BELOW` are among those claimed, they stay the neighbour's (S3O can still merge
-the two). A dish whose cell is still empty is kept, with an empty cell, and listed in
-`unreachable`.
+its own, in place of the cell it had. Without claims every method left such a dish out as
+unreachable, or picked it at long odds, though the robot could pick it from elsewhere:
+task_032's bowl_1, whose own cell's free stops are boxed in by chairs, is picked at 0.87
+from positions nearer a plate; task_055's plate_4 (0 in its own cell, 0.76 elsewhere). A
+stop in another dish's cell need not serve both dishes, so merging does not help. A claim
+takes nothing a cell needs: where a neighbour's only positions at or above `CLAIM_BELOW`
+are among those claimed, they stay the neighbour's (S3O can still merge the two). A dish
+whose cell is still empty is kept, with an empty cell, and listed in `unreachable`.
 """
 
 import time
