@@ -76,8 +76,10 @@ from s3o_drake.abstraction.voronoi import VoronoiPartition
 from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.stops import FreeStops
 from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.free_positions import FreeTest, with_free_stops
 from s3o_drake.planning.motion_search import (
     MotionResult,
+    SequenceProblem,
     grop,
     grop_star,
     location_regions,
@@ -138,8 +140,10 @@ class _Searches:
     come back in submission order."""
 
     def __init__(self, workers: int, search: Callable[..., MotionResult], fea, nav, start,
-                 planner, deadline: float, costs: CostModel, grid: LocationGrid):
+                 planner, deadline: float, costs: CostModel, grid: LocationGrid,
+                 free: FreeTest):
         global _inherited
+        self._free = free
         # Workers stop a little early: collecting their results and letting them go takes
         # time too, and the budget must hold for the whole call.
         # A daemonic process (a Dask worker) that starts a pool fails with "daemonic
@@ -176,6 +180,13 @@ class _Searches:
                 item = item.result()
             out.append((key, item))
         return out
+
+    def with_free_stops(self, result: MotionResult, regions) -> MotionResult:
+        """`result` with its stops moved where they are not free (`free_positions.py`)."""
+        s = self._shared
+        problem = SequenceProblem(result.actions, regions, s["fea"], s["nav"], s["start"],
+                                  s["planner"], None, s["costs"])
+        return with_free_stops(result, problem, self._free)
 
     def close(self) -> None:
         global _inherited
@@ -360,7 +371,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
 
     tasks: dict[tuple[tuple[str, ...], ...], tuple[TaskPlanResult, dict[str, BaseGeometry]]] = {}
     assert grid is not None
-    searches_run = _Searches(workers, search, fea, nav, start, planner, deadline, costs, grid)
+    searches_run = _Searches(workers, search, fea, nav, start, planner, deadline, costs, grid,
+                             stops.free)
     try:
         best, searches, samples = _search_spaces(
             spaces, tasks, searches_run, cells, partition, grid, nav, start, planner,
@@ -428,10 +440,21 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, gri
     t = time.monotonic()
     best = None
     searches = samples = 0
-    for (groups, regions, unreachable, score), result in searches_run.results():
+    found = []
+    for n, (key, result) in enumerate(searches_run.results()):
         # A search that started as the deadline passed may have had no time for a sample.
         searches += 1
         samples += result.samples
+        if result.valid:
+            found.append((result.utility, -n, key, result))
+    # The best result with its stops made free (free_positions.py): a move only lowers a
+    # result's utility, so results rated below the best moved one need no check (ties:
+    # the first submitted).
+    for _, _, (groups, regions, unreachable, score), result in sorted(found, reverse=True,
+                                                                       key=lambda f: f[:2]):
+        if best is not None and result.utility <= best.motion.utility:
+            break
+        result = searches_run.with_free_stops(result, regions)
         if result.valid and (best is None or result.utility > best.motion.utility):
             best = _Best(result, groups, regions, unreachable, score)
     timing["motion_search"] += time.monotonic() - t
