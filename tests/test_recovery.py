@@ -191,6 +191,12 @@ def test_a_blocked_drive_is_replanned_from_where_the_robot_stands(scenario):
     (replan,) = progress.recoveries
     assert replan.kind == "replan" and replan.trigger.endswith("failed: blocked")
     assert replan.result == "done" and replan.planning_time > 0 and not progress.finished
+    # Each plan's time against its own budget: the first the planner's, the replan's own.
+    first, again_ = progress.plans
+    assert first.budget == scenario.planner.time_budget
+    assert again_.budget == scenario.execution.replan_budget
+    assert again_.planning_time == replan.planning_time
+    assert 0 <= again_.feasibility_time <= again_.planning_time
     result = system.GetOutputPort("planning_result").Eval(context)
     assert result.known.pose[:2] == pytest.approx(stopped[:2])
     assert {a.dish for a in result.plan.pickups} == {d.name for d in scenario.dishes}
@@ -249,6 +255,9 @@ def test_in_simulation_a_blocked_path_is_replanned():
     assert report["outcomes"][0] == ["goto", "l0", "failed: blocked"]
     (replan,) = report["recoveries"]
     assert replan["kind"] == "replan" and len(looks) == 2
+    assert len(report["plans"]) == 2
+    assert report["planning_time"] == pytest.approx(sum(p["planning_time"]
+                                                        for p in report["plans"]))
     assert report["collected"] == 1 and report["reason"] == "plan ended"
 
 

@@ -58,6 +58,8 @@ def test_soak_plans_executes_resumes_and_sums_up(tmp_path):
             assert not any(m["overrun"] or m["faults"] for m in r["methods"].values())
     run = next(r for r in rows if r["kind"] == EXECUTE)
     assert run["planned"] and run["finished"]
+    assert run["overrun"] is False and 0 < run["budget_ratio"] <= 1.05
+    assert [p["budget"] for p in run["plans"]][:1] == [60.0]  # --execute-budget's default
     assert "3 scenes planned (every method), 1 executed" in first.stdout
     assert (tmp_path / "summary.md").read_text().strip() == first.stdout.strip()
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=120)

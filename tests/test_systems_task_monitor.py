@@ -14,6 +14,7 @@ from s3o_drake.execution.messages import (
     CommandState,
     PickupRecord,
     PlanProgress,
+    PlanTime,
     RecoveryRecord,
     RunReport,
     Status,
@@ -52,14 +53,16 @@ def _force_check(monitor: TaskMonitor, context):
 def test_report_counts_the_dishes_on_the_tray():
     monitor = TaskMonitor()
     context = monitor.CreateDefaultContext()
-    _fixed(monitor, context, PlanProgress(step=2, total=4))
+    _fixed(monitor, context, PlanProgress(step=2, total=4,
+                                          plans=(PlanTime(2.5, 0.5, 5.0),)))
     context.SetTime(3.0)
     report = monitor.GetOutputPort("report").Eval(context)
     assert isinstance(report, RunReport)
     assert report.to_dict() == {
         "dishes": 4, "collected": 2, "collected_dishes": ["bowl_c", "plate_a"],
         "execution_time": 3.0, "finished": False, "reason": "", "outcomes": [], "pickups": [],
-        "recoveries": [], "unreachable": []}
+        "recoveries": [], "unreachable": [],
+        "plans": [{"planning_time": 2.5, "feasibility_time": 0.5, "budget": 5.0}]}
 
 
 def test_execution_time_is_when_the_plan_finished():

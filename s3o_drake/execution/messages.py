@@ -229,6 +229,25 @@ class ActionOutcome:
 
 
 @dataclass(frozen=True)
+class PlanTime:
+    """One plan of a run (the first, then each replan), against its budget.
+
+    `planning_time`: wall time (s) the plan took, perception and Fea^m included;
+    `feasibility_time`: of that, the time Fea^m took, which comes before the budget starts
+    (None when no plan was made: the planner then gives no breakdown); `budget`: the
+    planner's time budget for this plan (s).
+    """
+
+    planning_time: float
+    feasibility_time: float | None
+    budget: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"planning_time": self.planning_time,
+                "feasibility_time": self.feasibility_time, "budget": self.budget}
+
+
+@dataclass(frozen=True)
 class PlanProgress:
     """The planner's progress through its plan, for the task monitor.
 
@@ -240,6 +259,7 @@ class PlanProgress:
     `recoveries`: per recovery, in order, its `RecoveryRecord`.
     `unreachable`: dishes no free pose of the known world can pick (the plans' Fea^m is 0
     wherever the base may stand), sorted.
+    `plans`: per plan made, in order, its `PlanTime`.
     """
 
     step: int = 0
@@ -250,6 +270,7 @@ class PlanProgress:
     pickups: tuple[PickupRecord, ...] = ()
     recoveries: tuple[RecoveryRecord, ...] = ()
     unreachable: tuple[str, ...] = ()
+    plans: tuple[PlanTime, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -259,7 +280,8 @@ class RunReport:
     `dishes`: how many the world has; `collected_dishes`: those on the tray, sorted;
     `execution_time` (s): the simulated time at which the plan finished, else the time of
     the report; `finished`: the plan is over; `reason`: why (`PlanProgress.reason`, or
-    "time limit"); `outcomes`, `pickups`, `recoveries` and `unreachable`: `PlanProgress`'s.
+    "time limit"); `outcomes`, `pickups`, `recoveries`, `unreachable` and `plans`:
+    `PlanProgress`'s.
     """
 
     dishes: int = 0
@@ -271,6 +293,7 @@ class RunReport:
     pickups: tuple[PickupRecord, ...] = ()
     recoveries: tuple[RecoveryRecord, ...] = ()
     unreachable: tuple[str, ...] = ()
+    plans: tuple[PlanTime, ...] = ()
 
     @property
     def collected(self) -> int:
@@ -281,7 +304,8 @@ class RunReport:
         """Plain JSON data, as report.json holds it (execute.py adds the timings): dishes,
         collected, collected_dishes (a list), execution_time, finished, reason, outcomes
         (a list of [action, argument, result] lists), pickups (`PickupRecord.to_dict()`
-        each), recoveries (`RecoveryRecord.to_dict()` each), unreachable (a list)."""
+        each), recoveries (`RecoveryRecord.to_dict()` each), unreachable (a list), plans
+        (`PlanTime.to_dict()` each)."""
         return {
             "dishes": self.dishes,
             "collected": self.collected,
@@ -293,4 +317,5 @@ class RunReport:
             "pickups": [record.to_dict() for record in self.pickups],
             "recoveries": [record.to_dict() for record in self.recoveries],
             "unreachable": list(self.unreachable),
+            "plans": [plan.to_dict() for plan in self.plans],
         }

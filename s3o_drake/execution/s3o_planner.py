@@ -27,9 +27,8 @@ remain from where the robot believes it stands, with the same pipeline and
 its tries in PLANS_PER_DISH plans is left). Dishes that no free pose of the known world
 can pick are reported on `progress.unreachable`, and every recovery as a `RecoveryRecord`.
 
-A change of the optional `replan_request` input's value also plans again from the robot's
-current pose for the dishes not yet collected (the state keeps the new plan and starts it
-from its first action).
+A change of the optional `replan_request` input's value also plans the dishes not yet
+collected again, from the robot's current pose.
 """
 
 from __future__ import annotations
@@ -55,6 +54,7 @@ from s3o_drake.execution.messages import (
     PickCommand,
     PickupRecord,
     PlanProgress,
+    PlanTime,
     RecoveryRecord,
     Status,
 )
@@ -90,14 +90,12 @@ class _Execution:
     pick_command: PickCommand = field(default_factory=PickCommand)
     outcomes: tuple[ActionOutcome, ...] = ()
     pickups: tuple[PickupRecord, ...] = ()
-    pick_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    """The base's pose when the current pickup's PickCommand was sent."""
+    pick_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)  # the base's, at the PickCommand
     pick_started: float = 0.0  # simulated time the current PickCommand was sent
     finished: bool = False
     reason: str = ""
     replan_seen: float = 0.0
-    planning_time: float = 0.0
-    """Wall time (s) spent planning, summed over plans."""
+    plans: tuple[PlanTime, ...] = ()  # each plan's time against its budget
     # The recovery (execution.recovery other than none), for the pickup at `step`:
     checked: bool = False  # the stop check has accepted (or could not better) the stop
     correcting: bool = False  # the command out is a corrective move
@@ -117,6 +115,11 @@ class _Execution:
     @property
     def plan(self) -> TaskMotionPlan | None:
         return None if self.result is None else self.result.plan
+
+    @property
+    def planning_time(self) -> float:
+        """Wall time (s) spent planning, summed over the plans (the terminal's figure)."""
+        return sum(p.planning_time for p in self.plans)
 
     @property
     def collected(self) -> set[str]:
@@ -147,9 +150,9 @@ class S3OPlanner(LeafSystem):
       base_status, arm_status (abstract Status): the controllers' reports;
       replan_request (1, optional): a change of its value asks for a new plan.
     Output ports:
-      base_command (abstract BaseCommand), pick_command (abstract PickCommand);
-      progress (abstract PlanProgress: an ActionOutcome per finished action, a
-        PickupRecord per finished pickup, a RecoveryRecord per recovery, the unreachable
+      base_command (abstract BaseCommand), pick_command (abstract PickCommand); progress
+        (abstract PlanProgress: an ActionOutcome per finished action, a PickupRecord per
+        finished pickup, a RecoveryRecord per recovery, a PlanTime per plan, the unreachable
         dishes);
       plan (abstract TaskMotionPlan, or None before planning / when none could be made);
       planning_result (abstract PlanningResult, or None before planning: the latest plan
@@ -241,29 +244,29 @@ class S3OPlanner(LeafSystem):
         images = tuple(np.asarray(port.Eval(context).data) for port in self._images)
         known = perceive_known_world(self._scenario, images, pose=start, dishes=dishes,
                                      perceive=self._perceive, robot_labels=self._robot_labels)
+        planner = self._scenario.planner
+        budget = planner.time_budget if budget is None else budget
         if self._progress_bar:
-            planner = self._scenario.planner
             print(f"planning with {self._method or planner.method} (Fea^m from "
-                  f"{planner.feasibility}) within a budget of "
-                  f"{planner.time_budget if budget is None else budget:g} s",
+                  f"{planner.feasibility}) within a budget of {budget:g} s",
                   file=sys.stderr, flush=True)
         result = plan_from(known, method=self._method, seed=self._seed, workers=self._workers,
                            time_budget=budget, progress=self._progress_bar, started=t0)
         if result.navigation is not None:
             result.navigation.seal()
-        # The sum of the plans' own planning times (each from before its perception), so
-        # that one plan's planning time is the run's: the terminal reports one figure.
-        spent = execution.planning_time + result.planning_time
+        plans = (*execution.plans, PlanTime(result.planning_time, None if result.plan is None
+                                            else result.plan.timing.get("feasibility", 0.0),
+                                            budget))
         if result.plan is None:
             return dataclasses.replace(execution, result=result, check=None, finished=True,
-                                       reason=result.error, planning_time=spent)
+                                       reason=result.error, plans=plans)
         unreachable = tuple(sorted(set(execution.unreachable) | set(result.plan.unreachable)))
         check = (StopCheck(known, result.heatmaps, result.navigation,
                            model_heatmaps=result.model_heatmaps)
                  if self._recovery != Recovery.NONE else None)
         return dataclasses.replace(
             execution, result=result, check=check, step=-1, unreachable=unreachable,
-            planning_time=spent, finished=not result.plan.actions,
+            plans=plans, finished=not result.plan.actions,
             reason="" if result.plan.actions else PLAN_ENDED).next_step()
 
     def _replan(self, context: Context, e: _Execution, *, trigger: str,
@@ -277,7 +280,6 @@ class S3OPlanner(LeafSystem):
             return dataclasses.replace(e, finished=True, reason=PLAN_ENDED)
         belief = self._belief(context, e)
         t = context.get_time()
-        before = e.planning_time
         e = self._plan(context, dataclasses.replace(e, replans=e.replans + 1), start=belief,
                        dishes=remaining, budget=self._settings.replan_budget)
         plan = e.plan
@@ -286,7 +288,7 @@ class S3OPlanner(LeafSystem):
                   f"({belief[0]:.2f}, {belief[1]:.2f})"
                   + (f": {len(plan.actions)} actions" if plan is not None else ""))
         record = RecoveryRecord("replan", dish, trigger, action, result, t, t,
-                                planning_time=e.planning_time - before)
+                                planning_time=e.plans[-1].planning_time)
         return dataclasses.replace(e, recoveries=(*e.recoveries, record))
 
     # ------------------------------------------------------------------------- events
@@ -495,4 +497,4 @@ class S3OPlanner(LeafSystem):
         out.set_value(PlanProgress(step=min(e.step + 1, total) if total else 0, total=total,
                                    finished=e.finished, reason=e.reason, outcomes=e.outcomes,
                                    pickups=e.pickups, recoveries=e.recoveries,
-                                   unreachable=e.unreachable))
+                                   unreachable=e.unreachable, plans=e.plans))

@@ -88,4 +88,4 @@ class TaskMonitor(LeafSystem):
             execution_time=t if math.isnan(finished_at) else finished_at,
             finished=bool(progress.finished), reason=reason, outcomes=progress.outcomes,
             pickups=progress.pickups, recoveries=progress.recoveries,
-            unreachable=progress.unreachable))
+            unreachable=progress.unreachable, plans=progress.plans))
