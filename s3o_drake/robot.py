@@ -12,8 +12,8 @@ actuated), so the whole robot is one model instance with 11 positions, 11 veloci
 
 (positions, velocities, actuators and the plant's desired-state input alike). The PD gains are
 in the URDF (``<drake:controller_gains>``) and are tuned for a discrete plant (SAP, time step
-1e-3..2e-3 s) in which gravity is disabled for the robot's model instance
-(``plant.set_gravity_enabled(model, False)``), which models the arm's gravity compensation.
+1e-3..2e-3 s) whose actuators also carry the robot's gravity as a feed-forward (the world's
+"gravity_compensation", `world/builder.py`), as the UR5e's own controller does.
 
 Frames (names of bodies in the model):
 

@@ -221,6 +221,45 @@ def test_backs_out_of_a_stop_too_tight_to_turn_in(scenario, scene):
     assert early[2] == pytest.approx(math.pi / 2) and early[1] < 1.78 and early[4] < 0
 
 
+def test_drives_straight_on_out_of_a_stop_it_can_neither_turn_in_nor_back_out_of(
+        scenario, scene):
+    """Facing south with its back under the table's edge (task_089: backed against the
+    bar): every turn towards the path swings a corner into a leg, and backing out hits the
+    table; it drives straight on, then turns."""
+    base = np.array([1.3, 1.8, -math.pi / 2])
+    free = lambda p: scene.checker.CheckConfigCollisionFree(scene.q(np.asarray(p, float)))  # noqa: E731
+    assert free(base) and not free(base + np.array([0.0, 0.02, 0.0]))
+    assert not all(free(base + np.array([0, 0, a])) for a in np.arange(0.05, math.pi / 2, 0.05))
+    assert not all(free(base - [0, 0, a]) for a in np.arange(0.05, 1.5 * math.pi, 0.05))
+    alone = _Alone(_navigator(scenario, scene), base=tuple(base))
+    alone.send(BaseCommand(id=7, path=((1.3, 1.8), (3.2, 1.2)), pose=(3.2, 1.2, 0.0)))
+    final, status = alone.final()
+    assert status == Status(id=7, state=CommandState.DONE)
+    np.testing.assert_allclose(final[:3], [3.2, 1.2, 0.0], atol=1e-9)
+    first = alone.navigator._motion(alone.context).segments[0]
+    assert not first.turn and first.end[1] < 1.8 and first.end[2] == pytest.approx(-math.pi / 2)
+
+
+def test_a_stop_it_cannot_turn_in_is_driven_into_along_its_heading(scenario, scene):
+    """Arriving from the west at a stop facing north beside the table's south-west leg: the
+    final turn there swings a corner into the leg. The base turns north 10 cm before and
+    drives straight in, landing on the stop facing the dish (as Fea^m's landing model has
+    it), not short and facing east."""
+    stop = np.array([1.4, 1.78, math.pi / 2])
+    free = lambda p: scene.checker.CheckConfigCollisionFree(scene.q(np.asarray(p, float)))  # noqa: E731
+    assert free(stop) and not all(free(stop - [0, 0, a])
+                                  for a in np.arange(0.05, math.pi / 2, 0.05))
+    alone = _Alone(_navigator(scenario, scene), base=(0.4, 1.78, 0.0))
+    alone.send(BaseCommand(id=6, path=((0.4, 1.78), (1.4, 1.78)), pose=tuple(stop)))
+    final, status = alone.final()
+    assert status == Status(id=6, state=CommandState.DONE)
+    np.testing.assert_allclose(final[:3], stop, atol=1e-9)
+    segments = alone.navigator._motion(alone.context).segments
+    last = segments[-1]
+    assert not last.turn and last.start[2] == pytest.approx(math.pi / 2)
+    assert last.start[1] == pytest.approx(1.68) and last.start[0] == pytest.approx(1.4)
+
+
 def _drive_in_world(scenario, command: BaseCommand, **kwargs):
     builder = DiagramBuilder()
     world = builder.AddSystem(build_world_diagram(scenario))

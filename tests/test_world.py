@@ -161,3 +161,32 @@ def test_robot_holds_its_start_pose_in_simulation():
     hold = robot_hold_state(scenario)
     np.testing.assert_allclose(x[:11], hold[:11], atol=1e-3)
     np.testing.assert_allclose(x[11:], 0.0, atol=1e-3)
+
+
+def test_gravity_acts_on_the_robot_and_its_actuators_carry_it():
+    """The robot has gravity, and "gravity_compensation" feeds its actuators the torques
+    that cancel it (a robot with gravity disabled asked SAP for all-zero impulses at rest,
+    where it failed to converge: builder._add_gravity_compensation). Held stretched out
+    level, where gravity pulls hardest, the arm stays within 1 mm-rad of its pose."""
+    scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
+    level = np.array(robot_hold_state(scenario))
+    # The UR5e stretched out along its -x, over the open floor (the base turned round).
+    level[2], level[3:9] = np.pi, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    builder = DiagramBuilder()
+    world = builder.AddNamedSystem("world", build_world_diagram(scenario))
+    hold = builder.AddSystem(ConstantVectorSource(level))
+    builder.Connect(hold.get_output_port(), world.GetInputPort("robot_desired_state"))
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    plant = world.GetSubsystemByName("plant")
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    plant.SetPositions(plant_context, level[:11])
+    tau_g = plant.CalcGravityGeneralizedForces(plant_context)
+    assert abs(tau_g[4]) > 20.0  # the shoulder carries the stretched arm (N m)
+    compensation = world.GetSubsystemByName("gravity_compensation")
+    u = compensation.get_output_port_generalized_force().Eval(
+        compensation.GetMyContextFromRoot(context))
+    np.testing.assert_allclose(u, -tau_g, atol=1e-9)
+    simulator.AdvanceTo(1.0)
+    np.testing.assert_allclose(plant.GetPositions(plant_context), level[:11], atol=1e-3)

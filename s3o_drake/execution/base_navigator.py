@@ -19,8 +19,14 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 
+from s3o_drake.angles import wrap
 from s3o_drake.execution.messages import NO_COMMAND, BaseCommand, CommandState, Status
-from s3o_drake.feasibility.landing import CHECK_STEP_XY, CHECK_STEP_YAW, FINAL_APPROACH
+from s3o_drake.feasibility.landing import (
+    CHECK_STEP_XY,
+    CHECK_STEP_YAW,
+    FINAL_APPROACH,
+    TURN_TOLERANCE,
+)
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.base_motion import (
     ACCELERATION,
@@ -34,9 +40,18 @@ from s3o_drake.planning.base_motion import (
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
 from s3o_drake.scenario import Scenario
 
-#: How far (m) the base may back straight out of a tight stop before it turns, tried in
-#: turn when the direct motion is blocked.
+#: How far (m) the base may back straight out of a tight stop, or drive straight on, before
+#: it turns, tried in turn (backing out first at each distance) when the direct motion is
+#: blocked.
 ESCAPE_STEPS = tuple(0.05 * k for k in range(1, 13))
+#: How far (m) before a stop the base may turn to the stop's heading and drive straight in,
+#: tried in turn when the direct motion lands short.
+APPROACH_STEPS = tuple(0.1 * k for k in range(1, 9))
+
+
+def _facing(segments: list["_Segment"], yaw: float) -> bool:
+    """Whether the motion ends facing `yaw` (within the landing model's TURN_TOLERANCE)."""
+    return bool(segments) and abs(wrap(segments[-1].end[2] - yaw)) <= TURN_TOLERANCE
 
 
 @dataclass(frozen=True)
@@ -151,9 +166,10 @@ class BaseNavigator(LeafSystem):
     short the drive), ends it failed, reason "blocked". Collisions at
     the very start (the base already stands there) are ignored until the first free pose.
     Before giving up on a blocked motion it tries, in turn, the first turn the other way
-    round and backing straight out by 5, 10, ... 60 cm before turning (a noisy landing can
-    leave the base where the rectangle cannot turn towards the path): the first of these
-    that is not blocked is driven.
+    round, then backing straight out or driving straight on by 5, 10, ... 60 cm before
+    turning (a noisy landing can leave the base where the rectangle cannot turn towards the
+    path; backed against a bar, only ahead is open: task_089): the first of these that is
+    not blocked is driven.
     """
 
     def __init__(self, *, scenario: Scenario, scene: FeasibilityScene | None,
@@ -237,18 +253,35 @@ class BaseNavigator(LeafSystem):
         if cut[1] is CommandState.FAILED:
             # The noisy landing left the base where the turn towards the path hits something
             # (a stop only keeps the inscribed radius): first turn the other way round,
-            # then back straight out (ESCAPE_STEPS) before turning.
+            # then back straight out or drive straight on (ESCAPE_STEPS, the shortest
+            # first) before turning.
             yaw = float(base[2])
             heading = np.array([math.cos(yaw), math.sin(yaw)])
             # Built one at a time: the first that is not blocked ends the search.
             escapes = itertools.chain(
                 [self._segments(waypoints, yaw, float(target[2]), long_way=True)],
-                (self._segments([waypoints[0], waypoints[0] - d * heading, *waypoints[1:]],
-                                yaw, float(target[2])) for d in ESCAPE_STEPS))
+                (self._segments([waypoints[0], waypoints[0] + d * heading, *waypoints[1:]],
+                                yaw, float(target[2]))
+                 for step in ESCAPE_STEPS for d in (-step, step)))
             for escape in escapes:
                 escaped = self._cut_at_collision(escape)
                 if escaped[1] is not CommandState.FAILED:
                     cut = escaped
+                    break
+        elif cut[0] is not segments and not command.turn and not _facing(cut[0], target[2]):
+            # Landed short, facing away from the stop's heading: the final turn towards the
+            # dish hits something (a noisy landing between a chair and the bar, task_089:
+            # the pickups then failed, the arm facing away). Turn before, where there is
+            # room, and drive the last APPROACH_STEPS straight in along the stop's heading,
+            # as Fea^m's landing model has it (`landing.stop_short`: a landing that collides
+            # stops short along its heading, facing the dish).
+            h = np.array([math.cos(target[2]), math.sin(target[2])])
+            for d in APPROACH_STEPS:
+                approach = self._segments([*waypoints[:-1], target[:2] - d * h, target[:2]],
+                                          float(base[2]), float(target[2]))
+                approached = self._cut_at_collision(approach)
+                if approached[1] is CommandState.DONE and _facing(approached[0], target[2]):
+                    cut = approached
                     break
         segments, outcome, reason = cut
         hold = tuple(float(v) for v in base[:3])

@@ -36,7 +36,9 @@ from pydrake.multibody.plant import (
     MultibodyPlantConfig,
 )
 from pydrake.multibody.tree import ModelInstanceIndex
+from pydrake.systems.controllers import InverseDynamics
 from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import MatrixGain
 from pydrake.systems.sensors import RgbdSensor
 
 from s3o_drake import furniture as fu
@@ -137,6 +139,31 @@ def _add_room(plant: MultibodyPlant, scenario: Scenario) -> None:
         plant.RegisterCollisionGeometry(world, X, Box(*size), name, CoulombFriction(0.5, 0.5))
 
 
+def _add_gravity_compensation(builder: DiagramBuilder, plant: MultibodyPlant) -> None:
+    """Feeds the actuators, as feed-forward to their PD control, the torques that cancel
+    gravity at the current state ("gravity_compensation", Drake's InverseDynamics), as the
+    UR5e's own controller does.
+
+    The PD gains were tuned without gravity, and compensated the dynamics are the same. The
+    robot's gravity was at first disabled in the plant instead, but then a robot holding
+    still asks SAP for impulses that are all exactly zero: its relative convergence
+    tolerance has nothing to scale with, and the solver failed to converge on a robot at
+    rest (task_089 with V-PETLON: at t = 21.44 s, and again after each of the five restarts
+    from zero velocity). With gravity carried by the actuators the impulses are never all
+    zero, and that run goes on.
+    """
+    compensation = builder.AddNamedSystem(
+        "gravity_compensation",
+        InverseDynamics(plant, InverseDynamics.InverseDynamicsMode.kGravityCompensation))
+    # Generalized forces (velocity order) to actuator order: B^T, B the actuation matrix.
+    to_actuators = builder.AddNamedSystem("gravity_to_actuators",
+                                          MatrixGain(plant.MakeActuationMatrix().T))
+    builder.Connect(plant.get_state_output_port(), compensation.get_input_port_estimated_state())
+    builder.Connect(compensation.get_output_port_generalized_force(),
+                    to_actuators.get_input_port())
+    builder.Connect(to_actuators.get_output_port(), plant.get_actuation_input_port())
+
+
 def populate_plant(plant: MultibodyPlant, scene_graph: SceneGraph | None, scenario: Scenario,
                    *, unmapped_chairs: bool = True, dishes: bool = True) -> WorldModels:
     """Adds the scenario's room, furniture, dishes and robot to an unfinalized plant.
@@ -147,7 +174,6 @@ def populate_plant(plant: MultibodyPlant, scene_graph: SceneGraph | None, scenar
     parser = make_parser(plant, scene_graph)
     _add_room(plant, scenario)
     models = WorldModels(robot=add_robot(parser))
-    plant.set_gravity_enabled(models.robot, False)  # the arm's controller compensates it
     q0 = robot_positions(*scenario.robot.start)
     for name, q in zip(ROBOT_JOINTS, q0, strict=True):
         plant.GetJointByName(name, models.robot).set_default_positions([q])
@@ -278,6 +304,7 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
         tracker = _add_object_tracker(builder, plant, scene_graph, scenario, models.robot)
 
     sensor = _add_overhead_camera(builder, plant, scene_graph, tracker, scenario)
+    _add_gravity_compensation(builder, plant)
     builder.ExportInput(plant.get_desired_state_input_port(models.robot), "robot_desired_state")
     builder.ExportOutput(plant.get_state_output_port(models.robot), "robot_state")
     builder.ExportOutput(sensor.color_image_output_port(), "overhead_color_image")
