@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from shapely.geometry import box
 
-from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES, chair_footprint, table_footprint
+from s3o_drake.furniture import DISH_SHAPES, RESTAURANT_KINDS, chair_footprint, table_footprint
 from s3o_drake.robot import BASE_RADIUS, footprint_polygon
 from s3o_drake.scenario import (
     START_CLEARANCE,
@@ -104,7 +104,7 @@ def random_scene(seed: int, index: int = 0, shape: SceneShape = SceneShape(),
     for _ in range(int(rng.integers(0, shape.max_dishes + 1)) if tables else 0):
         for _ in range(TRIES):
             table = tables[int(rng.integers(len(tables)))]
-            kind = DISH_KINDS[int(rng.integers(len(DISH_KINDS)))]
+            kind = RESTAURANT_KINDS[int(rng.integers(len(RESTAURANT_KINDS)))]
             p = _dish_on(table, kind, rng)
             if p is None:
                 continue

@@ -82,7 +82,7 @@ class Dish:
     position: list[float] = field(default_factory=lambda: [0.0, 0.0])
     """[x, y] of the dish's centre in the world (m); z is the table's height."""
     kind: str = "plate"
-    """plate | bowl | cup"""
+    """plate | bowl | cup | can | apple (furniture.DISH_SHAPES)"""
 
 
 @dataclass

@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES, chair_footprint, table_footprint
+from s3o_drake.furniture import DISH_SHAPES, RESTAURANT_KINDS, chair_footprint, table_footprint
 from s3o_drake.resources import RESTAURANT
 from s3o_drake.robot import footprint_polygon
 from s3o_drake.scenario import (
@@ -50,7 +50,7 @@ def _sample_dishes(base: Scenario, rng: np.random.Generator) -> list[Dish]:
         if len(dishes) == count:
             return dishes
         table = base.tables[int(rng.integers(len(base.tables)))]
-        kind = DISH_KINDS[int(rng.integers(len(DISH_KINDS)))]
+        kind = RESTAURANT_KINDS[int(rng.integers(len(RESTAURANT_KINDS)))]
         radius = DISH_SHAPES[kind].radius
         half = np.array(table.size[:2]) / 2 - radius - EDGE_MARGIN
         if np.any(half <= 0):

@@ -1,6 +1,7 @@
 """The learned feasibility: the network, its training loop, the dataset command, the shipped
 weights, and the CLIs' bad-input handling."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -147,3 +148,17 @@ def test_shipped_weights_predict_a_held_out_dish():
     assert np.abs(predicted.values - oracle.values).mean() < 0.15
     # The crop is the network's input for that dish.
     assert crop_inputs(view, np.asarray(dish.position), dish.kind).shape[0] == len(CHANNELS)
+
+
+@pytest.mark.parametrize("kind", ["can", "apple"])
+def test_objects_it_was_not_trained_on_are_seen_as_what_they_are_held_like(kind):
+    """A can and an apple (the tidy-home objects) are shown to the network as cups, the
+    kind they are held like (furniture.NETWORK_KIND): the heatmap stays close to the
+    oracle's for the object itself."""
+    scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
+    dish = dataclasses.replace(scenario.dishes[1], kind=kind)
+    scenario = dataclasses.replace(scenario, dishes=[dish])
+    predicted = FcnFeasibility.load(WEIGHTS).heatmap(view_of(scenario), dish)
+    (oracle,) = compute_heatmaps(scenario, [dish.name], progress=False)
+    assert oracle.values.max() > 0.9
+    assert np.abs(predicted.values - oracle.values).mean() < 0.08

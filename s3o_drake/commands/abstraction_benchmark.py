@@ -39,7 +39,7 @@ from s3o_drake.abstraction.voronoi import voronoi_partition
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES
+from s3o_drake.furniture import DISH_SHAPES, RESTAURANT_KINDS
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.scenario import Dish, Scenario, ScenarioError, validate_scenario
 from s3o_drake.task_generation import DEFAULT_BASE, DISH_GAP, EDGE_MARGIN
@@ -64,7 +64,7 @@ def with_dish_count(base: Scenario, count: int, seed: int, *,
         if len(dishes) >= count:
             break
         top = tables[int(rng.integers(len(tables)))]
-        kind = DISH_KINDS[int(rng.integers(len(DISH_KINDS)))]
+        kind = RESTAURANT_KINDS[int(rng.integers(len(RESTAURANT_KINDS)))]
         radius = DISH_SHAPES[kind].radius
         half = np.array(top.size[:2]) / 2 - radius - EDGE_MARGIN
         if np.any(half <= 0):

@@ -42,14 +42,15 @@ from torch import nn
 
 from s3o_drake.camera import OverheadCamera, back_project, overhead_camera
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE, Heatmap
-from s3o_drake.furniture import DISH_KINDS, DISH_SHAPES
+from s3o_drake.furniture import DISH_SHAPES, NETWORK_KIND, RESTAURANT_KINDS
 from s3o_drake.resources import FCN_WEIGHTS
 from s3o_drake.scenario import Dish, Scenario
 from s3o_drake.world.builder import render_overhead
 
 DEFAULT_WEIGHTS = FCN_WEIGHTS
 """The shipped network (see models/fcn/README.md for the commands that made it)."""
-CHANNELS = ("height", "unobserved", "dish", "dx", "dy", *(f"kind_{k}" for k in DISH_KINDS))
+CHANNELS = ("height", "unobserved", "dish", "dx", "dy",
+            *(f"kind_{k}" for k in RESTAURANT_KINDS))
 
 
 TILE = 0.25
@@ -134,9 +135,9 @@ def crop_inputs(view: OverheadView, p_WD: np.ndarray, kind: str) -> np.ndarray:
     height[unobserved] = 0.0
     centres = (np.arange(n) + 0.5) * cell - CROP_SIZE / 2
     dx, dy = np.meshgrid(centres, centres)  # dy grows with the row index: north
-    radius = DISH_SHAPES[kind].radius
+    radius = DISH_SHAPES[NETWORK_KIND[kind]].radius
     dish = (np.hypot(dx, dy) <= max(radius, cell / 2)).astype(float)
-    kinds = [np.full((n, n), float(kind == k)) for k in DISH_KINDS]
+    kinds = [np.full((n, n), float(NETWORK_KIND[kind] == k)) for k in RESTAURANT_KINDS]
     planes = [np.clip(height, 0.0, None).reshape(n, n), unobserved.reshape(n, n).astype(float),
               dish, dx, dy, *kinds]
     return np.stack(planes).astype(np.float32)

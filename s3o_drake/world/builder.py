@@ -108,7 +108,7 @@ def chair_sdf(chair: Chair, rgba: str = "0.55 0.16 0.12 1") -> str:
 
 def dish_sdf(dish: Dish) -> str:
     shape = fu.DISH_SHAPES[dish.kind]
-    mass = {"plate": 0.4, "bowl": 0.3, "cup": 0.25}[dish.kind]
+    mass = fu.DISH_MASS[dish.kind]
     r, h = shape.radius, shape.height
     return _template("dish").substitute(
         name=dish.name, radius=r, height=h, half_h=h / 2, mass=mass,
