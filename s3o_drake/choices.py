@@ -39,3 +39,17 @@ class Recovery(str, Enum):
 
 
 RECOVERY_MODES = tuple(r.value for r in Recovery)
+
+
+class Goal(str, Enum):
+    """What the task wants done with an object (the field `dishes[i].goal` holds the value)."""
+
+    COLLECT = "collect"
+    """Picked and carried away on the tray (the restaurant's dishes)."""
+    PLACE = "place"
+    """Picked, held in the gripper, and put down at its `place`."""
+    STAY = "stay"
+    """Left where it is: something another object is placed on (a plate for an apple)."""
+
+
+GOALS = tuple(g.value for g in Goal)

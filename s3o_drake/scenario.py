@@ -24,6 +24,7 @@ from s3o_drake.choices import (  # noqa: F401 (re-exported: the fields hold thes
     METHODS,
     RECOVERY_MODES,
     FeasibilitySource,
+    Goal,
     Recovery,
 )
 from s3o_drake.scenario_checks import (  # noqa: F401 (re-exported: callers catch and call them)
@@ -74,8 +75,20 @@ class Chair:
 
 
 @dataclass
+class Place:
+    """Where an object whose goal is `place` is put down: on `table` at `position`, or on
+    top of the object named `onto` (whose goal is `stay`); the other fields stay empty.
+    (Not `on`: YAML 1.1 reads that key as the boolean true.)"""
+
+    table: str = ""
+    position: list[float] = field(default_factory=list)
+    """[x, y] of the object's centre when put down (m)."""
+    onto: str = ""
+
+
+@dataclass
 class Dish:
-    """A dish to collect: standing on the top of `table`."""
+    """An object on the top of `table` (a dish of the restaurant): collected by default."""
 
     name: str = ""
     table: str = ""
@@ -83,6 +96,9 @@ class Dish:
     """[x, y] of the dish's centre in the world (m); z is the table's height."""
     kind: str = "plate"
     """plate | bowl | cup | can | apple (furniture.DISH_SHAPES)"""
+    goal: str = "collect"
+    """collect (onto the tray) | place (held, then put down at `place`) | stay (choices.Goal)"""
+    place: Place = field(default_factory=Place)
 
 
 @dataclass

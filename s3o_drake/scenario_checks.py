@@ -14,8 +14,14 @@ from typing import TYPE_CHECKING
 
 from shapely.geometry import Polygon, box
 
-from s3o_drake.choices import COST_PROFILES, FEASIBILITY_SOURCES, METHODS, RECOVERY_MODES
-from s3o_drake.furniture import DISH_KINDS, chair_footprint, dish_footprint, table_footprint
+from s3o_drake.choices import COST_PROFILES, FEASIBILITY_SOURCES, GOALS, METHODS, RECOVERY_MODES
+from s3o_drake.furniture import (
+    DISH_KINDS,
+    DISH_SHAPES,
+    chair_footprint,
+    dish_footprint,
+    table_footprint,
+)
 from s3o_drake.robot import footprint_polygon
 from s3o_drake.yaml_checks import quoted
 
@@ -157,12 +163,67 @@ def validate_scenario(scenario: Scenario) -> None:
                                                     "must stand on its top)")
         _overlap(shape, dishes, f"{path}.position", f"{dish.kind} {dish.name!r}")
         dishes.append((f"dish {dish.name!r}", path, shape))
+    _validate_goals(scenario, dishes)
 
     start = scenario.robot.start
     _numbers(start, "robot.start", 3, what="numbers [x, y, yaw]")
     robot = footprint_polygon(*start).buffer(START_CLEARANCE, join_style="mitre")
     _inside_room(robot, room, "robot.start", f"the robot at {_fmt(start)}")
     _overlap(robot, tables + chairs, "robot.start", f"the robot at {_fmt(start)}")
+
+
+def _validate_goals(scenario: Scenario, footprints: list[tuple[str, str, Polygon]]) -> None:
+    """Each object's goal, and each place: on a table's top clear of the objects standing
+    there (other than itself) and of the other places, or on an object left where it is
+    that is at least as wide."""
+    by_name = {d.name: d for d in scenario.dishes}
+    tables = {t.name: t for t in scenario.tables}
+    placed: list[tuple[str, str, Polygon]] = []
+    for i, dish in enumerate(scenario.dishes):  # every goal first: a place reads another's
+        _choice(dish.goal, GOALS, f"dishes[{i}].goal", "goal")
+    for i, dish in enumerate(scenario.dishes):
+        path = f"dishes[{i}]"
+        place = dish.place
+        given = bool(place.table or place.position or place.onto)
+        if dish.goal != "place":
+            if given:
+                raise ScenarioError(f"{path}.place", f"only an object whose goal is place has "
+                                                     f"one (this one's goal is {dish.goal})")
+            continue
+        if place.onto:
+            if place.table or place.position:
+                raise ScenarioError(f"{path}.place", "give either onto, or table and position")
+            target = by_name.get(place.onto)
+            if target is None or target is dish:
+                raise ScenarioError(f"{path}.place.onto", f"no other object named "
+                                                        f"{quoted(place.onto)}")
+            if target.goal != "stay":
+                raise ScenarioError(f"{path}.place.onto", f"{place.onto!r} does not stay where "
+                                                          f"it is (its goal is {target.goal})")
+            if DISH_SHAPES[dish.kind].radius > DISH_SHAPES[target.kind].radius:
+                raise ScenarioError(f"{path}.place.onto", f"the {dish.kind} is wider than the "
+                                                        f"{target.kind} {place.onto!r}")
+            shape = dish_footprint(target.position, dish.kind)
+        else:
+            if place.table not in tables:
+                known = ", ".join(tables) or "none"
+                raise ScenarioError(f"{path}.place.table", f"no table named "
+                                                           f"{quoted(place.table)} (tables: "
+                                                           f"{known})")
+            _numbers(place.position, f"{path}.place.position", 2)
+            table = tables[place.table]
+            shape = dish_footprint(place.position, dish.kind)
+            if not shape.within(table_footprint(table.center, table.yaw, table.size)):
+                raise ScenarioError(f"{path}.place.position",
+                                    f"{_fmt(place.position)} is not on table "
+                                    f"{place.table!r} (the whole {dish.kind} must stand on "
+                                    "its top)")
+            others = [f for f, d in zip(footprints, scenario.dishes, strict=True)
+                      if d is not dish]
+            _overlap(shape, others, f"{path}.place.position",
+                     f"the place of {dish.kind} {dish.name!r}")
+        _overlap(shape, placed, f"{path}.place", f"the place of {dish.kind} {dish.name!r}")
+        placed.append((f"the place of {dish.name!r}", f"{path}.place", shape))
 
 
 def _validate_settings(scenario: Scenario) -> None:

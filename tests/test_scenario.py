@@ -266,3 +266,56 @@ def test_a_file_that_is_not_utf8_names_the_line(tmp_path):
     with pytest.raises(ScenarioError) as info:
         load_scenario(path)
     assert info.value.path == "line 2" and "not UTF-8 text (byte 0xe9" in info.value.message
+
+
+TIDY = (REPO / "scenarios" / "tidy_home.yaml").read_text()
+
+
+def test_the_tidy_home_scenario_gives_its_objects_goals():
+    scenario = parse_scenario(TIDY)
+    goals = {d.name: (d.goal, d.place.onto) for d in scenario.dishes}
+    assert goals == {"can_1": ("collect", ""), "can_2": ("collect", ""), "can_3": ("collect", ""),
+                     "apple": ("place", "plate"), "plate": ("stay", "")}
+    assert parse_scenario(dump_scenario(scenario)) == scenario
+
+
+@pytest.mark.parametrize(("old", "new", "path", "words"), [
+    ("goal: stay}", "goal: keep}", "dishes[3].goal", "unknown goal 'keep'"),
+    ("place: {onto: plate}", "place: {onto: sofa}", "dishes[2].place.onto",
+     "no other object named 'sofa'"),
+    ("place: {onto: plate}", "place: {onto: apple}", "dishes[2].place.onto",
+     "no other object named 'apple'"),
+    ("kind: plate, goal: stay}", "kind: plate}", "dishes[2].place.onto",
+     "'plate' does not stay where it is (its goal is collect)"),
+    ("kind: plate, goal: stay}", "kind: can, goal: stay}", "dishes[2].place.onto",
+     "the apple is wider than the can 'plate'"),
+    ("place: {onto: plate}", "place: {onto: plate, table: dining}", "dishes[2].place",
+     "either onto, or table and position"),
+    ("place: {onto: plate}", "place: {table: dining, position: [4.95, 3.75]}",
+     "dishes[2].place.position", "overlaps dish 'plate'"),
+    ("place: {onto: plate}", "place: {table: dining, position: [5.3, 4.3]}",
+     "dishes[2].place.position", "not on table 'dining'"),
+    ("place: {onto: plate}", "place: {table: bed, position: [4.6, 3.9]}",
+     "dishes[2].place.table", "no table named 'bed'"),
+    ("kind: can}\n  - {name: can_2", "kind: can, place: {onto: plate}}\n  - {name: can_2",
+     "dishes[0].place", "only an object whose goal is place has one"),
+    ("place: {onto: plate}", "place: {onto: plate, on: plate}", "dishes[2].place[True]",
+     "unknown field True"),
+])
+def test_bad_goals_and_places_name_the_field(old, new, path, words):
+    assert old in TIDY
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(TIDY.replace(old, new, 1))
+    assert info.value.path == path and words in str(info.value)
+
+
+def test_a_place_on_a_table_and_two_places_that_overlap():
+    text = TIDY.replace("place: {onto: plate}", "place: {table: dining, position: [4.4, 4.0]}")
+    assert parse_scenario(text).dishes[2].place.position == [4.4, 4.0]
+    both = text.replace("kind: can}\n  - {name: can_2",
+                        "kind: can, goal: place,\n     place: {table: dining, position: "
+                        "[4.43, 4.0]}}\n  - {name: can_2")
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario(both)
+    assert info.value.path == "dishes[2].place" and "overlaps the place of 'can_1'" in str(
+        info.value)
