@@ -180,3 +180,70 @@ def test_matrix_costs_follow_nodes_order():
     assert problem.nodes == ("a", "b", "start")
     plan = plan_tasks(problem).best
     assert plan.gotos == ("b", "a") and plan.cost == 4
+
+
+def _tidy(places: dict, costs: dict | None = None) -> TaskProblem:
+    """The tidy-home demonstration: two cans and the apple in l0, the plate (the apple's
+    place) in l1, the last can in l2; symmetric costs from `costs` (start "start")."""
+    c = costs or {("start", "l0"): 10, ("start", "l1"): 40, ("start", "l2"): 30,
+                  ("l0", "l1"): 30, ("l0", "l2"): 25, ("l1", "l2"): 20}
+    both = {**c, **{(b, a): v for (a, b), v in c.items()}}
+    return TaskProblem(locations=("l0", "l1", "l2"),
+                       dishes={"can_1": "l0", "can_2": "l0", "apple": "l0", "can_3": "l2"},
+                       costs=both, places=places)
+
+
+def test_the_tidy_home_plan_picks_at_one_stop_places_at_the_next():
+    """The paper's demonstration: both cans then the apple at the first stop (the apple
+    takes the gripper, so it comes last), the apple put down at the second, the last can
+    collected at the third."""
+    problem = _tidy({"apple": "l1"})
+    result = plan_tasks(problem, n_plans=3, time_limit=10.0)
+    best = result.best
+    assert best.actions == (("goto", "l0"), ("pickup", "can_1"), ("pickup", "can_2"),
+                            ("pickup", "apple"), ("goto", "l1"), ("place", "apple"),
+                            ("goto", "l2"), ("pickup", "can_3"))
+    assert best.optimal and best.cost == 60
+    for plan in result.plans:
+        assert check_plan(problem, plan.actions) == plan.cost
+        held = [a for a in plan.actions if a in (("pickup", "apple"), ("place", "apple"))]
+        assert held == [("pickup", "apple"), ("place", "apple")]
+
+
+def test_a_held_object_is_put_down_before_anything_else_is_picked():
+    """The apple's place is in l2, beyond the last can: holding the apple the robot cannot
+    pick can_3, so it places the apple first, in the same stop, then picks the can."""
+    problem = _tidy({"apple": "l2"})
+    best = plan_tasks(problem, time_limit=10.0).best
+    i_place, i_can = best.actions.index(("place", "apple")), best.actions.index(
+        ("pickup", "can_3"))
+    assert i_place < i_can
+    assert best.gotos == ("l0", "l2") and check_plan(problem, best.actions) == 35
+
+
+def test_a_place_in_the_location_of_its_object_needs_no_drive():
+    problem = _tidy({"apple": "l0"})
+    best = plan_tasks(problem, time_limit=10.0).best
+    assert best.actions[:5] == (("goto", "l0"), ("pickup", "can_1"), ("pickup", "can_2"),
+                                ("pickup", "apple"), ("place", "apple"))
+
+
+def test_an_object_whose_place_has_no_location_is_reported_and_the_rest_planned():
+    problem = _tidy({"apple": None})
+    result = plan_tasks(problem, time_limit=10.0)
+    assert result.unreachable == ("apple",)
+    assert ("pickup", "apple") not in result.best.actions
+    check_plan(problem, result.best.actions)
+
+
+def test_check_plan_holds_the_gripper_and_the_place():
+    problem = _tidy({"apple": "l1"})
+    with pytest.raises(ValueError, match="while the gripper holds apple"):
+        check_plan(problem, [("goto", "l0"), ("pickup", "apple"), ("pickup", "can_1")])
+    with pytest.raises(ValueError, match="its place is at l1"):
+        check_plan(problem, [("goto", "l0"), ("pickup", "apple"), ("place", "apple")])
+    with pytest.raises(ValueError, match="gripper holds None"):
+        check_plan(problem, [("goto", "l1"), ("place", "apple")])
+    with pytest.raises(ValueError, match=r"\['apple'\] not collected or placed"):
+        check_plan(problem, [("goto", "l0"), ("pickup", "can_1"), ("pickup", "can_2"),
+                             ("goto", "l2"), ("pickup", "can_3")])

@@ -45,7 +45,7 @@ START = "start"
 DOMAIN = "domain.lp"
 
 Action = tuple[str, str]
-"""("goto", location), ("pickup", dish) or ("unload", depot)."""
+"""("goto", location), ("pickup", dish), ("place", object) or ("unload", depot)."""
 
 CostSpec = (
     Callable[[str, str], float | None]
@@ -84,6 +84,10 @@ class TaskProblem:
     """Dishes the tray holds at once; None: unlimited."""
     depot: str | None = None
     """A node where `unload` empties the tray; with it the goal is "all dishes unloaded"."""
+    places: Mapping[str, str | None] = field(default_factory=dict)
+    """Object -> the location of its place target, for the objects put down (`place`)
+    rather than collected: picked, such an object is held in the gripper, which holds one
+    at a time, until `place` puts it down there; None: the target has no location."""
 
     @property
     def nodes(self) -> tuple[str, ...]:
@@ -157,6 +161,16 @@ def problem_facts(problem: TaskProblem) -> str:
             if loc not in problem.locations:
                 raise ValueError(f"dish {dish!r}: unknown location {loc!r}")
             lines.append(f"at({_quote(dish)}, {_quote(loc)}).")
+    for dish in sorted(problem.places):
+        loc = problem.places[dish]
+        if dish not in problem.dishes:
+            raise ValueError(f"place of {dish!r}: unknown dish")
+        if loc is None:
+            lines.append(f"unplaceable({_quote(dish)}).")
+        elif loc not in problem.locations:
+            raise ValueError(f"place of {dish!r}: unknown location {loc!r}")
+        else:
+            lines.append(f"place_at({_quote(dish)}, {_quote(loc)}).")
     if problem.capacity is not None:
         if problem.capacity < 1:
             raise ValueError(f"capacity must be >= 1, got {problem.capacity}")
@@ -186,11 +200,14 @@ def horizon(problem: TaskProblem, targets: int | None = None) -> int:
     """
     located = [loc for loc in problem.dishes.values() if loc is not None]
     n = len(located) if targets is None else targets
+    # Each object to place adds its place, and may need two drives more: to its place and
+    # back to where the gripper was needed (a location visited again).
+    p = sum(loc is not None for loc in problem.places.values())
     if problem.capacity is None:
-        h = n + len(set(located))
+        h = n + len(set(located)) + 3 * p
         return h + (2 if problem.depot is not None else 0)
     trips = math.ceil(n / problem.capacity) if n else 0
-    return 2 * n + 2 * trips
+    return 2 * n + 2 * trips + 3 * p
 
 
 def _sym_str(s: clingo.Symbol) -> str:
@@ -329,7 +346,7 @@ def plan_problem(state_space_groups: Sequence[Sequence[str]], costs: CostSpec, *
               for k, group in enumerate(state_space_groups) for d in group}
     for d in bad:
         dishes.setdefault(d, None)
-    keys = {"capacity", "depot"}
+    keys = {"capacity", "depot", "places"}
     problem = TaskProblem(locations=tuple(names), dishes=dishes, costs=costs, start=start,
                           **{k: kwargs.pop(k) for k in list(kwargs) if k in keys})
     return plan_tasks(problem, **kwargs)
@@ -340,15 +357,20 @@ def check_plan(problem: TaskProblem, actions: Sequence[Action],
     """Replays a plan step by step; raises ValueError at the first violated precondition or
     an unmet goal, else returns its navigation cost (rounded as the planner rounds).
 
-    `dishes`: those the goal requires (default: every dish that has a location). Independent
-    of the ASP encoding on purpose, so that it checks the planner rather than repeating it.
+    `dishes`: those the goal requires (default: every dish that has a location, and for an
+    object to place, whose place has one too): collected, or put down at its place.
+    Independent of the ASP encoding on purpose, so that it checks the planner rather than
+    repeating it.
     """
     goal = set(dishes) if dishes is not None else {
-        d for d, loc in problem.dishes.items() if loc is not None}
+        d for d, loc in problem.dishes.items()
+        if loc is not None and (d not in problem.places or problem.places[d] is not None)}
     here = problem.start
     tray: set[str] = set()
     collected: set[str] = set()
     delivered: set[str] = set()
+    put: set[str] = set()
+    hand: str | None = None
     total = 0
     for i, (name, arg) in enumerate(actions):
         if name == "goto":
@@ -369,10 +391,23 @@ def check_plan(problem: TaskProblem, actions: Sequence[Action],
                                  f"{problem.dishes[arg]}")
             if arg in collected:
                 raise ValueError(f"step {i}: pickup({arg}) again")
+            if hand is not None:
+                raise ValueError(f"step {i}: pickup({arg}) while the gripper holds {hand}")
+            collected.add(arg)
+            if arg in problem.places:
+                hand = arg
+                continue
             if problem.capacity is not None and len(tray) >= problem.capacity:
                 raise ValueError(f"step {i}: pickup({arg}) with a full tray")
             tray.add(arg)
-            collected.add(arg)
+        elif name == "place":
+            if hand != arg:
+                raise ValueError(f"step {i}: place({arg}) but the gripper holds {hand}")
+            if problem.places.get(arg) != here:
+                raise ValueError(f"step {i}: place({arg}) at {here}, but its place is at "
+                                 f"{problem.places.get(arg)}")
+            put.add(arg)
+            hand = None
         elif name == "unload":
             if problem.depot is None or here != problem.depot:
                 raise ValueError(f"step {i}: unload away from the depot")
@@ -380,7 +415,7 @@ def check_plan(problem: TaskProblem, actions: Sequence[Action],
             tray.clear()
         else:
             raise ValueError(f"step {i}: unknown action {name!r}")
-    done = delivered if problem.depot is not None else collected
+    done = (delivered if problem.depot is not None else collected - set(problem.places)) | put
     if not goal <= done:
-        raise ValueError(f"goal not reached: {sorted(goal - done)} not collected")
+        raise ValueError(f"goal not reached: {sorted(goal - done)} not collected or placed")
     return total
