@@ -276,3 +276,19 @@ def test_after_a_replan_the_outputs_show_the_latest_plan(tmp_path, monkeypatch, 
     assert f"predicted {first.predicted_time:.1f} s by the first of 2 plans" in printed
     assert f"goto {plan.gotos[0].location:<4} (stop 1) to ({plan.gotos[0].pose[0]:5.2f}" \
         in printed
+
+
+def test_goals_not_yet_carried_out_are_bad_input_not_collected(tmp_path, capsys):
+    """scenarios/tidy_home.yaml has an apple to place and a plate that stays: until they are
+    planned, run says so (exit 2, one line, nothing written) and execute() refuses."""
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as info:
+        run_main([str(REPO / "scenarios" / "tidy_home.yaml"), "--out", str(out)])
+    assert info.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "dishes[2].goal: place goals" in err
+    assert not out.exists()
+    from s3o_drake.execution.execute import execute
+
+    with pytest.raises(ValueError, match="apple"):
+        execute(load_scenario(REPO / "scenarios" / "tidy_home.yaml"), meshcat=None)
