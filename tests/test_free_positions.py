@@ -41,7 +41,7 @@ def searched():
 
 def test_free_stops_are_kept_as_they_are(searched):
     result, problem = searched
-    assert with_free_stops(result, problem, lambda p, d: np.ones(len(p), bool)) is result
+    assert with_free_stops(result, problem, lambda p, ds: np.ones(len(p), bool)) is result
 
 
 def test_a_stop_that_collides_moves_to_a_free_position_near_it_in_its_region(searched):
@@ -51,9 +51,9 @@ def test_a_stop_that_collides_moves_to_a_free_position_near_it_in_its_region(sea
     result, problem = searched
     blocked = result.positions[0].copy()
 
-    def free(points: np.ndarray, dish: str) -> np.ndarray:
+    def free(points: np.ndarray, dishes) -> np.ndarray:
         far = np.hypot(*(points - blocked).T) > 0.05
-        return far if dish == "plate_a" else np.ones(len(points), bool)
+        return far | (np.array(dishes) != "plate_a")
 
     moved = with_free_stops(result, problem, free)
     assert moved is not result and moved.valid
@@ -68,7 +68,7 @@ def test_a_stop_that_collides_moves_to_a_free_position_near_it_in_its_region(sea
 
 def test_a_region_with_no_free_position_leaves_the_stop(searched):
     result, problem = searched
-    moved = with_free_stops(result, problem, lambda p, d: np.zeros(len(p), bool))
+    moved = with_free_stops(result, problem, lambda p, ds: np.zeros(len(p), bool))
     assert moved is result
 
 

@@ -78,6 +78,15 @@ class FreeStops:
         yaw = facing_yaw(points, self._p_WD[dish])
         return self._checker.base_free(np.column_stack([points, yaw]))
 
+    def free_facing(self, points: np.ndarray, dishes: Sequence[str]) -> np.ndarray:
+        """`free`, each position of `points` (n, 2) facing its own dish of `dishes` (n),
+        in one collision query."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        if len(points) == 0:
+            return np.zeros(0, dtype=bool)
+        targets = np.array([self._p_WD[d] for d in dishes], dtype=float).reshape(-1, 2)
+        return self._checker.base_free(np.column_stack([points, facing_yaw(points, targets)]))
+
     def free_cells(self, heatmap: Heatmap) -> np.ndarray:
         """Cells (rows, cols) of `heatmap` with Fea^m > 0 whose centre and four corners are
         free stops for its dish; cells with Fea^m 0 are not tested (False)."""
