@@ -89,6 +89,8 @@ def _name(name: str, path: str, seen: dict[str, str]) -> None:
         raise ScenarioError(
             path, f"must start with a letter and hold only letters, digits and _, got "
                   f"{quoted(name)}")
+    if "__" in name:  # the planner names place targets <object>__place (goals.py)
+        raise ScenarioError(path, f"must not hold a double underscore, got {quoted(name)}")
     if name in seen:
         raise ScenarioError(path, f"duplicate name {name!r} (also {seen[name]})")
     seen[name] = path
