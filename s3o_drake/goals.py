@@ -54,11 +54,12 @@ class PlaceTarget:
         """The place target's own name (`place_target_name`)."""
         return place_target_name(self.name)
 
-    def as_dish(self) -> Dish:
-        """The place target as an object of the held object's kind standing there: what
-        the feasibility of putting it down is judged on (a pick of it from there)."""
+    def as_dish(self, table_height: float) -> Dish:
+        """The place target as an object of the held object's kind standing there (on a
+        table whose top is at `table_height`): what the feasibility of putting it down is
+        judged on, a pick of it from there."""
         return Dish(name=self.target, table=self.table, position=list(self.position),
-                    kind=self.kind)
+                    kind=self.kind, elevation=self.surface - table_height)
 
 
 def place_targets(scenario: Scenario) -> list[PlaceTarget]:

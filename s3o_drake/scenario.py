@@ -99,6 +99,9 @@ class Dish:
     goal: str = "collect"
     """collect (onto the tray) | place (held, then put down at `place`) | stay (choices.Goal)"""
     place: Place = field(default_factory=Place)
+    elevation: float = 0.0
+    """Height (m) above the table's top of the surface the object stands on: 0, the top
+    itself; for an object put onto another, that object's height (goals.py)."""
 
 
 @dataclass
@@ -235,6 +238,12 @@ class Scenario:
     simulation: Simulation = field(default_factory=Simulation)
     execution: ExecutionSettings = field(default_factory=ExecutionSettings)
     outputs: Outputs = field(default_factory=Outputs)
+
+
+def surface_height(scenario: Scenario, dish: Dish) -> float:
+    """World z (m) of the surface `dish` stands on: its table's top plus its elevation."""
+    table = next(t for t in scenario.tables if t.name == dish.table)
+    return table.height + dish.elevation
 
 
 def parse_scenario(text: str) -> Scenario:

@@ -45,6 +45,8 @@ class ScenarioError(ValueError):
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 # Overlaps smaller than this (m^2) are numerical contact, not interpenetration.
 _AREA_TOL = 1e-6
+# The highest surface above a table's top an object may stand on (m): a stack of dishes.
+MAX_ELEVATION = 0.3
 # Free space the robot needs around its footprint at the start (m).
 START_CLEARANCE = 0.02
 # Counts in the settings beyond these would not end within any time budget: one CMA-ES
@@ -156,6 +158,9 @@ def validate_scenario(scenario: Scenario) -> None:
             raise ScenarioError(f"{path}.table", f"no table named {quoted(dish.table)} (tables: "
                                                  f"{known})")
         _numbers(dish.position, f"{path}.position", 2)
+        if not 0.0 <= dish.elevation <= MAX_ELEVATION:
+            raise ScenarioError(f"{path}.elevation", f"must be in [0, {MAX_ELEVATION:g}] m, got "
+                                                     f"{dish.elevation:g}")
         table = table_by_name[dish.table]
         shape = dish_footprint(dish.position, dish.kind)
         top = table_footprint(table.center, table.yaw, table.size)

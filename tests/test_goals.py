@@ -1,9 +1,11 @@
 """Place targets: where an object to place will stand, resolved from its scenario."""
 
+import dataclasses
 from pathlib import Path
 
 import pytest
 
+from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.goals import (
     PLACE_SUFFIX,
@@ -12,7 +14,7 @@ from s3o_drake.goals import (
     place_targets,
     placed_object,
 )
-from s3o_drake.scenario import ScenarioError, load_scenario, parse_scenario
+from s3o_drake.scenario import ScenarioError, load_scenario, parse_scenario, surface_height
 
 TIDY = Path(__file__).resolve().parent.parent / "scenarios" / "tidy_home.yaml"
 
@@ -25,9 +27,19 @@ def test_the_apple_goes_onto_the_plate_at_the_plates_top():
     assert apple == PlaceTarget("apple", "apple", "dining", tuple(plate.position),
                                 dining.height + DISH_SHAPES["plate"].height, onto="plate")
     assert apple.target == "apple__place" and placed_object(apple.target) == "apple"
-    as_dish = apple.as_dish()
+    as_dish = apple.as_dish(dining.height)
     assert (as_dish.name, as_dish.kind, as_dish.table) == ("apple__place", "apple", "dining")
     assert as_dish.position == list(plate.position) and as_dish.goal == "collect"
+    assert as_dish.elevation == pytest.approx(DISH_SHAPES["plate"].height)
+    # Standing there, in the feasibility scene and the world, it is on the plate's top.
+    scene_scenario = dataclasses.replace(scenario, dishes=[*scenario.dishes, as_dish])
+    assert surface_height(scene_scenario, as_dish) == pytest.approx(apple.surface)
+    scene = FeasibilityScene(scene_scenario)
+    p_WD, z = scene.dish_p_WD("apple__place")
+    assert z == pytest.approx(apple.surface) and tuple(p_WD) == apple.position
+    X_WD = scene.plant.EvalBodyPoseInWorld(scene.plant.CreateDefaultContext(),
+                                           scene.dish_body("apple__place"))
+    assert X_WD.translation()[2] == pytest.approx(apple.surface)
 
 
 def test_a_place_on_a_table_stands_on_its_top():

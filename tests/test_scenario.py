@@ -281,6 +281,8 @@ def test_the_tidy_home_scenario_gives_its_objects_goals():
 
 @pytest.mark.parametrize(("old", "new", "path", "words"), [
     ("goal: stay}", "goal: keep}", "dishes[3].goal", "unknown goal 'keep'"),
+    ("goal: stay}", "goal: stay, elevation: -0.1}", "dishes[3].elevation",
+     "must be in [0, 0.3] m, got -0.1"),
     ("place: {onto: plate}", "place: {onto: sofa}", "dishes[2].place.onto",
      "no other object named 'sofa'"),
     ("place: {onto: plate}", "place: {onto: apple}", "dishes[2].place.onto",

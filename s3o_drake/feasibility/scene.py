@@ -86,9 +86,10 @@ class FeasibilityScene:
         return np.array([x + c * mx - s * my, y + s * mx + c * my, mz])
 
     def dish_p_WD(self, name: str) -> tuple[np.ndarray, float]:
-        """A dish's (x, y) and the height of the table top it stands on."""
+        """A dish's (x, y) and the height of the surface it stands on (`surface_height`)."""
         dish = self.dishes[name]
-        return np.array(dish.position, dtype=float), self.table_height[dish.table]
+        return np.array(dish.position, dtype=float), self.table_height[dish.table] + \
+            dish.elevation
 
     def dish_body(self, name: str):
         return self.plant.GetBodyByName("dish", self.models.dishes[name])

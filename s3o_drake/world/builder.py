@@ -51,7 +51,7 @@ from s3o_drake.robot import (
     robot_desired_state,
     robot_positions,
 )
-from s3o_drake.scenario import Chair, Dish, Scenario, Table
+from s3o_drake.scenario import Chair, Dish, Scenario, Table, surface_height
 from s3o_drake.world.geometry_mirror import AddGeometryMirror
 from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
 
@@ -189,10 +189,10 @@ def populate_plant(plant: MultibodyPlant, scene_graph: SceneGraph | None, scenar
         _weld(plant, model, "chair", _planar_pose(*chair.pose))
         models.chairs[chair.name] = model
     if dishes:
-        heights = {t.name: t.height for t in scenario.tables}
         for dish in scenario.dishes:
             (model,) = parser.AddModelsFromString(dish_sdf(dish), "sdf")
-            X_WD = _planar_pose(dish.position[0], dish.position[1], 0.0, heights[dish.table])
+            X_WD = _planar_pose(dish.position[0], dish.position[1], 0.0,
+                                surface_height(scenario, dish))
             _weld(plant, model, "dish", X_WD)
             models.dishes[dish.name] = model
     return models

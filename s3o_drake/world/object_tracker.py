@@ -49,7 +49,7 @@ from s3o_drake.robot import (
     TRAY_INNER_WIDTH,
     TRAY_LINK,
 )
-from s3o_drake.scenario import Scenario
+from s3o_drake.scenario import Scenario, surface_height
 from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
 
 
@@ -189,11 +189,10 @@ class ObjectTracker(LeafSystem):
         self._frame_ids = dict(frame_ids)
         self._labels = dict(labels)
         self._radii = {d.name: DISH_SHAPES[d.kind].radius for d in scenario.dishes}
-        heights = {t.name: t.height for t in scenario.tables}
-        # As world.populate_plant welds the dishes: bottom centre on the table top.
+        # As world.populate_plant welds the dishes: bottom centre on the surface.
         initial = tuple(
             _Track(d.name, DishState.TABLE,
-                   RigidTransform([d.position[0], d.position[1], heights[d.table]]))
+                   RigidTransform([d.position[0], d.position[1], surface_height(scenario, d)]))
             for d in scenario.dishes)
 
         self._robot_state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
