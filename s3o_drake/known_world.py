@@ -24,7 +24,9 @@ from shapely.geometry import Polygon, box
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
+from s3o_drake.choices import Goal
 from s3o_drake.furniture import chair_footprint, table_footprint
+from s3o_drake.goals import place_targets, placed_object
 from s3o_drake.scenario import Chair, Dish, Scenario
 
 Pose2 = tuple[float, float, float]
@@ -96,23 +98,34 @@ class KnownWorld:
     settings: Scenario
     perceived_chairs: tuple[Pose2, ...]
     dishes: tuple[Dish, ...]
+    """What the plan is for: the objects left to collect or to place, and the place target
+    of each object to place (an object of its kind standing at its place, named
+    `goals.place_target_name`; `places`)."""
     pose: Pose2
     overhead: OverheadImages | None = field(default=None, compare=False)
+    fixtures: tuple[Dish, ...] = ()
+    """The objects that stay where they are (a plate something goes onto): obstacles only."""
 
     @classmethod
     def of(cls, scenario: Scenario, *, perceived_chairs: Iterable[Sequence[float]],
            pose: Sequence[float] | None = None, dishes: Iterable[str] | None = None,
            overhead: OverheadImages | None = None) -> KnownWorld:
         """The robot's knowledge in `scenario` with these perceived chairs, standing at
-        `pose` (default: the scenario's start) with `dishes` left (default: all)."""
+        `pose` (default: the scenario's start) with the objects `dishes` left (default:
+        all) and the place targets of those to place."""
         left = None if dishes is None else set(dishes)
-        kept = tuple(d for d in scenario.dishes if left is None or d.name in left)
+        kept = [d for d in scenario.dishes if d.goal != Goal.STAY.value
+                and (left is None or d.name in left)]
+        heights = {t.name: t.height for t in scenario.tables}
+        kept += [t.as_dish(heights[t.table]) for t in place_targets(scenario)
+                 if left is None or t.name in left]
         here = _pose(scenario.robot.start if pose is None else pose)
         settings = dataclasses.replace(
             scenario, chairs=[c for c in scenario.chairs if c.mapped], dishes=[],
             robot=dataclasses.replace(scenario.robot, start=list(here)))
         return cls(settings=settings, perceived_chairs=tuple(_pose(p) for p in perceived_chairs),
-                   dishes=kept, pose=here, overhead=overhead)
+                   dishes=tuple(kept), pose=here, overhead=overhead,
+                   fixtures=tuple(d for d in scenario.dishes if d.goal == Goal.STAY.value))
 
     @classmethod
     def perfect(cls, scenario: Scenario, **kwargs) -> KnownWorld:
@@ -130,7 +143,9 @@ class KnownWorld:
         chairs = self.perceived_chairs if perceived_chairs is None else \
             tuple(_pose(p) for p in perceived_chairs)
         return dataclasses.replace(
-            self, pose=_pose(pose), dishes=tuple(d for d in self.dishes if d.name in left),
+            self, pose=_pose(pose),
+            dishes=tuple(d for d in self.dishes
+                         if d.name in left or placed_object(d.name) in left),
             perceived_chairs=chairs, overhead=self.overhead if overhead is None else overhead,
             settings=dataclasses.replace(self.settings, robot=dataclasses.replace(
                 self.settings.robot, start=list(_pose(pose)))))
@@ -156,6 +171,11 @@ class KnownWorld:
     def dish_names(self) -> list[str]:
         return [d.name for d in self.dishes]
 
+    @property
+    def places(self) -> dict[str, str]:
+        """Each object to place that is left, and the name of its place target."""
+        return {placed_object(d.name): d.name for d in self.dishes if placed_object(d.name)}
+
     @cached_property
     def obstacles(self) -> Obstacles:
         return Obstacles.of(self.settings.room.bounds, self.settings.tables, self.chair_poses)
@@ -167,4 +187,4 @@ class KnownWorld:
         seen = [Chair(name=f"perceived_{i}", pose=list(p), mapped=False)
                 for i, p in enumerate(self.perceived_chairs)]
         return dataclasses.replace(self.settings, chairs=[*self.settings.chairs, *seen],
-                                   dishes=list(self.dishes))
+                                   dishes=[*self.dishes, *self.fixtures])

@@ -19,6 +19,7 @@ import numpy as np
 
 from s3o_drake.choices import METHODS
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.goals import place_target_name, placed_object
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.plan import Goto, TaskMotionPlan
 from s3o_drake.planning.task_planner import TaskProblem, check_plan
@@ -44,13 +45,17 @@ def ring_heatmaps(known: KnownWorld, *, size: float = 3.0, cells: int = 30) -> l
 
 
 def plan_problems(p: TaskMotionPlan) -> TaskProblem:
-    """The task-level problem a plan claims to solve: its locations and which holds which
-    dish (None: left out as unreachable)."""
-    dishes: dict[str, str | None] = {d: name for name, group in
-                                     zip(p.locations, p.groups, strict=True) for d in group}
+    """The task-level problem a plan claims to solve: its locations, which holds which
+    dish, and which the place of each object to place (None: left out as unreachable)."""
+    where: dict[str, str | None] = {d: name for name, group in
+                                    zip(p.locations, p.groups, strict=True) for d in group}
     for d in p.unreachable:
-        dishes[d] = None
-    return TaskProblem(locations=p.locations, dishes=dishes, costs=lambda a, b: 0.0)
+        where[d] = None
+    dishes = {d: loc for d, loc in where.items() if placed_object(d) is None}
+    places = {placed_object(d): loc for d, loc in where.items()
+              if placed_object(d) in dishes}
+    return TaskProblem(locations=p.locations, dishes=dishes, costs=lambda a, b: 0.0,
+                       places=places)
 
 
 def plan_faults(known: KnownWorld, p: TaskMotionPlan, base_free) -> list[str]:
@@ -62,7 +67,8 @@ def plan_faults(known: KnownWorld, p: TaskMotionPlan, base_free) -> list[str]:
         check_plan(plan_problems(p), p.task_actions)
     except Exception as e:  # the checker's verdict, kept as text
         faults.append(f"plan checker: {e}")
-    planned = {a.dish for a in p.pickups} | set(p.unreachable)
+    planned = {a.dish for a in p.pickups} | {place_target_name(a.dish) for a in p.places} \
+        | set(p.unreachable)
     if planned != set(known.dish_names):
         faults.append(f"dishes planned {sorted(planned)} != known {sorted(known.dish_names)}")
     poses = np.array([a.pose for a in p.actions if isinstance(a, Goto)], float).reshape(-1, 3)

@@ -71,6 +71,7 @@ from shapely.ops import unary_union
 
 from s3o_drake.abstraction.location_grid import GridLocation, LocationGrid, region_location
 from s3o_drake.abstraction.motion_feasibility import MotionFeasibility
+from s3o_drake.goals import place_target_name
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.task_planner import Action
 from s3o_drake.planning.time_model import CostModel
@@ -184,6 +185,8 @@ class SequenceProblem:
                 locations.append(arg)
             elif name == "pickup":
                 picks.append((len(locations) - 1, arg))
+            elif name == "place":  # rated as a pick of the object standing at its place
+                picks.append((len(locations) - 1, place_target_name(arg)))
             else:
                 raise ValueError(f"action {name!r} is not supported by the motion search")
         self.locations = tuple(locations)

@@ -127,13 +127,14 @@ def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
            feasibility: MotionFeasibility, nav: NavigationMap, start_xy: Sequence[float],
            planner: Planner, *, rng: np.random.Generator, draws: int = 1,
            unreachable: Sequence[str] = (), deadline: float | None = None,
-           costs: CostModel | None = None, free: FreeTest | None = None) -> PetlonResult:
+           costs: CostModel | None = None, free: FreeTest | None = None,
+           places: Mapping[str, str] | None = None) -> PetlonResult:
     """V-PETLON over the state space `groups` (location k named "l{k}", its region in
     `regions`): `draws` random position sets, each ordered optimally for navigation, the
     cheapest kept. At least one draw is made; `deadline` (time.monotonic) stops further
     draws; `costs` scores the kept plan (None: the paper's costs); `free` keeps the draws
-    to positions where the base facing the location's dish is free (None: any). Raises
-    `TaskPlanningError` if no dish can be planned."""
+    to positions where the base facing the location's dish is free (None: any); `places`
+    as `plan_problem`'s. Raises `TaskPlanningError` if no dish can be planned."""
     start = np.asarray(start_xy, dtype=float)[:2]
     names = [f"l{k}" for k in range(len(groups))]
     best: PetlonResult | None = None
@@ -169,7 +170,8 @@ def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
         remaining = None if deadline is None else max(deadline - time.monotonic(),
                                                       0.05 if best is not None else 0.5)
         try:
-            task = plan_problem(groups, task_costs, unreachable=sorted(lost), n_plans=1,
+            task = plan_problem(groups, task_costs, unreachable=sorted(lost), places=places,
+                                n_plans=1,
                                 time_limit=5.0 if remaining is None else min(5.0, remaining))
         except TaskPlanningTimeoutError:
             if best is None:

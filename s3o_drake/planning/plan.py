@@ -3,10 +3,11 @@
 A `TaskMotionPlan` is what execution and the benchmark read: the state space it was
 planned in, the actions in order (each `goto` with the base pose it drives to and the
 collision-free path there, each `pickup` with its dish and Fea^m from where it is
-picked), the expected utility and predicted execution time, and where the planning time
-went. It is plain data so that a plan can be written by one process and executed or
-compared by another: `to_json`/`from_json` round-trip it exactly (Python's float repr is
-exact, tuples come back as tuples), and `write` writes it atomically.
+picked, each `place` likewise), the expected utility and predicted execution time, and
+where the planning time went. It is plain data so that a plan can be written by one
+process and executed or compared by another: `to_json`/`from_json` round-trip it exactly
+(Python's float repr is exact, tuples come back as tuples), and `write` writes it
+atomically.
 """
 
 from __future__ import annotations
@@ -46,7 +47,18 @@ class Pickup:
     """Fea^m of the pick from the goto's position: the expected success."""
 
 
-PlanAction = Goto | Pickup
+@dataclass(frozen=True)
+class Place:
+    """Put `dish`, held in the gripper, down at its place, from where the latest goto left
+    the base (goals.py)."""
+
+    dish: str
+    location: str
+    feasibility: float
+    """Fea^m of putting it down from the goto's position: the expected success."""
+
+
+PlanAction = Goto | Pickup | Place
 
 
 @dataclass(frozen=True)
@@ -94,10 +106,15 @@ class TaskMotionPlan:
         return tuple(a for a in self.actions if isinstance(a, Pickup))
 
     @property
+    def places(self) -> tuple[Place, ...]:
+        return tuple(a for a in self.actions if isinstance(a, Place))
+
+    @property
     def task_actions(self) -> tuple[tuple[str, str], ...]:
-        """The task-level sequence (("goto", location) / ("pickup", dish)), as the task
-        planner writes it, for `check_plan`."""
-        return tuple(("goto", a.location) if isinstance(a, Goto) else ("pickup", a.dish)
+        """The task-level sequence (("goto", location) / ("pickup", dish) / ("place",
+        dish)), as the task planner writes it, for `check_plan`."""
+        return tuple(("goto", a.location) if isinstance(a, Goto) else
+                     ("place" if isinstance(a, Place) else "pickup", a.dish)
                      for a in self.actions)
 
     @property
@@ -115,7 +132,8 @@ class TaskMotionPlan:
                                 "pose": list(a.pose), "path": [list(p) for p in a.path],
                                 "length": a.length})
             else:
-                actions.append({"action": "pickup", "dish": a.dish, "location": a.location,
+                actions.append({"action": "place" if isinstance(a, Place) else "pickup",
+                                "dish": a.dish, "location": a.location,
                                 "feasibility": a.feasibility})
         return {
             "format": FORMAT, "method": self.method, "seed": self.seed,
@@ -141,9 +159,10 @@ class TaskMotionPlan:
                                     pose=tuple(float(v) for v in a["pose"]),
                                     path=tuple((float(x), float(y)) for x, y in a["path"]),
                                     length=float(a["length"])))
-            elif a["action"] == "pickup":
-                actions.append(Pickup(dish=a["dish"], location=a["location"],
-                                      feasibility=float(a["feasibility"])))
+            elif a["action"] in ("pickup", "place"):
+                kind = Pickup if a["action"] == "pickup" else Place
+                actions.append(kind(dish=a["dish"], location=a["location"],
+                                    feasibility=float(a["feasibility"])))
             else:
                 raise ValueError(f"unknown action {a['action']!r} in a plan")
         score = data.get("score")

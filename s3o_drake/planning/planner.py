@@ -75,6 +75,7 @@ from s3o_drake.abstraction.motion_feasibility import as_motion_feasibility, heat
 from s3o_drake.abstraction.voronoi import VoronoiPartition
 from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.stops import FreeStops
+from s3o_drake.goals import place_target_name
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.free_positions import FreeTest, with_free_stops
 from s3o_drake.planning.motion_search import (
@@ -86,7 +87,14 @@ from s3o_drake.planning.motion_search import (
 )
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.petlon import petlon
-from s3o_drake.planning.plan import Goto, Pickup, PlanAction, TaskMotionPlan, samples_tuple
+from s3o_drake.planning.plan import (
+    Goto,
+    Pickup,
+    Place,
+    PlanAction,
+    TaskMotionPlan,
+    samples_tuple,
+)
 from s3o_drake.planning.result import PlanningResult
 from s3o_drake.planning.task_costs import dead_dishes, location_costs, representative_points
 from s3o_drake.planning.task_planner import (
@@ -227,7 +235,9 @@ def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: Navig
     for i, (name, arg) in enumerate(motion.actions):
         if name == "goto":
             y = np.asarray(motion.positions[k], dtype=float)
-            nxt = next((a for n, a in motion.actions[i + 1:] if n == "pickup"), None)
+            # Facing the next object to pick, or the place of the next one to put down.
+            nxt = next((a if n == "pickup" else place_target_name(a)
+                        for n, a in motion.actions[i + 1:] if n in ("pickup", "place")), None)
             path = nav.path(here, y)
             if path is None:
                 raise PlanningError(f"goto {arg}: no path from {here.tolist()} to {y.tolist()}")
@@ -238,6 +248,9 @@ def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: Navig
                                 path=tuple((float(p[0]), float(p[1])) for p in path),
                                 length=float(motion.leg_lengths[k])))
             here, location, k = y, arg, k + 1
+        elif name == "place":
+            actions.append(Place(dish=arg, location=location,
+                                 feasibility=float(motion.feasibility[place_target_name(arg)])))
         else:
             actions.append(Pickup(dish=arg, location=location,
                                   feasibility=float(motion.feasibility[arg])))
@@ -340,7 +353,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         result = petlon(groups, regions, fea, nav, start, planner,
                         rng=np.random.default_rng([seed, _PETLON]), draws=iterations,
                         unreachable=partition.unreachable, deadline=deadline, costs=costs,
-                        free=stops.goal_test(model_heatmaps, heatmap_tuple(heatmaps)))
+                        free=stops.goal_test(model_heatmaps, heatmap_tuple(heatmaps)),
+                        places=known.places)
         timing["task_planning"] += result.task_time
         timing["motion_search"] += result.motion_time
         complete = result.draws == iterations
@@ -376,7 +390,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     try:
         best, searches, samples = _search_spaces(
             spaces, tasks, searches_run, cells, partition, grid, nav, start, planner,
-            n_sequences, seed, deadline, timing, expired)
+            n_sequences, seed, deadline, timing, expired, known.places)
     finally:
         searches_run.close()
     if time.monotonic() >= deadline:
@@ -394,7 +408,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
 
 
 def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, grid, nav, start,
-                   planner, n_sequences, seed, deadline, timing, expired):
+                   planner, n_sequences, seed, deadline, timing, expired, places):
     """Task planning per state space here, motion searches through `searches_run`; the
     best result (ties: the first submitted), and how many searches and samples ran.
     `expired(stage, fatal)` is plan_task()'s: fatal until a search has been submitted."""
@@ -416,7 +430,7 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, gri
                 expired("task planning", not submitted)
                 break
             try:
-                tasks[groups] = (plan_problem(groups, costs, unreachable=lost,
+                tasks[groups] = (plan_problem(groups, costs, unreachable=lost, places=places,
                                               n_plans=n_sequences,
                                               time_limit=min(TASK_TIME_LIMIT, remaining)),
                                  regions)

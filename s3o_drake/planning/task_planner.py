@@ -335,19 +335,26 @@ def _no_plan_message(problem: TaskProblem, unreachable: Sequence[str]) -> str:
 
 def plan_problem(state_space_groups: Sequence[Sequence[str]], costs: CostSpec, *,
                  unreachable: Sequence[str] = (), start: str = START,
-                 location_names: Sequence[str] | None = None, **kwargs) -> TaskPlanResult:
+                 location_names: Sequence[str] | None = None,
+                 places: Mapping[str, str] | None = None, **kwargs) -> TaskPlanResult:
     """Plans for a state space's groups (`StateSpace.groups`); location k is named
     `location_names[k]` or "l{k}". Dishes in `unreachable` (e.g. `Abstraction.unreachable`)
-    get no location and are reported (or raise, per `on_unreachable`)."""
+    get no location and are reported (or raise, per `on_unreachable`). `places` maps each
+    object to place to its place target's name (`KnownWorld.places`): the target, a member
+    of a group like the dishes, is no dish to pick but where its object is put down."""
     names = list(location_names) if location_names is not None else [
         f"l{k}" for k in range(len(state_space_groups))]
     bad = set(unreachable)
-    dishes = {d: (None if d in bad else names[k])
-              for k, group in enumerate(state_space_groups) for d in group}
+    where = {d: (None if d in bad else names[k])
+             for k, group in enumerate(state_space_groups) for d in group}
     for d in bad:
-        dishes.setdefault(d, None)
-    keys = {"capacity", "depot", "places"}
+        where.setdefault(d, None)
+    target_of = dict(places or {})
+    targets = set(target_of.values())
+    dishes = {d: loc for d, loc in where.items() if d not in targets}
+    keys = {"capacity", "depot"}
     problem = TaskProblem(locations=tuple(names), dishes=dishes, costs=costs, start=start,
+                          places={o: where.get(t) for o, t in target_of.items() if o in dishes},
                           **{k: kwargs.pop(k) for k in list(kwargs) if k in keys})
     return plan_tasks(problem, **kwargs)
 
