@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import time
 
 import numpy as np
 import pytest
@@ -225,14 +224,3 @@ def test_outside_samples_penalised_and_bad_sequences(scene):
     with pytest.raises(ValueError, match="no region"):
         grop_star([("goto", "nowhere")], regions, fea, nav, scenario.robot.start,
                   scenario.planner)
-
-
-@pytest.mark.parametrize("search", [grop_star, grop])
-def test_a_search_started_at_its_deadline_rates_one_guess(scene, search):
-    """The last search a worker takes up as the budget runs out costs one evaluation, not a
-    generation (a 30-dish plan overran its budget by the tail)."""
-    scenario, nav, regions, fea = scene
-    result = search(SEQUENCE, regions, fea, nav, scenario.robot.start, scenario.planner,
-                    seed=1, deadline=time.monotonic() - 1.0)
-    assert result.samples == 1 and result.valid
-    assert len(result.positions) == 2

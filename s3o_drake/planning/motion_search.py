@@ -389,16 +389,11 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     for g in problem.grids:
         previous = initial_point(g, previous, planner.reward, planner.speed)
         x0.append(previous)
-    # A search that starts at its deadline (the last one a worker took up) rates only its
-    # starting guess: a whole generation of a long sequence would overrun the budget.
-    late = deadline is not None and time.monotonic() >= deadline
-    X = np.stack([np.stack(x0)] * (1 if late else population))
-    if population > 1 and not late:
+    X = np.stack([np.stack(x0)] * population)
+    if population > 1:
         X[1:] = np.stack([draw(g, rng0, population - 1) for g in problem.grids], axis=1)
     tally = _Tally()
     tally.add(X, problem.evaluate(X)[0])
-    if late:
-        return tally.result(problem, "GROP*", t0)
     sigma = max(MIN_SIGMA, SIGMA_FRACTION * problem.extent)
     rest = generations - 1
     options = {
@@ -445,8 +440,6 @@ def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     if problem.n == 0:
         return problem.result("GROP", np.zeros((0, 2)), 1, time.monotonic() - t0, [], [])
     rng = rng if rng is not None else np.random.default_rng(seed)
-    if deadline is not None and time.monotonic() >= deadline:
-        generations, population = 1, 1  # started late: one draw, as GROP* rates one guess
     tally = _Tally()
     for _ in range(generations):
         t_batch = time.monotonic()
