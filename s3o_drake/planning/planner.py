@@ -109,6 +109,11 @@ WORKER_SLACK = 0.03
 """Share of the remaining budget by which worker processes stop before the deadline."""
 TASK_TIME_LIMIT = 5.0
 """Cap on one clingo call (s), below the remaining budget."""
+TASK_SHARE = 0.8
+"""Share of the remaining budget one clingo call may take: the rest is left to the motion
+search of its sequences. On a 30-dish task clingo would otherwise take all of it (it stops
+with its best order so far), and the one search left started at the deadline and ran its
+first generation past it (the budget test overran by 2-6 %)."""
 # Purposes mixed into seeds so that different draws never share a stream.
 _ORDER, _SEARCH, _PETLON = 1, 2, 3
 
@@ -432,7 +437,8 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, gri
             try:
                 tasks[groups] = (plan_problem(groups, costs, unreachable=lost, places=places,
                                               n_plans=n_sequences,
-                                              time_limit=min(TASK_TIME_LIMIT, remaining)),
+                                              time_limit=min(TASK_TIME_LIMIT,
+                                                             TASK_SHARE * remaining)),
                                  regions)
             except TaskPlanningTimeoutError:
                 if time.monotonic() < deadline:
