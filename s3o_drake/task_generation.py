@@ -15,15 +15,23 @@ from dataclasses import replace
 
 import numpy as np
 
-from s3o_drake.furniture import DISH_SHAPES, RESTAURANT_KINDS, chair_footprint, table_footprint
+from s3o_drake.furniture import (
+    DISH_SHAPES,
+    RESTAURANT_KINDS,
+    chair_footprint,
+    dish_footprint,
+    table_footprint,
+)
 from s3o_drake.resources import RESTAURANT
 from s3o_drake.robot import footprint_polygon
 from s3o_drake.scenario import (
     START_CLEARANCE,
     Chair,
     Dish,
+    Place,
     Scenario,
     ScenarioError,
+    Table,
     room_polygon,
     validate_scenario,
 )
@@ -36,10 +44,23 @@ CHAIR_DISTANCE = (0.45, 1.0)  # a chair's centre is this far from its dish (m)
 CHAIR_GAP = 0.05  # free space between a chair and other furniture (m)
 ROBOT_START_GAP = 0.3  # chairs leave this much room around the robot's start (m)
 MAX_TRIES = 1000
+PLACES = 1  # the stream tag of the places' draws (numpy.random.default_rng([seed, i, tag]))
 
 
 class GenerationError(RuntimeError):
     pass
+
+
+def spot_on_table(table: Table, radius: float, rng: np.random.Generator) -> np.ndarray | None:
+    """A uniform random spot (x, y in the world) on `table`'s top for an object of
+    `radius`, EDGE_MARGIN inside its edge; None when the top is too small for it."""
+    half = np.array(table.size[:2]) / 2 - radius - EDGE_MARGIN
+    if np.any(half <= 0):
+        return None
+    p_T = rng.uniform(-half, half)  # in the table frame
+    c, s = math.cos(table.yaw), math.sin(table.yaw)
+    return np.array(table.center) + np.array([c * p_T[0] - s * p_T[1],
+                                              s * p_T[0] + c * p_T[1]])
 
 
 def _sample_dishes(base: Scenario, rng: np.random.Generator) -> list[Dish]:
@@ -52,13 +73,9 @@ def _sample_dishes(base: Scenario, rng: np.random.Generator) -> list[Dish]:
         table = base.tables[int(rng.integers(len(base.tables)))]
         kind = RESTAURANT_KINDS[int(rng.integers(len(RESTAURANT_KINDS)))]
         radius = DISH_SHAPES[kind].radius
-        half = np.array(table.size[:2]) / 2 - radius - EDGE_MARGIN
-        if np.any(half <= 0):
+        p_W = spot_on_table(table, radius, rng)
+        if p_W is None:
             continue
-        p_T = rng.uniform(-half, half)  # in the table frame
-        c, s = math.cos(table.yaw), math.sin(table.yaw)
-        p_W = np.array(table.center) + np.array([c * p_T[0] - s * p_T[1],
-                                                 s * p_T[0] + c * p_T[1]])
         if any(np.linalg.norm(p_W - q) < radius + r + DISH_GAP for q, r in placed):
             continue
         placed.append((p_W, radius))
@@ -95,8 +112,40 @@ def _sample_chairs(base: Scenario, dishes: list[Dish], rng: np.random.Generator)
     return chairs
 
 
-def generate_task(base: Scenario, seed: int, index: int) -> Scenario:
-    """Task `index` of the set drawn with `seed`; the same arguments give the same task."""
+def _sample_places(task: Scenario, count: int, rng: np.random.Generator) -> Scenario:
+    """`task` with `count` of its cups to be put down at random spots on another table's
+    top, clear of the objects and of each other, instead of collected."""
+    cups = [i for i, d in enumerate(task.dishes) if d.kind == "cup"]
+    if len(cups) < count:
+        raise GenerationError(f"{len(cups)} cups for {count} places")
+    dishes = list(task.dishes)
+    taken = [dish_footprint(d.position, d.kind).buffer(DISH_GAP) for d in dishes]
+    for i in sorted(rng.choice(cups, size=count, replace=False).tolist()):
+        cup = dishes[i]
+        for _ in range(MAX_TRIES):
+            table = task.tables[int(rng.integers(len(task.tables)))]
+            if table.name == cup.table:
+                continue
+            p_W = spot_on_table(table, DISH_SHAPES["cup"].radius, rng)
+            if p_W is None:
+                continue
+            shape = dish_footprint(list(p_W), "cup")
+            if any(shape.intersects(t) for t in taken):
+                continue
+            taken.append(shape.buffer(DISH_GAP))
+            dishes[i] = replace(cup, goal="place", place=Place(
+                table=table.name, position=[round(float(v), 4) for v in p_W]))
+            break
+        else:
+            raise GenerationError(f"no free place for {cup.name}")
+    return replace(task, dishes=dishes)
+
+
+def generate_task(base: Scenario, seed: int, index: int, places: int = 0) -> Scenario:
+    """Task `index` of the set drawn with `seed`; the same arguments give the same task.
+    With `places`, that many of its cups are to be put down on another table instead of
+    collected (mixed tasks); the rest is the task without places, unless that one has too
+    few cups, and another is drawn."""
     rng = np.random.default_rng([seed, index])
     for _ in range(100):
         try:
@@ -109,5 +158,22 @@ def generate_task(base: Scenario, seed: int, index: int) -> Scenario:
             validate_scenario(task)
         except ScenarioError:
             continue
+        if places:
+            # Their own stream: where the task has cups enough, it is the task without places.
+            try:
+                return _with_places(task, places, np.random.default_rng([seed, index, PLACES]))
+            except GenerationError:
+                continue
         return task
     raise GenerationError(f"could not generate task {index} with seed {seed}")
+
+
+def _with_places(task: Scenario, count: int, rng: np.random.Generator) -> Scenario:
+    for _ in range(100):
+        try:
+            mixed = _sample_places(task, count, rng)
+            validate_scenario(mixed)
+        except (GenerationError, ScenarioError):
+            continue
+        return mixed
+    raise GenerationError(f"could not place {count} cups in this task")

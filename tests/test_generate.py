@@ -47,7 +47,8 @@ def test_a_task_depends_only_on_seed_and_index():
     assert generate_task(base, 7, 5) != generate_task(base, 7, 6)
 
 
-@pytest.mark.parametrize("args", [["--count", "0"], ["--seed", "-1"], ["--count", "x"]])
+@pytest.mark.parametrize("args", [["--count", "0"], ["--seed", "-1"], ["--count", "x"],
+                                  ["--places", "4"], ["--places", "-1"]])
 def test_bad_arguments_exit_2_and_write_nothing(args, tmp_path, capsys):
     out = tmp_path / "tasks"
     with pytest.raises(SystemExit) as info:
@@ -71,3 +72,26 @@ def test_shipped_benchmark_tasks_are_what_the_generator_makes(tmp_path):
         # studies' stored runs.
         assert parse_scenario(made) == parse_scenario(kept)
         assert "generate --seed 0`" in kept.split("\n", 1)[0]
+
+
+def test_mixed_tasks_put_cups_down_on_another_table(tmp_path):
+    """--places 1: one cup of each task is to be put down at a free spot on another table;
+    where the task had a cup, it is otherwise the collect-only task."""
+    assert generate_main(["--count", "6", "--seed", "0", "--places", "1", "--out",
+                          str(tmp_path), "--quiet"]) == 0
+    base = load_scenario(BASE)
+    same = 0
+    for i in range(6):
+        path = tmp_path / f"task_{i:03d}.yaml"
+        assert "--places 1" in path.read_text().splitlines()[0]
+        task = load_scenario(path)  # validates the places: on a top, clear of the objects
+        (cup,) = [d for d in task.dishes if d.goal == "place"]
+        assert cup.kind == "cup" and cup.place.table not in ("", cup.table)
+        assert all(d.goal == "collect" for d in task.dishes if d is not cup)
+        plain = generate_task(base, 0, i)
+        if [d.name for d in plain.dishes] == [d.name for d in task.dishes]:
+            same += 1
+            assert task.chairs == plain.chairs
+            assert [(d.position, d.kind) for d in task.dishes] == [
+                (d.position, d.kind) for d in plain.dishes]
+    assert same >= 4

@@ -24,7 +24,6 @@ Exit status: 0 when the targets are met, 1 when one is missed, 2 on bad input (o
 on stderr).
 """
 
-import math
 import sys
 import time
 from dataclasses import replace
@@ -42,7 +41,7 @@ from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.furniture import DISH_SHAPES, RESTAURANT_KINDS
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.scenario import Dish, Scenario, ScenarioError, validate_scenario
-from s3o_drake.task_generation import DEFAULT_BASE, DISH_GAP, EDGE_MARGIN
+from s3o_drake.task_generation import DEFAULT_BASE, DISH_GAP, spot_on_table
 
 TARGETS = {7: 1.0, 30: 5.0}  # dishes -> seconds
 MAX_TRIES = 10_000
@@ -66,13 +65,9 @@ def with_dish_count(base: Scenario, count: int, seed: int, *,
         top = tables[int(rng.integers(len(tables)))]
         kind = RESTAURANT_KINDS[int(rng.integers(len(RESTAURANT_KINDS)))]
         radius = DISH_SHAPES[kind].radius
-        half = np.array(top.size[:2]) / 2 - radius - EDGE_MARGIN
-        if np.any(half <= 0):
+        p_W = spot_on_table(top, radius, rng)
+        if p_W is None:
             continue
-        p_T = rng.uniform(-half, half)
-        c, s = math.cos(top.yaw), math.sin(top.yaw)
-        p_W = np.array(top.center) + np.array([c * p_T[0] - s * p_T[1],
-                                                 s * p_T[0] + c * p_T[1]])
         if any(np.linalg.norm(p_W - q) < radius + r + DISH_GAP for q, r in placed):
             continue
         k = 1
