@@ -73,10 +73,7 @@ class FreeStops:
         """Whether the base at each position of `points` (n, 2), facing `dish`, is
         collision-free in the known world: bool (n,)."""
         points = np.asarray(points, dtype=float).reshape(-1, 2)
-        if len(points) == 0:
-            return np.zeros(0, dtype=bool)
-        yaw = facing_yaw(points, self._p_WD[dish])
-        return self._checker.base_free(np.column_stack([points, yaw]))
+        return self.free_facing(points, [dish] * len(points))
 
     def free_facing(self, points: np.ndarray, dishes: Sequence[str]) -> np.ndarray:
         """`free`, each position of `points` (n, 2) facing its own dish of `dishes` (n),
