@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 from s3o_drake.choices import Goal
 from s3o_drake.furniture import DISH_SHAPES
-from s3o_drake.scenario import Dish, Scenario
+from s3o_drake.scenario import Dish, Scenario, surface_height
 
 PLACE_SUFFIX = "__place"
 """Ends the name of a place target (`place_target_name`); names in a scenario hold no
@@ -76,7 +76,8 @@ def place_targets(scenario: Scenario) -> list[PlaceTarget]:
             under = by_name[place.onto]
             out.append(PlaceTarget(dish.name, dish.kind, under.table,
                                    (float(under.position[0]), float(under.position[1])),
-                                   heights[under.table] + DISH_SHAPES[under.kind].height,
+                                   surface_height(scenario, under)
+                                   + DISH_SHAPES[under.kind].height,
                                    onto=under.name))
         else:
             out.append(PlaceTarget(dish.name, dish.kind, place.table,
