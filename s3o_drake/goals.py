@@ -15,10 +15,14 @@ with (`scenario_checks`).
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Container, Sequence
 from dataclasses import dataclass
 
+from shapely.geometry import Point
+
 from s3o_drake.choices import Goal
-from s3o_drake.furniture import DISH_SHAPES
+from s3o_drake.furniture import DISH_SHAPES, dish_footprint, table_footprint
 from s3o_drake.scenario import Dish, Scenario, surface_height
 
 PLACE_SUFFIX = "__place"
@@ -84,3 +88,34 @@ def place_targets(scenario: Scenario) -> list[PlaceTarget]:
                                    (float(place.position[0]), float(place.position[1])),
                                    heights[place.table]))
     return out
+
+
+def place_target_dishes(scenario: Scenario) -> list[Dish]:
+    """The place target of each object to place as an object of its kind standing there
+    (`PlaceTarget.as_dish`), in the scenario's order."""
+    heights = {t.name: t.height for t in scenario.tables}
+    return [t.as_dish(heights[t.table]) for t in place_targets(scenario)]
+
+
+def with_place_targets(scenario: Scenario) -> Scenario:
+    """`scenario` with its place targets among the dishes (`place_target_dishes`): what the
+    arm's checks of putting an object down are made in."""
+    return dataclasses.replace(scenario,
+                               dishes=[*scenario.dishes, *place_target_dishes(scenario)])
+
+
+def surface_below(scenario: Scenario, p_W: Sequence[float], *,
+                  ignore: Container[str] = ()) -> float:
+    """World z (m) of the highest surface under the point (x, y) of `p_W` (z ignored): the
+    top of an object that stays (`Goal.STAY`) whose footprint holds the point, else the top
+    of a table whose top holds it, else the floor (0). What an object let go at (x, y)
+    comes to stand on; objects named in `ignore` are not surfaces."""
+    point = Point(float(p_W[0]), float(p_W[1]))
+    heights = [0.0]
+    heights += [t.height for t in scenario.tables
+                if table_footprint(t.center, t.yaw, t.size).covers(point)]
+    heights += [surface_height(scenario, d) + DISH_SHAPES[d.kind].height
+                for d in scenario.dishes
+                if d.goal == Goal.STAY.value and d.name not in ignore
+                and dish_footprint(d.position, d.kind).covers(point)]
+    return max(heights)

@@ -26,7 +26,7 @@ from shapely.ops import unary_union
 
 from s3o_drake.choices import Goal
 from s3o_drake.furniture import chair_footprint, table_footprint
-from s3o_drake.goals import place_targets, placed_object
+from s3o_drake.goals import place_target_dishes, placed_object
 from s3o_drake.scenario import Chair, Dish, Scenario
 
 Pose2 = tuple[float, float, float]
@@ -105,27 +105,33 @@ class KnownWorld:
     overhead: OverheadImages | None = field(default=None, compare=False)
     fixtures: tuple[Dish, ...] = ()
     """The objects that stay where they are (a plate something goes onto): obstacles only."""
+    held: str = ""
+    """The object in the gripper ("" for none): an object to place, picked already; the
+    plan is for its place target only."""
 
     @classmethod
     def of(cls, scenario: Scenario, *, perceived_chairs: Iterable[Sequence[float]],
            pose: Sequence[float] | None = None, dishes: Iterable[str] | None = None,
-           overhead: OverheadImages | None = None) -> KnownWorld:
+           overhead: OverheadImages | None = None, held: str = "") -> KnownWorld:
         """The robot's knowledge in `scenario` with these perceived chairs, standing at
         `pose` (default: the scenario's start) with the objects `dishes` left (default:
-        all) and the place targets of those to place."""
+        all) and the place targets of those to place; `held` (one of `dishes`) is in the
+        gripper, so only its place target is planned for."""
         left = None if dishes is None else set(dishes)
         kept = [d for d in scenario.dishes if d.goal != Goal.STAY.value
-                and (left is None or d.name in left)]
-        heights = {t.name: t.height for t in scenario.tables}
-        kept += [t.as_dish(heights[t.table]) for t in place_targets(scenario)
-                 if left is None or t.name in left]
+                and (left is None or d.name in left) and d.name != held]
+        targets = {placed_object(t.name): t for t in place_target_dishes(scenario)}
+        kept += [t for name, t in targets.items() if left is None or name in left]
+        if held and held not in targets:
+            raise ValueError(f"held: {held!r} is no object to place")
         here = _pose(scenario.robot.start if pose is None else pose)
         settings = dataclasses.replace(
             scenario, chairs=[c for c in scenario.chairs if c.mapped], dishes=[],
             robot=dataclasses.replace(scenario.robot, start=list(here)))
         return cls(settings=settings, perceived_chairs=tuple(_pose(p) for p in perceived_chairs),
                    dishes=tuple(kept), pose=here, overhead=overhead,
-                   fixtures=tuple(d for d in scenario.dishes if d.goal == Goal.STAY.value))
+                   fixtures=tuple(d for d in scenario.dishes if d.goal == Goal.STAY.value),
+                   held=held)
 
     @classmethod
     def perfect(cls, scenario: Scenario, **kwargs) -> KnownWorld:

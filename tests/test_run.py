@@ -5,6 +5,7 @@ import contextlib
 import dataclasses
 import io
 import json
+import math
 import re
 import shutil
 import subprocess
@@ -12,11 +13,13 @@ import sys
 from pathlib import Path
 
 import cv2
+import numpy as np
 import pytest
 
 from s3o_drake.angles import facing_yaw, wrap
 from s3o_drake.commands.run import main as run_main
 from s3o_drake.execution.messages import PickupRecord
+from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.scenario import dump_scenario, load_scenario
 
@@ -278,17 +281,55 @@ def test_after_a_replan_the_outputs_show_the_latest_plan(tmp_path, monkeypatch, 
         in printed
 
 
-def test_goals_not_yet_carried_out_are_bad_input_not_collected(tmp_path, capsys):
-    """scenarios/tidy_home.yaml has an apple to place and a plate that stays: until they are
-    planned, run says so (exit 2, one line, nothing written) and execute() refuses."""
-    out = tmp_path / "out"
-    with pytest.raises(SystemExit) as info:
-        run_main([str(REPO / "scenarios" / "tidy_home.yaml"), "--out", str(out)])
-    assert info.value.code == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "dishes[2].goal: place goals" in err
-    assert not out.exists()
-    from s3o_drake.execution.execute import execute
+@pytest.fixture(scope="module")
+def tidy_run(tmp_path_factory):
+    """scenarios/tidy_home.yaml run as the README shows, with the simulated noise."""
+    out = tmp_path_factory.mktemp("tidy") / "run"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        status = run_main([str(REPO / "scenarios" / "tidy_home.yaml"), "--out", str(out)])
+    return status, out, printed.getvalue()
 
-    with pytest.raises(ValueError, match="apple"):
-        execute(load_scenario(REPO / "scenarios" / "tidy_home.yaml"), meshcat=None)
+
+def test_tidy_home_picks_at_one_stop_and_puts_the_apple_down_at_another(tidy_run):
+    status, out, printed = tidy_run
+    assert status == 0, printed
+    plan = TaskMotionPlan.from_json((out / "plan.json").read_text())
+    stop, stops = 0, {}
+    for action in plan.actions:
+        stop += type(action).__name__ == "Goto"
+        stops.setdefault(type(action).__name__, []).append((stop, getattr(action, "dish", "")))
+    picked = next(k for k, dish in stops["Pickup"] if dish == "apple")
+    (put,) = stops["Place"]
+    assert put[1] == "apple" and put[0] > picked
+    # Other objects are picked where the apple is: one stop holds picks of two kinds.
+    assert [d for k, d in stops["Pickup"] if k == picked] == ["can_1", "can_2", "apple"]
+    report = json.loads((out / "report.json").read_text())
+    assert (report["dishes"], report["collected"], report["placed"]) == (4, 3, 1)
+    (placement,) = report["placements"]
+    plate = load_scenario(REPO / "scenarios" / "tidy_home.yaml").dishes[3]
+    assert plate.name == "plate" and placement["target"][:2] == plate.position
+    assert placement["placed"] and placement["error"] <= 0.03 and placement["upright"]
+    assert "apple stands at its place" in printed and \
+        "plan ended: every object collected or placed" in printed
+
+
+def test_the_playback_ends_with_the_apple_on_the_plate(tidy_run):
+    """The playback's recording (Meshcat's animation in playback.html, msgpack-encoded)
+    ends with the apple standing on the plate's top, where the report says it stands."""
+    msgpack = pytest.importorskip("msgpack")
+    _, out, _ = tidy_run
+    html = (out / "playback.html").read_text()
+    messages = [msgpack.unpackb(base64.b64decode(data), strict_map_key=False)
+                for data in re.findall(
+                    r'fetch\("data:application/octet-binary;base64,([A-Za-z0-9+/=]+)"\)', html)]
+    (animation,) = [m for m in messages if m.get("type") == "set_animation"]
+    (apple,) = [a for a in animation["animations"] if a["path"].endswith("/apple")]
+    track = next(t for t in apple["clip"]["tracks"] if t["name"] == ".position")
+    first, last = track["keys"][0]["value"], track["keys"][-1]["value"]
+    np.testing.assert_allclose(first, [1.75, 4.0, 0.75], atol=1e-6)  # on the coffee table
+    plate_top = 0.75 + DISH_SHAPES["plate"].height
+    assert math.hypot(last[0] - 4.95, last[1] - 3.75) <= 0.03 and last[2] == \
+        pytest.approx(plate_top)
+    report = json.loads((out / "report.json").read_text())
+    np.testing.assert_allclose(last, report["placements"][0]["final"], atol=1e-9)

@@ -26,10 +26,14 @@ from pydrake.systems.primitives import (
 
 from s3o_drake.execution.arm_controller import REACH_NOISE_STREAM, ArmController
 from s3o_drake.execution.messages import CommandState, PickCommand, Status
+from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import RIM_INSET
 from s3o_drake.feasibility.pickup_geometry import grasp_tolerance
+from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.furniture import DISH_SHAPES
+from s3o_drake.goals import with_place_targets
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.scenario import Place
 from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.dish_messages import DishPoses, DishState, GripEvent
 
@@ -225,6 +229,67 @@ def test_no_reach_noise_is_reported_with_the_noise_off(scenario, scene, checker)
     _step(arm, context, 0.0)
     status = _outputs(arm, context)[2]
     assert status.state is CommandState.FAILED and status.reach_noise is None
+
+
+# ------------------------------------------------------------------------ placing
+
+@pytest.fixture(scope="module")
+def tidy(scenario):
+    """two_dishes with the cup to put onto the plate, which stays; the scene and checker
+    hold the cup's place target (a cup standing on the plate)."""
+    plate, cup = scenario.dishes
+    scenario = dataclasses.replace(scenario, dishes=[
+        dataclasses.replace(plate, goal="stay"),
+        dataclasses.replace(cup, goal="place", place=Place(onto="plate_a"))])
+    scene = FeasibilityScene(with_place_targets(scenario))
+    return scenario, scene, FeasibilityChecker(scene)
+
+
+def test_an_object_to_place_is_held_then_put_down_at_its_place(tidy):
+    scenario, scene, checker = tidy
+    arm, context = _controller(scenario, scene, checker, noise=False)
+    _fix_robot(arm, context)
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="cup_b"))
+    record = _play(arm, context, 0.0)
+    t_end, last, grip, status = record[-1]
+    # Picked and kept: still in the gripper, not on the tray.
+    assert status == Status(1, CommandState.DONE)
+    assert grip == GripEvent("cup_b") and all(r[2].placed == () for r in record)
+    np.testing.assert_allclose(last[6:8], 0.0, atol=1e-6)  # the fingers stay closed
+    # The gripper is busy: another pickup fails; a place of what it does not hold too.
+    q_held = np.concatenate([FRONT_OF_PLATE, last[:8]])
+    arm.GetInputPort("robot_state").FixValue(
+        context, np.concatenate([q_held, np.zeros(NUM_POSITIONS)]))
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=2, dish="plate_a"))
+    _step(arm, context, t_end + 0.1)
+    assert _outputs(arm, context)[2] == Status(2, CommandState.FAILED, "hand_full")
+    arm.GetInputPort("pick_command").FixValue(
+        context, PickCommand(id=3, dish="plate_a", place=True))
+    _step(arm, context, t_end + 0.2)
+    assert _outputs(arm, context)[2] == Status(3, CommandState.FAILED, "unknown_dish")
+    # Put down onto the plate: the gripper lets go at the cup's place, and ends open.
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=4, dish="cup_b",
+                                                                   place=True))
+    record = _play(arm, context, t_end + 0.3)
+    assert record[0][3] == Status(4, CommandState.RUNNING)
+    held = [r for r in record if r[2].dish == "cup_b"]
+    assert held and held[0] is record[0]  # held from the start until the release
+    _, desired, grip, status = record[-1]
+    assert status == Status(4, CommandState.DONE)
+    assert grip == GripEvent("", (), ("cup_b",))
+    np.testing.assert_allclose(desired[6:8], GRIPPER_OPEN, atol=1e-6)
+    # Where it let go: the grasp frame as at a grasp of the place target, the cup
+    # standing on the plate's top.
+    release = next(r for r in record if r[2].put)[1]
+    X_WG = scene.grasp_pose(np.concatenate([FRONT_OF_PLATE, release[:8]]))
+    target = next(d for d in scene.dishes.values() if d.name == "cup_b__place")
+    assert target.position == [1.85, 2.3]
+    np.testing.assert_allclose(X_WG.translation()[:2], target.position, atol=0.005)
+    # A place needs the object in the gripper.
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=5, dish="cup_b",
+                                                                   place=True))
+    _step(arm, context, record[-1][0] + 0.1)
+    assert _outputs(arm, context)[2] == Status(5, CommandState.FAILED, "not_held")
 
 
 # ------------------------------------------------------------------------- simulated

@@ -2,7 +2,9 @@
 
 import base64
 import copy
+import dataclasses
 import json
+import math
 import re
 
 import numpy as np
@@ -16,6 +18,7 @@ from pydrake.systems.primitives import ConstantVectorSource
 
 from s3o_drake.camera import overhead_camera
 from s3o_drake.furniture import DISH_SHAPES
+from s3o_drake.goals import surface_below
 from s3o_drake.robot import (
     ARM_STOW,
     GRASP_FRAME,
@@ -25,23 +28,19 @@ from s3o_drake.robot import (
     robot_desired_state,
     robot_positions,
 )
+from s3o_drake.scenario import Place
 from s3o_drake.world.builder import build_world_diagram, populate_plant, robot_hold_state
 from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
-from s3o_drake.world.object_tracker import AddObjectTracker
+from s3o_drake.world.object_tracker import STANDING_TILT, AddObjectTracker
 
 ARM_REACHING = np.array([0.3, -0.6, 1.2, -2.2, -1.571, 0.4])
 
 
 @pytest.fixture(scope="module")
 def tracker_and_plant(scenario):
-    builder = DiagramBuilder()
-    plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.0), builder)
-    models = populate_plant(plant, scene_graph, scenario, dishes=False)
-    plant.Finalize()
-    tracker = AddObjectTracker(builder, scenario=scenario, plant=plant, robot=models.robot,
-                               scene_graph=scene_graph)
-    diagram = builder.Build()  # owns the systems: held until the module's tests are done
-    yield tracker, plant, models.robot
+    diagram, tracker, plant, robot = _tracker_of(scenario)
+    # The diagram owns the systems: held until the module's tests are done.
+    yield tracker, plant, robot
     del diagram
 
 
@@ -175,6 +174,24 @@ def test_gripped_dish_follows_the_grasp_frame_then_lands_on_the_tray(tracker_and
     assert driver.states()["plate_a"] is DishState.TRAY
 
 
+def test_a_cup_gripped_off_centre_is_pushed_between_the_fingers(tracker_and_plant):
+    """The fingers close along G's y axis on a cup held whole: it moves to y = 0 in G and
+    keeps its offset along the pads (x) and the approach (z); a plate, pinched at the rim,
+    stays where it was caught."""
+    tracker, plant, robot = tracker_and_plant
+    q = robot_positions(1.5, 1.8, 0.5, ARM_REACHING)
+    X_WG, _ = _frames(plant, robot, q)
+    for dish in ("cup_b", "plate_a"):
+        driver = _Driver(tracker)
+        X_GD_before = X_WG.inverse() @ driver.poses()[dish]
+        assert abs(X_GD_before.translation()[1]) > 0.05  # far off the fingers' middle
+        driver.set(q, GripEvent(dish=dish))
+        driver.update()
+        p_GD = (X_WG.inverse() @ driver.poses()[dish]).translation()
+        expected = X_GD_before.translation() * ([1, 0, 1] if dish == "cup_b" else 1)
+        np.testing.assert_allclose(p_GD, expected, atol=1e-9)
+
+
 def test_released_dish_not_placed_drops_to_the_floor(tracker_and_plant):
     tracker = tracker_and_plant[0]
     driver = _Driver(tracker)
@@ -195,6 +212,55 @@ def test_released_dish_not_placed_drops_to_the_floor(tracker_and_plant):
     driver.set(robot_positions(0.5, 0.5, 0.0), GripEvent())
     driver.update()
     _assert_same_pose(driver.poses()["cup_b"], X_WD)
+
+
+def _tracker_of(scenario):
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.0), builder)
+    models = populate_plant(plant, scene_graph, scenario, dishes=False)
+    plant.Finalize()
+    tracker = AddObjectTracker(builder, scenario=scenario, plant=plant, robot=models.robot,
+                               scene_graph=scene_graph)
+    return builder.Build(), tracker, plant, models.robot
+
+
+def test_an_object_put_down_stands_on_the_surface_below_where_it_was_let_go(scenario):
+    """The cup's goal is to go onto the plate, which stays: let go above the plate it stands
+    on the plate's top; let go above the bare table, on the table's top, upright; tilted
+    too far, it is left tilted (the report says it is not upright)."""
+    plate, cup = scenario.dishes
+    tidy = dataclasses.replace(scenario, dishes=[
+        dataclasses.replace(plate, goal="stay"),
+        dataclasses.replace(cup, goal="place", place=Place(onto="plate_a"))])
+    diagram, tracker, _, _ = _tracker_of(tidy)
+    plate_top = 0.75 + DISH_SHAPES["plate"].height
+    grasp = robot_positions(1.5, 1.8, 0.5, ARM_REACHING)
+    bent = ARM_REACHING + np.array([0.0, 0.0, 0.0, 0.0, 0.5, 0.0])  # wrist 2 turned
+    # The held cup moves with the base: a base shifted by d moves it by d.
+    for target, arm, surface, upright in (((1.85, 2.3), ARM_REACHING, plate_top, True),
+                                          ((2.3, 2.6), ARM_REACHING, 0.75, True),
+                                          ((2.3, 2.6), bent, 0.75, False)):
+        driver = _Driver(tracker)
+        driver.set(grasp, GripEvent(dish="cup_b"))
+        driver.update()
+        q = robot_positions(1.5, 1.8, 0.5, arm)
+        driver.set(q, GripEvent(dish="cup_b"))
+        p = driver.poses()["cup_b"].translation()
+        q[:2] += np.asarray(target) - p[:2]
+        driver.set(q, GripEvent(dish="cup_b"))
+        X_held = driver.poses()["cup_b"]
+        np.testing.assert_allclose(X_held.translation()[:2], target, atol=1e-9)
+        assert surface_below(tidy, target) == pytest.approx(surface)
+        assert (X_held.rotation().matrix()[2, 2] >= math.cos(STANDING_TILT)) == upright
+        driver.set(q, GripEvent(put=("cup_b",)))
+        driver.update()
+        assert driver.states() == {"plate_a": DishState.TABLE, "cup_b": DishState.PLACED}
+        X_WD = driver.poses()["cup_b"]
+        np.testing.assert_allclose(X_WD.translation(), [*target, surface], atol=1e-9)
+        np.testing.assert_allclose(X_WD.rotation().col(2),
+                                   [0, 0, 1] if upright else X_held.rotation().col(2),
+                                   atol=1e-9)
+    del diagram
 
 
 def test_tracker_in_a_periodic_simulation_picks_up_when_gripped(tracker_and_plant):

@@ -45,6 +45,14 @@ def _context(system, scenario):
     return context
 
 
+def _land(system, context, goto):
+    """The base reports the drive out done, landed exactly at `goto`'s pose."""
+    command = system.GetOutputPort("base_command").Eval(context)
+    system.GetInputPort("base_status").FixValue(context, Status(command.id, "done"))
+    system.GetInputPort("robot_state").FixValue(
+        context, robot_desired_state(robot_positions(*goto.pose)))
+
+
 def _step(system, context):
     system.CalcForcedUnrestrictedUpdate(context, context.get_mutable_state())
 
@@ -260,3 +268,44 @@ def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
     assert blocked.actual_pose == pytest.approx(stopped)
     assert blocked.planned_pose == done.planned_pose == pytest.approx(goto.pose)
     assert blocked.predicted == second.feasibility
+
+
+def test_a_replan_while_an_object_to_place_is_held_puts_it_down_first():
+    """tidy_home: the apple is picked (held, not on the tray); a replan then plans the
+    apple's place without picking it again, before the can that remains (the gripper is
+    busy until then). The place is sent to the arm as a PickCommand with `place`."""
+    tidy = _with_oracle(load_scenario("scenarios/tidy_home.yaml"))
+    system = S3OPlanner(scenario=tidy, method="V-GROP*", seed=0,
+                        perceive=scenario_unmapped_chairs(tidy))
+    context = _context(system, tidy)
+    system.GetInputPort("replan_request").FixValue(context, [0.0])
+    system.ExecuteInitializationEvents(context)
+    plan = system.GetOutputPort("plan").Eval(context)
+    apple = plan.actions.index(next(a for a in plan.pickups if a.dish == "apple"))
+    for action in plan.actions[:apple + 1]:
+        _step(system, context)
+        if isinstance(action, Goto):
+            _land(system, context, action)
+        else:
+            command = system.GetOutputPort("pick_command").Eval(context)
+            assert command.dish == action.dish and not command.place
+            system.GetInputPort("arm_status").FixValue(context, Status(command.id, "done"))
+        _step(system, context)
+    picked = {d for action, d, outcome in system.GetOutputPort("progress").Eval(context).outcomes
+              if action == "pickup" and outcome == "done"}
+    assert "apple" in picked and "can_3" not in picked
+    system.GetInputPort("replan_request").FixValue(context, [1.0])
+    _step(system, context)
+    replanned = system.GetOutputPort("plan").Eval(context)
+    kinds = [(type(a).__name__, getattr(a, "dish", "")) for a in replanned.actions]
+    assert ("Pickup", "apple") not in kinds and ("Pickup", "can_3") in kinds
+    assert kinds.index(("Place", "apple")) < kinds.index(("Pickup", "can_3"))
+    assert {a.dish for a in replanned.pickups} == {"can_3"} - picked
+    # Walk to the place: the arm is told to put the apple down.
+    for action in replanned.actions[:kinds.index(("Place", "apple")) + 1]:
+        _step(system, context)
+        if isinstance(action, Goto):
+            _land(system, context, action)
+            _step(system, context)
+    command = system.GetOutputPort("pick_command").Eval(context)
+    assert command.dish == "apple" and command.place

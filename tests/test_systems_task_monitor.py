@@ -2,9 +2,11 @@
 
 import dataclasses
 import json
+import math
 
 import pytest
 from pydrake.common.value import AbstractValue
+from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource
@@ -20,7 +22,8 @@ from s3o_drake.execution.messages import (
     Status,
 )
 from s3o_drake.execution.task_monitor import TaskMonitor
-from s3o_drake.world.dish_messages import DishState, DishStates
+from s3o_drake.goals import PlaceTarget
+from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates
 
 STATES = DishStates({"plate_a": DishState.TRAY, "cup_b": DishState.DROPPED,
                      "bowl_c": DishState.TRAY, "plate_d": DishState.TABLE})
@@ -59,10 +62,42 @@ def test_report_counts_the_dishes_on_the_tray():
     report = monitor.GetOutputPort("report").Eval(context)
     assert isinstance(report, RunReport)
     assert report.to_dict() == {
-        "dishes": 4, "collected": 2, "collected_dishes": ["bowl_c", "plate_a"],
+        "dishes": 4, "collected": 2, "placed": 0, "completed": 2,
+        "collected_dishes": ["bowl_c", "plate_a"], "placements": [],
         "execution_time": 3.0, "finished": False, "reason": "", "outcomes": [], "pickups": [],
         "recoveries": [], "unreachable": [],
         "plans": [{"planning_time": 2.5, "feasibility_time": 0.5, "budget": 5.0}]}
+
+
+def test_each_object_to_place_is_judged_against_its_target():
+    """The apple's place is on the plate, which stays (no goal, not counted): within 3 cm,
+    upright and on the plate's top it is placed; 4 cm off, tilted, on the table beside
+    the plate, or still in the gripper, it is not."""
+    target = PlaceTarget("apple", "apple", "dining", (4.95, 3.75), 0.775, onto="plate")
+    monitor = TaskMonitor(places=[target], fixtures=["plate"])
+    context = monitor.CreateDefaultContext()
+    upright, tilted = RotationMatrix.MakeZRotation(0.7), RotationMatrix.MakeXRotation(0.4)
+    for state, R, p, placed in ((DishState.PLACED, upright, [4.97, 3.74, 0.775], True),
+                                (DishState.PLACED, upright, [4.99, 3.75, 0.775], False),
+                                (DishState.PLACED, tilted, [4.95, 3.75, 0.775], False),
+                                (DishState.PLACED, upright, [4.95, 3.75, 0.75], False),
+                                (DishState.GRIPPER, upright, [4.95, 3.75, 0.775], False)):
+        _fixed(monitor, context, DONE, DishStates({"can": DishState.TRAY, "apple": state,
+                                                   "plate": DishState.TABLE}))
+        monitor.GetInputPort("dish_poses").FixValue(context, DishPoses({
+            "can": RigidTransform(), "apple": RigidTransform(R, p),
+            "plate": RigidTransform([4.95, 3.75, 0.75])}))
+        report = monitor.GetOutputPort("report").Eval(context)
+        (placement,) = report.placements
+        assert placement.placed == placed, (state, p)
+        assert placement.upright == (R is upright)
+        assert placement.error == pytest.approx(math.hypot(p[0] - 4.95, p[1] - 3.75))
+        assert (report.dishes, report.collected, report.placed, report.completed) == \
+            (2, 1, int(placed), 1 + placed)
+        data = json.loads(json.dumps(report.to_dict()))
+        assert data["placements"][0] == {
+            "object": "apple", "target": [4.95, 3.75, 0.775], "state": str(state),
+            "final": p, "error": placement.error, "upright": R is upright, "placed": placed}
 
 
 def test_execution_time_is_when_the_plan_finished():

@@ -1,5 +1,6 @@
 """The clingo task planner: valid plans, optimal order, N-best, errors, time limit."""
 
+import dataclasses
 import itertools
 import time
 
@@ -247,3 +248,27 @@ def test_check_plan_holds_the_gripper_and_the_place():
     with pytest.raises(ValueError, match=r"\['apple'\] not collected or placed"):
         check_plan(problem, [("goto", "l0"), ("pickup", "can_1"), ("pickup", "can_2"),
                              ("goto", "l2"), ("pickup", "can_3")])
+
+
+def test_an_object_held_at_the_start_is_put_down_without_a_pickup():
+    """A replan while the apple is in the gripper: it stands at no location, the plan
+    drives to its place and puts it down before it picks anything."""
+    problem = dataclasses.replace(_tidy({"apple": "l1"}), held="apple",
+                                  dishes={"can_1": "l0", "can_2": "l0", "apple": None,
+                                          "can_3": "l2"})
+    best = plan_tasks(problem, time_limit=10.0).best
+    assert ("pickup", "apple") not in best.actions
+    assert best.actions[:2] == (("goto", "l1"), ("place", "apple"))
+    assert check_plan(problem, best.actions) == best.cost
+    with pytest.raises(ValueError, match=r"pickup\(can_1\) while the gripper holds apple"):
+        check_plan(problem, [("goto", "l0"), ("pickup", "can_1"), ("pickup", "can_2")])
+
+
+def test_plan_problem_reads_the_held_object_off_its_place_target():
+    """The known world of a replan holds the apple's place target but not the apple."""
+    groups = [("can_1", "can_2"), ("apple__place",), ("can_3",)]
+    costs = {(a, b): 10.0 for a in ("start", "l0", "l1", "l2")
+             for b in ("l0", "l1", "l2") if a != b}
+    best = plan_problem(groups, costs, places={"apple": "apple__place"}).best
+    assert best.actions.index(("place", "apple")) == 1
+    assert ("pickup", "apple") not in best.actions

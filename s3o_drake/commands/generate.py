@@ -11,7 +11,7 @@ start stays free; each task passes the same validation as a hand-written scenari
 Mixed collect-and-place tasks (the tidy-home tasks, docs/planning.md): with --places N, N
 cups of each task are to be put down at a random free spot on another table instead of
 collected (drawn from a stream of their own: where the task has N cups, it is otherwise
-the task --places 0 gives). Place goals are planned but not yet executed.
+the task --places 0 gives).
 
 Files are named task_000.yaml, task_001.yaml, ...; task i depends only on --seed and i,
 so the same seed gives the same files, and a larger --count extends a smaller one.

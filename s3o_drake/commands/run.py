@@ -15,7 +15,10 @@ are S3O-GROP*, S3O-GROP, V-GROP*, V-GROP, V-PETLON and S3O-Random). The Simulato
 executes the plan: the base navigator drives each path and lands with the navigation noise,
 the arm controller plans and runs each pickup (IK, OMPL RRT-Connect on Drake's collision
 checker) with the reaching noise and puts the dish on the tray, the object tracker carries
-the dishes, and the task monitor ends the run when the plan has ended. Execution time is
+the dishes, and the task monitor ends the run when the plan has ended. An object whose goal
+is place (scenarios/tidy_home.yaml) is held in the gripper instead and put down at its place
+(approach, lower, release, retreat); the report says how far from its place it stands and
+whether upright (placed: within 3 cm, upright, on the place's surface). Execution time is
 simulated time. The planner never reads the unmapped chairs from the scenario: it finds
 them in the overhead camera's depth image (s3o_drake.perception).
 
@@ -33,7 +36,8 @@ Outputs, in `out/<scenario file stem>/` unless --out or `outputs.directory` says
                   record per executed pickup (predicted Fea^m and its source, planned and
                   real stop, outcome, reach noise, attempt; read by
                   `python -m s3o_drake.commands.calibration`), each recovery (what failed,
-                  what was done, its simulated cost) and the unreachable dishes
+                  what was done, its simulated cost), the unreachable dishes, and
+                  each object to place against its place (placements)
   plan.json       the task-motion plan (actions, base poses, paths, expected utility,
                   predicted time, Fea^m per pickup, planning time and its breakdown)
   playback.html   a self-contained Meshcat recording of the execution; open it in a browser
@@ -48,9 +52,10 @@ Outputs, in `out/<scenario file stem>/` unless --out or `outputs.directory` says
                   location l2), which dish from which stop
   search.png      the winning CMA-ES search's first and last generation (the paper's Fig. 4)
 
-Exit status: 0 when every dish was collected, 1 when the task was not completed (no plan,
-a failed pickup or a blocked drive: the summary says which), 2 on bad input (one line on
-stderr naming the field; nothing is written).
+Exit status: 0 when every dish was collected (and every object to place placed), 1 when
+the task was not completed (no plan, a failed pickup or place or a blocked drive: the
+summary says which), 2 on bad input (one line on stderr naming the field; nothing is
+written).
 """
 
 from __future__ import annotations
@@ -74,7 +79,7 @@ from s3o_drake.commands.common import (
 )
 from s3o_drake.execution.messages import ran_to_end
 from s3o_drake.io import write_atomically
-from s3o_drake.planning.plan import Goto, TaskMotionPlan
+from s3o_drake.planning.plan import Goto, Place, TaskMotionPlan
 
 if TYPE_CHECKING:
     from s3o_drake.execution.execute import Execution
@@ -87,6 +92,7 @@ def describe_plan(p: TaskMotionPlan) -> str:
     """The plan as a person reads it: one line per action, then the figures. Locations are
     named as in plan.json and state_space.png, stops numbered as in plan.png."""
     lines = [f"{p.method} plan (seed {p.seed}): {len(p.gotos)} stops, {len(p.pickups)} pickups"
+             + (f", {len(p.places)} place{'s' if len(p.places) != 1 else ''}" if p.places else "")
              + (f", unreachable: {', '.join(p.unreachable)}" if p.unreachable else "")]
     stops = 0
     for i, a in enumerate(p.actions, 1):
@@ -96,7 +102,8 @@ def describe_plan(p: TaskMotionPlan) -> str:
             lines.append(f"  {i:2d}. goto {a.location:<4} (stop {stops}) to ({x:5.2f}, "
                          f"{y:5.2f}) m, yaw {yaw:+.2f} rad, path {a.length:.2f} m")
         else:
-            lines.append(f"  {i:2d}. pickup {a.dish} (Fea^m {a.feasibility:.2f})")
+            verb = "place" if isinstance(a, Place) else "pickup"
+            lines.append(f"  {i:2d}. {verb} {a.dish} (Fea^m {a.feasibility:.2f})")
     t = p.timing
     lines.append(f"  expected utility {p.utility:.1f}, predicted execution time "
                  f"{p.predicted_time:.1f} s; planned in {p.planning_time:.2f} s (feasibility "
@@ -111,10 +118,10 @@ def describe_plan(p: TaskMotionPlan) -> str:
 def describe_execution(report: dict) -> str:
     """The execution's outcome: each action, then the summary line."""
     lines = ["Execution:"]
-    # A record per finished pickup, in the order of the pickups' outcomes.
+    # A record per finished pickup and place, in the order of their outcomes.
     predicted = iter(record["predicted"] for record in report.get("pickups", []))
     for i, (action, arg, outcome) in enumerate(report["outcomes"], 1):
-        fea = next(predicted, None) if action == "pickup" else None
+        fea = next(predicted, None) if action in ("pickup", "place") else None
         lines.append(f"  {i:2d}. {action} {arg}: {outcome}"
                      + ("" if fea is None else f" (predicted Fea^m {fea:.2f})"))
     recoveries = report.get("recoveries", [])
@@ -129,7 +136,16 @@ def describe_execution(report: dict) -> str:
         lines.append(f"Unreachable (no free pose of the known map can pick them): "
                      f"{', '.join(report['unreachable'])}")
     plans = 1 + sum(r["kind"] == "replan" for r in recoveries)
-    lines.append(f"Collected {report['collected']} of {report['dishes']} dishes in "
+    placements = report.get("placements", [])
+    for p in placements:
+        where = ("at its place" if p["placed"] else "not at its place") + (
+            f" ({100 * p['error']:.1f} cm from it, {'upright' if p['upright'] else 'tilted'})"
+            if p["state"] == "placed" else f" ({p['state']})")
+        lines.append(f"{p['object']} stands {where}")
+    got = (f"Collected {report['collected']} and placed {report['placed']} of "
+           f"{report['dishes']} objects" if placements else
+           f"Collected {report['collected']} of {report['dishes']} dishes")
+    lines.append(f"{got} in "
                  f"{report['execution_time']:.1f} s of execution (simulated); planning took "
                  f"{report['planning_time']:.2f} s"
                  + (f" in all ({plans} plans)" if plans > 1 else "")
@@ -140,22 +156,30 @@ def describe_execution(report: dict) -> str:
 
 def ending(report: dict) -> str:
     """Why the run ended, in words that are true: a plan that ran to its end says which
-    dishes it did not collect (a failed pickup is not "complete")."""
+    objects it did not collect or place (a failed pickup is not "complete")."""
     if not ran_to_end(report["reason"]):
         return report["reason"]  # e.g. "goto l1 failed: blocked", "no plan: ..."
-    collected = set(report["collected_dishes"])
-    unreachable = [d for d in report.get("unreachable", []) if d not in collected]
+    done = set(report["collected_dishes"]) | {
+        p["object"] for p in report.get("placements", []) if p["placed"]}
+    unreachable = [d for d in report.get("unreachable", []) if d not in done]
     failed = sorted({dish for action, dish, outcome in report["outcomes"]
-                     if action == "pickup" and outcome != "done"} - collected - set(unreachable))
-    missed = [f"{len(failed)} pickup{'s' if len(failed) > 1 else ''} failed "
+                     if action in ("pickup", "place") and outcome != "done"}
+                    - done - set(unreachable))
+    missed = [f"{len(failed)} pickup{'s' if len(failed) > 1 else ''} or place"
+              f"{'s' if len(failed) > 1 else ''} failed ({', '.join(failed)})"
+              if report.get("placements") else
+              f"{len(failed)} pickup{'s' if len(failed) > 1 else ''} failed "
               f"({', '.join(failed)})"] if failed else []
     if unreachable:
         missed.append(f"{len(unreachable)} dish{'es' if len(unreachable) > 1 else ''} "
                       f"unreachable ({', '.join(unreachable)})")
-    if not missed and report["collected"] == report["dishes"]:
-        return "plan ended: every dish collected"
+    completed = report.get("completed", report["collected"])
+    if not missed and completed == report["dishes"]:
+        return ("plan ended: every object collected or placed" if report.get("placements")
+                else "plan ended: every dish collected")
     return "plan ended: " + ("; ".join(missed) or
-                             f"{report['dishes'] - report['collected']} dishes not collected")
+                             f"{report['dishes'] - completed} of {report['dishes']} not "
+                             "collected or placed")
 
 
 def _write_pictures(scenario: Scenario, run: Execution, plan: TaskMotionPlan | None,
@@ -243,15 +267,9 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.scenario import scenario_stem
 
     scenario = read_scenario(args.scenario)
-    if not scenario.dishes:
-        fail(f"{args.scenario}: dishes: none to collect (an empty file is all defaults: "
-             "a room without tables or dishes)")
-    # Place and stay goals are in the schema (scenarios/tidy_home.yaml), but planning and
-    # execution carry out collect goals only so far: say so rather than collect them all.
-    other = next((i for i, d in enumerate(scenario.dishes) if d.goal != "collect"), None)
-    if other is not None:
-        fail(f"{args.scenario}: dishes[{other}].goal: {scenario.dishes[other].goal} goals are "
-             "not yet planned and executed (only collect)")
+    if not any(d.goal != "stay" for d in scenario.dishes):
+        fail(f"{args.scenario}: dishes: none to collect or place (an empty file is all "
+             "defaults: a room without tables or dishes)")
     if args.method is not None and args.method not in METHODS:
         fail(f"--method: unknown method {args.method!r}; one of {', '.join(METHODS)}")
     if args.feasibility is not None:
@@ -311,7 +329,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  wrote {path}")
     if args.meshcat and sys.stdin.isatty():
         input("Meshcat is still serving; press Enter to exit.")
-    return 0 if report["collected"] == report["dishes"] else 1
+    return 0 if report["completed"] == report["dishes"] else 1
 
 
 if __name__ == "__main__":

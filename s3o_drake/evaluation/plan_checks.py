@@ -52,10 +52,13 @@ def plan_problems(p: TaskMotionPlan) -> TaskProblem:
     for d in p.unreachable:
         where[d] = None
     dishes = {d: loc for d, loc in where.items() if placed_object(d) is None}
-    places = {placed_object(d): loc for d, loc in where.items()
-              if placed_object(d) in dishes}
+    places = {placed_object(d): loc for d, loc in where.items() if placed_object(d)}
+    # An object whose place is planned but which is itself in no location is in the hand.
+    held = next((o for o in places if o not in dishes), None)
+    if held is not None:
+        dishes[held] = None
     return TaskProblem(locations=p.locations, dishes=dishes, costs=lambda a, b: 0.0,
-                       places=places)
+                       places=places, held=held)
 
 
 def plan_faults(known: KnownWorld, p: TaskMotionPlan, base_free) -> list[str]:

@@ -7,8 +7,15 @@ back open-loop from the Context: the plant's PD actuators track it. Whether the 
 really holds the dish is decided by geometry, not by contact simulation: the noise must
 leave the real dish within the gripper's tolerance of the grasp point
 (`pickup_geometry.grasp_tolerance`).
+
+An object whose goal is place is picked the same way but kept in the gripper, held above
+the tray (`plan_pickup(..., hold=True)`), until a command with `place` puts it down at its
+place target (`manipulation.place.plan_place`: with the grasp it was picked with, the
+reach noise added to where it goes down). The scene the controller checks in must hold the
+place targets (`goals.with_place_targets`).
 """
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -20,7 +27,9 @@ from s3o_drake.execution.messages import NO_COMMAND, CommandState, PickCommand, 
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.pickup_geometry import caught
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.manipulation.pickup import plan_pickup
+from s3o_drake.goals import place_target_name
+from s3o_drake.manipulation.pickup import PickupPlan, plan_pickup
+from s3o_drake.manipulation.place import plan_place
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import Scenario
 from s3o_drake.world.dish_messages import DishPoses, GripEvent
@@ -38,9 +47,12 @@ class _Activity:
 
     `hold`: the arm's and fingers' 8 positions held while no motion plays; `trajectory`: the
     motion playing (11 positions, t from 0 at `t_start`) or None; `t_grasp`, `t_release`:
-    when (since `t_start`) the gripper closes on and lets go of `dish`; `missed`: the reach
-    noise put the dish out of the gripper's tolerance; `reach_noise`: that noise (None with
-    the noise off), reported on every status of the command.
+    when (since `t_start`) the gripper closes on and lets go of `dish` (inf: it keeps it);
+    `putting`: the motion puts `dish` down at its place (else it lets go over the tray);
+    `grasp`: the motion's grasp ("top" or "side"); `held_grasp`: the grasp the gripper
+    holds an object to place with between motions ("": it holds nothing); `missed`: the
+    reach noise put the dish out of the gripper's tolerance; `reach_noise`: that noise
+    (None with the noise off), reported on every status of the command.
     """
 
     started: bool = False
@@ -53,6 +65,9 @@ class _Activity:
     t_start: float = 0.0
     t_grasp: float = 0.0
     t_release: float = 0.0
+    putting: bool = False
+    grasp: str = ""
+    held_grasp: str = ""
     missed: bool = False
     reach_noise: tuple[float, float] | None = None
 
@@ -68,8 +83,9 @@ class ArmController(LeafSystem):
     """Plans and plays the arm's motion of each `PickCommand`; reports grip and status.
 
     Input ports:
-        pick_command: abstract PickCommand; a new non-zero `id` starts a pickup (one that
-            arrives while another plays starts when that one ends).
+        pick_command: abstract PickCommand; a new non-zero `id` starts a pickup, or with
+            `place` the putting down of the held object (a command that arrives while
+            another plays starts when that one ends).
         robot_state: vector (22), the robot's 11 positions then 11 velocities (base x, y,
             yaw; 6 arm joints; 2 fingers).
         dish_poses: abstract DishPoses, X_WD of each dish where it really is; unconnected:
@@ -78,11 +94,15 @@ class ArmController(LeafSystem):
         arm_desired_state: vector (16), the 6 arm and 2 finger positions, then their 8
             velocities (for the plant's desired state, with the base's entries).
         grip: abstract GripEvent; `dish` from the end of the pickup's "close" segment to
-            the end of its "release", `placed` gains it at the end of "release".
+            the end of its "release", `placed` gains it at the end of "release"; an object
+            to place stays `dish` until the end of the place's "release", when `put`
+            gains it.
         status: abstract Status of the latest command taken: its CommandState idle,
             running, done or failed with reason "no_ik", "no_path", "base_collision",
-            "missed" or "unknown_dish"; its `reach_noise` is the reach error drawn for the
-            pickup (None with the noise off).
+            "missed", "unknown_dish", "hand_full" (a pickup while an object to place is
+            held) or "not_held" (a place of an object the gripper does not hold); its
+            `reach_noise` is the reach error drawn for the command (None with the noise
+            off).
 
     Every `control_period` an unrestricted update takes new commands and moves the
     played motion's grip and status on; `arm_desired_state` follows the motion
@@ -103,6 +123,7 @@ class ArmController(LeafSystem):
         self._checker = checker
         self._seed = scenario.seed if seed is None else int(seed)
         self._reach_std = scenario.uncertainty.reach_std if noise else 0.0
+        self._to_place = {d.name for d in scenario.dishes if d.goal == "place"}
         self._plan_time_limit = plan_time_limit
 
         self._command_port = self.DeclareAbstractInputPort(
@@ -167,11 +188,13 @@ class ArmController(LeafSystem):
         """The playing motion's grip and status at `time`; at its end the arm holds there."""
         elapsed = time - activity.t_start
         held = not activity.missed and activity.t_grasp <= elapsed < activity.t_release
-        placed = activity.grip.placed
-        if (not activity.missed and elapsed >= activity.t_release
-                and activity.dish not in placed):
-            placed = (*placed, activity.dish)
-        activity = replace(activity, grip=GripEvent(activity.dish if held else "", placed))
+        placed, put = activity.grip.placed, activity.grip.put
+        if not activity.missed and elapsed >= activity.t_release:
+            if activity.putting and activity.dish not in put:
+                put = (*put, activity.dish)
+            elif not activity.putting and activity.dish not in placed:
+                placed = (*placed, activity.dish)
+        activity = replace(activity, grip=GripEvent(activity.dish if held else "", placed, put))
         trajectory = activity.trajectory
         # The periodic update falls on the end time only up to rounding: a motion counts as
         # ended within a nanosecond of it.
@@ -182,11 +205,15 @@ class ArmController(LeafSystem):
                   if activity.missed
                   else Status(activity.command, CommandState.DONE,
                               reach_noise=activity.reach_noise))
-        return replace(activity, status=status, hold=tuple(end), trajectory=None)
+        # The object still in the gripper (a pick that holds it) is held with its grasp.
+        keeps = held and math.isinf(activity.t_release)
+        return replace(activity, status=status, hold=tuple(end), trajectory=None,
+                       held_grasp=activity.grasp if keeps else "")
 
     def _start(self, activity: _Activity, command: PickCommand, context: Context,
                robot_state: np.ndarray) -> _Activity:
         """Plans `command`'s pickup; the motion plays from now, or the command fails."""
+        holding = activity.grip.dish if activity.held_grasp else ""
         activity = replace(activity, command=command.id, dish=command.dish, missed=False,
                            reach_noise=None)
 
@@ -194,9 +221,14 @@ class ArmController(LeafSystem):
             return replace(activity, status=Status(command.id, CommandState.FAILED, reason,
                                                    activity.reach_noise))
 
-        dish = self._scene.dishes.get(command.dish)
+        name = place_target_name(command.dish) if command.place else command.dish
+        dish = self._scene.dishes.get(name)
         if dish is None:
             return failed("unknown_dish")
+        if command.place and holding != command.dish:
+            return failed("not_held")
+        if not command.place and holding:
+            return failed("hand_full")
         # The command's own stream: its noise and its planner seed do not depend on what
         # ran before it; the draw is the same with the noise off, so is the planner's seed.
         rng = np.random.default_rng([self._seed, REACH_NOISE_STREAM, command.id])
@@ -204,16 +236,11 @@ class ArmController(LeafSystem):
         plan_seed = int(rng.integers(2**31 - 1))
         if self._reach_std > 0:  # reported, for the calibration of Fea^m against outcomes
             activity = replace(activity, reach_noise=(float(noise[0]), float(noise[1])))
-        p_WD_scenario, _ = self._scene.dish_p_WD(command.dish)
-        p_WD = self._dish_xy(context, command.dish, p_WD_scenario)
-        # The checker's scene has the dish where the scenario put it: the offset carries
-        # both where it really is and the noise of reaching for it.
-        reach_offset = p_WD - p_WD_scenario + noise
         q_now = np.asarray(robot_state[:NUM_POSITIONS], dtype=float)
         try:
-            plan = plan_pickup(self._scene, self._checker, q_now[:3], command.dish,
-                               reach_offset=reach_offset, q_start=q_now, seed=plan_seed,
-                               time_limit=self._plan_time_limit)
+            plan = (self._place(command.dish, activity.held_grasp, q_now, noise, plan_seed)
+                    if command.place else
+                    self._pick(context, command.dish, q_now, noise, plan_seed))
         except ValueError:
             # The arm's path planner refuses a start in collision (the arm pushed into
             # something, within the checker's padding): no path from here.
@@ -222,13 +249,35 @@ class ArmController(LeafSystem):
             return failed(plan.reason)
         ends = dict(zip((s.name for s in plan.segments),
                         np.cumsum([s.duration for s in plan.segments]), strict=True))
-        return replace(
-            activity, status=Status(command.id, CommandState.RUNNING,
-                                    reach_noise=activity.reach_noise),
-            trajectory=plan.trajectory(),
-            t_start=context.get_time(), t_grasp=float(ends["close"]),
-            t_release=float(ends["release"]),
-            missed=not caught(noise, dish.kind))
+        running = replace(activity, status=Status(command.id, CommandState.RUNNING,
+                                                  reach_noise=activity.reach_noise),
+                          trajectory=plan.trajectory(), t_start=context.get_time(),
+                          putting=command.place, grasp=plan.grasp or "")
+        if command.place:  # held from the start, let go at the end of "release"
+            return replace(running, t_grasp=-math.inf, t_release=float(ends["release"]))
+        return replace(running, t_grasp=float(ends["close"]),
+                       t_release=float(ends.get("release", math.inf)),
+                       missed=not caught(noise, dish.kind))
+
+    def _pick(self, context: Context, name: str, q_now: np.ndarray, noise: np.ndarray,
+              seed: int) -> PickupPlan:
+        """The pickup of `name` from where the robot stands (an object to place is held)."""
+        p_WD_scenario, _ = self._scene.dish_p_WD(name)
+        p_WD = self._dish_xy(context, name, p_WD_scenario)
+        # The checker's scene has the dish where the scenario put it: the offset carries
+        # both where it really is and the noise of reaching for it.
+        return plan_pickup(self._scene, self._checker, q_now[:3], name,
+                           reach_offset=p_WD - p_WD_scenario + noise, q_start=q_now,
+                           seed=seed, time_limit=self._plan_time_limit,
+                           hold=name in self._to_place)
+
+    def _place(self, name: str, grasp: str, q_now: np.ndarray, noise: np.ndarray,
+               seed: int) -> PickupPlan:
+        """Putting the held `name` down at its place target (where the scene has it), the
+        reach noise added."""
+        return plan_place(self._scene, self._checker, q_now[:3], place_target_name(name),
+                          grasp=grasp, q_start=q_now, reach_offset=noise, seed=seed,
+                          time_limit=self._plan_time_limit)
 
     def _dish_xy(self, context: Context, name: str, default: np.ndarray) -> np.ndarray:
         if not self._dish_poses_port.HasValue(context):

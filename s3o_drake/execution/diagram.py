@@ -5,7 +5,7 @@
     world (plant, scene graph, overhead camera, object tracker, Meshcat)
       robot_state ──> planner, base_navigator, arm_controller
       overhead images ──> planner (perception)
-      dish_poses ──> arm_controller          dish_states ──> task_monitor
+      dish_poses ──> arm_controller, task_monitor     dish_states ──> task_monitor
     planner ── base_command ──> base_navigator ── status ──> planner
             ── pick_command ──> arm_controller ── status ──> planner
             ── progress ──> task_monitor (ends the simulation)
@@ -30,6 +30,7 @@ from s3o_drake.execution.s3o_planner import Perceive, S3OPlanner
 from s3o_drake.execution.task_monitor import TaskMonitor
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.goals import place_targets, with_place_targets
 from s3o_drake.robot import CONTROL_PERIOD, NUM_POSITIONS
 from s3o_drake.scenario import Scenario
 from s3o_drake.world.builder import build_world_diagram, robot_render_labels
@@ -68,8 +69,9 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     builder = DiagramBuilder()
     world = builder.AddNamedSystem("world", build_world_diagram(
         scenario, meshcat=meshcat, track_dishes=True, show_collisions=show_collisions))
-    # The controllers act in the true world: their collision checks see every chair.
-    truth = FeasibilityScene(scenario)
+    # The controllers act in the true world: their collision checks see every chair, and
+    # the arm's the place targets it puts objects down at.
+    truth = FeasibilityScene(with_place_targets(scenario))
     planner = builder.AddNamedSystem("planner", S3OPlanner(
         scenario=scenario, method=method, seed=seed, perceive=perceive,
         progress_bar=progress_bar, control_period=CONTROL_PERIOD,
@@ -81,7 +83,8 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
         noise=noise, control_period=CONTROL_PERIOD))
     monitor = builder.AddNamedSystem("task_monitor", TaskMonitor(
         period=CONTROL_PERIOD, settle_time=scenario.simulation.hold_time,
-        time_limit=time_limit))
+        time_limit=time_limit, places=place_targets(scenario),
+        fixtures=[d.name for d in scenario.dishes if d.goal == "stay"]))
     mux = builder.AddNamedSystem("desired_state_mux",
                                  Multiplexer([2 * BASE_DOFS, 2 * ARM_DOFS]))
     permute = builder.AddNamedSystem("desired_state_order",
@@ -93,6 +96,7 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
         builder.Connect(world.GetOutputPort("robot_state"), system.GetInputPort("robot_state"))
     builder.Connect(world.GetOutputPort("dish_poses"), arm.GetInputPort("dish_poses"))
     builder.Connect(world.GetOutputPort("dish_states"), monitor.GetInputPort("dish_states"))
+    builder.Connect(world.GetOutputPort("dish_poses"), monitor.GetInputPort("dish_poses"))
     builder.Connect(arm.GetOutputPort("grip"), world.GetInputPort("grip"))
     builder.Connect(planner.GetOutputPort("base_command"), navigator.GetInputPort("base_command"))
     builder.Connect(planner.GetOutputPort("pick_command"), arm.GetInputPort("pick_command"))

@@ -120,12 +120,7 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     """Builds the execution diagram, plans (at initialization) and simulates until the task
     monitor ends the run; records the playback in `meshcat` (none without one: the
     benchmark's runs). `perceive` replaces the planner's perception of the chairs (at
-    every plan and replan). Raises ValueError for an object whose goal is not collect (not
-    yet planned and executed)."""
-    other = [d.name for d in scenario.dishes if d.goal != "collect"]
-    if other:
-        raise ValueError(f"objects {other} have place or stay goals, which are not yet "
-                         "planned and executed (only collect)")
+    every plan and replan)."""
     diagram = build_execution_diagram(scenario, method=method, seed=seed, meshcat=meshcat,
                                       perceive=perceive, noise=noise, progress_bar=progress,
                                       show_collisions=realtime)

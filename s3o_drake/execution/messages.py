@@ -64,10 +64,13 @@ class BaseCommand:
 
 @dataclass(frozen=True)
 class PickCommand:
-    """Pick `dish` from where the base stands and put it on the tray; `id` 0 is none."""
+    """Pick `dish` from where the base stands and put it on the tray (an object whose goal
+    is place: hold it above the tray); with `place`, put `dish`, held in the gripper, down
+    at its place target (`goals.place_target_name`). `id` 0 is none."""
 
     id: int = NO_COMMAND
     dish: str = ""
+    place: bool = False
 
 
 @dataclass(frozen=True)
@@ -247,6 +250,45 @@ class PlanTime:
                 "feasibility_time": self.feasibility_time, "budget": self.budget}
 
 
+PLACE_TOLERANCE = 0.03
+"""How far (m, horizontally) a put-down object may stand from its place target and count
+as placed (it must also stand upright on the target's surface)."""
+SURFACE_TOLERANCE = 0.005
+"""How far (m) the surface it stands on may be from the target's and be the same one."""
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where an object to place ended, against its place target.
+
+    `target`: the place (x, y, surface z; m); `state`: the object's DishState word
+    ("placed" once put down, "gripper" while held, ...); `final`: where it stands (x, y,
+    z of its bottom); `error`: the horizontal distance (m) from the target; `upright`:
+    it stands within the tracker's STANDING_TILT of upright. `placed`: put down within
+    PLACE_TOLERANCE of the target, upright, on the target's surface.
+    """
+
+    object: str
+    target: tuple[float, float, float]
+    state: str
+    final: tuple[float, float, float]
+    upright: bool
+
+    @property
+    def error(self) -> float:
+        return math.hypot(self.final[0] - self.target[0], self.final[1] - self.target[1])
+
+    @property
+    def placed(self) -> bool:
+        return (self.state == "placed" and self.upright and self.error <= PLACE_TOLERANCE
+                and abs(self.final[2] - self.target[2]) <= SURFACE_TOLERANCE)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"object": self.object, "target": list(self.target), "state": self.state,
+                "final": list(self.final), "error": self.error, "upright": self.upright,
+                "placed": self.placed}
+
+
 @dataclass(frozen=True)
 class PlanProgress:
     """The planner's progress through its plan, for the task monitor.
@@ -277,7 +319,9 @@ class PlanProgress:
 class RunReport:
     """What the task monitor reports of a run.
 
-    `dishes`: how many the world has; `collected_dishes`: those on the tray, sorted;
+    `dishes`: how many objects the world has with a goal (to collect or to place; not
+    those that stay); `collected_dishes`: those on the tray, sorted; `placements`: a
+    Placement per object to place;
     `execution_time` (s): the simulated time at which the plan finished, else the time of
     the report; `finished`: the plan is over; `reason`: why (`PlanProgress.reason`, or
     "time limit"); `outcomes`, `pickups`, `recoveries`, `unreachable` and `plans`:
@@ -294,22 +338,37 @@ class RunReport:
     recoveries: tuple[RecoveryRecord, ...] = ()
     unreachable: tuple[str, ...] = ()
     plans: tuple[PlanTime, ...] = ()
+    placements: tuple[Placement, ...] = ()
 
     @property
     def collected(self) -> int:
         """How many dishes are on the tray."""
         return len(self.collected_dishes)
 
+    @property
+    def placed(self) -> int:
+        """How many objects stand at their places (`Placement.placed`)."""
+        return sum(p.placed for p in self.placements)
+
+    @property
+    def completed(self) -> int:
+        """How many objects' goals are met: collected, or placed."""
+        return self.collected + self.placed
+
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON data, as report.json holds it (execute.py adds the timings): dishes,
-        collected, collected_dishes (a list), execution_time, finished, reason, outcomes
+        collected, placed, completed, collected_dishes (a list), placements
+        (`Placement.to_dict()` each), execution_time, finished, reason, outcomes
         (a list of [action, argument, result] lists), pickups (`PickupRecord.to_dict()`
         each), recoveries (`RecoveryRecord.to_dict()` each), unreachable (a list), plans
         (`PlanTime.to_dict()` each)."""
         return {
             "dishes": self.dishes,
             "collected": self.collected,
+            "placed": self.placed,
+            "completed": self.completed,
             "collected_dishes": list(self.collected_dishes),
+            "placements": [p.to_dict() for p in self.placements],
             "execution_time": self.execution_time,
             "finished": self.finished,
             "reason": self.reason,

@@ -7,7 +7,8 @@ the dishes left and where the robot stands) and plans from it with the planning 
 (`planning.pipeline.plan_from`: Fea^m from `planner.feasibility`, "oracle" or "fcn", then
 the chosen method). It then walks the plan one action at a time: a `goto` becomes a
 BaseCommand whose path, on the plan's own navigation map, starts where the base really is
-(the previous landing carried noise), a `pickup` a PickCommand. It advances when the
+(the previous landing carried noise), a `pickup` a PickCommand, a `place` a PickCommand
+with `place` (put the held object down at its place target). It advances when the
 controller reports the command done; a failed pickup is recorded and the plan goes on with
 the next action (the dish stays where it is); a failed goto ends the execution (the plan's
 later pickups assumed that stop). Each finished pickup also leaves a `PickupRecord` on
@@ -37,7 +38,6 @@ import dataclasses
 import sys
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -45,6 +45,7 @@ from pydrake.systems.framework import Context, LeafSystem, State
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.angles import facing_yaw, wrap
+from s3o_drake.execution.execution_state import ExecutionState
 from s3o_drake.execution.messages import (
     NO_COMMAND,
     PLAN_ENDED,
@@ -60,83 +61,17 @@ from s3o_drake.execution.messages import (
 )
 from s3o_drake.execution.recovery import MIN_CORRECTION, StopCheck, describe_move, localise
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
+from s3o_drake.goals import place_target_name, place_targets
 from s3o_drake.perception import Perceive, perceive_known_world
-from s3o_drake.planning.pipeline import PlanningResult, plan_from
-from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
+from s3o_drake.planning.pipeline import plan_from
+from s3o_drake.planning.plan import Goto, Pickup, Place
 from s3o_drake.robot import CONTROL_PERIOD, NUM_POSITIONS
 from s3o_drake.scenario import Recovery, Scenario
 
 #: A dish that fails all its tries in this many plans is left (execution.recovery replan).
 PLANS_PER_DISH = 2
-
-
-@dataclass(frozen=True)
-class _Execution:
-    """The planner's abstract state: the plan and where execution stands.
-
-    Immutable (every update makes a new one), so Drake's copies of the state may share it.
-    """
-
-    result: PlanningResult | None = None
-    """The latest planning's result: the plan, and what it was made on (the KnownWorld,
-    the heatmaps, the navigation map that re-paths the drives from where the base is)."""
-    check: StopCheck | None = None  # the recovery's stop check on that result
-    step: int = 0  # index into plan.actions of the action being executed
-    command_id: int = NO_COMMAND  # id of the command sent for `step` (0: none yet)
-    turning: bool = False  # the command out is the turn in place before a pickup
-    turned: bool = False  # the base faces the dish of the pickup at `step`
-    next_id: int = 1
-    base_command: BaseCommand = field(default_factory=BaseCommand)
-    pick_command: PickCommand = field(default_factory=PickCommand)
-    outcomes: tuple[ActionOutcome, ...] = ()
-    pickups: tuple[PickupRecord, ...] = ()
-    pick_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)  # the base's, at the PickCommand
-    pick_started: float = 0.0  # simulated time the current PickCommand was sent
-    finished: bool = False
-    reason: str = ""
-    replan_seen: float = 0.0
-    plans: tuple[PlanTime, ...] = ()  # each plan's time against its budget
-    # The recovery (execution.recovery other than none), for the pickup at `step`:
-    checked: bool = False  # the stop check has accepted (or could not better) the stop
-    correcting: bool = False  # the command out is a corrective move
-    corrections: int = 0  # corrective moves before this attempt
-    tries: int = 0  # failed attempts at this pickup, this plan
-    force_move: bool = False  # the last attempt failed where it stood: move before the next
-    last_failure: str = ""  # why the last attempt failed (a retry's trigger)
-    pending: tuple[str, str, float] = ("", "", 0.0)  # a correction's trigger, action, start
-    stop: tuple[tuple[float, float, float], float] | None = None
-    """The corrected stop and its Fea^m, when a correction moved the base for this pickup."""
-    recoveries: tuple[RecoveryRecord, ...] = ()
-    unreachable: tuple[str, ...] = ()
-    replans: int = 0
-    exhausted: tuple[str, ...] = ()  # a dish per plan in which it failed all its tries
-    given_up: tuple[str, ...] = ()
-
-    @property
-    def plan(self) -> TaskMotionPlan | None:
-        return None if self.result is None else self.result.plan
-
-    @property
-    def planning_time(self) -> float:
-        """Wall time (s) spent planning, summed over the plans (the terminal's figure)."""
-        return sum(p.planning_time for p in self.plans)
-
-    @property
-    def collected(self) -> set[str]:
-        return {o.argument for o in self.outcomes if o.action == "pickup" and o.done}
-
-    def next_step(self, **changes) -> _Execution:
-        """On to the next action, every per-pickup field reset."""
-        return dataclasses.replace(
-            self, step=self.step + 1, command_id=NO_COMMAND, turning=False, turned=False,
-            checked=False, correcting=False, corrections=0, tries=0, force_move=False,
-            last_failure="", stop=None, **changes)
-
-    def __deepcopy__(self, memo) -> _Execution:
-        # Immutable: frozen, and the navigation map is sealed after planning (its queries
-        # memoise nothing more), so Drake's copies may share it; a copy would only cost
-        # (the map is megabytes). The stop check only caches its oracle.
-        return self
+#: Arm failures that no retry can mend: the planner goes on with the next action.
+NOT_RETRIED = ("unknown_dish", "hand_full", "not_held")
 
 
 class S3OPlanner(LeafSystem):
@@ -175,8 +110,11 @@ class S3OPlanner(LeafSystem):
         self._workers = scenario.planner.workers if workers is None else workers
         self._progress_bar = progress_bar
         self._robot_labels = robot_labels  # the robot's own pixels, for the FCN's view
-        self._dish_xy = {d.name: tuple(d.position) for d in scenario.dishes}
+        # Where each pick and each place is: the dish, or the object's place target.
+        self._target_xy = {d.name: tuple(d.position) for d in scenario.dishes} | {
+            t.target: t.position for t in place_targets(scenario)}
         self._dish_kind = {d.name: d.kind for d in scenario.dishes}
+        self._to_place = {t.name for t in place_targets(scenario)}
         self._images = [
             self.DeclareAbstractInputPort("overhead_color_image",
                                           AbstractValue.Make(ImageRgba8U())),
@@ -191,7 +129,7 @@ class S3OPlanner(LeafSystem):
         self._arm_status = self.DeclareAbstractInputPort("arm_status",
                                                          AbstractValue.Make(Status()))
         self._replan_port = self.DeclareVectorInputPort("replan_request", 1)
-        self._state = self.DeclareAbstractState(AbstractValue.Make(_Execution()))
+        self._state = self.DeclareAbstractState(AbstractValue.Make(ExecutionState()))
         self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
         self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0, self._step)
         self.DeclareForcedUnrestrictedUpdateEvent(self._step)  # one step on demand (tests)
@@ -221,29 +159,40 @@ class S3OPlanner(LeafSystem):
             prerequisites_of_calc={self.abstract_state_ticket(self._state)})
 
     # ------------------------------------------------------------------------ helpers
-    def _execution(self, context: Context) -> _Execution:
+    def _execution(self, context: Context) -> ExecutionState:
         return context.get_abstract_state(int(self._state)).get_value()
 
     def _pose(self, context: Context) -> np.ndarray:
         """The base's true pose (x, y, yaw)."""
         return np.asarray(self._robot_state.Eval(context))[:3].copy()
 
-    def _belief(self, context: Context, e: _Execution) -> np.ndarray:
+    def _belief(self, context: Context, e: ExecutionState) -> np.ndarray:
         """Where the robot believes it stands now (localised, execution.recovery)."""
         return localise(self._pose(context), uncertainty=self._scenario.uncertainty,
                         seed=self._seed, command_id=e.next_id, noise=self._noise)
 
-    def _plan(self, context: Context, execution: _Execution, *, start: np.ndarray,
-              dishes: Sequence[str], budget: float | None = None) -> _Execution:
-        """A new plan from base pose `start` for `dishes`, or a finished execution saying
-        why there is none."""
+    def _remaining(self, e: ExecutionState) -> tuple[list[str], str]:
+        """The objects whose goal is not yet met (collected, or put down at their place),
+        less those given up or unreachable; and the one in the gripper ("" for none)."""
+        done = e.picked - self._to_place | e.put
+        left = [d.name for d in self._scenario.dishes
+                if d.goal != "stay" and d.name not in done
+                and d.name not in e.given_up and d.name not in e.unreachable]
+        return left, next((d for d in left if d in e.picked), "")
+
+    def _plan(self, context: Context, execution: ExecutionState, *, start: np.ndarray,
+              dishes: Sequence[str], budget: float | None = None,
+              held: str = "") -> ExecutionState:
+        """A new plan from base pose `start` for `dishes` (`held` in the gripper), or a
+        finished execution saying why there is none."""
         t0 = time.perf_counter()
         if self._progress_bar:  # say what is happening as it happens (stderr, with the bars)
             print(f"perceiving the unmapped chairs in the overhead camera's images "
                   f"({len(dishes)} dishes to plan for)", file=sys.stderr, flush=True)
         images = tuple(np.asarray(port.Eval(context).data) for port in self._images)
         known = perceive_known_world(self._scenario, images, pose=start, dishes=dishes,
-                                     perceive=self._perceive, robot_labels=self._robot_labels)
+                                     perceive=self._perceive, robot_labels=self._robot_labels,
+                                     held=held)
         planner = self._scenario.planner
         budget = planner.time_budget if budget is None else budget
         if self._progress_bar:
@@ -269,19 +218,17 @@ class S3OPlanner(LeafSystem):
             plans=plans, finished=not result.plan.actions,
             reason="" if result.plan.actions else PLAN_ENDED).next_step()
 
-    def _replan(self, context: Context, e: _Execution, *, trigger: str,
-                dish: str = "") -> _Execution:
+    def _replan(self, context: Context, e: ExecutionState, *, trigger: str,
+                dish: str = "") -> ExecutionState:
         """The dishes that remain planned again from where the robot believes it stands
         (execution.recovery replan), or the execution finished where that is not allowed."""
-        remaining = [d.name for d in self._scenario.dishes
-                     if d.name not in e.collected and d.name not in e.given_up
-                     and d.name not in e.unreachable]
+        remaining, held = self._remaining(e)
         if not remaining:
             return dataclasses.replace(e, finished=True, reason=PLAN_ENDED)
         belief = self._belief(context, e)
         t = context.get_time()
         e = self._plan(context, dataclasses.replace(e, replans=e.replans + 1), start=belief,
-                       dishes=remaining, budget=self._settings.replan_budget)
+                       dishes=remaining, budget=self._settings.replan_budget, held=held)
         plan = e.plan
         result = "done" if plan is not None else e.reason
         action = (f"planned {len(remaining)} dish{'es' if len(remaining) > 1 else ''} from "
@@ -293,7 +240,7 @@ class S3OPlanner(LeafSystem):
 
     # ------------------------------------------------------------------------- events
     def _initialize(self, context: Context, state: State) -> None:
-        execution = self._plan(context, _Execution(), start=self._pose(context),
+        execution = self._plan(context, ExecutionState(), start=self._pose(context),
                                dishes=[d.name for d in self._scenario.dishes])
         if self._replan_port.HasValue(context):
             execution = dataclasses.replace(
@@ -305,20 +252,19 @@ class S3OPlanner(LeafSystem):
         if self._replan_port.HasValue(context):
             request = float(self._replan_port.Eval(context)[0])
             if request != execution.replan_seen:
-                remaining = [d.name for d in self._scenario.dishes
-                             if d.name not in execution.collected]
+                remaining, held = self._remaining(execution)
                 execution = self._plan(context, dataclasses.replace(
                     execution, finished=False, reason="", replan_seen=request),
-                    start=self._pose(context), dishes=remaining)
+                    start=self._pose(context), dishes=remaining, held=held)
         if not execution.finished and execution.plan is not None:
             execution = self._advance(context, execution)
         state.get_mutable_abstract_state(int(self._state)).set_value(execution)
 
-    def _send_base(self, e: _Execution, command: BaseCommand, **changes) -> _Execution:
+    def _send_base(self, e: ExecutionState, command: BaseCommand, **changes) -> ExecutionState:
         return dataclasses.replace(e, command_id=command.id, next_id=command.id + 1,
                                    base_command=command, **changes)
 
-    def _drive(self, e: _Execution, cid: int, here: np.ndarray, pose: Sequence[float],
+    def _drive(self, e: ExecutionState, cid: int, here: np.ndarray, pose: Sequence[float],
                planned: Sequence | None = None) -> BaseCommand:
         """A drive from `here` to `pose` on the plan's navigation map (else along `planned`,
         the plan's own waypoints, or straight)."""
@@ -330,7 +276,7 @@ class S3OPlanner(LeafSystem):
         return BaseCommand(id=cid, path=tuple((float(x), float(y)) for x, y in path),
                            pose=tuple(float(v) for v in pose))
 
-    def _advance(self, context: Context, e: _Execution) -> _Execution:
+    def _advance(self, context: Context, e: ExecutionState) -> ExecutionState:
         action = e.plan.actions[e.step]
         if e.command_id == NO_COMMAND:
             return self._send(context, e, action)
@@ -355,31 +301,40 @@ class S3OPlanner(LeafSystem):
             return dataclasses.replace(e, finished=True, reason=trigger)
         return self._picked(context, e, action, status)
 
-    def _send(self, context: Context, e: _Execution, action) -> _Execution:
+    def _send(self, context: Context, e: ExecutionState, action) -> ExecutionState:
         """The command for the action at `e.step` (a stop check first, when recovering)."""
         cid = e.next_id
         here = self._pose(context)
         if isinstance(action, Goto):
             return self._send_base(e, self._drive(e, cid, here, action.pose, action.path))
+        target = self._target(action)
         if e.check is not None and not e.checked:
-            corrected = self._check_stop(context, e, action.dish)
+            corrected = self._check_stop(context, e, target)
             if corrected is not None:
                 return corrected
             e = dataclasses.replace(e, checked=True)
         x, y, yaw = here
-        facing = facing_yaw((x, y), self._dish_xy[action.dish])
+        facing = facing_yaw((x, y), self._target_xy[target])
         if not e.turned and abs(wrap(facing - yaw)) > TURN_TOLERANCE:
             # Fea^m assumed the base faces the dish it picks; the stop faced the first.
             turn = BaseCommand(id=cid, path=((float(x), float(y)),),
                                pose=(float(x), float(y), float(facing)), turn=True)
             return self._send_base(e, turn, turning=True)
+        command = PickCommand(id=cid, dish=action.dish, place=isinstance(action, Place))
         return dataclasses.replace(e, command_id=cid, next_id=cid + 1, turned=True,
-                                   pick_command=PickCommand(id=cid, dish=action.dish),
+                                   pick_command=command,
                                    pick_pose=(float(x), float(y), float(yaw)),
                                    pick_started=context.get_time())
 
-    def _check_stop(self, context: Context, e: _Execution, dish: str) -> _Execution | None:
-        """A corrective move's command when the stop check asks for one and allows it."""
+    @staticmethod
+    def _target(action: Pickup | Place) -> str:
+        """What the arm reaches for: the dish, or the place target of the object to put."""
+        return place_target_name(action.dish) if isinstance(action, Place) else action.dish
+
+    def _check_stop(self, context: Context, e: ExecutionState,
+                    dish: str) -> ExecutionState | None:
+        """A corrective move's command when the stop check asks for one and allows it
+        (`dish`: what the arm reaches for, a dish or a place target)."""
         if e.corrections >= self._settings.max_corrections:
             return None
         belief = self._belief(context, e)
@@ -401,15 +356,15 @@ class S3OPlanner(LeafSystem):
         # as the robot's belief of where it stood.
         here = self._pose(context)
         aim = target + (here[:2] - belief[:2])
-        pose = (float(aim[0]), float(aim[1]), float(facing_yaw(aim, self._dish_xy[dish])))
+        pose = (float(aim[0]), float(aim[1]), float(facing_yaw(aim, self._target_xy[dish])))
         command = self._drive(e, e.next_id, here, pose)
         stop = ((float(target[0]), float(target[1]), pose[2]), feasibility)
         return self._send_base(
             e, command, correcting=True, corrections=e.corrections + 1, turned=False,
             pending=(trigger, describe_move(belief, target), context.get_time()), stop=stop)
 
-    def _corrected(self, context: Context, e: _Execution, done: bool,
-                   reason: str) -> _Execution:
+    def _corrected(self, context: Context, e: ExecutionState, done: bool,
+                   reason: str) -> ExecutionState:
         """A corrective move ended: recorded; the stop is checked again from the landing."""
         trigger, action, started = e.pending
         record = RecoveryRecord("correction", self._current_dish(e), trigger, action,
@@ -418,17 +373,18 @@ class S3OPlanner(LeafSystem):
         return dataclasses.replace(e, command_id=NO_COMMAND, correcting=False, checked=False,
                                    force_move=False, recoveries=(*e.recoveries, record))
 
-    def _current_dish(self, e: _Execution) -> str:
+    def _current_dish(self, e: ExecutionState) -> str:
         action = e.plan.actions[e.step]
-        return action.dish if isinstance(action, Pickup) else ""
+        return action.dish if isinstance(action, Pickup | Place) else ""
 
-    def _picked(self, context: Context, e: _Execution, action: Pickup,
-                status: Status) -> _Execution:
-        """A pickup attempt (or the turn before it) ended: recorded, then retried, replanned
-        or left, as execution.recovery says."""
+    def _picked(self, context: Context, e: ExecutionState, action: Pickup | Place,
+                status: Status) -> ExecutionState:
+        """A pickup or place attempt (or the turn before it) ended: recorded, then retried,
+        replanned or left, as execution.recovery says."""
         done = status.state == CommandState.DONE and not e.turning
         reason = f"turn {status.reason}" if e.turning else "" if done else status.reason
-        outcome = ActionOutcome("pickup", action.dish, done=done, reason=reason)
+        name = "place" if isinstance(action, Place) else "pickup"
+        outcome = ActionOutcome(name, action.dish, done=done, reason=reason)
         e = dataclasses.replace(
             e, outcomes=(*e.outcomes, outcome),
             pickups=(*e.pickups, self._record(context, e, action, status)))
@@ -439,7 +395,7 @@ class S3OPlanner(LeafSystem):
                                     "done" if done else f"failed: {reason}",
                                     e.pick_started if not e.turning else t, t)
             e = dataclasses.replace(e, recoveries=(*e.recoveries, record))
-        if done or e.check is None or reason == "unknown_dish":
+        if done or e.check is None or reason in NOT_RETRIED:
             return self._after(e.next_step())
         if e.tries + 1 < self._settings.max_tries:
             # Tried again after a check of the stop; where the arm found no way from where
@@ -455,21 +411,22 @@ class S3OPlanner(LeafSystem):
             return self._replan(context, dataclasses.replace(e, exhausted=exhausted),
                                 trigger=trigger, dish=action.dish)
         t = context.get_time()
-        give_up = RecoveryRecord("give_up", action.dish, trigger, "left on the table",
-                                 "done", t, t)
+        left = "kept in the gripper" if isinstance(action, Place) else "left on the table"
+        give_up = RecoveryRecord("give_up", action.dish, trigger, left, "done", t, t)
         return self._after(e.next_step(exhausted=exhausted,
                                        given_up=(*e.given_up, action.dish),
                                        recoveries=(*e.recoveries, give_up)))
 
-    def _after(self, e: _Execution) -> _Execution:
+    def _after(self, e: ExecutionState) -> ExecutionState:
         """The execution after an action: finished at the end of the plan."""
         if e.step >= len(e.plan.actions):
             return dataclasses.replace(e, finished=True, reason=PLAN_ENDED)
         return e
 
-    def _record(self, context: Context, e: _Execution, action: Pickup,
+    def _record(self, context: Context, e: ExecutionState, action: Pickup | Place,
                 status: Status) -> PickupRecord:
-        """The record of the pickup at `e.step`, which `status` has just finished."""
+        """The record of the pickup (or place: its `dish` is the place target) at
+        `e.step`, which `status` has just finished."""
         if e.turning:  # the turn to face the dish failed: no pick, the base stopped here
             actual = tuple(float(v) for v in self._pose(context))
             outcome, noise = f"turn {status.reason}", None
@@ -485,7 +442,7 @@ class S3OPlanner(LeafSystem):
             stop = next((a.pose for a in reversed(e.plan.actions[:e.step])
                          if isinstance(a, Goto)), e.result.known.pose)
             predicted = float(action.feasibility)
-        return PickupRecord(dish=action.dish, kind=self._dish_kind[action.dish],
+        return PickupRecord(dish=self._target(action), kind=self._dish_kind[action.dish],
                             method=self._method, predicted=float(predicted),
                             source=e.result.known.planner.feasibility,
                             planned_pose=tuple(float(v) for v in stop), actual_pose=actual,

@@ -1,18 +1,23 @@
 """TaskMonitor: the run's report, and the end of the simulation."""
 
 import math
+from collections.abc import Sequence
 
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
 
-from s3o_drake.execution.messages import PlanProgress, RunReport
-from s3o_drake.world.dish_messages import DishState, DishStates
+from s3o_drake.execution.messages import Placement, PlanProgress, RunReport
+from s3o_drake.goals import PlaceTarget
+from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates
+from s3o_drake.world.object_tracker import STANDING_TILT, tilt
 
 TIME_LIMIT_REASON = "time limit"
 
 
 class TaskMonitor(LeafSystem):
-    """Reports how many dishes are on the tray and stops the simulation when the plan is over.
+    """Reports how many dishes are on the tray, and where each object to place stands
+    against its place target (`places`; `fixtures` names the objects that stay, which have
+    no goal), and stops the simulation when the plan is over.
 
     A periodic check (`period`; also a forced discrete update) records the simulated time at
     which `progress.finished` first holds, and ends the simulation once it has held for
@@ -25,8 +30,11 @@ class TaskMonitor(LeafSystem):
         progress: abstract PlanProgress (from the planner).
         dish_states: abstract DishStates, the DishState of each dish (from the
             ObjectTracker).
+        dish_poses: abstract DishPoses, X_WD of each dish (from the ObjectTracker; read
+            for the objects to place only).
     Output ports:
-        report: abstract RunReport: the dishes, those on the tray, the execution time (the
+        report: abstract RunReport: the dishes, those on the tray, the placements, the
+            execution time (the
             simulated time the plan finished, else the current time), whether and why the
             plan finished, and progress's outcomes, pickup and recovery records and
             unreachable dishes (`to_dict()` gives
@@ -34,16 +42,21 @@ class TaskMonitor(LeafSystem):
     """
 
     def __init__(self, *, settle_time: float = 0.5, time_limit: float = 600.0,
-                 period: float = 0.01) -> None:
+                 period: float = 0.01, places: Sequence[PlaceTarget] = (),
+                 fixtures: Sequence[str] = ()) -> None:
         super().__init__()
         if settle_time < 0 or time_limit <= 0 or period <= 0:
             raise ValueError("settle_time must be >= 0, time_limit and period > 0")
         self._settle_time = settle_time
         self._time_limit = time_limit
+        self._places = tuple(places)
+        self._fixtures = frozenset(fixtures)
         self._progress_port = self.DeclareAbstractInputPort(
             "progress", AbstractValue.Make(PlanProgress()))
         self._dish_states_port = self.DeclareAbstractInputPort(
             "dish_states", AbstractValue.Make(DishStates()))
+        self._dish_poses_port = self.DeclareAbstractInputPort(
+            "dish_poses", AbstractValue.Make(DishPoses()))
         # The simulated time at which progress first said finished; NaN while it has not.
         self._finished_at_index = self.DeclareDiscreteState([math.nan])
         self.DeclareAbstractOutputPort("report", lambda: AbstractValue.Make(RunReport()),
@@ -84,8 +97,24 @@ class TaskMonitor(LeafSystem):
         else:
             reason = progress.reason
         output.set_value(RunReport(
-            dishes=len(dish_states), collected_dishes=dish_states.named(DishState.TRAY),
+            dishes=len(set(dish_states) - self._fixtures),
+            collected_dishes=dish_states.named(DishState.TRAY),
+            placements=self._placements(context, dish_states),
             execution_time=t if math.isnan(finished_at) else finished_at,
             finished=bool(progress.finished), reason=reason, outcomes=progress.outcomes,
             pickups=progress.pickups, recoveries=progress.recoveries,
             unreachable=progress.unreachable, plans=progress.plans))
+
+    def _placements(self, context: Context, dish_states: DishStates) -> tuple[Placement, ...]:
+        if not self._places:
+            return ()
+        poses: DishPoses = self._dish_poses_port.Eval(context)
+        out = []
+        for place in self._places:
+            X_WD = poses[place.name]
+            out.append(Placement(
+                object=place.name, target=(*place.position, place.surface),
+                state=str(dish_states[place.name]),
+                final=tuple(float(v) for v in X_WD.translation()),
+                upright=tilt(X_WD.rotation()) <= STANDING_TILT))
+        return tuple(out)

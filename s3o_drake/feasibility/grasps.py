@@ -21,14 +21,13 @@ import numpy as np
 from pydrake.math import RigidTransform, RotationMatrix
 
 from s3o_drake.furniture import DISH_SHAPES
-from s3o_drake.robot import FINGER_TRAVEL, FINGERTIP_OFFSET, GRASP_OFFSET
+from s3o_drake.gripper import holds_whole
+from s3o_drake.robot import FINGERTIP_OFFSET, GRASP_OFFSET
 
 GRASP_KINDS = ("top", "side")
 # The fingers must stay this far above the table top (m); matches the 1 cm clearance of
 # the feasibility check plus a little.
 TABLE_CLEARANCE = 0.012
-# A dish is held whole when it is this much narrower than the full opening (m).
-OPENING_MARGIN = 0.03
 # How far inside the rim the fingers pinch a wide dish (m).
 RIM_INSET = 0.01
 # Half the height of a finger pad seen from the side (m), for side grasps.
@@ -59,11 +58,6 @@ class Grasp:
     height: float
     bearing: float
     X_WG: RigidTransform
-
-
-def holds_whole(kind: str) -> bool:
-    """Whether the opening spans the dish (else the rim is pinched)."""
-    return 2 * DISH_SHAPES[kind].radius <= 2 * FINGER_TRAVEL - OPENING_MARGIN
 
 
 def grasp_point_height(kind: str, table_height: float, grasp: str) -> float:

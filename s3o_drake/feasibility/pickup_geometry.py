@@ -45,9 +45,10 @@ from pydrake.planning import SceneGraphCollisionChecker
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP, RIM_INSET, holds_whole
+from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP, RIM_INSET
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.furniture import DISH_SHAPES
+from s3o_drake.gripper import holds_whole
 from s3o_drake.robot import (
     ARM_MOUNT_XYZ,
     ARM_POSITIONS,
@@ -337,12 +338,14 @@ def _grasp_start(q: np.ndarray, q_arm: np.ndarray) -> np.ndarray:
 
 def pickup_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
                     dish: str, *, reach_offset: np.ndarray | None = None,
-                    q_arm: np.ndarray = ARM_STOW) -> PickupGeometry:
+                    q_arm: np.ndarray = ARM_STOW, grasp: str | None = None) -> PickupGeometry:
     """The configurations of picking `dish` from base pose `base` (x, y, yaw), or why not.
 
     `reach_offset` moves the grasp target in the world (the dish's true place and the reach
     noise, as in `FeasibilityChecker.check`); `q_arm` is where the arm is now (the grasp's
-    ±2π joints are turned as near it as they go). See the module docstring.
+    ±2π joints are turned as near it as they go); `grasp` ("top" or "side"), when given,
+    is the only kind of grasp tried (putting an object down holds it as it was picked).
+    See the module docstring.
     """
     base = np.asarray(base, dtype=float).reshape(3)
     free = scene.checker
@@ -352,6 +355,8 @@ def pickup_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: 
     for result in checker.free_grasps(base, dish, reach_offset):
         if result.reason == "base_collision":
             return PickupGeometry(False, "base_collision")
+        if grasp is not None and result.grasp != grasp:
+            continue
         tried = tried or result.grasp
         q_grasp = _grasp_start(result.q, np.asarray(q_arm))
         (solutions,) = _arm_solutions(q_grasp[None])

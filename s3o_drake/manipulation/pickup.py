@@ -15,6 +15,10 @@ positions, in this order:
 - release: the fingers open;
 - stow: RRT-Connect back to ARM_STOW.
 
+An object whose goal is place is not let go over the tray: with `hold`, the pickup ends
+with "to_tray", the object held above the tray while the base drives on, and
+`manipulation.place.plan_place` later puts it down.
+
 Every motion is timed by `arm_motion.time_parameterize` (Drake's TOPPRA) within
 `segment_limits`: the UR5e's joint limits from the robot model (180 deg/s, 5 rad/s²), `SLOW`
 of them near the dish (descend, lift), the fingers at FINGER_MAX_*; the corners of a
@@ -55,7 +59,7 @@ SEGMENT_NAMES = ("approach", "descend", "close", "lift", "to_tray", "release", "
 #: Near the dish (SLOW_SEGMENTS) the arm keeps to this fraction of its joint limits, so that
 #: the hand arrives at the grasp gently and the PD-tracked arm settles before the fingers close.
 SLOW = 0.5
-SLOW_SEGMENTS = ("descend", "lift")
+SLOW_SEGMENTS = ("descend", "lift", "lower", "retreat")
 #: Finger speed and acceleration limits (m/s, m/s²); the plant allows 0.15 m/s.
 FINGER_MAX_VELOCITY = 0.1
 FINGER_MAX_ACCELERATION = 0.5
@@ -115,7 +119,7 @@ def segment_limits(plant: MultibodyPlant, name: str) -> tuple[np.ndarray, np.nda
     return v, a
 
 
-def _segment(name: str, path: np.ndarray, checker: SceneGraphCollisionChecker) -> Segment:
+def timed_segment(name: str, path: np.ndarray, checker: SceneGraphCollisionChecker) -> Segment:
     """`path` timed by TOPPRA within `segment_limits`, its corners rounded where `checker`
     finds the rounded curve collision-free."""
     v, a = segment_limits(checker.plant(), name)
@@ -127,8 +131,9 @@ def _segment(name: str, path: np.ndarray, checker: SceneGraphCollisionChecker) -
 def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
                 dish: str, *, reach_offset: np.ndarray | None = None,
                 q_start: np.ndarray | None = None, seed: int = 0,
-                time_limit: float = 5.0) -> PickupPlan:
-    """The timed arm motions that pick `dish` onto the tray from base pose `base` (x, y, yaw).
+                time_limit: float = 5.0, hold: bool = False) -> PickupPlan:
+    """The timed arm motions that pick `dish` onto the tray from base pose `base` (x, y, yaw)
+    (with `hold`: that pick it and hold it above the tray, ending with "to_tray").
 
     `base` is where the robot really stands; `reach_offset` is the reach noise (moves the
     grasp target, as in `FeasibilityChecker.check`); `q_start` the robot's 11 positions now
@@ -161,18 +166,19 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
     if opening:
         approach = np.vstack([q0[None, :], approach])
     # pickup_geometry checked the straight motions (descend, close, lift, release).
-    segments = [_segment("approach", approach, free),
-                _segment("descend", np.stack([c.q_pre, c.q_grasp]), holding),
-                _segment("close", np.stack([c.q_grasp, c.q_closed]), holding),
-                _segment("lift", np.stack([c.q_closed, c.q_lift]), holding)]
-    for name, a, b, path_checker in (("to_tray", c.q_lift, c.q_tray, holding),
-                                     ("release", c.q_tray, c.q_release, free),
-                                     ("stow", c.q_release, c.q_stow, free)):
+    segments = [timed_segment("approach", approach, free),
+                timed_segment("descend", np.stack([c.q_pre, c.q_grasp]), holding),
+                timed_segment("close", np.stack([c.q_grasp, c.q_closed]), holding),
+                timed_segment("lift", np.stack([c.q_closed, c.q_lift]), holding)]
+    rest = (("to_tray", c.q_lift, c.q_tray, holding),
+            ("release", c.q_tray, c.q_release, free),
+            ("stow", c.q_release, c.q_stow, free))
+    for name, a, b, path_checker in rest[:1] if hold else rest:
         if name == "release":
             path = np.stack([a, b])
         else:
             path = plan_arm_path(path_checker, a, b, time_limit=time_limit, seed=seed)
         if path is None:
             return fail
-        segments.append(_segment(name, path, path_checker))
+        segments.append(timed_segment(name, path, path_checker))
     return PickupPlan(True, "ok", segments, grasp=c.grasp)

@@ -451,16 +451,18 @@ def scenario_unmapped_chairs(scenario: Scenario) -> Perceive:
 def perceive_known_world(scenario: Scenario, images: tuple[np.ndarray, np.ndarray, np.ndarray],
                          *, pose: Sequence[float], dishes: Sequence[str],
                          perceive: Perceive | None = None,
-                         robot_labels: frozenset[int] = frozenset()) -> KnownWorld:
-    """What the robot knows, standing at `pose` with `dishes` left, from the overhead
-    (color, depth, label) images: its map (the scenario's mapped furniture), the chairs
-    perception finds (`perceive`, default ChairPerception from where the robot stands),
-    and the images the learned Fea^m reads (`robot_labels`: the robot's own pixels)."""
+                         robot_labels: frozenset[int] = frozenset(),
+                         held: str = "") -> KnownWorld:
+    """What the robot knows, standing at `pose` with `dishes` left (`held`, one of them,
+    in the gripper), from the overhead (color, depth, label) images: its map (the
+    scenario's mapped furniture), the chairs perception finds (`perceive`, default
+    ChairPerception from where the robot stands), and the images the learned Fea^m reads
+    (`robot_labels`: the robot's own pixels)."""
     color, depth, label = images
     depth = np.asarray(depth)[..., 0] if np.ndim(depth) == 3 else np.asarray(depth)
     label = np.asarray(label)[..., 0] if np.ndim(label) == 3 else np.asarray(label)
     find = perceive or ChairPerception(scenario, pose=pose)
     chairs = find(color, depth, label)
     return KnownWorld.of(scenario, perceived_chairs=chairs, pose=pose, dishes=dishes,
-                         overhead=OverheadImages(depth=depth, label=label,
+                         held=held, overhead=OverheadImages(depth=depth, label=label,
                                                  robot_labels=robot_labels))

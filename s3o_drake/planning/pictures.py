@@ -19,7 +19,9 @@ import numpy as np
 from shapely.ops import unary_union
 
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.goals import place_target_name, with_place_targets
 from s3o_drake.io import write_atomically
+from s3o_drake.planning.plan import Place
 from s3o_drake.scenario import Scenario
 
 if TYPE_CHECKING:
@@ -175,9 +177,14 @@ def _name_dishes(ax, dishes: Sequence[tuple[str, Sequence[float], object, bool]]
     return names, marks
 
 
+def _positions(scenario: Scenario) -> dict[str, Sequence[float]]:
+    """Where each object stands, and each place target (`goals.place_target_name`)."""
+    return {d.name: d.position for d in with_place_targets(scenario).dishes}
+
+
 def _scenario_dishes(scenario: Scenario, unreachable: Sequence[str] = (),
                      colour="cyan") -> list[tuple[str, Sequence[float], object, bool]]:
-    return [(d.name, d.position, colour, d.name in unreachable) for d in scenario.dishes]
+    return [(name, p, colour, name in unreachable) for name, p in _positions(scenario).items()]
 
 
 def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
@@ -192,7 +199,7 @@ def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Seque
     cols = min(3, max(1, len(heatmaps)))
     rows = max(1, -(-len(heatmaps) // cols))
     fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 4.4 * rows + 0.6), squeeze=False)
-    where = {d.name: d.position for d in scenario.dishes}
+    where = _positions(scenario)
     image = None
     for ax, heatmap in zip(axes.flat, heatmaps, strict=False):
         hx0, hx1, hy0, hy1 = heatmap.extent
@@ -384,7 +391,7 @@ def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan"
                                  fontsize=7, marker_size=5)
     fea_labels = []  # after the stops': the numbers may move furthest from their place
     colours = plt.get_cmap("tab10")
-    dish_xy = {d.name: d.position for d in scenario.dishes}
+    dish_xy = _positions(scenario)
     start = scenario.robot.start if start is None else start
     (mark,) = ax.plot(start[0], start[1], marker="s", markersize=10, color="white",
                       markeredgecolor="k")
@@ -414,7 +421,8 @@ def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan"
             labels.append((text, _around(ax, (x, y), mark.get_markersize())))
             stop = (x, y)
         else:
-            d = dish_xy[action.dish]
+            d = dish_xy[place_target_name(action.dish) if isinstance(action, Place)
+                        else action.dish]
             locations[location] += (action.dish,)
             ax.plot([stop[0], d[0]], [stop[1], d[1]], color=colour, linewidth=1.0,
                     linestyle=":")
@@ -425,7 +433,9 @@ def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan"
     count = len(plan.gotos)
     title = title or (f"{plan.method}: {count} stop{'s' if count != 1 else ''} "
                       f"(number · location), {len(plan.pickups)} pickup"
-                      f"{'s' if len(plan.pickups) != 1 else ''}, predicted "
+                      f"{'s' if len(plan.pickups) != 1 else ''}"
+                      + (f", {len(plan.places)} place{'s' if len(plan.places) != 1 else ''}"
+                         if plan.places else "") + ", predicted "
                       f"{plan.predicted_time:.0f} s, utility {plan.utility:.1f} "
                       "(on the dotted lines: Fea$^m$)")
     ax.set_title(title, fontsize=11)

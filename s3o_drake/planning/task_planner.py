@@ -88,6 +88,9 @@ class TaskProblem:
     """Object -> the location of its place target, for the objects put down (`place`)
     rather than collected: picked, such an object is held in the gripper, which holds one
     at a time, until `place` puts it down there; None: the target has no location."""
+    held: str | None = None
+    """The object to place that the gripper holds at the start (picked already: it stands
+    at no location, `dishes` maps it to None)."""
 
     @property
     def nodes(self) -> tuple[str, ...]:
@@ -161,6 +164,10 @@ def problem_facts(problem: TaskProblem) -> str:
             if loc not in problem.locations:
                 raise ValueError(f"dish {dish!r}: unknown location {loc!r}")
             lines.append(f"at({_quote(dish)}, {_quote(loc)}).")
+    if problem.held is not None:
+        if problem.held not in problem.places or problem.dishes.get(problem.held, "") is not None:
+            raise ValueError(f"held: {problem.held!r} is no object to place at no location")
+        lines.append(f"held({_quote(problem.held)}).")
     for dish in sorted(problem.places):
         loc = problem.places[dish]
         if dish not in problem.dishes:
@@ -341,7 +348,9 @@ def plan_problem(state_space_groups: Sequence[Sequence[str]], costs: CostSpec, *
     `location_names[k]` or "l{k}". Dishes in `unreachable` (e.g. `Abstraction.unreachable`)
     get no location and are reported (or raise, per `on_unreachable`). `places` maps each
     object to place to its place target's name (`KnownWorld.places`): the target, a member
-    of a group like the dishes, is no dish to pick but where its object is put down."""
+    of a group like the dishes, is no dish to pick but where its object is put down. An
+    object to place that is itself in no group is the one in the gripper
+    (`KnownWorld.held`): it is only put down."""
     names = list(location_names) if location_names is not None else [
         f"l{k}" for k in range(len(state_space_groups))]
     bad = set(unreachable)
@@ -352,9 +361,14 @@ def plan_problem(state_space_groups: Sequence[Sequence[str]], costs: CostSpec, *
     target_of = dict(places or {})
     targets = set(target_of.values())
     dishes = {d: loc for d, loc in where.items() if d not in targets}
+    held = [o for o in target_of if o not in dishes]
+    if len(held) > 1:
+        raise ValueError(f"places: {held} are in no group, and the gripper holds one object")
+    dishes.update({o: None for o in held})
     keys = {"capacity", "depot"}
     problem = TaskProblem(locations=tuple(names), dishes=dishes, costs=costs, start=start,
-                          places={o: where.get(t) for o, t in target_of.items() if o in dishes},
+                          places={o: where.get(t) for o, t in target_of.items()},
+                          held=held[0] if held else None,
                           **{k: kwargs.pop(k) for k in list(kwargs) if k in keys})
     return plan_tasks(problem, **kwargs)
 
@@ -371,13 +385,14 @@ def check_plan(problem: TaskProblem, actions: Sequence[Action],
     """
     goal = set(dishes) if dishes is not None else {
         d for d, loc in problem.dishes.items()
-        if loc is not None and (d not in problem.places or problem.places[d] is not None)}
+        if (loc is not None or d == problem.held)
+        and (d not in problem.places or problem.places[d] is not None)}
     here = problem.start
     tray: set[str] = set()
-    collected: set[str] = set()
+    hand: str | None = problem.held
+    collected: set[str] = {hand} if hand is not None else set()
     delivered: set[str] = set()
     put: set[str] = set()
-    hand: str | None = None
     total = 0
     for i, (name, arg) in enumerate(actions):
         if name == "goto":

@@ -17,11 +17,13 @@ _V = TypeVar("_V")
 
 class DishState(str, Enum):
     """Where a dish is. A str Enum, so that a state prints, compares and serialises as the
-    plain word ("table", "gripper", "tray", "dropped")."""
+    plain word ("table", "gripper", "tray", "placed", "dropped"). Placed: put down at a
+    place by the arm (an object whose goal is place), standing on the surface below."""
 
     TABLE = "table"
     GRIPPER = "gripper"
     TRAY = "tray"
+    PLACED = "placed"
     DROPPED = "dropped"
 
     def __str__(self) -> str:
@@ -84,7 +86,10 @@ class GripEvent:
     """What the gripper holds: `dish` ("" for nothing). The arm controller outputs it and
     the object tracker follows it: a dish named here moves with the gripper from the
     moment it appears; when it disappears, the dish lands on the tray if it is in `placed`
-    (the dishes the arm has put down on the tray so far), else it is dropped where it is."""
+    (the dishes the arm has put down on the tray so far), comes to stand on the surface
+    below it if it is in `put` (the objects the arm has put down at their places), and is
+    dropped where it is otherwise."""
 
     dish: str = ""
     placed: tuple[str, ...] = ()
+    put: tuple[str, ...] = ()

@@ -41,6 +41,8 @@ from pydrake.systems.framework import (
 )
 
 from s3o_drake.furniture import DISH_SHAPES
+from s3o_drake.goals import surface_below
+from s3o_drake.gripper import holds_whole
 from s3o_drake.robot import (
     BASE_LINK,
     GRASP_FRAME,
@@ -75,6 +77,17 @@ class _Track:
 #: The tracker's abstract state: a _Track per dish, in the scenario's order. Immutable: an
 #: update makes a new tuple.
 _Tracks = tuple[_Track, ...]
+
+
+#: An object let go at its place tilted less than this (rad) from upright comes to stand
+#: upright on the surface below; tilted more, it is left as it was let go (it would topple),
+#: and the run's report says it is not upright.
+STANDING_TILT = 0.17
+
+
+def tilt(R: RotationMatrix) -> float:
+    """The angle (rad) between the frame's z axis and the world's."""
+    return math.acos(min(1.0, max(-1.0, float(R.matrix()[2, 2]))))
 
 
 def _upright(x: float, y: float, z: float, R: RotationMatrix) -> RigidTransform:
@@ -149,10 +162,15 @@ class ObjectTracker(LeafSystem):
     geometry source, `frame_ids` each dish's frame in it, `labels` each dish's render label.
 
     A dish starts on its table. When `grip.dish` names it, it is in the gripper and keeps
-    the pose relative to the grasp frame G that it had at that moment. When it is no longer
+    the pose relative to the grasp frame G that it had at that moment, except that one
+    held whole (`gripper.holds_whole`: a cup, a can, an apple) is pushed by the closing
+    fingers to the middle between them. When it is no longer
     named, it lands on the tray if it is in `grip.placed` (upright on the tray's floor,
-    where it was released, kept inside the rim), else it is dropped: upright on the floor
-    below where it was. The states change at a periodic update (`period`) and at a forced
+    where it was released, kept inside the rim); if it is in `grip.put`, it was put down at
+    its place: it stands on the highest surface below where it was let go
+    (`goals.surface_below`: an object that stays, a table's top, the floor), upright unless
+    it tilted more than STANDING_TILT; else it is dropped: upright on the floor below where
+    it was. The states change at a periodic update (`period`) and at a forced
     unrestricted update; the poses of held dishes follow the robot's state continuously.
 
     Input ports:
@@ -162,7 +180,7 @@ class ObjectTracker(LeafSystem):
         geometry_pose: FramePoseVector, for scene_graph.get_source_pose_port(source_id).
         dish_poses: abstract DishPoses, X_WD per dish.
         dish_states: abstract DishStates, the DishState of each dish (table, gripper,
-            tray or dropped).
+            tray, placed or dropped).
     """
 
     def __init__(self, *, scenario: Scenario, plant: MultibodyPlant, robot: ModelInstanceIndex,
@@ -176,6 +194,7 @@ class ObjectTracker(LeafSystem):
             if set(given) != set(names):
                 raise ValueError(f"{what}: expected the dishes {names}, got {tuple(given)}")
         self._plant = plant
+        self._scenario = scenario
         self._G = plant.GetFrameByName(GRASP_FRAME, robot)
         self._robot = robot
         # The tray is welded to the base link, which the planar joints place at (x, y, yaw):
@@ -189,6 +208,7 @@ class ObjectTracker(LeafSystem):
         self._frame_ids = dict(frame_ids)
         self._labels = dict(labels)
         self._radii = {d.name: DISH_SHAPES[d.kind].radius for d in scenario.dishes}
+        self._whole = {d.name: holds_whole(d.kind) for d in scenario.dishes}
         # As world.populate_plant welds the dishes: bottom centre on the surface.
         initial = tuple(
             _Track(d.name, DishState.TABLE,
@@ -302,15 +322,31 @@ class ObjectTracker(LeafSystem):
                 return track
             X_WD = X_WD_now[name]
             if name == grip.dish:
-                return _Track(name, DishState.GRIPPER, X_WG.inverse() @ X_WD)
+                return _Track(name, DishState.GRIPPER, self._between_fingers(name,
+                                                                             X_WG.inverse() @ X_WD))
             if name in grip.placed:
                 return _Track(name, DishState.TRAY, self._on_tray(name, X_WT.inverse() @ X_WD))
             p = X_WD.translation()
+            if name in grip.put:
+                z = surface_below(self._scenario, p, ignore={name})
+                R = X_WD.rotation()
+                X_WD = (_upright(p[0], p[1], z, R) if tilt(R) <= STANDING_TILT
+                        else RigidTransform(R, [p[0], p[1], z]))
+                return _Track(name, DishState.PLACED, X_WD)
             return _Track(name, DishState.DROPPED, _upright(p[0], p[1], 0.0, X_WD.rotation()))
 
         state.get_mutable_abstract_state(self._tracks_index).set_value(
             tuple(moved(t) for t in tracks))
         return EventStatus.Succeeded()
+
+    def _between_fingers(self, name: str, X_GD: RigidTransform) -> RigidTransform:
+        """X_GD of a dish the fingers have closed on: one held whole is pushed to the middle
+        between them (y = 0 in G, the fingers' closing axis); a pinched rim stays where
+        it was caught."""
+        if not self._whole[name]:
+            return X_GD
+        x, _, z = X_GD.translation()
+        return RigidTransform(X_GD.rotation(), [x, 0.0, z])
 
     def _on_tray(self, name: str, X_TD: RigidTransform) -> RigidTransform:
         """X_TD set down on the tray's floor (z = 0 in T) and kept inside its rim."""

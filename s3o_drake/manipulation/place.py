@@ -1,0 +1,84 @@
+"""The arm's part of `place(o)`: put the object held in the gripper down at its place.
+
+An object whose goal is place was picked with `plan_pickup(..., hold=True)` and is held
+above the tray, with the grasp it was picked with. Its place target (`goals.PlaceTarget`)
+stands in the checker's scene as an object of its kind at the place (`goals.
+place_target_dishes`), and putting the object down there is the reverse of picking that
+target up: `plan_place` finds the target's pickup configurations with the same test as
+Fea^m (`pickup_geometry`, restricted to the grasp the object is held with, so that the
+hand never has to re-grasp), then joins, over the robot's 11 positions:
+
+- approach: RRT-Connect from where the arm holds the object to the target's pre-grasp,
+  the fingers kept closed on the object;
+- lower: straight joint line pre-grasp -> grasp: the object comes down onto its surface;
+- release: the fingers open;
+- retreat: straight joint line back to the pre-grasp;
+- stow: RRT-Connect back to ARM_STOW.
+
+Each is timed by TOPPRA as a pickup's motions are (`pickup.timed_segment`; lower and retreat
+at SLOW). The checkers are the pickup's: the scene's own (1 cm padding) for approach and
+stow, the target's grasping checker (the gripper may touch the target, and only it) for
+the motions at the place. The held object itself is not in the collision model, as on the
+way to the tray.
+"""
+
+import numpy as np
+
+from s3o_drake.feasibility import ik
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.pickup_geometry import pickup_geometry, with_gripper
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.manipulation.arm_motion import ARM, plan_arm_path
+from s3o_drake.manipulation.pickup import PickupPlan, timed_segment
+from s3o_drake.robot import NUM_POSITIONS
+
+PLACE_SEGMENTS = ("approach", "lower", "release", "retreat", "stow")
+
+
+def plan_place(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
+               target: str, *, grasp: str, q_start: np.ndarray,
+               reach_offset: np.ndarray | None = None, seed: int = 0,
+               time_limit: float = 5.0) -> PickupPlan:
+    """The timed arm motions that put the held object down at place target `target` (a
+    dish of `scene`) from base pose `base` (x, y, yaw), holding it with `grasp` ("top" or
+    "side").
+
+    `q_start` is the robot's 11 positions now (the fingers as they hold the object; its
+    base entries are replaced by `base`); `reach_offset` the reach noise (moves where the
+    object is put down); `seed` and `time_limit` go to `plan_arm_path`. Not ok with reason
+    "base_collision", "no_ik" (no grasp of that kind at the target, or no pre-grasp on its
+    branch) or "no_path" (no collision-free motion).
+    """
+    base = np.asarray(base, dtype=float).reshape(3)
+    q0 = np.asarray(q_start, dtype=float).copy()
+    if q0.shape != (NUM_POSITIONS,):
+        raise ValueError(f"q_start: expected {NUM_POSITIONS} positions, got shape {q0.shape}")
+    q0[:3] = base
+    geometry = pickup_geometry(scene, checker, base, target, reach_offset=reach_offset,
+                               q_arm=q0[ARM], grasp=grasp)
+    if not geometry.ok:
+        return PickupPlan(False, geometry.reason, grasp=grasp)
+    c = geometry.configurations
+    fingers = q0[9:]
+    q_pre = with_gripper(c.q_pre, fingers)
+    q_down = with_gripper(c.q_grasp, fingers)
+    free = scene.checker
+    at_place = ik.grasp_checker(scene, target)
+    fail = PickupPlan(False, "no_path", grasp=grasp)
+    try:
+        approach = plan_arm_path(free, q0, q_pre, time_limit=time_limit, seed=seed)
+    except ValueError:
+        return fail  # the arm stands in collision, within the padding: no path from here
+    # pickup_geometry checked the straight motions at the place (descend and close, here
+    # run backwards); the fingers open from where they hold the object.
+    if approach is None or not at_place.CheckEdgeCollisionFree(q_down, c.q_grasp):
+        return fail
+    stow = plan_arm_path(free, c.q_pre, c.q_stow, time_limit=time_limit, seed=seed)
+    if stow is None:
+        return fail
+    segments = [timed_segment("approach", approach, free),
+                timed_segment("lower", np.stack([q_pre, q_down]), at_place),
+                timed_segment("release", np.stack([q_down, c.q_grasp]), at_place),
+                timed_segment("retreat", np.stack([c.q_grasp, c.q_pre]), at_place),
+                timed_segment("stow", stow, free)]
+    return PickupPlan(True, "ok", segments, grasp=grasp)
