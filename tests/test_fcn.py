@@ -13,6 +13,7 @@ from s3o_drake.commands import train as train_command
 from s3o_drake.feasibility import dataset, training
 from s3o_drake.feasibility.fcn import (
     CHANNELS,
+    LABEL_REACH_STD,
     FcnFeasibility,
     FeasibilityUNet,
     auroc,
@@ -21,6 +22,8 @@ from s3o_drake.feasibility.fcn import (
 )
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE
+from s3o_drake.feasibility.pickup_geometry import place_probability
+from s3o_drake.goals import with_place_targets
 from s3o_drake.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
@@ -162,3 +165,23 @@ def test_objects_it_was_not_trained_on_are_seen_as_what_they_are_held_like(kind)
     (oracle,) = compute_heatmaps(scenario, [dish.name], progress=False)
     assert oracle.values.max() > 0.9
     assert np.abs(predicted.values - oracle.values).mean() < 0.08
+
+
+def test_the_labels_reach_noise_is_the_restaurants():
+    """The network's heatmaps are rescaled by factors of the labels' reach noise: the noise
+    of the scenes the dataset draws (scenarios/restaurant.yaml's)."""
+    restaurant = load_scenario(REPO / "scenarios" / "restaurant.yaml")
+    assert restaurant.uncertainty.reach_std == LABEL_REACH_STD
+
+
+def test_a_place_target_is_rated_as_the_oracle_rates_it():
+    """tidy_home's apple put down on the plate: shown to the network as a cup standing on
+    the plate, its heatmap rescaled from a cup's catch to the apple's chance of standing
+    within tolerance, it is close to the oracle's, and no higher than that chance."""
+    tidy = with_place_targets(load_scenario(REPO / "scenarios" / "tidy_home.yaml"))
+    (target,) = [d for d in tidy.dishes if d.name == "apple__place"]
+    predicted = FcnFeasibility.load(WEIGHTS).heatmap(view_of(tidy), target)
+    (oracle,) = compute_heatmaps(tidy, [target.name], progress=False)
+    ceiling = place_probability("apple", tidy.uncertainty.reach_std)
+    assert oracle.values.max() > 0.85 and predicted.values.max() <= ceiling + 1e-9
+    assert np.abs(predicted.values - oracle.values).mean() < 0.05

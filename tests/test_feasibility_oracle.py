@@ -11,8 +11,14 @@ from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import FeasibilityOracle
+from s3o_drake.feasibility.pickup_geometry import (
+    catch_probability,
+    goal_probability,
+    place_probability,
+)
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.goals import PLACE_TOLERANCE, with_place_targets
 from s3o_drake.robot import BASE_WIDTH
 from s3o_drake.scenario import Chair, load_scenario
 
@@ -103,3 +109,35 @@ def test_benchmark_rejects_bad_arguments_in_one_line(capsys):
         benchmark_main(["--queries", "3"])
     assert info.value.code == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_a_place_is_rated_by_the_chance_the_object_stands_within_tolerance():
+    """Putting an object down is not caught: the reach errors of its pickup (the offset in
+    the hand, across the fingers centred for an object held whole) and of the place add up,
+    and Fea^m's factor is the chance the object ends within PLACE_TOLERANCE."""
+    assert place_probability("cup", 0.0) == 1.0
+    # A pinched rim keeps the whole pickup error: 2 sigma² per axis, a Rayleigh radius.
+    assert place_probability("plate", 0.01) == pytest.approx(
+        1 - math.exp(-PLACE_TOLERANCE**2 / (4 * 0.01**2)), abs=1e-5)
+    # Held whole, one axis loses the pickup's error: between the two isotropic cases.
+    whole = place_probability("apple", 0.01)
+    assert 1 - math.exp(-PLACE_TOLERANCE**2 / (4 * 0.01**2)) < whole < \
+        1 - math.exp(-PLACE_TOLERANCE**2 / (2 * 0.01**2))
+    assert place_probability("apple", 0.02) < whole
+    # The same object picked is rated by its catch, placed by its place.
+    assert goal_probability("apple", "apple", 0.01) == catch_probability("apple", 0.01)
+    assert goal_probability("apple__place", "apple", 0.01) == whole
+
+
+def test_a_place_targets_heatmap_is_its_monte_carlo_expectation(rmap):
+    """The oracle's two computations agree for a place target: the heatmap (the blurred
+    success times `place_probability`) and the Monte Carlo reference (each landing, the
+    place's reach noise and the object's offset in the hand drawn)."""
+    tidy = with_place_targets(load_scenario(REPO / "scenarios" / "tidy_home.yaml"))
+    oracle = _oracle(tidy, rmap)
+    heatmap = oracle.heatmap("apple__place", cells=32)
+    best = heatmap.centers()[np.unravel_index(np.argmax(heatmap.values), heatmap.values.shape)]
+    assert heatmap.values.max() <= place_probability("apple", tidy.uncertainty.reach_std)
+    p = oracle.probability(best, "apple__place", rng=np.random.default_rng(0), samples=400)
+    # 400 samples near p = 0.9: a standard error of 0.015.
+    assert p == pytest.approx(heatmap.values.max(), abs=0.05)

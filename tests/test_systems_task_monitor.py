@@ -21,7 +21,7 @@ from s3o_drake.execution.messages import (
     RunReport,
     Status,
 )
-from s3o_drake.execution.task_monitor import TaskMonitor
+from s3o_drake.execution.task_monitor import OFF_PLACE, TaskMonitor
 from s3o_drake.goals import PlaceTarget
 from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates
 
@@ -98,6 +98,27 @@ def test_each_object_to_place_is_judged_against_its_target():
         assert data["placements"][0] == {
             "object": "apple", "target": [4.95, 3.75, 0.775], "state": str(state),
             "final": p, "error": placement.error, "upright": R is upright, "placed": placed}
+
+
+def test_a_put_down_that_leaves_its_object_off_its_place_is_recorded_as_failed():
+    """The arm's place motion ended "done" twice (a first put-down, then the record of a
+    later one); the object stands 4 cm off: the later record, the one that let it go, says
+    off_place, so the calibration of Fea^m counts the place as failed. At its place, both
+    stay done."""
+    target = PlaceTarget("apple", "apple", "dining", (4.95, 3.75), 0.775, onto="plate")
+    place = dataclasses.replace(RECORDS[0], dish="apple__place", kind="apple")
+    progress = dataclasses.replace(DONE, pickups=(place, RECORDS[1],
+                                                  dataclasses.replace(place, attempt=2)))
+    monitor = TaskMonitor(places=[target], fixtures=["plate"])
+    context = monitor.CreateDefaultContext()
+    for x, outcome in ((4.97, "done"), (4.99, OFF_PLACE)):
+        _fixed(monitor, context, progress, DishStates({"apple": DishState.PLACED,
+                                                       "plate": DishState.TABLE}))
+        monitor.GetInputPort("dish_poses").FixValue(context, DishPoses({
+            "apple": RigidTransform([x, 3.75, 0.775]),
+            "plate": RigidTransform([4.95, 3.75, 0.75])}))
+        records = monitor.GetOutputPort("report").Eval(context).pickups
+        assert [r.outcome for r in records] == ["done", "missed", outcome]
 
 
 def test_execution_time_is_when_the_plan_finished():

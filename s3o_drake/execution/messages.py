@@ -20,6 +20,8 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
+from s3o_drake.goals import PLACE_TOLERANCE, SURFACE_TOLERANCE
+
 NO_COMMAND = 0
 
 PLAN_ENDED = "plan ended"
@@ -250,11 +252,6 @@ class PlanTime:
                 "feasibility_time": self.feasibility_time, "budget": self.budget}
 
 
-PLACE_TOLERANCE = 0.03
-"""How far (m, horizontally) a put-down object may stand from its place target and count
-as placed (it must also stand upright on the target's surface)."""
-SURFACE_TOLERANCE = 0.005
-"""How far (m) the surface it stands on may be from the target's and be the same one."""
 
 
 @dataclass(frozen=True)

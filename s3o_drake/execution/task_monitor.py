@@ -1,17 +1,20 @@
 """TaskMonitor: the run's report, and the end of the simulation."""
 
+import dataclasses
 import math
 from collections.abc import Sequence
 
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
 
-from s3o_drake.execution.messages import Placement, PlanProgress, RunReport
-from s3o_drake.goals import PlaceTarget
+from s3o_drake.execution.messages import PickupRecord, Placement, PlanProgress, RunReport
+from s3o_drake.goals import PlaceTarget, place_target_name
 from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates
 from s3o_drake.world.object_tracker import STANDING_TILT, tilt
 
 TIME_LIMIT_REASON = "time limit"
+#: The outcome of a put-down that left its object standing off its place (`_judged`).
+OFF_PLACE = "off_place"
 
 
 class TaskMonitor(LeafSystem):
@@ -96,13 +99,14 @@ class TaskMonitor(LeafSystem):
             reason = TIME_LIMIT_REASON
         else:
             reason = progress.reason
+        placements = self._placements(context, dish_states)
         output.set_value(RunReport(
             dishes=len(set(dish_states) - self._fixtures),
             collected_dishes=dish_states.named(DishState.TRAY),
-            placements=self._placements(context, dish_states),
+            placements=placements,
             execution_time=t if math.isnan(finished_at) else finished_at,
             finished=bool(progress.finished), reason=reason, outcomes=progress.outcomes,
-            pickups=progress.pickups, recoveries=progress.recoveries,
+            pickups=_judged(progress.pickups, placements), recoveries=progress.recoveries,
             unreachable=progress.unreachable, plans=progress.plans))
 
     def _placements(self, context: Context, dish_states: DishStates) -> tuple[Placement, ...]:
@@ -118,3 +122,21 @@ class TaskMonitor(LeafSystem):
                 final=tuple(float(v) for v in X_WD.translation()),
                 upright=tilt(X_WD.rotation()) <= STANDING_TILT))
         return tuple(out)
+
+
+def _judged(records: tuple[PickupRecord, ...],
+            placements: tuple[Placement, ...]) -> tuple[PickupRecord, ...]:
+    """The records with each put-down judged by where the object stands: the arm's motion
+    that let an object go (its place's last record "done") failed OFF_PLACE when the object
+    does not stand at its place, so that a place's Fea^m is calibrated against the place's
+    goal, as a pick's is against the catch."""
+    out = list(records)
+    for p in placements:
+        if p.state != str(DishState.PLACED) or p.placed:
+            continue
+        target = place_target_name(p.object)
+        last = max((i for i, r in enumerate(out) if r.dish == target and r.succeeded),
+                   default=None)
+        if last is not None:
+            out[last] = dataclasses.replace(out[last], outcome=OFF_PLACE)
+    return tuple(out)

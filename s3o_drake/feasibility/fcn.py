@@ -27,6 +27,13 @@ on labels from the Drake oracle (`s3o_drake.feasibility.dataset`, `...train`):
   probability, and its gradient does not vanish on saturated cells as MSE through a sigmoid
   does (most cells are certainly 0: out of reach or in collision).
 
+An object the network was not trained on is shown as the kind it is held like
+(`furniture.NETWORK_KIND`: a can or an apple as a cup), and a place target as its object
+standing there. Its labels held that kind's catch probability (the one factor of the reach
+noise in Fea^m, `pickup_geometry.goal_probability`), so the output is rescaled to the
+target's own factor: its kind's catch, or for a place the probability that the object
+stands within tolerance of it. `LABEL_REACH_STD` is the reach noise of the labels.
+
 A crop and the oracle's heatmap turn together under 90-degree rotations about the dish (the
 grid is symmetric about its centre and the noise is isotropic), which training uses as
 augmentation; mirror images are not used (the arm is not mirror-symmetric).
@@ -42,6 +49,7 @@ from torch import nn
 
 from s3o_drake.camera import OverheadCamera, back_project, overhead_camera
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE, Heatmap
+from s3o_drake.feasibility.pickup_geometry import catch_probability, goal_probability
 from s3o_drake.furniture import DISH_SHAPES, NETWORK_KIND, RESTAURANT_KINDS
 from s3o_drake.resources import FCN_WEIGHTS
 from s3o_drake.scenario import Dish, Scenario
@@ -49,6 +57,9 @@ from s3o_drake.world.builder import render_overhead
 
 DEFAULT_WEIGHTS = FCN_WEIGHTS
 """The shipped network (see models/fcn/README.md for the commands that made it)."""
+LABEL_REACH_STD = 0.01
+"""The reach noise (m) of the training labels: the restaurant's (scenarios/restaurant.yaml),
+whose settings the dataset's scenes keep."""
 CHANNELS = ("height", "unobserved", "dish", "dx", "dy",
             *(f"kind_{k}" for k in RESTAURANT_KINDS))
 
@@ -221,12 +232,22 @@ class FcnFeasibility:
         inputs = np.stack([crop_inputs(view, np.asarray(d.position[:2]), d.kind)
                            for d in dishes])
         values = self.predict(inputs)
-        return [Heatmap(d.name, v, *crop_grid(np.asarray(d.position[:2])))
+        return [Heatmap(d.name, _own_factor(d, v), *crop_grid(np.asarray(d.position[:2])))
                 for d, v in zip(dishes, values, strict=True)]
 
     def heatmap(self, view: OverheadView, dish: Dish) -> Heatmap:
         """The heatmap of one dish."""
         return self.heatmaps(view, [dish])[0]
+
+
+def _own_factor(dish: Dish, values: np.ndarray) -> np.ndarray:
+    """The network's heatmap with the factor of the reach noise it learned for the kind it
+    is shown as replaced by the target's own (see the module docstring). The network's
+    estimate of the blurred success, values over the learned factor, is at most 1: a
+    trained kind's pick is the network's heatmap capped at its catch probability."""
+    learned = catch_probability(NETWORK_KIND[dish.kind], LABEL_REACH_STD)
+    own = goal_probability(dish.name, dish.kind, LABEL_REACH_STD)
+    return np.minimum(values / learned, 1.0) * own
 
 
 _SHARED: dict[str, FcnFeasibility] = {}

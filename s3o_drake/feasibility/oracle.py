@@ -22,9 +22,10 @@ Two ways to compute it:
   dish; stopped short on the line to the dish when x collides). Then
   Fea^m(y) = P(caught) E_e[S(y + e)], S blurred by the landing noise's Gaussian. The reach
   noise widens the blur (a target off by ξ is, to the arm, a base off by -ξ), and
-  P(caught) = 1 - exp(-tol² / 2 reach_std²) (the norm of ξ is Rayleigh). S is evaluated on
-  a grid `FINE_CELL` or finer whose every k-th point is a heatmap cell's centre, halved
-  where S changes between neighbouring points, and blurred with
+  P(caught) = 1 - exp(-tol² / 2 reach_std²) (the norm of ξ is Rayleigh); for a place
+  target, P(placed within tolerance) takes its place (`pickup_geometry.goal_probability`).
+  S is evaluated on a grid `FINE_CELL` or finer whose every k-th point is a heatmap cell's
+  centre, halved where S changes between neighbouring points, and blurred with
   `scipy.ndimage.gaussian_filter`. What this leaves out (the drive's heading
   taken along the line to the dish, a yaw within `TURN_TOLERANCE` of facing taken as
   facing) is measured against `probabilities` by `python -m s3o_drake.commands.oracle_pinning`.
@@ -40,10 +41,12 @@ from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.landing import pickup_poses, stop_short
 from s3o_drake.feasibility.pickup_geometry import (
-    catch_probability,
+    goal_probability,
     grasp_tolerance,
     pickup_feasible_many,
+    place_error_stds,
 )
+from s3o_drake.goals import PLACE_TOLERANCE, placed_object
 from s3o_drake.scenario import Uncertainty
 
 CROP_SIZE = 4.0
@@ -154,8 +157,16 @@ class FeasibilityOracle:
         poses, landed = pickup_poses(self.checker.base_free, nominal, p_dish,
                                      nav.reshape(-1, 3))
         reach = reach.reshape(-1, 2)
-        tolerance = grasp_tolerance(self.checker.scene.dishes[dish].kind)
-        ok = landed & (np.linalg.norm(reach, axis=1) <= tolerance)
+        kind = self.checker.scene.dishes[dish].kind
+        if placed_object(dish) is None:
+            ok = landed & (np.linalg.norm(reach, axis=1) <= grasp_tolerance(kind))
+        else:  # put down where the reach aims, off by the object's offset in the hand too
+            # The in-hand offset along the axes of `place_error_stds` (the disc is round:
+            # which horizontal axes they are does not matter).
+            stds = np.array(place_error_stds(kind, self.noise.reach_std))
+            in_hand = rng.normal(0.0, 1.0, reach.shape) * np.sqrt(
+                np.maximum(stds**2 - self.noise.reach_std**2, 0.0))
+            ok = landed & (np.linalg.norm(reach + in_hand, axis=1) <= PLACE_TOLERANCE)
         ok[ok] = self.success(poses[ok], dish, reach[ok])
         return ok.reshape(n, samples).mean(axis=1)
 
@@ -184,7 +195,7 @@ class FeasibilityOracle:
             S = gaussian_filter(S, sigma / h, mode="constant", cval=0.0, truncate=TRUNCATE)
         kind = self.checker.scene.dishes[dish].kind
         values = S[margin::k, margin::k][:len(ys), :len(xs)]
-        return np.clip(values, 0.0, 1.0) * catch_probability(kind, self.noise.reach_std)
+        return np.clip(values, 0.0, 1.0) * goal_probability(dish, kind, self.noise.reach_std)
 
     def _success_grid(self, dish: str, p_dish: np.ndarray, xs: np.ndarray,
                       ys: np.ndarray) -> np.ndarray:

@@ -31,7 +31,10 @@ the lift and the tray, where the gripper is at, or holds, the dish.
 
 Whether the fingers catch the dish is geometry too: the reach noise must leave the real dish
 within the gripper's tolerance of where it aims (`grasp_tolerance`); otherwise the motion
-runs and the pickup fails "missed".
+runs and the pickup fails "missed". Putting an object down at its place is judged the same
+way (the pickup of an object of its kind standing there, `manipulation.place`); there the
+reach noise decides instead whether it stands within PLACE_TOLERANCE of its place
+(`place_probability`).
 """
 
 import math
@@ -41,6 +44,7 @@ from functools import lru_cache
 import numpy as np
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.planning import SceneGraphCollisionChecker
+from scipy.special import erf
 
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility import kinematics as kin
@@ -48,6 +52,7 @@ from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP, RIM_INSET
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.furniture import DISH_SHAPES
+from s3o_drake.goals import PLACE_TOLERANCE, placed_object
 from s3o_drake.gripper import holds_whole
 from s3o_drake.robot import (
     ARM_MOUNT_XYZ,
@@ -115,6 +120,43 @@ def catch_probability(kind: str, reach_std: float) -> float:
     if reach_std <= 0:
         return 1.0
     return 1.0 - math.exp(-0.5 * (grasp_tolerance(kind) / reach_std) ** 2)
+
+
+def place_error_stds(kind: str, reach_std: float) -> tuple[float, float]:
+    """The standard deviations (m) of where an object of `kind` is put down, off its place,
+    along two perpendicular horizontal axes.
+
+    Two reach errors add up. The put-down aims off by the place's own reach noise
+    (`reach_std` per axis). The object also sits off-centre in the hand by the reach error
+    of its pickup, except across the fingers where they centre an object held whole
+    (`gripper.holds_whole`; the object tracker does the same): one axis keeps both errors,
+    the other only the place's, or both for a pinched rim.
+    """
+    both = math.sqrt(2.0) * reach_std
+    return both, both if not holds_whole(kind) else reach_std
+
+
+def place_probability(kind: str, reach_std: float) -> float:
+    """P(an object of `kind`, put down with reach noise `reach_std`, stands within
+    PLACE_TOLERANCE of its place): the probability that the zero-mean Gaussian of
+    `place_error_stds` falls in that disc, integrated over one axis."""
+    if reach_std <= 0:
+        return 1.0
+    a, b = place_error_stds(kind, reach_std)
+    x = np.linspace(-PLACE_TOLERANCE, PLACE_TOLERANCE, 2001)
+    half_chord = np.sqrt(np.maximum(PLACE_TOLERANCE**2 - x**2, 0.0))
+    density = np.exp(-0.5 * (x / a) ** 2) / (a * math.sqrt(2.0 * math.pi))
+    return float(np.trapezoid(density * erf(half_chord / (b * math.sqrt(2.0))), x))
+
+
+def goal_probability(target: str, kind: str, reach_std: float) -> float:
+    """The factor of the reach noise in Fea^m of `target` (of `kind`): a pick's catch
+    (`catch_probability`), or for a place target (`goals.placed_object`) the object standing
+    within tolerance of its place (`place_probability`; the held object is not caught
+    again)."""
+    if placed_object(target) is not None:
+        return place_probability(kind, reach_std)
+    return catch_probability(kind, reach_std)
 
 
 @dataclass(frozen=True)
