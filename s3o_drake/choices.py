@@ -53,3 +53,8 @@ class Goal(str, Enum):
 
 
 GOALS = tuple(g.value for g in Goal)
+
+CALIBRATION_GROUPINGS = ("all", "method", "source", "action")
+"""How the calibration of Fea^m groups executed records: all together, by method, by the
+model's source (fcn, oracle), or by action (a pickup, or the putting down of an object at
+its place)."""

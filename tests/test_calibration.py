@@ -93,6 +93,16 @@ def test_records_group_by_method_and_source():
     assert f.successes == 2 and f.brier == pytest.approx((0.01 + 0.64 + 0.0025) / 3)
 
 
+def test_puttings_down_group_apart_from_pickups():
+    """A record whose dish is a place target is the putting down of its object."""
+    records = [_record(0.9, "done", dish="cup_1"), _record(0.95, "off_place", dish="cup_1__place"),
+               _record(0.9, "done", dish="cup_1__place")]
+    by_action = grouped(records, "action")
+    assert {k: [r.outcome for r in v] for k, v in by_action.items()} == {
+        "pickup": ["done"], "place": ["off_place", "done"]}
+    assert calibrate_records(by_action["place"]).successes == 1
+
+
 # ------------------------------------------------------------------------------ files
 
 def _row(key: str, records: list[PickupRecord], **extra) -> dict:

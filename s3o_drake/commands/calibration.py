@@ -2,7 +2,7 @@
 the time?
 
     python -m s3o_drake.commands.calibration RESULTS [RESULTS ...] [--out DIR] [--methods NAME ...]
-                                    [--by all|method|source] [--bins N]
+                                    [--by all|method|source|action] [--bins N]
 
 RESULTS: a results.jsonl of `python -m s3o_drake.commands.evaluate`, a folder holding one (else the
 report.json files below it), or report.json files of `python -m s3o_drake.run`. Each executed
@@ -10,7 +10,9 @@ pickup there carries the plan's Fea^m of it (from the planned stop), the source 
 model (planner.feasibility: fcn or oracle), the planned and the real stop, and the outcome.
 Pickups a run never reached (after a blocked drive) are not executions and do not count.
 
-Prints, over all pickups, per method and per source: the number of pickups, their observed
+Prints, over all pickups, per method, per source and per action (pickup, or place: the
+putting down of an object at its place, which succeeds when the object stands there,
+report.json's placements): the number of pickups, their observed
 success and mean predicted Fea^m, the expected calibration error (ECE: the predictions in
 --bins equal-width bins of [0, 1], |mean prediction - observed success| per bin weighted by
 its count), the Brier score (mean squared difference between prediction and outcome, 1 or
@@ -21,7 +23,7 @@ Written to --out (default out/calibration):
   reliability.png   per bin, the mean prediction against the observed success (with its
                     95 % interval and the count beside the point), the diagonal of a
                     calibrated model, and the pickups per bin below; one curve for all
-                    pickups, or one per method or source with --by
+                    pickups, or one per method, source or action (pickup, place) with --by
   calibration.json  the figures above, per group and per bin, and the inputs read
 
 Rows written before pickups were recorded (results of an older version) carry no
@@ -36,7 +38,7 @@ import sys
 from pathlib import Path
 
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.choices import METHODS
+from s3o_drake.choices import CALIBRATION_GROUPINGS, METHODS
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.io import write_atomically
 
@@ -51,7 +53,7 @@ def parse_args(argv: list[str] | None):
                         help="output folder (default out/calibration)")
     parser.add_argument("--methods", nargs="+", metavar="NAME",
                         help=f"only these methods' pickups, some of: {', '.join(METHODS)}")
-    parser.add_argument("--by", choices=("all", "method", "source"), default="all",
+    parser.add_argument("--by", choices=CALIBRATION_GROUPINGS, default="all",
                         help="the diagram's curves: all pickups (default), per method or "
                              "per source of Fea^m")
     parser.add_argument("--bins", type=int, default=10, metavar="N",
@@ -92,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
         fail(f"{' '.join(args.results)}: {records.runs} runs, but no executed pickup")
 
     figures = {"all": calibrate_records(pickups, bins=args.bins)}
-    for by in ("method", "source"):
+    for by in CALIBRATION_GROUPINGS[1:]:
         for name, group in grouped(pickups, by).items():
             figures[f"{by} {name}"] = calibrate_records(group, bins=args.bins)
     curves = {name: calibrate_records(group, bins=args.bins)

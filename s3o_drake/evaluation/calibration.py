@@ -33,8 +33,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.stats import beta
 
+from s3o_drake.choices import CALIBRATION_GROUPINGS
 from s3o_drake.evaluation.store import ResultStore
 from s3o_drake.execution.messages import PickupRecord
+from s3o_drake.goals import placed_object
 from s3o_drake.io import write_atomically
 
 HIGH = 0.9
@@ -254,15 +256,23 @@ def _parse(data: object, where: str) -> list[PickupRecord]:
 
 # ------------------------------------------------------------------------- reporting
 
+def action_of(record: PickupRecord) -> str:
+    """"place" for the record of putting an object down (its dish is a place target),
+    else "pickup"."""
+    return "pickup" if placed_object(record.dish) is None else "place"
+
+
 def grouped(records: Sequence[PickupRecord], by: str) -> dict[str, list[PickupRecord]]:
-    """The records by "method" or "source" (keys sorted), or all under "all" (by "all")."""
+    """The records by "method", "source" or "action" (`action_of`; keys sorted), or all
+    under "all" (by "all")."""
     if by == "all":
         return {"all": list(records)}
-    if by not in ("method", "source"):
-        raise ValueError(f"by: expected all, method or source, got {by!r}")
+    if by not in CALIBRATION_GROUPINGS:
+        raise ValueError(f"by: expected one of {', '.join(CALIBRATION_GROUPINGS)}, got {by!r}")
     groups: dict[str, list[PickupRecord]] = {}
     for record in records:
-        groups.setdefault(getattr(record, by), []).append(record)
+        key = action_of(record) if by == "action" else getattr(record, by)
+        groups.setdefault(key, []).append(record)
     return dict(sorted(groups.items()))
 
 
