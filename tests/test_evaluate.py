@@ -26,6 +26,7 @@ from s3o_drake.evaluation.summary import (
     failure_table,
     other_measures_table,
     paired_comparison,
+    placement_table,
     summarize,
 )
 from s3o_drake.execution.messages import PickupRecord
@@ -268,6 +269,22 @@ def test_failure_table_counts_reasons_and_dishes_left_behind():
     assert "| not planned or not reached | 2 | 0 |" in table
     assert "| runs | 1 | 1 |" in table
 
+
+
+def test_placement_table_counts_objects_at_and_off_their_places():
+    def placement(state, error, placed):
+        return {"object": "cup_1", "target": [1.0, 2.0, 0.75], "state": state,
+                "final": [1.0 + error, 2.0, 0.75], "error": error, "upright": True,
+                "placed": placed}
+    runs = [{**_row("a", "S3O-GROP*", 0, True, 100.0), "placements": [
+                placement("placed", 0.012, True)]},
+            {**_row("b", "S3O-GROP*", 0, False, 100.0), "placements": [
+                placement("placed", 0.034, False)]},
+            {**_row("a", "V-PETLON", 0, False, 90.0), "placements": [
+                placement("gripper", 0.5, False)]}]
+    table = placement_table(runs, ["S3O-GROP*", "V-PETLON"])
+    assert "| S3O-GROP* | 2 | 1 | 1 | 0 | 2.3 / 3.4 |" in table
+    assert "| V-PETLON | 1 | 0 | 0 | 1 | – |" in table
 
 # --- the command ----------------------------------------------------------------------------
 

@@ -330,6 +330,25 @@ def plot_table_one(cells: Sequence[Cell], path: Path) -> None:
     plt.close(fig)
 
 
+def placement_table(runs: Sequence[dict], methods: Sequence[str]) -> str:
+    """The objects to place, per method: how many, how many stand at their places (within
+    the tolerance, upright, on the place's surface), how many were put down elsewhere, and
+    the horizontal error of those put down (median and largest, cm)."""
+    rows = {m: [p for r in runs if r.get("method") == m and "error" not in r
+                for p in r.get("placements", ())] for m in methods}
+    lines = ["| method | objects to place | placed | put down off the place | not put "
+             "down | error, median / max (cm) |", "|---|---|---|---|---|---|"]
+    for m in methods:
+        mine = rows[m]
+        put = [p for p in mine if p["state"] == "placed"]
+        errors = sorted(100 * p["error"] for p in put)
+        spread = (f"{float(np.median(errors)):.1f} / {errors[-1]:.1f}" if errors else "–")
+        placed = sum(p["placed"] for p in mine)
+        lines.append(f"| {m} | {len(mine)} | {placed} | {len(put) - placed} | "
+                     f"{len(mine) - len(put)} | {spread} |")
+    return "\n".join(lines) + "\n"
+
+
 def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
                   groups: dict[str, str], methods: Sequence[str], settings: dict,
                   dish_areas: Mapping[str, Mapping[str, float]] | None = None,
@@ -377,6 +396,10 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
         lines += ["", "**Recovery** (recoveries by kind and their cost; dishes the Drake "
                   "oracle can pick from some free pose against those collected)", "",
                   recovery_table(recovery_figures(runs, methods, dish_areas, open_loop))]
+    if any(r.get("placements") for r in runs):
+        lines += ["", "**Objects to place** (where each stands at the end of its run; "
+                  "completion counts an object at its place as done)", "",
+                  placement_table(runs, methods)]
     lines += ["", "**Why dishes were not collected** (failed actions by reason; dishes that "
               "no pickup was planned for or that a failed goto left behind)", "",
               failure_table(runs, methods)]
