@@ -13,9 +13,14 @@ REPO_DIR = Path(__file__).resolve().parent.parent
 MODELS_DIR = REPO_DIR / "models"
 SCENARIOS_DIR = REPO_DIR / "scenarios"
 RESTAURANT = SCENARIOS_DIR / "restaurant.yaml"
-"""The default scenario: the restaurant of the paper's benchmark."""
+"""The default scenario: the restaurant of the paper's benchmark (the spacious layout)."""
+RESTAURANT_DENSE = SCENARIOS_DIR / "restaurant_dense.yaml"
+"""The same seven tables packed as in the paper's Gazebo world (the dense layout)."""
 TASKS_DIR = SCENARIOS_DIR / "generated"
 """The shipped benchmark tasks (`python -m s3o_drake.commands.generate --count 100 --seed 0`)."""
+LAYOUTS = {"spacious": (RESTAURANT, TASKS_DIR),
+           "dense": (RESTAURANT_DENSE, SCENARIOS_DIR / "generated_dense")}
+"""Each benchmark layout (its `room.layout`): its base scenario and its shipped tasks."""
 DIAGRAMS_DIR = REPO_DIR / "diagrams"
 ROBOT_URDF = MODELS_DIR / "robot" / "mobile_manipulator.urdf"
 FCN_WEIGHTS = MODELS_DIR / "fcn" / "fcn.pt"

@@ -12,6 +12,7 @@ Task i depends only on the seed and i, so the same seed gives the same tasks.
 
 import math
 from dataclasses import replace
+from functools import cache
 
 import numpy as np
 
@@ -22,7 +23,7 @@ from s3o_drake.furniture import (
     dish_footprint,
     table_footprint,
 )
-from s3o_drake.resources import RESTAURANT
+from s3o_drake.resources import LAYOUTS, RESTAURANT
 from s3o_drake.robot import footprint_polygon
 from s3o_drake.scenario import (
     START_CLEARANCE,
@@ -32,6 +33,7 @@ from s3o_drake.scenario import (
     Scenario,
     ScenarioError,
     Table,
+    load_scenario,
     room_polygon,
     validate_scenario,
 )
@@ -49,6 +51,23 @@ PLACES = 1  # the stream tag of the places' draws (numpy.random.default_rng([see
 
 class GenerationError(RuntimeError):
     pass
+
+
+CUSTOM_LAYOUT = "custom"
+
+
+@cache
+def _layout_bases() -> tuple[tuple[str, Scenario], ...]:
+    return tuple((name, load_scenario(base)) for name, (base, _) in LAYOUTS.items())
+
+
+def layout_of(scenario: Scenario) -> str:
+    """The benchmark layout (`resources.LAYOUTS`) that `scenario` stands in: the one whose
+    base has the same room and tables (tasks keep their base's), else CUSTOM_LAYOUT."""
+    for name, base in _layout_bases():
+        if base.room == scenario.room and base.tables == scenario.tables:
+            return name
+    return CUSTOM_LAYOUT
 
 
 def spot_on_table(table: Table, radius: float, rng: np.random.Generator) -> np.ndarray | None:

@@ -333,7 +333,10 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, c
     assert all(r["planned"] and r["finished"] and r["collected"] >= 1 for r in rows)
 
     csv_lines = (out / "results.csv").read_text().splitlines()
-    assert csv_lines[0].startswith("task,group,area,method,seed,dishes,collected,complete")
+    assert csv_lines[0].startswith("task,layout,group,area,method,seed,recovery,dishes,"
+                                   "collected,placed,complete")
+    # Every row says its layout (the small scenes are rooms of their own) and recovery.
+    assert {(r["layout"], r["recovery"]) for r in rows} == {("custom", "none")}
     assert len(csv_lines) == 7
     study = json.loads((out / "results.json").read_text())
     assert sorted(study["groups"].values()) == ["difficult", "easy", "moderate"]

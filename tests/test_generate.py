@@ -7,7 +7,7 @@ import pytest
 
 from s3o_drake.commands.generate import main as generate_main
 from s3o_drake.scenario import load_scenario, parse_scenario
-from s3o_drake.task_generation import generate_task
+from s3o_drake.task_generation import CUSTOM_LAYOUT, generate_task, layout_of
 
 REPO = Path(__file__).resolve().parent.parent
 BASE = REPO / "scenarios" / "restaurant.yaml"
@@ -48,7 +48,9 @@ def test_a_task_depends_only_on_seed_and_index():
 
 
 @pytest.mark.parametrize("args", [["--count", "0"], ["--seed", "-1"], ["--count", "x"],
-                                  ["--places", "4"], ["--places", "-1"]])
+                                  ["--places", "4"], ["--places", "-1"],
+                                  ["--layout", "cramped"],
+                                  ["--layout", "dense", "--base", str(BASE)]])
 def test_bad_arguments_exit_2_and_write_nothing(args, tmp_path, capsys):
     out = tmp_path / "tasks"
     with pytest.raises(SystemExit) as info:
@@ -95,3 +97,33 @@ def test_mixed_tasks_put_cups_down_on_another_table(tmp_path):
             assert [(d.position, d.kind) for d in task.dishes] == [
                 (d.position, d.kind) for d in plain.dishes]
     assert same >= 4
+
+
+def test_dense_tasks_stand_in_the_dense_restaurant_and_say_so(tmp_path):
+    """--layout dense draws the tasks by the same protocol among the dense restaurant's
+    tables; a task's layout is read back from its room and tables."""
+    assert generate_main(["--layout", "dense", "--count", "4", "--seed", "0", "--out",
+                          str(tmp_path), "--quiet"]) == 0
+    dense = load_scenario(REPO / "scenarios" / "restaurant_dense.yaml")
+    assert layout_of(dense) == "dense" and layout_of(load_scenario(BASE)) == "spacious"
+    for f in sorted(tmp_path.glob("task_*.yaml")):
+        task = load_scenario(f)
+        assert task.tables == dense.tables and task.room == dense.room
+        assert layout_of(task) == "dense" and 5 <= len(task.dishes) <= 7
+        assert "--layout dense" in f.read_text().split("\n", 1)[0]
+    # The dense restaurant is the paper's cramped one: a 2 x 2 block of small tables 0.3 m
+    # apart, the mid-sized tables 0.8 m apart.
+    tables = {t.name: t for t in dense.tables}
+    assert tables["small_2"].center[0] - tables["small_1"].center[0] - 0.7 == \
+        pytest.approx(0.3)
+    assert tables["mid_2"].center[0] - tables["mid_1"].center[0] - 1.6 == pytest.approx(0.8)
+    assert layout_of(load_scenario(REPO / "scenarios" / "tidy_home.yaml")) == CUSTOM_LAYOUT
+
+
+def test_shipped_dense_tasks_are_what_the_generator_makes(tmp_path):
+    shipped = REPO / "scenarios" / "generated_dense"
+    assert len(list(shipped.glob("task_*.yaml"))) == 100
+    generate_main(["--layout", "dense", "--count", "2", "--seed", "0", "--out", str(tmp_path),
+                   "--quiet"])
+    for name in ("task_000.yaml", "task_001.yaml"):
+        assert (tmp_path / name).read_text() == (shipped / name).read_text()

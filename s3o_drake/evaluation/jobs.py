@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from s3o_drake.scenario import Scenario, load_scenario
+from s3o_drake.task_generation import layout_of
 
 RUN = "run"
 DIFFICULTY = "difficulty"
@@ -99,7 +100,8 @@ def _run(job: Job) -> dict:
     run = execute(scenario, method=job.method, seed=seed, meshcat=None, progress=False)
     r = run.report
     # Completion counts every object's goal: on the tray, or standing at its place.
-    return {"run_seed": seed, "dishes": r["dishes"], "collected": r["collected"],
+    return {"run_seed": seed, "layout": layout_of(scenario),
+            "dishes": r["dishes"], "collected": r["collected"],
             "placed": r["placed"], "placements": r["placements"],
             "complete": r["completed"] == r["dishes"],
             "fraction": r["completed"] / r["dishes"] if r["dishes"] else 1.0,

@@ -34,9 +34,9 @@ PAPER_TABLE_I = {  # completion / execution time (s), mean ± spread over seeds
     "moderate": ((0.36, 0.03, 118.68, 2.78), (0.18, 0.08, 97.89, 4.22)),
     "difficult": ((0.29, 0.02, 131.25, 3.64), (0.17, 0.08, 102.85, 6.30)),
 }
-CSV_FIELDS = ("task", "group", "area", "method", "seed", "dishes", "collected", "complete",
-              "fraction", "execution_time", "planning_time", "stops", "finished", "reason",
-              "error")
+CSV_FIELDS = ("task", "layout", "group", "area", "method", "seed", "recovery", "dishes",
+              "collected", "placed", "complete", "fraction", "execution_time", "planning_time",
+              "stops", "finished", "reason", "error")
 
 
 @dataclass(frozen=True)
