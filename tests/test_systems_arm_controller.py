@@ -9,6 +9,7 @@ import dataclasses
 import inspect
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -32,11 +33,13 @@ from s3o_drake.feasibility.pickup_geometry import grasp_tolerance
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.goals import with_place_targets
+from s3o_drake.manipulation.place import place_grasps
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
-from s3o_drake.scenario import Place
+from s3o_drake.scenario import Place, load_scenario
 from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.dish_messages import DishPoses, DishState, GripEvent
 
+REPO = Path(__file__).resolve().parent.parent
 FRONT_OF_PLATE = np.array([1.85, 1.45, math.pi / 2])
 STOWED = np.concatenate([ARM_STOW, GRIPPER_OPEN])
 PLANNING_REASONS = ("no_ik", "no_path", "base_collision")
@@ -380,3 +383,28 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     if tracked:
         states = world.GetOutputPort("dish_states").Eval(world.GetMyContextFromRoot(context))
         assert states["plate_a"] is DishState.TRAY and states["cup_b"] is DishState.TABLE
+
+
+def test_an_object_to_place_is_picked_with_a_grasp_it_can_be_put_down_with():
+    """tidy_home's apple, picked from (2.4, 4.0) facing west where a top and a side grasp
+    both work (top is tried first), is to be put down on the plate from (4.95, 2.7), the
+    plate's far side, where only a side grasp reaches. The hand never re-grasps: told the
+    place's stop, the pickup takes the side grasp and the place succeeds; not told, it
+    takes the top grasp and the place fails no_ik."""
+    tidy = load_scenario(REPO / "scenarios" / "tidy_home.yaml")
+    scene = FeasibilityScene(with_place_targets(tidy))
+    checker = FeasibilityChecker(scene)
+    pick_at, place_at = np.array([2.4, 4.0, math.pi]), (4.95, 2.7, math.pi / 2)
+    assert place_grasps(scene, checker, np.array(place_at), "apple__place") == ["side"]
+    for told, outcome in ((True, Status(2, CommandState.DONE)),
+                          (False, Status(2, CommandState.FAILED, "no_ik"))):
+        arm, context = _controller(tidy, scene, checker, noise=False)
+        _fix_robot(arm, context, base=pick_at)
+        arm.GetInputPort("pick_command").FixValue(context, PickCommand(
+            id=1, dish="apple", place_from=place_at if told else None))
+        t_end, last, grip, status = _play(arm, context, 0.0)[-1]
+        assert status == Status(1, CommandState.DONE) and grip.dish == "apple"
+        _fix_robot(arm, context, base=np.array(place_at), arm_q=last[:8])
+        arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=2, dish="apple",
+                                                                       place=True))
+        assert _play(arm, context, t_end + 0.1)[-1][3] == outcome

@@ -12,7 +12,7 @@ from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 from s3o_drake.execution.messages import NO_COMMAND, PickupRecord, Status
 from s3o_drake.execution.s3o_planner import S3OPlanner
 from s3o_drake.perception import scenario_unmapped_chairs
-from s3o_drake.planning.plan import Goto, Pickup
+from s3o_drake.planning.plan import Goto, Pickup, Place
 from s3o_drake.robot import robot_desired_state, robot_positions
 from s3o_drake.scenario import load_scenario
 
@@ -282,6 +282,8 @@ def test_a_replan_while_an_object_to_place_is_held_puts_it_down_first():
     system.ExecuteInitializationEvents(context)
     plan = system.GetOutputPort("plan").Eval(context)
     apple = plan.actions.index(next(a for a in plan.pickups if a.dish == "apple"))
+    put = next(k for k, a in enumerate(plan.actions) if isinstance(a, Place))
+    place_stop = next(a.pose for a in reversed(plan.actions[:put]) if isinstance(a, Goto))
     for action in plan.actions[:apple + 1]:
         _step(system, context)
         if isinstance(action, Goto):
@@ -289,6 +291,9 @@ def test_a_replan_while_an_object_to_place_is_held_puts_it_down_first():
         else:
             command = system.GetOutputPort("pick_command").Eval(context)
             assert command.dish == action.dish and not command.place
+            # The apple's pickup is told where the plan puts it down from (its grasp must
+            # work there); the cans' are not.
+            assert command.place_from == (place_stop if action.dish == "apple" else None)
             system.GetInputPort("arm_status").FixValue(context, Status(command.id, "done"))
         _step(system, context)
     picked = {d for action, d, outcome in system.GetOutputPort("progress").Eval(context).outcomes

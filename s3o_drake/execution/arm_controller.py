@@ -29,7 +29,7 @@ from s3o_drake.feasibility.pickup_geometry import caught
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.goals import place_target_name
 from s3o_drake.manipulation.pickup import PickupPlan, plan_pickup
-from s3o_drake.manipulation.place import plan_place
+from s3o_drake.manipulation.place import place_grasps, plan_place
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import Scenario
 from s3o_drake.world.dish_messages import DishPoses, GripEvent
@@ -240,7 +240,7 @@ class ArmController(LeafSystem):
         try:
             plan = (self._place(command.dish, activity.held_grasp, q_now, noise, plan_seed)
                     if command.place else
-                    self._pick(context, command.dish, q_now, noise, plan_seed))
+                    self._pick(context, command, q_now, noise, plan_seed))
         except ValueError:
             # The arm's path planner refuses a start in collision (the arm pushed into
             # something, within the checker's padding): no path from here.
@@ -259,17 +259,30 @@ class ArmController(LeafSystem):
                        t_release=float(ends.get("release", math.inf)),
                        missed=not caught(noise, dish.kind))
 
-    def _pick(self, context: Context, name: str, q_now: np.ndarray, noise: np.ndarray,
-              seed: int) -> PickupPlan:
-        """The pickup of `name` from where the robot stands (an object to place is held)."""
+    def _pick(self, context: Context, command: PickCommand, q_now: np.ndarray,
+              noise: np.ndarray, seed: int) -> PickupPlan:
+        """The pickup of `command.dish` from where the robot stands (an object to place is
+        held, with a grasp it can be put down with from `command.place_from` where one
+        picks it)."""
+        name = command.dish
         p_WD_scenario, _ = self._scene.dish_p_WD(name)
         p_WD = self._dish_xy(context, name, p_WD_scenario)
-        # The checker's scene has the dish where the scenario put it: the offset carries
-        # both where it really is and the noise of reaching for it.
-        return plan_pickup(self._scene, self._checker, q_now[:3], name,
-                           reach_offset=p_WD - p_WD_scenario + noise, q_start=q_now,
-                           seed=seed, time_limit=self._plan_time_limit,
-                           hold=name in self._to_place)
+
+        def pick(grasp: str | None) -> PickupPlan:
+            # The checker's scene has the dish where the scenario put it: the offset
+            # carries both where it really is and the noise of reaching for it.
+            return plan_pickup(self._scene, self._checker, q_now[:3], name,
+                               reach_offset=p_WD - p_WD_scenario + noise, q_start=q_now,
+                               seed=seed, time_limit=self._plan_time_limit,
+                               hold=name in self._to_place, grasp=grasp)
+
+        if name in self._to_place and command.place_from is not None:
+            for grasp in place_grasps(self._scene, self._checker,
+                                      np.asarray(command.place_from), place_target_name(name)):
+                plan = pick(grasp)
+                if plan.ok:
+                    return plan
+        return pick(None)
 
     def _place(self, name: str, grasp: str, q_now: np.ndarray, noise: np.ndarray,
                seed: int) -> PickupPlan:

@@ -73,6 +73,10 @@ class PickCommand:
     id: int = NO_COMMAND
     dish: str = ""
     place: bool = False
+    place_from: tuple[float, float, float] | None = None
+    """For the pickup of an object to place: the base pose (x, y, yaw) the plan puts it
+    down from. The hand never re-grasps, so the pickup prefers a grasp that can put the
+    object down there."""
 
 
 @dataclass(frozen=True)

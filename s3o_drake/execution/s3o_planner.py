@@ -320,11 +320,30 @@ class S3OPlanner(LeafSystem):
             turn = BaseCommand(id=cid, path=((float(x), float(y)),),
                                pose=(float(x), float(y), float(facing)), turn=True)
             return self._send_base(e, turn, turning=True)
-        command = PickCommand(id=cid, dish=action.dish, place=isinstance(action, Place))
+        placing = isinstance(action, Place)
+        command = PickCommand(id=cid, dish=action.dish, place=placing,
+                              place_from=None if placing else self._place_stop(e, action.dish,
+                                                                               here))
         return dataclasses.replace(e, command_id=cid, next_id=cid + 1, turned=True,
                                    pick_command=command,
                                    pick_pose=(float(x), float(y), float(yaw)),
                                    pick_started=context.get_time())
+
+    @staticmethod
+    def _place_stop(e: ExecutionState, dish: str,
+                    here: np.ndarray) -> tuple[float, float, float] | None:
+        """The base pose the plan puts `dish` down from, when a place of it follows the
+        action at `e.step`: the pose of the last goto before that place (`here`, where the
+        base stands, when the place is at this stop); None when none follows."""
+        actions = e.plan.actions
+        put = next((k for k in range(e.step + 1, len(actions))
+                    if isinstance(actions[k], Place) and actions[k].dish == dish), None)
+        if put is None:
+            return None
+        goto = next((actions[k] for k in range(put - 1, e.step, -1)
+                     if isinstance(actions[k], Goto)), None)
+        pose = here if goto is None else goto.pose
+        return tuple(float(v) for v in pose)
 
     @staticmethod
     def _target(action: Pickup | Place) -> str:

@@ -131,7 +131,8 @@ def timed_segment(name: str, path: np.ndarray, checker: SceneGraphCollisionCheck
 def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
                 dish: str, *, reach_offset: np.ndarray | None = None,
                 q_start: np.ndarray | None = None, seed: int = 0,
-                time_limit: float = 5.0, hold: bool = False) -> PickupPlan:
+                time_limit: float = 5.0, hold: bool = False,
+                grasp: str | None = None) -> PickupPlan:
     """The timed arm motions that pick `dish` onto the tray from base pose `base` (x, y, yaw)
     (with `hold`: that pick it and hold it above the tray, ending with "to_tray").
 
@@ -141,6 +142,7 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
     `time_limit` (seconds per RRT-Connect query) go to `plan_arm_path`. Not ok with reason
     "base_collision" (the base stands in collision), "no_ik" (no collision-free grasp, or no
     pre-grasp/lift on its branch) or "no_path" (some motion found no collision-free path).
+    `grasp` ("top" or "side"), when given, is the only kind of grasp tried.
     """
     base = np.asarray(base, dtype=float).reshape(3)
     q0 = scene.q(base) if q_start is None else np.asarray(q_start, dtype=float).copy()
@@ -148,7 +150,7 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
         raise ValueError(f"q_start: expected {NUM_POSITIONS} positions, got shape {q0.shape}")
     q0[:3] = base
     geometry = pickup_geometry(scene, checker, base, dish, reach_offset=reach_offset,
-                               q_arm=q0[ARM])
+                               q_arm=q0[ARM], grasp=grasp)
     if not geometry.ok:
         return PickupPlan(False, geometry.reason, grasp=geometry.grasp)
     c = geometry.configurations

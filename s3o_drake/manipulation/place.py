@@ -26,6 +26,7 @@ import numpy as np
 
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.grasps import GRASP_KINDS
 from s3o_drake.feasibility.pickup_geometry import pickup_geometry, with_gripper
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.manipulation.arm_motion import ARM, plan_arm_path
@@ -33,6 +34,16 @@ from s3o_drake.manipulation.pickup import PickupPlan, timed_segment
 from s3o_drake.robot import NUM_POSITIONS
 
 PLACE_SEGMENTS = ("approach", "lower", "release", "retreat", "stow")
+
+
+def place_grasps(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
+                 target: str) -> list[str]:
+    """The kinds of grasp ("top", "side") that an object held with could be put down with
+    at place target `target` from base pose `base` (no noise): what its pickup should
+    prefer, since the hand never re-grasps."""
+    base = np.asarray(base, dtype=float).reshape(3)
+    return [g for g in GRASP_KINDS
+            if pickup_geometry(scene, checker, base, target, grasp=g).ok]
 
 
 def plan_place(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
