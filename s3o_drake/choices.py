@@ -5,7 +5,8 @@ their --help before they import Drake."""
 from enum import Enum
 
 # The methods of the paper's comparison: S3O-GROP* and its ablations and baselines.
-METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random")
+METHODS = ("S3O-GROP*", "S3O-GROP", "V-GROP*", "V-GROP", "V-PETLON", "S3O-Random",
+           "S3O-Random-Paper")
 
 
 # Where the planner's Fea^m heatmaps come from: the Drake check, or the learned network.

@@ -28,6 +28,7 @@ from s3o_drake.evaluation.summary import (
     paired_comparison,
     placement_table,
     summarize,
+    table_one,
 )
 from s3o_drake.execution.messages import PickupRecord
 
@@ -205,6 +206,21 @@ def _row(task, method, seed, complete, time_s, fraction=None):
     return {"task": task, "method": method, "seed": seed, "complete": complete,
             "fraction": (1.0 if complete else 0.5) if fraction is None else fraction,
             "execution_time": time_s, "planning_time": 1.0}
+
+
+def test_table_one_sets_both_random_ablations_beside_the_papers_figures():
+    """The paper's one-draw ablation and ours each get a column where they were run; the
+    paper's S3O-Random figures stand beside both."""
+    groups = {"a": "easy", "b": "moderate", "c": "difficult"}
+    three = ("S3O-GROP*", "S3O-Random-Paper", "S3O-Random")
+    runs = [_row(t, m, 0, m != "S3O-Random-Paper", 100.0) for t in groups for m in three]
+    table = table_one(summarize(runs, groups, three))
+    assert "| difficulty | S3O (S3O-GROP*) | S3O-Random-Paper | S3O-Random |" in table
+    assert "| easy | 1.00 / 100.0 [0.52 ± 0.02 / 107.9 ± 5.3] | 0.00 / 100.0 [0.30 ± 0.06 / " \
+        "97.0 ± 2.4] | 1.00 / 100.0 [0.30 ± 0.06 / 97.0 ± 2.4] |" in table
+    two = table_one(summarize([r for r in runs if r["method"] != "S3O-Random-Paper"], groups,
+                              three[::2]))
+    assert "| difficulty | S3O (S3O-GROP*) | S3O-Random |" in two
 
 
 def test_summary_averages_per_seed_and_compares_methods_on_the_same_runs():

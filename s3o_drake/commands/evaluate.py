@@ -33,7 +33,7 @@ Written to --out:
   results.json      settings, areas, groups, the per-group figures, the claims, the paired
                     comparison, every run
   figure5.png       completion rate and execution time per group and method (Fig. 5)
-  table1.png        S3O-GROP* against S3O-Random per group (Table I)
+  table1.png        S3O-GROP* against S3O-Random (and S3O-Random-Paper) per group (Table I)
   summary.md        the same as Markdown tables, the claims checked, S3O-GROP* against each
                     method on the same tasks (wins, losses, sign test, time saved),
                     completion under other splits of the tasks (hardest dish, area per

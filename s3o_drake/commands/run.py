@@ -11,16 +11,17 @@ an overhead RgbdSensor; the S3O planner (a LeafSystem) reads the overhead images
 perception, computes every dish's Fea^m heatmap (by default with the network of models/fcn/
 from the overhead depth image; --feasibility oracle: the Drake feasibility check), and plans
 with the chosen method (default: the scenario's `planner.method`, S3O-GROP*; the methods
-are S3O-GROP*, S3O-GROP, V-GROP*, V-GROP, V-PETLON and S3O-Random). The Simulator then
-executes the plan: the base navigator drives each path and lands with the navigation noise,
-the arm controller plans and runs each pickup (IK, OMPL RRT-Connect on Drake's collision
-checker) with the reaching noise and puts the dish on the tray, the object tracker carries
-the dishes, and the task monitor ends the run when the plan has ended. An object whose goal
-is place (scenarios/tidy_home.yaml) is held in the gripper instead and put down at its place
-(approach, lower, release, retreat); the report says how far from its place it stands and
-whether upright (placed: within 3 cm, upright, on the place's surface). Execution time is
-simulated time. The planner never reads the unmapped chairs from the scenario: it finds
-them in the overhead camera's depth image (s3o_drake.perception).
+are S3O-GROP*, S3O-GROP, V-GROP*, V-GROP, V-PETLON, S3O-Random and S3O-Random-Paper). The
+Simulator then executes the plan: the base navigator drives each path and lands with the
+navigation noise, the arm controller plans and runs each pickup (IK, OMPL RRT-Connect on
+Drake's collision checker) with the reaching noise and puts the dish on the tray, the
+object tracker carries the dishes, and the task monitor ends the run when the plan has
+ended. An object whose goal is place (scenarios/tidy_home.yaml) is held in the gripper
+instead and put down at its place (approach, lower, release, retreat); the report says how
+far from its place it stands and whether upright (placed: within 3 cm, upright, on the
+place's surface). Execution time is simulated time. The planner never reads the unmapped
+chairs from the scenario: it finds them in the overhead camera's depth image
+(s3o_drake.perception).
 
 Recovery (--recovery, default the scenario's `execution.recovery`, itself "replan" by
 default): with "replan" the robot localises after each landing, checks the pickup from

@@ -27,6 +27,8 @@ from s3o_drake.evaluation.recovery_summary import recovery_figures, recovery_tab
 
 METHOD = "S3O-GROP*"
 ABLATION = "S3O-Random"
+PAPER_ABLATION = "S3O-Random-Paper"
+"""The paper's ablation as its text describes it (one uniform draw); ABLATION is ours."""
 TARGETS = {"easy": 0.9, "difficult": 0.8}
 """The issue's completion targets for S3O-GROP* (the paper reports 0.52 and 0.29)."""
 PAPER_TABLE_I = {  # completion / execution time (s), mean ± spread over seeds
@@ -243,15 +245,26 @@ def markdown_tables(cells: Sequence[Cell], methods: Sequence[str]) -> str:
     return "\n".join(lines)
 
 
+def _table_one_methods(cells: Sequence[Cell]) -> list[tuple[str, int]]:
+    """Table I's columns: S3O(-GROP*), then the ablations the runs have (the paper's first),
+    each with the index of the paper's column it sits beside."""
+    present = {c.method for c in cells if c.tasks}
+    ablations = [m for m in (PAPER_ABLATION, ABLATION) if m in present] or [ABLATION]
+    return [(METHOD, 0), *((m, 1) for m in ablations)]
+
+
 def table_one(cells: Sequence[Cell]) -> str:
-    """Table I: completion rate / execution time of S3O(-GROP*) and S3O-Random per group,
-    beside the paper's figures."""
+    """Table I: completion rate / execution time of S3O(-GROP*) and S3O-Random (the
+    paper's one draw and ours, where run) per group, beside the paper's figures."""
     at = {(c.group, c.method): c for c in cells}
+    columns = _table_one_methods(cells)
     lines = ["**Table I** (completion rate / execution time in s; paper's figures in brackets)",
-             "", f"| difficulty | S3O ({METHOD}) | {ABLATION} |", "|---|---|---|"]
+             "", "| difficulty | " + " | ".join(
+                 f"S3O ({m})" if m == METHOD else m for m, _ in columns) + " |",
+             "|---|" + "---|" * len(columns)]
     for group in GROUPS:
         row = [group]
-        for i, method in enumerate((METHOD, ABLATION)):
+        for method, i in columns:
             c = at.get((group, method))
             paper = PAPER_TABLE_I[group][i]
             row.append(f"{_table_one_cell(c)} [{paper[0]:.2f} ± {paper[1]:.2f} / "
@@ -317,12 +330,13 @@ def plot_figure_five(cells: Sequence[Cell], methods: Sequence[str], path: Path) 
 def plot_table_one(cells: Sequence[Cell], path: Path) -> None:
     """Table I as a picture."""
     at = {(c.group, c.method): c for c in cells}
+    columns = [m for m, _ in _table_one_methods(cells)]
     rows = [[group.capitalize(), *(_table_one_cell(at.get((group, method)))
-                                   for method in (METHOD, ABLATION))] for group in GROUPS]
-    fig, ax = plt.subplots(figsize=(8, 1.9))
+                                   for method in columns)] for group in GROUPS]
+    fig, ax = plt.subplots(figsize=(2.7 * (len(columns) + 1), 1.9))
     ax.axis("off")
-    table = ax.table(cellText=rows, colLabels=["Task difficulty", "S3O", "S3O-Random"],
-                     loc="center", cellLoc="center")
+    labels = ["Task difficulty", *("S3O" if m == METHOD else m for m in columns)]
+    table = ax.table(cellText=rows, colLabels=labels, loc="center", cellLoc="center")
     table.scale(1, 1.6)
     ax.set_title("Table I: task completion rate / execution time (s)", fontsize=10)
     fig.tight_layout()

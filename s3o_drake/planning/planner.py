@@ -16,6 +16,11 @@ and calls it. It runs
 - **V-PETLON**  : plain Voronoi, random obstacle-free positions, the navigation-optimal
   order, K draws, the cheapest kept; Fea^m only scores it (`petlon.py`);
 - **S3O-Random**: K state spaces drawn uniformly among all candidates, GROP* on each.
+- **S3O-Random-Paper**: the paper's ablation as its text describes it ("uniformly samples
+  state spaces from all possible candidates"): one state space drawn uniformly among all
+  candidates, GROP* on it alone, with the searches S3O-GROP* spreads over its top K. Ours
+  (S3O-Random) draws K and keeps the plan of highest utility, so a poor draw loses to a
+  good one beside it.
 
 The plan of highest utility wins (V-PETLON: least navigation cost). Every method commands
 only stops that are free as planned (Fea^m 0 elsewhere, `feasibility/stops.py`).
@@ -383,6 +388,10 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         assert abstraction is not None
         spaces = [(s.groups, s.score) for s in
                   (abstraction.random_candidate(rng) for _ in range(iterations))]
+    elif method == "S3O-Random-Paper":
+        assert abstraction is not None
+        drawn = abstraction.random_candidate(rng)
+        spaces = [(drawn.groups, drawn.score)] * iterations
     else:
         assert abstraction is not None
         spaces = [(s.groups, s.score) for s in _order(abstraction, rng)]
