@@ -408,3 +408,19 @@ def test_an_object_to_place_is_picked_with_a_grasp_it_can_be_put_down_with():
         arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=2, dish="apple",
                                                                        place=True))
         assert _play(arm, context, t_end + 0.1)[-1][3] == outcome
+
+
+def test_a_place_grasp_is_rated_by_the_landings_at_the_place():
+    """From (5.5, 3.75) facing the plate only a top grasp puts the apple down, from
+    (4.95, 2.7) only a side grasp: landings that put the base twice at the second and once
+    at the first rank the side grasp first; the stop alone ranks only the top grasp."""
+    tidy = with_place_targets(load_scenario(REPO / "scenarios" / "tidy_home.yaml"))
+    scene = FeasibilityScene(tidy)
+    checker = FeasibilityChecker(scene)
+    stop = np.array([5.5, 3.75, math.pi])
+    assert place_grasps(scene, checker, stop, "apple__place") == ["top"]
+    landings = np.array([[0.0, 0.0, 0.0], [-0.55, -1.05, 0.0], [-0.55, -1.05, 0.01]])
+    assert place_grasps(scene, checker, stop, "apple__place",
+                        landing_noise=landings) == ["side", "top"]
+    assert place_grasps(scene, checker, stop, "apple__place",
+                        landing_noise=landings[:1]) == ["top"]

@@ -40,6 +40,10 @@ NUM_ARM_AND_FINGERS = NUM_POSITIONS - 3
 #: Stream tag of the reach noise in `numpy.random.default_rng([seed, tag, command id])`
 #: (the navigation noise has its own tag, so the two draws never share numbers).
 REACH_NOISE_STREAM = 2
+#: Stream tag of the landing draws that choose an object to place's grasp at its pickup.
+PLACE_GRASP_STREAM = 5
+#: How many landings at the place's stop rate each grasp (`place.place_grasps`).
+PLACE_LANDINGS = 16
 
 @dataclass(frozen=True)
 class _Activity:
@@ -123,6 +127,8 @@ class ArmController(LeafSystem):
         self._checker = checker
         self._seed = scenario.seed if seed is None else int(seed)
         self._reach_std = scenario.uncertainty.reach_std if noise else 0.0
+        u = scenario.uncertainty
+        self._nav_std = np.array([u.nav_xy_std, u.nav_xy_std, u.nav_yaw_std]) if noise else None
         self._to_place = {d.name for d in scenario.dishes if d.goal == "place"}
         self._plan_time_limit = plan_time_limit
 
@@ -277,8 +283,15 @@ class ArmController(LeafSystem):
                                hold=name in self._to_place, grasp=grasp)
 
         if name in self._to_place and command.place_from is not None:
+            # Where the place's landing will put the base is not known yet: its grasp is
+            # the one that works from most of PLACE_LANDINGS draws of the landing noise.
+            landing_noise = None
+            if self._nav_std is not None:
+                rng = np.random.default_rng([self._seed, PLACE_GRASP_STREAM, command.id])
+                landing_noise = rng.normal(0.0, 1.0, (PLACE_LANDINGS, 3)) * self._nav_std
             for grasp in place_grasps(self._scene, self._checker,
-                                      np.asarray(command.place_from), place_target_name(name)):
+                                      np.asarray(command.place_from), place_target_name(name),
+                                      landing_noise=landing_noise):
                 plan = pick(grasp)
                 if plan.ok:
                     return plan

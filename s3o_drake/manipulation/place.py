@@ -27,6 +27,7 @@ import numpy as np
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import GRASP_KINDS
+from s3o_drake.feasibility.landing import pickup_poses
 from s3o_drake.feasibility.pickup_geometry import pickup_geometry, with_gripper
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.manipulation.arm_motion import ARM, plan_arm_path
@@ -37,13 +38,28 @@ PLACE_SEGMENTS = ("approach", "lower", "release", "retreat", "stow")
 
 
 def place_grasps(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
-                 target: str) -> list[str]:
+                 target: str, *, landing_noise: np.ndarray | None = None) -> list[str]:
     """The kinds of grasp ("top", "side") that an object held with could be put down with
-    at place target `target` from base pose `base` (no noise): what its pickup should
-    prefer, since the hand never re-grasps."""
+    at place target `target`, sent to base pose `base`: what its pickup should prefer,
+    since the hand never re-grasps. Without `landing_noise`, those that work from `base`
+    itself; with it (dx, dy, dyaw) per row, those that work from some of the landings it
+    gives (as the execution lands: `landing.pickup_poses`), the grasp that works from most
+    of them first. Where several work from the stop, the landing decides which one the
+    place will need (often one alone), and the mixed-task study found places failing no_ik
+    with the grasp the noise-free stop had let the pickup choose."""
     base = np.asarray(base, dtype=float).reshape(3)
-    return [g for g in GRASP_KINDS
-            if pickup_geometry(scene, checker, base, target, grasp=g).ok]
+    if landing_noise is None:
+        poses = base[None]
+    else:
+        noise = np.asarray(landing_noise, dtype=float).reshape(-1, 3)
+        p_WT, _ = scene.dish_p_WD(target)
+        poses, landed = pickup_poses(checker.base_free, np.tile(base[:2], (len(noise), 1)),
+                                     p_WT[:2], noise)
+        poses = poses[landed]
+    works = {g: sum(pickup_geometry(scene, checker, q, target, grasp=g).ok for q in poses)
+             for g in GRASP_KINDS}
+    # sorted() is stable: equally good grasps keep GRASP_KINDS' order.
+    return sorted((g for g in GRASP_KINDS if works[g] > 0), key=lambda g: -works[g])
 
 
 def plan_place(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
