@@ -26,13 +26,6 @@ from s3o_drake.furniture import DISH_SHAPES, dish_footprint, table_footprint
 from s3o_drake.scenario import Dish, Scenario, surface_height
 
 PLACE_SUFFIX = "__place"
-PLACE_TOLERANCE = 0.03
-"""How far (m, horizontally) a put-down object may stand from its place target and count
-as placed (it must also stand upright on the target's surface): the execution's judge, and
-what the planner's Fea^m of a place is the probability of (`pickup_geometry.
-place_probability`)."""
-SURFACE_TOLERANCE = 0.005
-"""How far (m) the surface it stands on may be from the target's and be the same one."""
 """Ends the name of a place target (`place_target_name`); names in a scenario hold no
 double underscore, so none can clash."""
 

@@ -18,7 +18,8 @@ from s3o_drake.feasibility.pickup_geometry import (
 )
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.goals import PLACE_TOLERANCE, with_place_targets
+from s3o_drake.goals import with_place_targets
+from s3o_drake.placing import PLACE_TOLERANCE
 from s3o_drake.robot import BASE_WIDTH
 from s3o_drake.scenario import Chair, load_scenario
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-from s3o_drake.goals import PLACE_TOLERANCE, SURFACE_TOLERANCE
+from s3o_drake.placing import PLACE_TOLERANCE, SURFACE_TOLERANCE
 
 NO_COMMAND = 0
 

@@ -46,7 +46,8 @@ from s3o_drake.feasibility.pickup_geometry import (
     pickup_feasible_many,
     place_error_stds,
 )
-from s3o_drake.goals import PLACE_TOLERANCE, placed_object
+from s3o_drake.goals import placed_object
+from s3o_drake.placing import PLACE_TOLERANCE
 from s3o_drake.scenario import Uncertainty
 
 CROP_SIZE = 4.0

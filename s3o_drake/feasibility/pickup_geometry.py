@@ -52,8 +52,9 @@ from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP, RIM_INSET
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.furniture import DISH_SHAPES
-from s3o_drake.goals import PLACE_TOLERANCE, placed_object
+from s3o_drake.goals import placed_object
 from s3o_drake.gripper import holds_whole
+from s3o_drake.placing import PLACE_TOLERANCE
 from s3o_drake.robot import (
     ARM_MOUNT_XYZ,
     ARM_POSITIONS,
