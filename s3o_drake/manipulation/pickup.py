@@ -44,7 +44,7 @@ from pydrake.trajectories import CompositeTrajectory, PathParameterizedTrajector
 
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.pickup_geometry import pickup_geometry, with_gripper
+from s3o_drake.feasibility.pickup_geometry import PickupGeometry, pickup_geometry, with_gripper
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.manipulation.arm_motion import (
     ARM,
@@ -128,6 +128,23 @@ def timed_segment(name: str, path: np.ndarray, checker: SceneGraphCollisionCheck
     return Segment(name, timed.trajectory, timed.duration, path, timed.smoothed)
 
 
+def start_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
+                   target: str, *, q_start: np.ndarray | None,
+                   reach_offset: np.ndarray | None, grasp: str | None
+                   ) -> tuple[np.ndarray, PickupGeometry]:
+    """Where an arm motion at `target` starts, the robot's 11 positions (`q_start`,
+    default the arm stowed and the gripper open, its base entries set to `base`), and the
+    configurations of picking `target` from there (`pickup_geometry`); shared by a pickup
+    and a place. Raises ValueError for a `q_start` of another shape."""
+    base = np.asarray(base, dtype=float).reshape(3)
+    q0 = scene.q(base) if q_start is None else np.asarray(q_start, dtype=float).copy()
+    if q0.shape != (NUM_POSITIONS,):
+        raise ValueError(f"q_start: expected {NUM_POSITIONS} positions, got shape {q0.shape}")
+    q0[:3] = base
+    return q0, pickup_geometry(scene, checker, base, target, reach_offset=reach_offset,
+                               q_arm=q0[ARM], grasp=grasp)
+
+
 def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
                 dish: str, *, reach_offset: np.ndarray | None = None,
                 q_start: np.ndarray | None = None, seed: int = 0,
@@ -144,13 +161,8 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
     pre-grasp/lift on its branch) or "no_path" (some motion found no collision-free path).
     `grasp` ("top" or "side"), when given, is the only kind of grasp tried.
     """
-    base = np.asarray(base, dtype=float).reshape(3)
-    q0 = scene.q(base) if q_start is None else np.asarray(q_start, dtype=float).copy()
-    if q0.shape != (NUM_POSITIONS,):
-        raise ValueError(f"q_start: expected {NUM_POSITIONS} positions, got shape {q0.shape}")
-    q0[:3] = base
-    geometry = pickup_geometry(scene, checker, base, dish, reach_offset=reach_offset,
-                               q_arm=q0[ARM], grasp=grasp)
+    q0, geometry = start_geometry(scene, checker, base, dish, q_start=q_start,
+                                  reach_offset=reach_offset, grasp=grasp)
     if not geometry.ok:
         return PickupPlan(False, geometry.reason, grasp=geometry.grasp)
     c = geometry.configurations

@@ -30,9 +30,8 @@ from s3o_drake.feasibility.grasps import GRASP_KINDS
 from s3o_drake.feasibility.landing import pickup_poses
 from s3o_drake.feasibility.pickup_geometry import pickup_geometry, with_gripper
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.manipulation.arm_motion import ARM, plan_arm_path
-from s3o_drake.manipulation.pickup import PickupPlan, timed_segment
-from s3o_drake.robot import NUM_POSITIONS
+from s3o_drake.manipulation.arm_motion import plan_arm_path
+from s3o_drake.manipulation.pickup import PickupPlan, start_geometry, timed_segment
 
 PLACE_SEGMENTS = ("approach", "lower", "release", "retreat", "stow")
 
@@ -76,13 +75,8 @@ def plan_place(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.nd
     "base_collision", "no_ik" (no grasp of that kind at the target, or no pre-grasp on its
     branch) or "no_path" (no collision-free motion).
     """
-    base = np.asarray(base, dtype=float).reshape(3)
-    q0 = np.asarray(q_start, dtype=float).copy()
-    if q0.shape != (NUM_POSITIONS,):
-        raise ValueError(f"q_start: expected {NUM_POSITIONS} positions, got shape {q0.shape}")
-    q0[:3] = base
-    geometry = pickup_geometry(scene, checker, base, target, reach_offset=reach_offset,
-                               q_arm=q0[ARM], grasp=grasp)
+    q0, geometry = start_geometry(scene, checker, base, target, q_start=q_start,
+                                  reach_offset=reach_offset, grasp=grasp)
     if not geometry.ok:
         return PickupPlan(False, geometry.reason, grasp=grasp)
     c = geometry.configurations
