@@ -7,7 +7,7 @@ import sys
 import pytest
 
 from s3o_drake.commands.soak import main
-from s3o_drake.evaluation.soak import EXECUTE, PLAN, memory, soak_jobs
+from s3o_drake.evaluation.soak import EXECUTE, PLAN, loaded, memory, soak_jobs, tally
 
 
 def test_jobs_interleave_plans_and_executions_and_take_the_methods_in_turn():
@@ -53,6 +53,7 @@ def test_soak_plans_executes_resumes_and_sums_up(tmp_path):
     assert sorted(r["kind"] for r in rows) == [EXECUTE, PLAN, PLAN, PLAN]
     for r in rows:
         assert not r["crash"] and not r["hang"] and r["rss_mb"] > 0
+        assert r["cpu"] > 0  # the worker's CPU time over the job, for `loaded`
         if r["kind"] == PLAN:
             assert all(m["planned"] or m["error"] for m in r["methods"].values())
             assert not any(m["overrun"] or m["faults"] for m in r["methods"].values())
@@ -109,3 +110,20 @@ def test_the_worker_is_replaced_after_its_executions(tmp_path, monkeypatch):
     soak.run_soak(jobs, ResultStore(tmp_path / "soak.jsonl"), limit=60.0, progress=False)
     # Jobs 0-2 in the first worker (its second execution ends it), 3-5 in the second.
     assert [w.jobs for w in started] == [3, 3]
+
+
+def test_overruns_and_hangs_on_a_loaded_machine_are_counted_apart():
+    """A budget is wall time: a worker that got a third of a core over its job overran
+    for want of CPU, not for its code; its overruns and hangs are told apart (to be run
+    again on an idle machine). A row without the CPU time (older rows) counts as before."""
+    def plan(cpu, wall, overrun):
+        return {"kind": PLAN, "cpu": cpu, "wall": wall, "hang": False, "methods": {
+            "S3O-GROP*": {"crash": "", "overrun": overrun, "faults": []},
+            "V-PETLON": {"crash": "", "overrun": overrun, "faults": []}}}
+    rows = [plan(5.0, 5.2, True), plan(2.0, 6.0, True), plan(2.0, 6.0, False),
+            {"kind": EXECUTE, "wall": 900.0, "hang": True, "crash": "", "overrun": None},
+            {"kind": EXECUTE, "cpu": 100.0, "wall": 400.0, "hang": True, "crash": "",
+             "overrun": None}]
+    assert [loaded(r) for r in rows] == [False, True, True, False, True]
+    assert tally(rows) == {"crashes": 0, "overruns": 2, "hangs": 1, "faults": 0,
+                           "loaded": 3}
