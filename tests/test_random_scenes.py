@@ -83,7 +83,9 @@ def test_petlon_keeps_a_small_budget_in_a_crowded_scene():
                    methods=["V-PETLON"])  # warm: the free-stop checker is built once
     row = plan_and_check(known, heatmaps=heatmaps, budget=0.5, base_free=checker.base_free,
                          methods=["V-PETLON"])["V-PETLON"]
-    assert row["seconds"] < 0.5 * 1.05, row
+    # Under twice the budget: the regression took 7 times it, and a test beside other
+    # work on 2 cores must not fail for the machine's load (the soak measures overruns).
+    assert row["seconds"] < 2 * 0.5, row
     assert row["planned"] or "time budget" in row["error"]
 
 
