@@ -295,6 +295,31 @@ def test_an_object_to_place_is_held_then_put_down_at_its_place(tidy):
     assert _outputs(arm, context)[2] == Status(5, CommandState.FAILED, "not_held")
 
 
+def test_an_object_to_place_whose_place_failed_is_let_go_over_the_tray(tidy):
+    """Named again without `place` while held, the object is let go where the arm holds it,
+    above the tray: it lands there, the fingers open and the gripper is free."""
+    scenario, scene, checker = tidy
+    arm, context = _controller(scenario, scene, checker, noise=False)
+    _fix_robot(arm, context)
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="cup_b"))
+    t_end, last, grip, _ = _play(arm, context, 0.0)[-1]
+    assert grip == GripEvent("cup_b")
+    _fix_robot(arm, context, arm_q=last[:8])
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=2, dish="cup_b"))
+    record = _play(arm, context, t_end + 0.1)
+    assert record[0][2].dish == "cup_b"  # held until the fingers have opened
+    _, desired, grip, status = record[-1]
+    assert status == Status(2, CommandState.DONE)
+    assert grip == GripEvent("", ("cup_b",))  # on the tray
+    np.testing.assert_allclose(desired[:6], ARM_STOW, atol=1e-6)
+    np.testing.assert_allclose(desired[6:8], GRIPPER_OPEN, atol=1e-6)
+    # The gripper is free: a pickup may follow.
+    _fix_robot(arm, context, arm_q=desired[:8])
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=3, dish="plate_a"))
+    _step(arm, context, record[-1][0] + 0.1)
+    assert _outputs(arm, context)[2].reason != "hand_full"
+
+
 # ------------------------------------------------------------------------- simulated
 
 def _permutation() -> np.ndarray:

@@ -314,3 +314,43 @@ def test_a_replan_while_an_object_to_place_is_held_puts_it_down_first():
             _step(system, context)
     command = system.GetOutputPort("pick_command").Eval(context)
     assert command.dish == "apple" and command.place
+
+
+def test_an_object_whose_place_fails_is_let_go_over_the_tray_then_the_plan_goes_on():
+    """tidy_home, open loop: the apple's place fails (no_ik), so the gripper would hold it
+    for good and every later pickup fail hand_full. The planner has the arm let it go over
+    the tray (a PickCommand naming the held apple, without `place`), then goes on."""
+    tidy = _with_oracle(load_scenario("scenarios/tidy_home.yaml"))
+    system = S3OPlanner(scenario=tidy, method="V-GROP*", seed=0,
+                        perceive=scenario_unmapped_chairs(tidy))
+    context = _context(system, tidy)
+    system.GetInputPort("replan_request").FixValue(context, [0.0])
+    system.ExecuteInitializationEvents(context)
+    plan = system.GetOutputPort("plan").Eval(context)
+    put = next(k for k, a in enumerate(plan.actions) if isinstance(a, Place))
+    for action in plan.actions[:put + 1]:
+        _step(system, context)
+        if isinstance(action, Goto):
+            _land(system, context, action)
+        else:
+            command = system.GetOutputPort("pick_command").Eval(context)
+            assert command.place == isinstance(action, Place)
+            failed = isinstance(action, Place)
+            system.GetInputPort("arm_status").FixValue(
+                context, Status(command.id, "failed", "no_ik") if failed else
+                Status(command.id, "done"))
+        _step(system, context)
+    _step(system, context)  # the failed place is taken up: the tray's command goes out
+    command = system.GetOutputPort("pick_command").Eval(context)
+    assert command.dish == "apple" and not command.place
+    system.GetInputPort("arm_status").FixValue(context, Status(command.id, "done"))
+    _step(system, context)
+    progress = system.GetOutputPort("progress").Eval(context)
+    assert ("place", "apple", "failed: no_ik") in [
+        (a, d, o) for a, d, o in progress.outcomes]
+    assert len(progress.outcomes) == put + 1 and not progress.finished
+    # On with the plan: its next action is commanded.
+    _step(system, context)
+    nxt = plan.actions[put + 1]
+    out = system.GetOutputPort("base_command" if isinstance(nxt, Goto) else "pick_command")
+    assert out.Eval(context).id > command.id

@@ -100,6 +100,21 @@ def test_each_object_to_place_is_judged_against_its_target():
             "final": p, "error": placement.error, "upright": R is upright, "placed": placed}
 
 
+def test_an_object_to_place_let_go_on_the_tray_is_neither_collected_nor_placed():
+    target = PlaceTarget("apple", "apple", "dining", (4.95, 3.75), 0.775, onto="plate")
+    monitor = TaskMonitor(places=[target], fixtures=["plate"])
+    context = monitor.CreateDefaultContext()
+    _fixed(monitor, context, DONE, DishStates({"can": DishState.TRAY, "apple": DishState.TRAY,
+                                              "plate": DishState.TABLE}))
+    monitor.GetInputPort("dish_poses").FixValue(context, DishPoses({
+        "can": RigidTransform(), "apple": RigidTransform([1.0, 1.0, 0.5]),
+        "plate": RigidTransform([4.95, 3.75, 0.75])}))
+    report = monitor.GetOutputPort("report").Eval(context)
+    assert report.collected_dishes == ("can",) and report.placed == 0
+    assert (report.dishes, report.completed) == (2, 1)
+    assert report.placements[0].state == "tray"
+
+
 def test_a_put_down_that_leaves_its_object_off_its_place_is_recorded_as_failed():
     """The arm's place motion ended "done" twice (a first put-down, then the record of a
     later one); the object stands 4 cm off: the later record, the one that let it go, says

@@ -28,7 +28,7 @@ from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.pickup_geometry import caught
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.goals import place_target_name
-from s3o_drake.manipulation.pickup import PickupPlan, plan_pickup
+from s3o_drake.manipulation.pickup import PickupPlan, plan_pickup, plan_release
 from s3o_drake.manipulation.place import place_grasps, plan_place
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import Scenario
@@ -88,7 +88,8 @@ class ArmController(LeafSystem):
 
     Input ports:
         pick_command: abstract PickCommand; a new non-zero `id` starts a pickup, or with
-            `place` the putting down of the held object (a command that arrives while
+            `place` the putting down of the held object, or, naming the held object
+            without `place`, its letting go over the tray (a command that arrives while
             another plays starts when that one ends).
         robot_state: vector (22), the robot's 11 positions then 11 velocities (base x, y,
             yaw; 6 arm joints; 2 fingers).
@@ -233,7 +234,7 @@ class ArmController(LeafSystem):
             return failed("unknown_dish")
         if command.place and holding != command.dish:
             return failed("not_held")
-        if not command.place and holding:
+        if not command.place and holding and holding != command.dish:
             return failed("hand_full")
         # The command's own stream: its noise and its planner seed do not depend on what
         # ran before it; the draw is the same with the noise off, so is the planner's seed.
@@ -243,10 +244,15 @@ class ArmController(LeafSystem):
         if self._reach_std > 0:  # reported, for the calibration of Fea^m against outcomes
             activity = replace(activity, reach_noise=(float(noise[0]), float(noise[1])))
         q_now = np.asarray(robot_state[:NUM_POSITIONS], dtype=float)
+        releasing = not command.place and holding == command.dish
         try:
-            plan = (self._place(command.dish, activity.held_grasp, q_now, noise, plan_seed)
-                    if command.place else
-                    self._pick(context, command, q_now, noise, plan_seed))
+            if releasing:  # its place failed for good: let go over the tray
+                plan = plan_release(self._scene, q_now[:3], q_now, seed=plan_seed,
+                                    time_limit=self._plan_time_limit)
+            elif command.place:
+                plan = self._place(command.dish, activity.held_grasp, q_now, noise, plan_seed)
+            else:
+                plan = self._pick(context, command, q_now, noise, plan_seed)
         except ValueError:
             # The arm's path planner refuses a start in collision (the arm pushed into
             # something, within the checker's padding): no path from here.
@@ -259,7 +265,7 @@ class ArmController(LeafSystem):
                                                   reach_noise=activity.reach_noise),
                           trajectory=plan.trajectory(), t_start=context.get_time(),
                           putting=command.place, grasp=plan.grasp or "")
-        if command.place:  # held from the start, let go at the end of "release"
+        if command.place or releasing:  # held from the start, let go at the end of "release"
             return replace(running, t_grasp=-math.inf, t_release=float(ends["release"]))
         return replace(running, t_grasp=float(ends["close"]),
                        t_release=float(ends.get("release", math.inf)),

@@ -66,6 +66,9 @@ class ExecutionState:
     replans: int = 0
     exhausted: tuple[str, ...] = ()  # a dish per plan in which it failed all its tries
     given_up: tuple[str, ...] = ()
+    to_tray: str = ""
+    """An object to place whose place failed for good, in the gripper: put on the tray
+    before the next action, so that the gripper is free for the pickups that follow."""
 
     @property
     def plan(self) -> TaskMotionPlan | None:

@@ -68,7 +68,8 @@ class BaseCommand:
 class PickCommand:
     """Pick `dish` from where the base stands and put it on the tray (an object whose goal
     is place: hold it above the tray); with `place`, put `dish`, held in the gripper, down
-    at its place target (`goals.place_target_name`). `id` 0 is none."""
+    at its place target (`goals.place_target_name`); naming the object held, without
+    `place`, let it go over the tray (its place failed for good). `id` 0 is none."""
 
     id: int = NO_COMMAND
     dish: str = ""

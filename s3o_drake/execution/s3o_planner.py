@@ -277,6 +277,8 @@ class S3OPlanner(LeafSystem):
                            pose=tuple(float(v) for v in pose))
 
     def _advance(self, context: Context, e: ExecutionState) -> ExecutionState:
+        if e.to_tray:
+            return self._put_on_tray(context, e)
         action = e.plan.actions[e.step]
         if e.command_id == NO_COMMAND:
             return self._send(context, e, action)
@@ -415,6 +417,8 @@ class S3OPlanner(LeafSystem):
                                     e.pick_started if not e.turning else t, t)
             e = dataclasses.replace(e, recoveries=(*e.recoveries, record))
         if done or e.check is None or reason in NOT_RETRIED:
+            if not done and isinstance(action, Place):
+                return e.next_step(to_tray=action.dish)
             return self._after(e.next_step())
         if e.tries + 1 < self._settings.max_tries:
             # Tried again after a check of the stop; where the arm found no way from where
@@ -430,11 +434,26 @@ class S3OPlanner(LeafSystem):
             return self._replan(context, dataclasses.replace(e, exhausted=exhausted),
                                 trigger=trigger, dish=action.dish)
         t = context.get_time()
-        left = "kept in the gripper" if isinstance(action, Place) else "left on the table"
+        placing = isinstance(action, Place)
+        left = "put on the tray" if placing else "left on the table"
         give_up = RecoveryRecord("give_up", action.dish, trigger, left, "done", t, t)
-        return self._after(e.next_step(exhausted=exhausted,
-                                       given_up=(*e.given_up, action.dish),
-                                       recoveries=(*e.recoveries, give_up)))
+        e = e.next_step(exhausted=exhausted, given_up=(*e.given_up, action.dish),
+                        recoveries=(*e.recoveries, give_up),
+                        to_tray=action.dish if placing else "")
+        return e if placing else self._after(e)
+
+    def _put_on_tray(self, context: Context, e: ExecutionState) -> ExecutionState:
+        """`e.to_tray`, whose place failed for good, is let go over the tray (a PickCommand
+        of the object the gripper holds); then the plan goes on, whatever came of it."""
+        if e.command_id == NO_COMMAND:
+            cid = e.next_id
+            return dataclasses.replace(e, command_id=cid, next_id=cid + 1,
+                                       pick_command=PickCommand(id=cid, dish=e.to_tray),
+                                       pick_started=context.get_time())
+        status: Status = self._arm_status.Eval(context)
+        if status.id != e.command_id or not status.finished:
+            return e
+        return self._after(dataclasses.replace(e, to_tray="", command_id=NO_COMMAND))
 
     def _after(self, e: ExecutionState) -> ExecutionState:
         """The execution after an action: finished at the end of the plan."""

@@ -53,6 +53,7 @@ class TaskMonitor(LeafSystem):
         self._settle_time = settle_time
         self._time_limit = time_limit
         self._places = tuple(places)
+        self._place_names = frozenset(p.name for p in self._places)
         self._fixtures = frozenset(fixtures)
         self._progress_port = self.DeclareAbstractInputPort(
             "progress", AbstractValue.Make(PlanProgress()))
@@ -102,7 +103,9 @@ class TaskMonitor(LeafSystem):
         placements = self._placements(context, dish_states)
         output.set_value(RunReport(
             dishes=len(set(dish_states) - self._fixtures),
-            collected_dishes=dish_states.named(DishState.TRAY),
+            # An object to place that ended on the tray (its place failed) is not collected.
+            collected_dishes=tuple(d for d in dish_states.named(DishState.TRAY)
+                                   if d not in self._place_names),
             placements=placements,
             execution_time=t if math.isnan(finished_at) else finished_at,
             finished=bool(progress.finished), reason=reason, outcomes=progress.outcomes,

@@ -196,3 +196,26 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
             return fail
         segments.append(timed_segment(name, path, path_checker))
     return PickupPlan(True, "ok", segments, grasp=c.grasp)
+
+
+def plan_release(scene: FeasibilityScene, base: np.ndarray, q_start: np.ndarray, *,
+                 seed: int = 0, time_limit: float = 5.0) -> PickupPlan:
+    """The timed arm motions that let go of a held object where the arm holds it, above
+    the tray (where a pickup with `hold` left it), and stow: "release" (the fingers open),
+    "stow" (RRT-Connect to ARM_STOW). Not ok with reason "no_path"."""
+    q0 = np.asarray(q_start, dtype=float).copy()
+    q0[:3] = np.asarray(base, dtype=float).reshape(3)
+    free = scene.checker
+    q_open = with_gripper(q0, GRIPPER_OPEN)
+    q_stow = with_gripper(scene.q(q0[:3]), GRIPPER_OPEN)
+    fail = PickupPlan(False, "no_path")
+    if not free.CheckEdgeCollisionFree(q0, q_open):
+        return fail
+    try:
+        stow = plan_arm_path(free, q_open, q_stow, time_limit=time_limit, seed=seed)
+    except ValueError:
+        return fail  # the arm stands in collision, within the padding
+    if stow is None:
+        return fail
+    return PickupPlan(True, "ok", [timed_segment("release", np.stack([q0, q_open]), free),
+                                   timed_segment("stow", stow, free)])
