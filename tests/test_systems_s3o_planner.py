@@ -270,17 +270,23 @@ def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
     assert blocked.predicted == second.feasibility
 
 
-def test_a_replan_while_an_object_to_place_is_held_puts_it_down_first():
-    """tidy_home: the apple is picked (held, not on the tray); a replan then plans the
-    apple's place without picking it again, before the can that remains (the gripper is
-    busy until then). The place is sent to the arm as a PickCommand with `place`."""
+def _tidy_planner():
+    """An S3OPlanner of tidy_home (V-GROP*, open loop) that has planned: with its context
+    and plan."""
     tidy = _with_oracle(load_scenario("scenarios/tidy_home.yaml"))
     system = S3OPlanner(scenario=tidy, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(tidy))
     context = _context(system, tidy)
     system.GetInputPort("replan_request").FixValue(context, [0.0])
     system.ExecuteInitializationEvents(context)
-    plan = system.GetOutputPort("plan").Eval(context)
+    return system, context, system.GetOutputPort("plan").Eval(context)
+
+
+def test_a_replan_while_an_object_to_place_is_held_puts_it_down_first():
+    """tidy_home: the apple is picked (held, not on the tray); a replan then plans the
+    apple's place without picking it again, before the can that remains (the gripper is
+    busy until then). The place is sent to the arm as a PickCommand with `place`."""
+    system, context, plan = _tidy_planner()
     apple = plan.actions.index(next(a for a in plan.pickups if a.dish == "apple"))
     put = next(k for k, a in enumerate(plan.actions) if isinstance(a, Place))
     place_stop = next(a.pose for a in reversed(plan.actions[:put]) if isinstance(a, Goto))
@@ -320,13 +326,7 @@ def test_an_object_whose_place_fails_is_let_go_over_the_tray_then_the_plan_goes_
     """tidy_home, open loop: the apple's place fails (no_ik), so the gripper would hold it
     for good and every later pickup fail hand_full. The planner has the arm let it go over
     the tray (a PickCommand naming the held apple, without `place`), then goes on."""
-    tidy = _with_oracle(load_scenario("scenarios/tidy_home.yaml"))
-    system = S3OPlanner(scenario=tidy, method="V-GROP*", seed=0,
-                        perceive=scenario_unmapped_chairs(tidy))
-    context = _context(system, tidy)
-    system.GetInputPort("replan_request").FixValue(context, [0.0])
-    system.ExecuteInitializationEvents(context)
-    plan = system.GetOutputPort("plan").Eval(context)
+    system, context, plan = _tidy_planner()
     put = next(k for k, a in enumerate(plan.actions) if isinstance(a, Place))
     for action in plan.actions[:put + 1]:
         _step(system, context)
