@@ -306,11 +306,11 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         return PlanningResult(known=known, method=method, seed=int(seed), plan=empty,
                               planning_time=empty.planning_time)
 
-    def expired(stage: str, fatal: bool = True) -> bool:
-        """Whether the deadline passed (the plan is then incomplete); raises when it did
-        and `fatal` and no plan exists."""
+    def expired(stage: str, fatal: bool = True, spent: bool = False) -> bool:
+        """Whether the deadline passed, or the stage `spent` its share of the budget (the
+        plan is then incomplete); raises when it did and `fatal` and no plan exists."""
         nonlocal complete
-        if time.monotonic() < deadline:
+        if not spent and time.monotonic() < deadline:
             return False
         complete = False
         if fatal and best is None:
@@ -443,16 +443,17 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, gri
             if remaining <= 0:
                 expired("task planning", not submitted)
                 break
+            limit = min(TASK_TIME_LIMIT, TASK_SHARE * remaining)
             try:
                 tasks[groups] = (plan_problem(groups, costs, unreachable=lost, places=places,
-                                              n_plans=n_sequences,
-                                              time_limit=min(TASK_TIME_LIMIT,
-                                                             TASK_SHARE * remaining)),
+                                              n_plans=n_sequences, time_limit=limit),
                                  regions)
             except TaskPlanningTimeoutError:
-                if time.monotonic() < deadline:
-                    raise  # clingo's own cap (TASK_TIME_LIMIT) ran out, not the budget
-                expired("task planning", not submitted)
+                if limit >= TASK_TIME_LIMIT:
+                    raise  # clingo's own cap ran out, not the budget
+                # The budget's share cut clingo: what is left of the budget is the motion
+                # search's, and with no sequence yet there is nothing to search.
+                expired("task planning", not submitted, spent=True)
                 break
         task, regions = tasks[groups]
         timing["task_planning"] += time.monotonic() - t
