@@ -57,6 +57,11 @@ def test_soak_plans_executes_resumes_and_sums_up(tmp_path):
         if r["kind"] == PLAN:
             assert all(m["planned"] or m["error"] for m in r["methods"].values())
             assert not any(m["overrun"] or m["faults"] for m in r["methods"].values())
+    # Every row says which code it measured (this checkout's commit).
+    head = subprocess.run(["git", "rev-parse", "--short=7", "HEAD"], capture_output=True,
+                          text=True).stdout.strip()
+    assert {r["code"].removesuffix("-dirty") for r in rows} == {head}
+    assert f"code: {rows[0]['code']}" in first.stdout
     run = next(r for r in rows if r["kind"] == EXECUTE)
     assert run["planned"] and run["finished"]
     assert run["overrun"] is False and 0 < run["budget_ratio"] <= 1.05

@@ -22,10 +22,12 @@ ResultStore: a killed soak resumes where it stopped).
 from __future__ import annotations
 
 import multiprocessing
+import subprocess
 import time
 import traceback
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -211,6 +213,24 @@ class _Worker:
         self.conn.close()
 
 
+def code_version() -> str:
+    """The commit of the package's checkout ("-dirty" when its files differ from it), or
+    "unknown" outside a git checkout: a soak runs for days, and its rows must say which
+    code they measured."""
+    package = Path(__file__).resolve().parents[1]
+
+    def git(*args: str) -> str:
+        return subprocess.run(["git", "-C", str(package), *args], capture_output=True,
+                              text=True, check=True, timeout=30).stdout.strip()
+
+    try:
+        commit = git("rev-parse", "--short=7", "HEAD")
+        dirty = git("status", "--porcelain", "--", str(package))
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return commit + ("-dirty" if dirty else "")
+
+
 def run_soak(jobs: Iterable[SoakJob], store: ResultStore, *, limit: float,
              progress: bool = True) -> int:
     """Runs the jobs the store has no row for, one at a time in a worker process (a new
@@ -220,6 +240,7 @@ def run_soak(jobs: Iterable[SoakJob], store: ResultStore, *, limit: float,
     from s3o_drake.evaluation.scheduler import TASKS_PER_CHILD
 
     todo = [job for job in jobs if store.get(job.key) is None]
+    code = code_version()
     bar = tqdm(total=len(todo), desc="soak", unit="job", disable=not progress)
     worker: _Worker | None = None
     try:
@@ -229,7 +250,7 @@ def run_soak(jobs: Iterable[SoakJob], store: ResultStore, *, limit: float,
             start = time.perf_counter()
             row = worker.run(job, limit)
             row.update(worker=worker.process.pid, worker_job=worker.jobs,
-                       wall=time.perf_counter() - start)
+                       wall=time.perf_counter() - start, code=code)
             row.setdefault("hang", False)
             if row["hang"] or (row.get("crash") and "worker process died" in row["crash"]):
                 worker = None
@@ -338,6 +359,8 @@ def summary_table(rows: Sequence[dict]) -> str:
                      f"{sum(bool(r.get('hang')) for r in rs if not loaded(r))} | "
                      f"{sum(not r['finished'] for r in ok)} | {ratio:.3f} |")
     lines.append("")
+    codes = sorted({r.get("code", "unrecorded") for r in rows})
+    lines.append(f"code: {', '.join(codes)} (the package's commit when each row ran)")
     lines.append("faults: plan jobs, plans that fail a check (plan_checks); execute jobs, "
                  "runs the simulation did not finish.")
     apart = tally(rows)["loaded"]
