@@ -132,3 +132,43 @@ def test_overruns_and_hangs_on_a_loaded_machine_are_counted_apart():
     assert [loaded(r) for r in rows] == [False, True, True, False, True]
     assert tally(rows) == {"crashes": 0, "overruns": 2, "hangs": 1, "faults": 0,
                            "loaded": 3}
+
+
+def test_jobs_counted_apart_run_again_on_request(tmp_path, monkeypatch):
+    """--again-loaded runs again the jobs whose overrun or hang was counted apart, and the
+    new row replaces the old one; a loaded job that overran nothing is kept."""
+    from dataclasses import asdict
+
+    from s3o_drake.evaluation import soak
+    from s3o_drake.evaluation.store import ResultStore
+
+    ran = []
+
+    class FakeWorker:
+        def __init__(self):
+            self.jobs = self.executed = 0
+            self.process = type("P", (), {"pid": 1, "is_alive": lambda s: True})()
+
+        def run(self, job, limit):
+            ran.append(job.index)
+            self.jobs += 1
+            return {"key": job.key, **asdict(job), "crash": "", "cpu": 5.0, "methods": {
+                "V-PETLON": {"crash": "", "overrun": False, "faults": []}}}
+
+        def stop(self, kill=False):
+            pass
+
+    monkeypatch.setattr(soak, "_Worker", FakeWorker)
+    monkeypatch.setattr(soak.time, "perf_counter", iter(range(0, 10**6, 5)).__next__)
+    jobs = [soak.SoakJob(PLAN, 0, i, 5.0) for i in range(3)]
+    store = ResultStore(tmp_path / "soak.jsonl")
+    starved = {"cpu": 1.0, "wall": 6.0, "hang": False, "crash": ""}
+    for job, overrun in zip(jobs[:2], (True, False), strict=True):
+        store.append({"key": job.key, **asdict(job), **starved, "methods": {
+            "V-PETLON": {"crash": "", "overrun": overrun, "faults": []}}})
+    soak.run_soak(jobs, store, limit=60.0, progress=False)
+    assert ran == [2]  # only the job without a row
+    soak.run_soak(jobs, store, limit=60.0, progress=False, again_loaded=True)
+    assert ran == [2, 0]  # the loaded overrun, not the loaded job that overran nothing
+    again = ResultStore(tmp_path / "soak.jsonl").get(jobs[0].key)
+    assert not loaded(again) and tally([again])["loaded"] == 0

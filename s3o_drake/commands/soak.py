@@ -3,7 +3,7 @@ budget overruns, hangs and memory growth.
 
     python -m s3o_drake.commands.soak --plan 1000 --execute 200 --out out/soak
            [--seed 0] [--budget 5] [--execute-budget 60] [--limit 900] [--dishes 30]
-           [--quiet] [--summarize]
+           [--quiet] [--summarize] [--again-loaded]
 
 Scene i is drawn from --seed and i alone (s3o_drake/random_scenes.py: a room of random
 size, 1 to 5 tables anywhere, 0 to --dishes dishes, crowding chairs, sometimes a robot
@@ -24,6 +24,8 @@ and last figure and the slope.
 Written to --out: soak.jsonl, one line per job as it ends (the resume log: the same
 command goes on where a killed one stopped), and summary.md, the table printed at the end.
 --summarize prints and writes the summary of the rows so far and runs nothing.
+--again-loaded also runs again the jobs whose overruns or hangs were counted apart (their
+worker got less than 80 % of a core: a budget is wall time); run it on an idle machine.
 
 Exit status: 0 when nothing went wrong, 1 when a crash, overrun, hang or faulty plan was
 counted, 2 on bad input (nothing is written), 130 when interrupted (finished jobs kept).
@@ -57,6 +59,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--summarize", action="store_true",
                         help="summarise the rows so far; run nothing")
+    parser.add_argument("--again-loaded", action="store_true",
+                        help="also run again the jobs whose overruns or hangs were counted "
+                             "apart (a loaded machine)")
     args = parser.parse_args(argv)
     for name in ("plan", "execute", "seed", "dishes"):
         if getattr(args, name) < 0:
@@ -86,7 +91,8 @@ def main(argv: list[str] | None = None) -> int:
         try:
             jobs = soak_jobs(args.seed, args.plan, args.execute, args.budget, args.dishes,
                              args.execute_budget)
-            run_soak(jobs, store, limit=args.limit, progress=not args.quiet)
+            run_soak(jobs, store, limit=args.limit, progress=not args.quiet,
+                     again_loaded=args.again_loaded)
         except KeyboardInterrupt:
             print("interrupted: the finished jobs are kept in soak.jsonl", file=sys.stderr)
             code = 130

@@ -174,6 +174,15 @@ def loaded(row: dict) -> bool:
     return cpu is not None and bool(wall) and cpu / wall < LOADED_SHARE
 
 
+def run_again(row: dict) -> bool:
+    """Whether a row's overrun or hang was counted apart (`loaded`): its job is to be run
+    again on an idle machine (`run_soak`'s `again_loaded`)."""
+    if not loaded(row):
+        return False
+    over = any(r["overrun"] for r in row.get("methods", {}).values()) or row.get("overrun")
+    return bool(over or row.get("hang"))
+
+
 class _Worker:
     def __init__(self) -> None:
         ctx = multiprocessing.get_context("spawn")  # a fork would copy Drake's threads
@@ -232,14 +241,17 @@ def code_version() -> str:
 
 
 def run_soak(jobs: Iterable[SoakJob], store: ResultStore, *, limit: float,
-             progress: bool = True) -> int:
+             progress: bool = True, again_loaded: bool = False) -> int:
     """Runs the jobs the store has no row for, one at a time in a worker process (a new
-    one after a hang or a crash), storing each row as it ends; returns how many ran."""
+    one after a hang or a crash), storing each row as it ends; returns how many ran.
+    `again_loaded`: also the jobs whose overrun or hang was counted apart (`run_again`);
+    the new row replaces the old one (the store's last row of a key wins)."""
     from tqdm import tqdm
 
     from s3o_drake.evaluation.scheduler import TASKS_PER_CHILD
 
-    todo = [job for job in jobs if store.get(job.key) is None]
+    todo = [job for job in jobs if (row := store.get(job.key)) is None
+            or (again_loaded and run_again(row))]
     code = code_version()
     bar = tqdm(total=len(todo), desc="soak", unit="job", disable=not progress)
     worker: _Worker | None = None
