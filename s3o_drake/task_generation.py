@@ -7,10 +7,19 @@ spots on random tables, and one chair that is not on the map near each dish, at 
 position and yaw. Chairs never overlap furniture, walls or each other, and the robot's
 start stays free; each task passes the same validation as a hand-written scenario.
 
+With `stops` (the benchmark's tasks: `python -m s3o_drake.commands.generate` passes
+`planning.pipeline.dishes_without_stops`), every dish also keeps a candidate stop that a
+drive from the start reaches: dishes drawn where no stop reaches them are drawn again, and
+so is a chair that would close the last way to one. In a dense room the chairs of the
+protocol otherwise fill the aisles (docs/results.md); in the spacious one it redrew
+chairs in 5 of the 100 tasks of seed 0. The check lives above this layer (it needs the
+navigation map), hence a function passed in.
+
 Task i depends only on the seed and i, so the same seed gives the same tasks.
 """
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from functools import cache
 
@@ -104,7 +113,12 @@ def _sample_dishes(base: Scenario, rng: np.random.Generator) -> list[Dish]:
     raise GenerationError("could not place the dishes")
 
 
-def _sample_chairs(base: Scenario, dishes: list[Dish], rng: np.random.Generator) -> list[Chair]:
+StopCheck = Callable[[Scenario], Sequence[str]]
+"""The dishes of a scenario that no candidate stop reaches (`generate_task`'s `stops`)."""
+
+
+def _sample_chairs(base: Scenario, dishes: list[Dish], rng: np.random.Generator,
+                   stops: StopCheck | None = None) -> list[Chair]:
     room = room_polygon(base).buffer(-CHAIR_GAP)
     obstacles = [table_footprint(t.center, t.yaw, t.size).buffer(CHAIR_GAP)
                  for t in base.tables]
@@ -123,7 +137,11 @@ def _sample_chairs(base: Scenario, dishes: list[Dish], rng: np.random.Generator)
                 continue
             if any(shape.intersects(o) for o in obstacles):
                 continue
-            chairs.append(Chair(name=f"chair_{i + 1}", pose=pose, mapped=False))
+            chair = Chair(name=f"chair_{i + 1}", pose=pose, mapped=False)
+            if stops is not None and stops(replace(base, dishes=dishes,
+                                                   chairs=[*chairs, chair])):
+                continue
+            chairs.append(chair)
             obstacles.append(shape.buffer(CHAIR_GAP))
             break
         else:
@@ -160,16 +178,20 @@ def _sample_places(task: Scenario, count: int, rng: np.random.Generator) -> Scen
     return replace(task, dishes=dishes)
 
 
-def generate_task(base: Scenario, seed: int, index: int, places: int = 0) -> Scenario:
+def generate_task(base: Scenario, seed: int, index: int, places: int = 0,
+                  stops: StopCheck | None = None) -> Scenario:
     """Task `index` of the set drawn with `seed`; the same arguments give the same task.
     With `places`, that many of its cups are to be put down on another table instead of
     collected (mixed tasks); the rest is the task without places, unless that one has too
-    few cups, and another is drawn."""
+    few cups, and another is drawn. With `stops`, no dish (nor place) of the task is one
+    that `stops` names (see the module docstring)."""
     rng = np.random.default_rng([seed, index])
     for _ in range(100):
         try:
             dishes = _sample_dishes(base, rng)
-            chairs = _sample_chairs(base, dishes, rng)
+            if stops is not None and stops(replace(base, dishes=dishes, chairs=[])):
+                continue
+            chairs = _sample_chairs(base, dishes, rng, stops)
         except GenerationError:
             continue
         task = replace(base, seed=int(rng.integers(2**31)), dishes=dishes, chairs=chairs)
@@ -180,19 +202,23 @@ def generate_task(base: Scenario, seed: int, index: int, places: int = 0) -> Sce
         if places:
             # Their own stream: where the task has cups enough, it is the task without places.
             try:
-                return _with_places(task, places, np.random.default_rng([seed, index, PLACES]))
+                return _with_places(task, places, np.random.default_rng([seed, index, PLACES]),
+                                    stops)
             except GenerationError:
                 continue
         return task
     raise GenerationError(f"could not generate task {index} with seed {seed}")
 
 
-def _with_places(task: Scenario, count: int, rng: np.random.Generator) -> Scenario:
+def _with_places(task: Scenario, count: int, rng: np.random.Generator,
+                 stops: StopCheck | None = None) -> Scenario:
     for _ in range(100):
         try:
             mixed = _sample_places(task, count, rng)
             validate_scenario(mixed)
         except (GenerationError, ScenarioError):
+            continue
+        if stops is not None and stops(mixed):
             continue
         return mixed
     raise GenerationError(f"could not place {count} cups in this task")

@@ -18,6 +18,7 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
+import shapely
 
 from s3o_drake.camera import overhead_camera
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
@@ -28,9 +29,14 @@ from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.planner import PlanningError, PlanningResult, plan_task
 from s3o_drake.planning.task_costs import first_reachable
 from s3o_drake.planning.task_planner import TaskPlanningError
-from s3o_drake.scenario import FEASIBILITY_SOURCES, FeasibilitySource
+from s3o_drake.robot import INSCRIBED_RADIUS
+from s3o_drake.scenario import FEASIBILITY_SOURCES, FeasibilitySource, Scenario
 
-__all__ = ["PlanningResult", "best_stops", "heatmaps_for", "plan_from"]  # the pipeline's API
+STOP_CELL = 0.05
+"""Grid spacing (m) of the candidate stops `dishes_without_stops` tries."""
+
+__all__ = ["PlanningResult", "best_stops", "dishes_without_stops", "heatmaps_for",
+           "plan_from"]  # the pipeline's API
 
 
 def heatmaps_for(known: KnownWorld, *, source: str | None = None,
@@ -75,6 +81,38 @@ def best_stops(known: KnownWorld, heatmaps: Sequence[Heatmap] | None = None
         first = first_reachable(nav, start, centres[order])  # the best that can be reached
         best[heatmap.dish] = 0.0 if first is None else float(values[order[first]])
     return best
+
+
+def dishes_without_stops(scenario: Scenario) -> list[str]:
+    """The dishes (and place targets) of `scenario` that have no candidate stop: no base
+    position within the planner's reach (`planner.reach`) of them that is free as planned
+    (`FreeStops`, on a grid of STOP_CELL) and that a drive from the robot's start reaches,
+    in the true world (every chair where the scenario puts it). No method can pick such a
+    dish; the benchmark's tasks have none (`task_generation.generate_task`, `stops`).
+
+    `best_stops` with Fea^m 1 within reach, but cheaper (the generator asks once per chair
+    drawn): the collision check, the costly part, is asked only at positions that keep
+    the base's inscribed radius from every obstacle (nearer, every yaw collides) and that a
+    drive reaches."""
+    known = KnownWorld.perfect(scenario)
+    reach = known.planner.reach
+    nav = NavigationMap(known.obstacles)
+    start = nav.way_out(known.pose[:2])
+    clear = known.obstacles.free_space(INSCRIBED_RADIUS)
+    stops = FreeStops.of(known)
+    cells = int(np.ceil(2 * reach / STOP_CELL))
+    missing = []
+    for dish in known.dishes:
+        p = np.asarray(dish.position[:2], float)
+        grid = Heatmap(dish.name, np.zeros((cells, cells)), p[0] - reach, p[1] - reach,
+                       STOP_CELL)
+        centres = grid.centers()
+        ask = (np.linalg.norm(centres - p, axis=-1) <= reach) & shapely.contains_xy(
+            clear, centres[..., 0], centres[..., 1])
+        ask[ask] = nav.reachable(start, centres[ask])
+        if not stops.free_cells(dataclasses.replace(grid, values=ask.astype(float))).any():
+            missing.append(dish.name)
+    return sorted(missing)
 
 
 def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None = None,
