@@ -137,6 +137,23 @@ def test_the_papers_random_ablation_plans_on_one_drawn_state_space(scenes):
     assert best.groups == (("bowl_north",), ("bowl_south",))
 
 
+@pytest.mark.parametrize("method", METHODS)
+def test_the_plan_says_what_clingo_proved_of_its_order(plans, method):
+    """Small scenes: every method's order is proven (in its rank), its bound is no more
+    than its cost, and as many orders were found as asked for (or every one there is);
+    the line the run command prints says so."""
+    from s3o_drake.commands.run import describe_plan
+
+    for scene in SCENES:
+        order = plans[scene, method].order
+        assert order is not None and order.optimal
+        assert 0 <= order.lower_bound <= order.cost and 0 <= order.gap < 1
+        assert 1 <= order.found <= order.asked
+        assert order.describe() in describe_plan(plans[scene, method])
+        if order.gap == 0:
+            assert order.describe().startswith("task order proven optimal")
+
+
 @pytest.mark.parametrize("method", ["S3O-GROP*", "V-PETLON"])
 def test_json_round_trip(plans, tmp_path, method):
     p = plans["two_dishes", method]
@@ -249,6 +266,9 @@ def test_budget_holds_on_a_30_dish_task(workers):
     # reported unreachable by the abstraction; the others are all planned.
     assert len(p.pickups) + len(p.unreachable) == 30 and len(p.pickups) >= 10
     check_plan(_problem(p), p.task_actions)
+    # 30 dishes: clingo's order is cut by the budget, and the plan says so.
+    assert not p.order.optimal and p.order.lower_bound < p.order.cost
+    assert "not proven optimal" in p.order.describe()
 
 
 def test_workers_give_the_same_plan(scenes):

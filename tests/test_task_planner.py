@@ -11,6 +11,7 @@ from s3o_drake.planning.task_planner import (
     TaskPlanningError,
     TaskProblem,
     check_plan,
+    cost_lower_bound,
     plan_problem,
     plan_tasks,
 )
@@ -150,6 +151,30 @@ def test_matches_brute_force(seed):
     assert result.best.optimal
     assert result.best.cost == brute_force(problem)
     assert check_plan(problem, result.best.actions) == result.best.cost
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_lower_bound_is_below_every_order_and_tight_once_proven(seed):
+    """The bound that a plan cut by the clock reports its gap against never exceeds the
+    optimum (brute force); a proven plan reports its own cost as the bound."""
+    problem = random_problem(6, seed=seed, dishes_per_location=1.5)
+    optimum = brute_force(problem)
+    assert 0 < cost_lower_bound(problem) <= optimum
+    proven = plan_tasks(problem, n_plans=2, time_limit=10)
+    assert proven.best.optimal and proven.lower_bound == optimum == proven.best.cost
+    assert proven.asked == 2 and len(proven.plans) == 2
+
+
+def test_a_cut_search_says_what_it_found_and_its_bound():
+    """On 12 locations 0.2 s proves nothing: the plan found is not optimal, fewer orders
+    than asked come back, and the bound lies below the plan's cost."""
+    problem = random_problem(12, seed=1)
+    try:
+        result = plan_tasks(problem, n_plans=3, time_limit=0.2)
+    except TaskPlanningError:
+        pytest.skip("no order at all within 0.2 s on this machine")
+    assert result.asked == 3 and len(result.plans) < 3 and not result.best.optimal
+    assert 0 < result.lower_bound == cost_lower_bound(problem) < result.best.cost
 
 
 def test_check_plan_rejects_violations():

@@ -113,6 +113,8 @@ def describe_plan(p: TaskMotionPlan) -> str:
                  f"{t.get('task_planning', 0):.2f}, motion search "
                  f"{t.get('motion_search', 0):.2f}); {p.searches} searches, {p.samples} samples"
                  + ("" if p.complete else "; the time budget cut the search short"))
+    if p.order is not None:
+        lines.append(f"  {p.order.describe()}")
     return "\n".join(lines)
 
 

@@ -62,6 +62,42 @@ PlanAction = Goto | Pickup | Place
 
 
 @dataclass(frozen=True)
+class TaskOrder:
+    """What the task planner could say of the plan's order (its navigation cost is
+    clingo's integer objective: the drive time at the planner's speed x COST_SCALE,
+    planning/petlon.py)."""
+
+    cost: int
+    """The order's navigation cost."""
+    optimal: bool
+    """clingo proved it optimal in its rank (the best order, or for the k-th order found
+    the best but the k - 1 before it; the motion search may choose any of them)."""
+    lower_bound: int
+    """No order of the state space costs less (the best order's cost when proven)."""
+    found: int
+    """Distinct orders found in the state space, of `asked`."""
+    asked: int
+
+    @property
+    def gap(self) -> float:
+        """How far the order's cost may lie above the best order's, at most, as a share
+        of its cost (0 when proven optimal)."""
+        return 0.0 if self.cost <= 0 else max(self.cost - self.lower_bound, 0) / self.cost
+
+    def describe(self) -> str:
+        """One line for a person: proven or not, the gap, and how many orders were found."""
+        if self.optimal and self.gap == 0:
+            what = "proven optimal"
+        elif self.optimal:
+            what = f"{self.gap:.0%} above the best order (proven; its stops won)"
+        else:
+            what = f"not proven optimal (at most {self.gap:.0%} above the best order)"
+        found = "" if self.found >= self.asked else (
+            f"; {self.found} of {self.asked} orders found")
+        return f"task order {what}{found}"
+
+
+@dataclass(frozen=True)
 class TaskMotionPlan:
     """One method's plan for one task (see the module docstring)."""
 
@@ -96,6 +132,8 @@ class TaskMotionPlan:
     for methods that run no search (the paper's Fig. 4, left)."""
     late_samples: tuple[tuple[tuple[float, float], ...], ...] = ()
     """Its last generation (Fig. 4, right)."""
+    order: TaskOrder | None = None
+    """What clingo proved of the order (None: no task planning, or an older plan file)."""
 
     @property
     def gotos(self) -> tuple[Goto, ...]:
@@ -145,6 +183,10 @@ class TaskMotionPlan:
             "complete": self.complete,
             "early_samples": _nested_lists(self.early_samples),
             "late_samples": _nested_lists(self.late_samples),
+            "order": None if self.order is None else {
+                "cost": self.order.cost, "optimal": self.order.optimal,
+                "lower_bound": self.order.lower_bound, "gap": self.order.gap,
+                "found": self.order.found, "asked": self.order.asked},
         }
 
     @classmethod
@@ -166,6 +208,11 @@ class TaskMotionPlan:
             else:
                 raise ValueError(f"unknown action {a['action']!r} in a plan")
         score = data.get("score")
+        order = data.get("order")
+        if order is not None:
+            order = TaskOrder(cost=int(order["cost"]), optimal=bool(order["optimal"]),
+                              lower_bound=int(order["lower_bound"]),
+                              found=int(order["found"]), asked=int(order["asked"]))
         return cls(method=data["method"], seed=int(data["seed"]),
                    groups=tuple(tuple(g) for g in data["groups"]),
                    locations=tuple(data["locations"]), actions=tuple(actions),
@@ -177,7 +224,8 @@ class TaskMotionPlan:
                    searches=int(data["searches"]), samples=int(data["samples"]),
                    complete=bool(data["complete"]),
                    early_samples=samples_tuple(data.get("early_samples", [])),
-                   late_samples=samples_tuple(data.get("late_samples", [])))
+                   late_samples=samples_tuple(data.get("late_samples", [])),
+                   order=order)
 
     def to_json(self, indent: int | None = 1) -> str:
         """Strict JSON (no NaN or Infinity: a plan's numbers are all finite)."""

@@ -98,6 +98,7 @@ from s3o_drake.planning.plan import (
     Place,
     PlanAction,
     TaskMotionPlan,
+    TaskOrder,
     samples_tuple,
 )
 from s3o_drake.planning.result import PlanningResult
@@ -138,6 +139,17 @@ class _Best:
     regions: dict[str, BaseGeometry]
     unreachable: tuple[str, ...]
     score: float | None
+    task: TaskPlanResult
+    """The task planning of its state space: what clingo proved of its order."""
+
+
+def _task_order(task: TaskPlanResult, actions) -> TaskOrder | None:
+    """What clingo proved of the order `actions` among the state space's orders."""
+    plan = next((p for p in task.plans if p.actions == tuple(actions)), None)
+    if plan is None:
+        return None
+    return TaskOrder(cost=plan.cost, optimal=plan.optimal, lower_bound=task.lower_bound,
+                     found=len(task.plans), asked=task.asked)
 
 
 # What a forked search worker inherits: set just before the pool forks, read by _search_job.
@@ -272,7 +284,8 @@ def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: Navig
                           unreachable=best.unreachable, score=best.score, searches=searches,
                           samples=samples, complete=complete,
                           early_samples=samples_tuple(motion.early),
-                          late_samples=samples_tuple(motion.late))
+                          late_samples=samples_tuple(motion.late),
+                          order=_task_order(best.task, motion.actions))
 
 
 def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
@@ -369,7 +382,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         timing["motion_search"] += result.motion_time
         complete = result.draws == iterations
         unreachable = tuple(sorted(set(result.task.unreachable) | set(partition.unreachable)))
-        best = _Best(result.motion, groups, regions, unreachable, None)
+        best = _Best(result.motion, groups, regions, unreachable, None, result.task)
         made = _assemble(method, seed, best, known, nav, timing,
                          time.monotonic() - t_start + feasibility_time, result.draws,
                          result.draws, complete)
@@ -486,6 +499,6 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, gri
             break
         result = searches_run.with_free_stops(result, regions)
         if result.valid and (best is None or result.utility > best.motion.utility):
-            best = _Best(result, groups, regions, unreachable, score)
+            best = _Best(result, groups, regions, unreachable, score, tasks[groups][0])
     timing["motion_search"] += time.monotonic() - t
     return best, searches, samples

@@ -143,10 +143,35 @@ class TaskPlanResult:
     the time limit and every plan is proven optimal in its rank."""
     elapsed: float = 0.0
     stats: dict[str, float] = field(default_factory=dict)
+    lower_bound: int = 0
+    """No order costs less (the best plan's cost when it is proven optimal, else
+    `cost_lower_bound`'s bound), for the gap of an order the clock cut short."""
+    asked: int = 1
+    """The sequences asked for (`n_plans`): fewer in `plans` when the clock cut the
+    enumeration or no more distinct ones exist."""
 
     @property
     def best(self) -> TaskPlan:
         return self.plans[0]
+
+
+def cost_lower_bound(problem: TaskProblem, unreachable: Sequence[str] = ()) -> int:
+    """A bound below the navigation cost of every plan of `problem`: each location that a
+    plan must drive into (it holds a dish to pick, or the place of an object to put down,
+    or is the depot; not where the robot stands) is entered at least once, and the drive
+    in costs at least the cheapest drive into it (rounded as clingo's costs are)."""
+    lost = set(unreachable)
+    need = {loc for d, loc in problem.dishes.items() if loc is not None and d not in lost}
+    need |= {loc for o, loc in problem.places.items() if loc is not None and o not in lost}
+    if problem.depot is not None and need:
+        need.add(problem.depot)
+    need.discard(problem.start)
+    total = 0
+    for loc in need:
+        into = [round(c) for f in problem.nodes if f != loc
+                and (c := problem.cost(f, loc)) is not None]
+        total += min(into, default=0)
+    return total
 
 
 def _quote(name: str) -> str:
@@ -314,9 +339,12 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
             f"no task plan found within the time limit of {time_limit:g} s "
             f"({len(problem.locations)} locations, {len(problem.dishes)} dishes)")
     plans.sort(key=lambda p: p.cost)
+    # Each plan is proven in its rank or ends the enumeration, so the first is the best.
+    bound = plans[0].cost if plans[0].optimal else min(cost_lower_bound(problem, unreachable),
+                                                       plans[0].cost)
     return TaskPlanResult(plans=tuple(plans), unreachable=tuple(unreachable),
                           complete=complete, elapsed=time.perf_counter() - t0,
-                          stats={"ground_s": t_ground})
+                          stats={"ground_s": t_ground}, lower_bound=bound, asked=n_plans)
 
 
 def _forbid(ctl: clingo.Control, k: int, symbols: Sequence[clingo.Symbol]) -> None:
