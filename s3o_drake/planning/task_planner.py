@@ -2,10 +2,16 @@
 
 The domain (fluents, actions, preconditions, effects, goal, objective) is declarative, in
 `domain.lp` beside this file; Python only writes the problem facts, runs clingo under a
-time limit and reads the answer sets back. The planner minimises the total navigation cost
-between locations (integers the caller computes, e.g. path-length seconds x 10) and returns
-the N best distinct sequences, because the motion search (GROP*) works on several sequences
-per state space, not only the optimum.
+time limit and reads the answer sets back. A problem that only collects onto an unlimited
+tray (the restaurant's) is solved by `order.lp` instead, which chooses only the order of
+the locations to visit (`visits_only`): the same answers, without the time steps, so that
+clingo proves the order of 30 dishes in 8 locations in 0.02 s where `domain.lp` proved
+nothing in 10 s. Both load `locations.lp`, the reachability they share.
+
+The planner minimises the total navigation cost between locations (integers the caller
+computes, e.g. path-length seconds x 10) and returns the N best distinct sequences, because
+the motion search (GROP*) works on several sequences per state space, not only the
+optimum.
 
 Distinct sequences. The domain puts every plan in a canonical form: the dishes of one
 location are picked up in name order, the robot never leaves a location while a dish it
@@ -43,6 +49,10 @@ START = "start"
 """The pseudo-location the robot starts from when it does not stand in a location."""
 
 DOMAIN = "domain.lp"
+ORDER = "order.lp"
+"""The visit-order encoding, for problems that only collect onto an unlimited tray."""
+LOCATIONS = "locations.lp"
+"""What both encodings share: nodes, reachability, the dishes that can be planned."""
 
 Action = tuple[str, str]
 """("goto", location), ("pickup", dish), ("place", object) or ("unload", depot)."""
@@ -277,8 +287,9 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
     ctl = clingo.Control(["--opt-mode=opt", "--models=0", "--seed=0", "--parallel-mode=1",
                           "--heuristic=Domain",
                           "-c", f"h={horizon(problem)}", "--warn=none"])
-    domain = resources.files("s3o_drake.planning").joinpath(DOMAIN).read_text()
-    ctl.add("base", [], domain)
+    by_order = visits_only(problem)
+    for name in (LOCATIONS, ORDER if by_order else DOMAIN):
+        ctl.add("base", [], resources.files("s3o_drake.planning").joinpath(name).read_text())
     ctl.add("base", [], facts)
     ctl.ground([("base", [])])
     t_ground = time.perf_counter() - t0
@@ -324,13 +335,14 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
             break
         symbols, cost, proven = best[-1]
         proven = proven or (finished and result.exhausted)
-        actions = _actions(symbols)
+        actions = _visit_actions(problem, symbols, unreachable) if by_order else \
+            _actions(symbols)
         plans.append(TaskPlan(actions=actions, cost=int(cost[0]) if cost else 0,
                               optimal=bool(proven)))
         if not proven:
             complete = False
         if k + 1 < n_plans:
-            _forbid(ctl, k, symbols)
+            _forbid(ctl, k, symbols, "at_step" if by_order else "occurs")
         if not proven:
             break  # a cut search: the next "best" would not be meaningful
 
@@ -347,13 +359,47 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
                           stats={"ground_s": t_ground}, lower_bound=bound, asked=n_plans)
 
 
-def _forbid(ctl: clingo.Control, k: int, symbols: Sequence[clingo.Symbol]) -> None:
-    """Adds a constraint that rules out the goto sequence just found (multi-shot)."""
-    gotos = [s for s in symbols if s.name == "occurs" and s.arguments[0].name == "goto"]
-    body = ", ".join(str(s) for s in gotos)
+def _forbid(ctl: clingo.Control, k: int, symbols: Sequence[clingo.Symbol],
+            atom: str) -> None:
+    """Adds a constraint that rules out the visiting order just found (multi-shot): its
+    `occurs(goto(L), T)` atoms (domain.lp) or its `at_step(L, K)` atoms (order.lp)."""
+    if atom == "occurs":
+        fixed = [s for s in symbols if s.name == "occurs" and s.arguments[0].name == "goto"]
+        none = ":- #count { L, T : occurs(goto(L), T) } = 0."
+    else:
+        fixed = [s for s in symbols if s.name == "at_step"]
+        none = ":- #count { L, K : at_step(L, K) } = 0."
+    body = ", ".join(str(s) for s in fixed)
     part = f"forbid_{k}"
-    ctl.add(part, [], f":- {body}." if body else ":- #count { L, T : occurs(goto(L), T) } = 0.")
+    ctl.add(part, [], f":- {body}." if body else none)
     ctl.ground([(part, [])])
+
+
+def visits_only(problem: TaskProblem) -> bool:
+    """Whether `problem` only collects onto an unlimited tray (no capacity, depot, places or
+    held object): then a plan is fixed by its visiting order, and clingo solves the
+    visit-order encoding (order.lp)."""
+    return (problem.capacity is None and problem.depot is None and not problem.places
+            and problem.held is None)
+
+
+def _visit_actions(problem: TaskProblem, symbols: Sequence[clingo.Symbol],
+                   unreachable: Sequence[str]) -> tuple[Action, ...]:
+    """The canonical plan of a visiting order (order.lp's `at_step/2`): first the dishes
+    where the robot stands, then per location a goto and its dishes, in name order."""
+    order = sorted((s.arguments[1].number, _sym_str(s.arguments[0]))
+                   for s in symbols if s.name == "at_step")
+    lost = set(unreachable)
+    dishes: dict[str, list[str]] = {}
+    for dish in sorted(problem.dishes):
+        loc = problem.dishes[dish]
+        if loc is not None and dish not in lost:
+            dishes.setdefault(loc, []).append(dish)
+    actions: list[Action] = [("pickup", d) for d in dishes.get(problem.start, [])]
+    for _, loc in order:
+        actions.append(("goto", loc))
+        actions.extend(("pickup", d) for d in dishes[loc])
+    return tuple(actions)
 
 
 def _no_plan_message(problem: TaskProblem, unreachable: Sequence[str]) -> str:
