@@ -11,7 +11,8 @@ from s3o_drake.abstraction import LocationGrid, voronoi_partition
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.planner import plan_task
-from s3o_drake.planning.task_planner import TaskProblem, check_plan
+from s3o_drake.planning.task_check import check_plan
+from s3o_drake.planning.task_planner import TaskProblem
 from s3o_drake.scenario import METHODS, parse_scenario
 
 # A cup on the left of a table and a plate on its right: the line x = 3 splits their cells.

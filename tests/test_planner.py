@@ -16,7 +16,8 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
 from s3o_drake.planning.planner import PlanningTimeoutError, plan_task
-from s3o_drake.planning.task_planner import TaskProblem, check_plan
+from s3o_drake.planning.task_check import check_plan
+from s3o_drake.planning.task_planner import TaskProblem
 from s3o_drake.planning.time_model import TimeModel
 from s3o_drake.scenario import METHODS, load_scenario
 

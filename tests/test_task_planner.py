@@ -7,10 +7,10 @@ import time
 import numpy as np
 import pytest
 
+from s3o_drake.planning.task_check import check_plan
 from s3o_drake.planning.task_planner import (
     TaskPlanningError,
     TaskProblem,
-    check_plan,
     cost_lower_bound,
     plan_problem,
     plan_tasks,

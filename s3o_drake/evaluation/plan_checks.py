@@ -22,7 +22,8 @@ from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.goals import place_target_name, placed_object
 from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.plan import Goto, TaskMotionPlan
-from s3o_drake.planning.task_planner import TaskProblem, check_plan
+from s3o_drake.planning.task_check import check_plan
+from s3o_drake.planning.task_planner import TaskProblem
 
 OVERRUN = 0.05
 """A call that takes more than its budget and this share of it overran."""

@@ -98,7 +98,6 @@ from s3o_drake.planning.plan import (
     Place,
     PlanAction,
     TaskMotionPlan,
-    TaskOrder,
     samples_tuple,
 )
 from s3o_drake.planning.result import PlanningResult
@@ -142,14 +141,6 @@ class _Best:
     task: TaskPlanResult
     """The task planning of its state space: what clingo proved of its order."""
 
-
-def _task_order(task: TaskPlanResult, actions) -> TaskOrder | None:
-    """What clingo proved of the order `actions` among the state space's orders."""
-    plan = next((p for p in task.plans if p.actions == tuple(actions)), None)
-    if plan is None:
-        return None
-    return TaskOrder(cost=plan.cost, optimal=plan.optimal, lower_bound=task.lower_bound,
-                     found=len(task.plans), asked=task.asked)
 
 
 # What a forked search worker inherits: set just before the pool forks, read by _search_job.
@@ -285,7 +276,7 @@ def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: Navig
                           samples=samples, complete=complete,
                           early_samples=samples_tuple(motion.early),
                           late_samples=samples_tuple(motion.late),
-                          order=_task_order(best.task, motion.actions))
+                          order=best.task.order_of(motion.actions))
 
 
 def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
