@@ -98,3 +98,30 @@ def test_overhead_picture_has_axes_in_metres(scenario, tmp_path):
     color = np.full((camera.height, camera.width, 3), 120, dtype=np.uint8)
     labels = overhead_figure(scenario, camera, color, tmp_path / "overhead.png")
     assert "metres" in labels.title and (tmp_path / "overhead.png").stat().st_size > 5_000
+
+
+def test_thirty_stops_get_thirty_colours(scenario, top_view, tmp_path):
+    """A plan of 30 stops (a plain Voronoi state space of 30 cups has one per cup) draws
+    each in a colour of its own; tab10 repeated after 10. state_space.png takes its
+    locations' colours from the same `location_colours`."""
+    from s3o_drake.planning.pictures import location_colours
+    from s3o_drake.planning.plan import Pickup
+
+    dish = scenario.dishes[0]
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    actions, here = [], tuple(scenario.robot.start[:2])
+    for k in range(30):
+        p = (x_min + 0.3 + (x_max - x_min - 0.6) * (k % 6) / 5,
+             y_min + 0.3 + (y_max - y_min - 0.6) * (k // 6) / 4)
+        actions += [Goto(location=f"l{k}", pose=(*p, 0.0), path=(here, p), length=1.0),
+                    Pickup(dish=dish.name, location=f"l{k}", feasibility=0.9)]
+        here = p
+    plan = TaskMotionPlan(method="V-GROP*", seed=0, groups=tuple((dish.name,) for _ in
+                                                                   range(30)),
+                          locations=tuple(f"l{k}" for k in range(30)), actions=tuple(actions),
+                          utility=0.0, predicted_time=0.0, planning_time=0.0)
+    drawn = plan_figure(scenario, top_view, plan, tmp_path / "plan.png")
+    assert len(drawn.stops) == 30 and len(set(drawn.colours)) == 30
+    for n in (3, 10, 15, 20, 40):
+        assert len(set(location_colours(n))) == n
+    assert location_colours(3) == location_colours(10)[:3]  # small plans keep their look

@@ -49,6 +49,19 @@ class Labels:
     stops: tuple[str, ...] = ()
     panels: tuple[str, ...] = ()
     overlaps: int = 0
+    colours: tuple[tuple[float, ...], ...] = ()
+    """The colour of each location (state_space.png) or stop (plan.png), in order."""
+
+
+def location_colours(n: int) -> list[tuple[float, float, float, float]]:
+    """`n` colours, no two alike: matplotlib's tab10 up to 10 (the pictures' usual look),
+    tab20 up to 20, beyond that n hues spread over the turbo map. tab10 alone repeats
+    after 10, and at 30 dishes two locations of a plain Voronoi state space shared one."""
+    if n <= 10:
+        return [plt.get_cmap("tab10")(k) for k in range(n)]
+    if n <= 20:
+        return [plt.get_cmap("tab20")(k) for k in range(n)]
+    return [plt.get_cmap("turbo")(x) for x in np.linspace(0.05, 0.95, n)]
 
 
 def stop_label(number: int, location: str) -> str:
@@ -294,11 +307,11 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "Planni
         image = _heatmap_layer(ax, scenario, result.heatmaps, alpha=0.45)
         fig.colorbar(image, ax=ax, fraction=0.03, pad=0.02,
                      label="Fea$^m$ (probability of a pick)")
-    colours = plt.get_cmap("tab10")
+    colours = location_colours(len(plan.groups))
     unreachable = set(partition.unreachable) | set(plan.unreachable)
     dishes, locations = [], {}
     for k, (names, location_name) in enumerate(zip(plan.groups, plan.locations, strict=True)):
-        colour = colours(k % 10)
+        colour = colours[k]
         group = [index[n] for n in names]
         location = unary_union([partition.cells[i] for i in group])
         fea = "" if state is None else \
@@ -337,7 +350,8 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "Planni
     title = title or f"{plan.method} searched {where}: {count}"
     ax.set_title(title)
     write_atomically(path, _figure_bytes(fig))
-    return Labels(title=title, locations=locations, overlaps=crowded)
+    return Labels(title=title, locations=locations, overlaps=crowded,
+                  colours=tuple(colours))
 
 
 def search_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
@@ -348,8 +362,8 @@ def search_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[H
     x_min, y_min, x_max, y_max = scenario.room.bounds
     aspect = (y_max - y_min) / (x_max - x_min)
     fig, axes = plt.subplots(1, 2, figsize=(16, 8 * aspect + 0.8))
-    colours = plt.get_cmap("tab10")
     gotos = plan.gotos
+    colours = location_colours(len(gotos))
     crowded = 0
     for ax, samples, name in ((axes[0], plan.early_samples, "first"),
                               (axes[1], plan.late_samples, "last")):
@@ -361,7 +375,7 @@ def search_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[H
         crowded += _declutter(ax, names, marks)
         points = np.asarray(samples, dtype=float).reshape(len(samples), -1, 2)
         for k, goto in enumerate(gotos):
-            colour = colours(k % 10)
+            colour = colours[k]
             if points.size:
                 ax.scatter(points[:, k, 0], points[:, k, 1], s=22, color=colour,
                            edgecolors="k", linewidths=0.4,
@@ -390,7 +404,7 @@ def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan"
     labels, marks = _name_dishes(ax, _scenario_dishes(scenario, plan.unreachable),
                                  fontsize=7, marker_size=5)
     fea_labels = []  # after the stops': the numbers may move furthest from their place
-    colours = plt.get_cmap("tab10")
+    colours = location_colours(len(plan.gotos))
     dish_xy = _positions(scenario)
     start = scenario.robot.start if start is None else start
     (mark,) = ax.plot(start[0], start[1], marker="s", markersize=10, color="white",
@@ -403,7 +417,7 @@ def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan"
     stop, colour, location = start[:2], "white", ""
     for action in plan.actions:
         if hasattr(action, "path"):
-            colour = colours(len(stops) % 10)
+            colour = colours[len(stops)]
             location = action.location
             stops.append(stop_label(len(stops) + 1, location))
             locations.setdefault(location, ())
@@ -440,4 +454,5 @@ def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan"
                       "(on the dotted lines: Fea$^m$)")
     ax.set_title(title, fontsize=11)
     write_atomically(path, _figure_bytes(fig))
-    return Labels(title=title, locations=locations, stops=tuple(stops), overlaps=crowded)
+    return Labels(title=title, locations=locations, stops=tuple(stops), overlaps=crowded,
+                  colours=tuple(colours))
