@@ -328,3 +328,20 @@ def test_plan_problem_reads_the_held_object_off_its_place_target():
     best = plan_problem(groups, costs, places={"apple": "apple__place"}).best
     assert best.actions.index(("place", "apple")) == 1
     assert ("pickup", "apple") not in best.actions
+
+
+def test_a_large_order_cut_by_the_clock_starts_from_a_local_search():
+    """30 locations, 2 s: clingo proves nothing, but its order starts from `first_order`'s
+    local search (nearest neighbour, 2-opt, or-opt), not from the nearest-neighbour tour
+    its own heuristic gives (424 on this problem before); and it is a valid plan."""
+    from s3o_drake.planning.first_order import first_order, path_cost
+
+    problem = random_problem(30, seed=1)
+    result = plan_tasks(problem, n_plans=3, time_limit=2.0)
+    nodes = [problem.start, *problem.locations]
+    costs = np.array([[0.0 if a == b else round(problem.cost(a, b)) for b in nodes]
+                      for a in nodes])
+    greedy = first_order(costs, time_limit=0.0)  # the nearest-neighbour tour alone
+    assert result.best.cost < path_cost(costs, greedy)
+    assert result.best.cost <= 1.05 * path_cost(costs, first_order(costs, time_limit=1.0))
+    assert check_plan(problem, result.best.actions) == result.best.cost
