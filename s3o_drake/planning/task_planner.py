@@ -52,10 +52,8 @@ START = "start"
 """The pseudo-location the robot starts from when it does not stand in a location."""
 
 DOMAIN = "domain.lp"
-ORDER = "order.lp"
-"""The visit-order encoding, for problems that only collect onto an unlimited tray."""
-LOCATIONS = "locations.lp"
-"""What both encodings share: nodes, reachability, the dishes that can be planned."""
+ORDER = "order.lp"  # the visit-order encoding, for problems that only collect
+LOCATIONS = "locations.lp"  # what both encodings share: nodes, reachability, dishes
 
 Action = tuple[str, str]
 """("goto", location), ("pickup", dish), ("place", object) or ("unload", depot)."""
@@ -403,11 +401,11 @@ def visits_only(problem: TaskProblem) -> bool:
 
 def _hinted_model(problem: TaskProblem, facts: str, unreachable: Sequence[str],
                   deadline: float) -> tuple[tuple[clingo.Symbol, ...], list[int], bool] | None:
-    """The first model of a clingo run that tries `first_order`'s visiting order first (a
-    domain heuristic above order.lp's own, which only prefers the cheapest next drive), as
-    (symbols, cost, False). A Control of its own: the hint, left in the main one, slowed
-    clingo's proofs five-fold at 10 locations, and made conditional on an external atom it
-    was not followed. None for fewer than 3 locations to visit, or no model in time."""
+    """The first model, as (symbols, cost, False), of a clingo run told to try
+    `first_order`'s order first (a domain heuristic above order.lp's own); None below 3
+    locations to visit or without a model in time. A Control of its own: in the main one
+    the hint slowed the proofs five-fold at 10 locations (and, conditional on an external
+    atom, was not followed)."""
     lost = set(unreachable)
     visits = sorted({loc for d, loc in problem.dishes.items()
                      if loc is not None and d not in lost and loc != problem.start})
@@ -429,11 +427,10 @@ def _hinted_model(problem: TaskProblem, facts: str, unreachable: Sequence[str],
     ctl.ground([("base", [])])
     with ctl.solve(yield_=True, async_=True) as handle:
         handle.resume()
-        model = None
-        if handle.wait(max(0.0, deadline - time.perf_counter())):
-            first = handle.model()
-            if first is not None:
-                model = (tuple(first.symbols(shown=True)), list(first.cost), False)
+        first = handle.model() if handle.wait(max(0.0, deadline - time.perf_counter())) \
+            else None
+        model = None if first is None else (tuple(first.symbols(shown=True)),
+                                            list(first.cost), False)
         handle.cancel()
     return model
 
