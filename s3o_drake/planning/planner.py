@@ -142,7 +142,6 @@ class _Best:
     """The task planning of its state space: what clingo proved of its order."""
 
 
-
 # What a forked search worker inherits: set just before the pool forks, read by _search_job.
 _inherited: dict | None = None
 
