@@ -91,8 +91,9 @@ def spot_on_table(table: Table, radius: float, rng: np.random.Generator) -> np.n
                                               s * p_T[0] + c * p_T[1]])
 
 
-def _sample_dishes(base: Scenario, rng: np.random.Generator) -> list[Dish]:
-    count = int(rng.choice(DISH_COUNTS))
+def _sample_dishes(base: Scenario, rng: np.random.Generator,
+                   count: int | None = None) -> list[Dish]:
+    count = int(rng.choice(DISH_COUNTS)) if count is None else count
     dishes: list[Dish] = []
     placed: list[tuple[np.ndarray, float]] = []
     for _ in range(MAX_TRIES):
@@ -118,13 +119,16 @@ StopCheck = Callable[[Scenario], Sequence[str]]
 
 
 def _sample_chairs(base: Scenario, dishes: list[Dish], rng: np.random.Generator,
-                   stops: StopCheck | None = None) -> list[Chair]:
+                   stops: StopCheck | None = None, count: int | None = None) -> list[Chair]:
+    """A chair near each dish, or with `count`, near that many dishes drawn at random."""
+    near = (list(dishes) if count is None else
+            [dishes[i] for i in sorted(rng.choice(len(dishes), size=count, replace=False))])
     room = room_polygon(base).buffer(-CHAIR_GAP)
     obstacles = [table_footprint(t.center, t.yaw, t.size).buffer(CHAIR_GAP)
                  for t in base.tables]
     robot = footprint_polygon(*base.robot.start).buffer(START_CLEARANCE + ROBOT_START_GAP)
     chairs: list[Chair] = []
-    for i, dish in enumerate(dishes):
+    for i, dish in enumerate(near):
         for _ in range(MAX_TRIES):
             distance = rng.uniform(*CHAIR_DISTANCE)
             bearing = rng.uniform(-math.pi, math.pi)
@@ -179,22 +183,27 @@ def _sample_places(task: Scenario, count: int, rng: np.random.Generator) -> Scen
 
 
 def generate_task(base: Scenario, seed: int, index: int, places: int = 0,
-                  stops: StopCheck | None = None) -> Scenario:
+                  stops: StopCheck | None = None, dishes: int | None = None,
+                  chairs: int | None = None) -> Scenario:
     """Task `index` of the set drawn with `seed`; the same arguments give the same task.
     With `places`, that many of its cups are to be put down on another table instead of
     collected (mixed tasks); the rest is the task without places, unless that one has too
     few cups, and another is drawn. With `stops`, no dish (nor place) of the task is one
-    that `stops` names (see the module docstring)."""
+    that `stops` names (see the module docstring). Tasks at scale: `dishes` instead of 5
+    to 7, and `chairs` near as many dishes drawn at random instead of one per dish (a
+    chair per dish of 30 fills the aisles of either restaurant, and no drive is left)."""
+    if chairs is not None and chairs > (dishes or min(DISH_COUNTS)):
+        raise ValueError(f"{chairs} chairs for at most {dishes or min(DISH_COUNTS)} dishes")
     rng = np.random.default_rng([seed, index])
     for _ in range(100):
         try:
-            dishes = _sample_dishes(base, rng)
-            if stops is not None and stops(replace(base, dishes=dishes, chairs=[])):
+            drawn = _sample_dishes(base, rng, dishes)
+            if stops is not None and stops(replace(base, dishes=drawn, chairs=[])):
                 continue
-            chairs = _sample_chairs(base, dishes, rng, stops)
+            seated = _sample_chairs(base, drawn, rng, stops, chairs)
         except GenerationError:
             continue
-        task = replace(base, seed=int(rng.integers(2**31)), dishes=dishes, chairs=chairs)
+        task = replace(base, seed=int(rng.integers(2**31)), dishes=drawn, chairs=seated)
         try:
             validate_scenario(task)
         except ScenarioError:

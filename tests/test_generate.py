@@ -66,7 +66,9 @@ def test_a_task_depends_only_on_seed_and_index():
 @pytest.mark.parametrize("args", [["--count", "0"], ["--seed", "-1"], ["--count", "x"],
                                   ["--places", "4"], ["--places", "-1"],
                                   ["--layout", "cramped"],
-                                  ["--layout", "dense", "--base", str(BASE)]])
+                                  ["--layout", "dense", "--base", str(BASE)],
+                                  ["--dishes", "0"], ["--dishes", "41"],
+                                  ["--dishes", "6", "--chairs", "7"], ["--chairs", "-1"]])
 def test_bad_arguments_exit_2_and_write_nothing(args, tmp_path, capsys):
     out = tmp_path / "tasks"
     with pytest.raises(SystemExit) as info:
@@ -159,3 +161,29 @@ def test_a_chair_that_closes_the_aisle_to_a_dish_is_named_and_redrawn(dense_task
     assert dishes_without_stops(dataclasses.replace(room, chairs=aisle)) == ["cup_1"]
     for f in sorted(dense_tasks.glob("task_*.yaml")):
         assert dishes_without_stops(load_scenario(f)) == []
+
+
+def test_tasks_at_scale_have_their_dishes_and_chairs_and_a_stop_for_each_dish(tmp_path):
+    """--dishes 12 --chairs 3: twelve dishes, three chairs each near a dish of the task,
+    and every dish keeps a stop that a drive reaches; the shipped scale tasks are what
+    the generator makes."""
+    from s3o_drake.planning.pipeline import dishes_without_stops
+
+    assert generate_main(["--dishes", "12", "--chairs", "3", "--count", "1", "--seed", "0",
+                          "--out", str(tmp_path), "--quiet"]) == 0
+    task = load_scenario(tmp_path / "task_000.yaml")
+    assert len(task.dishes) == 12 and len(task.chairs) == 3
+    for chair in task.chairs:
+        assert min(math.dist(d.position, chair.pose[:2]) for d in task.dishes) <= 1.0
+    assert dishes_without_stops(task) == []
+    assert "--dishes 12 --chairs 3`" in (tmp_path / "task_000.yaml").read_text()
+    shipped = REPO / "scenarios" / "generated_scale"
+    for size in (5, 10, 15, 20, 30, 40):
+        files = sorted((shipped / f"dishes_{size:02d}").glob("task_*.yaml"))
+        assert len(files) == 3
+        for f in files:
+            scenario = load_scenario(f)
+            assert len(scenario.dishes) == size and len(scenario.chairs) == 5
+    made = generate_task(load_scenario(BASE), 0, 0, dishes=5, chairs=5,
+                         stops=dishes_without_stops)
+    assert made == load_scenario(shipped / "dishes_05" / "task_000.yaml")

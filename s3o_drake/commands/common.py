@@ -101,6 +101,25 @@ def task_files(items: list[str], count: int | None) -> list[Path]:
     return paths
 
 
+def finished_rows(path: Path, settings: dict) -> dict[str, dict]:
+    """The task rows already in a benchmark's --json file (a JSON line each, keyed "task")
+    that were made with these settings, by task: what a resumed run reads back. A line
+    cut short by an interruption is skipped."""
+    import json
+
+    rows: dict[str, dict] = {}
+    if not path.is_file():
+        return rows
+    for line in path.read_text().splitlines():
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if "task" in record and all(record.get(k) == v for k, v in settings.items()):
+            rows[record["task"]] = record
+    return rows
+
+
 def doc_formatter() -> type[argparse.HelpFormatter]:
     """Keeps the module docstring's line breaks in --help."""
     return argparse.RawDescriptionHelpFormatter

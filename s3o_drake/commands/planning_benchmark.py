@@ -46,7 +46,13 @@ from typing import TYPE_CHECKING, Any, TextIO
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.choices import METHODS
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
+from s3o_drake.commands.common import (
+    ArgumentParser,
+    doc_formatter,
+    fail,
+    finished_rows,
+    task_scenarios,
+)
 
 if TYPE_CHECKING:
     from s3o_drake.scenario import Scenario
@@ -151,21 +157,6 @@ def _append(out: TextIO | None, record: dict[str, Any]) -> None:
         out.flush()
 
 
-def _finished(path: Path, settings: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """Task rows already in a --json file that were made with these settings."""
-    if not path.is_file():
-        return {}
-    rows = {}
-    for line in path.read_text().splitlines():
-        try:
-            record = json.loads(line)
-        except json.JSONDecodeError:
-            continue  # a line cut short by an interruption
-        if "task" in record and all(record.get(k) == v for k, v in settings.items()):
-            rows[record["task"]] = record
-    return rows
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = ArgumentParser(prog="python -m s3o_drake.commands.planning_benchmark",
                             description=__doc__, formatter_class=doc_formatter())
@@ -199,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
 
     settings = {"method": args.method, "seed": args.seed, "workers": args.workers,
                 "factor": args.factor}
-    done = {} if json_path is None or args.fresh else _finished(json_path, settings)
+    done = {} if json_path is None or args.fresh else finished_rows(json_path, settings)
     if json_path is not None and args.fresh:
         json_path.unlink(missing_ok=True)
 

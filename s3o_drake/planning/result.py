@@ -41,3 +41,6 @@ class PlanningResult:
     (None for V-PETLON, which samples no grid, and the empty plan)."""
     planning_time: float = 0.0
     """Wall time (s) spent: perception, Fea^m and the search (the plan's own figure)."""
+    task_plans: tuple = ()
+    """clingo's answer for each state space it ordered, as (groups, `TaskPlanResult`), in
+    the order planned (GROP and GROP*; the problem solved is in each result)."""

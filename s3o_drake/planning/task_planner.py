@@ -37,36 +37,59 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
 from importlib import resources
 from typing import Literal
 
 import clingo
-import numpy as np
 
-from s3o_drake.planning.first_order import first_order
-from s3o_drake.planning.plan import TaskOrder
+from s3o_drake.planning.exact_order import assignment_bound
+from s3o_drake.planning.task_problem import (
+    START,
+    Action,
+    CostSpec,
+    TaskPlan,
+    TaskPlanResult,
+    TaskProblem,
+    cost_lower_bound,
+    problem_facts,
+    sym_str,
+)
+from s3o_drake.planning.visit_order import (
+    LOCATIONS,
+    ORDER,
+    hinted_model,
+    visit_actions,
+    visit_hints,
+    visit_matrix,
+    visits_only,
+)
 
-START = "start"
-"""The pseudo-location the robot starts from when it does not stand in a location."""
+__all__ = [
+    "START",
+    "Action",
+    "CostSpec",
+    "TaskPlan",
+    "TaskPlanResult",
+    "TaskPlanningError",
+    "TaskPlanningTimeoutError",
+    "TaskProblem",
+    "cost_lower_bound",
+    "horizon",
+    "plan_problem",
+    "plan_tasks",
+    "problem_facts",
+    "visits_only",
+]
 
 DOMAIN = "domain.lp"
-ORDER = "order.lp"  # the visit-order encoding, for problems that only collect
-LOCATIONS = "locations.lp"  # what both encodings share: nodes, reachability, dishes
-
-Action = tuple[str, str]
-"""("goto", location), ("pickup", dish), ("place", object) or ("unload", depot)."""
-
-CostSpec = (
-    Callable[[str, str], float | None]
-    | Mapping[tuple[str, str], float]
-    | Sequence[Sequence[float]]
-    | np.ndarray
-)
-"""Navigation costs: a callable cost(from, to), a mapping {(from, to): cost}, or a matrix
-indexed by `TaskProblem.nodes` (the locations, then the start if it is not a location).
-None, inf or NaN (or a missing mapping entry) means "cannot drive there"."""
+BOUND = "#external bounded(b). :- bounded(b), #sum { C, K : cost(K, C) } >= b."
+"""With a hinted order of cost b, order.lp's first search looks only for cheaper orders:
+when it exhausts them, the hint is proven optimal."""
+STALL = 0.3
+"""With a hinted order, clingo's search stops after this long (s) without a cheaper order:
+from 20 locations on, it rarely improves on local search once it has stalled, and proves
+nothing within seconds (docs/planning.md)."""
 
 
 class TaskPlanningError(RuntimeError):
@@ -76,169 +99,6 @@ class TaskPlanningError(RuntimeError):
 
 class TaskPlanningTimeoutError(TaskPlanningError):
     """No task plan found within the time limit (one may exist)."""
-
-
-@dataclass(frozen=True)
-class TaskProblem:
-    """A task-level problem: locations, where each dish is, the start and the costs.
-
-    Costs are rounded to integers (clingo optimises integers); scale them before (e.g.
-    seconds x 10) so that rounding does not matter.
-    """
-
-    locations: tuple[str, ...]
-    dishes: Mapping[str, str | None]
-    """Dish -> location id; None for a dish whose location is empty (not reachable)."""
-    costs: CostSpec
-    start: str = START
-    capacity: int | None = None
-    """Dishes the tray holds at once; None: unlimited."""
-    depot: str | None = None
-    """A node where `unload` empties the tray; with it the goal is "all dishes unloaded"."""
-    places: Mapping[str, str | None] = field(default_factory=dict)
-    """Object -> the location of its place target, for the objects put down (`place`)
-    rather than collected: picked, such an object is held in the gripper, which holds one
-    at a time, until `place` puts it down there; None: the target has no location."""
-    held: str | None = None
-    """The object to place that the gripper holds at the start (picked already: it stands
-    at no location, `dishes` maps it to None)."""
-
-    @property
-    def nodes(self) -> tuple[str, ...]:
-        """Row/column order of a cost matrix: the locations, then the start, then the depot
-        (each only if not already a location)."""
-        extra = [n for n in (self.start, self.depot) if n is not None and n not in self.locations]
-        return tuple(self.locations) + tuple(dict.fromkeys(extra))
-
-    def cost(self, a: str, b: str) -> float | None:
-        """Navigation cost a -> b from whichever form `costs` has; None if impossible."""
-        c = self.costs
-        if callable(c):
-            value = c(a, b)
-        elif isinstance(c, Mapping):
-            value = c.get((a, b))
-        else:
-            nodes = self.nodes
-            value = c[nodes.index(a)][nodes.index(b)]
-        if value is None:
-            return None
-        value = float(value)
-        return value if math.isfinite(value) else None
-
-
-@dataclass(frozen=True)
-class TaskPlan:
-    """One task-level sequence and its navigation cost."""
-
-    actions: tuple[Action, ...]
-    cost: int
-    optimal: bool
-    """True if clingo proved this plan optimal among the sequences not found before it
-    (for the first plan: the optimum; for the k-th: the k-th best)."""
-
-    @property
-    def gotos(self) -> tuple[str, ...]:
-        """The visiting order: what makes two plans different."""
-        return tuple(arg for name, arg in self.actions if name == "goto")
-
-
-@dataclass(frozen=True)
-class TaskPlanResult:
-    """The plans found, best first, and what could not be planned."""
-
-    plans: tuple[TaskPlan, ...]
-    unreachable: tuple[str, ...] = ()
-    """Dishes left out because their location is empty or cannot be reached."""
-    complete: bool = True
-    """True if the enumeration ran to its end (N plans, or no more sequences exist) within
-    the time limit and every plan is proven optimal in its rank."""
-    elapsed: float = 0.0
-    stats: dict[str, float] = field(default_factory=dict)
-    lower_bound: int = 0
-    """No order costs less (the best plan's cost when it is proven optimal, else
-    `cost_lower_bound`'s bound), for the gap of an order the clock cut short."""
-    asked: int = 1
-    """The sequences asked for (`n_plans`): fewer in `plans` when the clock cut the
-    enumeration or no more distinct ones exist."""
-
-    @property
-    def best(self) -> TaskPlan:
-        return self.plans[0]
-
-    def order_of(self, actions: Sequence[Action]) -> TaskOrder | None:
-        """What clingo proved of the order `actions` (one of `plans`; None if not)."""
-        plan = next((p for p in self.plans if p.actions == tuple(actions)), None)
-        if plan is None:
-            return None
-        return TaskOrder(cost=plan.cost, optimal=plan.optimal, lower_bound=self.lower_bound,
-                         found=len(self.plans), asked=self.asked)
-
-
-def cost_lower_bound(problem: TaskProblem, unreachable: Sequence[str] = ()) -> int:
-    """A bound below the navigation cost of every plan of `problem`: each location that a
-    plan must drive into (it holds a dish to pick, or the place of an object to put down,
-    or is the depot; not where the robot stands) is entered at least once, and the drive
-    in costs at least the cheapest drive into it (rounded as clingo's costs are)."""
-    lost = set(unreachable)
-    need = {loc for d, loc in problem.dishes.items() if loc is not None and d not in lost}
-    need |= {loc for o, loc in problem.places.items() if loc is not None and o not in lost}
-    if problem.depot is not None and need:
-        need.add(problem.depot)
-    need.discard(problem.start)
-    total = 0
-    for loc in need:
-        into = [round(c) for f in problem.nodes if f != loc
-                and (c := problem.cost(f, loc)) is not None]
-        total += min(into, default=0)
-    return total
-
-
-def _quote(name: str) -> str:
-    return '"' + str(name).replace("\\", "\\\\").replace('"', '\\"') + '"'
-
-
-def problem_facts(problem: TaskProblem) -> str:
-    """The problem as ASP facts, in a fixed order so the solver's answer is deterministic."""
-    lines = [f"location({_quote(loc)})." for loc in sorted(problem.locations)]
-    lines.append(f"start({_quote(problem.start)}).")
-    for dish in sorted(problem.dishes):
-        lines.append(f"dish({_quote(dish)}).")
-        loc = problem.dishes[dish]
-        if loc is not None:
-            if loc not in problem.locations:
-                raise ValueError(f"dish {dish!r}: unknown location {loc!r}")
-            lines.append(f"at({_quote(dish)}, {_quote(loc)}).")
-    if problem.held is not None:
-        if problem.held not in problem.places or problem.dishes.get(problem.held, "") is not None:
-            raise ValueError(f"held: {problem.held!r} is no object to place at no location")
-        lines.append(f"held({_quote(problem.held)}).")
-    for dish in sorted(problem.places):
-        loc = problem.places[dish]
-        if dish not in problem.dishes:
-            raise ValueError(f"place of {dish!r}: unknown dish")
-        if loc is None:
-            lines.append(f"unplaceable({_quote(dish)}).")
-        elif loc not in problem.locations:
-            raise ValueError(f"place of {dish!r}: unknown location {loc!r}")
-        else:
-            lines.append(f"place_at({_quote(dish)}, {_quote(loc)}).")
-    if problem.capacity is not None:
-        if problem.capacity < 1:
-            raise ValueError(f"capacity must be >= 1, got {problem.capacity}")
-        lines.append(f"capacity({int(problem.capacity)}).")
-    if problem.depot is not None:
-        lines.append(f"depot({_quote(problem.depot)}).")
-    nodes = sorted(set(problem.nodes))
-    for a in nodes:
-        for b in nodes:
-            if a == b or (b == problem.start and b not in problem.locations and b != problem.depot):
-                continue
-            c = problem.cost(a, b)
-            if c is not None:
-                if c < 0:
-                    raise ValueError(f"negative navigation cost {a!r} -> {b!r}: {c}")
-                lines.append(f"dist({_quote(a)}, {_quote(b)}, {round(c)}).")
-    return "\n".join(lines) + "\n"
 
 
 def horizon(problem: TaskProblem, targets: int | None = None) -> int:
@@ -261,17 +121,13 @@ def horizon(problem: TaskProblem, targets: int | None = None) -> int:
     return 2 * n + 2 * trips + 3 * p
 
 
-def _sym_str(s: clingo.Symbol) -> str:
-    return s.string if s.type == clingo.SymbolType.String else str(s)
-
-
 def _actions(symbols: Sequence[clingo.Symbol]) -> tuple[Action, ...]:
     steps = []
     for s in symbols:
         if s.name != "occurs":
             continue
         act, t = s.arguments
-        arg = _sym_str(act.arguments[0]) if act.arguments else ""
+        arg = sym_str(act.arguments[0]) if act.arguments else ""
         if act.name == "unload":
             arg = ""
         steps.append((t.number, (act.name, arg)))
@@ -304,9 +160,9 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
     t_ground = time.perf_counter() - t0
 
     unreachable = sorted(
-        _sym_str(a.symbol.arguments[0])
+        sym_str(a.symbol.arguments[0])
         for a in ctl.symbolic_atoms.by_signature("unreachable", 1) if a.is_fact)
-    bad_depot = [_sym_str(a.symbol.arguments[0])
+    bad_depot = [sym_str(a.symbol.arguments[0])
                  for a in ctl.symbolic_atoms.by_signature("depot_unreachable", 1) if a.is_fact]
     if bad_depot:
         raise TaskPlanningError(f"depot {bad_depot[0]!r} cannot be reached from "
@@ -316,9 +172,16 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
         raise TaskPlanningError(f"no plan reaches dish(es) {where}: the location is empty "
                                 f"or cannot be reached from {problem.start!r}")
 
-    # The first order found with `first_order`'s hint: kept if clingo, searching on
-    # without it (the hint would slow its proofs), finds nothing better in time.
-    hinted = _hinted_model(problem, facts, unreachable, deadline) if by_order else None
+    # Local search's best orders (visit_order.py): clingo takes the best as its first
+    # model, then searches only for cheaper ones, without the hint (it would slow proofs).
+    hints = visit_hints(problem, unreachable, n_plans, deadline) if by_order else []
+    hinted = hinted_model(problem, facts, hints[0], deadline) if hints else None
+    bounded = None
+    if hinted is not None:
+        ctl.add("bound", ["b"], BOUND)
+        ctl.ground([("bound", [clingo.Number(hinted[1][0])])])
+        bounded = clingo.Function("bounded", [clingo.Number(hinted[1][0])])
+        ctl.assign_external(bounded, True)
 
     plans: list[TaskPlan] = []
     complete = True
@@ -328,20 +191,22 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
             complete = False
             break
         best: list[tuple[tuple[clingo.Symbol, ...], list[int], bool]] = []
+        last = [time.perf_counter()]
 
-        def on_model(model: clingo.Model, best=best) -> None:
+        def on_model(model: clingo.Model, best=best, last=last) -> None:
             best.append((tuple(model.symbols(shown=True)), list(model.cost),
                          model.optimality_proven))
+            last[0] = time.perf_counter()
 
         with ctl.solve(on_model=on_model, async_=True) as handle:
-            # solve() itself prepares the solver synchronously; wait only for what is left.
-            finished = handle.wait(max(0.0, deadline - time.perf_counter()))
+            finished = _wait(handle, deadline, last, STALL if hinted is not None else None)
             if not finished:
                 handle.cancel()
             result = handle.get()
-        if k == 0 and hinted is not None and not (best and (best[-1][2] or (
-                finished and result.exhausted) or best[-1][1] <= hinted[1])):
-            best.append(hinted)
+        if k == 0 and hinted is not None:
+            ctl.assign_external(bounded, False)
+            if not best:  # nothing cheaper than the hint; exhausted, none exists
+                best.append((hinted[0], hinted[1], finished and result.unsatisfiable))
         if not best:
             if finished and result.unsatisfiable:
                 if k == 0:
@@ -351,16 +216,18 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
             break
         symbols, cost, proven = best[-1]
         proven = proven or (finished and result.exhausted)
-        actions = _visit_actions(problem, symbols, unreachable) if by_order else \
+        actions = visit_actions(problem, symbols, unreachable) if by_order else \
             _actions(symbols)
         plans.append(TaskPlan(actions=actions, cost=int(cost[0]) if cost else 0,
                               optimal=bool(proven)))
         if not proven:
             complete = False
+            break  # a cut search: the next "best" would not be meaningful
         if k + 1 < n_plans:
             _forbid(ctl, k, symbols, "at_step" if by_order else "occurs")
-        if not proven:
-            break  # a cut search: the next "best" would not be meaningful
+    if not complete and plans and len(plans) < n_plans:
+        # The search was cut: the next sequences are local search's next-best orders.
+        plans += _hinted_plans(problem, facts, hints, plans, n_plans, unreachable, deadline)
 
     if not plans:
         raise TaskPlanningTimeoutError(
@@ -368,11 +235,59 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
             f"({len(problem.locations)} locations, {len(problem.dishes)} dishes)")
     plans.sort(key=lambda p: p.cost)
     # Each plan is proven in its rank or ends the enumeration, so the first is the best.
-    bound = plans[0].cost if plans[0].optimal else min(cost_lower_bound(problem, unreachable),
-                                                       plans[0].cost)
+    bound = plans[0].cost if plans[0].optimal else min(
+        _lower_bound(problem, unreachable, by_order), plans[0].cost)
     return TaskPlanResult(plans=tuple(plans), unreachable=tuple(unreachable),
                           complete=complete, elapsed=time.perf_counter() - t0,
-                          stats={"ground_s": t_ground}, lower_bound=bound, asked=n_plans)
+                          stats={"ground_s": t_ground}, lower_bound=bound, asked=n_plans,
+                          problem=problem)
+
+
+def _lower_bound(problem: TaskProblem, unreachable: Sequence[str], by_order: bool) -> int:
+    """`cost_lower_bound`, or for a visiting order the assignment bound, which is tighter
+    (exact_order.py): on random problems of 20-40 locations, some 15 % below the optimum
+    where the cheapest drive into each location is 40-50 % below."""
+    bound = cost_lower_bound(problem, unreachable)
+    if by_order:
+        _, costs = visit_matrix(problem, unreachable)
+        bound = max(bound, math.ceil(assignment_bound(costs) - 1e-6))
+    return bound
+
+
+def _wait(handle: clingo.SolveHandle, deadline: float, last: list[float],
+          stall: float | None) -> bool:
+    """Waits for the solve to finish until `deadline`, or with `stall`, until that long
+    passes without a new model (`last[0]`: when the last came); whether it finished."""
+    while True:
+        now = time.perf_counter()
+        until = deadline if stall is None else min(deadline, last[0] + stall)
+        if now >= until:
+            return handle.wait(0)
+        if handle.wait(min(0.05, until - now)):
+            return True
+
+
+def _hinted_plans(problem: TaskProblem, facts: str, hints: Sequence[Sequence[str]],
+                  plans: Sequence[TaskPlan], n_plans: int, unreachable: Sequence[str],
+                  deadline: float) -> list[TaskPlan]:
+    """Up to `n_plans - len(plans)` more plans, unproven: clingo's models of the hinted
+    orders that no plan of `plans` has, in the hints' order."""
+    taken = {p.gotos for p in plans}
+    more: list[TaskPlan] = []
+    for order in hints:
+        if len(plans) + len(more) >= n_plans or time.perf_counter() >= deadline:
+            break
+        if tuple(order) in taken:
+            continue
+        model = hinted_model(problem, facts, order, deadline)
+        if model is None:
+            continue
+        plan = TaskPlan(actions=visit_actions(problem, model[0], unreachable),
+                        cost=int(model[1][0]), optimal=False)
+        if plan.gotos not in taken:
+            taken.add(plan.gotos)
+            more.append(plan)
+    return more
 
 
 def _forbid(ctl: clingo.Control, k: int, symbols: Sequence[clingo.Symbol],
@@ -389,69 +304,6 @@ def _forbid(ctl: clingo.Control, k: int, symbols: Sequence[clingo.Symbol],
     part = f"forbid_{k}"
     ctl.add(part, [], f":- {body}." if body else none)
     ctl.ground([(part, [])])
-
-
-def visits_only(problem: TaskProblem) -> bool:
-    """Whether `problem` only collects onto an unlimited tray (no capacity, depot, places or
-    held object): then a plan is fixed by its visiting order, and clingo solves the
-    visit-order encoding (order.lp)."""
-    return (problem.capacity is None and problem.depot is None and not problem.places
-            and problem.held is None)
-
-
-def _hinted_model(problem: TaskProblem, facts: str, unreachable: Sequence[str],
-                  deadline: float) -> tuple[tuple[clingo.Symbol, ...], list[int], bool] | None:
-    """The first model, as (symbols, cost, False), of a clingo run told to try
-    `first_order`'s order first (a domain heuristic above order.lp's own); None below 3
-    locations to visit or without a model in time. A Control of its own: in the main one
-    the hint slowed the proofs five-fold at 10 locations (and, conditional on an external
-    atom, was not followed)."""
-    lost = set(unreachable)
-    visits = sorted({loc for d, loc in problem.dishes.items()
-                     if loc is not None and d not in lost and loc != problem.start})
-    if len(visits) < 3:
-        return None
-    nodes = [problem.start, *visits]
-    costs = np.array([[0.0 if a == b else round(c) if (c := problem.cost(a, b)) is not None
-                       else np.inf for b in nodes] for a in nodes])
-    finite = costs[np.isfinite(costs)]
-    level = int(finite.max()) + 2 if finite.size else 2
-    order = first_order(costs, min(0.2, 0.1 * max(deadline - time.perf_counter(), 0.0)))
-    ctl = clingo.Control(["--opt-mode=opt", "--seed=0", "--parallel-mode=1",
-                          "--heuristic=Domain", "--warn=none"])
-    for name in (LOCATIONS, ORDER):
-        ctl.add("base", [], resources.files("s3o_drake.planning").joinpath(name).read_text())
-    ctl.add("base", [], facts + "\n" + "\n".join(
-        f"#heuristic at_step({_quote(nodes[i])}, {k}). [{level}, true]"
-        for k, i in enumerate(order, 1)))
-    ctl.ground([("base", [])])
-    with ctl.solve(yield_=True, async_=True) as handle:
-        handle.resume()
-        first = handle.model() if handle.wait(max(0.0, deadline - time.perf_counter())) \
-            else None
-        model = None if first is None else (tuple(first.symbols(shown=True)),
-                                            list(first.cost), False)
-        handle.cancel()
-    return model
-
-
-def _visit_actions(problem: TaskProblem, symbols: Sequence[clingo.Symbol],
-                   unreachable: Sequence[str]) -> tuple[Action, ...]:
-    """The canonical plan of a visiting order (order.lp's `at_step/2`): first the dishes
-    where the robot stands, then per location a goto and its dishes, in name order."""
-    order = sorted((s.arguments[1].number, _sym_str(s.arguments[0]))
-                   for s in symbols if s.name == "at_step")
-    lost = set(unreachable)
-    dishes: dict[str, list[str]] = {}
-    for dish in sorted(problem.dishes):
-        loc = problem.dishes[dish]
-        if loc is not None and dish not in lost:
-            dishes.setdefault(loc, []).append(dish)
-    actions: list[Action] = [("pickup", d) for d in dishes.get(problem.start, [])]
-    for _, loc in order:
-        actions.append(("goto", loc))
-        actions.extend(("pickup", d) for d in dishes[loc])
-    return tuple(actions)
 
 
 def _no_plan_message(problem: TaskProblem, unreachable: Sequence[str]) -> str:
