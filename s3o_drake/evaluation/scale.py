@@ -32,12 +32,14 @@ TARGET_SIZES = 30
 def state_space_row(groups: Sequence[Sequence[str]], task: TaskPlanResult, *,
                     reference_limit: float) -> dict[str, Any]:
     """One state space that clingo ordered: its locations, clingo's time and best order,
-    what it proved, and the exact optimum of the same problem (None where the problem is
-    not a visiting order: capacity, depot or places)."""
+    what it proved, the cost of local search's order that it started from ("hint"), and
+    the exact optimum of the same problem (None where the problem is not a visiting
+    order: capacity, depot or places)."""
     row: dict[str, Any] = {
         "locations": len(groups), "task_s": task.elapsed, "cost": task.best.cost,
         "proven": task.best.optimal, "bound": task.lower_bound, "found": len(task.plans),
-        "asked": task.asked, "reference": None, "reference_s": None, "above": None}
+        "asked": task.asked, "hint": task.stats.get("hint"), "reference": None,
+        "reference_s": None, "above": None}
     problem = task.problem
     if problem is None or not visits_only(problem):
         return row

@@ -13,7 +13,8 @@ The search is an iterated local search: the nearest-neighbour order, improved by
 (segment reversals) and or-opt moves (1-3 consecutive locations moved, either way round)
 to a local optimum, then, a fixed number of times, kicked by a double bridge (the path
 cut in four, the middle two pieces swapped) and improved again; it walks on from there
-unless that is more than WORSE above where it stood, and keeps every local optimum met. A move is
+unless that is more than WORSE above where it stood, keeps every local optimum met, and
+stops after KICKS kicks, or PATIENCE in a row that found nothing better. A move is
 priced in constant time from prefix sums of the path's arcs both ways round, so that the
 costs may be asymmetric. The kicks draw from a fixed seed and their count is fixed: the
 same costs give the same orders, unless the time cap cuts the search.
@@ -30,8 +31,10 @@ import time
 import numpy as np
 
 KICKS = 200
-"""Double-bridge kicks after the first local optimum."""
-WORSE = 0.01
+"""Double-bridge kicks after the first local optimum, at most..."""
+PATIENCE = 100
+"""...and no more once this many in a row found no better order."""
+WORSE = 0.03
 """The search walks on from a kicked local optimum up to this share worse than where it
 stood (the best is kept apart): from the best alone it stalled 1-4 % above the optimum."""
 SEED = 0
@@ -61,14 +64,23 @@ def good_orders(costs: np.ndarray, count: int, time_limit: float = 0.2) -> list[
     rng = np.random.default_rng(SEED)
     walk = _local_search(c, [0, *order], deadline)
     pool = {tuple(walk[1:]): _cost(c, walk)}
+    best_cost, since = pool[tuple(walk[1:])], 0
     for _ in range(KICKS):
-        if time.perf_counter() >= deadline:
+        if time.perf_counter() >= deadline or since >= PATIENCE:
             break
         path = _local_search(c, _double_bridge(walk, rng), deadline)
         cost = _cost(c, path)
         pool[tuple(path[1:])] = cost
         if cost < pool[tuple(walk[1:])] * (1 + WORSE):
             walk = path
+        since = 0 if cost < best_cost - 1e-9 else since + 1
+        best_cost = min(best_cost, cost)
+    if len(pool) < count:
+        # Every kick came back to few local optima: the next-best orders are then the
+        # cheapest single moves away from the best.
+        best = min(pool, key=lambda o: (pool[o], o))
+        for other in _neighbours(c, [0, *best], count):
+            pool.setdefault(tuple(other[1:]), _cost(c, other))
     return [list(o) for o in sorted(pool, key=lambda o: (pool[o], o))][:count]
 
 
@@ -104,34 +116,45 @@ def _local_search(costs: np.ndarray, path: list[int], deadline: float) -> list[i
     """2-opt and or-opt moves, the best of all taken each time, until none lowers the cost
     (or the deadline). `costs` has BIG for no drive."""
     while time.perf_counter() < deadline:
-        move = _best_move(costs, path)
-        if move is None:
+        gains, moves = _priced_moves(costs, path)
+        k = int(np.argmin(gains)) if gains.size else -1
+        if k < 0 or gains[k] >= -1e-9:
             break
-        path = move
+        path = _apply(path, moves[k])
     return path
 
 
-def _best_move(costs: np.ndarray, path: list[int]) -> list[int] | None:
-    """The path after the 2-opt or or-opt move that lowers its cost most; None if none
-    does. Every move is priced at once: `e` is the costs in path order with a node after
-    the end that every node enters free; F[k] and R[k] are the costs of the path's first
-    k arcs, driven forwards and backwards."""
+def _neighbours(costs: np.ndarray, path: list[int], count: int) -> list[list[int]]:
+    """The `count` cheapest distinct paths one 2-opt or or-opt move away from `path`."""
+    gains, moves = _priced_moves(costs, path)
+    found: dict[tuple[int, ...], None] = {}
+    for k in np.argsort(gains, kind="stable"):
+        if len(found) >= count:
+            break
+        other = tuple(_apply(path, moves[k]))
+        if other != tuple(path):
+            found.setdefault(other)
+    return [list(o) for o in found]
+
+
+def _priced_moves(costs: np.ndarray, path: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Every 2-opt and or-opt move of `path` and how much each changes its cost, all priced
+    at once: (gains, moves), a move being (kind, a, b or q, size) as `_apply` reads it.
+    `e` is the costs in path order with a node after the end that every node enters free;
+    F[k] and R[k] are the costs of the path's first k arcs, driven forwards and backwards."""
     m = len(path)
     e = np.zeros((m + 1, m + 1))
     e[:m, :m] = costs[np.ix_(path, path)]
     F = np.concatenate([[0.0], np.cumsum(np.diagonal(e, 1)[:m - 1])])
     R = np.concatenate([[0.0], np.cumsum(np.diagonal(e, -1)[:m - 1])])
-    best, move = -1e-9, None
+    gains, moves = [], []
     # 2-opt: positions i..j reversed.
     i, j = np.triu_indices(m, 1)
     i, j = i[i >= 1], j[i >= 1]
-    if i.size:
-        gain = (e[i - 1, j] + R[j] - R[i] + e[i, j + 1]
-                - e[i - 1, i] - (F[j] - F[i]) - e[j, j + 1])
-        k = int(np.argmin(gain))
-        if gain[k] < best:
-            best, move = gain[k], ("reverse", int(i[k]), int(j[k]), 0)
-    # or-opt: positions a..b (1-3 nodes) moved behind position q, either way round.
+    gains.append(e[i - 1, j] + R[j] - R[i] + e[i, j + 1]
+                 - e[i - 1, i] - (F[j] - F[i]) - e[j, j + 1])
+    moves.append(np.stack([np.zeros_like(i), i, j, np.zeros_like(i)], axis=1))
+    # or-opt: positions a..a+size-1 moved behind position q, either way round (size < 0).
     q = np.arange(m)
     for size in (1, 2, 3):
         a = np.arange(1, m - size + 1)
@@ -148,18 +171,19 @@ def _best_move(costs: np.ndarray, path: list[int]) -> list[int] | None:
             gain = e[Q, first] + e[last, Q + 1] - e[Q, Q + 1] - removed[:, None]
             if way:
                 gain = gain + flipped[:, None]
-            gain = np.where(outside, gain, np.inf)
-            k = int(np.argmin(gain))
-            if gain.flat[k] < best:
-                best, move = gain.flat[k], ("move", int(A.flat[k]), int(Q.flat[k]),
-                                            size if way == 0 else -size)
-    if move is None:
-        return None
-    kind, a, q_or_b, size = move
-    if kind == "reverse":
-        return path[:a] + path[a:q_or_b + 1][::-1] + path[q_or_b + 1:]
+            gains.append(gain[outside])
+            n = int(outside.sum())
+            moves.append(np.stack([np.ones(n, int), A[outside], Q[outside],
+                                   np.full(n, -size if way else size)], axis=1))
+    return np.concatenate(gains), np.concatenate(moves)
+
+
+def _apply(path: list[int], move: np.ndarray) -> list[int]:
+    kind, a, b, size = (int(x) for x in move)
+    if kind == 0:
+        return path[:a] + path[a:b + 1][::-1] + path[b + 1:]
     n = abs(size)
     segment = path[a:a + n] if size > 0 else path[a:a + n][::-1]
     rest = path[:a] + path[a + n:]
-    at = q_or_b + 1 if q_or_b < a else q_or_b + 1 - n
+    at = b + 1 if b < a else b + 1 - n
     return rest[:at] + segment + rest[at:]

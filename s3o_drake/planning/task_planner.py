@@ -58,7 +58,7 @@ from s3o_drake.planning.task_problem import (
 from s3o_drake.planning.visit_order import (
     LOCATIONS,
     ORDER,
-    hinted_model,
+    hinted_models,
     visit_actions,
     visit_hints,
     visit_matrix,
@@ -175,7 +175,8 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
     # Local search's best orders (visit_order.py): clingo takes the best as its first
     # model, then searches only for cheaper ones, without the hint (it would slow proofs).
     hints = visit_hints(problem, unreachable, n_plans, deadline) if by_order else []
-    hinted = hinted_model(problem, facts, hints[0], deadline) if hints else None
+    models = hinted_models(problem, facts, hints, deadline)
+    hinted = models[0] if models else None
     bounded = None
     if hinted is not None:
         ctl.add("bound", ["b"], BOUND)
@@ -227,7 +228,7 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
             _forbid(ctl, k, symbols, "at_step" if by_order else "occurs")
     if not complete and plans and len(plans) < n_plans:
         # The search was cut: the next sequences are local search's next-best orders.
-        plans += _hinted_plans(problem, facts, hints, plans, n_plans, unreachable, deadline)
+        plans += _hinted_plans(problem, models, plans, n_plans, unreachable)
 
     if not plans:
         raise TaskPlanningTimeoutError(
@@ -237,10 +238,12 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
     # Each plan is proven in its rank or ends the enumeration, so the first is the best.
     bound = plans[0].cost if plans[0].optimal else min(
         _lower_bound(problem, unreachable, by_order), plans[0].cost)
+    stats = {"ground_s": t_ground}
+    if hinted is not None:
+        stats["hint"] = float(hinted[1][0])  # local search's order, for the benchmark
     return TaskPlanResult(plans=tuple(plans), unreachable=tuple(unreachable),
                           complete=complete, elapsed=time.perf_counter() - t0,
-                          stats={"ground_s": t_ground}, lower_bound=bound, asked=n_plans,
-                          problem=problem)
+                          stats=stats, lower_bound=bound, asked=n_plans, problem=problem)
 
 
 def _lower_bound(problem: TaskProblem, unreachable: Sequence[str], by_order: bool) -> int:
@@ -267,19 +270,15 @@ def _wait(handle: clingo.SolveHandle, deadline: float, last: list[float],
             return True
 
 
-def _hinted_plans(problem: TaskProblem, facts: str, hints: Sequence[Sequence[str]],
-                  plans: Sequence[TaskPlan], n_plans: int, unreachable: Sequence[str],
-                  deadline: float) -> list[TaskPlan]:
+def _hinted_plans(problem: TaskProblem, models: Sequence, plans: Sequence[TaskPlan],
+                  n_plans: int, unreachable: Sequence[str]) -> list[TaskPlan]:
     """Up to `n_plans - len(plans)` more plans, unproven: clingo's models of the hinted
-    orders that no plan of `plans` has, in the hints' order."""
+    orders (`hinted_models`) that no plan of `plans` has, in the hints' order."""
     taken = {p.gotos for p in plans}
     more: list[TaskPlan] = []
-    for order in hints:
-        if len(plans) + len(more) >= n_plans or time.perf_counter() >= deadline:
+    for model in models:
+        if len(plans) + len(more) >= n_plans:
             break
-        if tuple(order) in taken:
-            continue
-        model = hinted_model(problem, facts, order, deadline)
         if model is None:
             continue
         plan = TaskPlan(actions=visit_actions(problem, model[0], unreachable),
