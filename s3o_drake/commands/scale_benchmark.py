@@ -52,6 +52,14 @@ TASKS_DIR = REPO_DIR / "scenarios" / "generated_scale"
 SIZES = (5, 10, 15, 20, 30, 40)
 
 
+def _name(path: Path) -> str:
+    """A task's name in the rows: its path from the repository when it lies in it."""
+    try:
+        return str(path.resolve().relative_to(REPO_DIR))
+    except ValueError:
+        return str(path)
+
+
 def plan_task_row(path: Path, *, method: str, seed: int | None, execute: bool,
                   reference_limit: float) -> dict[str, Any]:
     """One task's row: its planning figures (`evaluation.scale.plan_row`), and with
@@ -60,7 +68,7 @@ def plan_task_row(path: Path, *, method: str, seed: int | None, execute: bool,
 
     scenario = read_scenario(path)
     seed = scenario.seed if seed is None else seed
-    row: dict[str, Any] = {"task": str(path), "dishes": len(scenario.dishes),
+    row: dict[str, Any] = {"task": _name(path), "dishes": len(scenario.dishes),
                            "chairs": len(scenario.chairs), "method": method, "seed": seed,
                            "workers": scenario.planner.workers,
                            "budget": scenario.planner.time_budget, "execute": execute}
@@ -168,7 +176,7 @@ def main(argv: list[str] | None = None) -> int:
           flush=True)
     try:
         for path in paths:
-            row = done.get(str(path))
+            row = done.get(_name(path))
             if row is None:
                 row = plan_task_row(path, method=args.method, seed=args.seed,
                                     execute=args.execute, reference_limit=args.reference_limit)
