@@ -125,3 +125,48 @@ def test_thirty_stops_get_thirty_colours(scenario, top_view, tmp_path):
     for n in (3, 10, 15, 20, 40):
         assert len(set(location_colours(n))) == n
     assert location_colours(3) == location_colours(10)[:3]  # small plans keep their look
+
+
+def test_thirty_cups_close_together_keep_their_labels_clear(tmp_path):
+    """30 cups 0.22 m apart along the tables' edges, each picked from a stop of its own:
+    the names, stop labels and Fea^m numbers cannot all fit, so those with no clear spot
+    become numbers keyed beside the plot, and no label covers another."""
+    import dataclasses
+    import math
+
+    from PIL import Image
+
+    from s3o_drake.planning.plan import Pickup
+    from s3o_drake.scenario import Dish, load_scenario
+
+    room = load_scenario("scenarios/restaurant.yaml")
+    cups = []
+    for t in room.tables:
+        hx, hy = t.size[0] / 2 - 0.1, t.size[1] / 2 - 0.1
+        c, s = math.cos(t.yaw), math.sin(t.yaw)
+        for side in (-1, 1):
+            for x in np.linspace(-hx, hx, max(1, round(2 * hx / 0.22))):
+                p = np.asarray(t.center) + np.array([c * x - s * side * hy,
+                                                     s * x + c * side * hy])
+                out = np.array([-s * side, c * side])  # away from the table
+                cups.append((Dish(name=f"cup_{len(cups):02d}", table=t.name,
+                                  position=[float(p[0]), float(p[1])], kind="cup"),
+                             p + 0.6 * out))
+    cups = cups[:30]
+    scenario = dataclasses.replace(room, dishes=[d for d, _ in cups], chairs=[])
+    actions, here = [], tuple(scenario.robot.start[:2])
+    for k, (dish, stop) in enumerate(cups):
+        p = (float(stop[0]), float(stop[1]))
+        actions += [Goto(location=f"l{k}", pose=(*p, 0.0), path=(here, p), length=1.0),
+                    Pickup(dish=dish.name, location=f"l{k}", feasibility=0.9)]
+        here = p
+    plan = TaskMotionPlan(method="V-GROP*", seed=0, groups=tuple((d.name,) for d, _ in cups),
+                          locations=tuple(f"l{k}" for k in range(30)), actions=tuple(actions),
+                          utility=0.0, predicted_time=0.0, planning_time=0.0)
+    x_min, y_min, x_max, y_max = scenario.room.bounds
+    view = np.full((round((y_max - y_min) / 0.02), round((x_max - x_min) / 0.02), 3), 200,
+                   dtype=np.uint8)
+    drawn = plan_figure(scenario, view, plan, tmp_path / "plan.png")
+    assert len(drawn.stops) == 30 and drawn.overlaps == 0
+    with Image.open(tmp_path / "plan.png") as image:
+        assert image.size[0] > 500

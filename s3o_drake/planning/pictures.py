@@ -6,6 +6,7 @@ the pictures say can be checked against plan.json without reading pixels. Labels
 placed where they cover no dish name, mark or label placed before them (`_declutter`).
 """
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,7 +42,8 @@ class Labels:
     picked from that location's stop; state_space.png: the location's cells). `stops`:
     plan.png's stop labels in visiting order, "1 · l2" (stop number · location). `panels`:
     feasibility.png's panels, a dish each. `overlaps`: labels that found no spot clear of
-    the dish names, marks and other labels (0 unless the picture is crowded).
+    the dish names, marks and other labels, not even as a number keyed beside the plot
+    (0 unless the picture is very crowded).
     """
 
     title: str = ""
@@ -70,6 +72,9 @@ def stop_label(number: int, location: str) -> str:
 
 
 _NAME_BOX = {"boxstyle": "round,pad=0.15", "fc": "white", "alpha": 0.7}
+KEY_FONT = 6  # the numbers that stand in for labels with no clear spot, and their key
+KEY_ROWS = 40  # a key longer than this is set in KEY_COLUMNS columns
+KEY_COLUMNS = 3
 _Spot = tuple[float, float, str, str]  # x, y (data), horizontal and vertical alignment
 
 
@@ -108,25 +113,55 @@ def _along(ax, a: Sequence[float], b: Sequence[float]) -> list[_Spot]:
 def _declutter(ax, labels: Sequence[tuple["Text", Sequence[_Spot]]],
                marks: Sequence = ()) -> int:
     """Places each label, in order, at the first of its spots where its box clears the
-    `marks` (single-point markers) and the labels placed before it; a label with no clear
-    spot takes its first. Returns how many labels could not be cleared.
+    `marks` (single-point markers) and the labels placed before it. A label with no clear
+    spot becomes a number, placed the same way or up to 11 times as far out (with a thin
+    line back), its text listed under that number in a key beside the plot (at 30 dishes
+    0.22 m apart the names cannot all fit); a number with no clear spot either takes its
+    first. Returns how many labels could not be cleared.
 
-    Order is priority: dish names first, so that nothing else covers them.
+    Order is priority: dish names first, so that nothing else covers them. A spot counts
+    as clear only inside the plot.
     """
     renderer = ax.figure.canvas.get_renderer()
     taken = [mark.get_window_extent(renderer) for mark in marks]
+    frame = ax.get_window_extent(renderer)  # a label outside the plot would meet the title
     crowded = 0
-    for text, spots in labels:
+    key: list[str] = []
+
+    def place(text, spots) -> tuple[bool, object]:
         for x, y, ha, va in [*spots, spots[0]]:
             text.set_position((x, y))
             text.set_horizontalalignment(ha)
             text.set_verticalalignment(va)
             box = text.get_window_extent(renderer).padded(2.0)  # the name box's margin
-            if not any(box.overlaps(other) for other in taken):
-                break
-        else:
-            crowded += 1
+            inside = (frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0
+                      and box.y1 <= frame.y1)
+            if inside and not any(box.overlaps(other) for other in taken):
+                return True, box
+        return False, box
+
+    for text, spots in labels:
+        clear, box = place(text, spots)
+        if not clear:
+            key.append(f"{len(key) + 1:>2} {text.get_text()}")
+            text.set_text(str(len(key)))
+            text.set_fontsize(KEY_FONT)
+            # Farther out too, on a thin line back to where the label belongs.
+            anchor = np.mean([(x, y) for x, y, _, _ in spots], axis=0)
+            farther = [(*(anchor + k * (np.array((x, y)) - anchor)), ha, va)
+                       for k in (1.0, 2.0, 3.0, 4.5, 6.0, 8.0, 11.0) for x, y, ha, va in spots]
+            clear, box = place(text, farther)
+            crowded += not clear
+            x, y = text.get_position()
+            if clear and math.dist((x, y), anchor) > 1.5 * math.dist(spots[0][:2], anchor):
+                ax.plot([anchor[0], x], [anchor[1], y], color="0.3", linewidth=0.4)
         taken.append(box)
+    if key:
+        rows = -(-len(key) // KEY_COLUMNS) if len(key) > KEY_ROWS else len(key)
+        for c in range(0, len(key), rows):
+            ax.text(1.02 + 0.16 * (c // rows), 1.0, "\n".join(key[c:c + rows]),
+                    transform=ax.transAxes, va="top", ha="left", fontsize=KEY_FONT,
+                    family="monospace")
     return crowded
 
 
