@@ -6,13 +6,15 @@ and no module sees another's. A module that means something else by one of these
 (a different scenario, a RobotScene) defines its own fixture, which takes precedence.
 """
 
+import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.scenario import Scenario, load_scenario
+from s3o_drake.scenario import Dish, Scenario, load_scenario
 
 TWO_DISHES = Path(__file__).resolve().parent.parent / "scenarios" / "small" / "two_dishes.yaml"
 
@@ -34,3 +36,21 @@ def scene(scenario: Scenario) -> FeasibilityScene:
 def checker(scene: FeasibilityScene) -> FeasibilityChecker:
     """The Fea^m check on `scene`, with the shipped reachability map."""
     return FeasibilityChecker(scene)
+
+
+def cups_along_edges(scenario: Scenario, count: int) -> list[tuple[Dish, np.ndarray]]:
+    """`count` cups 0.22 m apart along the long edges of the scenario's tables, 0.1 m in
+    from each edge, each with the unit vector out of its table (a crowded task at scale)."""
+    cups = []
+    for t in scenario.tables:
+        hx, hy = t.size[0] / 2 - 0.1, t.size[1] / 2 - 0.1
+        c, s = math.cos(t.yaw), math.sin(t.yaw)
+        for side in (-1, 1):
+            for x in np.linspace(-hx, hx, max(1, round(2 * hx / 0.22))):
+                p = np.asarray(t.center) + np.array([c * x - s * side * hy,
+                                                     s * x + c * side * hy])
+                cups.append((Dish(name=f"cup_{len(cups):02d}", table=t.name,
+                                  position=[float(p[0]), float(p[1])], kind="cup"),
+                             np.array([-s * side, c * side])))
+    assert len(cups) >= count
+    return cups[:count]

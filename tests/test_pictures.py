@@ -132,27 +132,15 @@ def test_thirty_cups_close_together_keep_their_labels_clear(tmp_path):
     the names, stop labels and Fea^m numbers cannot all fit, so those with no clear spot
     become numbers keyed beside the plot, and no label covers another."""
     import dataclasses
-    import math
 
+    from conftest import cups_along_edges
     from PIL import Image
 
     from s3o_drake.planning.plan import Pickup
-    from s3o_drake.scenario import Dish, load_scenario
+    from s3o_drake.scenario import load_scenario
 
     room = load_scenario("scenarios/restaurant.yaml")
-    cups = []
-    for t in room.tables:
-        hx, hy = t.size[0] / 2 - 0.1, t.size[1] / 2 - 0.1
-        c, s = math.cos(t.yaw), math.sin(t.yaw)
-        for side in (-1, 1):
-            for x in np.linspace(-hx, hx, max(1, round(2 * hx / 0.22))):
-                p = np.asarray(t.center) + np.array([c * x - s * side * hy,
-                                                     s * x + c * side * hy])
-                out = np.array([-s * side, c * side])  # away from the table
-                cups.append((Dish(name=f"cup_{len(cups):02d}", table=t.name,
-                                  position=[float(p[0]), float(p[1])], kind="cup"),
-                             p + 0.6 * out))
-    cups = cups[:30]
+    cups = [(d, np.asarray(d.position) + 0.6 * out) for d, out in cups_along_edges(room, 30)]
     scenario = dataclasses.replace(room, dishes=[d for d, _ in cups], chairs=[])
     actions, here = [], tuple(scenario.robot.start[:2])
     for k, (dish, stop) in enumerate(cups):

@@ -233,21 +233,14 @@ def _thirty_dishes():
     """The restaurant with 30 cups along its tables' long edges."""
     import dataclasses
 
-    from s3o_drake.scenario import Dish, dump_scenario, parse_scenario
+    from conftest import cups_along_edges
+
+    from s3o_drake.scenario import dump_scenario, parse_scenario
 
     scenario = load_scenario("scenarios/restaurant.yaml")
-    dishes = []
-    for t in scenario.tables:
-        hx, hy = t.size[0] / 2 - 0.1, t.size[1] / 2 - 0.1
-        c, s = math.cos(t.yaw), math.sin(t.yaw)
-        for sy in (-1, 1):
-            for x in np.linspace(-hx, hx, max(1, round(2 * hx / 0.22))):
-                p = np.asarray(t.center) + np.array([c * x - s * sy * hy, s * x + c * sy * hy])
-                dishes.append(Dish(name=f"cup_{len(dishes):02d}", table=t.name,
-                                   position=[float(p[0]), float(p[1])], kind="cup"))
-    assert len(dishes) >= 30
+    cups = [d for d, _ in cups_along_edges(scenario, 30)]
     # Through the YAML, so that the scenario checks (overlaps, on the table) run.
-    return parse_scenario(dump_scenario(dataclasses.replace(scenario, dishes=dishes[:30])))
+    return parse_scenario(dump_scenario(dataclasses.replace(scenario, dishes=cups)))
 
 
 @pytest.mark.parametrize("workers", [1, 2])
