@@ -91,3 +91,14 @@ def test_a_run_plans_each_task_and_a_second_run_reads_it_back(tmp_path, capsys,
     monkeypatch.setattr(scale_benchmark, "plan_task_row", replan)
     assert scale_benchmark.main(["--dishes", "5", "--count", "1", "--json", str(out)]) == 0
     assert len(out.read_text().splitlines()) == 1
+
+
+def test_an_executed_run_counts_the_dishes_collected(tmp_path):
+    """--execute: the task is also run as `run` runs it; its row says what was collected
+    and keeps the planning figures of the plan."""
+    out = tmp_path / "rows.jsonl"
+    assert scale_benchmark.main(["--dishes", "5", "--count", "1", "--execute", "--json",
+                                 str(out)]) == 0
+    (row,) = [json.loads(line) for line in out.read_text().splitlines()]
+    assert row["execute"] and 0 <= row["collected"] <= row["dishes"] == 5
+    assert row["execution_time"] > 0 and row["replans"] >= 0 and row["state_spaces"]
