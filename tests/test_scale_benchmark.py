@@ -73,32 +73,29 @@ def test_bad_arguments_exit_2_with_one_line(args, tmp_path, capsys):
     assert not out.exists()
 
 
-def test_a_run_plans_each_task_and_a_second_run_reads_it_back(tmp_path, capsys,
-                                                               monkeypatch):
+def test_a_run_plans_and_executes_each_task_and_a_second_run_reads_it_back(
+        tmp_path, capsys, monkeypatch):
+    """--execute: the task is planned as `run` plans it, then run; the row holds the
+    plan's figures against the optimum and what the run collected. Run again on the same
+    file, nothing is planned again."""
     out = tmp_path / "rows.jsonl"
-    assert scale_benchmark.main(["--dishes", "5", "--count", "1", "--json", str(out)]) == 0
+    assert scale_benchmark.main(["--dishes", "5", "--count", "1", "--execute", "--json",
+                                 str(out)]) == 0
     (row,) = [json.loads(line) for line in out.read_text().splitlines()]
     assert row["dishes"] == 5 and "error" not in row
     assert row["state_spaces"] and all(s["above"] is not None and s["above"] >= 0
                                        for s in row["state_spaces"])
     assert row["planning_s"] >= sum(row["timing"].values()) - 1e-6
+    assert row["execute"] and 0 <= row["collected"] <= 5
+    assert row["execution_time"] > 0 and row["replans"] >= 0
     printed = capsys.readouterr().out
     assert "dishes_05/task_000" in printed and "5 dishes: plan" in printed
+    assert "collected" in printed
 
     def replan(*args, **kwargs):
         raise AssertionError("planned again")
 
     monkeypatch.setattr(scale_benchmark, "plan_task_row", replan)
-    assert scale_benchmark.main(["--dishes", "5", "--count", "1", "--json", str(out)]) == 0
-    assert len(out.read_text().splitlines()) == 1
-
-
-def test_an_executed_run_counts_the_dishes_collected(tmp_path):
-    """--execute: the task is also run as `run` runs it; its row says what was collected
-    and keeps the planning figures of the plan."""
-    out = tmp_path / "rows.jsonl"
     assert scale_benchmark.main(["--dishes", "5", "--count", "1", "--execute", "--json",
                                  str(out)]) == 0
-    (row,) = [json.loads(line) for line in out.read_text().splitlines()]
-    assert row["execute"] and 0 <= row["collected"] <= row["dishes"] == 5
-    assert row["execution_time"] > 0 and row["replans"] >= 0 and row["state_spaces"]
+    assert len(out.read_text().splitlines()) == 1
