@@ -87,9 +87,15 @@ BOUND = "#external bounded(b). :- bounded(b), #sum { C, K : cost(K, C) } >= b."
 """With a hinted order of cost b, order.lp's first search looks only for cheaper orders:
 when it exhausts them, the hint is proven optimal."""
 STALL = 0.3
-"""With a hinted order, clingo's search stops after this long (s) without a cheaper order:
-from 20 locations on, it rarely improves on local search once it has stalled, and proves
-nothing within seconds (docs/planning.md)."""
+"""With a hinted order, clingo's search stops after this long (s) without a cheaper order,
+below LARGE locations to visit, where it proves orders: on the scale benchmark's tasks,
+every state space of the 10-dish tasks (8 locations, median) and half of those of the
+15-dish tasks (10)..."""
+LARGE = 12
+LARGE_STALL = 0.1
+"""...and from LARGE locations on after this long: there it proved no order in 2 s, and
+in 83 state spaces of 5-40 dish tasks it never found an order cheaper than local
+search's (docs/planning.md)."""
 
 
 class TaskPlanningError(RuntimeError):
@@ -178,6 +184,7 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
     models = hinted_models(problem, facts, hints, deadline)
     hinted = models[0] if models else None
     bounded = None
+    stall = None if hinted is None else STALL if len(hints[0]) < LARGE else LARGE_STALL
     if hinted is not None:
         ctl.add("bound", ["b"], BOUND)
         ctl.ground([("bound", [clingo.Number(hinted[1][0])])])
@@ -200,7 +207,7 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
             last[0] = time.perf_counter()
 
         with ctl.solve(on_model=on_model, async_=True) as handle:
-            finished = _wait(handle, deadline, last, STALL if hinted is not None else None)
+            finished = _wait(handle, deadline, last, stall)
             if not finished:
                 handle.cancel()
             result = handle.get()
