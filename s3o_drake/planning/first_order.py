@@ -52,24 +52,28 @@ def good_orders(costs: np.ndarray, count: int, time_limit: float = 0.2) -> list[
     """Up to `count` distinct open paths from node 0 (as `first_order`), the cheapest
     first: the local optima that the iterated local search met."""
     costs = np.asarray(costs, float)
-    n = len(costs)
     order = _nearest_neighbour(costs)
-    if n <= 3:
-        pool = {tuple(order): path_cost(costs, order)}
-        if n == 3:
-            pool[tuple(order[::-1])] = path_cost(costs, order[::-1])
-        return [list(o) for o in sorted(pool, key=lambda o: (pool[o], o))][:count]
-    c = np.where(np.isfinite(costs), costs, BIG)
-    deadline = time.perf_counter() + time_limit
+    if len(costs) <= 3:  # at most two orders: both
+        pool = {tuple(o): path_cost(costs, o) for o in (order, order[::-1])}
+    else:
+        pool = _search(np.where(np.isfinite(costs), costs, BIG), order, count,
+                       time.perf_counter() + time_limit)
+    return [list(o) for o in sorted(pool, key=lambda o: (pool[o], o))][:count]
+
+
+def _search(c: np.ndarray, order: list[int], count: int, deadline: float
+            ) -> dict[tuple[int, ...], float]:
+    """The iterated local search from `order` on costs `c` (BIG for no drive): every local
+    optimum met, with its cost."""
     rng = np.random.default_rng(SEED)
     walk = _local_search(c, [0, *order], deadline)
-    pool = {tuple(walk[1:]): _cost(c, walk)}
+    pool = {tuple(walk[1:]): path_cost(c, walk[1:])}
     best_cost, since = pool[tuple(walk[1:])], 0
     for _ in range(KICKS):
         if time.perf_counter() >= deadline or since >= PATIENCE:
             break
         path = _local_search(c, _double_bridge(walk, rng), deadline)
-        cost = _cost(c, path)
+        cost = path_cost(c, path[1:])
         pool[tuple(path[1:])] = cost
         if cost < pool[tuple(walk[1:])] * (1 + WORSE):
             walk = path
@@ -80,8 +84,8 @@ def good_orders(costs: np.ndarray, count: int, time_limit: float = 0.2) -> list[
         # cheapest single moves away from the best.
         best = min(pool, key=lambda o: (pool[o], o))
         for other in _neighbours(c, [0, *best], count):
-            pool.setdefault(tuple(other[1:]), _cost(c, other))
-    return [list(o) for o in sorted(pool, key=lambda o: (pool[o], o))][:count]
+            pool.setdefault(tuple(other[1:]), path_cost(c, other[1:]))
+    return pool
 
 
 def path_cost(costs: np.ndarray, order: list[int]) -> float:
@@ -98,10 +102,6 @@ def _nearest_neighbour(costs: np.ndarray) -> list[int]:
         order.append(here)
         left.remove(here)
     return order
-
-
-def _cost(c: np.ndarray, path: list[int]) -> float:
-    return float(c[path[:-1], path[1:]].sum())
 
 
 def _double_bridge(path: list[int], rng: np.random.Generator) -> list[int]:

@@ -42,6 +42,7 @@ from importlib import resources
 from typing import Literal
 
 import clingo
+import numpy as np
 
 from s3o_drake.planning.exact_order import assignment_bound
 from s3o_drake.planning.task_problem import (
@@ -180,7 +181,9 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
 
     # Local search's best orders (visit_order.py): clingo takes the best as its first
     # model, then searches only for cheaper ones, without the hint (it would slow proofs).
-    hints = visit_hints(problem, unreachable, n_plans, deadline) if by_order else []
+    # The ordering problem as a matrix, once: for the hints and the bound of a cut search.
+    matrix = visit_matrix(problem, unreachable) if by_order else None
+    hints = visit_hints(*matrix, n_plans, deadline) if matrix is not None else []
     models = hinted_models(problem, facts, hints, deadline)
     hinted = models[0] if models else None
     bounded = None
@@ -244,7 +247,8 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
     plans.sort(key=lambda p: p.cost)
     # Each plan is proven in its rank or ends the enumeration, so the first is the best.
     bound = plans[0].cost if plans[0].optimal else min(
-        _lower_bound(problem, unreachable, by_order), plans[0].cost)
+        _lower_bound(problem, unreachable, None if matrix is None else matrix[1]),
+        plans[0].cost)
     stats = {"ground_s": t_ground}
     if hinted is not None:
         stats["hint"] = float(hinted[1][0])  # local search's order, for the benchmark
@@ -253,13 +257,14 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
                           stats=stats, lower_bound=bound, asked=n_plans, problem=problem)
 
 
-def _lower_bound(problem: TaskProblem, unreachable: Sequence[str], by_order: bool) -> int:
-    """`cost_lower_bound`, or for a visiting order the assignment bound, which is tighter
-    (exact_order.py): on random problems of 20-40 locations, some 15 % below the optimum
-    where the cheapest drive into each location is 40-50 % below."""
+def _lower_bound(problem: TaskProblem, unreachable: Sequence[str],
+                 costs: np.ndarray | None) -> int:
+    """`cost_lower_bound`, or for a visiting order (its `visit_matrix` costs) the
+    assignment bound, which is tighter (exact_order.py): on random problems of 20-40
+    locations, some 15 % below the optimum where the cheapest drive into each location is
+    40-50 % below."""
     bound = cost_lower_bound(problem, unreachable)
-    if by_order:
-        _, costs = visit_matrix(problem, unreachable)
+    if costs is not None:
         bound = max(bound, math.ceil(assignment_bound(costs) - 1e-6))
     return bound
 

@@ -46,13 +46,13 @@ def visit_matrix(problem: TaskProblem, unreachable: Sequence[str] = ()
     return nodes, costs
 
 
-def visit_hints(problem: TaskProblem, unreachable: Sequence[str], count: int,
+def visit_hints(nodes: Sequence[str], costs: np.ndarray, count: int,
                 deadline: float) -> list[list[str]]:
-    """Up to `count` distinct good visiting orders (location names), the cheapest first,
-    from `good_orders`' local search; none below 3 locations to visit (clingo proves
-    those at once). The search gets half the time left, at most 1 s: idle it takes 0.1 s
+    """Up to `count` distinct good visiting orders (location names) of the ordering
+    problem `visit_matrix` gives (`nodes`, `costs`), the cheapest first, from
+    `good_orders`' local search; none below 3 locations to visit (clingo proves those at
+    once). The search gets half the time left, at most 1 s: idle it takes 0.1 s
     at 15-20 locations, but it shares the cores with the motion searches."""
-    nodes, costs = visit_matrix(problem, unreachable)
     if len(nodes) < 4:
         return []
     limit = min(1.0, 0.5 * max(deadline - time.perf_counter(), 0.0))
