@@ -74,7 +74,8 @@ def test_soak_plans_executes_resumes_and_sums_up(tmp_path):
 
 
 def test_memory_growth_is_told_per_kind_of_job_past_the_warm_up():
-    """Plan jobs should add nothing; an execute job adds what pydrake keeps."""
+    """The median growth over one job of each kind, past each worker's warm-up: here
+    plan jobs add nothing and execute jobs 60 MB each."""
     from s3o_drake.evaluation.soak import EXECUTE, PLAN, WARM_UP
 
     rss, rows = 100.0, []
@@ -86,12 +87,12 @@ def test_memory_growth_is_told_per_kind_of_job_past_the_warm_up():
     assert m["plan_growth_mb"] == 0.0 and m["execute_growth_mb"] == 60.0
 
 
-def test_the_worker_is_replaced_after_its_executions(tmp_path, monkeypatch):
-    """pydrake keeps each executed diagram: a worker that has executed TASKS_PER_CHILD runs
-    is replaced, one that only plans is kept."""
+def test_one_worker_runs_every_job_executions_included(tmp_path, monkeypatch):
+    """A long user session: the worker is kept over plans and executions alike (execute()
+    frees its diagram), and replaced only after a hang or a crash."""
     from dataclasses import asdict
 
-    from s3o_drake.evaluation import scheduler, soak
+    from s3o_drake.evaluation import soak
     from s3o_drake.evaluation.store import ResultStore
 
     started = []
@@ -99,22 +100,22 @@ def test_the_worker_is_replaced_after_its_executions(tmp_path, monkeypatch):
     class FakeWorker:  # the worker process's interface, without the process
         def __init__(self):
             started.append(self)
-            self.jobs = self.executed = 0
+            self.jobs = 0
             self.process = type("P", (), {"pid": len(started), "is_alive": lambda s: True})()
 
         def run(self, job, limit):
             self.jobs += 1
-            return {"key": job.key, **asdict(job), "crash": "", "rss_mb": 1.0}
+            hang = job.index == 4
+            return {"key": job.key, **asdict(job), "crash": "", "rss_mb": 1.0, "hang": hang}
 
         def stop(self, kill=False):
             pass
 
     monkeypatch.setattr(soak, "_Worker", FakeWorker)
-    monkeypatch.setattr(scheduler, "TASKS_PER_CHILD", 2)
-    jobs = [soak.SoakJob(EXECUTE if i in (1, 2, 4) else PLAN, 0, i, 5.0) for i in range(6)]
+    jobs = [soak.SoakJob(EXECUTE if i in (1, 2, 3) else PLAN, 0, i, 5.0) for i in range(7)]
     soak.run_soak(jobs, ResultStore(tmp_path / "soak.jsonl"), limit=60.0, progress=False)
-    # Jobs 0-2 in the first worker (its second execution ends it), 3-5 in the second.
-    assert [w.jobs for w in started] == [3, 3]
+    # Jobs 0-4 in the first worker (job 4 hangs), 5-6 in the second.
+    assert [w.jobs for w in started] == [5, 2]
 
 
 def test_overruns_and_hangs_on_a_loaded_machine_are_counted_apart():

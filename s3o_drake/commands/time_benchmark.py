@@ -230,9 +230,9 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     print(f"{'task':<10} {'noise':>5} {'dishes':>7} {'predicted':>9} {'simulated':>9} "
           f"{'error':>7}  failures", flush=True)
-    # The runs execute in worker processes that are replaced now and then: pydrake keeps
-    # every executed diagram (evaluation/scheduler.TASKS_PER_CHILD), and a single process
-    # grew to 21 GB over 140 runs.
+    # The runs execute in worker processes that are replaced now and then
+    # (evaluation/scheduler.TASKS_PER_CHILD): before execute() freed its diagram, a single
+    # process grew to 21 GB over 140 runs.
     with local_pool(args.workers) as pool:
         measured = pool.map(_measure, [(run, args.method, version) for run in pending])
         for key, *_ in runs:

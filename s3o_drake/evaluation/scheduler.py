@@ -28,10 +28,9 @@ from s3o_drake.evaluation.jobs import Job, run_job
 from s3o_drake.evaluation.store import ResultStore
 
 TASKS_PER_CHILD = 10
-"""Local workers are replaced after this many jobs: a Drake diagram per run leaves memory
-behind (pydrake 1.51 never frees a LeafSystem written in Python once it has been added to a
-DiagramBuilder, and with it the whole diagram: about 60-150 MB per executed run,
-docs/reliability.md), and a long study must not grow without bound."""
+"""Local workers are replaced after this many jobs, a bound on what any leak costs a long
+study. Until execute() freed its diagram (s3o_drake/system_lifetime.py) each executed run
+left 60-150 MB behind (docs/reliability.md); since, 6 runs in one process grew 25 MB."""
 
 
 def pending_jobs(jobs: Iterable[Job], store: ResultStore) -> list[Job]:

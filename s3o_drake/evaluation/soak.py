@@ -10,10 +10,9 @@ the whole `execute()` (perception, the scenario's Fea^m source, planning, the Dr
 simulation, recovery) with one method, the methods taken in turn.
 
 Jobs run one at a time in one long-lived worker process, so that its memory over the jobs
-is what a long user session would see (its RSS is recorded after each job), except that
-the worker is replaced after every 10 executions (`scheduler.TASKS_PER_CHILD`): pydrake
-keeps each executed diagram (docs/reliability.md), and 200 executions in one process would
-exhaust the machine. The summary gives the memory growth over one job of each kind. A job that
+is what a long user session would see (its RSS is recorded after each job; `execute()`
+frees each run's diagram, s3o_drake/system_lifetime.py). The summary gives the memory
+growth over one job of each kind. A job that
 exceeds the wall-time limit is a hang: the worker is killed and a fresh one goes on; a
 worker that dies is a crash. Rows go to soak.jsonl as each job ends (the evaluation's
 ResultStore: a killed soak resumes where it stopped).
@@ -191,7 +190,6 @@ class _Worker:
         self.process.start()
         child.close()
         self.jobs = 0
-        self.executed = 0
 
     def run(self, job: SoakJob, limit: float) -> dict:
         """The job's row; a hang (no answer within `limit` s: the worker is killed) or a
@@ -248,8 +246,6 @@ def run_soak(jobs: Iterable[SoakJob], store: ResultStore, *, limit: float,
     the new row replaces the old one (the store's last row of a key wins)."""
     from tqdm import tqdm
 
-    from s3o_drake.evaluation.scheduler import TASKS_PER_CHILD
-
     todo = [job for job in jobs if (row := store.get(job.key)) is None
             or (again_loaded and run_again(row))]
     code = code_version()
@@ -266,13 +262,6 @@ def run_soak(jobs: Iterable[SoakJob], store: ResultStore, *, limit: float,
             row.setdefault("hang", False)
             if row["hang"] or (row.get("crash") and "worker process died" in row["crash"]):
                 worker = None
-            elif job.kind == EXECUTE:
-                worker.executed += 1
-                if worker.executed >= TASKS_PER_CHILD:
-                    # pydrake keeps every executed diagram (docs/reliability.md): 200
-                    # executions in one process would exhaust the machine's memory.
-                    worker.stop()
-                    worker = None
             store.append(row)
             bar.update()
             bar.set_postfix(tally(store.rows()), refresh=False)
@@ -326,7 +315,7 @@ def memory(rows: Sequence[dict]) -> dict | None:
 def _growth_by_kind(rows: Sequence[dict]) -> dict[str, float]:
     """The median RSS growth (MB) over one job of each kind, past each worker's first
     WARM_UP jobs (they load Drake, the network and the caches): plan jobs should add
-    nothing; an execute job adds the diagram pydrake keeps (docs/reliability.md)."""
+    nothing, and neither should an execute job (docs/reliability.md)."""
     last: dict[int, float] = {}
     growth: dict[str, list[float]] = {PLAN: [], EXECUTE: []}
     for row in sorted((r for r in rows if "rss_mb" in r),
@@ -389,8 +378,7 @@ def summary_table(rows: Sequence[dict]) -> str:
                      f"per 100 jobs over its second half ({mem['workers']} worker "
                      "process(es) in all); median growth over one job: plan "
                      f"{mem['plan_growth_mb']:+.1f} MB, execute "
-                     f"{mem['execute_growth_mb']:+.1f} MB (pydrake keeps each executed "
-                     "diagram; the worker is replaced every 10 executions)")
+                     f"{mem['execute_growth_mb']:+.1f} MB")
     return "\n".join(lines)
 
 

@@ -32,6 +32,7 @@ from s3o_drake.manipulation.pickup import PickupPlan, plan_pickup, plan_release
 from s3o_drake.manipulation.place import place_grasps, plan_place
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.scenario import Scenario
+from s3o_drake.system_lifetime import weak_callback
 from s3o_drake.world.dish_messages import DishPoses, GripEvent
 
 #: The arm's and the fingers' positions among the robot's 11.
@@ -141,18 +142,19 @@ class ArmController(LeafSystem):
         self._activity_index = self.DeclareAbstractState(AbstractValue.Make(_Activity()))
         activity_ticket = {self.abstract_state_ticket(self._activity_index)}
         self.DeclareVectorOutputPort(
-            "arm_desired_state", 2 * NUM_ARM_AND_FINGERS, self._calc_desired_state,
+            "arm_desired_state", 2 * NUM_ARM_AND_FINGERS, weak_callback(self._calc_desired_state),
             prerequisites_of_calc=activity_ticket | {self.time_ticket()})
         self.DeclareAbstractOutputPort(
-            "grip", lambda: AbstractValue.Make(GripEvent()), self._calc_grip,
+            "grip", lambda: AbstractValue.Make(GripEvent()), weak_callback(self._calc_grip),
             prerequisites_of_calc=activity_ticket)
         self.DeclareAbstractOutputPort(
-            "status", lambda: AbstractValue.Make(Status()), self._calc_status,
+            "status", lambda: AbstractValue.Make(Status()), weak_callback(self._calc_status),
             prerequisites_of_calc=activity_ticket)
-        self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0, self._update)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0,
+                                                    weak_callback(self._update))
         # The same update on demand (`CalcForcedUnrestrictedUpdate`): tests and callers
         # that step the controller by hand.
-        self.DeclareForcedUnrestrictedUpdateEvent(self._update)
+        self.DeclareForcedUnrestrictedUpdateEvent(weak_callback(self._update))
 
     # ----------------------------------------------------------------------------- outputs
     def _activity(self, context: Context) -> _Activity:

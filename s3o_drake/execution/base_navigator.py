@@ -39,6 +39,7 @@ from s3o_drake.planning.base_motion import (
 )
 from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
 from s3o_drake.scenario import Scenario
+from s3o_drake.system_lifetime import weak_callback
 
 #: How far (m) the base may back straight out of a tight stop, or drive straight on, before
 #: it turns, tried in turn (backing out first at each distance) when the direct motion is
@@ -207,13 +208,16 @@ class BaseNavigator(LeafSystem):
         # Outputs depend on time and state only: no direct feedthrough from robot_state,
         # so the navigator can close the loop with the plant.
         prerequisites = {self.time_ticket(), self.abstract_state_ticket(self._motion_index)}
-        self.DeclareVectorOutputPort("base_desired_state", 6, self._calc_desired_state,
+        self.DeclareVectorOutputPort("base_desired_state", 6,
+                                     weak_callback(self._calc_desired_state),
                                      prerequisites_of_calc=prerequisites)
         self.DeclareAbstractOutputPort("status", lambda: AbstractValue.Make(Status()),
-                                       self._calc_status, prerequisites_of_calc=prerequisites)
-        self.DeclareInitializationUnrestrictedUpdateEvent(self._update)
-        self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0, self._update)
-        self.DeclareForcedUnrestrictedUpdateEvent(self._update)
+                                       weak_callback(self._calc_status),
+                                       prerequisites_of_calc=prerequisites)
+        self.DeclareInitializationUnrestrictedUpdateEvent(weak_callback(self._update))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0,
+                                                    weak_callback(self._update))
+        self.DeclareForcedUnrestrictedUpdateEvent(weak_callback(self._update))
 
     def _motion(self, context: Context) -> _Motion:
         return context.get_abstract_state(self._motion_index).get_value()

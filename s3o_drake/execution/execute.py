@@ -11,7 +11,6 @@ from typing import TextIO
 import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.systems.analysis import InitializeParams, Simulator
-from pydrake.systems.framework import Diagram
 from tqdm import tqdm
 
 from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
@@ -19,6 +18,7 @@ from s3o_drake.perception import Perceive
 from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.scenario import Scenario
+from s3o_drake.system_lifetime import release_diagram
 from s3o_drake.world.builder import overhead_images
 
 SOLVER_RESTARTS = 5
@@ -29,9 +29,10 @@ REST_SPEED = 1e-6
 
 @dataclass
 class Execution:
-    """What one planned and simulated run produced."""
+    """What one planned and simulated run produced. The diagram that ran it is gone: it is
+    freed when the run ends (`release_diagram`), so that runs in one process do not
+    accumulate their diagrams."""
 
-    diagram: Diagram
     plan: TaskMotionPlan | None
     report: dict
     images: tuple[np.ndarray, np.ndarray]
@@ -169,5 +170,7 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     report.update(planning_time=planning_time, wall_time=wall, solver_restarts=restarts,
                   realtime_rate=context.get_time() / wall if wall > 0 else float("inf"),
                   simulated_time=context.get_time())
-    return Execution(diagram=diagram, plan=plan, report=report, images=images, result=result,
-                     html=None if meshcat is None else meshcat.StaticHtml())
+    html = None if meshcat is None else meshcat.StaticHtml()
+    del simulator, planner, world, monitor, visualizer, planner_context, monitor_context
+    release_diagram(diagram)
+    return Execution(plan=plan, report=report, images=images, result=result, html=html)

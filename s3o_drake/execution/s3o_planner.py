@@ -37,6 +37,7 @@ from __future__ import annotations
 import dataclasses
 import sys
 import time
+import weakref
 from collections.abc import Sequence
 
 import numpy as np
@@ -67,6 +68,7 @@ from s3o_drake.planning.pipeline import plan_from
 from s3o_drake.planning.plan import Goto, Pickup, Place
 from s3o_drake.robot import CONTROL_PERIOD, NUM_POSITIONS
 from s3o_drake.scenario import Recovery, Scenario
+from s3o_drake.system_lifetime import weak_callback
 
 #: A dish that fails all its tries in this many plans is left (execution.recovery replan).
 PLANS_PER_DISH = 2
@@ -130,35 +132,33 @@ class S3OPlanner(LeafSystem):
                                                          AbstractValue.Make(Status()))
         self._replan_port = self.DeclareVectorInputPort("replan_request", 1)
         self._state = self.DeclareAbstractState(AbstractValue.Make(ExecutionState()))
-        self.DeclareInitializationUnrestrictedUpdateEvent(self._initialize)
-        self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0, self._step)
-        self.DeclareForcedUnrestrictedUpdateEvent(self._step)  # one step on demand (tests)
-        self.DeclareAbstractOutputPort(
-            "base_command", lambda: AbstractValue.Make(BaseCommand()),
-            lambda c, out: out.set_value(self._execution(c).base_command),
-            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
-        self.DeclareAbstractOutputPort(
-            "pick_command", lambda: AbstractValue.Make(PickCommand()),
-            lambda c, out: out.set_value(self._execution(c).pick_command),
-            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
-        self.DeclareAbstractOutputPort(
-            "progress", lambda: AbstractValue.Make(PlanProgress()), self._calc_progress,
-            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
-        # A model value of object: the ports carry None until (and unless) there is a plan.
-        self.DeclareAbstractOutputPort(
-            "plan", lambda: AbstractValue.Make(None),
-            lambda c, out: out.set_value(self._execution(c).plan),
-            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
-        self.DeclareAbstractOutputPort(
-            "planning_result", lambda: AbstractValue.Make(None),
-            lambda c, out: out.set_value(self._execution(c).result),
-            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
-        self.DeclareVectorOutputPort(
-            "planning_time", 1,
-            lambda c, out: out.SetAtIndex(0, self._execution(c).planning_time),
-            prerequisites_of_calc={self.abstract_state_ticket(self._state)})
+        self.DeclareInitializationUnrestrictedUpdateEvent(weak_callback(self._initialize))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0, weak_callback(self._step))
+        # One step on demand (tests).
+        self.DeclareForcedUnrestrictedUpdateEvent(weak_callback(self._step))
+        state = {self.abstract_state_ticket(self._state)}
+        # The plan ports' model is None: they carry None until (and unless) there is a plan.
+        for name, make, calc in (
+                ("base_command", BaseCommand, self._state_field("base_command")),
+                ("pick_command", PickCommand, self._state_field("pick_command")),
+                ("progress", PlanProgress, weak_callback(self._calc_progress)),
+                ("plan", lambda: None, self._state_field("plan")),
+                ("planning_result", lambda: None, self._state_field("result"))):
+            self.DeclareAbstractOutputPort(name, lambda make=make: AbstractValue.Make(make()),
+                                           calc, prerequisites_of_calc=state)
+        self.DeclareVectorOutputPort("planning_time", 1, weak_callback(self._calc_planning_time),
+                                     prerequisites_of_calc=state)
 
     # ------------------------------------------------------------------------ helpers
+    def _state_field(self, field: str):
+        """An output calc that copies `field` of the ExecutionState, holding the system
+        weakly (system_lifetime)."""
+        me = weakref.ref(self)
+        return lambda c, out: out.set_value(getattr(me()._execution(c), field))
+
+    def _calc_planning_time(self, context: Context, out) -> None:
+        out.SetAtIndex(0, self._execution(context).planning_time)
+
     def _execution(self, context: Context) -> ExecutionState:
         return context.get_abstract_state(int(self._state)).get_value()
 
@@ -189,7 +189,9 @@ class S3OPlanner(LeafSystem):
         if self._progress_bar:  # say what is happening as it happens (stderr, with the bars)
             print(f"perceiving the unmapped chairs in the overhead camera's images "
                   f"({len(dishes)} dishes to plan for)", file=sys.stderr, flush=True)
-        images = tuple(np.asarray(port.Eval(context).data) for port in self._images)
+        # Copies: a view of an image is a view of this context's cache, and one kept in the
+        # plan's results would keep the whole context (scene graph, renderer) alive.
+        images = tuple(np.array(port.Eval(context).data) for port in self._images)
         known = perceive_known_world(self._scenario, images, pose=start, dishes=dishes,
                                      perceive=self._perceive, robot_labels=self._robot_labels,
                                      held=held)

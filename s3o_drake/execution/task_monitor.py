@@ -9,6 +9,7 @@ from pydrake.systems.framework import Context, DiscreteValues, EventStatus, Leaf
 
 from s3o_drake.execution.messages import PickupRecord, Placement, PlanProgress, RunReport
 from s3o_drake.goals import PlaceTarget, place_target_name
+from s3o_drake.system_lifetime import weak_callback
 from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates
 from s3o_drake.world.object_tracker import STANDING_TILT, tilt
 
@@ -64,9 +65,9 @@ class TaskMonitor(LeafSystem):
         # The simulated time at which progress first said finished; NaN while it has not.
         self._finished_at_index = self.DeclareDiscreteState([math.nan])
         self.DeclareAbstractOutputPort("report", lambda: AbstractValue.Make(RunReport()),
-                                       self._calc_report)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._check)
-        self.DeclareForcedDiscreteUpdateEvent(self._check)
+                                       weak_callback(self._calc_report))
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, weak_callback(self._check))
+        self.DeclareForcedDiscreteUpdateEvent(weak_callback(self._check))
 
     @property
     def settle_time(self) -> float:

@@ -26,6 +26,8 @@ from pydrake.geometry import (
 )
 from pydrake.systems.framework import Context, DiagramBuilder, InputPort, LeafSystem
 
+from s3o_drake.system_lifetime import weak_callback
+
 #: Per mirrored source: its name, and (original frame id, twin frame id) per frame that has
 #: perception geometry.
 Twins = Sequence[tuple[str, Sequence[tuple[FrameId, FrameId]]]]
@@ -90,7 +92,7 @@ class GeometryMirror(LeafSystem):
                                                  AbstractValue.Make(FramePoseVector()))
             self._twins.append((port, tuple(pairs)))
         self.DeclareAbstractOutputPort("geometry_pose", lambda: AbstractValue.Make(
-            FramePoseVector()), self._calc_geometry_pose)
+            FramePoseVector()), weak_callback(self._calc_geometry_pose))
 
     @property
     def source_id(self) -> SourceId:

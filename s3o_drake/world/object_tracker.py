@@ -52,6 +52,7 @@ from s3o_drake.robot import (
     TRAY_LINK,
 )
 from s3o_drake.scenario import Scenario, surface_height
+from s3o_drake.system_lifetime import weak_callback
 from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
 
 
@@ -220,24 +221,28 @@ class ObjectTracker(LeafSystem):
         self._tracks_index = self.DeclareAbstractState(AbstractValue.Make(initial))
         # A plant context per system context, kept as a cache entry: kinematics of the
         # gripper and tray without a Python attribute that changes during simulation.
-        self._plant_context_cache = self.DeclareCacheEntry(
+        # Its index, not the CacheEntry: the entry keeps its system alive where the gc cannot
+        # see it (system_lifetime).
+        self._plant_context_index = self.DeclareCacheEntry(
             "plant context at the robot's positions",
             ValueProducer(allocate=lambda: AbstractValue.Make(plant.CreateDefaultContext()),
-                          calc=self._calc_plant_context),
-            {self._robot_state_port.ticket()})
+                          calc=weak_callback(self._calc_plant_context)),
+            {self._robot_state_port.ticket()}).cache_index()
 
         self.DeclareAbstractOutputPort(
             "geometry_pose", lambda: AbstractValue.Make(FramePoseVector()),
-            self._calc_geometry_pose)
+            weak_callback(self._calc_geometry_pose))
         self.DeclareAbstractOutputPort(
-            "dish_poses", lambda: AbstractValue.Make(DishPoses()), self._calc_dish_poses)
+            "dish_poses", lambda: AbstractValue.Make(DishPoses()),
+            weak_callback(self._calc_dish_poses))
         self.DeclareAbstractOutputPort(
-            "dish_states", lambda: AbstractValue.Make(DishStates()), self._calc_dish_states)
+            "dish_states", lambda: AbstractValue.Make(DishStates()),
+            weak_callback(self._calc_dish_states))
         # Transitions only (the held dishes' poses are computed from the robot's live state),
         # so a 10 ms delay on grasp and release costs nothing visible and saves copying the
         # abstract state at every plant step.
-        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._update_tracks)
-        self.DeclareForcedUnrestrictedUpdateEvent(self._update_tracks)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, weak_callback(self._update_tracks))
+        self.DeclareForcedUnrestrictedUpdateEvent(weak_callback(self._update_tracks))
 
     @property
     def source_id(self) -> SourceId:
@@ -260,7 +265,7 @@ class ObjectTracker(LeafSystem):
 
     def _frames(self, context: Context) -> tuple[RigidTransform, RigidTransform]:
         """X_WG (grasp frame) and X_WT (tray) at the robot's current positions."""
-        plant_context = self._plant_context_cache.Eval(context)
+        plant_context = self.get_cache_entry(self._plant_context_index).Eval(context)
         return self._G.CalcPoseInWorld(plant_context), self._tray_pose(context)
 
     def _grip(self, context: Context) -> GripEvent:
@@ -283,7 +288,7 @@ class ObjectTracker(LeafSystem):
         reference = {}
         if DishState.GRIPPER in states:
             reference[DishState.GRIPPER] = self._G.CalcPoseInWorld(
-                self._plant_context_cache.Eval(context))
+                self.get_cache_entry(self._plant_context_index).Eval(context))
         if DishState.TRAY in states:
             reference[DishState.TRAY] = self._tray_pose(context)
         poses = []
