@@ -57,6 +57,7 @@ def test_soak_plans_executes_resumes_and_sums_up(tmp_path):
         if r["kind"] == PLAN:
             assert all(m["planned"] or m["error"] for m in r["methods"].values())
             assert not any(m["overrun"] or m["faults"] for m in r["methods"].values())
+            assert all(m["cpu"] > 0 for m in r["methods"].values())  # `method_loaded`
     # Every row says which code it measured (this checkout's commit).
     head = subprocess.run(["git", "rev-parse", "--short=7", "HEAD"], capture_output=True,
                           text=True).stdout.strip()
@@ -133,6 +134,23 @@ def test_overruns_and_hangs_on_a_loaded_machine_are_counted_apart():
     assert [loaded(r) for r in rows] == [False, True, True, False, True]
     assert tally(rows) == {"crashes": 0, "overruns": 2, "hangs": 1, "faults": 0,
                            "loaded": 3}
+
+
+def test_a_starved_method_is_told_apart_by_its_own_cpu_share():
+    """A job's CPU share can hide one method that was starved: with each method's own CPU
+    time in the row, that method's overrun is counted apart (and run again), while an
+    overrun with a full core counts, whatever the job's share."""
+    from s3o_drake.evaluation.soak import method_loaded, run_again
+
+    row = {"kind": PLAN, "cpu": 9.0, "wall": 10.0, "hang": False, "methods": {
+        "S3O-GROP*": {"crash": "", "overrun": False, "faults": [], "seconds": 4.0, "cpu": 4.0},
+        "S3O-Random-Paper": {"crash": "", "overrun": True, "faults": [], "seconds": 5.4,
+                             "cpu": 2.1}}}
+    assert not loaded(row) and method_loaded(row, "S3O-Random-Paper")
+    assert not method_loaded(row, "S3O-GROP*")
+    assert tally([row])["overruns"] == 0 and tally([row])["loaded"] == 1 and run_again(row)
+    row["methods"]["S3O-Random-Paper"]["cpu"] = 5.3  # it had its core: the overrun counts
+    assert tally([row])["overruns"] == 1 and not run_again(row)
 
 
 def test_jobs_counted_apart_run_again_on_request(tmp_path, monkeypatch):

@@ -87,14 +87,16 @@ def plan_and_check(known: KnownWorld, *, heatmaps: Sequence[Heatmap], budget: fl
                    base_free, methods: Sequence[str] = METHODS,
                    seed: int | None = None) -> dict[str, dict]:
     """Per method: `planned`, `error` (why there is no plan), `crash` (an exception, with
-    its traceback in `traceback`), `faults` (plan_faults), `seconds` and `overrun` (more
-    than OVERRUN over `budget`)."""
+    its traceback in `traceback`), `faults` (plan_faults), `seconds`, `cpu` (this process's
+    CPU seconds over the same span: a planner that got much less than `seconds` was starved
+    by other work, and its wall-time budget with it) and `overrun` (more than OVERRUN over
+    `budget`)."""
     from s3o_drake.planning.pipeline import plan_from  # Drake's import is the caller's
 
     out = {}
     for method in methods:
         row: dict = {"planned": False, "error": "", "crash": "", "faults": []}
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         try:
             # "oracle": the heatmaps given are not the network's, which plan_from would
             # check again with the oracle for the dishes it leaves out.
@@ -113,6 +115,7 @@ def plan_and_check(known: KnownWorld, *, heatmaps: Sequence[Heatmap], budget: fl
             row["crash"] = f"{type(e).__name__}: {e}".splitlines()[0]
             row["traceback"] = traceback.format_exc(limit=8)
         row["seconds"] = seconds
+        row["cpu"] = time.process_time() - cpu
         row["overrun"] = seconds > budget * (1 + OVERRUN)
         out[method] = row
     return out

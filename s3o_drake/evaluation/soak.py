@@ -173,13 +173,23 @@ def loaded(row: dict) -> bool:
     return cpu is not None and bool(wall) and cpu / wall < LOADED_SHARE
 
 
+def method_loaded(row: dict, method: str) -> bool:
+    """Whether one method's plan in a plan job ran on a loaded machine: its own CPU share
+    when the row has it (a job's share can hide one method that was starved while the
+    others were not), else the job's (`loaded`)."""
+    r = row.get("methods", {}).get(method, {})
+    if r.get("cpu") is not None and r.get("seconds"):
+        return r["cpu"] / r["seconds"] < LOADED_SHARE
+    return loaded(row)
+
+
 def run_again(row: dict) -> bool:
-    """Whether a row's overrun or hang was counted apart (`loaded`): its job is to be run
-    again on an idle machine (`run_soak`'s `again_loaded`)."""
-    if not loaded(row):
-        return False
-    over = any(r["overrun"] for r in row.get("methods", {}).values()) or row.get("overrun")
-    return bool(over or row.get("hang"))
+    """Whether a row's overrun or hang was counted apart (`loaded`, `method_loaded`): its
+    job is to be run again on an idle machine (`run_soak`'s `again_loaded`)."""
+    methods = row.get("methods", {})
+    if any(r["overrun"] and method_loaded(row, m) for m, r in methods.items()):
+        return True
+    return loaded(row) and bool(row.get("overrun") or row.get("hang"))
 
 
 class _Worker:
@@ -279,14 +289,13 @@ def tally(rows: Sequence[dict]) -> dict[str, int]:
     for row in rows:
         apart = loaded(row)
         if row.get("kind") == PLAN and "methods" in row:
-            over = sum(bool(r["overrun"]) for r in row["methods"].values())
-            for r in row["methods"].values():
+            for m, r in row["methods"].items():
                 out["crashes"] += bool(r["crash"])
                 out["faults"] += bool(r["faults"])
+                out["loaded" if method_loaded(row, m) else "overruns"] += bool(r["overrun"])
         else:
             out["crashes"] += bool(row.get("crash"))
-            over = int(bool(row.get("overrun")))
-        out["loaded" if apart else "overruns"] += over
+            out["loaded" if apart else "overruns"] += bool(row.get("overrun"))
         out["loaded" if apart else "hangs"] += bool(row.get("hang"))
     return out
 
@@ -336,11 +345,12 @@ def summary_table(rows: Sequence[dict]) -> str:
     for method in METHODS:
         rs = [r["methods"][method] for r in plans if method in r.get("methods", {})]
         idle = [r["methods"][method] for r in plans
-                if method in r.get("methods", {}) and not loaded(r)]
+                if method in r.get("methods", {}) and not method_loaded(r, method)]
         hangs = sum(bool(r.get("hang")) for r in plans if not loaded(r))
-        # As the overruns: over the jobs that had a core (a budget is wall time).
-        ratio = max((r["seconds"] / p["budget"] for p in plans if not loaded(p)
-                     for m, r in p.get("methods", {}).items() if m == method), default=0.0)
+        # As the overruns: over the plans that had a core (a budget is wall time).
+        ratio = max((r["seconds"] / p["budget"] for p in plans
+                     for m, r in p.get("methods", {}).items()
+                     if m == method and not method_loaded(p, m)), default=0.0)
         lines.append(f"| plan | {method} | {len(rs)} | {sum(r['planned'] for r in rs)} | "
                      f"{sum(not r['planned'] and not r['crash'] for r in rs)} | "
                      f"{sum(bool(r['crash']) for r in rs)} | "
@@ -367,9 +377,9 @@ def summary_table(rows: Sequence[dict]) -> str:
                  "runs the simulation did not finish.")
     apart = tally(rows)["loaded"]
     if apart:
-        lines.append(f"Not counted above: {apart} overruns and hangs of jobs whose worker got "
-                     f"less than {LOADED_SHARE:.0%} of a core over the job (a loaded machine: "
-                     "a budget is wall time); run them again on an idle machine.")
+        lines.append(f"Not counted above: {apart} overruns and hangs of plans or jobs that "
+                     f"got less than {LOADED_SHARE:.0%} of a core (a loaded machine: a budget "
+                     "is wall time); run them again on an idle machine.")
     mem = memory(rows)
     if mem is not None:
         lines.append(f"memory (RSS of the worker that ran most jobs, {mem['jobs']} jobs): "
