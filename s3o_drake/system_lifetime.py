@@ -3,7 +3,7 @@
 pydrake 1.51 keeps every such Diagram alive for the rest of the process (measured: a
 LeafSystem subclass with no ports at all, added to a DiagramBuilder, makes the built
 Diagram immortal; upstream: RobotLocomotion/drake issues 14387 and 22515). Three kinds of
-reference hold it, and the gc can see neither as garbage:
+reference hold it, and the gc can see none of them as garbage:
 
 - a callback given to a `Declare...` method is stored in C++, so a bound method there is a
   strong reference from C++ to its system;
