@@ -13,6 +13,7 @@ from s3o_drake.commands import train as train_command
 from s3o_drake.feasibility import dataset, training
 from s3o_drake.feasibility.fcn import (
     CHANNELS,
+    FEA_FLOOR,
     LABEL_REACH_STD,
     FcnFeasibility,
     FeasibilityUNet,
@@ -149,6 +150,11 @@ def test_shipped_weights_predict_a_held_out_dish():
     assert (predicted.x0, predicted.y0, predicted.cell) == pytest.approx(
         (oracle.x0, oracle.y0, oracle.cell))
     assert np.abs(predicted.values - oracle.values).mean() < 0.15
+    # Out of reach reads 0, as the oracle's does, not the sigmoid's small positive tail:
+    # the free-stop rule checks every cell above 0.
+    values = predicted.values
+    assert np.all((values == 0) | (values >= FEA_FLOOR))
+    assert np.mean(values == 0) > 0.5 and np.mean(oracle.values == 0) > 0.5
     # The crop is the network's input for that dish.
     assert crop_inputs(view, np.asarray(dish.position), dish.kind).shape[0] == len(CHANNELS)
 
