@@ -74,6 +74,14 @@ RENDER_PIXEL_OFFSET = 0.5
 to (u + 0.5, v + 0.5). Measured by matching the rendered table tops to their footprints
 (the mismatch is least at exactly half a pixel, in both axes); uncorrected, every world
 point is off by half a pixel, about 1 cm, towards the image's top-left (north-west)."""
+EXPLAINED = 0.001
+"""A fit whose cost (m², squared distances summed over the blob's points and the model's
+points that the camera saw through) is below this explains what the camera saw: the other
+directions' fits are not tried. Fits ended at 0 to 0.0022 (the chair, to the camera's
+noise) or at 4.4 to 11.7 (a wrong direction) on 18 chairs of three tasks. On the perception
+benchmark's 20 tasks (120 chairs) this keeps the accuracy of trying all four directions
+(centre error p95 0.0085 m, yaw p95 0.0081 rad against 0.0077) at 0.54 s a scene instead of
+1.44 s; at 0.01 the worst yaw grew to 0.05 rad."""
 
 
 @dataclass(frozen=True)
@@ -403,6 +411,8 @@ class ChairPerception:
                               options={"xtol": 1e-3, "ftol": 1e-7, "maxfev": 2000})
             if best is None or result.fun < best[0]:
                 best = (result.fun, result.x)
+            if best[0] < EXPLAINED:
+                break
         x, y, yaw = best[1]
         return [float(x), float(y), float(wrap(float(yaw)))]
 
