@@ -88,6 +88,17 @@ def test_memory_growth_is_told_per_kind_of_job_past_the_warm_up():
     assert m["plan_growth_mb"] == 0.0 and m["execute_growth_mb"] == 60.0
 
 
+def test_memory_is_the_latest_codes():
+    """A soak resumed at a newer commit: the memory figures are the new code's alone."""
+    old = [{"worker": 1, "worker_job": i + 1, "rss_mb": 100.0 + 80 * i, "kind": EXECUTE,
+            "code": "aaaaaaa"} for i in range(12)]
+    new = [{"worker": 2, "worker_job": i + 1, "rss_mb": 500.0, "kind": EXECUTE,
+            "code": "bbbbbbb"} for i in range(8)]
+    m = memory(old + new)
+    assert m["code"] == "bbbbbbb" and m["jobs"] == 8 and m["workers"] == 1
+    assert m["execute_growth_mb"] == 0.0 and abs(m["slope_mb_per_100_jobs"]) < 1e-6
+
+
 def test_one_worker_runs_every_job_executions_included(tmp_path, monkeypatch):
     """A long user session: the worker is kept over plans and executions alike (execute()
     frees its diagram), and replaced only after a hang or a crash."""

@@ -304,7 +304,11 @@ def memory(rows: Sequence[dict]) -> dict | None:
     """RSS of the worker that ran the most jobs: first and last (MB), and the slope of a
     line fitted over the second half of its jobs (MB per 100 jobs: the first ones load
     Drake, the network and the caches, growth that stops); None without rows that carry
-    it."""
+    it. Only the rows of the code that ran last count (`code`): memory is a property of the
+    code, and a soak resumed at a newer commit measures that one."""
+    latest = rows[-1].get("code") if rows else None
+    if latest is not None:
+        rows = [r for r in rows if r.get("code") == latest]
     by_worker: dict[int, list[tuple[int, float]]] = {}
     for row in rows:
         if "rss_mb" in row:
@@ -318,7 +322,7 @@ def memory(rows: Sequence[dict]) -> dict | None:
     slope = float(np.polyfit(n[half:], rss[half:], 1)[0]) * 100 if len(series) > 3 else 0.0
     return {"jobs": len(series), "first_mb": float(rss[0]), "last_mb": float(rss[-1]),
             "max_mb": float(rss.max()), "slope_mb_per_100_jobs": slope,
-            "workers": len(by_worker), **_growth_by_kind(rows)}
+            "workers": len(by_worker), "code": latest, **_growth_by_kind(rows)}
 
 
 def _growth_by_kind(rows: Sequence[dict]) -> dict[str, float]:
@@ -382,7 +386,8 @@ def summary_table(rows: Sequence[dict]) -> str:
                      "is wall time); run them again on an idle machine.")
     mem = memory(rows)
     if mem is not None:
-        lines.append(f"memory (RSS of the worker that ran most jobs, {mem['jobs']} jobs): "
+        lines.append(f"memory (at {mem['code'] or 'an unrecorded commit'}; RSS of the worker "
+                     f"that ran most jobs, {mem['jobs']} jobs): "
                      f"first {mem['first_mb']:.0f} MB, last {mem['last_mb']:.0f} MB, max "
                      f"{mem['max_mb']:.0f} MB, slope {mem['slope_mb_per_100_jobs']:+.1f} MB "
                      f"per 100 jobs over its second half ({mem['workers']} worker "
