@@ -32,8 +32,10 @@ import numpy as np
 
 KICKS = 200
 """Double-bridge kicks after the first local optimum, at most..."""
-PATIENCE = 100
-"""...and no more once this many in a row found no better order."""
+PATIENCE = 50
+"""...and no more once this many in a row found no better order. On 24 random ordering
+problems of 13-18 locations, against the exact optimum: 100 took 4.2 s and found all 24
+optima, 50 took 1.9 s and found all 24, 25 took 1.0 s and ended 1.05 % above one."""
 WORSE = 0.03
 """The search walks on from a kicked local optimum up to this share worse than where it
 stood (the best is kept apart): from the best alone it stalled 1-4 % above the optimum."""
