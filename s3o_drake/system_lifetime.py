@@ -30,8 +30,9 @@ PEERS = "_pydrake_internal_ref_cycle_peers"
 """The attribute in which pydrake keeps an object's reference-cycle peers."""
 
 
-def weak_callback(method: Callable[..., Any]) -> Callable[..., Any]:
-    """`method` (bound to a system) as a callback that does not keep the system alive.
+def weak_callback(method: Callable[..., Any], **bound_kwargs: Any) -> Callable[..., Any]:
+    """`method` (bound to a system) as a callback that does not keep the system alive;
+    `bound_kwargs` are passed on every call.
 
     C++ owns the system while the callback can be called, so the system is there whenever
     the callback runs; a call after the system is gone is a bug and raises."""
@@ -42,7 +43,7 @@ def weak_callback(method: Callable[..., Any]) -> Callable[..., Any]:
         bound = ref()
         if bound is None:
             raise ReferenceError(f"{name} called after its system was freed")
-        return bound(*args)
+        return bound(*args, **bound_kwargs)
 
     return call
 

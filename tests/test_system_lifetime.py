@@ -25,8 +25,8 @@ class _Counter:
     def __init__(self):
         self.calls = 0
 
-    def count(self, step: int) -> int:
-        self.calls += step
+    def count(self, step: int, *, times: int = 1) -> int:
+        self.calls += step * times
         return self.calls
 
 
@@ -34,6 +34,7 @@ def test_a_weak_callback_calls_through_without_keeping_its_object():
     counter = _Counter()
     callback = weak_callback(counter.count)
     assert callback(2) == 2 and callback(3) == 5
+    assert weak_callback(counter.count, times=10)(1) == 15
     alive = weakref.ref(counter)
     del counter
     gc.collect()

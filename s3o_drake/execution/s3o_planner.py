@@ -37,7 +37,6 @@ from __future__ import annotations
 import dataclasses
 import sys
 import time
-import weakref
 from collections.abc import Sequence
 
 import numpy as np
@@ -138,23 +137,22 @@ class S3OPlanner(LeafSystem):
         self.DeclareForcedUnrestrictedUpdateEvent(weak_callback(self._step))
         state = {self.abstract_state_ticket(self._state)}
         # The plan ports' model is None: they carry None until (and unless) there is a plan.
-        for name, make, calc in (
-                ("base_command", BaseCommand, self._state_field("base_command")),
-                ("pick_command", PickCommand, self._state_field("pick_command")),
-                ("progress", PlanProgress, weak_callback(self._calc_progress)),
-                ("plan", lambda: None, self._state_field("plan")),
-                ("planning_result", lambda: None, self._state_field("result"))):
-            self.DeclareAbstractOutputPort(name, lambda make=make: AbstractValue.Make(make()),
-                                           calc, prerequisites_of_calc=state)
+        for name, make, field in (("base_command", BaseCommand, "base_command"),
+                                  ("pick_command", PickCommand, "pick_command"),
+                                  ("plan", lambda: None, "plan"),
+                                  ("planning_result", lambda: None, "result")):
+            self.DeclareAbstractOutputPort(
+                name, lambda make=make: AbstractValue.Make(make()),
+                weak_callback(self._calc_state_field, field=field), prerequisites_of_calc=state)
+        self.DeclareAbstractOutputPort("progress", lambda: AbstractValue.Make(PlanProgress()),
+                                       weak_callback(self._calc_progress),
+                                       prerequisites_of_calc=state)
         self.DeclareVectorOutputPort("planning_time", 1, weak_callback(self._calc_planning_time),
                                      prerequisites_of_calc=state)
 
     # ------------------------------------------------------------------------ helpers
-    def _state_field(self, field: str):
-        """An output calc that copies `field` of the ExecutionState, holding the system
-        weakly (system_lifetime)."""
-        me = weakref.ref(self)
-        return lambda c, out: out.set_value(getattr(me()._execution(c), field))
+    def _calc_state_field(self, context: Context, out, *, field: str) -> None:
+        out.set_value(getattr(self._execution(context), field))
 
     def _calc_planning_time(self, context: Context, out) -> None:
         out.SetAtIndex(0, self._execution(context).planning_time)
