@@ -69,6 +69,7 @@ free space is a polygon (`buffer(..., quad_segs=16)`) whose boundary comes ~0.3 
 _SLACK = 1e-4  # m; the graph's vertices sit this far outside the blocking polygons
 _EPS = 1e-9
 _ENDPOINT_CACHE_SIZE = 20_000
+_DETOUR_BATCH = 1_000_000  # (pair, vertex, vertex) sums per batch of `_detours`
 
 
 @dataclass
@@ -86,6 +87,21 @@ class _Endpoint:
     computed (only needed when the straight segment is blocked)."""
     seen_d: np.ndarray | None = None
     """|entry v| for those vertices."""
+
+
+def _padded(ends: list[_Endpoint]) -> tuple[np.ndarray, np.ndarray]:
+    """The endpoints' visible vertices and distances to them as (n, k) arrays, k the most
+    any sees (at least 1): the rows padded with vertex 0 at distance inf."""
+    counts = np.array([len(e.seen) for e in ends], dtype=int)
+    width = max(1, int(counts.max(initial=0)))
+    filled = np.arange(width)[None, :] < counts[:, None]
+    seen = np.zeros((len(ends), width), dtype=int)
+    dist = np.full((len(ends), width), np.inf)
+    if counts.sum():
+        # Row-major order of the mask is the order of the concatenation.
+        seen[filled] = np.concatenate([e.seen for e in ends])
+        dist[filled] = np.concatenate([e.seen_d for e in ends])
+    return seen, dist
 
 
 class NavigationMap:
@@ -316,60 +332,82 @@ class NavigationMap:
             E = np.array([e.entry for e in chunk])
             seen = self._sight.visible(E, np.ones(len(chunk), dtype=bool),
                                        fast=self.fast_visibility)
-            for e, idx in zip(chunk, seen, strict=True):
-                e.seen = idx
-                e.seen_d = np.linalg.norm(self.vertices[idx] - e.entry, axis=1)
+            counts = [len(idx) for idx in seen]
+            flat = np.concatenate(seen) if sum(counts) else np.zeros(0, int)
+            d = np.linalg.norm(self.vertices[flat] - np.repeat(E, counts, axis=0), axis=1)
+            for e, idx, dist in zip(chunk, seen, np.split(d, np.cumsum(counts)[:-1]),
+                                    strict=True):
+                e.seen, e.seen_d = idx, dist
 
     # -------------------------------------------------------------------------- queries
-    def _pair_length(self, a: _Endpoint, b: _Endpoint, direct: bool) -> tuple[float, int, int]:
-        """Length and the first / last graph vertex (-1, -1 when direct)."""
-        if a.entry is None or b.entry is None:
-            return math.inf, -1, -1
-        if direct:
-            return a.lead + float(np.linalg.norm(a.entry - b.entry)) + b.lead, -1, -1
-        if not len(a.seen) or not len(b.seen):
-            return math.inf, -1, -1
-        total = a.seen_d[:, None] + self._D[np.ix_(a.seen, b.seen)] + b.seen_d[None, :]
-        k = int(np.argmin(total))
-        best = float(total.flat[k])
-        i, j = divmod(k, len(b.seen))
-        return a.lead + best + b.lead, int(a.seen[i]), int(b.seen[j])
+    def _detours(self, A: list[_Endpoint], B: list[_Endpoint]
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For pairs (A[k], B[k]) whose straight segment is blocked: the shortest length
+        entry -> graph -> entry (inf: none) and its first and last graph vertex (-1 when
+        none), in one batch over the pairs' visible vertices, padded to one width."""
+        SA, DA = _padded(A)
+        SB, DB = _padded(B)
+        n, ka, kb = len(A), SA.shape[1], SB.shape[1]
+        best = np.empty(n)
+        first = np.empty(n, dtype=int)
+        last = np.empty(n, dtype=int)
+        step = max(1, _DETOUR_BATCH // (ka * kb))  # rows per batch bound the (n, ka, kb) array
+        for s in range(0, n, step):
+            rows = slice(s, s + step)
+            total = (DA[rows, :, None] + self._D[SA[rows, :, None], SB[rows, None, :]]
+                     + DB[rows, None, :]).reshape(-1, ka * kb)
+            # The first minimum in (a's vertex, b's vertex) order, as padding comes last.
+            k = np.argmin(total, axis=1)
+            best[rows] = total[np.arange(len(k)), k]
+            i, j = np.divmod(k, kb)
+            first[rows] = SA[rows][np.arange(len(k)), i]
+            last[rows] = SB[rows][np.arange(len(k)), j]
+        none = ~np.isfinite(best)
+        first[none] = last[none] = -1
+        return best, first, last
 
-    def _lengths(self, P: np.ndarray, Q: np.ndarray) -> list[tuple[float, int, int]]:
-        return self._query(P, Q)[0]
-
-    def _query(self, P: np.ndarray, Q: np.ndarray) -> tuple[list[tuple[float, int, int]],
-                                                           list[_Endpoint], list[_Endpoint]]:
-        """(length, first vertex, last vertex) per pair, and the pairs' endpoints."""
+    def _query(self, P: np.ndarray, Q: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[_Endpoint], list[_Endpoint]]:
+        """Per pair: the length, the first and the last graph vertex (-1, -1 when the path
+        is direct or there is none), and the pairs' endpoints."""
         P = np.asarray(P, dtype=float).reshape(-1, 2)
         Q = np.asarray(Q, dtype=float).reshape(-1, 2)
         if len(P) != len(Q):
             raise ValueError(f"P and Q differ in length: {len(P)} vs {len(Q)}")
+        m = len(P)
         ends = self._prepare(np.vstack([P, Q]))
-        A, B = ends[:len(P)], ends[len(P):]
-        valid = np.array([a.entry is not None and b.entry is not None
-                          for a, b in zip(A, B, strict=True)], dtype=bool)
-        direct = np.zeros(len(P), dtype=bool)
-        if valid.any():
-            idx = np.flatnonzero(valid)
-            ea = np.array([A[i].entry for i in idx])
-            eb = np.array([B[i].entry for i in idx])
-            direct[idx] = ~self._blocking_edges.blocked(ea, eb)
-            detour = idx[~direct[idx]]
-            self._see([A[i] for i in detour] + [B[i] for i in detour])
-        return [self._pair_length(a, b, bool(d)) for a, b, d in zip(A, B, direct, strict=True)], \
-            A, B
+        A, B = ends[:m], ends[m:]
+        lengths = np.full(m, np.inf)
+        first = np.full(m, -1)
+        last = np.full(m, -1)
+        idx = np.array([k for k, (a, b) in enumerate(zip(A, B, strict=True))
+                        if a.entry is not None and b.entry is not None], dtype=int)
+        if len(idx):
+            ea = np.array([A[k].entry for k in idx])
+            eb = np.array([B[k].entry for k in idx])
+            la = np.array([A[k].lead for k in idx])
+            lb = np.array([B[k].lead for k in idx])
+            direct = ~self._blocking_edges.blocked(ea, eb)
+            straight = np.linalg.norm(ea - eb, axis=1)
+            lengths[idx[direct]] = (la + straight + lb)[direct]
+            detour = idx[~direct]
+            if len(detour):
+                a, b = [A[k] for k in detour], [B[k] for k in detour]
+                self._see(a + b)
+                via, first[detour], last[detour] = self._detours(a, b)
+                lengths[detour] = la[~direct] + via + lb[~direct]
+        return lengths, first, last, A, B
 
     def path_length(self, p: Sequence[float], q: Sequence[float]) -> float:
         """Collision-free path length (m) from p to q; inf when unreachable.
 
         Symmetric, deterministic, exact on the polygonal map (see the module docstring).
         """
-        return self._lengths(np.asarray(p, float)[None], np.asarray(q, float)[None])[0][0]
+        return float(self.path_lengths(np.asarray(p, float)[None], np.asarray(q, float)[None])[0])
 
     def path_lengths(self, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """`path_length` for pairs (P[i], Q[i]), P and Q (m, 2): one vectorised batch."""
-        return np.array([r[0] for r in self._lengths(P, Q)])
+        return self._query(P, Q)[0]
 
     def path_times(self, P: np.ndarray, Q: np.ndarray, yaw_from: np.ndarray,
                    yaw_to: np.ndarray, profile: BaseProfile
@@ -386,9 +424,8 @@ class NavigationMap:
         shortest route between its first and last vertex (timed once per map and profile
         by `route_table`), the leg to Q's entry, and the lead to Q.
         """
-        results, A, B = self._query(P, Q)
-        m = len(results)
-        lengths = np.array([r[0] for r in results], dtype=float).reshape(m)
+        lengths, first, last, A, B = self._query(P, Q)
+        m = len(lengths)
         times = np.full(m, np.inf)
         landing = np.full(m, np.nan)
         ok = np.isfinite(lengths)
@@ -399,8 +436,7 @@ class NavigationMap:
         ea = np.array([A[k].entry for k in idx])
         eb = np.array([B[k].entry for k in idx])
         pb = np.array([B[k].p for k in idx])
-        first = np.array([results[k][1] for k in idx])
-        last = np.array([results[k][2] for k in idx])
+        first, last = first[idx], last[idx]
         graph = first >= 0
         fi, la = np.where(graph, first, 0), np.where(graph, last, 0)
         vi = np.where(graph[:, None], self.vertices[fi] if len(self.vertices) else ea, eb)
@@ -469,7 +505,8 @@ class NavigationMap:
         """
         p = np.asarray(p, float)
         q = np.asarray(q, float)
-        length, i, j = self._lengths(p[None], q[None])[0]
+        lengths, first, last, _, _ = self._query(p[None], q[None])
+        length, i, j = float(lengths[0]), int(first[0]), int(last[0])
         if not math.isfinite(length):
             return None
         a, b = self._prepare(np.vstack([p, q]))
