@@ -43,16 +43,14 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from scipy.sparse.csgraph import shortest_path
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
-from s3o_drake.angles import wrap
 from s3o_drake.furniture import DistanceField
 from s3o_drake.known_world import Obstacles
 from s3o_drake.planning.base_motion import BaseProfile, chain_time
-from s3o_drake.planning.visibility import BlockingEdges, VertexSight, cross, rings
+from s3o_drake.planning.visibility_graph import SLACK, VisibilityGraph
 from s3o_drake.robot import BASE_RADIUS, INSCRIBED_RADIUS
 
 DRIVE_MARGIN = 0.02
@@ -66,10 +64,7 @@ any yaw (m)."""
 INSCRIBED_TOLERANCE = 1e-3
 """An endpoint's clearance may fall this short of INSCRIBED_RADIUS (m): the abstraction's
 free space is a polygon (`buffer(..., quad_segs=16)`) whose boundary comes ~0.3 mm closer."""
-_SLACK = 1e-4  # m; the graph's vertices sit this far outside the blocking polygons
-_EPS = 1e-9
 _ENDPOINT_CACHE_SIZE = 20_000
-_DETOUR_BATCH = 1_000_000  # (pair, vertex, vertex) sums per batch of `_detours`
 
 
 @dataclass
@@ -87,21 +82,6 @@ class _Endpoint:
     computed (only needed when the straight segment is blocked)."""
     seen_d: np.ndarray | None = None
     """|entry v| for those vertices."""
-
-
-def _padded(ends: list[_Endpoint]) -> tuple[np.ndarray, np.ndarray]:
-    """The endpoints' visible vertices and distances to them as (n, k) arrays, k the most
-    any sees (at least 1): the rows padded with vertex 0 at distance inf."""
-    counts = np.array([len(e.seen) for e in ends], dtype=int)
-    width = max(1, int(counts.max(initial=0)))
-    filled = np.arange(width)[None, :] < counts[:, None]
-    seen = np.zeros((len(ends), width), dtype=int)
-    dist = np.full((len(ends), width), np.inf)
-    if counts.sum():
-        # Row-major order of the mask is the order of the concatenation.
-        seen[filled] = np.concatenate([e.seen for e in ends])
-        dist[filled] = np.concatenate([e.seen_d for e in ends])
-    return seen, dist
 
 
 class NavigationMap:
@@ -134,7 +114,6 @@ class NavigationMap:
         self._build_graph(quad_segs)
         self._endpoint_cache: dict[tuple[float, float], _Endpoint] = {}
         self._sealed = False
-        self._route_tables: dict[BaseProfile, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     # ----------------------------------------------------------------------------- grid
     def _build_grid(self) -> None:
@@ -177,66 +156,21 @@ class NavigationMap:
             outer = Polygon()
         else:
             blocking = self.obstacles.buffer(r_block, quad_segs=quad_segs)
-            outer = self.obstacles.buffer(r_block + _SLACK, quad_segs=quad_segs)
+            outer = self.obstacles.buffer(r_block + SLACK, quad_segs=quad_segs)
         interior_room = self.room.buffer(-DRIVE_RADIUS, join_style="mitre")
         self.blocking = blocking
         """Obstacles inflated by (at least) DRIVE_RADIUS: paths never enter them."""
         self.driveable = interior_room.difference(blocking)
         """Positions a path may pass: DRIVE_RADIUS from walls and footprints."""
         shapely.prepare(self.driveable)
-        self._driveable_inner = self.driveable.buffer(-2 * _SLACK)
+        self._driveable_inner = self.driveable.buffer(-2 * SLACK)
         shapely.prepare(self._driveable_inner)
-        self._blocking_edges = BlockingEdges(blocking)
-        # Convex vertices of the slightly larger polygons, inside the driveable room.
-        verts, prev, nxt = [], [], []
-        for ring in rings(outer):
-            c = np.asarray(ring.coords)[:-1]
-            if ring.is_ccw is False:  # orient so the obstacle is on the left
-                c = c[::-1]
-            n = len(c)
-            for k in range(n):
-                a, b, d = c[k - 1], c[k], c[(k + 1) % n]
-                turn = cross(b - a, d - b)
-                if turn > _EPS:  # convex corner of the obstacle: a path may bend here
-                    verts.append(b)
-                    prev.append(a)
-                    nxt.append(d)
-        V = np.array(verts).reshape(-1, 2)
-        keep = shapely.contains_xy(interior_room, V[:, 0], V[:, 1]) if len(V) else \
-            np.zeros(0, dtype=bool)
-        self.vertices = V[keep]
+        self._graph = VisibilityGraph(blocking, outer, interior_room, self.room)
+        self._blocking_edges = self._graph.edges
+        self.vertices = self._graph.vertices
         """Graph nodes: convex vertices of the inflated obstacles (k, 2)."""
-        prev = np.array(prev).reshape(-1, 2)[keep]
-        nxt = np.array(nxt).reshape(-1, 2)[keep]
-        n = len(self.vertices)
-        weights = np.zeros((n, n))
-        if n:
-            ii, jj = np.triu_indices(n, k=1)
-            A, B = self.vertices[ii], self.vertices[jj]
-            free = ~self._blocking_edges.blocked(A, B)
-            # A chord between two vertices of one polygon may run inside it without
-            # crossing an edge; its midpoint tells.
-            mid = (A + B) / 2
-            free &= ~shapely.contains_xy(blocking, mid[:, 0], mid[:, 1])
-            # A chord through vertices of another polygon crosses none of its edges
-            # properly, yet may run inside it: furniture in a row puts the vertices of
-            # several inflated footprints on one line (the four small tables of the
-            # generated tasks). Those chords are tested exactly against the interior.
-            if free.any() and not blocking.is_empty:
-                inside = blocking.buffer(-_SLACK)
-                shapely.prepare(inside)
-                cand = np.flatnonzero(free)
-                lines = shapely.linestrings(np.stack([A[cand], B[cand]], axis=1))
-                free[cand[shapely.intersects(inside, lines)]] = False
-            d = np.linalg.norm(B - A, axis=1)
-            weights[ii[free], jj[free]] = d[free]
-            weights[jj[free], ii[free]] = d[free]
-        if n:
-            self._D, self._pred = shortest_path(weights, method="D", directed=False,
-                                                return_predecessors=True)
-        else:
-            self._D, self._pred = np.zeros((0, 0)), np.zeros((0, 0), dtype=int)
-        self._sight = VertexSight(self.vertices, prev, nxt, self._blocking_edges, self.room)
+        self._D = self._graph.distances
+        self._sight = self._graph.sight
 
     # ------------------------------------------------------------------------ endpoints
     def seal(self) -> None:
@@ -292,7 +226,7 @@ class NavigationMap:
         m = len(P)
         approx = self.clearance(P)
         slack = 1.5 * self.resolution
-        clear = approx - slack > self._r_block + _SLACK  # surely driveable, no geometry
+        clear = approx - slack > self._r_block + SLACK  # surely driveable, no geometry
         bad = approx + slack < INSCRIBED_RADIUS  # surely not a base position
         unsure = ~clear & ~bad
         entry = P.copy()
@@ -305,7 +239,7 @@ class NavigationMap:
             ok[idx] = exact >= INSCRIBED_RADIUS - INSCRIBED_TOLERANCE
             band = idx[~in_drive & ok[idx]]
             if len(band):
-                # Nearest point of the driveable region shrunk by 2 * _SLACK: strictly
+                # Nearest point of the driveable region shrunk by 2 * SLACK: strictly
                 # inside it, also where the region ends in a wedge (table by a wall).
                 lines = shapely.shortest_line(shapely.points(P[band]), self._driveable_inner)
                 target = shapely.get_coordinates(lines).reshape(-1, 2, 2)[:, 1]
@@ -340,32 +274,6 @@ class NavigationMap:
                 e.seen, e.seen_d = idx, dist
 
     # -------------------------------------------------------------------------- queries
-    def _detours(self, A: list[_Endpoint], B: list[_Endpoint]
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """For pairs (A[k], B[k]) whose straight segment is blocked: the shortest length
-        entry -> graph -> entry (inf: none) and its first and last graph vertex (-1 when
-        none), in one batch over the pairs' visible vertices, padded to one width."""
-        SA, DA = _padded(A)
-        SB, DB = _padded(B)
-        n, ka, kb = len(A), SA.shape[1], SB.shape[1]
-        best = np.empty(n)
-        first = np.empty(n, dtype=int)
-        last = np.empty(n, dtype=int)
-        step = max(1, _DETOUR_BATCH // (ka * kb))  # rows per batch bound the (n, ka, kb) array
-        for s in range(0, n, step):
-            rows = slice(s, s + step)
-            total = (DA[rows, :, None] + self._D[SA[rows, :, None], SB[rows, None, :]]
-                     + DB[rows, None, :]).reshape(-1, ka * kb)
-            # The first minimum in (a's vertex, b's vertex) order, as padding comes last.
-            k = np.argmin(total, axis=1)
-            best[rows] = total[np.arange(len(k)), k]
-            i, j = np.divmod(k, kb)
-            first[rows] = SA[rows][np.arange(len(k)), i]
-            last[rows] = SB[rows][np.arange(len(k)), j]
-        none = ~np.isfinite(best)
-        first[none] = last[none] = -1
-        return best, first, last
-
     def _query(self, P: np.ndarray, Q: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[_Endpoint], list[_Endpoint]]:
         """Per pair: the length, the first and the last graph vertex (-1, -1 when the path
@@ -394,7 +302,7 @@ class NavigationMap:
             if len(detour):
                 a, b = [A[k] for k in detour], [B[k] for k in detour]
                 self._see(a + b)
-                via, first[detour], last[detour] = self._detours(a, b)
+                via, first[detour], last[detour] = self._graph.detours(a, b)
                 lengths[detour] = la[~direct] + via + lb[~direct]
         return lengths, first, last, A, B
 
@@ -461,41 +369,9 @@ class NavigationMap:
         return lengths, times, landing
 
     def route_table(self, profile: BaseProfile) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """For every pair (i, j) of graph vertices, the heading of the first and of the last
-        leg of the shortest route i -> j, and its motion time under `profile`: the drives of
-        its legs and the turns at its inner vertices. Computed once per profile, by hop
-        count (a route is the route to its last vertex's predecessor plus one leg)."""
-        if profile in self._route_tables:
-            return self._route_tables[profile]
-        n = len(self.vertices)
-        V = self.vertices
-        dv = V[None, :, :] - V[:, None, :]  # dv[k, j] = V[j] - V[k]
-        edge_heading = np.arctan2(dv[..., 1], dv[..., 0])
-        edge_time = profile.drive_time(np.hypot(dv[..., 0], dv[..., 1]))
-        h_in = np.zeros((n, n))
-        h_out = np.zeros((n, n))
-        time_ij = np.zeros((n, n))
-        done = np.eye(n, dtype=bool)
-        reachable = np.isfinite(self._D)
-        rows = np.arange(n)[:, None].repeat(n, axis=1)
-        while True:
-            k = self._pred
-            todo = reachable & ~done
-            ready = todo & done[rows, np.where(k >= 0, k, 0)] & (k >= 0)
-            if not ready.any():
-                break
-            i, j = np.nonzero(ready)
-            kk = k[i, j]
-            single = kk == i
-            turn = profile.turn_time(wrap(edge_heading[kk, j] - h_out[i, kk]))
-            time_ij[i, j] = np.where(single, 0.0, time_ij[i, kk] + turn) + edge_time[kk, j]
-            h_in[i, j] = np.where(single, edge_heading[i, j], h_in[i, kk])
-            h_out[i, j] = edge_heading[kk, j]
-            done[i, j] = True
-        if self._sealed:
-            return h_in, h_out, time_ij
-        self._route_tables[profile] = (h_in, h_out, time_ij)
-        return self._route_tables[profile]
+        """`VisibilityGraph.route_table`: per pair of graph vertices, the headings of the
+        first and last leg of the shortest route and its motion time under `profile`."""
+        return self._graph.route_table(profile, keep=not self._sealed)
 
     def path(self, p: Sequence[float], q: Sequence[float]) -> np.ndarray | None:
         """Waypoints (k, 2) from p to q, or None when q is unreachable from p.
@@ -512,7 +388,7 @@ class NavigationMap:
         a, b = self._prepare(np.vstack([p, q]))
         points = [a.p, a.entry]
         if i >= 0:
-            points += [self.vertices[k] for k in self._vertex_route(i, j)]
+            points += [self.vertices[k] for k in self._graph.vertex_route(i, j)]
         points += [b.entry, b.p]
         out = [points[0]]
         for pt in points[1:]:
@@ -521,10 +397,3 @@ class NavigationMap:
         if len(out) == 1:
             out.append(points[-1])
         return np.array(out)
-
-    def _vertex_route(self, i: int, j: int) -> list[int]:
-        """Graph vertices from i to j along the precomputed shortest paths."""
-        route = [j]
-        while route[-1] != i:
-            route.append(int(self._pred[i, route[-1]]))
-        return route[::-1]
