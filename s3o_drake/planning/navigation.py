@@ -269,9 +269,9 @@ class NavigationMap:
             counts = [len(idx) for idx in seen]
             flat = np.concatenate(seen) if sum(counts) else np.zeros(0, int)
             d = np.linalg.norm(self.vertices[flat] - np.repeat(E, counts, axis=0), axis=1)
-            for e, idx, dist in zip(chunk, seen, np.split(d, np.cumsum(counts)[:-1]),
-                                    strict=True):
-                e.seen, e.seen_d = idx, dist
+            bounds = np.concatenate([[0], np.cumsum(counts)]).tolist()
+            for k, (e, idx) in enumerate(zip(chunk, seen, strict=True)):
+                e.seen, e.seen_d = idx, d[bounds[k]:bounds[k + 1]]
 
     # -------------------------------------------------------------------------- queries
     def _query(self, P: np.ndarray, Q: np.ndarray

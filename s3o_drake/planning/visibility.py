@@ -209,11 +209,7 @@ class VertexSight:
             & ok[:, None]
         mi, vi = np.nonzero(tangent)
         free = self.polygons.sees(E[mi], vi) if fast else ~self.edges.blocked(E[mi], V[vi])
-        result: list[np.ndarray] = [np.zeros(0, int) for _ in range(m)]
         mi, vi = mi[free], vi[free]
-        if len(mi):
-            splits = np.flatnonzero(np.diff(mi)) + 1
-            for group_m, group_v in zip(np.split(mi, splits), np.split(vi, splits),
-                                        strict=True):
-                result[group_m[0]] = group_v
-        return result
+        # mi is sorted (np.nonzero's row-major order): point k's vertices are one slice.
+        bounds = np.searchsorted(mi, np.arange(m + 1)).tolist()
+        return [vi[bounds[k]:bounds[k + 1]] for k in range(m)]
