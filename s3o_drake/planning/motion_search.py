@@ -88,7 +88,8 @@ SIGMA_FRACTION = 0.03
 generation 0 already starts in a good basin; measured on the restaurant (5 gotos, ring
 heatmaps, 6 seeds) the median utility was 393 at 0.25, 412 at 0.05, 437 at 0.03."""
 MAX_RESAMPLING = 100
-"""Rounds of `popsize` CMA-ES draws per generation to find samples inside the regions."""
+"""At most this many times `popsize` CMA-ES draws per generation to find samples inside
+the regions."""
 MIN_SIGMA = 0.05
 """Floor on the initial step size (m), for tiny regions."""
 _BLAS = ThreadpoolController()
@@ -336,19 +337,29 @@ class _Tally:
 
 
 def _ask_inside(es: cma.CMAEvolutionStrategy, problem: SequenceProblem, population: int) -> list:
-    """`population` solutions from `es`, each resampled (up to MAX_RESAMPLING rounds) until
-    all its positions lie in their regions: cma's own constraint handling (`ask_and_eval`
-    resamples infeasible solutions), here vectorised and without evaluating anything.
-    Solutions still outside after the rounds fill the rest and get the penalty."""
+    """`population` solutions from `es` whose positions all lie in their regions, drawn
+    until found or MAX_RESAMPLING x `population` draws are spent: cma's own constraint
+    handling (`ask_and_eval` resamples infeasible solutions), here vectorised and without
+    evaluating anything. Each batch asks for as many as the share inside so far says the
+    rest needs: where few draws land inside (small or thin regions) this takes a few asks
+    where one of `population` at a time took up to a hundred. Solutions still outside at
+    the end fill the rest and get the penalty."""
     inside: list = []
     outside: list = []
-    for _ in range(MAX_RESAMPLING):
-        asked = es.ask(population)
+    left = MAX_RESAMPLING * population
+    batch = population
+    while left > 0:
+        asked = es.ask(min(batch, left))
+        left -= len(asked)
         ok = problem.inside(np.array(asked).reshape(len(asked), problem.n, 2))
         inside += [x for x, good in zip(asked, ok, strict=True) if good]
         if len(inside) >= population:
             return inside[:population]
         outside += [x for x, good in zip(asked, ok, strict=True) if not good]
+        drawn = len(inside) + len(outside)
+        need = population - len(inside)
+        # No draw inside yet: four times as many as asked so far.
+        batch = math.ceil(1.25 * need * drawn / len(inside)) if inside else 4 * drawn
     return inside + outside[:population - len(inside)]
 
 
