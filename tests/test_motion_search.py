@@ -152,6 +152,27 @@ def test_deterministic_for_a_seed(scene):
         assert not np.array_equal(a.late, c.late)
 
 
+def test_cma_runs_on_one_blas_thread_and_gives_the_setting_back(scene, monkeypatch):
+    """CMA-ES's eigendecompositions are tiny: BLAS threads only contend for the cores that
+    the other searches and clingo use (motion_search._BLAS)."""
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    seen = []
+    eigh = np.linalg.eigh
+
+    def counting_eigh(a, *args, **kwargs):
+        seen.append(max(i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"))
+        return eigh(a, *args, **kwargs)
+
+    monkeypatch.setattr(np.linalg, "eigh", counting_eigh)
+    scenario, nav, regions, fea = scene
+    with threadpool_limits(limits=2, user_api="blas"):
+        grop_star(SEQUENCE, regions, fea, nav, scenario.robot.start, scenario.planner, seed=3)
+        after = [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    assert seen and set(seen) == {1}
+    assert set(after) == {2}
+
+
 def test_cma_beats_random_sampling(scene):
     """A narrow Fea^m peak per dish: CMA-ES with 200 samples does at least as well as 200
     uniform samples of the regions (and as GROP, which sees the heatmap)."""
