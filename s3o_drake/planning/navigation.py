@@ -204,7 +204,7 @@ class NavigationMap:
     def _prepare(self, P: np.ndarray) -> list[_Endpoint]:
         """Endpoints for points (m, 2), from the cache or computed in one batch."""
         P = np.asarray(P, dtype=float).reshape(-1, 2)
-        keys = [(float(x), float(y)) for x, y in P]
+        keys = list(map(tuple, P.tolist()))
         if self._sealed:
             # Copies: `_see` fills in what an endpoint sees, and the cache must not change.
             missing = sorted({k for k in keys if k not in self._endpoint_cache})
@@ -223,7 +223,6 @@ class NavigationMap:
         return [self._endpoint_cache[k] for k in keys]
 
     def _compute_endpoints(self, P: np.ndarray) -> list[_Endpoint]:
-        m = len(P)
         approx = self.clearance(P)
         slack = 1.5 * self.resolution
         clear = approx - slack > self._r_block + SLACK  # surely driveable, no geometry
@@ -252,9 +251,9 @@ class NavigationMap:
                 entry[band] = target
                 ok[band] = seg_ok
         lead = np.linalg.norm(entry - P, axis=1)
-        return [_Endpoint(P[k], entry[k], float(lead[k])) if ok[k] else
-                _Endpoint(P[k], None, math.inf, np.zeros(0, int), np.zeros(0))
-                for k in range(m)]
+        return [_Endpoint(p, e, d) if good else
+                _Endpoint(p, None, math.inf, np.zeros(0, int), np.zeros(0))
+                for p, e, d, good in zip(P, entry, lead.tolist(), ok.tolist(), strict=True)]
 
     def _see(self, ends: list[_Endpoint]) -> None:
         """Fills in the visible vertices of the endpoints that lack them, in one batch."""
