@@ -93,10 +93,11 @@ below LARGE locations to visit, where it proves orders: on the scale benchmark's
 every state space of the 10-dish tasks (8 locations, median) and half of those of the
 15-dish tasks (10)..."""
 LARGE = 12
-LARGE_STALL = 0.1
+LARGE_STALL = 0.05
 """...and from LARGE locations on after this long: there it proved no order in 2 s, and
-in 83 state spaces of 5-40 dish tasks it never found an order cheaper than local
-search's (docs/planning.md)."""
+in 83 state spaces of 5-40 dish tasks (and 48 more of the scale benchmark at 0.1 s) it
+never found an order cheaper than local search's (docs/planning.md). 0.1 s made the
+main process's task planning a quarter of a 40-dish plan's time."""
 
 
 class TaskPlanningError(RuntimeError):
