@@ -323,3 +323,35 @@ def test_plan_view_shortcuts_agree_with_drake(scenario_path):
     assert not (certainly_colliding & free).any()
     assert (certainly_free | certainly_colliding).mean() > 0.6
     assert 0.4 < scene.robot_radius < 0.5  # the base's half diagonal is 0.418 m
+
+
+@pytest.mark.parametrize("scenario_path", [REPO / "scenarios" / "restaurant.yaml",
+                                           REPO / "scenarios" / "restaurant_dense.yaml"])
+def test_the_posed_shortcut_agrees_with_drake_next_to_furniture(scenario_path):
+    """Where stops stand, 0.25-0.6 m from a table or chair at any yaw, the turned robot
+    extent never calls a pose free that Drake finds colliding, and it settles poses that
+    the radius test leaves to Drake."""
+    import shapely
+
+    from s3o_drake.known_world import Obstacles
+    from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN
+
+    scenario = load_scenario(scenario_path)
+    scene = FeasibilityScene(scenario)
+    rng = np.random.default_rng(7)
+    rings = Obstacles.of_scenario(scenario).union.buffer(0.25).boundary
+    n = 3000
+    on_ring = shapely.get_coordinates(shapely.line_interpolate_point(
+        rings, rng.uniform(0, 1, n), normalized=True))
+    xy = on_ring + rng.uniform(-0.35, 0.35, (n, 2))
+    bases = np.column_stack([xy, rng.uniform(-math.pi, math.pi, n)])
+    free = np.array(scene.checker.CheckConfigsCollisionFree(
+        [np.concatenate([b, ARM_STOW, GRIPPER_OPEN]) for b in bases]), dtype=bool)
+    posed = scene.clearance.certainly_free_posed(bases)
+    assert not (posed & ~free).any()
+    # Of the free poses that the radius and prism tests leave to Drake (measured: 730 and
+    # 682), the posed test settles 51 % and 39 %.
+    left = ~scene.clearance.certainly_free(bases[:, :2]) \
+        & ~scene.collision.certainly_colliding(bases) & scene.clearance.in_room(bases[:, :2])
+    assert (posed & left).sum() > (left & free).sum() / 3
+

@@ -252,6 +252,9 @@ class FeasibilityChecker:
         # answers the rest.
         free = self.scene.clearance.certainly_free(bases[rows, :2])
         open_ = np.flatnonzero(~free & self.scene.clearance.in_room(bases[rows, :2]))
+        posed = self.scene.clearance.certainly_free_posed(bases[rows[open_]])
+        free[open_[posed]] = True
+        open_ = open_[~posed]
         collides = self.scene.collision.certainly_colliding(bases[rows[open_]])
         ask = open_[~collides]
         if ask.size:

@@ -4,13 +4,16 @@ Most base poses a heatmap asks about stand in the open, and for those the Drake 
 query (robot with its arm stowed against the whole scene) only confirms what plan-view
 geometry already proves: if no obstacle comes within the robot's horizontal radius (plus the
 checker's padding) of the base's centre, nothing can touch it. `BaseClearance` answers
-"certainly free" from a distance field of the scene's footprints and walls; everything else
-still goes to the `SceneGraphCollisionChecker`, so the answers are Drake's own, only cheaper
-(a test compares them on random poses).
+"certainly free" from a distance field of the scene's footprints and walls, and for the
+poses near furniture from the robot's plan extent turned to the pose's yaw
+(`certainly_free_posed`: on a 40-dish task it leaves Drake 7,579 poses of 17,378);
+everything else still goes to the `SceneGraphCollisionChecker`, so the answers are Drake's
+own, only cheaper (tests compare them on random poses, and on poses next to furniture).
 
 Soundness rests on two bounds, both computed rather than assumed:
-- the robot's radius: the farthest corner of any of its collision shapes' bounding boxes
-  from the base's vertical axis, with the arm stowed and the fingers open (from the plant);
+- the robot's extent: the plan-view box of all its collision shapes' bounding boxes in the
+  base's frame, with the arm stowed and the fingers open (from the plant), and its radius,
+  the farthest corner of that box from the base's vertical axis;
 - the field: the footprints of `s3o_drake.furniture` (the same numbers the plant is built
   from; a dish lies within its table's top) rasterised with every cell touching an obstacle
   marked, and the distance read at a point reduced by one cell diagonal.
@@ -20,6 +23,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 from pydrake.geometry import Box, Capsule, Cylinder, Role, Sphere
 
 from s3o_drake.furniture import DistanceField
@@ -45,13 +49,13 @@ def _shape_half_extents(shape) -> np.ndarray:
     raise TypeError(f"no bounding box for a {type(shape).__name__} collision shape")
 
 
-def robot_horizontal_radius(plant, scene_graph_inspector, robot, context) -> float:
-    """Largest horizontal distance (m) of the robot's collision geometry from base_link's
-    vertical axis, with the arm stowed: bounding-box corners of every proximity shape."""
+def robot_plan_extent(plant, scene_graph_inspector, robot, context) -> np.ndarray:
+    """[x_lo, x_hi, y_lo, y_hi] (m) of the robot's collision geometry in base_link's frame,
+    with the arm stowed: bounding-box corners of every proximity shape."""
     plant.SetPositions(context, robot, robot_positions(0.0, 0.0, 0.0, arm=ARM_STOW,
                                                         gripper=GRIPPER_OPEN))
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-    radius = 0.0
+    corners = []
     for body_index in plant.GetBodyIndices(robot):
         body = plant.get_body(body_index)
         X_WB = plant.EvalBodyPoseInWorld(context, body)
@@ -59,17 +63,34 @@ def robot_horizontal_radius(plant, scene_graph_inspector, robot, context) -> flo
         for geometry in scene_graph_inspector.GetGeometries(frame_id, Role.kProximity):
             X_BG = scene_graph_inspector.GetPoseInFrame(geometry)
             corners_G = signs * _shape_half_extents(scene_graph_inspector.GetShape(geometry))
-            p_WC = (X_WB @ X_BG).multiply(corners_G.T).T
-            radius = max(radius, float(np.hypot(p_WC[:, 0], p_WC[:, 1]).max()))
-    return radius
+            corners.append((X_WB @ X_BG).multiply(corners_G.T).T[:, :2])
+    xy = np.vstack(corners)
+    return np.array([xy[:, 0].min(), xy[:, 0].max(), xy[:, 1].min(), xy[:, 1].max()])
+
+
+def robot_horizontal_radius(extent: np.ndarray) -> float:
+    """Largest horizontal distance (m) of the robot's collision geometry from base_link's
+    vertical axis: the farthest corner of its plan extent (`robot_plan_extent`)."""
+    x_lo, x_hi, y_lo, y_hi = extent
+    return float(math.hypot(max(-x_lo, x_hi), max(-y_lo, y_hi)))
 
 
 class BaseClearance:
     """Which base positions are certainly collision-free (see the module docstring)."""
 
-    def __init__(self, obstacles: Obstacles, *, robot_radius: float, padding: float,
+    def __init__(self, obstacles: Obstacles, *, robot_extent: np.ndarray, padding: float,
                  resolution: float = FIELD_RESOLUTION):
+        """`robot_extent`: `robot_plan_extent`; `padding`: the collision checker's."""
         self.bounds = obstacles.room.bounds
+        self._extent = np.asarray(robot_extent, dtype=float)
+        robot_radius = robot_horizontal_radius(self._extent)
+        # Where the posed test measures: the footprints, and the room shrunk by the gap
+        # (the walls stand outside it).
+        self._gap = padding + SAFETY_MARGIN
+        self._obstacles = obstacles.union
+        shapely.prepare(self._obstacles)
+        self._inside = obstacles.room.buffer(-self._gap, join_style="mitre")
+        shapely.prepare(self._inside)
         # A cell counts as occupied when any of it touches an obstacle.
         self._field = DistanceField.of(obstacles.union, self.bounds, resolution,
                                        grow=resolution / math.sqrt(2))
@@ -87,6 +108,28 @@ class BaseClearance:
     def certainly_free(self, xy: np.ndarray) -> np.ndarray:
         """bool (n,) for base positions (n, 2): True only where no collision is possible."""
         return self._field.at(xy) > self.required
+
+    def certainly_free_posed(self, bases: np.ndarray) -> np.ndarray:
+        """bool (n,) for base poses (n, 3): True only where no collision is possible at that
+        yaw: the robot's plan extent, turned and placed, keeps more than the checker's
+        padding (and SAFETY_MARGIN) from every footprint and inside the room. Plan-view
+        distances bound the 3-D ones from below, so this is sound as `certainly_free` is,
+        and it settles the poses near furniture that the radius cannot (a stop facing a
+        table stands closer to it than the robot's corners reach)."""
+        bases = np.asarray(bases, dtype=float).reshape(-1, 3)
+        if not len(bases):
+            return np.zeros(0, dtype=bool)
+        x_lo, x_hi, y_lo, y_hi = self._extent
+        local = np.array([[x_lo, y_lo], [x_hi, y_lo], [x_hi, y_hi], [x_lo, y_hi]])
+        c, s = np.cos(bases[:, 2])[:, None], np.sin(bases[:, 2])[:, None]
+        corners = np.stack([bases[:, :1] + c * local[:, 0] - s * local[:, 1],
+                            bases[:, 1:2] + s * local[:, 0] + c * local[:, 1]], axis=-1)
+        footprints = shapely.polygons(corners)
+        free = shapely.contains(self._inside, footprints)
+        if not self._obstacles.is_empty:
+            ask = np.flatnonzero(free)
+            free[ask] = shapely.distance(footprints[ask], self._obstacles) > self._gap
+        return free
 
 
 #: Overlap (m) two shapes must have before they count as certainly touching: far above

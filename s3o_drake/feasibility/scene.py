@@ -19,6 +19,7 @@ from s3o_drake.feasibility.clearance import (
     BaseClearance,
     CertainCollision,
     robot_horizontal_radius,
+    robot_plan_extent,
 )
 from s3o_drake.known_world import Obstacles
 from s3o_drake.robot import (
@@ -64,11 +65,12 @@ class FeasibilityScene:
         self.arm_base_frame = self.plant.GetFrameByName(ARM_BASE_LINK, self.robot)
         context = self.plant.CreateDefaultContext()
         inspector = self.diagram.scene_graph().model_inspector()
-        self.robot_radius = robot_horizontal_radius(self.plant, inspector, self.robot, context)
+        extent = robot_plan_extent(self.plant, inspector, self.robot, context)
+        self.robot_radius = robot_horizontal_radius(extent)
         """Horizontal reach (m) of the robot's collision geometry with the arm stowed."""
         self.clearance = BaseClearance(
             Obstacles.of_scenario(scenario) if obstacles is None else obstacles,
-            robot_radius=self.robot_radius, padding=padding)
+            robot_extent=extent, padding=padding)
         self.collision = CertainCollision.of_scene(self.plant, inspector, self.robot, context)
         """Base positions that need no collision query (see `clearance`)."""
 
