@@ -201,7 +201,7 @@ def test_the_plan_predicts_the_simulated_execution(executed):
     # navigator by a fraction of a millimetre and a milliradian).
     assert drives[3] == pytest.approx(costs.base.turn_time(turn), abs=1e-3)
 
-    fitted = sum(float(costs.pickup_times(d, stop)[0]) for d in (first, second))
+    fitted = float(costs.pickup_times([first, second], np.stack([stop, stop], axis=1))[0].sum())
     # A pickup the arm could not plan (no_ik, no_path) fails at once: its report is read a
     # period later, then the two hand-over ticks.
     real = sum(arms.get(cid, -0.5 * CONTROL_PERIOD) for cid in (2, 4)) \

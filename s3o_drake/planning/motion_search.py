@@ -270,15 +270,16 @@ class SequenceProblem:
             goto_cost = np.where(np.isfinite(lengths), goto_time, 0.0)
         else:
             goto_cost = np.where(np.isfinite(lengths), lengths, 0.0) / p.speed + costs.gamma
-        F = np.zeros((m, len(self.picks)))
-        delta = np.zeros((m, len(self.picks)))
-        pickup_time = np.zeros((m, len(self.picks)))
-        for j, (g, dish) in enumerate(self.picks):
-            where = np.broadcast_to(self.start, (m, 2)) if g < 0 else X[:, g]
-            F[:, j] = self.feasibility.values(dish, where)
-            delta[:, j] = costs.pickup_costs(dish, where)
-            if timed:
-                pickup_time[:, j] = delta[:, j] if robot else costs.pickup_times(dish, where)
+        dishes = [dish for _, dish in self.picks]
+        where = np.stack([np.broadcast_to(self.start, (m, 2)) if g < 0 else X[:, g]
+                          for g, _ in self.picks], axis=1) if dishes else np.zeros((m, 0, 2))
+        F = np.zeros((m, len(dishes)))
+        for j, dish in enumerate(dishes):
+            F[:, j] = self.feasibility.values(dish, where[:, j])
+        delta = costs.pickup_costs(dishes, where)
+        pickup_time = np.zeros((m, len(dishes)))
+        if timed:
+            pickup_time = delta if robot else costs.pickup_times(dishes, where)
         start_cost = start_turns if robot else 0.0
         utility = -goto_cost.sum(axis=1) - start_cost + (-delta + p.reward * F).sum(axis=1)
         bad = ~(ok & drivable)

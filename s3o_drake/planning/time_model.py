@@ -262,16 +262,25 @@ class CostModel:
         return self.planner.gamma if self.profile == "paper" else self.model.overheads.gamma
 
     # ----------------------------------------------------------------------- the parts
-    def pickup_times(self, dish: str, where: np.ndarray) -> np.ndarray:
-        """δ (s) of picking `dish` from base positions `where` (m, 2)."""
-        d = np.linalg.norm(np.asarray(where, float).reshape(-1, 2) - self.dishes[dish].xy, axis=1)
-        return self.model.pickup_time(self.dishes[dish].kind, d)
+    def pickup_times(self, dishes: Sequence[str], where: np.ndarray) -> np.ndarray:
+        """δ (s) of picking each of `dishes` (k) from its base positions `where` (m, k, 2):
+        (m, k). The dishes of a kind share one pickup model, so they go in one batch."""
+        where = np.asarray(where, float).reshape(-1, len(dishes), 2)
+        xy = np.array([self.dishes[d].xy for d in dishes], dtype=float).reshape(1, -1, 2)
+        distance = np.linalg.norm(where - xy, axis=2)
+        out = np.zeros(distance.shape)
+        kinds = [self.dishes[d].kind for d in dishes]
+        for kind in sorted(set(kinds)):
+            cols = [j for j, k in enumerate(kinds) if k == kind]
+            out[:, cols] = self.model.pickup_time(kind, distance[:, cols])
+        return out
 
-    def pickup_costs(self, dish: str, where: np.ndarray) -> np.ndarray:
-        """δ of the utility for picking `dish` from positions `where` (m, 2)."""
+    def pickup_costs(self, dishes: Sequence[str], where: np.ndarray) -> np.ndarray:
+        """δ of the utility for picking each of `dishes` (k) from `where` (m, k, 2): (m, k)."""
         if self.profile == "paper":
-            return np.full(len(np.asarray(where).reshape(-1, 2)), self.planner.delta)
-        return self.pickup_times(dish, where)
+            return np.full(np.asarray(where).reshape(-1, len(dishes), 2).shape[:2],
+                           self.planner.delta)
+        return self.pickup_times(dishes, where)
 
     def facing(self, where: np.ndarray, dish: str) -> np.ndarray:
         """Yaw (m,) of base positions `where` (m, 2) facing `dish`."""
