@@ -60,18 +60,32 @@ def _connected_blocks(v: int, remaining: frozenset[int],
 
 def connected_partitions(n: int, adjacency: Sequence[set[int]]) -> Iterator[Partition]:
     """Every partition of range(n) into connected groups, plain Voronoi first."""
+    for partition, _ in scored_partitions(n, adjacency, lambda group: 0.0):
+        yield partition
 
-    def split(remaining: frozenset[int]) -> Iterator[list[tuple[int, ...]]]:
+
+def scored_partitions(n: int, adjacency: Sequence[set[int]],
+                      group_score: Callable[[tuple[int, ...]], float]
+                      ) -> Iterator[tuple[Partition, float]]:
+    """`connected_partitions` with each partition's score, the sum of `group_score` over
+    its groups, added up along the enumeration (a group's score is asked once per branch,
+    not once per partition that holds it).
+
+    Each block holds the smallest dish left, so the blocks come in the canonical order
+    already (sorted tuples, sorted by their first element)."""
+
+    def split(remaining: frozenset[int], groups: tuple[tuple[int, ...], ...],
+              score: float) -> Iterator[tuple[Partition, float]]:
+        # The score adds up from the first group on, as sum() over the partition would.
         if not remaining:
-            yield []
+            yield groups, score
             return
         v = min(remaining)
         for block in _connected_blocks(v, remaining, adjacency):
-            for rest in split(remaining - block):
-                yield [tuple(sorted(block)), *rest]
+            group = tuple(sorted(block))
+            yield from split(remaining - block, (*groups, group), score + group_score(group))
 
-    for groups in split(frozenset(range(n))):
-        yield canonical(groups)
+    yield from split(frozenset(range(n)), (), 0)
 
 
 def _groups_adjacent(a: tuple[int, ...], b: tuple[int, ...],
@@ -121,8 +135,7 @@ def generate_candidates(n: int, adjacency: Sequence[set[int]],
     """
     deadline = time.perf_counter() + time_limit
     if n <= exhaustive_max_dishes:
-        source: Iterator[tuple[Partition, float]] = (
-            (p, sum(group_score(g) for g in p)) for p in connected_partitions(n, adjacency))
+        source: Iterator[tuple[Partition, float]] = scored_partitions(n, adjacency, group_score)
     else:
         source = beam_partitions(n, adjacency, group_score, beam_width=beam_width)
     found: list[tuple[Partition, float]] = []
