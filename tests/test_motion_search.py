@@ -177,6 +177,21 @@ def test_cma_runs_on_one_blas_thread_and_gives_the_setting_back(scene, monkeypat
     assert set(after) == {2}
 
 
+def test_sequences_without_a_goto_need_no_search(scene):
+    """A sequence without a goto is scored as it is, with no positions: the empty one (no
+    dish left to collect) at 0, one picking a dish from the start at that pickup's
+    utility."""
+    scenario, nav, regions, fea = scene
+    p = scenario.planner
+    start_fea = fea.values("plate_a", np.asarray(scenario.robot.start[:2], float)[None])[0]
+    for search in (grop_star, grop):
+        for sequence, utility in (([], 0.0),
+                                  ([("pickup", "plate_a")], p.reward * start_fea - p.delta)):
+            result = search(sequence, regions, fea, nav, scenario.robot.start, p, seed=1)
+            assert result.positions.shape == (0, 2) and result.samples == 1
+            assert result.utility == pytest.approx(utility)
+
+
 def test_cma_beats_random_sampling(scene):
     """A narrow Fea^m peak per dish: CMA-ES with 200 samples does at least as well as 200
     uniform samples of the regions (and as GROP, which sees the heatmap)."""

@@ -265,7 +265,8 @@ class CostModel:
     def pickup_times(self, dishes: Sequence[str], where: np.ndarray) -> np.ndarray:
         """δ (s) of picking each of `dishes` (k) from its base positions `where` (m, k, 2):
         (m, k). The dishes of a kind share one pickup model, so they go in one batch."""
-        where = np.asarray(where, float).reshape(-1, len(dishes), 2)
+        where = np.asarray(where, float)
+        where = where.reshape(len(where), len(dishes), 2)
         xy = np.array([self.dishes[d].xy for d in dishes], dtype=float).reshape(1, -1, 2)
         distance = np.linalg.norm(where - xy, axis=2)
         out = np.zeros(distance.shape)
@@ -278,8 +279,7 @@ class CostModel:
     def pickup_costs(self, dishes: Sequence[str], where: np.ndarray) -> np.ndarray:
         """δ of the utility for picking each of `dishes` (k) from `where` (m, k, 2): (m, k)."""
         if self.profile == "paper":
-            return np.full(np.asarray(where).reshape(-1, len(dishes), 2).shape[:2],
-                           self.planner.delta)
+            return np.full((len(where), len(dishes)), self.planner.delta)
         return self.pickup_times(dishes, where)
 
     def facing(self, where: np.ndarray, dish: str) -> np.ndarray:
