@@ -201,6 +201,9 @@ class ExecutionSettings:
     pickup."""
     correction_radius: float = 0.3
     """How far (m) a corrective move may go from the localised pose."""
+    detour: bool = True
+    """When no stop within correction_radius reaches min_feasibility, a correction may
+    drive round to the dish's best stop anywhere on its heatmap."""
     max_corrections: int = 2
     """Corrective moves before one pickup attempt, at most."""
     max_tries: int = 3

@@ -66,6 +66,31 @@ def test_a_stop_out_of_reach_is_corrected_to_a_feasible_one_nearby(scenario, che
     assert check.correction(np.array([0.5, 0.5]), "bowl_south", radius=0.3) is None
 
 
+def test_a_dish_out_of_reach_across_the_table_is_reached_by_a_detour(scenario):
+    """A stop on the far side of the table (a merged stop that suits the other dish) has no
+    acceptable stop for bowl_south within the correction radius; the detour drives round
+    the table, along the navigation map, to a stop the true world's arm picks it from."""
+    from s3o_drake.planning.navigation import NavigationMap
+
+    known = KnownWorld.perfect(scenario)
+    nav = NavigationMap(known.obstacles)
+    check = StopCheck(known, tuple(heatmaps_for(known, source="oracle")), nav)
+    north = np.array([2.5, 3.0, -np.pi / 2])  # 0.65 m north of bowl_north, 1.35 m of south
+    near = check.correction(north, "bowl_south", radius=0.3)
+    assert near is None or near[1] < 0.5
+    target, feasibility = check.correction(north, "bowl_south", radius=0.3, threshold=0.5,
+                                           detour=True)
+    assert feasibility >= 0.5 and feasibility == check.feasibility(target, "bowl_south")
+    assert target[1] < 1.65  # south of the dish: round the table
+    assert np.isfinite(nav.path_length(north[:2], target))
+    pose = np.array([*target, facing_yaw(target, np.array([2.5, 1.65]))])
+    assert make_oracle(scenario).success(pose[None], "bowl_south")[0]
+    # An acceptable stop within the radius needs no detour.
+    south = np.array([2.5, 0.9, np.pi / 2])
+    assert np.linalg.norm(check.correction(south, "bowl_south", radius=0.3, threshold=0.5,
+                                           detour=True)[0] - south[:2]) <= 0.3 + 1e-9
+
+
 def test_where_the_robot_stands_is_rated_by_the_model_and_moves_go_to_free_stops(scenario):
     """The stop check rates the believed position with the model's Fea^m (the robot stands
     there: whether a stop *sent* there would collide is not the question), and corrects
@@ -179,6 +204,39 @@ def test_failed_pickups_are_retried_then_left_with_retry(scenario):
     assert not progress.finished  # on with the next dish
     _step(system, context)
     assert system.GetOutputPort("base_command").Eval(context).id > third.id
+
+
+def test_a_dish_whose_replan_finds_no_plan_is_left_and_the_old_plan_goes_on(scenario,
+                                                                            monkeypatch):
+    """A replan after a dish failed its tries that finds no plan (the dense study's runs
+    ended so, other dishes still on the tables) leaves that dish, and the plan goes on."""
+    import s3o_drake.execution.s3o_planner as module
+
+    system, context = _planner(scenario, recovery="replan", max_tries=1)
+    plan = system.GetOutputPort("plan").Eval(context)
+    goto, pickup, command = _first_stop(system, context)
+    real = module.plan_from
+    monkeypatch.setattr(module, "plan_from", lambda *a, **k: dataclasses.replace(
+        real(*a, **k), plan=None, error="no plan: none valid (test)"))
+    _land(system, context, goto.pose)
+    _finish(system, context, "base_status", command)
+    _step(system, context)
+    pick = system.GetOutputPort("pick_command").Eval(context)
+    assert pick.dish == pickup.dish
+    _finish(system, context, "arm_status", pick, "failed", "no_ik")
+    progress = system.GetOutputPort("progress").Eval(context)
+    assert [r.kind for r in progress.recoveries] == ["replan", "give_up"]
+    assert progress.recoveries[0].result == "no plan: none valid (test)"
+    assert progress.recoveries[1].dish == pickup.dish and len(progress.plans) == 2
+    assert not progress.finished
+    assert system.GetOutputPort("plan").Eval(context) is plan
+    # On with the old plan's next action.
+    _step(system, context)
+    step = system.GetOutputPort("progress").Eval(context).step
+    assert plan.actions[step - 1] is not pickup and not progress.finished
+    nxt = plan.actions[plan.actions.index(pickup) + 1]
+    port = "base_command" if isinstance(nxt, Goto) else "pick_command"
+    assert system.GetOutputPort(port).Eval(context).id > pick.id
 
 
 def test_a_blocked_drive_is_replanned_from_where_the_robot_stands(scenario):
@@ -300,6 +358,25 @@ def test_a_study_s_recovery_figures_count_what_the_runs_report():
     assert (f["pickable"], f["pickable_collected"]) == (4, 3)
     assert f["pickable_missed"] == ["t1/d"] and f["ended_early"] == 1
     assert "| pickable dishes collected | 3 of 4 |" in recovery_table({"M": f})
+    assert f["incomplete"] == {"no plan": 0, "blocked drive": 1, "dish given up": 0,
+                               "dish unreachable on the map": 0, "other": 1}
+    assert "| incomplete runs: blocked drive | 1 |" in recovery_table({"M": f})
+
+
+def test_incomplete_runs_are_told_apart_by_what_ended_them():
+    from s3o_drake.evaluation.recovery_summary import incomplete_cause
+
+    give_up = {"kind": "give_up"}
+    assert incomplete_cause({"planned": False, "reason": "no plan: x"}) == "no plan"
+    # A replan that found no plan ends the run as surely as a first plan that did not.
+    assert incomplete_cause({"reason": "no plan: S3O: no valid plan",
+                             "recoveries": [give_up]}) == "no plan"
+    assert incomplete_cause({"reason": "goto l0 failed: blocked"}) == "blocked drive"
+    assert incomplete_cause({"reason": "plan ended", "recoveries": [give_up],
+                             "unreachable": ["a"]}) == "dish given up"
+    assert incomplete_cause({"reason": "plan ended", "recoveries": [],
+                             "unreachable": ["a"]}) == "dish unreachable on the map"
+    assert incomplete_cause({"reason": "the simulation failed at t = 3 s"}) == "other"
 
 
 def test_recovery_is_set_against_the_same_runs_in_open_loop():

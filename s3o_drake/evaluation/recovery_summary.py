@@ -7,6 +7,7 @@ from some free pose of the true world (the task's per-dish pickable area from th
 difficulty measure is positive) against those collected, and the runs that ended before
 their plan did (a blocked drive past the replan limit, no plan, the time limit or a failed
 simulation): with recovery none of these should remain while something could be tried.
+The runs that did not collect every dish are counted by their cause (`incomplete_cause`).
 
 Given the same runs in open loop (`open_loop`: the same tasks, methods and run seeds, with
 `--recovery none`), it also sets each run against its open-loop twin: completion, the mean
@@ -20,6 +21,26 @@ from collections.abc import Mapping, Sequence
 from s3o_drake.execution.messages import ran_to_end
 
 KINDS = ("correction", "retry", "replan", "give_up")
+#: Why a run did not collect every dish, in the order `incomplete_cause` tells them apart.
+CAUSES = ("no plan", "blocked drive", "dish given up", "dish unreachable on the map", "other")
+
+
+def incomplete_cause(run: Mapping) -> str:
+    """Why `run`, which did not collect every dish, fell short (one of CAUSES): it ended
+    with no plan (at the start or at a replan), on a blocked drive past the replan limit,
+    or its plan ran to the end with a dish given up after its tries in every plan it was
+    given, or with a dish that no free pose of the known map picks (`unreachable`)."""
+    reason = run.get("reason") or ""
+    if not run.get("planned", True) or reason.startswith("no plan"):
+        return "no plan"
+    if reason.endswith("failed: blocked"):
+        return "blocked drive"
+    if ran_to_end(reason):
+        if any(r.get("kind") == "give_up" for r in run.get("recoveries", [])):
+            return "dish given up"
+        if run.get("unreachable"):
+            return "dish unreachable on the map"
+    return "other"
 
 
 def collected_dishes(run: Mapping) -> set[str]:
@@ -61,7 +82,9 @@ def recovery_figures(runs: Sequence[Mapping], methods: Sequence[str],
             "cost_per_run": cost / runs_n if runs_n else 0.0,
             "replan_planning_per_run": planning / runs_n if runs_n else 0.0,
             "pickable": pickable, "pickable_collected": collected_pickable,
-            "pickable_missed": missed, "ended_early": ended_early}
+            "pickable_missed": missed, "ended_early": ended_early,
+            "incomplete": {cause: sum(incomplete_cause(r) == cause for r in mine
+                                      if not r.get("complete")) for cause in CAUSES}}
         pairs = [(r, twins[key]) for r in mine
                  if (key := (r["task"], method, r.get("run_seed"))) in twins]
         if pairs:
@@ -94,6 +117,8 @@ def recovery_table(figures: Mapping[str, Mapping]) -> str:
              ("pickable dishes collected",
               lambda f: f"{f['pickable_collected']} of {f['pickable']}"),
              ("runs ended before their plan", lambda f: str(f["ended_early"]))]
+    rows += [(f"incomplete runs: {cause}", lambda f, c=cause: str(f["incomplete"][c]))
+             for cause in CAUSES]
     if all("open_loop" in figures[m] for m in methods):
         rows += [("open loop: same runs", lambda f: str(f["open_loop"]["pairs"])),
                  ("completion, open loop -> recovery",

@@ -22,7 +22,7 @@ from s3o_drake.execution.messages import (
 )
 from s3o_drake.execution.recovery import StopCheck
 from s3o_drake.planning.pipeline import PlanningResult
-from s3o_drake.planning.plan import TaskMotionPlan
+from s3o_drake.planning.plan import Goto, Place, TaskMotionPlan
 
 
 @dataclass(frozen=True)
@@ -88,6 +88,20 @@ class ExecutionState:
     def put(self) -> set[str]:
         """The objects put down at their places so far."""
         return {o.argument for o in self.outcomes if o.action == "place" and o.done}
+
+    def place_stop(self, dish: str, here) -> tuple[float, float, float] | None:
+        """The base pose the plan puts `dish` down from, when a place of it follows the
+        action at `step`: the pose of the last goto before that place (`here`, where the
+        base stands, when the place is at this stop); None when none follows."""
+        actions = self.plan.actions
+        put = next((k for k in range(self.step + 1, len(actions))
+                    if isinstance(actions[k], Place) and actions[k].dish == dish), None)
+        if put is None:
+            return None
+        goto = next((actions[k] for k in range(put - 1, self.step, -1)
+                     if isinstance(actions[k], Goto)), None)
+        pose = here if goto is None else goto.pose
+        return tuple(float(v) for v in pose)
 
     def next_step(self, **changes) -> ExecutionState:
         """On to the next action, every per-pickup field reset."""

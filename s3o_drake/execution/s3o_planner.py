@@ -25,7 +25,8 @@ arm found no way (at most `max_tries` attempts per dish and plan). With `replan`
 blocked drive, or a dish that failed all its tries, makes the planner plan the dishes that
 remain from where the robot believes it stands, with the same pipeline and
 `execution.replan_budget`, and go on (at most `max_replans` per run; a dish that failed all
-its tries in PLANS_PER_DISH plans is left). Dishes that no free pose of the known world
+its tries in PLANS_PER_DISH plans is left, and so is one whose replan finds no plan: the
+old plan then goes on). Dishes that no free pose of the known world
 can pick are reported on `progress.unreachable`, and every recovery as a `RecoveryRecord`.
 
 A change of the optional `replan_request` input's value also plans the dishes not yet
@@ -227,8 +228,9 @@ class S3OPlanner(LeafSystem):
             return dataclasses.replace(e, finished=True, reason=PLAN_ENDED)
         belief = self._belief(context, e)
         t = context.get_time()
-        e = self._plan(context, dataclasses.replace(e, replans=e.replans + 1), start=belief,
-                       dishes=remaining, budget=self._settings.replan_budget, held=held)
+        before = dataclasses.replace(e, replans=e.replans + 1)
+        e = self._plan(context, before, start=belief, dishes=remaining,
+                       budget=self._settings.replan_budget, held=held)
         plan = e.plan
         result = "done" if plan is not None else e.reason
         action = (f"planned {len(remaining)} dish{'es' if len(remaining) > 1 else ''} from "
@@ -236,6 +238,13 @@ class S3OPlanner(LeafSystem):
                   + (f": {len(plan.actions)} actions" if plan is not None else ""))
         record = RecoveryRecord("replan", dish, trigger, action, result, t, t,
                                 planning_time=e.plans[-1].planning_time)
+        if plan is None and dish:
+            # No plan for what remains (the motion search found no valid one, often for the
+            # very dish that failed): that dish is left and the old plan goes on, rather than
+            # the run ending with the other dishes still on the tables.
+            before = dataclasses.replace(before, plans=e.plans,
+                                         recoveries=(*before.recoveries, record))
+            return self._give_up(context, before, before.plan.actions[before.step], trigger)
         return dataclasses.replace(e, recoveries=(*e.recoveries, record))
 
     # ------------------------------------------------------------------------- events
@@ -324,28 +333,11 @@ class S3OPlanner(LeafSystem):
             return self._send_base(e, turn, turning=True)
         placing = isinstance(action, Place)
         command = PickCommand(id=cid, dish=action.dish, place=placing,
-                              place_from=None if placing else self._place_stop(e, action.dish,
-                                                                               here))
+                              place_from=None if placing else e.place_stop(action.dish, here))
         return dataclasses.replace(e, command_id=cid, next_id=cid + 1, turned=True,
                                    pick_command=command,
                                    pick_pose=(float(x), float(y), float(yaw)),
                                    pick_started=context.get_time())
-
-    @staticmethod
-    def _place_stop(e: ExecutionState, dish: str,
-                    here: np.ndarray) -> tuple[float, float, float] | None:
-        """The base pose the plan puts `dish` down from, when a place of it follows the
-        action at `e.step`: the pose of the last goto before that place (`here`, where the
-        base stands, when the place is at this stop); None when none follows."""
-        actions = e.plan.actions
-        put = next((k for k in range(e.step + 1, len(actions))
-                    if isinstance(actions[k], Place) and actions[k].dish == dish), None)
-        if put is None:
-            return None
-        goto = next((actions[k] for k in range(put - 1, e.step, -1)
-                     if isinstance(actions[k], Goto)), None)
-        pose = here if goto is None else goto.pose
-        return tuple(float(v) for v in pose)
 
     @staticmethod
     def _target(action: Pickup | Place) -> str:
@@ -368,7 +360,9 @@ class S3OPlanner(LeafSystem):
             trigger = f"stop check at ({belief[0]:.2f}, {belief[1]:.2f}): {trigger}"
         else:
             trigger = f"pickup failed: {e.last_failure}"
-        best = e.check.correction(belief, dish, self._settings.correction_radius)
+        best = e.check.correction(belief, dish, self._settings.correction_radius,
+                                  threshold=self._settings.min_feasibility,
+                                  detour=self._settings.detour)
         if best is None or (not e.force_move
                             and np.linalg.norm(best[0] - belief[:2]) < MIN_CORRECTION):
             return None
@@ -433,11 +427,18 @@ class S3OPlanner(LeafSystem):
                 and exhausted.count(action.dish) < PLANS_PER_DISH):
             return self._replan(context, dataclasses.replace(e, exhausted=exhausted),
                                 trigger=trigger, dish=action.dish)
+        return self._give_up(context, dataclasses.replace(e, exhausted=exhausted), action,
+                             trigger)
+
+    def _give_up(self, context: Context, e: ExecutionState, action: Pickup | Place,
+                 trigger: str) -> ExecutionState:
+        """The dish of `action` (at `e.step`) is left on the table, or, held, put on the
+        tray; the plan goes on."""
         t = context.get_time()
         placing = isinstance(action, Place)
         left = "put on the tray" if placing else "left on the table"
         give_up = RecoveryRecord("give_up", action.dish, trigger, left, "done", t, t)
-        e = e.next_step(exhausted=exhausted, given_up=(*e.given_up, action.dish),
+        e = e.next_step(given_up=(*e.given_up, action.dish),
                         recoveries=(*e.recoveries, give_up),
                         to_tray=action.dish if placing else "")
         return e if placing else self._after(e)
