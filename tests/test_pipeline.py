@@ -154,3 +154,34 @@ robot: {start: [1.0, 3.0, 0.0]}
     cup = Heatmap("cup", np.where(corner, 0.99, np.where(above, 0.6, 0.0)), 0.0, 0.0, 0.05)
     lost = Heatmap("lost", np.where(corner, 0.99, 0.0), 0.0, 0.0, 0.05)
     assert best_stops(known, [cup, lost]) == {"cup": pytest.approx(0.6), "lost": 0.0}
+
+
+def test_dishes_left_out_on_the_network_alone_are_unchecked(known, heatmaps, monkeypatch):
+    """With the network's Fea^m, a dish the plan leaves out is `unchecked` unless the
+    Drake check of the known world ran and found no stop for it."""
+    import s3o_drake.planning.pipeline as pipeline
+
+    lost = known.dish_names[0]
+    real = pipeline._plan
+
+    def losing(known, method, maps, seed, budget, *rest):
+        result = real(known, method, maps, seed, 60.0, *rest)
+        return dataclasses.replace(result, plan=dataclasses.replace(
+            result.plan, unreachable=(lost,)))
+
+    monkeypatch.setattr(pipeline, "_plan", losing)
+    # No budget left for the check (planning "started" long ago): unchecked.
+    result = plan_from(known, method="V-GROP", heatmaps=heatmaps, feasibility="fcn",
+                       time_budget=1.0, started=0.0)
+    assert result.unchecked == (lost,)
+    # The check ran and found no stop: left out for good.
+    empty = [dataclasses.replace(h, values=np.zeros_like(h.values)) for h in heatmaps]
+    monkeypatch.setattr(pipeline, "compute_heatmaps",
+                        lambda scenario, dishes, **kwargs: [
+                            next(h for h in empty if h.dish == d) for d in dishes])
+    result = plan_from(known, method="V-GROP", heatmaps=heatmaps, feasibility="fcn",
+                       time_budget=60.0)
+    assert result.plan.unreachable == (lost,) and result.unchecked == ()
+    # The oracle's Fea^m is exact: nothing is unchecked.
+    assert plan_from(known, method="V-GROP", heatmaps=heatmaps, feasibility="oracle",
+                     time_budget=60.0).unchecked == ()

@@ -239,6 +239,59 @@ def test_a_dish_whose_replan_finds_no_plan_is_left_and_the_old_plan_goes_on(scen
     assert system.GetOutputPort(port).Eval(context).id > pick.id
 
 
+def _walk(system, context, limit=60):
+    """Finishes every command the planner sends (drives land where they were sent) until
+    the execution finishes; returns its progress."""
+    seen = 0
+    for _ in range(limit):
+        _step(system, context)
+        progress = system.GetOutputPort("progress").Eval(context)
+        if progress.finished:
+            return progress
+        base = system.GetOutputPort("base_command").Eval(context)
+        pick = system.GetOutputPort("pick_command").Eval(context)
+        if max(base.id, pick.id) <= seen:
+            continue
+        seen = max(base.id, pick.id)
+        if base.id == seen:
+            _land(system, context, base.pose)
+            _finish(system, context, "base_status", base)
+        else:
+            _finish(system, context, "arm_status", pick)
+    raise AssertionError("the execution did not finish")
+
+
+def test_a_dish_left_out_unchecked_is_planned_for_again_at_the_plan_s_end(scenario,
+                                                                          monkeypatch):
+    """A first plan that left a dish out on the network's Fea^m alone (no time for the
+    Drake check) is followed, at its end, by a replan for that dish."""
+    import s3o_drake.execution.s3o_planner as module
+
+    real = module.plan_from
+    asked = []
+
+    def first_without_north(known, **kwargs):
+        asked.append(sorted(known.dish_names))
+        if len(asked) > 1:
+            return real(known, **kwargs)
+        result = real(known.moved(pose=known.pose, dishes=["bowl_south"]), **kwargs)
+        plan = dataclasses.replace(result.plan, unreachable=("bowl_north",))
+        return dataclasses.replace(result, plan=plan, unchecked=("bowl_north",))
+
+    monkeypatch.setattr(module, "plan_from", first_without_north)
+    system, context = _planner(scenario, recovery="replan")
+    assert [a.dish for a in system.GetOutputPort("plan").Eval(context).pickups] == [
+        "bowl_south"]
+    progress = _walk(system, context)
+    assert asked == [["bowl_north", "bowl_south"], ["bowl_north"]]
+    replan = next(r for r in progress.recoveries if r.kind == "replan")
+    assert replan.trigger == "left out unchecked: bowl_north" and replan.result == "done"
+    picked = [r.dish for r in progress.pickups if r.outcome == "done"]
+    assert picked == ["bowl_south", "bowl_north"] and progress.unreachable == ()
+    # Asked once: a dish still left out after the check is not asked for again.
+    assert len(progress.plans) == 2
+
+
 def test_a_blocked_drive_is_replanned_from_where_the_robot_stands(scenario):
     system, context = _planner(scenario)
     _goto, _, command = _first_stop(system, context)

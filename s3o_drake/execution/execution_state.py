@@ -15,14 +15,16 @@ from s3o_drake.execution.messages import (
     NO_COMMAND,
     ActionOutcome,
     BaseCommand,
+    CommandState,
     PickCommand,
     PickupRecord,
     PlanTime,
     RecoveryRecord,
+    Status,
 )
 from s3o_drake.execution.recovery import StopCheck
 from s3o_drake.planning.pipeline import PlanningResult
-from s3o_drake.planning.plan import Goto, Place, TaskMotionPlan
+from s3o_drake.planning.plan import Goto, Pickup, Place, TaskMotionPlan
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,7 @@ class ExecutionState:
     replans: int = 0
     exhausted: tuple[str, ...] = ()  # a dish per plan in which it failed all its tries
     given_up: tuple[str, ...] = ()
+    rechecked: tuple[str, ...] = ()  # dishes planned for again, having been `unchecked`
     to_tray: str = ""
     """An object to place whose place failed for good, in the gripper: put on the tray
     before the next action, so that the gripper is free for the pickups that follow."""
@@ -102,6 +105,31 @@ class ExecutionState:
                      if isinstance(actions[k], Goto)), None)
         pose = here if goto is None else goto.pose
         return tuple(float(v) for v in pose)
+
+    def pickup_record(self, action: Pickup | Place, status: Status, *, target: str, kind: str,
+                      method: str, here) -> PickupRecord:
+        """The record of the pickup or place `action` at `step` (of `target`, a dish or a
+        place target, of `kind`), which `status` has just finished; `here`: the base's
+        pose now."""
+        if self.turning:  # the turn to face the dish failed: no pick, the base stopped here
+            actual = tuple(float(v) for v in here)
+            outcome, noise = f"turn {status.reason}", None
+        else:
+            actual = self.pick_pose
+            outcome = "done" if status.state == CommandState.DONE else status.reason
+            noise = status.reach_noise
+        if self.stop is not None:  # a correction moved the base: its stop and Fea^m
+            stop, predicted = self.stop
+        else:
+            # The stop the prediction was made for: the latest goto's pose, else where the
+            # plan started.
+            stop = next((a.pose for a in reversed(self.plan.actions[:self.step])
+                         if isinstance(a, Goto)), self.result.known.pose)
+            predicted = float(action.feasibility)
+        return PickupRecord(dish=target, kind=kind, method=method, predicted=float(predicted),
+                            source=self.result.known.planner.feasibility,
+                            planned_pose=tuple(float(v) for v in stop), actual_pose=actual,
+                            outcome=outcome, reach_noise=noise, attempt=self.tries + 1)
 
     def next_step(self, **changes) -> ExecutionState:
         """On to the next action, every per-pickup field reset."""

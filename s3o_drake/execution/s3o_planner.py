@@ -27,7 +27,9 @@ remain from where the robot believes it stands, with the same pipeline and
 `execution.replan_budget`, and go on (at most `max_replans` per run; a dish that failed all
 its tries in PLANS_PER_DISH plans is left, and so is one whose replan finds no plan: the
 old plan then goes on). Dishes that no free pose of the known world
-can pick are reported on `progress.unreachable`, and every recovery as a `RecoveryRecord`.
+can pick are reported on `progress.unreachable`, and every recovery as a `RecoveryRecord`;
+dishes a plan left out on the network's Fea^m alone, unchecked for lack of time, are
+planned for again at the plan's end.
 
 A change of the optional `replan_request` input's value also plans the dishes not yet
 collected again, from the robot's current pose.
@@ -267,7 +269,26 @@ class S3OPlanner(LeafSystem):
                     start=self._pose(context), dishes=remaining, held=held)
         if not execution.finished and execution.plan is not None:
             execution = self._advance(context, execution)
+            if execution.finished and execution.reason == PLAN_ENDED:
+                execution = self._recheck(context, execution)
         state.get_mutable_abstract_state(int(self._state)).set_value(execution)
+
+    def _recheck(self, context: Context, e: ExecutionState) -> ExecutionState:
+        """At the plan's end, with recovery replan: the dishes its plan left out on the
+        network's Fea^m alone (`PlanningResult.unchecked`: the first plan's budget left no
+        time for the Drake check) planned for again, once, with the replan budget, in which
+        the check runs; the execution as it was when there are none, or no plan."""
+        unchecked = sorted(set(e.result.unchecked) - set(e.rechecked))
+        if (self._recovery != Recovery.REPLAN or not unchecked
+                or e.replans >= self._settings.max_replans):
+            return e
+        again = self._replan(context, dataclasses.replace(
+            e, finished=False, reason="", rechecked=(*e.rechecked, *unchecked),
+            unreachable=tuple(d for d in e.unreachable if d not in unchecked)),
+            trigger=f"left out unchecked: {', '.join(unchecked)}")
+        if again.plan is None:  # the run ends as the old plan did, the replan recorded
+            return dataclasses.replace(e, recoveries=again.recoveries, plans=again.plans)
+        return again
 
     def _send_base(self, e: ExecutionState, command: BaseCommand, **changes) -> ExecutionState:
         return dataclasses.replace(e, command_id=command.id, next_id=command.id + 1,
@@ -466,26 +487,9 @@ class S3OPlanner(LeafSystem):
                 status: Status) -> PickupRecord:
         """The record of the pickup (or place: its `dish` is the place target) at
         `e.step`, which `status` has just finished."""
-        if e.turning:  # the turn to face the dish failed: no pick, the base stopped here
-            actual = tuple(float(v) for v in self._pose(context))
-            outcome, noise = f"turn {status.reason}", None
-        else:
-            actual = e.pick_pose
-            outcome = "done" if status.state == CommandState.DONE else status.reason
-            noise = status.reach_noise
-        if e.stop is not None:  # a correction moved the base: its stop and Fea^m
-            stop, predicted = e.stop
-        else:
-            # The stop the prediction was made for: the latest goto's pose, else where the
-            # plan started.
-            stop = next((a.pose for a in reversed(e.plan.actions[:e.step])
-                         if isinstance(a, Goto)), e.result.known.pose)
-            predicted = float(action.feasibility)
-        return PickupRecord(dish=self._target(action), kind=self._dish_kind[action.dish],
-                            method=self._method, predicted=float(predicted),
-                            source=e.result.known.planner.feasibility,
-                            planned_pose=tuple(float(v) for v in stop), actual_pose=actual,
-                            outcome=outcome, reach_noise=noise, attempt=e.tries + 1)
+        return e.pickup_record(action, status, target=self._target(action),
+                               kind=self._dish_kind[action.dish], method=self._method,
+                               here=self._pose(context))
 
     def _calc_progress(self, context: Context, out) -> None:
         e = self._execution(context)

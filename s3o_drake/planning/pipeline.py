@@ -126,7 +126,8 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
     planner's settings and the scenario's seed. `heatmaps` given are used as they are (a
     second plan on the same Fea^m). With the network's Fea^m, dishes that the plan would
     leave out as unreachable get the Drake oracle's heatmap instead, and the plan is made
-    again with them (within what remains of the budget).
+    again with them (within what remains of the budget); those it could not check so, or
+    not plan again for, are the result's `unchecked`.
     `started` is the `time.perf_counter()` at which the caller began (before perceiving),
     so that the planning time counts perception too. A plan that cannot be made is a
     result with `plan` None and `error` saying why; an unknown method raises ValueError.
@@ -142,13 +143,13 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
     source = known.planner.feasibility if feasibility is None else feasibility
     lost = () if result.plan is None else result.plan.unreachable
     budget = known.planner.time_budget if time_budget is None else time_budget
+    exact: dict[str, Heatmap] = {}
     if lost and source == FeasibilitySource.FCN and maps:
         # The network is an approximation: before a dish is left out, the Drake check of
         # the known world decides (a few seconds per dish, and only for these), within
         # the budget: dish by dish while time is left, and the plan made again only if
         # time is left for it (the random-scene soak of issue 19 found the rescue running
         # several times over a small budget).
-        exact = {}
         for dish in lost:
             if time.perf_counter() - t0 >= budget:
                 break
@@ -158,9 +159,14 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
         left = budget - (time.perf_counter() - t0)
         if any(h.values.max() > 0.0 for h in exact.values()) and left > 0:
             result = _plan(known, method, maps, seed, left, n_sequences, workers, t0)
+    unchecked = ()
+    if source == FeasibilitySource.FCN and result.plan is not None:
+        unchecked = tuple(d for d in result.plan.unreachable
+                          if d not in exact or exact[d].values.max() > 0.0)
     # The plan's own heatmaps: Fea^m restricted to free stops, as the plan was made.
     return dataclasses.replace(result, heatmaps=result.heatmaps or maps,
-                               model_heatmaps=result.model_heatmaps or maps)
+                               model_heatmaps=result.model_heatmaps or maps,
+                               unchecked=unchecked)
 
 
 def _plan(known: KnownWorld, method: str, heatmaps, seed: int, time_budget: float | None,

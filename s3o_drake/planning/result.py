@@ -44,3 +44,7 @@ class PlanningResult:
     task_plans: tuple = ()
     """clingo's answer for each state space it ordered, as (groups, `TaskPlanResult`), in
     the order planned (GROP and GROP*; the problem solved is in each result)."""
+    unchecked: tuple[str, ...] = ()
+    """Dishes the plan leaves out as unreachable on the network's Fea^m alone: the budget
+    left no time for the Drake check of the known world, or for planning again after it
+    found a stop (`pipeline.plan_from`). Execution that replans asks again for them."""
