@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
-from shapely.geometry import Polygon, box
+from shapely.geometry import Point, Polygon, box
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
@@ -31,6 +31,8 @@ from s3o_drake.scenario import Chair, Dish, Scenario
 
 Pose2 = tuple[float, float, float]
 """A planar pose (x, y, yaw) in the world frame: m, m, rad."""
+#: Radius (m) of the obstacle a contact stands for: something at least a chair leg's size.
+CONTACT_RADIUS = 0.1
 
 
 def _pose(values: Iterable[float]) -> Pose2:
@@ -48,10 +50,11 @@ class Obstacles:
     _free: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @classmethod
-    def of(cls, bounds: Sequence[float], tables: Iterable, chair_poses: Iterable[Pose2]
-           ) -> Obstacles:
+    def of(cls, bounds: Sequence[float], tables: Iterable, chair_poses: Iterable[Pose2],
+           contacts: Iterable[Sequence[float]] = ()) -> Obstacles:
         shapes = [table_footprint(t.center, t.yaw, t.size) for t in tables]
         shapes += [chair_footprint(list(p)) for p in chair_poses]
+        shapes += [Point(*c[:2]).buffer(CONTACT_RADIUS) for c in contacts]
         return cls(room=box(*bounds), footprints=tuple(shapes))
 
     @classmethod
@@ -108,6 +111,11 @@ class KnownWorld:
     held: str = ""
     """The object in the gripper ("" for none): an object to place, picked already; the
     plan is for its place target only."""
+    contacts: tuple[tuple[float, float], ...] = ()
+    """Where the base was blocked by something neither the map nor the camera showed (the
+    base navigator's bumper reading, plan view): each an obstacle of CONTACT_RADIUS to the
+    navigation map, so that a replan does not send the base the same way again. The Drake
+    checks (pickups, free stops) do not see them: the robot knows a point, not a shape."""
 
     @classmethod
     def of(cls, scenario: Scenario, *, perceived_chairs: Iterable[Sequence[float]],
@@ -184,7 +192,8 @@ class KnownWorld:
 
     @cached_property
     def obstacles(self) -> Obstacles:
-        return Obstacles.of(self.settings.room.bounds, self.settings.tables, self.chair_poses)
+        return Obstacles.of(self.settings.room.bounds, self.settings.tables, self.chair_poses,
+                            self.contacts)
 
     def as_scenario(self) -> Scenario:
         """The known world as a Scenario, for what builds a Drake plant of it (the oracle's

@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 import pytest
+from shapely.geometry import LineString, Point
 
 from s3o_drake.angles import facing_yaw
 from s3o_drake.execution.execute import execute
@@ -15,7 +16,7 @@ from s3o_drake.execution.messages import Status
 from s3o_drake.execution.recovery import StopCheck, localise
 from s3o_drake.execution.s3o_planner import S3OPlanner
 from s3o_drake.feasibility.heatmaps import make_oracle
-from s3o_drake.known_world import KnownWorld
+from s3o_drake.known_world import CONTACT_RADIUS, KnownWorld
 from s3o_drake.perception import scenario_unmapped_chairs
 from s3o_drake.planning.pipeline import heatmaps_for
 from s3o_drake.planning.plan import Goto, Pickup
@@ -297,7 +298,11 @@ def test_a_blocked_drive_is_replanned_from_where_the_robot_stands(scenario):
     _goto, _, command = _first_stop(system, context)
     stopped = (1.2, 0.8, 0.3)
     _land(system, context, stopped)
-    _finish(system, context, "base_status", command, "failed", "blocked")
+    # What blocked the drive, where the base touched it: 30 cm ahead on its heading.
+    contact = (1.2 + 0.3 * np.cos(0.3), 0.8 + 0.3 * np.sin(0.3))
+    system.GetInputPort("base_status").FixValue(context, Status(
+        id=command.id, state="failed", reason="blocked", contact=contact))
+    _step(system, context)
     progress = system.GetOutputPort("progress").Eval(context)
     (replan,) = progress.recoveries
     assert replan.kind == "replan" and replan.trigger.endswith("failed: blocked")
@@ -311,9 +316,14 @@ def test_a_blocked_drive_is_replanned_from_where_the_robot_stands(scenario):
     result = system.GetOutputPort("planning_result").Eval(context)
     assert result.known.pose[:2] == pytest.approx(stopped[:2])
     assert {a.dish for a in result.plan.pickups} == {d.name for d in scenario.dishes}
+    # The replan knows the contact as an obstacle: its drives keep clear of it.
+    assert result.known.contacts == (contact,)
+    assert any(f.contains(Point(*contact)) for f in result.known.obstacles.footprints)
     _step(system, context)
     again = system.GetOutputPort("base_command").Eval(context)
     assert again.id > command.id and again.path[0] == pytest.approx(stopped[:2])
+    route = LineString(again.path)
+    assert route.distance(Point(*contact)) > CONTACT_RADIUS
 
 
 def test_with_no_recovery_a_blocked_drive_still_ends_the_run(scenario):

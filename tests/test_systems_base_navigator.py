@@ -173,7 +173,11 @@ def test_a_path_through_the_table_fails_blocked_before_it(scenario, scene):
     alone = _Alone(_navigator(scenario, scene), base=(0.6, 2.5, 0.0))
     alone.send(BaseCommand(id=3, path=((0.6, 2.5), (3.4, 2.5)), pose=(3.4, 2.5, 0.0)))
     final, status = alone.final()
-    assert status == Status(id=3, state=CommandState.FAILED, reason="blocked")
+    assert (status.id, status.state, status.reason) == (3, CommandState.FAILED, "blocked")
+    # The bumper's reading: where the base touched the table, at its west edge (x = 1.4;
+    # the deck fits under the top, so the plan views overlap a little), ahead of the base.
+    x, y = status.contact
+    assert 1.4 <= x < 1.5 and y == pytest.approx(2.5, abs=0.35)
     assert 0.9 < final[0] < 1.4  # stopped in front of the table (the deck fits under its top)
     assert final[1] == pytest.approx(2.5)
     q = scene.q(final[:3])

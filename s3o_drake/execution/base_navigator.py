@@ -113,6 +113,7 @@ class _Motion:
     segments: tuple[_Segment, ...] = ()
     outcome: CommandState = CommandState.DONE
     reason: str = ""
+    contact: tuple[float, float] | None = None
     initialized: bool = False
 
     def __deepcopy__(self, memo: dict) -> "_Motion":
@@ -154,8 +155,8 @@ class BaseNavigator(LeafSystem):
         base_desired_state (vector 6): x, y, yaw (m, rad) then their rates (m/s, rad/s).
         status (abstract `Status`): CommandState idle before any command, running while the
             motion plays, then done (landed, possibly short of a colliding goal) or failed
-            with reason "blocked" (stopped far from the goal by a collision), `settle_time`
-            after the motion ended.
+            with reason "blocked" (stopped far from the goal by a collision) and the
+            `contact` where it touched, `settle_time` after the motion ended.
 
     Every `control_period` s (and at initialization, and on a forced unrestricted update)
     it compares the command's id with the one it executes; on a new id it plans the whole
@@ -295,10 +296,13 @@ class BaseNavigator(LeafSystem):
                 if approached[1] is CommandState.DONE and _facing(approached[0], target[2]):
                     cut = approached
                     break
-        segments, outcome, reason = cut
+        segments, outcome, reason, hit = cut
+        # What blocked the base, where it touched: the bumper's reading on the status.
+        contact = (self._scene.clearance.contact(hit)
+                   if outcome is CommandState.FAILED and hit is not None else None)
         hold = tuple(float(v) for v in base[:3])
         return _Motion(id=command.id, t0=t, hold=hold, segments=tuple(segments),
-                       outcome=outcome, reason=reason, initialized=True)
+                       outcome=outcome, reason=reason, contact=contact, initialized=True)
 
     def _segments(self, waypoints: list[np.ndarray], yaw: float, target_yaw: float, *,
                   long_way: bool = False) -> list[_Segment]:
@@ -316,11 +320,11 @@ class BaseNavigator(LeafSystem):
                              accel=self._accel)
 
     def _cut_at_collision(self, segments: list[_Segment]
-                          ) -> tuple[list[_Segment], CommandState, str]:
-        """The segments up to the last free pose, and how the command ends (with the
-        failure's reason)."""
+                          ) -> tuple[list[_Segment], CommandState, str, np.ndarray | None]:
+        """The segments up to the last free pose, how the command ends (with the
+        failure's reason), and the first colliding pose (None when none collides)."""
         if self._scene is None or not segments:
-            return segments, CommandState.DONE, ""
+            return segments, CommandState.DONE, "", None
         # Samples: (segment index, distance along it, pose); index -1 is the start pose.
         samples = [(-1, 0.0, np.asarray(segments[0].start))]
         for i, seg in enumerate(segments):
@@ -331,7 +335,7 @@ class BaseNavigator(LeafSystem):
         first_free = int(np.argmax(free)) if free.any() else len(free)
         colliding = np.flatnonzero(~free[first_free:])
         if colliding.size == 0:
-            return segments, CommandState.DONE, ""
+            return segments, CommandState.DONE, "", None
         hit = first_free + int(colliding[0])
         last = hit - 1
         if last > first_free and not self._free(
@@ -348,7 +352,7 @@ class BaseNavigator(LeafSystem):
             else:
                 kept.append(self._segment(seg.start, seg.pose(last_s), turn=seg.turn,
                                           length=last_s))
-        return kept, *self._outcome(segments, samples[hit])
+        return kept, *self._outcome(segments, samples[hit]), samples[hit][2]
 
     @staticmethod
     def _nudged(free_pose: np.ndarray, colliding_pose: np.ndarray) -> np.ndarray:
@@ -395,4 +399,5 @@ class BaseNavigator(LeafSystem):
         elif context.get_time() < motion.t0 + motion.duration + self._settle_time:
             output.set_value(Status(id=motion.id, state=CommandState.RUNNING))
         else:
-            output.set_value(Status(id=motion.id, state=motion.outcome, reason=motion.reason))
+            output.set_value(Status(id=motion.id, state=motion.outcome, reason=motion.reason,
+                                    contact=motion.contact))

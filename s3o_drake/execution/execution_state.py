@@ -69,6 +69,8 @@ class ExecutionState:
     exhausted: tuple[str, ...] = ()  # a dish per plan in which it failed all its tries
     given_up: tuple[str, ...] = ()
     rechecked: tuple[str, ...] = ()  # dishes planned for again, having been `unchecked`
+    contacts: tuple[tuple[float, float], ...] = ()
+    """Where blocked drives touched what blocked them (KnownWorld.contacts of replans)."""
     to_tray: str = ""
     """An object to place whose place failed for good, in the gripper: put on the tray
     before the next action, so that the gripper is free for the pickups that follow."""
@@ -130,6 +132,15 @@ class ExecutionState:
                             source=self.result.known.planner.feasibility,
                             planned_pose=tuple(float(v) for v in stop), actual_pose=actual,
                             outcome=outcome, reach_noise=noise, attempt=self.tries + 1)
+
+    def give_up(self, dish: str, trigger: str, t: float, *, placing: bool) -> ExecutionState:
+        """On to the next action, `dish` left on the table, or, held to be placed, to be
+        put on the tray first; the give-up recorded at time `t` (s)."""
+        left = "put on the tray" if placing else "left on the table"
+        record = RecoveryRecord("give_up", dish, trigger, left, "done", t, t)
+        return self.next_step(given_up=(*self.given_up, dish),
+                              recoveries=(*self.recoveries, record),
+                              to_tray=dish if placing else "")
 
     def next_step(self, **changes) -> ExecutionState:
         """On to the next action, every per-pickup field reset."""

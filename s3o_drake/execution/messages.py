@@ -88,12 +88,16 @@ class Status:
 
     `reach_noise`: on the arm's reports of a pickup, the reach error T^m drawn for it
     ((dx, dy), m, added to where the gripper aims); None when none was drawn (the
-    simulation's noise is off, the dish is unknown) and on the base's reports."""
+    simulation's noise is off, the dish is unknown) and on the base's reports.
+
+    `contact`: on the base's report of a blocked drive, the plan-view point (x, y) where the
+    base touched what blocked it (a bumper's reading, `BaseClearance.contact`)."""
 
     id: int = NO_COMMAND
     state: CommandState = CommandState.IDLE
     reason: str = ""
     reach_noise: tuple[float, float] | None = None
+    contact: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         # A state given as its word ("done") is stored as the CommandState, so that the

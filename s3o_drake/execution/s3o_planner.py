@@ -24,12 +24,12 @@ pickup test fails from where it believes it stands, or the plan's Fea^m there is
 arm found no way (at most `max_tries` attempts per dish and plan). With `replan`, also a
 blocked drive, or a dish that failed all its tries, makes the planner plan the dishes that
 remain from where the robot believes it stands, with the same pipeline and
-`execution.replan_budget`, and go on (at most `max_replans` per run; a dish that failed all
-its tries in PLANS_PER_DISH plans is left, and so is one whose replan finds no plan: the
-old plan then goes on). Dishes that no free pose of the known world
-can pick are reported on `progress.unreachable`, and every recovery as a `RecoveryRecord`;
-dishes a plan left out on the network's Fea^m alone, unchecked for lack of time, are
-planned for again at the plan's end.
+`execution.replan_budget` (at most `max_replans` per run). Where a blocked drive touched
+what blocked it is an obstacle to the replans' navigation. A dish that failed all its tries
+in PLANS_PER_DISH plans is left, and so is one whose replan finds no plan (the old plan
+goes on). Dishes no free pose of the known world can pick are reported on
+`progress.unreachable`; those a plan left out on the network's Fea^m alone, unchecked for
+lack of time, are planned for again at the plan's end. Every recovery is a `RecoveryRecord`.
 
 A change of the optional `replan_request` input's value also plans the dishes not yet
 collected again, from the robot's current pose.
@@ -196,6 +196,7 @@ class S3OPlanner(LeafSystem):
         known = perceive_known_world(self._scenario, images, pose=start, dishes=dishes,
                                      perceive=self._perceive, robot_labels=self._robot_labels,
                                      held=held)
+        known = dataclasses.replace(known, contacts=execution.contacts)
         planner = self._scenario.planner
         budget = planner.time_budget if budget is None else budget
         if self._progress_bar:
@@ -317,6 +318,8 @@ class S3OPlanner(LeafSystem):
         if status.id != e.command_id or not status.finished:
             return e
         done = status.state == CommandState.DONE
+        if base and status.contact is not None and self._recovery == Recovery.REPLAN:
+            e = dataclasses.replace(e, contacts=(*e.contacts, status.contact))
         if e.correcting:
             return self._corrected(context, e, done, status.reason)
         if e.turning and done:
@@ -453,16 +456,9 @@ class S3OPlanner(LeafSystem):
 
     def _give_up(self, context: Context, e: ExecutionState, action: Pickup | Place,
                  trigger: str) -> ExecutionState:
-        """The dish of `action` (at `e.step`) is left on the table, or, held, put on the
-        tray; the plan goes on."""
-        t = context.get_time()
-        placing = isinstance(action, Place)
-        left = "put on the tray" if placing else "left on the table"
-        give_up = RecoveryRecord("give_up", action.dish, trigger, left, "done", t, t)
-        e = e.next_step(given_up=(*e.given_up, action.dish),
-                        recoveries=(*e.recoveries, give_up),
-                        to_tray=action.dish if placing else "")
-        return e if placing else self._after(e)
+        """The dish of `action` at `e.step` given up (`ExecutionState.give_up`)."""
+        e = e.give_up(action.dish, trigger, context.get_time(), placing=isinstance(action, Place))
+        return e if e.to_tray else self._after(e)
 
     def _put_on_tray(self, context: Context, e: ExecutionState) -> ExecutionState:
         """`e.to_tray`, whose place failed for good, is let go over the tray (a PickCommand

@@ -109,6 +109,34 @@ class BaseClearance:
         """bool (n,) for base positions (n, 2): True only where no collision is possible."""
         return self._field.at(xy) > self.required
 
+    def footprint(self, base: np.ndarray):
+        """The robot's plan extent (a rectangle, arm stowed) at base pose (x, y, yaw)."""
+        return self._footprints(np.asarray(base, dtype=float).reshape(1, 3))[0]
+
+    def contact(self, base: np.ndarray) -> tuple[float, float]:
+        """Where a base at pose (x, y, yaw) that collides touches what it collides with, in
+        plan view (a bumper's reading): the middle of its footprint's overlap with the
+        furniture, else the nearest point of the furniture or the walls (a collision within
+        the checker's padding overlaps nothing)."""
+        footprint = self.footprint(base)
+        overlap = footprint.intersection(self._obstacles)
+        if not overlap.is_empty:
+            point = overlap.centroid
+        else:
+            walls = shapely.LineString(shapely.box(*self.bounds).exterior.coords)
+            things = walls if self._obstacles.is_empty else self._obstacles.union(walls)
+            x, y = shapely.shortest_line(footprint, things).coords[1]
+            return float(x), float(y)
+        return float(point.x), float(point.y)
+
+    def _footprints(self, bases: np.ndarray) -> np.ndarray:
+        x_lo, x_hi, y_lo, y_hi = self._extent
+        local = np.array([[x_lo, y_lo], [x_hi, y_lo], [x_hi, y_hi], [x_lo, y_hi]])
+        c, s = np.cos(bases[:, 2])[:, None], np.sin(bases[:, 2])[:, None]
+        corners = np.stack([bases[:, :1] + c * local[:, 0] - s * local[:, 1],
+                            bases[:, 1:2] + s * local[:, 0] + c * local[:, 1]], axis=-1)
+        return shapely.polygons(corners)
+
     def certainly_free_posed(self, bases: np.ndarray) -> np.ndarray:
         """bool (n,) for base poses (n, 3): True only where no collision is possible at that
         yaw: the robot's plan extent, turned and placed, keeps more than the checker's
@@ -119,12 +147,7 @@ class BaseClearance:
         bases = np.asarray(bases, dtype=float).reshape(-1, 3)
         if not len(bases):
             return np.zeros(0, dtype=bool)
-        x_lo, x_hi, y_lo, y_hi = self._extent
-        local = np.array([[x_lo, y_lo], [x_hi, y_lo], [x_hi, y_hi], [x_lo, y_hi]])
-        c, s = np.cos(bases[:, 2])[:, None], np.sin(bases[:, 2])[:, None]
-        corners = np.stack([bases[:, :1] + c * local[:, 0] - s * local[:, 1],
-                            bases[:, 1:2] + s * local[:, 0] + c * local[:, 1]], axis=-1)
-        footprints = shapely.polygons(corners)
+        footprints = self._footprints(bases)
         free = shapely.contains(self._inside, footprints)
         if not self._obstacles.is_empty:
             ask = np.flatnonzero(free)
