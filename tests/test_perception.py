@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from shapely.geometry import Point
 
 from s3o_drake.commands.perception_benchmark import match, true_chairs
 from s3o_drake.perception import ChairPerception, draw_chairs, perceived_chairs
@@ -44,6 +45,36 @@ def test_finds_every_unmapped_chair_of_a_generated_task(task):
     # floor under its seat from the side and the blob comes in two pieces.
     scenario = load_scenario(REPO / "scenarios" / "generated" / f"{task}.yaml")
     _assert_found(scenario, perceived_chairs(scenario, render_overhead(scenario)[:3]))
+
+
+def test_two_touching_chairs_are_found_as_two():
+    # Dense task_080: two chairs that touch make one blob; taken for one chair between
+    # them, the other was off the map and blocked the robot's drives.
+    scenario = load_scenario(REPO / "scenarios" / "generated_dense" / "task_080.yaml")
+    _assert_found(scenario, perceived_chairs(scenario, render_overhead(scenario)[:3]))
+
+
+def test_a_blob_is_split_only_when_one_chair_cannot_make_it():
+    from s3o_drake.furniture import chair_footprint
+    from s3o_drake.perception.blobs import CHAIR_AREA, split
+
+    def points_of(pose):
+        shape = chair_footprint(pose)
+        x0, y0, x1, y1 = shape.bounds
+        grid = np.mgrid[x0:x1:0.02, y0:y1:0.02].reshape(2, -1).T
+        inside = np.array([shape.contains(Point(*p)) for p in grid])
+        return np.column_stack([grid[inside], np.full(inside.sum(), 0.5)])
+
+    one = points_of([2.0, 1.0, 0.3])
+    assert len(split(one, CHAIR_AREA)) == 1
+    a, b = [2.0, 1.0, 0.3], [2.45, 1.35, 2.0]  # overlapping a little in plan view
+    both = np.vstack([points_of(a), points_of(b)])
+    parts = split(both, 2 * CHAIR_AREA)
+    assert len(parts) == 2 and sum(map(len, parts)) == len(both)
+    centres = sorted(tuple(np.round(part[:, :2].mean(axis=0), 2)) for part in parts)
+    truth = sorted(tuple(points_of(p)[:, :2].mean(axis=0)) for p in (a, b))
+    assert np.allclose(centres, truth, atol=0.06)
+    assert [len(p) for p in split(both, 2 * CHAIR_AREA)] == [len(p) for p in parts]
 
 
 def test_a_scene_without_chairs_gives_none(two_dishes):

@@ -19,7 +19,8 @@ Method, and why:
    left above `OBSTACLE_HEIGHT` forms blobs (OpenCV connected components). Blobs close
    together are joined when the union still fits in one chair (`blobs`): seen from the
    side, the floor under a seat's edge is visible and can cut a chair's backrest off its
-   seat. Tiny blobs are noise.
+   seat. Tiny blobs are noise. A blob too large for one chair (touching chairs) is split
+   into as many as its area holds (`blobs.split`).
 3. Each blob's pose is fitted to the chair's known shape rather than read off its outline,
    because the outline is often incomplete: the backrest hides up to a quarter of the seat
    when the chair faces away from the image centre, and a table top hides the part of a
@@ -49,6 +50,7 @@ from s3o_drake import furniture as fu
 from s3o_drake.angles import wrap
 from s3o_drake.camera import OverheadCamera, back_project, overhead_camera
 from s3o_drake.known_world import KnownWorld, OverheadImages
+from s3o_drake.perception.blobs import blobs, split
 from s3o_drake.robot import footprint_polygon
 from s3o_drake.scenario import Scenario
 
@@ -64,11 +66,6 @@ MIN_BLOB_AREA = 0.02
 """Blobs smaller than this (m^2) are noise; a chair's seat alone is 0.18 m^2."""
 SEAT_LEVEL = 0.55
 """Points below this height (m) may be seat or the backrest's foot; above, backrest only."""
-MAX_GAP = 0.3
-"""Blobs this close (m) may be one chair: the strip under a seat that the camera sees
-from the side is at most 0.45 m x 0.67 (the largest off-axis ratio in the restaurant)."""
-MAX_CHAIR_SPAN = 0.65
-"""Longest side (m) of a blob's rectangle that one chair can make (0.50 m, plus margin)."""
 RENDER_PIXEL_OFFSET = 0.5
 """Pixels: RenderEngineVtk's pixel (u, v) shows the ray that `camera.back_project` assigns
 to (u + 0.5, v + 0.5). Measured by matching the rendered table tops to their footprints
@@ -223,54 +220,6 @@ def height_grid(points: np.ndarray, bounds: list[float], cell: float) -> HeightG
     return grid
 
 
-def blobs(obstacle: np.ndarray, cell: float) -> np.ndarray:
-    """Labels (int32, 0 = none) of the obstacle cells, one per object.
-
-    The obstacle cells' connected components, joined greedily (closest pair first) while
-    two are within MAX_GAP and their union still fits in a chair (MAX_CHAIR_SPAN): the
-    floor the camera sees under a seat's edge can cut a backrest off its seat. Two chairs
-    together are larger than one, so they stay apart.
-    """
-    closed = cv2.morphologyEx(obstacle.astype(np.uint8), cv2.MORPH_CLOSE,
-                              np.ones((3, 3), np.uint8))
-    count, parts = cv2.connectedComponents(closed, connectivity=8)
-    parts = np.where(obstacle, parts, 0)
-    groups = [np.stack(np.nonzero(parts == k), axis=1) for k in range(1, count)]
-    groups = [g for g in groups if len(g)]
-
-    def span(cells: np.ndarray) -> float:
-        _, (w, h), _ = cv2.minAreaRect(cells[:, ::-1].astype(np.float32))
-        return max(w, h) * cell
-
-    def gap(a: np.ndarray, b: np.ndarray) -> float:
-        # Bounding boxes first: most pairs are far apart.
-        lo = np.maximum(a.min(axis=0), b.min(axis=0))
-        hi = np.minimum(a.max(axis=0), b.max(axis=0))
-        if np.any((lo - hi) * cell > MAX_GAP):
-            return math.inf
-        d = np.min(np.linalg.norm(a[:, None, :] - b[None, :, :], axis=2)) - 1
-        return max(float(d), 0.0) * cell
-
-    while True:
-        pairs = sorted((gap(groups[i], groups[j]), i, j)
-                       for i in range(len(groups)) for j in range(i + 1, len(groups)))
-        for d, i, j in pairs:
-            if d > MAX_GAP:
-                break
-            union = np.concatenate([groups[i], groups[j]])
-            if span(union) <= MAX_CHAIR_SPAN:
-                groups = [g for k, g in enumerate(groups) if k not in (i, j)] + [union]
-                break
-        else:
-            break
-        if d > MAX_GAP:
-            break
-    labels = np.zeros(obstacle.shape, dtype=np.int32)
-    for k, cells in enumerate(groups, start=1):
-        labels[cells[:, 0], cells[:, 1]] = k
-    return labels
-
-
 #: A perception function: (colour RGBA, depth (m), label) images -> chair poses [x, y, yaw].
 Perceive = Callable[[np.ndarray, np.ndarray, np.ndarray], list[list[float]]]
 
@@ -357,9 +306,12 @@ class ChairPerception:
         poses = []
         min_cells = MIN_BLOB_AREA / grid.cell**2
         for k in range(1, labels.max() + 1):
-            if np.count_nonzero(labels == k) < min_cells:
+            cells = np.count_nonzero(labels == k)
+            if cells < min_cells:
                 continue
-            poses.append(self._fit(blob_points[point_labels == k], grid, seen_z, to_obstacle))
+            # Touching chairs make one blob: split into the chairs its area holds.
+            for part in split(blob_points[point_labels == k], cells * grid.cell**2):
+                poses.append(self._fit(part, grid, seen_z, to_obstacle))
         return sorted(poses)
 
     def _cost(self, pose: np.ndarray, points: np.ndarray, high: np.ndarray, grid: HeightGrid,
