@@ -109,7 +109,7 @@ class BaseClearance:
         """bool (n,) for base positions (n, 2): True only where no collision is possible."""
         return self._field.at(xy) > self.required
 
-    def footprint(self, base: np.ndarray):
+    def footprint(self, base: np.ndarray) -> shapely.Polygon:
         """The robot's plan extent (a rectangle, arm stowed) at base pose (x, y, yaw)."""
         return self._footprints(np.asarray(base, dtype=float).reshape(1, 3))[0]
 
@@ -121,13 +121,11 @@ class BaseClearance:
         footprint = self.footprint(base)
         overlap = footprint.intersection(self._obstacles)
         if not overlap.is_empty:
-            point = overlap.centroid
-        else:
-            walls = shapely.LineString(shapely.box(*self.bounds).exterior.coords)
-            things = walls if self._obstacles.is_empty else self._obstacles.union(walls)
-            x, y = shapely.shortest_line(footprint, things).coords[1]
-            return float(x), float(y)
-        return float(point.x), float(point.y)
+            return float(overlap.centroid.x), float(overlap.centroid.y)
+        walls = shapely.box(*self.bounds).exterior
+        things = walls if self._obstacles.is_empty else self._obstacles.union(walls)
+        x, y = shapely.shortest_line(footprint, things).coords[1]
+        return float(x), float(y)
 
     def _footprints(self, bases: np.ndarray) -> np.ndarray:
         x_lo, x_hi, y_lo, y_hi = self._extent
