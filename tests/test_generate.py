@@ -138,7 +138,11 @@ def test_shipped_dense_tasks_are_what_the_generator_makes(dense_tasks):
     shipped = REPO / "scenarios" / "generated_dense"
     assert len(list(shipped.glob("task_*.yaml"))) == 100
     for name in ("task_000.yaml", "task_001.yaml"):
-        assert (dense_tasks / name).read_text() == (shipped / name).read_text()
+        # The same scenario, read back: settings added since (execution.detour) take their
+        # defaults in the shipped files, which stay as they are, since their digests key
+        # the studies' stored runs.
+        made, kept = (dense_tasks / name).read_text(), (shipped / name).read_text()
+        assert parse_scenario(made) == parse_scenario(kept)
 
 
 def test_a_chair_that_closes_the_aisle_to_a_dish_is_named_and_redrawn(dense_tasks):

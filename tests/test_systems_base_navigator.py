@@ -344,3 +344,60 @@ def test_a_turn_cut_a_hair_short_of_a_collision_stops_a_step_earlier(scenario, s
     final, status = alone.at(3e3)
     assert status == Status(id=4, state=CommandState.DONE)
     assert 0.8 < final[2] < 0.86765
+
+
+@pytest.fixture(scope="module")
+def dense():
+    """The dense restaurant without chairs, and its scene: a 0.85 m aisle between the wall
+    (y = 0) and the 2 x 2 block of small tables (y >= 0.85)."""
+    import dataclasses
+
+    from s3o_drake.feasibility.scene import FeasibilityScene
+    from s3o_drake.scenario import load_scenario
+
+    scenario = dataclasses.replace(load_scenario("scenarios/restaurant_dense.yaml"), chairs=[])
+    return scenario, FeasibilityScene(scenario)
+
+
+def test_a_base_that_cannot_leave_a_tight_spot_goes_back_the_way_it_came(dense):
+    """In the aisle, the way to (3.3, 1.3) cuts the table's corner whichever way the base
+    turns or however far it first backs out (ESCAPE_STEPS); it drove in along the aisle, so
+    it backs out along its trail and goes on from there. A base that did not come that way
+    is blocked."""
+    scenario, scene = dense
+    leave = BaseCommand(id=2, path=((1.7, 0.45), (3.3, 1.3)), pose=(3.3, 1.3, 0.0))
+    alone = _Alone(_navigator(scenario, scene), base=(3.4, 0.45, math.pi))
+    alone.send(BaseCommand(id=1, path=((3.4, 0.45), (1.7, 0.45)), pose=(1.7, 0.45, math.pi)))
+    stopped, status = alone.final()
+    assert status.state is CommandState.DONE
+    alone.navigator.GetInputPort("robot_state").FixValue(alone.context,
+                                                         _robot_state(*stopped[:3]))
+    alone.send(leave, t=100.0)
+    final, status = alone.final()
+    assert status.state is CommandState.DONE and final[:2] == pytest.approx([3.3, 1.3])
+    # Backwards along the aisle first: the way in, undone.
+    assert alone.at(100.0 + 1.6 / V)[0][0] > 2.5
+    assert wrap_angle(alone.at(100.5)[0][2] - math.pi) == pytest.approx(0.0, abs=1e-9)
+
+    stranger = _Alone(_navigator(scenario, scene), base=(1.7, 0.45, math.pi))
+    stranger.send(leave, t=1.0)
+    _, status = stranger.final()
+    assert (status.state, status.reason) == (CommandState.FAILED, "blocked")
+
+
+def test_the_trail_starts_at_the_last_long_drive_s_last_leg():
+    from s3o_drake.execution.base_navigator import _Segment, _trail
+
+    def seg(start, end, turn=False):
+        length = abs(end[2] - start[2]) if turn else math.dist(start[:2], end[:2])
+        return _Segment.make(start, end, turn=turn, length=length, max_speed=1.0, accel=1.0)
+
+    turn = seg((0, 0, 0), (0, 0, 1.0), turn=True)
+    leg_1 = seg((0, 0, 1.0), (1, 0, 1.0))
+    leg_2 = seg((1, 0, 1.0), (2, 0, 1.0))
+    face = seg((2, 0, 1.0), (2, 0, 1.5), turn=True)
+    trail = _trail((), [turn, leg_1, leg_2, face])
+    assert trail == (leg_2, face)
+    # A turn in place, or a short corrective move, adds to it.
+    nudge = seg((2, 0, 1.5), (2.1, 0, 1.5))
+    assert _trail(trail, [nudge]) == (leg_2, face, nudge)

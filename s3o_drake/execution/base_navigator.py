@@ -13,6 +13,7 @@ stops short.
 
 import itertools
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,6 +46,11 @@ from s3o_drake.system_lifetime import weak_callback
 #: it turns, tried in turn (backing out first at each distance) when the direct motion is
 #: blocked.
 ESCAPE_STEPS = tuple(0.05 * k for k in range(1, 13))
+#: A motion that drives at least this far (m) starts a new trail (`_trail`): the base came
+#: from open floor.
+RETRACE_RESET = 0.5
+#: The base must stand within this (m, rad) of where its trail ends to retrace it.
+RETRACE_TOLERANCE = 0.05
 #: How far (m) before a stop the base may turn to the stop's heading and drive straight in,
 #: tried in turn when the direct motion lands short.
 APPROACH_STEPS = tuple(0.1 * k for k in range(1, 9))
@@ -114,6 +120,9 @@ class _Motion:
     outcome: CommandState = CommandState.DONE
     reason: str = ""
     contact: tuple[float, float] | None = None
+    trail: tuple[_Segment, ...] = ()
+    """The way the base came to where this motion ends: the last drive leg of the last
+    motion that drove at least RETRACE_RESET, and every move since (`_trail`)."""
     initialized: bool = False
 
     def __deepcopy__(self, memo: dict) -> "_Motion":
@@ -235,10 +244,11 @@ class BaseNavigator(LeafSystem):
         if command.id == NO_COMMAND:
             # Cancelled (or never started): stop where the motion is now.
             here = motion.desired(t)[:3]
-            new = _Motion(id=NO_COMMAND, t0=t, hold=tuple(map(float, here)), initialized=True)
+            new = _Motion(id=NO_COMMAND, t0=t, hold=tuple(map(float, here)),
+                          trail=motion.trail, initialized=True)
         else:
             base = self._state_port.Eval(context)[:3]
-            new = self._plan(command, base, t)
+            new = self._plan(command, base, t, motion.trail)
         state.get_mutable_abstract_state(self._motion_index).set_value(new)
         return EventStatus.Succeeded()
 
@@ -251,7 +261,8 @@ class BaseNavigator(LeafSystem):
         noise = rng.normal(0.0, 1.0, 3) * [self._xy_std, self._xy_std, self._yaw_std]
         return np.asarray(command.pose, dtype=float) + noise
 
-    def _plan(self, command: BaseCommand, base: np.ndarray, t: float) -> _Motion:
+    def _plan(self, command: BaseCommand, base: np.ndarray, t: float,
+              trail: tuple[_Segment, ...] = ()) -> _Motion:
         target = self._landing(command)
         waypoints = [np.asarray(base[:2], float)]
         if not command.turn:
@@ -276,7 +287,8 @@ class BaseNavigator(LeafSystem):
                 (self._segments([waypoints[0], waypoints[0] + d * heading, *waypoints[1:]],
                                 yaw, float(target[2]))
                  for step in ESCAPE_STEPS for d in (-step, step)))
-            for escape in escapes:
+            for escape in itertools.chain(escapes, self._retrace(trail, base, waypoints,
+                                                                  float(target[2]))):
                 escaped = self._cut_at_collision(escape)
                 if escaped[1] is not CommandState.FAILED:
                     cut = escaped
@@ -302,7 +314,27 @@ class BaseNavigator(LeafSystem):
                    if outcome is CommandState.FAILED and hit is not None else None)
         hold = tuple(float(v) for v in base[:3])
         return _Motion(id=command.id, t0=t, hold=hold, segments=tuple(segments),
-                       outcome=outcome, reason=reason, contact=contact, initialized=True)
+                       outcome=outcome, reason=reason, contact=contact,
+                       trail=_trail(trail, segments), initialized=True)
+
+    def _retrace(self, trail: tuple[_Segment, ...], base: np.ndarray,
+                 waypoints: list[np.ndarray], target_yaw: float) -> Iterator[list[_Segment]]:
+        """The last escape: back the way the base came (`trail`, undone move by move: its
+        turns turned back, its drives driven in reverse), to where the last long drive's
+        last leg began, then on to the waypoints; none when the base no longer stands
+        where the trail ends. In an aisle too narrow to turn in (the dense restaurant's
+        0.85 m), a noisy landing leaves the base where it can neither turn towards its
+        next path nor back out by ESCAPE_STEPS, but the way in is free."""
+        if not trail:
+            return
+        end = np.asarray(trail[-1].end)
+        if (np.linalg.norm(end[:2] - base[:2]) > RETRACE_TOLERANCE
+                or abs(wrap(end[2] - base[2])) > RETRACE_TOLERANCE):
+            return
+        back = [self._segment(seg.end, seg.start, turn=seg.turn, length=seg.length)
+                for seg in reversed(trail)]
+        origin = np.asarray(trail[0].start)
+        yield back + self._segments([origin[:2], *waypoints[1:]], float(origin[2]), target_yaw)
 
     def _segments(self, waypoints: list[np.ndarray], yaw: float, target_yaw: float, *,
                   long_way: bool = False) -> list[_Segment]:
@@ -401,3 +433,12 @@ class BaseNavigator(LeafSystem):
         else:
             output.set_value(Status(id=motion.id, state=motion.outcome, reason=motion.reason,
                                     contact=motion.contact))
+
+
+def _trail(before: tuple[_Segment, ...], segments: list[_Segment]) -> tuple[_Segment, ...]:
+    """The trail after a motion of `segments` (see `_Motion.trail`): from its last drive
+    leg on when it drove at least RETRACE_RESET, else `before` and the motion."""
+    drives = [i for i, seg in enumerate(segments) if not seg.turn]
+    if drives and sum(segments[i].length for i in drives) >= RETRACE_RESET:
+        return tuple(segments[drives[-1]:])
+    return (*before, *segments)
