@@ -155,6 +155,18 @@ def test_workers_do_not_outlive_a_killed_study(tmp_path):
         time.sleep(0.2)
 
 
+def test_every_row_says_which_code_made_it():
+    """A study resumes across commits: each row carries the commit of the checkout (or the
+    package's version outside one), even a row whose job failed."""
+    import re
+
+    from s3o_drake.evaluation.jobs import code_version, run_job
+
+    row = run_job(Job(kind="nope", task="t", path="p", digest="d", seed=0))
+    assert row["error"].startswith("ValueError") and row["code"] == code_version()
+    assert re.fullmatch(r"[0-9a-f]{12}(\+changes)?|s3o_drake \S+", row["code"])
+
+
 def test_resume_runs_only_the_jobs_without_a_finished_result(tmp_path):
     marker = tmp_path / "killed"
     marker.touch()  # no kills here

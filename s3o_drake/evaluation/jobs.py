@@ -7,8 +7,11 @@ workers; `run_job` is importable by name on the other side.
 """
 
 import dataclasses
+import functools
 import hashlib
+import importlib.metadata
 import logging
+import subprocess
 import time
 import traceback
 from dataclasses import dataclass
@@ -16,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from s3o_drake.resources import PACKAGE_NAME, REPO_DIR
 from s3o_drake.scenario import Scenario, load_scenario
 from s3o_drake.task_generation import layout_of
 
@@ -79,7 +83,25 @@ def run_job(job: Job) -> dict:
         row = {"error": f"{type(e).__name__}: {e}".splitlines()[0],
                "traceback": traceback.format_exc(limit=8)}
     return {"key": job.key, **dataclasses.asdict(job), **row,
-            "job_seconds": time.perf_counter() - start}
+            "job_seconds": time.perf_counter() - start, "code": code_version()}
+
+
+@functools.cache
+def code_version() -> str:
+    """The code a row was made with: the commit of the checkout the package runs from (12
+    hex digits; "+changes" when its s3o_drake/ differs from it), else the package's
+    version. Studies run for days and resume across commits; each row says which."""
+    def git(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(["git", "-C", str(REPO_DIR), *args], capture_output=True,
+                              text=True, timeout=30, check=False)
+    try:
+        head = git("rev-parse", "--short=12", "HEAD")
+        if head.returncode == 0:
+            changed = git("diff", "--quiet", "HEAD", "--", PACKAGE_NAME).returncode != 0
+            return head.stdout.strip() + ("+changes" if changed else "")
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return f"{PACKAGE_NAME} {importlib.metadata.version(PACKAGE_NAME)}"
 
 
 def benchmark_scenario(path: str, recovery: str = "none") -> Scenario:
