@@ -371,6 +371,8 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, c
     least = min(study["areas"], key=study["areas"].get)
     assert study["groups"][least] == "difficult"
     assert {c["method"] for c in study["cells"]} == set(METHODS)
+    from s3o_drake.evaluation.jobs import code_version
+    assert study["settings"]["code"] == {code_version(): 6}  # the code that made the runs
     for picture in ("figure5.png", "table1.png"):
         image = matplotlib.image.imread(out / picture)
         assert image.shape[0] > 150 and image.shape[1] > 500 and image.std() > 0.01

@@ -61,6 +61,7 @@ import os
 import re
 import signal
 import sys
+from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -213,6 +214,8 @@ def main(argv: list[str] | None = None) -> int:
                 "seeds": list(range(args.seeds)), "difficulty_seed": DIFFICULTY_SEED,
                 "command": "python -m s3o_drake.commands.evaluate " + " ".join(
                     sys.argv[1:] if argv is None else argv)}
+    # Which code made the runs: a study that resumed across commits says so.
+    settings["code"] = dict(Counter(r.get("code", "not recorded") for r in runs).most_common())
     dish_areas = {r["task"]: r["areas"] for r in measured
                   if r is not None and "error" not in r}
     open_loop = [] if args.open_loop is None else \
@@ -228,6 +231,9 @@ def main(argv: list[str] | None = None) -> int:
     print("Group sizes: " + ", ".join(
         f"{g} {sum(v == g for v in groups.values())}" for g in GROUPS))
     print("wrote " + ", ".join(str(p) for p in written))
+    if len(settings["code"]) > 1:
+        print("the runs come from several versions of the code: " + ", ".join(
+            f"{code} ({n})" for code, n in settings["code"].items()))
     if args.summarize:
         left = sum(not store.finished(j.key) for j in run_job_list)
         print(f"{left} of {len(run_job_list)} runs not finished yet; "
