@@ -51,9 +51,18 @@ class Obstacles:
 
     @classmethod
     def of(cls, bounds: Sequence[float], tables: Iterable, chair_poses: Iterable[Pose2],
-           contacts: Iterable[Sequence[float]] = ()) -> Obstacles:
+           contacts: Iterable[Sequence[float]] = (), *,
+           chair_margins: Sequence[float] | None = None) -> Obstacles:
+        """The room's obstacles; `chair_margins` (m, one per chair) grows chair footprints,
+        for a chair whose pose is only as good as perception."""
+        chair_poses = list(chair_poses)
+        margins = [0.0] * len(chair_poses) if chair_margins is None else list(chair_margins)
+        if len(margins) != len(chair_poses):
+            raise ValueError("chair_margins: one margin per chair")
         shapes = [table_footprint(t.center, t.yaw, t.size) for t in tables]
-        shapes += [chair_footprint(list(p)) for p in chair_poses]
+        shapes += [chair_footprint(list(p)) if m <= 0.0 else
+                   chair_footprint(list(p)).buffer(m, join_style="mitre")
+                   for p, m in zip(chair_poses, margins, strict=True)]
         shapes += [Point(*c[:2]).buffer(CONTACT_RADIUS) for c in contacts]
         return cls(room=box(*bounds), footprints=tuple(shapes))
 
@@ -194,6 +203,15 @@ class KnownWorld:
     def obstacles(self) -> Obstacles:
         return Obstacles.of(self.settings.room.bounds, self.settings.tables, self.chair_poses,
                             self.contacts)
+
+    def obstacles_grown(self, margin: float) -> Obstacles:
+        """`obstacles` with each perceived chair grown by `margin` (m): the room as it may
+        be where perception errs by up to `margin`."""
+        if margin <= 0.0:
+            return self.obstacles
+        margins = [0.0] * len(self.mapped_chairs) + [margin] * len(self.perceived_chairs)
+        return Obstacles.of(self.settings.room.bounds, self.settings.tables, self.chair_poses,
+                            self.contacts, chair_margins=margins)
 
     def as_scenario(self) -> Scenario:
         """The known world as a Scenario, for what builds a Drake plant of it (the oracle's

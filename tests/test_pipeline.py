@@ -67,6 +67,25 @@ def test_the_obstacle_geometry_is_built_once_and_shared(known):
     assert not free_space(known).intersects(chair)
 
 
+def test_only_perceived_chairs_grow_by_the_margin_and_contacts_stay(scenario):
+    """The generator's check plans on the room as it may be when perception errs: a
+    perceived chair grows by the margin; a mapped chair, a table and a contact do not."""
+    mapped = dataclasses.replace(scenario, chairs=[Chair(name="m", pose=[0.8, 0.8, 0.0],
+                                                         mapped=True)])
+    known = dataclasses.replace(
+        KnownWorld.of(mapped, perceived_chairs=[[3.0, 1.0, 0.5]]), contacts=((1.5, 2.5),))
+    exact, grown = known.obstacles, known.obstacles_grown(0.015)
+    assert known.obstacles_grown(0.0) is exact
+    assert len(grown.footprints) == len(exact.footprints)
+    changed = [not a.equals(b) for a, b in zip(exact.footprints, grown.footprints, strict=True)]
+    perceived = len(mapped.tables) + 1
+    assert changed == [i == perceived for i in range(len(changed))]
+    # Grown by the margin on every side: its area grows by about perimeter x margin.
+    chair, bigger = exact.footprints[perceived], grown.footprints[perceived]
+    assert bigger.area - chair.area == pytest.approx(chair.length * 0.015, rel=0.05)
+    assert bigger.buffer(1e-9).contains(chair.buffer(0.015 - 1e-6, join_style="mitre"))
+
+
 def test_moved_keeps_the_map_and_changes_what_changes(known):
     later = known.moved(pose=[1.5, 1.0, 0.2], dishes=["plate_a"])
     assert later.pose == (1.5, 1.0, 0.2) and later.dish_names == ["plate_a"]

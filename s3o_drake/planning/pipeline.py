@@ -24,7 +24,7 @@ from s3o_drake.camera import overhead_camera
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.stops import FreeStops
-from s3o_drake.known_world import KnownWorld, Obstacles
+from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.planner import PlanningError, PlanningResult, plan_task
 from s3o_drake.planning.task_costs import first_reachable
@@ -101,7 +101,7 @@ def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0) -> list[
     drive reaches."""
     known = KnownWorld.perfect(scenario)
     reach = known.planner.reach
-    nav = NavigationMap(_chairs_grown(known, chair_margin))
+    nav = NavigationMap(known.obstacles_grown(chair_margin))
     start = nav.way_out(known.pose[:2])
     clear = known.obstacles.free_space(INSCRIBED_RADIUS)
     stops = FreeStops.of(known)
@@ -118,16 +118,6 @@ def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0) -> list[
         if not stops.free_cells(dataclasses.replace(grid, values=ask.astype(float))).any():
             missing.append(dish.name)
     return sorted(missing)
-
-
-def _chairs_grown(known: KnownWorld, margin: float) -> Obstacles:
-    """`known`'s obstacles with the footprints of its perceived chairs grown by `margin`."""
-    if margin <= 0.0:
-        return known.obstacles
-    seen = len(known.obstacles.footprints) - len(known.perceived_chairs)
-    return Obstacles(room=known.obstacles.room, footprints=tuple(
-        f if i < seen else f.buffer(margin, join_style="mitre")
-        for i, f in enumerate(known.obstacles.footprints)))
 
 
 def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None = None,
