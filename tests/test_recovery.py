@@ -79,8 +79,17 @@ def test_a_dish_out_of_reach_across_the_table_is_reached_by_a_detour(scenario):
     north = np.array([2.5, 3.0, -np.pi / 2])  # 0.65 m north of bowl_north, 1.35 m of south
     near = check.correction(north, "bowl_south", radius=0.3)
     assert near is None or near[1] < 0.5
+    asked: list[tuple[float, float]] = []
+    test = check._success
+
+    def counted(positions, dish):
+        asked.extend(map(tuple, np.asarray(positions).reshape(-1, 2).round(9)))
+        return test(positions, dish)
+
+    check._success = counted
     target, feasibility = check.correction(north, "bowl_south", radius=0.3, threshold=0.5,
                                            detour=True)
+    assert asked and len(set(asked)) == len(asked)  # no cell's pickup test asked twice
     assert feasibility >= 0.5 and feasibility == check.feasibility(target, "bowl_south")
     assert target[1] < 1.65  # south of the dish: round the table
     assert np.isfinite(nav.path_length(north[:2], target))

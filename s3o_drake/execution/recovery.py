@@ -138,16 +138,27 @@ class StopCheck:
         centers = heatmap.centers().reshape(-1, 2)
         values = heatmap.values.ravel()
         near = None
+        verdicts: dict[int, bool] = {}
         if radius > 0.0:
             distance = np.linalg.norm(centers - here[:2], axis=1)
             cells = self._drivable(centers, np.flatnonzero((distance <= radius) & (values > 0)))
-            passing = cells[self._success(centers[cells], dish)] if cells.size else cells
+            passing = self._passing(centers, cells, dish, verdicts)
             if passing.size:
                 near = self._soonest(here, dish, centers, values, passing, routed=False)
         if not detour or (near is not None and near[1] >= threshold):
             return near
-        far = self._detour(here, dish, centers, values, max(threshold, 1e-9))
+        far = self._detour(here, dish, centers, values, max(threshold, 1e-9), verdicts)
         return far if far is not None else near
+
+    def _passing(self, centers: np.ndarray, cells: np.ndarray, dish: str,
+                 verdicts: dict[int, bool]) -> np.ndarray:
+        """The `cells` whose centre passes the pickup test. `verdicts` keeps each cell's
+        answer, so a detour does not test again the cells within the radius."""
+        ask = np.asarray([c for c in cells.tolist() if c not in verdicts], dtype=int)
+        if ask.size:
+            verdicts.update(zip(ask.tolist(), self._success(centers[ask], dish).tolist(),
+                                strict=True))
+        return cells[np.asarray([verdicts[c] for c in cells.tolist()], dtype=bool)]
 
     def _drivable(self, centers: np.ndarray, cells: np.ndarray) -> np.ndarray:
         # Only stops the base can drive off from again: a pocket it squeezed into by the
@@ -157,7 +168,7 @@ class StopCheck:
         return cells
 
     def _detour(self, here: np.ndarray, dish: str, centers: np.ndarray, values: np.ndarray,
-                threshold: float) -> tuple[np.ndarray, float] | None:
+                threshold: float, verdicts: dict[int, bool]) -> tuple[np.ndarray, float] | None:
         """The best stop of the whole heatmap with Fea^m >= `threshold` that the base can
         drive to (see `correction`): cells tested best first, DETOUR_BATCH at a time."""
         cells = np.flatnonzero(values >= threshold)
@@ -170,7 +181,7 @@ class StopCheck:
             batch = cells[start:start + DETOUR_BATCH]
             if passing and values[batch[0]] < values[passing[0]] - CORRECTION_SLACK:
                 break
-            passing.extend(batch[self._success(centers[batch], dish)].tolist())
+            passing.extend(self._passing(centers, batch, dish, verdicts).tolist())
         if not passing:
             return None
         return self._soonest(here, dish, centers, values, np.asarray(passing), routed=True)
