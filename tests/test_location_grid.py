@@ -77,6 +77,35 @@ def test_lattice_fea_m_once_and_cache():
     assert np.allclose(merged.weight[merged.joint], merged.fea.sum(axis=0)[merged.joint])
 
 
+def test_fea_m_is_0_where_the_base_cannot_drive_and_the_search_starts_where_it_can():
+    """Chairs across plate_a's cell at x = 1.5 (as `drivable` has it): the points beyond
+    keep their place in the grid but pick nothing, so Fea^t and the motion search's start
+    and draws see only the side the base reaches."""
+    from s3o_drake.planning.motion_search import draw, initial_point
+
+    scenario, _, partition = _scene()
+    rings = _rings(scenario)
+    plain = LocationGrid.of(partition, rings)
+    asked = []
+
+    def west(points):
+        asked.append(len(points))
+        return points[:, 0] < 1.5
+
+    grid = LocationGrid.of(partition, rings, drivable=west)
+    np.testing.assert_array_equal(grid.points, plain.points)
+    beyond = grid.points[:, 0] >= 1.5
+    assert (plain.fea[:, beyond] > 0).any() and (grid.fea[:, beyond] == 0).all()
+    np.testing.assert_array_equal(grid.fea[:, ~beyond], plain.fea[:, ~beyond])
+    assert sum(asked) == int((plain.fea > 0).any(axis=0).sum())  # only where it matters
+    here, rng = np.array([2.0, 0.5]), np.random.default_rng(0)
+    before, after = plain.location(["plate_a"]), grid.location(["plate_a"])
+    assert initial_point(before, here, 1.0, 0.4)[0] >= 1.5
+    assert (draw(before, rng, 50)[:, 0] >= 1.5).any()
+    assert initial_point(after, here, 1.0, 0.4)[0] < 1.5
+    assert (draw(after, rng, 50)[:, 0] < 1.5).all()
+
+
 def test_no_joint_point():
     """plate_a feasible only from the west end of the table, cup_b only from the east end:
     no joint point. Fea^t is 0 for the merged location; the motion search weighs every

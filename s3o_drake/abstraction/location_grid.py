@@ -9,7 +9,11 @@ the planner's representative points and the motion search's starting points and 
   of the dishes' reach discs. A point belongs to the cell that Sym maps it to
   (`VoronoiPartition.sym_many`: the nearest dish, within reach, in free space).
 - Fea^m of every dish at every point is evaluated once, when the grid is built (once per
-  plan, before the planner forks its search workers, which inherit it).
+  plan, before the planner forks its search workers, which inherit it). Built with
+  `drivable` (the planner's "a drive from the start reaches it"), Fea^m is 0 at points
+  the base cannot reach: a dish picked there is not picked. Without it, a location whose
+  best points lie mostly beyond a chair started every motion search there, and every
+  search of every state space ended on an undrivable leg (dense task_015).
 - `location(group, dishes)` gives the points of the group's cells, in the grid's fixed
   order, with the Fea^m of `dishes` there; cached per (group, dishes).
 
@@ -42,7 +46,7 @@ from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
 from s3o_drake.abstraction.motion_feasibility import MotionFeasibility, as_motion_feasibility
-from s3o_drake.abstraction.voronoi import GRID_CELL, VoronoiPartition
+from s3o_drake.abstraction.voronoi import GRID_CELL, Drivable, VoronoiPartition
 
 
 def joint_feasible(fea: np.ndarray, threshold: float = 0.0) -> np.ndarray:
@@ -115,7 +119,8 @@ class LocationGrid:
 
     def __init__(self, points: np.ndarray, owner: np.ndarray, cells: Sequence[BaseGeometry],
                  names: Sequence[str], source, dishes: Sequence[str], *,
-                 threshold: float = 0.0, cell: float = GRID_CELL):
+                 threshold: float = 0.0, cell: float = GRID_CELL,
+                 drivable: Drivable | None = None):
         if threshold < 0.0:
             raise ValueError(f"joint_threshold must be at least 0, got {threshold:g}")
         self.points = points
@@ -133,16 +138,22 @@ class LocationGrid:
         self._row = {d: i for i, d in enumerate(self.dishes)}
         self.fea = (np.stack([self.source.values(d, points) for d in self.dishes])
                     if self.dishes else np.zeros((0, len(points))))
-        """Fea^m (dishes, m) at every point: evaluated once, here."""
+        """Fea^m (dishes, m) at every point: evaluated once, here; 0 where `drivable`
+        says the base cannot go (asked only where some dish has Fea^m > 0)."""
+        if drivable is not None and self.fea.size:
+            ask = np.flatnonzero((self.fea > 0).any(axis=0))
+            if ask.size:
+                self.fea[:, ask[~np.asarray(drivable(points[ask]), dtype=bool)]] = 0.0
         self._members = [np.flatnonzero(owner == i) for i in range(len(self.cells))]
         self._cache: dict[tuple, GridLocation] = {}
         self._regions: dict[tuple[int, ...], BaseGeometry] = {}
 
     @classmethod
     def of(cls, partition: VoronoiPartition, source, *, threshold: float = 0.0,
-           cell: float = GRID_CELL) -> LocationGrid:
+           cell: float = GRID_CELL, drivable: Drivable | None = None) -> LocationGrid:
         """The grid over a partition's cells, with Fea^m of all its dishes from `source`
-        (a MotionFeasibility, a mapping dish -> Heatmap or a list of Heatmaps)."""
+        (a MotionFeasibility, a mapping dish -> Heatmap or a list of Heatmaps), 0 where
+        `drivable` (points (m, 2) -> bool (m,); None: everywhere) says no."""
         if not partition.dishes:
             return cls(np.zeros((0, 2)), np.zeros(0, dtype=int), [], [], source, [],
                        threshold=threshold, cell=cell)
@@ -155,7 +166,7 @@ class LocationGrid:
         owner = partition.sym_many(points)
         keep = owner >= 0
         return cls(points[keep], owner[keep], partition.cells, partition.dishes, source,
-                   partition.dishes, threshold=threshold, cell=cell)
+                   partition.dishes, threshold=threshold, cell=cell, drivable=drivable)
 
     def region(self, group: Sequence[str]) -> BaseGeometry:
         """The union of the named cells."""

@@ -231,7 +231,7 @@ def build_abstraction(known: KnownWorld, feasibility, *,
     joint rule at `joint_threshold`), which the result carries. Reach, N, K and the seed
     default to the planner's settings and the scenario's seed; `location_cost` to γ / λ.
     `drivable` (points -> bool; None: all) says where the robot can drive to, for the
-    partition's claims (`voronoi.py`).
+    partition's claims (`voronoi.py`) and the grid's Fea^m (0 where it cannot).
     """
     planner = known.planner
     if location_cost is None:
@@ -239,7 +239,8 @@ def build_abstraction(known: KnownWorld, feasibility, *,
     partition = voronoi_partition(known, dishes=dishes, clearance=clearance,
                                   feasibility=feasibility, drivable=drivable,
                                   deadline=time.monotonic() + time_limit)
-    grid = LocationGrid.of(partition, feasibility, threshold=joint_threshold, cell=grid_cell)
+    grid = LocationGrid.of(partition, feasibility, threshold=joint_threshold, cell=grid_cell,
+                           drivable=drivable)
     task = TaskFeasibility(grid, samples=planner.location_samples,
                            seed=known.settings.seed if seed is None else seed)
     return rank(partition, task, top_k=planner.top_k, location_cost=location_cost,

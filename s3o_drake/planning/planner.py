@@ -356,7 +356,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         partition = voronoi_partition(known, feasibility=fea, deadline=deadline,
                                       drivable=partial(nav.reachable, start))
         if method != "V-PETLON":  # PETLON draws its goals uniformly: it reads no grid
-            grid = LocationGrid.of(partition, fea)
+            grid = LocationGrid.of(partition, fea, drivable=partial(nav.reachable, start))
     timing["abstraction"] = time.monotonic() - t
     expired("the abstraction")
     cells = dict(zip(partition.dishes, partition.cells, strict=True))
