@@ -282,14 +282,18 @@ class BaseNavigator(LeafSystem):
             yaw = float(base[2])
             heading = np.array([math.cos(yaw), math.sin(yaw)])
             # Built one at a time: the first that is not blocked ends the search.
+            # The way in, each of them then retraced: a base that backs out of a pocket
+            # it drove into may still need to keep to the planned leg of the next one.
+            ways = [waypoints, *self._along_plan(command, waypoints)]
             escapes = itertools.chain(
                 [self._segments(waypoints, yaw, float(target[2]), long_way=True)],
-                self._along_plan(command, waypoints, yaw, float(target[2])),
+                (self._segments(way, yaw, float(target[2])) for way in ways[1:]),
                 (self._segments([waypoints[0], waypoints[0] + d * heading, *waypoints[1:]],
                                 yaw, float(target[2]))
-                 for step in ESCAPE_STEPS for d in (-step, step)))
-            for escape in itertools.chain(escapes, self._retrace(trail, base, waypoints,
-                                                                  float(target[2]))):
+                 for step in ESCAPE_STEPS for d in (-step, step)),
+                itertools.chain.from_iterable(
+                    self._retrace(trail, base, way, float(target[2])) for way in ways))
+            for escape in escapes:
                 escaped = self._cut_at_collision(escape)
                 if escaped[1] is not CommandState.FAILED:
                     cut = escaped
@@ -318,13 +322,14 @@ class BaseNavigator(LeafSystem):
                        outcome=outcome, reason=reason, contact=contact,
                        trail=_trail(trail, segments), initialized=True)
 
-    def _along_plan(self, command: BaseCommand, waypoints: list[np.ndarray], yaw: float,
-                    target_yaw: float) -> Iterator[list[_Segment]]:
-        """Drives that keep to the planned last leg, towards the commanded stop, and turn
-        off it to the noisy landing only APPROACH_STEPS before the stop, the nearest first.
-        The straight drive from the last waypoint to the landing swings the whole leg by the
-        noise; next to a chair, its first metre then clips what the planned leg clears
-        (dense task_033: a 1 m leg, 10 cm of noise, blocked 4 cm after the turn)."""
+    def _along_plan(self, command: BaseCommand, waypoints: list[np.ndarray]
+                    ) -> Iterator[list[np.ndarray]]:
+        """Waypoints that keep to the planned last leg, towards the commanded stop, and turn
+        off it to the noisy landing (`waypoints[-1]`) only APPROACH_STEPS before the stop,
+        the nearest first. The straight drive from the last waypoint to the landing swings
+        the whole leg by the noise; next to a chair, its first metre then clips what the
+        planned leg clears (dense task_033: a 1 m leg, 10 cm of noise, blocked 4 cm after
+        the turn)."""
         if command.turn or len(waypoints) < 2:
             return
         stop = np.asarray(command.pose[:2], dtype=float)
@@ -333,8 +338,7 @@ class BaseNavigator(LeafSystem):
         for d in APPROACH_STEPS:
             if d >= length:
                 return
-            via = stop - d * leg / length
-            yield self._segments([*waypoints[:-1], via, waypoints[-1]], yaw, target_yaw)
+            yield [*waypoints[:-1], stop - d * leg / length, waypoints[-1]]
 
     def _retrace(self, trail: tuple[_Segment, ...], base: np.ndarray,
                  waypoints: list[np.ndarray], target_yaw: float) -> Iterator[list[_Segment]]:
