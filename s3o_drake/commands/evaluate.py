@@ -42,6 +42,12 @@ Written to --out:
 --summarize writes those from the runs finished so far and runs nothing (safe beside a
 running study: the result files are only read).
 
+--again DIR runs again, into --out, only the runs of the study in DIR (the same --tasks,
+--methods, --seeds and --recovery) that did not complete, or with --ended WORD... those
+whose ending names one of the words (e.g. --ended blocked "no plan"): a fix measured on
+the runs it was made for. Each new run keeps its old twin's seed; again.md (also printed)
+sets them side by side per method. The tasks' difficulty is read from DIR.
+
 Scale-out: a local pool of --workers spawned processes (default: one per core), or, with
 --scheduler, the workers of a Dask distributed cluster (they need s3o_drake installed; each
 run plans with one search process, the parallelism being across runs). Interrupted or
@@ -101,6 +107,12 @@ def parse_args(argv: list[str] | None):
     parser.add_argument("--open-loop", metavar="DIR",
                         help="with --recovery retry|replan: the same study run open loop "
                              "(its --out), for the time recovery costs in summary.md")
+    parser.add_argument("--again", metavar="DIR",
+                        help="run again only the runs of the study in DIR that did not "
+                             "complete (or that --ended names), and compare")
+    parser.add_argument("--ended", nargs="+", metavar="WORD",
+                        help="with --again: the runs whose ending contains one of these "
+                             "words, e.g. blocked 'no plan'")
     parser.add_argument("--summarize", action="store_true",
                         help="run nothing: write the tables and figures from the runs "
                              "finished so far (e.g. while the study runs elsewhere)")
@@ -138,6 +150,13 @@ def _validate(args) -> tuple[list[Path], list[str]]:
                  "with its open-loop runs; this study is open loop")
         if not (Path(args.open_loop) / "results.jsonl").is_file():
             fail(f"--open-loop: no results.jsonl in {args.open_loop}")
+    if args.ended is not None and args.again is None:
+        fail("--ended: chooses among the runs of --again DIR; give --again")
+    if args.again is not None:
+        if not (Path(args.again) / "results.jsonl").is_file():
+            fail(f"--again: no results.jsonl in {args.again}")
+        if Path(args.again).resolve() == Path(args.out).resolve():
+            fail("--again: the runs go to a folder of their own; --out names the same one")
     if args.scheduler is not None and not SCHEDULER.match(args.scheduler):
         fail(f"--scheduler: expected an address like tcp://HOST:PORT, got {args.scheduler!r}")
     out = Path(args.out)
@@ -182,8 +201,24 @@ def main(argv: list[str] | None = None) -> int:
     difficulty_jobs, run_job_list = study_jobs(paths, methods, args.seeds, args.recovery)
     difficulty_store = ResultStore(out / "difficulty.jsonl", read_only=args.summarize)
     store = ResultStore(out / "results.jsonl", read_only=args.summarize)
+    before: dict[str, dict] = {}
+    known = None  # the difficulty rows of --again's study
+    if args.again is not None:
+        from s3o_drake.evaluation.again import chosen
+
+        earlier = Path(args.again)
+        before = {r["key"]: r for r in
+                  ResultStore(earlier / "results.jsonl", read_only=True).rows()}
+        run_job_list = chosen(run_job_list, before, args.ended or ())
+        known = ResultStore(earlier / "difficulty.jsonl", read_only=True)
+        if not args.summarize:  # the same tasks: their areas need no new measure
+            for job in difficulty_jobs:
+                if known.finished(job.key) and not difficulty_store.finished(job.key):
+                    difficulty_store.append(known.get(job.key))
+    again = "" if args.again is None else \
+        f" ({len(run_job_list)} of them chosen again from {args.again})"
     print(f"{len(paths)} tasks x {len(methods)} methods x {args.seeds} seeds = "
-          f"{len(run_job_list)} runs; "
+          f"{len(paths) * len(methods) * args.seeds} runs{again}; "
           f"{sum(store.finished(j.key) for j in run_job_list)} already finished in {out}",
           flush=True)
     options = {"workers": args.workers, "scheduler": args.scheduler,
@@ -207,7 +242,8 @@ def main(argv: list[str] | None = None) -> int:
 
     wanted = {j.key for j in run_job_list}
     runs = [r for r in store.rows() if r["key"] in wanted]
-    measured = [difficulty_store.get(j.key) for j in difficulty_jobs]
+    measured = [difficulty_store.get(j.key) or (known and known.get(j.key))
+                for j in difficulty_jobs]
     areas = {r["task"]: r["area"] for r in measured if r is not None and "error" not in r}
     groups = difficulty_groups(areas)
     settings = {"tasks": str(Path(args.tasks)), "task_count": len(paths), "methods": methods,
@@ -228,6 +264,17 @@ def main(argv: list[str] | None = None) -> int:
                          "run the same command with --summarize")
         return 1
     print(markdown_tables(summarize(runs, groups, methods), methods))
+    if args.again is not None:
+        from s3o_drake.evaluation.again import comparison
+
+        table = comparison(before, runs, methods)
+        try:
+            (out / "again.md").write_text(
+                f"The runs of {args.again} run again (`{settings['command']}`):\n\n{table}")
+        except OSError as e:
+            _cannot_write(e, "the runs are kept; run the same command with --summarize")
+            return 1
+        print(f"Run again, against the runs of {args.again}:\n{table}")
     print("Group sizes: " + ", ".join(
         f"{g} {sum(v == g for v in groups.values())}" for g in GROUPS))
     print("wrote " + ", ".join(str(p) for p in written))
