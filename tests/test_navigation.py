@@ -293,3 +293,56 @@ def test_furniture_in_a_row_does_not_open_a_way_through_the_middle():
     # Interior segments keep the driving clearance (the first and the last join stops).
     for a, b in itertools.pairwise(path[1:-1]):
         assert LineString([a, b]).distance(nav.obstacles) >= DRIVE_RADIUS - 1e-3
+
+
+def _door(width: float):
+    """A 6 x 4 m room split at x = 3 by a wall with a door `width` wide, centred at y = 2."""
+    from shapely.geometry import box
+
+    from s3o_drake.known_world import Obstacles
+
+    half = width / 2
+    return Obstacles(room=box(0, 0, 6, 4), footprints=(box(2.9, 0, 3.1, 2 - half),
+                                                        box(2.9, 2 + half, 3.1, 4)))
+
+
+def test_a_tight_map_passes_a_door_the_usual_margin_closes_by_millimetres():
+    """A door 0.88 m wide, its jambs' corners rounded as the map circumscribes them (up to
+    2 % more): closed by 13 mm with the usual drive clearance (0.438 m), open by 7 mm with
+    the tight one (0.428 m, the collision check's padding)."""
+    from s3o_drake.planning.navigation import TIGHT_DRIVE_MARGIN
+
+    rounding = 1.0 / math.cos(math.pi / 16)
+    assert 2 * (BASE_RADIUS + TIGHT_DRIVE_MARGIN) * rounding < 0.88 < \
+        2 * DRIVE_RADIUS * rounding
+    usual = NavigationMap(_door(0.88))
+    tight = NavigationMap(_door(0.88), drive_margin=TIGHT_DRIVE_MARGIN)
+    assert usual.drive_radius == DRIVE_RADIUS
+    assert tight.drive_radius == pytest.approx(BASE_RADIUS + ENVIRONMENT_PADDING)
+    a, b = [1.0, 1.2], [5.0, 3.1]  # through the door, not along its axis
+    assert math.isinf(usual.path_length(a, b))
+    assert tight.path_length(a, b) == pytest.approx(math.dist(a, b), abs=0.05)
+    path = tight.path(a, b)
+    assert shapely.distance(LineString(path), shapely.box(2.9, 0, 3.1, 1.56)) >= \
+        BASE_RADIUS + ENVIRONMENT_PADDING - 1e-3
+    with pytest.raises(ValueError, match="drive_margin"):
+        NavigationMap(_door(0.88), drive_margin=ENVIRONMENT_PADDING / 2)
+
+
+def test_the_way_out_leaves_a_pocket_that_leads_nowhere_aside():
+    """A 0.89 m aisle between the wall (y = 0) and a table across the room holds a strip of
+    driveable positions 1.4 cm wide that leads nowhere; a robot standing against the wall
+    there backs out to the room beyond the table, not into the strip."""
+    from shapely.geometry import box
+
+    from s3o_drake.known_world import Obstacles
+    from s3o_drake.planning.navigation import WAY_OUT_MIN_AREA
+
+    nav = NavigationMap(Obstacles(room=box(0, 0, 6, 4), footprints=(box(0, 0.89, 6, 1.2),)))
+    parts = sorted(g.area for g in shapely.get_parts(nav.driveable))
+    assert len(parts) == 2 and parts[0] < WAY_OUT_MIN_AREA < parts[1]
+    here = np.array([3.0, 0.25])  # 0.25 m from the wall: no base position of the map
+    assert not nav.drivable_from(here[None])[0]
+    out = nav.way_out(here)
+    assert out[1] > 1.2 + DRIVE_RADIUS - 1e-3 and out[0] == pytest.approx(3.0, abs=1e-6)
+    assert nav.reachable(out, np.array([[1.0, 3.0], [5.0, 3.0]])).all()

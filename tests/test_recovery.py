@@ -18,6 +18,7 @@ from s3o_drake.execution.s3o_planner import S3OPlanner
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.known_world import CONTACT_RADIUS, KnownWorld
 from s3o_drake.perception import scenario_unmapped_chairs
+from s3o_drake.planning.navigation import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import heatmaps_for
 from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.robot import robot_desired_state, robot_positions
@@ -278,10 +279,11 @@ def test_a_dish_left_out_unchecked_is_planned_for_again_at_the_plan_s_end(scenar
     import s3o_drake.execution.s3o_planner as module
 
     real = module.plan_from
-    asked = []
+    asked, margins = [], []
 
     def first_without_north(known, **kwargs):
         asked.append(sorted(known.dish_names))
+        margins.append(kwargs["drive_margin"])
         if len(asked) > 1:
             return real(known, **kwargs)
         result = real(known.moved(pose=known.pose, dishes=["bowl_south"]), **kwargs)
@@ -294,8 +296,10 @@ def test_a_dish_left_out_unchecked_is_planned_for_again_at_the_plan_s_end(scenar
         "bowl_south"]
     progress = _walk(system, context)
     assert asked == [["bowl_north", "bowl_south"], ["bowl_north"]]
+    # Asked again on a map that keeps only the collision check's padding.
+    assert margins == [DRIVE_MARGIN, TIGHT_DRIVE_MARGIN]
     replan = next(r for r in progress.recoveries if r.kind == "replan")
-    assert replan.trigger == "left out unchecked: bowl_north" and replan.result == "done"
+    assert replan.trigger == "left out: bowl_north" and replan.result == "done"
     picked = [r.dish for r in progress.pickups if r.outcome == "done"]
     assert picked == ["bowl_south", "bowl_north"] and progress.unreachable == ()
     # Asked once: a dish still left out after the check is not asked for again.
@@ -397,6 +401,9 @@ def test_in_simulation_a_dish_behind_a_wall_is_reported_unreachable_quickly():
     assert time.perf_counter() - start < 120  # no hang: seconds, not the time limit
     assert report["unreachable"] == ["plate_back"]
     assert report["collected_dishes"] == ["bowl_front"] and report["finished"]
+    # Asked for once more at the plan's end, on the tight map: still no stop behind a wall.
+    (again,) = [r for r in report["recoveries"] if r["kind"] == "replan"]
+    assert again["trigger"] == "left out: plate_back" and "0 actions" in again["action"]
 
 
 def test_a_study_s_recovery_figures_count_what_the_runs_report():

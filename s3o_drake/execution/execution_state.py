@@ -68,7 +68,7 @@ class ExecutionState:
     replans: int = 0
     exhausted: tuple[str, ...] = ()  # a dish per plan in which it failed all its tries
     given_up: tuple[str, ...] = ()
-    rechecked: tuple[str, ...] = ()  # dishes planned for again, having been `unchecked`
+    rechecked: tuple[str, ...] = ()  # dishes planned for again at a plan's end, left out
     contacts: tuple[tuple[float, float], ...] = ()
     """Where blocked drives touched what blocked them (KnownWorld.contacts of replans)."""
     to_tray: str = ""

@@ -13,8 +13,7 @@ controller reports the command done; a failed pickup is recorded and the plan go
 the next action (the dish stays where it is); a failed goto ends the execution (the plan's
 later pickups assumed that stop). Each finished pickup also leaves a `PickupRecord` on
 `progress` (the Fea^m the plan predicted from its planned stop, where the base really stood,
-the outcome, the reach noise the arm drew): the executions against which Fea^m is
-calibrated.
+the outcome, the reach noise the arm drew): what Fea^m is calibrated against.
 
 That is the paper's open loop, `execution.recovery: none`. With `retry`, before each
 pickup the robot localises and checks the stop (s3o_drake/execution/recovery.py): when the
@@ -28,8 +27,9 @@ remain from where the robot believes it stands, with the same pipeline and
 what blocked it is an obstacle to the replans' navigation. A dish that failed all its tries
 in PLANS_PER_DISH plans is left, and so is one whose replan finds no plan (the old plan
 goes on). Dishes no free pose of the known world can pick are reported on
-`progress.unreachable`; those a plan left out on the network's Fea^m alone, unchecked for
-lack of time, are planned for again at the plan's end. Every recovery is a `RecoveryRecord`.
+`progress.unreachable`; those a plan left out (on the network's Fea^m alone, or with no
+stop on the map) are planned for again at its end, on a map with TIGHT_DRIVE_MARGIN.
+Every recovery is a `RecoveryRecord`.
 
 A change of the optional `replan_request` input's value also plans the dishes not yet
 collected again, from the robot's current pose.
@@ -66,6 +66,7 @@ from s3o_drake.execution.recovery import MIN_CORRECTION, StopCheck, describe_mov
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
 from s3o_drake.goals import place_target_name, place_targets
 from s3o_drake.perception import Perceive, perceive_known_world
+from s3o_drake.planning.navigation import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import plan_from
 from s3o_drake.planning.plan import Goto, Pickup, Place
 from s3o_drake.robot import CONTROL_PERIOD, NUM_POSITIONS
@@ -182,8 +183,8 @@ class S3OPlanner(LeafSystem):
         return left, next((d for d in left if d in e.picked), "")
 
     def _plan(self, context: Context, execution: ExecutionState, *, start: np.ndarray,
-              dishes: Sequence[str], budget: float | None = None,
-              held: str = "") -> ExecutionState:
+              dishes: Sequence[str], budget: float | None = None, held: str = "",
+              drive_margin: float = DRIVE_MARGIN) -> ExecutionState:
         """A new plan from base pose `start` for `dishes` (`held` in the gripper), or a
         finished execution saying why there is none."""
         t0 = time.perf_counter()
@@ -204,7 +205,8 @@ class S3OPlanner(LeafSystem):
                   f"{planner.feasibility}) within a budget of {budget:g} s",
                   file=sys.stderr, flush=True)
         result = plan_from(known, method=self._method, seed=self._seed, workers=self._workers,
-                           time_budget=budget, progress=self._progress_bar, started=t0)
+                           time_budget=budget, progress=self._progress_bar, started=t0,
+                           drive_margin=drive_margin)
         if result.navigation is not None:
             result.navigation.seal()
         plans = (*execution.plans, PlanTime(result.planning_time, None if result.plan is None
@@ -222,8 +224,8 @@ class S3OPlanner(LeafSystem):
             plans=plans, finished=not result.plan.actions,
             reason="" if result.plan.actions else PLAN_ENDED).next_step()
 
-    def _replan(self, context: Context, e: ExecutionState, *, trigger: str,
-                dish: str = "") -> ExecutionState:
+    def _replan(self, context: Context, e: ExecutionState, *, trigger: str, dish: str = "",
+                drive_margin: float = DRIVE_MARGIN) -> ExecutionState:
         """The dishes that remain planned again from where the robot believes it stands
         (execution.recovery replan), or the execution finished where that is not allowed."""
         remaining, held = self._remaining(e)
@@ -232,8 +234,8 @@ class S3OPlanner(LeafSystem):
         belief = self._belief(context, e)
         t = context.get_time()
         before = dataclasses.replace(e, replans=e.replans + 1)
-        e = self._plan(context, before, start=belief, dishes=remaining,
-                       budget=self._settings.replan_budget, held=held)
+        e = self._plan(context, before, start=belief, dishes=remaining, held=held,
+                       budget=self._settings.replan_budget, drive_margin=drive_margin)
         plan = e.plan
         result = "done" if plan is not None else e.reason
         action = (f"planned {len(remaining)} dish{'es' if len(remaining) > 1 else ''} from "
@@ -275,18 +277,20 @@ class S3OPlanner(LeafSystem):
         state.get_mutable_abstract_state(int(self._state)).set_value(execution)
 
     def _recheck(self, context: Context, e: ExecutionState) -> ExecutionState:
-        """At the plan's end, with recovery replan: the dishes its plan left out on the
-        network's Fea^m alone (`PlanningResult.unchecked`: the first plan's budget left no
-        time for the Drake check) planned for again, once, with the replan budget, in which
-        the check runs; the execution as it was when there are none, or no plan."""
-        unchecked = sorted(set(e.result.unchecked) - set(e.rechecked))
-        if (self._recovery != Recovery.REPLAN or not unchecked
+        """At the plan's end, with recovery replan: the dishes the plans left out planned
+        for again, once, with the replan budget, on a map that keeps only the collision
+        check's padding (TIGHT_DRIVE_MARGIN): those left out on the network's Fea^m alone
+        (`PlanningResult.unchecked`: no time for the Drake check, which runs now) and those
+        the map gave no stop (a way closed by millimetres: dense task_030's bowl_1, behind
+        a chair perceived 1-6 mm off). The execution as it was when none, or no plan."""
+        left = sorted((set(e.result.unchecked) | set(e.unreachable)) - set(e.rechecked))
+        if (self._recovery != Recovery.REPLAN or not left
                 or e.replans >= self._settings.max_replans):
             return e
         again = self._replan(context, dataclasses.replace(
-            e, finished=False, reason="", rechecked=(*e.rechecked, *unchecked),
-            unreachable=tuple(d for d in e.unreachable if d not in unchecked)),
-            trigger=f"left out unchecked: {', '.join(unchecked)}")
+            e, finished=False, reason="", rechecked=(*e.rechecked, *left),
+            unreachable=tuple(d for d in e.unreachable if d not in left)),
+            trigger=f"left out: {', '.join(left)}", drive_margin=TIGHT_DRIVE_MARGIN)
         if again.plan is None:  # the run ends as the old plan did, the replan recorded
             return dataclasses.replace(e, recoveries=again.recoveries, plans=again.plans)
         return again

@@ -61,9 +61,17 @@ found runs of every method blocked so, e.g. task_010 next to a wall)."""
 DRIVE_RADIUS = BASE_RADIUS + DRIVE_MARGIN
 """Clearance kept along a path: the base's circumscribed radius plus DRIVE_MARGIN, safe at
 any yaw (m)."""
+TIGHT_DRIVE_MARGIN = 0.01
+"""The least margin a map may keep (m): the execution's collision check's own padding
+(feasibility.scene.ENVIRONMENT_PADDING). A map built with it finds ways that DRIVE_MARGIN
+closes by millimetres; it is asked only for dishes that the usual map leaves no stop."""
 INSCRIBED_TOLERANCE = 1e-3
 """An endpoint's clearance may fall this short of INSCRIBED_RADIUS (m): the abstraction's
 free space is a polygon (`buffer(..., quad_segs=16)`) whose boundary comes ~0.3 mm closer."""
+WAY_OUT_MIN_AREA = 0.05
+"""A part of the driveable region smaller than this (m²) is no way out (`way_out`): in a
+narrow aisle the map can hold a pocket of a few cm² that leads nowhere (dense task_030,
+0.001 m² beside a robot in the 0.85 m aisle), and a plan started there reaches nothing."""
 _ENDPOINT_CACHE_SIZE = 20_000
 
 
@@ -92,14 +100,21 @@ class NavigationMap:
     """
 
     def __init__(self, obstacles: Obstacles, *, resolution: float = 0.05, quad_segs: int = 4,
-                 fast_visibility: bool = True):
+                 fast_visibility: bool = True, drive_margin: float = DRIVE_MARGIN):
         """`obstacles`: what the robot knows (`KnownWorld.obstacles`: the walls, the tables,
         the mapped and the perceived chairs). `resolution` (m) is the occupancy grid's cell
         size. `fast_visibility=False` tests what an endpoint sees with the exact segment test
-        instead of the precomputed visibility polygons (a reference for tests)."""
+        instead of the precomputed visibility polygons (a reference for tests).
+        `drive_margin` (m, at least TIGHT_DRIVE_MARGIN) is added to the base's circumscribed
+        radius along paths."""
         self.fast_visibility = fast_visibility
         if resolution <= 0:
             raise ValueError(f"resolution must be positive, got {resolution}")
+        if drive_margin < TIGHT_DRIVE_MARGIN:
+            raise ValueError(f"drive_margin must be at least {TIGHT_DRIVE_MARGIN} m (the "
+                             f"collision check's padding), got {drive_margin}")
+        self.drive_radius = BASE_RADIUS + drive_margin
+        """The clearance this map keeps along paths (DRIVE_RADIUS by default)."""
         self.resolution = float(resolution)
         self.room = obstacles.room
         self.footprints: list[Polygon] = list(obstacles.footprints)
@@ -149,7 +164,7 @@ class NavigationMap:
     def _build_graph(self, quad_segs: int) -> None:
         """Inflated polygons, their convex vertices, visibility and all-pairs distances."""
         factor = 1.0 / math.cos(math.pi / (4 * quad_segs))  # circumscribe the round offset
-        r_block = DRIVE_RADIUS * factor
+        r_block = self.drive_radius * factor
         self._r_block = r_block
         if self.obstacles.is_empty:
             blocking = Polygon()
@@ -157,7 +172,7 @@ class NavigationMap:
         else:
             blocking = self.obstacles.buffer(r_block, quad_segs=quad_segs)
             outer = self.obstacles.buffer(r_block + SLACK, quad_segs=quad_segs)
-        interior_room = self.room.buffer(-DRIVE_RADIUS, join_style="mitre")
+        interior_room = self.room.buffer(-self.drive_radius, join_style="mitre")
         self.blocking = blocking
         """Obstacles inflated by (at least) DRIVE_RADIUS: paths never enter them."""
         self.driveable = interior_room.difference(blocking)
@@ -165,6 +180,9 @@ class NavigationMap:
         shapely.prepare(self.driveable)
         self._driveable_inner = self.driveable.buffer(-2 * SLACK)
         shapely.prepare(self._driveable_inner)
+        parts = [g for g in shapely.get_parts(self._driveable_inner)
+                 if g.area >= WAY_OUT_MIN_AREA]
+        self._way_out_region = unary_union(parts) if parts else self._driveable_inner
         self._graph = VisibilityGraph(blocking, outer, interior_room, self.room)
         self._blocking_edges = self._graph.edges
         self.vertices = self._graph.vertices
@@ -192,13 +210,14 @@ class NavigationMap:
 
     def way_out(self, p: Sequence[float]) -> np.ndarray:
         """`p` (2,) when it is a position the base can drive from (an endpoint the rule
-        joins to the driveable region), else the nearest point of the driveable region: where
-        a robot that stands at p, by the map inside or against an obstacle, should back out
-        to (the map errs; the robot is there)."""
+        joins to the driveable region), else the nearest point of the driveable region,
+        leaving out parts smaller than WAY_OUT_MIN_AREA: where a robot that stands at p, by
+        the map inside or against an obstacle, should back out to (the map errs; the robot
+        is there)."""
         p = np.asarray(p, dtype=float)[:2]
         if self.drivable_from(p[None])[0]:
             return p
-        line = shapely.shortest_line(shapely.points(p), self._driveable_inner)
+        line = shapely.shortest_line(shapely.points(p), self._way_out_region)
         return np.asarray(shapely.get_coordinates(line)[1], dtype=float)
 
     def _prepare(self, P: np.ndarray) -> list[_Endpoint]:

@@ -25,7 +25,7 @@ from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.stops import FreeStops
 from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.navigation import DRIVE_MARGIN, NavigationMap
 from s3o_drake.planning.planner import PlanningError, PlanningResult, plan_task
 from s3o_drake.planning.task_costs import first_reachable
 from s3o_drake.planning.task_planner import TaskPlanningError
@@ -124,7 +124,8 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
               workers: int | None = None, time_budget: float | None = None,
               n_sequences: int = 3, heatmaps: Sequence[Heatmap] | None = None,
               feasibility: str | None = None, progress: bool = False,
-              started: float | None = None) -> PlanningResult:
+              started: float | None = None, drive_margin: float = DRIVE_MARGIN
+              ) -> PlanningResult:
     """Plans from `known` (see the module docstring).
 
     Method, seed, workers, budget and the Fea^m source (`feasibility`) default to the
@@ -134,7 +135,8 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
     again with them (within what remains of the budget); those it could not check so, or
     not plan again for, are the result's `unchecked`.
     `started` is the `time.perf_counter()` at which the caller began (before perceiving),
-    so that the planning time counts perception too. A plan that cannot be made is a
+    so that the planning time counts perception too. `drive_margin` is the navigation
+    map's (`navigation.TIGHT_DRIVE_MARGIN` for a squeeze). A plan that cannot be made is a
     result with `plan` None and `error` saying why; an unknown method raises ValueError.
     """
     t0 = time.perf_counter() if started is None else started
@@ -144,7 +146,8 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
     if heatmaps is None:
         heatmaps = heatmaps_for(known, source=feasibility, progress=progress)
     maps = tuple(heatmaps) if isinstance(heatmaps, (list, tuple)) else ()
-    result = _plan(known, method, heatmaps, seed, time_budget, n_sequences, workers, t0)
+    result = _plan(known, method, heatmaps, seed, time_budget, n_sequences, workers, t0,
+                   drive_margin)
     source = known.planner.feasibility if feasibility is None else feasibility
     lost = () if result.plan is None else result.plan.unreachable
     budget = known.planner.time_budget if time_budget is None else time_budget
@@ -163,7 +166,8 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
         maps = tuple(exact.get(h.dish, h) for h in maps)
         left = budget - (time.perf_counter() - t0)
         if any(h.values.max() > 0.0 for h in exact.values()) and left > 0:
-            result = _plan(known, method, maps, seed, left, n_sequences, workers, t0)
+            result = _plan(known, method, maps, seed, left, n_sequences, workers, t0,
+                           drive_margin)
     unchecked = ()
     if source == FeasibilitySource.FCN and result.plan is not None:
         unchecked = tuple(d for d in result.plan.unreachable
@@ -175,13 +179,14 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
 
 
 def _plan(known: KnownWorld, method: str, heatmaps, seed: int, time_budget: float | None,
-          n_sequences: int, workers: int, t0: float) -> PlanningResult:
+          n_sequences: int, workers: int, t0: float, drive_margin: float) -> PlanningResult:
     """`plan_task`, a PlanningError becoming a result that says why there is no plan."""
     maps = tuple(heatmaps) if isinstance(heatmaps, (list, tuple)) else ()
     try:
         return plan_task(known, method=method, heatmaps=heatmaps, seed=seed,
                          time_budget=time_budget, n_sequences=n_sequences, workers=workers,
-                         feasibility_time=time.perf_counter() - t0)
+                         feasibility_time=time.perf_counter() - t0,
+                         drive_margin=drive_margin)
     except (PlanningError, TaskPlanningError) as e:
         return PlanningResult(known=known, method=method, seed=seed, plan=None,
                               error=f"no plan: {e}", heatmaps=maps,

@@ -90,7 +90,7 @@ from s3o_drake.planning.motion_search import (
     grop_star,
     location_regions,
 )
-from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.navigation import DRIVE_MARGIN, NavigationMap
 from s3o_drake.planning.petlon import petlon
 from s3o_drake.planning.plan import (
     Goto,
@@ -282,15 +282,16 @@ def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: Navig
 
 def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
               time_budget: float | None = None, n_sequences: int = 3, workers: int = 1,
-              feasibility_time: float = 0.0) -> PlanningResult:
+              feasibility_time: float = 0.0, drive_margin: float = DRIVE_MARGIN
+              ) -> PlanningResult:
     """Plans the collection of the known world's dishes from its pose with the named
     method (see the module docstring).
 
     `heatmaps`: Fea^m (a `MotionFeasibility`, a mapping dish -> Heatmap or a list of
     Heatmaps); `feasibility_time` is how long computing them took (s), added to the
-    breakdown and the planning time. Raises ValueError for an unknown method,
-    `PlanningTimeoutError` when the budget expires before any plan, `PlanningError` (or
-    `TaskPlanningError`) when no dish can be planned.
+    breakdown and the planning time; `drive_margin` is the navigation map's. Raises
+    ValueError for an unknown method, `PlanningTimeoutError` when the budget expires before
+    any plan, `PlanningError` (or `TaskPlanningError`) when no dish can be planned.
     """
     _check_method(method)
     t_start = time.monotonic()
@@ -332,7 +333,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     expired("the free stops")
 
     t = time.monotonic()
-    nav = NavigationMap(known.obstacles)
+    nav = NavigationMap(known.obstacles, drive_margin=drive_margin)
     # Where the robot stands may be no base position of the known map (after a blocked
     # drive it stands against a chair the map knows only roughly): planning starts from
     # the nearest driveable point, and the first drive backs out to it.
