@@ -346,3 +346,15 @@ def test_the_way_out_leaves_a_pocket_that_leads_nowhere_aside():
     out = nav.way_out(here)
     assert out[1] > 1.2 + DRIVE_RADIUS - 1e-3 and out[0] == pytest.approx(3.0, abs=1e-6)
     assert nav.reachable(out, np.array([[1.0, 3.0], [5.0, 3.0]])).all()
+
+
+def test_a_closed_door_is_closed_along_its_axis_too():
+    """Door 0.855 m: the inflated jambs overlap, and their union has vertices on the door's
+    axis. The straight segment along the axis passes through them, crossing no edge
+    properly; it used to go through the closed door."""
+    nav = NavigationMap(_door(0.855))
+    assert not nav.driveable.intersects(shapely.box(2.95, 1.9, 3.05, 2.1))
+    for y in (2.0, 2.0001, 1.9999):
+        assert math.isinf(nav.path_length([1.0, y], [5.0, y]))
+    open_ = NavigationMap(_door(0.95))
+    assert open_.path_length([1.0, 2.0], [5.0, 2.0]) == pytest.approx(4.0)

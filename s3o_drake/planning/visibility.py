@@ -10,9 +10,16 @@ ray casting).
 from __future__ import annotations
 
 import numpy as np
+import shapely
 from shapely.geometry.base import BaseGeometry
 
 _EPS = 1e-9
+_MAX_LENGTH = 1e3
+"""An upper bound on a segment's length (m), for the cheap first filter of vertices on a
+segment."""
+_VERTEX_STEP = 1e-6
+"""How far (m) beside a blocking vertex on a segment the segment is asked whether it lies
+inside a blocking polygon."""
 
 
 def cross(u: np.ndarray, v: np.ndarray) -> float:
@@ -42,6 +49,8 @@ class BlockingEdges:
     bounding boxes of their rings and of each edge."""
 
     def __init__(self, blocking: BaseGeometry):
+        self._blocking = blocking
+        shapely.prepare(blocking)
         edges = []
         for ring in rings(blocking):
             c = np.asarray(ring.coords)
@@ -57,12 +66,16 @@ class BlockingEdges:
         self._edge_hi = np.maximum(self.edges[:, :2], self.edges[:, 2:])
 
     def blocked(self, A: np.ndarray, B: np.ndarray, chunk: int = 20_000) -> np.ndarray:
-        """Whether segments A[i] -> B[i] properly cross a blocking edge (m,) bool.
+        """Whether segments A[i] -> B[i] properly cross a blocking edge, or pass through a
+        blocking vertex into a blocking polygon: (m,) bool.
 
         Two bounding-box filters first (segment against each obstacle ring, then against
         each edge of the rings it meets), the orientation test only on the (segment,
         edge) pairs left: a segment meets few edges, so this is several times faster than
-        testing them all.
+        testing them all. A segment through a vertex crosses no edge properly (two
+        inflated chairs that meet leave vertices on a line of symmetry, and a segment
+        along it went through a closed door); the rare vertex on a segment is asked of the
+        polygons themselves.
         """
         m = len(A)
         out = np.zeros(m, dtype=bool)
@@ -72,9 +85,13 @@ class BlockingEdges:
             a, b = A[:, None, :], B[:, None, :]
             p0, p1 = self.edges[None, :, :2], self.edges[None, :, 2:]
             ed, sd = p1 - p0, b - a
+            d3 = cross2(sd, p0 - a)
             hit = ((cross2(ed, a - p0) * cross2(ed, b - p0) < 0)
-                   & (cross2(sd, p0 - a) * cross2(sd, p1 - a) < 0))
-            return hit.any(axis=1)
+                   & (d3 * cross2(sd, p1 - a) < 0))
+            out = hit.any(axis=1)
+            ki, ei = np.nonzero(~hit)
+            self._through_vertex(A, B, ki, ei, d3[ki, ei], out)
+            return out
         lo, hi = np.minimum(A, B), np.maximum(A, B)
         rlo, rhi = self._ring_lo, self._ring_hi
         for s in range(0, m, chunk):
@@ -98,8 +115,33 @@ class BlockingEdges:
             d2 = cross2(ed, b - p0)
             d3 = cross2(sd, p0 - a)
             d4 = cross2(sd, p1 - a)
-            out[ki[(d1 * d2 < 0) & (d3 * d4 < 0)]] = True
+            proper = (d1 * d2 < 0) & (d3 * d4 < 0)
+            out[ki[proper]] = True
+            self._through_vertex(A, B, ki[~proper], ei[~proper], d3[~proper], out)
         return out
+
+    def _through_vertex(self, A: np.ndarray, B: np.ndarray, ki: np.ndarray, ei: np.ndarray,
+                        d3: np.ndarray, out: np.ndarray) -> None:
+        """Sets out[k] for the segments k (of pairs ki, ei) whose open interior holds the
+        first vertex of edge ei and enters a blocking polygon there."""
+        # Cheap first: a vertex on the segment's line (|d3| = |sd| x distance; segments are
+        # shorter than _MAX_LENGTH), then the few left exactly.
+        near = np.abs(d3) <= _EPS * _MAX_LENGTH
+        ki, ei, d3 = ki[near], ei[near], d3[near]
+        if not len(ki):
+            return
+        a, sd = A[ki], B[ki] - A[ki]
+        length2 = np.einsum("ij,ij->i", sd, sd)
+        p0 = self.edges[ei, :2]
+        t = np.einsum("ij,ij->i", p0 - a, sd) / np.maximum(length2, _EPS)
+        on = (np.abs(d3) <= _EPS * np.sqrt(length2)) & (t > _EPS) & (t < 1 - _EPS) & ~out[ki]
+        if not on.any():
+            return
+        step = _VERTEX_STEP * sd[on] / np.sqrt(length2[on])[:, None]
+        beside = np.concatenate([p0[on] + step, p0[on] - step])
+        inside = shapely.contains_xy(self._blocking, beside[:, 0], beside[:, 1])
+        half = int(on.sum())
+        out[ki[on][inside[:half] | inside[half:]]] = True
 
 
 class VisibilityPolygons:
