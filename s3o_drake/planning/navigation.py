@@ -174,9 +174,9 @@ class NavigationMap:
             outer = self.obstacles.buffer(r_block + SLACK, quad_segs=quad_segs)
         interior_room = self.room.buffer(-self.drive_radius, join_style="mitre")
         self.blocking = blocking
-        """Obstacles inflated by (at least) DRIVE_RADIUS: paths never enter them."""
+        """Obstacles inflated by (at least) `drive_radius`: paths never enter them."""
         self.driveable = interior_room.difference(blocking)
-        """Positions a path may pass: DRIVE_RADIUS from walls and footprints."""
+        """Positions a path may pass: `drive_radius` from walls and footprints."""
         shapely.prepare(self.driveable)
         self._driveable_inner = self.driveable.buffer(-2 * SLACK)
         shapely.prepare(self._driveable_inner)
