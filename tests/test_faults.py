@@ -13,6 +13,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -21,6 +22,7 @@ import pytest
 from test_evaluate import _toy_job, toy_work
 
 from s3o_drake.commands.evaluate import main as evaluate
+from s3o_drake.evaluation.jobs import RUN, Job
 from s3o_drake.evaluation.scheduler import run_jobs
 from s3o_drake.evaluation.store import ResultStore
 
@@ -108,6 +110,37 @@ def test_a_killed_worker_and_a_killed_study_lose_and_repeat_nothing(tmp_path):
     rows = [json.loads(line) for line in after]
     assert sorted(r["seed"] for r in rows) == [0, 1]  # every run's row, once
     assert all("error" not in r and r["planned"] and r["finished"] for r in rows)
+
+
+def slow_work(job: Job) -> dict:
+    """A stand-in for a long run: says it started (the file `job.path`), then takes 2 min."""
+    Path(job.path).touch()
+    time.sleep(120.0)
+    return {"key": job.key, "task": job.task}
+
+
+def test_an_interrupted_study_stops_at_once_not_after_its_runs(tmp_path):
+    # Ctrl-C (or `kill PID`, which evaluate turns into the same) while a worker is in the
+    # middle of a run: the worker ends now, the run gets no row and runs again on resume.
+    started = tmp_path / "started"
+    store = ResultStore(tmp_path / "results.jsonl")
+    sent = {}
+
+    def interrupt() -> None:
+        while not started.exists():
+            time.sleep(0.05)
+        sent["at"] = time.monotonic()
+        os.kill(os.getpid(), signal.SIGINT)
+
+    threading.Thread(target=interrupt, daemon=True).start()
+    with pytest.raises(KeyboardInterrupt):
+        run_jobs([Job(RUN, "slow", str(started), "d", 0, "slow")], store, workers=1,
+                 fn=slow_work, progress=False)
+    assert time.monotonic() - sent["at"] < 15.0
+    assert store.rows() == []
+    assert not [p for p in psutil.Process().children() if p.is_running()
+                and p.status() != psutil.STATUS_ZOMBIE
+                and "spawn_main" in " ".join(p.cmdline())]
 
 
 # --- the disk full --------------------------------------------------------------------------

@@ -50,9 +50,10 @@ sets them side by side per method. The tasks' difficulty is read from DIR.
 
 Scale-out: a local pool of --workers spawned processes (default: one per core), or, with
 --scheduler, the workers of a Dask distributed cluster (they need s3o_drake installed; each
-run plans with one search process, the parallelism being across runs). Interrupted or
-crashed, the same command resumes: finished runs are read back from results.jsonl and not
-run again; a run that ended in an error is tried again. Editing a task file makes its runs
+run plans with one search process, the parallelism being across runs). Ctrl-C or `kill
+PID` stops the study at once, abandoning the runs in flight. Interrupted or crashed, the
+same command resumes: finished runs are read back from results.jsonl and not run again; a
+run abandoned or ended in an error is run again. Editing a task file makes its runs
 new ones. A progress bar shows the rate and the time left.
 
 Exit status: 0 when every run finished, 1 when some ended in an error (listed in

@@ -63,7 +63,11 @@ def run_jobs(jobs: Iterable[Job], store: ResultStore, *, workers: int = 2,
         else:
             while todo:
                 with local_pool(workers) as pool:
-                    broken = _drive(pool, todo, store, fn, workers, bar)
+                    try:
+                        broken = _drive(pool, todo, store, fn, workers, bar)
+                    except KeyboardInterrupt:
+                        _abandon(pool)
+                        raise
                 for job in broken:
                     attempts[job.key] = attempts.get(job.key, 0) + 1
                     if attempts[job.key] >= max_attempts:
@@ -88,6 +92,15 @@ def local_pool(workers: int) -> ProcessPoolExecutor:
                                mp_context=multiprocessing.get_context("spawn"),
                                max_tasks_per_child=TASKS_PER_CHILD,
                                initializer=_die_with_parent)
+
+
+def _abandon(pool: ProcessPoolExecutor) -> None:
+    """Ctrl-C or `kill PID`: ends the workers now. Their runs in flight have no row and run
+    again on resume either way; leaving the pool's exit to wait for them cost a minute or
+    more of a study's run, only to throw its result away."""
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in multiprocessing.active_children():
+        process.terminate()
 
 
 def _die_with_parent() -> None:
