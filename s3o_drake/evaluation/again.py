@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 
+from s3o_drake.evaluation.recovery_summary import incomplete_cause
+
 
 def chosen(jobs: Iterable, before: Mapping[str, Mapping], ended: Sequence[str] = ()) -> list:
     """The jobs whose run in `before` (rows by key) did not complete, or, with `ended`,
@@ -26,13 +28,12 @@ def chosen(jobs: Iterable, before: Mapping[str, Mapping], ended: Sequence[str] =
 
 
 def _ending(row: Mapping) -> str:
+    """How a run ended, in again.md's columns; the cause of a run that fell short is
+    `recovery_summary.incomplete_cause`'s, so the two tables count the same runs alike."""
     if row.get("complete"):
         return "complete"
-    reason = str(row.get("reason", ""))
-    for word in ("blocked", "no plan"):
-        if word in reason:
-            return word
-    return "a dish not collected"
+    cause = incomplete_cause(row)
+    return {"no plan": "no plan", "blocked drive": "blocked"}.get(cause, "a dish not collected")
 
 
 def comparison(before: Mapping[str, Mapping], after: Sequence[Mapping],
