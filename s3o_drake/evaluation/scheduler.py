@@ -62,11 +62,12 @@ def run_jobs(jobs: Iterable[Job], store: ResultStore, *, workers: int = 2,
             _drive(client.get_executor(), todo, store, fn, window, bar)
         else:
             while todo:
+                others = set(multiprocessing.active_children())
                 with local_pool(workers) as pool:
                     try:
                         broken = _drive(pool, todo, store, fn, workers, bar)
                     except KeyboardInterrupt:
-                        _abandon(pool)
+                        _abandon(pool, keep=others)
                         raise
                 for job in broken:
                     attempts[job.key] = attempts.get(job.key, 0) + 1
@@ -94,12 +95,13 @@ def local_pool(workers: int) -> ProcessPoolExecutor:
                                initializer=_die_with_parent)
 
 
-def _abandon(pool: ProcessPoolExecutor) -> None:
-    """Ctrl-C or `kill PID`: ends the workers now. Their runs in flight have no row and run
-    again on resume either way; leaving the pool's exit to wait for them cost a minute or
-    more of a study's run, only to throw its result away."""
+def _abandon(pool: ProcessPoolExecutor, *, keep: set) -> None:
+    """Ctrl-C or `kill PID`: ends the pool's workers now (the child processes not in
+    `keep`). Their runs in flight have no row and run again on resume either way. Left to
+    the pool's exit, a stopped study waited a minute or more for them, only to throw their
+    results away, and one (2026-11-26) did not end until its idle worker was killed."""
     pool.shutdown(wait=False, cancel_futures=True)
-    for process in multiprocessing.active_children():
+    for process in set(multiprocessing.active_children()) - keep:
         process.terminate()
 
 
