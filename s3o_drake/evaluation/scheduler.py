@@ -33,6 +33,10 @@ study. Until execute() freed its diagram (s3o_drake/system_lifetime.py) each exe
 left 60-150 MB behind (docs/reliability.md); since, 6 runs in one process grew 25 MB."""
 
 
+WAKE_EVERY = 0.5
+"""Seconds between the study's looks at its signals while it waits for runs."""
+
+
 def pending_jobs(jobs: Iterable[Job], store: ResultStore) -> list[Job]:
     """The jobs that have no finished result in the store, in order."""
     return [job for job in jobs if not store.finished(job.key)]
@@ -127,7 +131,10 @@ def _drive(executor: Executor, todo: deque, store: ResultStore, fn: Callable[[Jo
             except BrokenProcessPool:
                 todo.appendleft(job)
                 return list(running.values())
-        done, _ = wait(running, return_when=FIRST_COMPLETED)
+        # Python runs a signal's handler (Ctrl-C, `kill PID`) only when the main thread
+        # runs bytecode; a wait without a timeout can sleep through one that the kernel
+        # handed to another thread, until a run finishes minutes later.
+        done, _ = wait(running, timeout=WAKE_EVERY, return_when=FIRST_COMPLETED)
         broken = []
         for future in done:
             job = running.pop(future)
