@@ -108,6 +108,34 @@ class FreeStops:
         self._cells[key] = ok
         return ok
 
+    def any_free_cell(self, heatmap: Heatmap, batch: int = 32) -> bool:
+        """Whether `free_cells(heatmap)` has any cell, asking Drake `batch` cells at a
+        time and stopping at the first free one: the task generator asks it once per
+        chair drawn, and most dishes have many free cells."""
+        need = heatmap.values > 0
+        rows, cols = need.shape
+        asked = np.zeros((rows + 1, cols + 1), dtype=bool)
+        corner_free = np.zeros((rows + 1, cols + 1), dtype=bool)
+        cells = np.argwhere(need)
+        for start in range(0, len(cells), batch):
+            i, j = cells[start:start + batch].T
+            corners = np.zeros_like(asked)
+            for di, dj in _CORNERS:
+                corners[i + di, j + dj] = True
+            corners &= ~asked
+            corner_free |= self._lattice_free(heatmap, corners, 0.0)
+            asked |= corners
+            ok = np.ones(len(i), dtype=bool)
+            for di, dj in _CORNERS:
+                ok &= corner_free[i + di, j + dj]
+            if not ok.any():
+                continue
+            centres = np.zeros_like(need)
+            centres[i[ok], j[ok]] = True
+            if self._lattice_free(heatmap, centres, 0.5).any():
+                return True
+        return False
+
     def restrict(self, heatmap: Heatmap) -> Heatmap:
         """`heatmap` with Fea^m 0 wherever a stop is not free (`free_cells`)."""
         return dataclasses.replace(heatmap, values=np.where(self.free_cells(heatmap),

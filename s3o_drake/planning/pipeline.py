@@ -115,7 +115,7 @@ def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0) -> list[
         ask = (np.linalg.norm(centres - p, axis=-1) <= reach) & shapely.contains_xy(
             clear, centres[..., 0], centres[..., 1])
         ask[ask] = nav.reachable(start, centres[ask])
-        if not stops.free_cells(dataclasses.replace(grid, values=ask.astype(float))).any():
+        if not stops.any_free_cell(dataclasses.replace(grid, values=ask.astype(float))):
             missing.append(dish.name)
     return sorted(missing)
 
