@@ -19,6 +19,8 @@ end close together.
 - `FreeStops.restrict(heatmap)` sets Fea^m to 0 in the cells where a stop is not free:
   the cell's centre and its four corners must be free, so that a continuous position of
   the motion search inside a kept cell is free too (the heatmap is read per cell).
+- `FreeStops.any_free_cell(heatmap)` says whether `restrict` would keep any cell, asking
+  only until it finds one (the task generator's question, once per chair it draws).
 - `FreeStops.free(points, dish)` tests exact positions; `goal_test` adds to it that the
   position lies in no cell the rule dropped (V-PETLON's random goals: a free position in a
   dropped cell would be planned with Fea^m 0, though the model rates it higher).

@@ -98,7 +98,7 @@ def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0) -> list[
     `best_stops` with Fea^m 1 within reach, but cheaper (the generator asks once per chair
     drawn): the collision check, the costly part, is asked only at positions that keep
     the base's inscribed radius from every obstacle (nearer, every yaw collides) and that a
-    drive reaches."""
+    drive reaches, and only until one free stop is found (`FreeStops.any_free_cell`)."""
     known = KnownWorld.perfect(scenario)
     reach = known.planner.reach
     nav = NavigationMap(known.obstacles_grown(chair_margin))
