@@ -35,6 +35,8 @@ left 60-150 MB behind (docs/reliability.md); since, 6 runs in one process grew 2
 
 WAKE_EVERY = 0.5
 """Seconds between the study's looks at its signals while it waits for runs."""
+ABANDON_WAIT = 5.0
+"""Seconds an abandoned worker has to end on SIGTERM before it is killed."""
 
 
 def pending_jobs(jobs: Iterable[Job], store: ResultStore) -> list[Job]:
@@ -105,8 +107,15 @@ def _abandon(pool: ProcessPoolExecutor, *, keep: set) -> None:
     the pool's exit, a stopped study waited a minute or more for them, only to throw their
     results away, and one (2026-11-26) did not end until its idle worker was killed."""
     pool.shutdown(wait=False, cancel_futures=True)
-    for process in set(multiprocessing.active_children()) - keep:
+    workers = set(multiprocessing.active_children()) - keep
+    for process in workers:
         process.terminate()
+    # Gone when this returns, not a moment later: a busy machine can take that moment.
+    for process in workers:
+        process.join(timeout=ABANDON_WAIT)
+        if process.is_alive():
+            process.kill()
+            process.join(timeout=ABANDON_WAIT)
 
 
 def _die_with_parent() -> None:
