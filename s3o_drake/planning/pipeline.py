@@ -83,7 +83,8 @@ def best_stops(known: KnownWorld, heatmaps: Sequence[Heatmap] | None = None
     return best
 
 
-def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0) -> list[str]:
+def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0, *,
+                         first: bool = False) -> list[str]:
     """The dishes (and place targets) of `scenario` that have no candidate stop: no base
     position within the planner's reach (`planner.reach`) of them that is free as planned
     (`FreeStops`, on a grid of STOP_CELL) and that a drive from the robot's start reaches,
@@ -98,15 +99,19 @@ def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0) -> list[
     `best_stops` with Fea^m 1 within reach, but cheaper (the generator asks once per chair
     drawn): the collision check, the costly part, is asked only at positions that keep
     the base's inscribed radius from every obstacle (nearer, every yaw collides) and that a
-    drive reaches, and only until one free stop is found (`FreeStops.any_free_cell`)."""
+    drive reaches, and only until one free stop is found (`FreeStops.any_free_cell`).
+
+    `first`: return at the first dish found without a stop (a list of one), for a caller
+    that asks only whether there is one. The generator's rejected chairs mostly close a
+    dish's last drivable way, which the navigation map alone shows: they then cost no
+    collision checker."""
     known = KnownWorld.perfect(scenario)
     reach = known.planner.reach
     nav = NavigationMap(known.obstacles_grown(chair_margin))
     start = nav.way_out(known.pose[:2])
     clear = known.obstacles.free_space(INSCRIBED_RADIUS)
-    stops = FreeStops.of(known)
     cells = int(np.ceil(2 * reach / STOP_CELL))
-    missing = []
+    missing, asked = [], []
     for dish in known.dishes:
         p = np.asarray(dish.position[:2], float)
         grid = Heatmap(dish.name, np.zeros((cells, cells)), p[0] - reach, p[1] - reach,
@@ -115,8 +120,18 @@ def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0) -> list[
         ask = (np.linalg.norm(centres - p, axis=-1) <= reach) & shapely.contains_xy(
             clear, centres[..., 0], centres[..., 1])
         ask[ask] = nav.reachable(start, centres[ask])
-        if not stops.any_free_cell(dataclasses.replace(grid, values=ask.astype(float))):
+        if not ask.any():
+            if first:
+                return [dish.name]
             missing.append(dish.name)
+        else:
+            asked.append(dataclasses.replace(grid, values=ask.astype(float)))
+    stops = FreeStops.of(known) if asked else None
+    for grid in asked:
+        if not stops.any_free_cell(grid):
+            if first:
+                return [grid.dish]
+            missing.append(grid.dish)
     return sorted(missing)
 
 
