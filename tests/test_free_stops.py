@@ -55,6 +55,25 @@ def test_restrict_keeps_exactly_the_cells_whose_centre_and_corners_are_free(
     assert (kept.values <= h.values).all()
 
 
+def test_any_free_cell_is_whether_restrict_keeps_a_cell(scenario, stops):
+    """The generator's question (`any_free_cell`, which stops at the first free cell)
+    has the answer of the full rule: on the floor around a dish, yes; within 0.2 m of
+    it, under the table, or on no cell, no."""
+    cup = scenario.dishes[1]
+    floor = _disc_heatmap(scenario, cup.name, 1.3)
+    under = _disc_heatmap(scenario, cup.name, 0.2)
+    empty = Heatmap(cup.name, np.zeros((64, 64)), floor.x0, floor.y0, CELL)
+    rng = np.random.default_rng(2)
+    sparse = Heatmap(cup.name, floor.values * (rng.random((64, 64)) < 0.05),
+                     floor.x0, floor.y0, CELL)
+    for h, expected in ((floor, True), (under, False), (empty, False), (sparse, None)):
+        full = stops.free_cells(h).any()
+        assert stops.any_free_cell(h) == full
+        assert stops.any_free_cell(h, batch=1) == full
+        if expected is not None:
+            assert full == expected
+
+
 def test_free_tests_exact_positions_facing_the_dish(scenario, checker, stops):
     rng = np.random.default_rng(1)
     p_dish = np.asarray(scenario.dishes[0].position[:2])
