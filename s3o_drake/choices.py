@@ -23,6 +23,15 @@ class FeasibilitySource(str, Enum):
 FEASIBILITY_SOURCES = tuple(s.value for s in FeasibilitySource)
 # The utility's costs: our robot's recorded time model, or the paper's values.
 COST_PROFILES = ("robot", "paper")
+# How Fea^t of a merged location draws its positions: each dish by its own Fea^m (the paper's
+# code), or all of the group's dishes at the same positions, drawn by their joint value.
+GROUP_POSITIONS = ("per_dish", "shared")
+# The price of a location in the ranking: the paper's γ / λ, or the motion search's own.
+LOCATION_PRICES = ("paper", "search")
+# What a pickup that may fail costs the utility: the paper's λ whatever the execution does,
+# or what it costs in the execution's mode (open loop: the dish, λ; with recovery: the
+# recovery's recorded time).
+FAILURE_PRICES = ("paper", "execution")
 
 
 class Recovery(str, Enum):

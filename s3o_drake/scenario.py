@@ -13,9 +13,12 @@ Vectors are lists (yaml_load_typed supports neither tuples nor Literal); units a
 angles radians, positions in the world frame W (z up, the floor at z = 0).
 """
 
+import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from s3o_drake.choices import (  # noqa: F401 (re-exported: the fields hold these values)
@@ -136,6 +139,21 @@ class Planner:
     """How far from the base centre the robot can pick a dish (m)."""
     location_samples: int = 100
     """N: positions drawn from a location to estimate its task-level feasibility."""
+    group_positions: str = "per_dish"
+    """How Fea^t of a merged location draws its N positions (abstraction/task_feasibility.py):
+    "per_dish", for each dish by its own Fea^m (the paper's code); "shared", by the group's
+    joint value, every dish evaluated at the same positions (the one stop that serves it)."""
+    search_plain_voronoi: bool = False
+    """S3O-GROP* and S3O-GROP also search the unmerged state space when it is not among
+    their top K."""
+    location_price: str = "paper"
+    """The ranking's price of a location, c in Score - c|L|: "paper", γ / λ of the fields
+    below; "search", the γ / λ of the motion search's cost profile."""
+    failure_price: str = "paper"
+    """What a pickup's chance of failing costs the utility, λ (1 - Fea^m): "paper", λ below
+    whatever the execution does; "execution", λ in open loop (a failed pickup loses the
+    dish) and the recovery's recorded time per failure with recovery
+    (models/failure_price.yaml)."""
     time_budget: float = 300.0
     """Wall-clock cap on planning (s)."""
     workers: int = 2
@@ -287,6 +305,45 @@ def load_scenario(path: str | Path) -> Scenario:
         return parse_scenario(text)
     except ScenarioError as e:
         raise ScenarioError(e.path, e.message, file=str(path)) from None
+
+
+def with_overrides(scenario: Scenario, overrides: Sequence[str]) -> Scenario:
+    """The scenario with fields replaced, each override `PATH=VALUE` (`planner.top_k=8`,
+    `tables[0].height=0.8`; VALUE is YAML), validated like the file: a bad path or value is
+    a ScenarioError naming the field."""
+    if not overrides:
+        return scenario
+    data = load_yaml(dump_scenario(scenario))
+    for item in overrides:
+        path, sep, value = item.partition("=")
+        path = path.strip()
+        if not sep or not path:
+            raise ScenarioError("--set", f"expected PATH=VALUE, got {item!r}")
+        try:
+            parsed = load_yaml(value) if value.strip() else ""
+        except FieldError as e:
+            raise ScenarioError(path, f"not a YAML value: {e.message}") from None
+        parts = [p for p in re.split(r"\.|\[(\d+)\]", path) if p]
+        node = data
+        for k, part in enumerate(parts):
+            where = ".".join(parts[:k + 1])
+            last = k == len(parts) - 1
+            if isinstance(node, list):
+                if not part.isdigit() or int(part) >= len(node):
+                    raise ScenarioError(path, f"no item {part} in {where.rsplit('.', 1)[0]} "
+                                              f"({len(node)} items)")
+                key: int | str = int(part)
+            elif isinstance(node, dict):
+                if not last and part not in node:
+                    raise ScenarioError(path, f"unknown field {part!r}")
+                key = part
+            else:
+                raise ScenarioError(path, f"{where.rsplit('.', 1)[0]} has no fields")
+            if last:
+                node[key] = parsed
+            else:
+                node = node[key]
+    return parse_scenario(yaml.safe_dump(data, sort_keys=False))
 
 
 def dump_scenario(scenario: Scenario) -> str:

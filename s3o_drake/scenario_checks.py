@@ -14,7 +14,16 @@ from typing import TYPE_CHECKING
 
 from shapely.geometry import Polygon, box
 
-from s3o_drake.choices import COST_PROFILES, FEASIBILITY_SOURCES, GOALS, METHODS, RECOVERY_MODES
+from s3o_drake.choices import (
+    COST_PROFILES,
+    FAILURE_PRICES,
+    FEASIBILITY_SOURCES,
+    GOALS,
+    GROUP_POSITIONS,
+    LOCATION_PRICES,
+    METHODS,
+    RECOVERY_MODES,
+)
 from s3o_drake.furniture import (
     DISH_KINDS,
     DISH_SHAPES,
@@ -248,6 +257,9 @@ def _validate_settings(scenario: Scenario) -> None:
     _choice(p.method, METHODS, "planner.method", "method")
     _choice(p.feasibility, FEASIBILITY_SOURCES, "planner.feasibility", "source")
     _choice(p.cost_profile, COST_PROFILES, "planner.cost_profile", "profile")
+    _choice(p.group_positions, GROUP_POSITIONS, "planner.group_positions", "rule")
+    _choice(p.location_price, LOCATION_PRICES, "planner.location_price", "price")
+    _choice(p.failure_price, FAILURE_PRICES, "planner.failure_price", "price")
     _at_least(p.top_k, 1, "planner.top_k")
     _at_least(p.cma_generations, 1, "planner.cma_generations")
     _at_least(p.cma_population, 2, "planner.cma_population")

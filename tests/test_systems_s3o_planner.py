@@ -223,7 +223,7 @@ def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenari
                 dish=action.dish, kind=kinds[action.dish], method="V-GROP*",
                 predicted=action.feasibility, source="oracle", planned_pose=stop,
                 actual_pose=landing, outcome="no_ik" if failed else "done",
-                reach_noise=noise))
+                reach_noise=noise, planned=action.feasibility))
         _step(system, context)
     records = system.GetOutputPort("progress").Eval(context).pickups
     assert len(records) == len(plan.pickups) >= 2

@@ -229,7 +229,9 @@ def build_abstraction(known: KnownWorld, feasibility, *,
     `feasibility` is Fea^m: a `MotionFeasibility`, a mapping dish -> Heatmap or a list of
     Heatmaps, evaluated once on the location grid (`location_grid.py`; cell `grid_cell`,
     joint rule at `joint_threshold`), which the result carries. Reach, N, K and the seed
-    default to the planner's settings and the scenario's seed; `location_cost` to γ / λ.
+    default to the planner's settings and the scenario's seed; `location_cost` to the
+    planner's γ / λ (the planner passes the motion search's own with
+    `planner.location_price: search`); Fea^t draws as `planner.group_positions` says.
     `drivable` (points -> bool; None: all) says where the robot can drive to, for the
     partition's claims (`voronoi.py`) and the grid's Fea^m (0 where it cannot).
     """
@@ -242,7 +244,8 @@ def build_abstraction(known: KnownWorld, feasibility, *,
     grid = LocationGrid.of(partition, feasibility, threshold=joint_threshold, cell=grid_cell,
                            drivable=drivable)
     task = TaskFeasibility(grid, samples=planner.location_samples,
-                           seed=known.settings.seed if seed is None else seed)
+                           seed=known.settings.seed if seed is None else seed,
+                           positions=planner.group_positions)
     return rank(partition, task, top_k=planner.top_k, location_cost=location_cost,
                 max_count=max_count,
                 time_limit=time_limit, exhaustive_max_dishes=exhaustive_max_dishes,

@@ -21,6 +21,16 @@ How "N positions drawn from l weighted by Fea^m" is read here:
 4. Fea^t(l, o) = the mean of Fea^m(y_k, o) over the N drawn positions; 0 if no position
    of l is jointly feasible (the rule's fallbacks, `GridFallback`, do not apply here: a
    location with no joint grid point serves no dish).
+
+`positions` chooses whose weights draw the positions of a merged location:
+
+- "per_dish" (the paper's code): each dish's own Fea^m, as in 2. Each dish is then scored
+  at its own best spots of the union, though the robot stops once for the whole group;
+- "shared": the group's joint value, the product of its dishes' Fea^m (the chance that a
+  stop there picks every one of them), and every dish is evaluated at the same drawn
+  positions: a merge is as good as the stops that serve all of its dishes.
+
+For a single dish the two are the same.
 """
 
 from collections.abc import Sequence
@@ -28,6 +38,14 @@ from collections.abc import Sequence
 import numpy as np
 
 from s3o_drake.abstraction.location_grid import GridFallback, LocationGrid
+from s3o_drake.choices import GROUP_POSITIONS
+
+
+def _draw(weights: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """The indices that systematic resampling with offsets `u` draws by `weights` (> 0
+    somewhere)."""
+    cdf = np.cumsum(weights) / weights.sum()
+    return np.minimum(np.searchsorted(cdf, u, side="right"), len(cdf) - 1)
 
 
 class TaskFeasibility:
@@ -37,10 +55,15 @@ class TaskFeasibility:
     evaluation per distinct group.
     """
 
-    def __init__(self, grid: LocationGrid, *, samples: int, seed: int):
+    def __init__(self, grid: LocationGrid, *, samples: int, seed: int,
+                 positions: str = "per_dish"):
+        if positions not in GROUP_POSITIONS:
+            raise ValueError(f"positions: expected one of {', '.join(GROUP_POSITIONS)}, "
+                             f"got {positions!r}")
         self.grid = grid
         self.samples = samples
         self.seed = seed
+        self.positions = positions
         self._cache: dict[tuple[int, ...], np.ndarray] = {}
 
     def of_group(self, group: Sequence[int]) -> np.ndarray:
@@ -55,11 +78,13 @@ class TaskFeasibility:
         if location.fallback is GridFallback.NONE:
             rng = np.random.default_rng([self.seed, len(key), *key])
             u = (rng.random() + np.arange(self.samples)) / self.samples
-            for k in range(len(key)):
-                weights = np.where(location.joint, location.fea[k], 0.0)
-                cdf = np.cumsum(weights) / weights.sum()
-                drawn = np.minimum(np.searchsorted(cdf, u, side="right"), len(cdf) - 1)
-                result[k] = location.fea[k, drawn].mean()
+            if self.positions == "shared":
+                drawn = _draw(np.where(location.joint, location.fea.prod(axis=0), 0.0), u)
+                result[:] = location.fea[:, drawn].mean(axis=1)
+            else:
+                for k in range(len(key)):
+                    drawn = _draw(np.where(location.joint, location.fea[k], 0.0), u)
+                    result[k] = location.fea[k, drawn].mean()
         self._cache[key] = result
         return result
 

@@ -3,7 +3,7 @@ difficulty, and write the paper's Fig. 5 and Table I.
 
     python -m s3o_drake.commands.evaluate --tasks DIR --methods all --seeds 3 --out results/
            [--recovery none|retry|replan] [--workers N | --scheduler tcp://HOST:PORT]
-           [--limit N] [--quiet] [--summarize] [--open-loop DIR]
+           [--limit N] [--quiet] [--summarize] [--open-loop DIR] [--set PATH=VALUE ...]
 
 Each run plans the task (the scenario file) with the method, the noise and the planner's
 randomness drawn from the seed, and executes the plan in the full Drake simulation, as
@@ -98,6 +98,11 @@ def parse_args(argv: list[str] | None):
     parser.add_argument("--recovery", choices=RECOVERY_MODES, default=Recovery.NONE.value,
                         help="what execution does when an action fails (default none: the "
                              "paper's open loop)")
+    parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                        dest="overrides",
+                        help="replace a scenario field in every run, e.g. "
+                             "planner.group_positions=shared (repeatable; a variant's runs "
+                             "are runs of their own)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, metavar="N",
                         help="local worker processes (default: one per core)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
@@ -132,7 +137,14 @@ def _validate(args) -> tuple[list[Path], list[str]]:
             fail(f"--limit: must be at least 1, got {args.limit}")
         paths = paths[:args.limit]
     for path in paths:
-        read_scenario(path)
+        scenario = read_scenario(path)
+    if args.overrides:
+        from s3o_drake.scenario import ScenarioError, with_overrides
+
+        try:
+            with_overrides(scenario, args.overrides)
+        except ScenarioError as e:
+            fail(f"--set {e}")
     if args.methods == ["all"]:
         methods = list(METHODS)
     else:
@@ -167,14 +179,15 @@ def _validate(args) -> tuple[list[Path], list[str]]:
 
 
 def study_jobs(paths: list[Path], methods: list[str], seeds: int,
-               recovery: str = Recovery.NONE.value) -> tuple[list[Job], list[Job]]:
+               recovery: str = Recovery.NONE.value, overrides: tuple[str, ...] = ()
+               ) -> tuple[list[Job], list[Job]]:
     """The difficulty jobs (one per task) and the run jobs, seed by seed, then task by task,
     all methods of a task together: an interrupted study has whole comparisons done."""
     from s3o_drake.evaluation.jobs import DIFFICULTY, RUN, Job, file_digest
 
     digests = {p: file_digest(p) for p in paths}
     difficulty = [Job(DIFFICULTY, p.stem, str(p), digests[p], DIFFICULTY_SEED) for p in paths]
-    runs = [Job(RUN, p.stem, str(p), digests[p], seed, method, recovery)
+    runs = [Job(RUN, p.stem, str(p), digests[p], seed, method, recovery, tuple(overrides))
             for seed in range(seeds) for p in paths for method in methods]
     return difficulty, runs
 
@@ -199,7 +212,8 @@ def main(argv: list[str] | None = None) -> int:
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    difficulty_jobs, run_job_list = study_jobs(paths, methods, args.seeds, args.recovery)
+    difficulty_jobs, run_job_list = study_jobs(paths, methods, args.seeds, args.recovery,
+                                                 tuple(args.overrides))
     difficulty_store = ResultStore(out / "difficulty.jsonl", read_only=args.summarize)
     store = ResultStore(out / "results.jsonl", read_only=args.summarize)
     before: dict[str, dict] = {}
@@ -249,6 +263,7 @@ def main(argv: list[str] | None = None) -> int:
     groups = difficulty_groups(areas)
     settings = {"tasks": str(Path(args.tasks)), "task_count": len(paths), "methods": methods,
                 "seeds": list(range(args.seeds)), "difficulty_seed": DIFFICULTY_SEED,
+                "overrides": list(args.overrides),
                 "command": "python -m s3o_drake.commands.evaluate " + " ".join(
                     sys.argv[1:] if argv is None else argv)}
     # Which code made the runs: a study that resumed across commits says so.

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from s3o_drake.resources import PACKAGE_NAME, REPO_DIR
-from s3o_drake.scenario import Scenario, load_scenario
+from s3o_drake.scenario import Scenario, load_scenario, with_overrides
 from s3o_drake.task_generation import layout_of
 
 RUN = "run"
@@ -41,6 +41,9 @@ class Job:
     seed: int
     method: str = ""
     recovery: str = "none"
+    overrides: tuple[str, ...] = ()
+    """Scenario fields the run replaces (`PATH=VALUE`, `scenario.with_overrides`): a study
+    of a variant of the planner or the execution."""
 
     @property
     def key(self) -> str:
@@ -50,7 +53,9 @@ class Job:
         key = f"{self.kind}/{self.task}@{self.digest}/{self.method}/{self.seed}"
         if self.kind == RUN:
             key += "/task-seeded"
-        return key if self.recovery == "none" else f"{key}/{self.recovery}"
+        if self.recovery != "none":
+            key += f"/{self.recovery}"
+        return key + "".join(f"/set:{item}" for item in self.overrides)
 
 
 def run_seed(task_seed: int, study_seed: int) -> int:
@@ -104,11 +109,12 @@ def code_version() -> str:
     return f"{PACKAGE_NAME} {importlib.metadata.version(PACKAGE_NAME)}"
 
 
-def benchmark_scenario(path: str, recovery: str = "none") -> Scenario:
+def benchmark_scenario(path: str, recovery: str = "none",
+                       overrides: tuple[str, ...] = ()) -> Scenario:
     """The task as the benchmark runs it: searches in this process (the parallelism is
     across runs, and a forked search pool inside a pool worker would oversubscribe it),
-    with `recovery`."""
-    scenario = load_scenario(Path(path))
+    with `recovery` and the fields `overrides` replaces."""
+    scenario = with_overrides(load_scenario(Path(path)), overrides)
     return dataclasses.replace(
         scenario, planner=dataclasses.replace(scenario.planner, workers=1),
         execution=dataclasses.replace(scenario.execution, recovery=recovery))
@@ -117,7 +123,7 @@ def benchmark_scenario(path: str, recovery: str = "none") -> Scenario:
 def _run(job: Job) -> dict:
     from s3o_drake.execution.execute import execute  # heavy imports stay in the workers
 
-    scenario = benchmark_scenario(job.path, job.recovery)
+    scenario = benchmark_scenario(job.path, job.recovery, tuple(job.overrides))
     seed = run_seed(scenario.seed, job.seed)
     run = execute(scenario, method=job.method, seed=seed, meshcat=None, progress=False)
     r = run.report

@@ -131,7 +131,8 @@ class ExecutionState:
         return PickupRecord(dish=target, kind=kind, method=method, predicted=float(predicted),
                             source=self.result.known.planner.feasibility,
                             planned_pose=tuple(float(v) for v in stop), actual_pose=actual,
-                            outcome=outcome, reach_noise=noise, attempt=self.tries + 1)
+                            outcome=outcome, reach_noise=noise, attempt=self.tries + 1,
+                            planned=float(action.feasibility))
 
     def give_up(self, dish: str, trigger: str, t: float, *, placing: bool) -> ExecutionState:
         """On to the next action, `dish` left on the table, or, held to be placed, to be

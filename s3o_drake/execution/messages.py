@@ -124,7 +124,9 @@ class PickupRecord:
     or the failure's reason ("no_ik", "missed", "turn blocked", ...); `reach_noise`: the
     reach error drawn, (dx, dy) m, None when none was drawn; `attempt`: 1 for the plan's
     pickup, 2, 3, ... for the recovery's retries of it (whose `planned_pose` and
-    `predicted` are those of the corrected stop, where there was a correction).
+    `predicted` are those of the corrected stop, where there was a correction); `planned`:
+    the plan's Fea^m of the action whatever corrections did (None in records written
+    before it was kept): what the plan priced its chance of failing at.
     """
 
     dish: str
@@ -137,6 +139,7 @@ class PickupRecord:
     outcome: str
     reach_noise: tuple[float, float] | None = None
     attempt: int = 1
+    planned: float | None = None
 
     @property
     def succeeded(self) -> bool:
@@ -149,7 +152,7 @@ class PickupRecord:
                 "planned_pose": list(self.planned_pose), "actual_pose": list(self.actual_pose),
                 "outcome": self.outcome,
                 "reach_noise": None if self.reach_noise is None else list(self.reach_noise),
-                "attempt": self.attempt}
+                "attempt": self.attempt, "planned": self.planned}
 
     @classmethod
     def from_dict(cls, data: Any) -> "PickupRecord":
@@ -171,13 +174,18 @@ class PickupRecord:
         attempt = data.get("attempt", 1)  # records written before retries existed: 1
         if isinstance(attempt, bool) or not isinstance(attempt, int) or attempt < 1:
             raise ValueError(f"attempt: expected a positive integer, got {attempt!r:.60}")
+        planned = data.get("planned")
+        if planned is not None and (isinstance(planned, bool)
+                                    or not isinstance(planned, int | float)
+                                    or not 0.0 <= planned <= 1.0):
+            raise ValueError(f"planned: expected a probability in [0, 1], got {planned!r:.60}")
         return cls(dish=data["dish"], kind=data["kind"], method=data["method"],
                    predicted=float(predicted), source=data["source"],
                    planned_pose=_numbers(data["planned_pose"], 3, "planned_pose"),
                    actual_pose=_numbers(data["actual_pose"], 3, "actual_pose"),
                    outcome=data["outcome"],
                    reach_noise=None if noise is None else _numbers(noise, 2, "reach_noise"),
-                   attempt=attempt)
+                   attempt=attempt, planned=None if planned is None else float(planned))
 
 
 def _numbers(value: Any, count: int, name: str) -> tuple[float, ...]:

@@ -7,7 +7,8 @@ and calls it. It runs
 - **S3O-GROP*** : the top-K S3O state spaces, searched in an order drawn from the
   normalised top-K scores (weighted sampling *without* replacement, so that each of them is
   searched once and, when the budget cuts the search, the likelier ones were searched
-  first); per state space the clingo task planner gives `n_sequences` task-level
+  first), and with `planner.search_plain_voronoi` the unmerged space after them when it is
+  not among them; per state space the clingo task planner gives `n_sequences` task-level
   sequences and one GROP* (CMA-ES) runs per sequence;
 - **S3O-GROP**  : the same with GROP (Fea^m-weighted sampling) per sequence;
 - **V-GROP*** / **V-GROP**: the plain Voronoi state space (no merging), searched as many
@@ -59,6 +60,7 @@ got depends on the machine).
 
 from __future__ import annotations
 
+import dataclasses
 import multiprocessing
 import time
 from collections.abc import Callable
@@ -82,6 +84,7 @@ from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.stops import FreeStops
 from s3o_drake.goals import place_target_name
 from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.failure_price import priced_planner
 from s3o_drake.planning.free_positions import FreeTest, with_free_stops
 from s3o_drake.planning.motion_search import (
     MotionResult,
@@ -295,6 +298,12 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     """
     _check_method(method)
     t_start = time.monotonic()
+    # λ as the execution's mode prices a pickup's failure (`failure_price.py`): every part
+    # of the plan reads the planner settings from here on.
+    priced = priced_planner(known.settings)
+    if priced is not known.planner:
+        known = dataclasses.replace(known, settings=dataclasses.replace(known.settings,
+                                                                        planner=priced))
     budget = known.planner.time_budget if time_budget is None else float(time_budget)
     deadline = t_start + budget
     planner = known.planner
@@ -348,9 +357,12 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     abstraction: Abstraction | None = None
     grid: LocationGrid | None = None
     if method.startswith("S3O"):
+        # One price for a location: the ranking's γ / λ is the paper's, or the search's own.
+        location_cost = costs.gamma / costs.reward \
+            if planner.location_price == "search" and costs.reward > 0 else None
         abstraction = build_abstraction(
             known, fea, seed=seed, time_limit=max(0.0, min(5.0, deadline - time.monotonic())),
-            drivable=partial(nav.reachable, start))
+            drivable=partial(nav.reachable, start), location_cost=location_cost)
         partition: VoronoiPartition = abstraction.partition
         grid = abstraction.grid
     else:
@@ -401,6 +413,10 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     else:
         assert abstraction is not None
         spaces = [(s.groups, s.score) for s in _order(abstraction, rng)]
+        plain = abstraction.plain_voronoi
+        if planner.search_plain_voronoi and all(g != plain.groups for g, _ in spaces):
+            # Searched last: the top K keep their seeds and their share of the budget.
+            spaces.append((plain.groups, plain.score))
     search = grop if method.endswith("GROP") else grop_star
 
     tasks: dict[tuple[tuple[str, ...], ...], tuple[TaskPlanResult, dict[str, BaseGeometry]]] = {}

@@ -1,0 +1,108 @@
+"""Derive what a pickup's chance of failing costs with recovery, from recorded runs.
+
+    python -m s3o_drake.commands.failure_price DIR [DIR ...] [--out models/failure_price.yaml]
+
+DIR: studies run with recovery (`evaluate --recovery retry|replan --out DIR`). For every
+dish of every run, its first pickup's Fea^m as planned and the simulated time of its
+corrections and retries give the price c = Σ recovery time / Σ (1 - Fea^m), seconds per
+expected failure (planning/failure_price.py). It is printed with a 95 % bootstrap interval
+per study and over all, and written to --out with the studies, their code and the counts.
+The planner uses it with `planner.failure_price: execution` when the execution recovers.
+
+Runs recorded before the plan's Fea^m was kept with each pickup (`planned`) cannot be used:
+a correction replaces the pickup's `predicted` by the corrected stop's.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections import Counter, defaultdict
+from pathlib import Path
+
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+
+
+def parse_args(argv: list[str] | None):
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.failure_price",
+                            description=__doc__, formatter_class=doc_formatter())
+    parser.add_argument("studies", nargs="+", metavar="DIR",
+                        help="study folders run with recovery (their results.jsonl)")
+    parser.add_argument("--out", metavar="FILE", help="where to write the price (default: "
+                        "models/failure_price.yaml)")
+    return parser.parse_args(argv)
+
+
+def study_records(rows) -> tuple[list, int]:
+    """The `PickupRecord`s of a study's runs with recovery (planning/failure_price.py), and
+    how many dishes had no pickup with the plan's Fea^m."""
+    from s3o_drake.planning.failure_price import RECOVERY_KINDS, PickupRecord
+
+    records, skipped = [], 0
+    for r in rows:
+        if "error" in r or r.get("recovery", "none") == "none":
+            continue
+        cost: dict[str, float] = defaultdict(float)
+        for recovery in r.get("recoveries", []):
+            if recovery["kind"] in RECOVERY_KINDS:
+                cost[recovery["dish"]] += float(recovery["cost"])
+        first: dict[str, dict] = {}
+        for pickup in r.get("pickups", []):
+            first.setdefault(pickup["dish"], pickup)
+        for dish, pickup in first.items():
+            if pickup.get("planned") is None:
+                skipped += 1
+                continue
+            records.append(PickupRecord(float(pickup["planned"]), cost.get(dish, 0.0)))
+    return records, skipped
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    folders = [Path(d) for d in args.studies]
+    for folder in folders:
+        if not (folder / "results.jsonl").is_file():
+            fail(f"DIR: no results.jsonl in {folder}")
+    import yaml
+
+    from s3o_drake.evaluation.store import ResultStore
+    from s3o_drake.planning.failure_price import PRICE_FILE, FailurePrice, derive_price
+
+    out = Path(args.out) if args.out else PRICE_FILE
+    everything, per_study, codes = [], {}, Counter()
+    for folder in folders:
+        rows = ResultStore(folder / "results.jsonl", read_only=True).rows()
+        records, skipped = study_records(rows)
+        if not records:
+            fail(f"DIR: {folder}: no pickups with the plan's Fea^m in runs with recovery "
+                 f"({skipped} without it: recorded before `planned` was kept)")
+        codes.update(r.get("code", "not recorded") for r in rows if "error" not in r)
+        per_study[str(folder)] = derive_price(records)
+        everything += records
+        p = per_study[str(folder)]
+        print(f"{folder}: {p['seconds']:.2f} s per expected failure [{p['low']:.2f}, "
+              f"{p['high']:.2f}] ({p['pickups']} pickups, {p['expected_failures']:.1f} "
+              f"expected failures, {p['recovery_time']:.0f} s of recoveries)")
+    total = derive_price(everything)
+    price = FailurePrice(total["seconds"], {
+        "command": "python -m s3o_drake.commands.failure_price " + " ".join(
+            sys.argv[1:] if argv is None else argv),
+        "interval": [round(total["low"], 3), round(total["high"], 3)],
+        "pickups": total["pickups"], "expected_failures": round(total["expected_failures"], 2),
+        "recovery_time": round(total["recovery_time"], 2),
+        "studies": {k: {"seconds": round(v["seconds"], 3), "pickups": v["pickups"]}
+                    for k, v in per_study.items()},
+        "code": dict(codes)})
+    header = ("# What a pickup's chance of failing costs with recovery (s per expected failure),\n"
+              "# planning/failure_price.py. Written by the command below; do not edit.\n")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(header + yaml.safe_dump(price.to_dict(), sort_keys=False))
+    except OSError as e:
+        fail(f"--out: cannot write {out}: {e.strerror or e}")
+    print(f"all: {total['seconds']:.2f} s [{total['low']:.2f}, {total['high']:.2f}]; "
+          f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,118 @@
+"""What a pickup's chance of failing costs the utility, in the execution's mode.
+
+The utility rewards a pickup with λ Fea^m: a plan loses λ (1 - Fea^m) in expectation for the
+chance that the pickup fails. That is the paper's price, and it is the right one in open loop,
+where a failed pickup loses the dish. With recovery the dish is not lost: the robot checks the
+stop from where it landed, corrects it by a short move and retries, so a pickup that may fail
+costs the time those recoveries take. Its price is then that time per expected failure,
+
+    c = Σ recovery time / Σ (1 - Fea^m),
+
+over the first pickup attempt of every dish of recorded runs with recovery (Fea^m as planned,
+the recoveries the corrections and retries of that dish). It is a ratio estimator: with a
+calibrated Fea^m the expected number of failures is Σ (1 - Fea^m), and recoveries that Fea^m
+does not foresee (a correction after a poor landing) are priced in too. `derive_price` computes
+it; `python -m s3o_drake.commands.failure_price` derives it from studies and records it in
+models/failure_price.yaml; `priced_planner` applies it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from s3o_drake.choices import Recovery
+from s3o_drake.resources import MODELS_DIR
+from s3o_drake.scenario import Planner, Scenario
+
+PRICE_FILE = MODELS_DIR / "failure_price.yaml"
+FORMAT = "s3o_drake.FailurePrice/1"
+RECOVERY_KINDS = ("correction", "retry")
+"""The recoveries a pickup that may fail costs: moves to a better stop, and tries again."""
+
+
+@dataclass(frozen=True)
+class FailurePrice:
+    """The recorded price (s per expected failure) of a pickup under recovery."""
+
+    seconds: float
+    provenance: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"format": FORMAT, "seconds": float(self.seconds), **dict(self.provenance)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> FailurePrice:
+        if data.get("format") != FORMAT:
+            raise ValueError(f"not a failure price (format {data.get('format')!r}, expected "
+                             f"{FORMAT!r})")
+        seconds = float(data["seconds"])
+        if not seconds > 0:
+            raise ValueError(f"seconds: must be positive, got {seconds:g}")
+        return cls(seconds, {k: v for k, v in data.items() if k not in ("format", "seconds")})
+
+    @classmethod
+    def load(cls, path: str | Path = PRICE_FILE) -> FailurePrice:
+        """The recorded price (cached per path)."""
+        return _load(str(Path(path).resolve()))
+
+
+@functools.lru_cache(maxsize=4)
+def _load(path: str) -> FailurePrice:
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"{path}: no failure price; make it with "
+                                "`python -m s3o_drake.commands.failure_price`")
+    return FailurePrice.from_dict(yaml.safe_load(Path(path).read_text()))
+
+
+@dataclass(frozen=True)
+class PickupRecord:
+    """A dish's first planned pickup in a run with recovery, and what recovering it cost."""
+
+    predicted: float
+    """Fea^m of the pickup as planned."""
+    recovery_time: float
+    """Simulated time (s) of the corrections and retries of the dish in that plan."""
+
+
+def derive_price(records: Iterable[PickupRecord], *, resamples: int = 2000,
+                 seed: int = 0) -> dict[str, float]:
+    """c of the module docstring, with a 95 % bootstrap interval over the records, and the
+    totals it is made of."""
+    data = np.array([(r.predicted, r.recovery_time) for r in records], dtype=float)
+    if len(data) == 0:
+        raise ValueError("no pickups to derive a failure price from")
+    expected = 1.0 - np.clip(data[:, 0], 0.0, 1.0)
+    if expected.sum() <= 0:
+        raise ValueError("every pickup was planned at Fea^m 1: no failure was expected")
+    rng = np.random.default_rng(seed)
+    picks = rng.integers(0, len(data), (resamples, len(data)))
+    ratios = data[picks, 1].sum(axis=1) / np.maximum(expected[picks].sum(axis=1), 1e-12)
+    low, high = np.percentile(ratios, [2.5, 97.5])
+    return {"seconds": float(data[:, 1].sum() / expected.sum()), "low": float(low),
+            "high": float(high), "pickups": len(data),
+            "expected_failures": float(expected.sum()),
+            "recovery_time": float(data[:, 1].sum())}
+
+
+def failure_reward(settings: Scenario, price: FailurePrice | None = None) -> float:
+    """λ as the utility prices a pickup's failure under `settings`: the planner's λ, or with
+    `failure_price: execution` and recovery on, the recorded recovery price."""
+    planner = settings.planner
+    if planner.failure_price == "paper" or settings.execution.recovery == Recovery.NONE.value:
+        return planner.reward
+    return (price or FailurePrice.load()).seconds
+
+
+def priced_planner(settings: Scenario, price: FailurePrice | None = None) -> Planner:
+    """The planner settings with λ replaced by `failure_reward` (unchanged when equal)."""
+    reward = failure_reward(settings, price)
+    planner = settings.planner
+    return planner if reward == planner.reward else dataclasses.replace(planner, reward=reward)
