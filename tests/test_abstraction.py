@@ -336,3 +336,34 @@ def test_a_chair_between_two_cells_does_not_keep_their_dishes_apart():
     assert alone.plain_voronoi.task_feasibility["plate_1"] > 0.9  # the plate keeps its own
     assert alone.best.groups == (("cup_1", "plate_1"),)
     assert alone.best.task_feasibility["cup_1"] > 0.5
+
+
+class _TwoSpots:
+    """Fea^m of two dishes at two base positions: each dish is picked well from one spot and
+    poorly from the other (x < 0.5: plate_a's spot; x >= 0.5: cup_b's)."""
+
+    def values(self, dish, points):
+        left = np.asarray(points)[:, 0] < 0.5
+        good = left if dish == "plate_a" else ~left
+        return np.where(good, 0.9, 0.1)
+
+
+def test_a_merge_scores_the_stops_that_serve_the_whole_group_when_positions_are_shared():
+    """Per dish, each dish is scored at its own best spot (0.82 each) although one stop must
+    serve both; shared positions score the merge by the stops it really has (0.5 each)."""
+    from shapely.geometry import box
+
+    points = np.array([[0.0, 0.0], [1.0, 0.0]])
+    grid = LocationGrid(points, np.array([0, 1]), [box(-0.5, -0.5, 0.5, 0.5),
+                                                  box(0.5, -0.5, 1.5, 0.5)],
+                        ["plate_a", "cup_b"], _TwoSpots(), ["plate_a", "cup_b"])
+    per_dish = TaskFeasibility(grid, samples=100, seed=0).of_group([0, 1])
+    shared = TaskFeasibility(grid, samples=100, seed=0, positions="shared").of_group([0, 1])
+    assert per_dish == pytest.approx([0.82, 0.82])
+    assert shared == pytest.approx([0.5, 0.5])
+    # Alone, a dish is scored the same either way.
+    for k in (0, 1):
+        assert TaskFeasibility(grid, samples=100, seed=0, positions="shared").of_group([k]) \
+            == pytest.approx(TaskFeasibility(grid, samples=100, seed=0).of_group([k]))
+    with pytest.raises(ValueError, match="positions"):
+        TaskFeasibility(grid, samples=10, seed=0, positions="joint")

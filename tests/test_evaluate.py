@@ -29,6 +29,7 @@ from s3o_drake.evaluation.summary import (
     placement_table,
     summarize,
     table_one,
+    write_outputs,
 )
 from s3o_drake.execution.messages import PickupRecord
 
@@ -268,7 +269,57 @@ def test_paired_comparison_counts_disagreements_on_the_same_tasks():
     assert (row.baseline, row.pairs, row.wins, row.losses) == ("S3O-Random", 10, 7, 1)
     assert row.p_value == pytest.approx(2 * 9 / 256)  # P(>= 7 of 8 heads), both tails
     assert row.time_difference == pytest.approx(-10.0)
-    assert row.time_low == pytest.approx(-10.0) and row.time_high == pytest.approx(-10.0)
+    assert (row.timed.low, row.timed.high) == pytest.approx((-10.0, -10.0))
+    assert row.timed.pairs == 10 and row.complete.pairs == 1  # t7: the only pair both complete
+    assert row.complete.relative == pytest.approx(-10.0 / 117.0)
+
+
+def test_a_run_without_a_plan_has_no_time_counts_incomplete_and_is_listed(tmp_path):
+    groups = {"a": "easy", "b": "moderate", "c": "difficult"}
+    runs = [{**_row(t, m, 0, True, 100.0), "planned": True, "code": "abc"}
+            for t in groups for m in METHODS]
+    runs[1] = {**_row("a", "S3O-Random", 0, False, 0.0, fraction=0.0), "planned": False,
+               "reason": "no plan: S3O-Random: no valid plan", "code": "abc"}
+    cells = {(c.group, c.method): c for c in summarize(runs, groups, METHODS)}
+    easy = cells[("easy", "S3O-Random")]
+    assert (easy.completion, easy.no_plan, easy.predicted_completion) == (0.0, 1, 0.0)
+    assert math.isnan(easy.execution_time)  # not 0 s
+    (row,) = paired_comparison(runs, METHODS)
+    assert (row.losses, row.wins, row.pairs, row.timed.pairs) == (0, 1, 3, 2)
+    write_outputs(tmp_path, runs, {t: 1.0 for t in groups}, groups, list(METHODS), {})
+    summary = (tmp_path / "summary.md").read_text()
+    assert "Every table below: 6 runs made at abc." in summary
+    assert "**1 runs without a plan** (incomplete; no execution time):" in summary
+    assert "- a S3O-Random seed 0: no plan: S3O-Random: no valid plan" in summary
+
+
+def test_variants_pair_with_the_baseline_and_the_method_as_it_is(tmp_path, capsys):
+    from s3o_drake.commands.compare_variants import main as compare_variants
+
+    def store(folder, rows):
+        folder.mkdir()
+        (folder / "results.jsonl").write_text(
+            "".join(json.dumps({"key": f"{r['task']}{r['method']}", "code": "abc", "stops": 3,
+                                "predicted_completion": 0.5, **r}) + "\n" for r in rows))
+
+    store(tmp_path / "study", [_row(f"t{i}", m, 0, i < 8, 100.0 if m == "V-GROP*" else 90.0)
+                               for i in range(10) for m in ("V-GROP*", "S3O-GROP*")])
+    store(tmp_path / "shared", [_row(f"t{i}", "S3O-GROP*", 0, True, 80.0) for i in range(10)])
+    out = tmp_path / "table.md"
+    assert compare_variants(["--study", str(tmp_path / "study"), f"shared={tmp_path / 'shared'}",
+                             "--out", str(out)]) == 0
+    lines = out.read_text().splitlines()
+    as_it_is = next(line for line in lines if line.startswith("| as it is |"))
+    shared = next(line for line in lines if line.startswith("| shared |"))
+    assert "| 10 | 0.80 [" in as_it_is and "| 0 / 0 / 1.00 | -10.0 [-10.0, -10.0] s, -10.0 %" \
+        in as_it_is
+    # The variant completes the two tasks nobody else did, and is 10 s faster than as it is.
+    assert "| 2 / 0 / 0.50 | -20.0 [-20.0, -20.0] s, -20.0 %" in shared
+    assert shared.endswith("| 2 / 0 / 0.50 | -10.0 [-10.0, -10.0] s, -11.1 % [-11.1, -11.1] "
+                           "(8 pairs) |")
+    with pytest.raises(SystemExit) as e:
+        compare_variants(["--study", str(tmp_path / "study"), "shared"])
+    assert e.value.code == 2 and "LABEL=DIR" in capsys.readouterr().err
 
 
 def test_other_splits_group_tasks_by_their_hardest_dish_and_their_size():
@@ -400,6 +451,8 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, c
     (["--limit", "0"], "--limit"),
     (["--open-loop", "."], "--open-loop"),  # the study is open loop itself
     (["--recovery", "replan", "--open-loop", "nowhere"], "--open-loop"),
+    (["--set", "planner.top_k=none"], "--set planner.top_k"),
+    (["--set", "planner.failure_price=maybe"], "--set planner.failure_price"),
 ])
 def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, args, field):
     out = tmp_path / "results"
@@ -419,6 +472,17 @@ def test_a_broken_task_file_is_named(tmp_path, capsys):
         evaluate(["--tasks", str(tasks), "--out", str(tmp_path / "r")])
     assert exit_info.value.code == 2
     assert "bad.yaml" in capsys.readouterr().err
+
+
+def test_a_variant_s_runs_are_runs_of_their_own():
+    from s3o_drake.commands.evaluate import study_jobs
+
+    paths = sorted(SMALL.glob("*.yaml"))[:1]
+    _, plain = study_jobs(paths, ["S3O-GROP*"], 1)
+    _, variant = study_jobs(paths, ["S3O-GROP*"], 1,
+                            overrides=("planner.group_positions=shared",))
+    assert plain[0].key.endswith("/task-seeded")  # as before: earlier rows still resume
+    assert variant[0].key == plain[0].key + "/set:planner.group_positions=shared"
 
 
 def test_each_task_draws_noise_of_its_own_and_the_methods_share_it():

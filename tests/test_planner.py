@@ -349,3 +349,39 @@ def test_a_location_whose_best_spots_are_boxed_in_is_driven_to_elsewhere():
                                 np.append(np.full(len(pocket), 0.99), 0.0)))
     assert representative_points(region, [["bowl"]], ["l0"], only_pocket, nav, start)["l0"] \
         is None  # a reachable spot with Fea^m 0 does not make the dish pickable
+
+
+def test_the_unmerged_space_is_searched_too_when_asked(scenes):
+    """With K = 1 two plates 30 cm apart leave only their merge to search; with
+    `search_plain_voronoi` the unmerged space is searched after it, so S3O never searches
+    less than the Voronoi methods."""
+    import dataclasses
+
+    scenario, heatmaps, chairs = scenes["two_dishes"]
+    searched = {}
+    for flag in (False, True):
+        s = dataclasses.replace(scenario, planner=dataclasses.replace(
+            scenario.planner, top_k=1, search_plain_voronoi=flag))
+        result = plan_task(_known(s, chairs), method="S3O-GROP*", heatmaps=heatmaps, seed=0)
+        searched[flag] = {groups for groups, _ in result.task_plans}
+    merged, plain = (("plate_a", "cup_b"),), (("plate_a",), ("cup_b",))
+    assert searched[False] == {merged}
+    assert searched[True] == {merged, plain}
+
+
+def test_one_location_price_ranks_with_the_search_s_gamma(scenes):
+    """The ranking's price of a location is the paper's γ / λ (20 / 150), or with
+    `location_price: search` the robot profile's own γ / λ, the one its search pays."""
+    import dataclasses
+
+    scenario, heatmaps, chairs = scenes["two_dishes"]
+    values = {}
+    for price in ("paper", "search"):
+        s = dataclasses.replace(scenario, planner=dataclasses.replace(
+            scenario.planner, location_price=price))
+        result = plan_task(_known(s, chairs), method="S3O-GROP*", heatmaps=heatmaps, seed=0)
+        values[price] = {sp.groups: sp.score - sp.value for sp in result.abstraction.ranked}
+    gamma = TimeModel.load().overheads.gamma
+    for groups, cost in values["paper"].items():
+        assert cost == pytest.approx(len(groups) * 20.0 / 150.0)
+        assert values["search"][groups] == pytest.approx(len(groups) * gamma / 150.0)

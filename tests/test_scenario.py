@@ -321,3 +321,23 @@ def test_a_place_on_a_table_and_two_places_that_overlap():
         parse_scenario(both)
     assert info.value.path == "dishes[2].place" and "overlaps the place of 'can_1'" in str(
         info.value)
+
+
+def test_overrides_replace_fields_and_are_checked_like_the_file():
+    from s3o_drake.scenario import ScenarioError, with_overrides
+
+    base = load_scenario(REPO / "scenarios" / "restaurant.yaml")
+    changed = with_overrides(base, ["planner.top_k=8", "uncertainty.nav_xy_std=0.2",
+                                    "planner.search_plain_voronoi=true",
+                                    "tables[0].height=0.8"])
+    assert (changed.planner.top_k, changed.uncertainty.nav_xy_std,
+            changed.planner.search_plain_voronoi, changed.tables[0].height) == (8, 0.2, True, 0.8)
+    assert base.planner.top_k == 5  # the scenario given is not changed
+    assert with_overrides(base, []) is base
+    for bad, message in (("planner.topk=3", "planner.topk: unknown field"),
+                         ("planner.top_k=x", "planner.top_k: expected an integer"),
+                         ("planner.group_positions=joint", "planner.group_positions"),
+                         ("tables[99].height=1", "tables[99].height: no item 99"),
+                         ("planner", "expected PATH=VALUE")):
+        with pytest.raises(ScenarioError, match=message.replace("[", r"\[")):
+            with_overrides(base, [bad])

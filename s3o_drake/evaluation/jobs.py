@@ -135,11 +135,21 @@ def _run(job: Job) -> dict:
             "fraction": r["completed"] / r["dishes"] if r["dishes"] else 1.0,
             "execution_time": r["execution_time"], "planning_time": r["planning_time"],
             "stops": None if run.plan is None else len(run.plan.gotos),
+            "predicted_time": None if run.plan is None else run.plan.predicted_time,
+            "predicted_completion": _predicted_completion(run.plan),
             "planned": run.plan is not None, "finished": bool(r.get("finished", True)),
             "reason": r.get("reason", ""), "realtime_rate": r["realtime_rate"],
             "outcomes": [f"{action} {arg}: {outcome}" for action, arg, outcome in r["outcomes"]],
             "pickups": r["pickups"], "recoveries": r["recoveries"],
             "unreachable": r["unreachable"]}
+
+
+def _predicted_completion(plan) -> float:
+    """The first plan's chance of doing every action: the product of its pickups' and
+    places' Fea^m; 0 with an object left out, or without a plan."""
+    if plan is None or plan.unreachable:
+        return 0.0
+    return float(np.prod([a.feasibility for a in (*plan.pickups, *plan.places)]))
 
 
 def _difficulty(job: Job) -> dict:

@@ -5,12 +5,18 @@ Spread is over seeds, as in the paper: each seed gives a rate (or a mean time) o
 group's tasks; the table shows the mean of those and their standard deviation. Only
 (task, seed) pairs that every compared method has finished count, so that a study cut
 short compares the methods on the same tasks.
+
+A run without a plan has no execution time: it counts as incomplete, stays out of every
+time mean, and is listed. Time comparisons are made twice: on every pair where both runs
+had a plan (failed runs end early, so these mix shorter work in), and on the pairs where
+both runs collected every dish (the same work done). Every table names the commit its rows
+were made at.
 """
 
 import csv
 import json
 import math
-from collections import defaultdict
+from collections import Counter, defaultdict
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -54,9 +60,43 @@ class Cell:
     completion_std: float
     fraction: float
     fraction_std: float
-    execution_time: float
+    execution_time: float  # runs with a plan only
     execution_time_std: float
     planning_time: float  # median over runs
+    no_plan: int = 0  # runs that made no plan: incomplete, no execution time
+    predicted_completion: float = math.nan  # mean of `predicted_completion` over runs
+    stops: float = math.nan  # mean stops of the runs with a plan
+
+
+def has_time(run: Mapping) -> bool:
+    """Whether a run has an execution time: it made a plan (one without has none, not 0 s)."""
+    return bool(run.get("planned", True))
+
+
+def predicted_completion(run: Mapping) -> float:
+    """The chance the run's plan gave itself of collecting every dish: the product of the
+    plan's Fea^m of its pickups, 0 with a dish left out or without a plan. Rows made before
+    it was recorded (`predicted_completion`) give it from their pickup records (each dish's
+    first, as planned), a dish without one counting 0."""
+    if "predicted_completion" in run:
+        return float(run["predicted_completion"])
+    if not has_time(run):
+        return 0.0
+    first: dict[str, float] = {}
+    for p in run.get("pickups", ()):
+        first.setdefault(p["dish"], p.get("planned") if p.get("planned") is not None
+                         else p["predicted"])
+    if len(first) < run.get("dishes", len(first)):
+        return 0.0
+    return float(np.prod(list(first.values()))) if first else 1.0
+
+
+def code_of(runs: Sequence[Mapping]) -> str:
+    """The commit the runs were made at ("a (n), b (m)" when several)."""
+    counts = Counter(r.get("code", "not recorded") for r in runs)
+    if len(counts) == 1:
+        return next(iter(counts))
+    return ", ".join(f"{c} ({n})" for c, n in counts.most_common())
 
 
 def comparable_runs(runs: Sequence[dict], methods: Sequence[str]) -> list[dict]:
@@ -87,14 +127,20 @@ def summarize(runs: Sequence[dict], groups: dict[str, str],
             by_seed = defaultdict(list)
             for r in mine:
                 by_seed[r["seed"]].append(r)
-            per_seed = [(np.mean([r["complete"] for r in rs]), np.mean([r["fraction"] for r in rs]),
-                         np.mean([r["execution_time"] for r in rs])) for rs in by_seed.values()]
+            per_seed = [(np.mean([r["complete"] for r in rs]), np.mean([r["fraction"] for r in rs]))
+                        for rs in by_seed.values()]
             completion = _mean_std([float(p[0]) for p in per_seed])
             fraction = _mean_std([float(p[1]) for p in per_seed])
-            execution = _mean_std([float(p[2]) for p in per_seed])
+            timed = [[r["execution_time"] for r in rs if has_time(r)] for rs in by_seed.values()]
+            execution = _mean_std([float(np.mean(t)) for t in timed if t])
             planning = float(np.median([r["planning_time"] for r in mine])) if mine else math.nan
+            stops = [r["stops"] for r in mine if has_time(r) and r.get("stops") is not None]
             cells.append(Cell(group, method, len({r["task"] for r in mine}), len(mine),
-                              len(by_seed), *completion, *fraction, *execution, planning))
+                              len(by_seed), *completion, *fraction, *execution, planning,
+                              no_plan=sum(not has_time(r) for r in mine),
+                              predicted_completion=float(np.mean(
+                                  [predicted_completion(r) for r in mine])) if mine else math.nan,
+                              stops=float(np.mean(stops)) if stops else math.nan))
     return cells
 
 
@@ -136,17 +182,78 @@ def claims(cells: Sequence[Cell]) -> list[tuple[str, bool | None]]:
 
 
 @dataclass(frozen=True)
+class TimeDifference:
+    """Paired execution times, one method minus another, on some pairs of runs."""
+
+    pairs: int
+    mean: float  # s; nan without pairs
+    low: float  # 95 % bootstrap interval of the mean, resampling pairs
+    high: float
+    relative: float  # mean / the other method's mean time
+    relative_low: float
+    relative_high: float
+
+    def text(self) -> str:
+        if not self.pairs:
+            return "– (0 pairs)"
+        return (f"{self.mean:+.1f} [{self.low:+.1f}, {self.high:+.1f}] s, "
+                f"{100 * self.relative:+.1f} % [{100 * self.relative_low:+.1f}, "
+                f"{100 * self.relative_high:+.1f}] ({self.pairs} pairs)")
+
+
+def time_difference(mine: Sequence[Mapping], theirs: Sequence[Mapping],
+                    rng: np.random.Generator, resamples: int = 2000) -> TimeDifference:
+    """The mean of mine's execution time minus theirs over the pairs given (runs with a
+    plan), with bootstrap intervals of it and of its share of theirs."""
+    a = np.array([r["execution_time"] for r in mine], dtype=float)
+    b = np.array([r["execution_time"] for r in theirs], dtype=float)
+    if len(a) == 0:
+        return TimeDifference(0, *(math.nan,) * 6)
+    picks = rng.integers(0, len(a), (resamples, len(a)))
+    means = (a[picks] - b[picks]).mean(axis=1)
+    ratios = means / b[picks].mean(axis=1)
+    d = float((a - b).mean())
+    return TimeDifference(len(a), d, *map(float, np.percentile(means, [2.5, 97.5])),
+                          d / float(b.mean()), *map(float, np.percentile(ratios, [2.5, 97.5])))
+
+
+@dataclass(frozen=True)
 class Paired:
-    """S3O-GROP* against one baseline on the same (task, seed) pairs, all groups together."""
+    """One method against another on the same (task, seed) pairs, all groups together."""
 
     baseline: str
     pairs: int
-    wins: int  # S3O-GROP* completed the task and the baseline did not
+    wins: int  # the method completed the task and the baseline did not
     losses: int  # the other way round
     p_value: float  # exact two-sided sign test (McNemar) on wins against losses
-    time_difference: float  # mean of S3O-GROP*'s execution time minus the baseline's (s)
-    time_low: float  # 95 % bootstrap interval of that mean, resampling pairs
-    time_high: float
+    timed: TimeDifference  # pairs where both made a plan
+    complete: TimeDifference  # pairs where both collected every dish
+    method: str = METHOD
+
+    @property
+    def time_difference(self) -> float:
+        return self.timed.mean
+
+
+def paired_runs(method_runs: Sequence[Mapping], baseline_runs: Sequence[Mapping],
+                baseline: str, *, method: str = METHOD, seed: int = 0) -> Paired:
+    """`method_runs` against `baseline_runs`, paired by (task, seed): the sign test on the
+    pairs that only one completes, and the time difference on the pairs with two plans and
+    on those with two complete runs."""
+    theirs = {(r["task"], r["seed"]): r for r in baseline_runs}
+    pairs = [(r, theirs[(r["task"], r["seed"])]) for r in
+             sorted(method_runs, key=lambda r: (r["task"], r["seed"]))
+             if (r["task"], r["seed"]) in theirs]
+    wins = sum(a["complete"] and not b["complete"] for a, b in pairs)
+    losses = sum(b["complete"] and not a["complete"] for a, b in pairs)
+    p_value = binomtest(wins, wins + losses, 0.5).pvalue if wins + losses else 1.0
+    rng = np.random.default_rng(seed)
+    timed = [(a, b) for a, b in pairs if has_time(a) and has_time(b)]
+    done = [(a, b) for a, b in timed if a["complete"] and b["complete"]]
+    return Paired(baseline, len(pairs), int(wins), int(losses), float(p_value),
+                  time_difference([a for a, _ in timed], [b for _, b in timed], rng),
+                  time_difference([a for a, _ in done], [b for _, b in done], rng),
+                  method=method)
 
 
 def paired_comparison(runs: Sequence[dict], methods: Sequence[str],
@@ -156,37 +263,24 @@ def paired_comparison(runs: Sequence[dict], methods: Sequence[str],
     often than a coin would, and how much execution time it saves on the same tasks."""
     if METHOD not in methods:
         return []
-    by_pair = defaultdict(dict)
-    for r in comparable_runs(runs, methods):
-        by_pair[(r["task"], r["seed"])][r["method"]] = r
-    pairs = sorted(by_pair)
-    rng = np.random.default_rng(seed)
-    out = []
-    for baseline in methods:
-        if baseline == METHOD or not pairs:
-            continue
-        mine = [by_pair[p][METHOD] for p in pairs]
-        theirs = [by_pair[p][baseline] for p in pairs]
-        wins = sum(a["complete"] and not b["complete"] for a, b in zip(mine, theirs, strict=True))
-        losses = sum(b["complete"] and not a["complete"]
-                     for a, b in zip(mine, theirs, strict=True))
-        p_value = binomtest(wins, wins + losses, 0.5).pvalue if wins + losses else 1.0
-        diff = np.array([a["execution_time"] - b["execution_time"]
-                         for a, b in zip(mine, theirs, strict=True)])
-        means = diff[rng.integers(0, len(diff), (2000, len(diff)))].mean(axis=1)
-        out.append(Paired(baseline, len(pairs), int(wins), int(losses), float(p_value),
-                          float(diff.mean()), *map(float, np.percentile(means, [2.5, 97.5]))))
-    return out
+    comparable = comparable_runs(runs, methods)
+    mine = [r for r in comparable if r["method"] == METHOD]
+    if not mine:
+        return []
+    return [paired_runs(mine, [r for r in comparable if r["method"] == baseline], baseline,
+                        seed=seed)
+            for baseline in methods if baseline != METHOD]
 
 
 def paired_table(rows: Sequence[Paired]) -> str:
     """The paired comparison in Markdown."""
-    lines = [f"| {METHOD} against | pairs | completes, the other not | the other completes, "
-             "it not | sign test p | execution time difference (s, 95 % interval) |",
-             "|---|---|---|---|---|---|"]
+    method = rows[0].method if rows else METHOD
+    lines = [f"| {method} against | pairs | completes, the other not | the other completes, "
+             "it not | sign test p | execution time difference, both with a plan (95 % "
+             "interval) | the same, both collected every dish |",
+             "|---|---|---|---|---|---|---|"]
     lines += [f"| {r.baseline} | {r.pairs} | {r.wins} | {r.losses} | {r.p_value:.2f} | "
-              f"{r.time_difference:+.1f} [{r.time_low:+.1f}, {r.time_high:+.1f}] |"
-              for r in rows]
+              f"{r.timed.text()} | {r.complete.text()} |" for r in rows]
     return "\n".join(lines) + "\n"
 
 
@@ -228,9 +322,12 @@ def markdown_tables(cells: Sequence[Cell], methods: Sequence[str]) -> str:
     lines = []
     for title, fmt in (
             ("Task completion rate", lambda c: _pm(c.completion, c.completion_std, 2)),
+            ("Predicted completion (the plan's product of Fea^m, mean)",
+             lambda c: _pm(c.predicted_completion, math.nan, 2)),
             ("Share of dishes collected", lambda c: _pm(c.fraction, c.fraction_std, 2)),
-            ("Execution time (s, simulated)",
+            ("Execution time (s, simulated; runs with a plan)",
              lambda c: _pm(c.execution_time, c.execution_time_std, 1)),
+            ("Stops (mean, runs with a plan)", lambda c: _pm(c.stops, math.nan, 2)),
             ("Planning time (s, median)", lambda c: _pm(c.planning_time, math.nan, 2))):
         lines += [f"**{title}**", "", "| group | " + " | ".join(methods) + " |",
                   "|---|" + "---|" * len(methods)]
@@ -240,6 +337,10 @@ def markdown_tables(cells: Sequence[Cell], methods: Sequence[str]) -> str:
         lines.append("")
     lines.append("Runs per cell (tasks x seeds): " + ", ".join(
         f"{g} {at[(g, methods[0])].tasks} x {at[(g, methods[0])].seeds}" for g in GROUPS))
+    no_plan = {m: sum(at[(g, m)].no_plan for g in GROUPS) for m in methods}
+    if any(no_plan.values()):
+        lines.append("Runs without a plan (counted incomplete, left out of the times): "
+                     + ", ".join(f"{m} {n}" for m, n in no_plan.items() if n))
     lines.append("")
     lines.append(table_one(cells))
     return "\n".join(lines)
@@ -395,7 +496,11 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
     if METHOD in methods and ABLATION in methods:
         plot_table_one(cells, out / "table1.png")
         written.append(out / "table1.png")
-    lines = ["# Benchmark summary", "", markdown_tables(cells, methods), "**Claims**", ""]
+    code = code_of(runs)
+    lines = ["# Benchmark summary", "",
+             f"Every table below: {len(runs)} runs made at {code}"
+             + (" (a comparison across commits)" if "," in code else "") + ".", "",
+             markdown_tables(cells, methods), "**Claims**", ""]
     for text, ok in claims(cells):
         lines.append(f"- {text}: " + {True: "holds", False: "does NOT hold",
                                        None: "no data"}[ok])
@@ -417,6 +522,11 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
     lines += ["", "**Why dishes were not collected** (failed actions by reason; dishes that "
               "no pickup was planned for or that a failed goto left behind)", "",
               failure_table(runs, methods)]
+    without = [r for r in runs if "error" not in r and not has_time(r)]
+    if without:
+        lines += ["", f"**{len(without)} runs without a plan** (incomplete; no execution time):"]
+        lines += [f"- {r['task']} {r['method']} seed {r['seed']}: {r.get('reason', '')}"
+                  for r in sorted(without, key=lambda r: (r["method"], r["task"], r["seed"]))]
     errors = [r for r in runs if "error" in r]
     if errors:
         lines += ["", f"**{len(errors)} runs ended in an error** (not counted above):"]

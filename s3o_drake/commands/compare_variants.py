@@ -1,0 +1,85 @@
+"""Variants of a method against a baseline and against the method as it is, paired by task
+and seed: the attribution table.
+
+    python -m s3o_drake.commands.compare_variants --study DIR LABEL=DIR [LABEL=DIR ...]
+           [--method S3O-GROP*] [--baseline V-GROP*] [--out FILE]
+
+--study DIR holds the runs of --baseline and of --method as it is (the reference, the
+table's first row). Each LABEL=DIR is a study of --method with some scenario fields
+replaced (`evaluate --set ... --out DIR`) on the same tasks and seeds. Per row: completion
+with its Wilson 95 % interval, the plans' predicted completion, the stops, the sign test and
+the paired execution time (mean difference, 95 % bootstrap interval, and as a share of the
+other's time) on the pairs where both made a plan and where both collected every dish,
+against the baseline and against the reference. --out writes the table as Markdown.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from s3o_drake.choices import METHODS
+from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+
+
+def parse_args(argv: list[str] | None):
+    parser = ArgumentParser(prog="python -m s3o_drake.commands.compare_variants",
+                            description=__doc__, formatter_class=doc_formatter())
+    parser.add_argument("--study", required=True, metavar="DIR",
+                        help="the study with the baseline and the method as it is")
+    parser.add_argument("variants", nargs="*", metavar="LABEL=DIR",
+                        help="a variant's study folder and its label")
+    parser.add_argument("--method", default="S3O-GROP*", choices=METHODS, metavar="NAME",
+                        help="the method whose variants are compared (default S3O-GROP*)")
+    parser.add_argument("--baseline", default="V-GROP*", choices=METHODS, metavar="NAME",
+                        help="the baseline (default V-GROP*)")
+    parser.add_argument("--out", metavar="FILE", help="write the table here (Markdown)")
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    folders = {"as it is": Path(args.study)}
+    for item in args.variants:
+        label, sep, folder = item.partition("=")
+        if not sep or not label or not folder:
+            fail(f"LABEL=DIR: expected a label and a folder, got {item!r}")
+        if label in folders:
+            fail(f"LABEL=DIR: the label {label!r} is given twice")
+        folders[label] = Path(folder)
+    for label, folder in folders.items():
+        if not (folder / "results.jsonl").is_file():
+            fail(f"{'--study' if label == 'as it is' else label}: no results.jsonl in {folder}")
+    from s3o_drake.evaluation.store import ResultStore
+    from s3o_drake.evaluation.variants import variant_figures, variant_table
+
+    def runs_of(folder: Path, method: str) -> list[dict]:
+        return [r for r in ResultStore(folder / "results.jsonl", read_only=True).rows()
+                if r.get("method") == method and "error" not in r]
+
+    baseline = runs_of(folders["as it is"], args.baseline)
+    reference = runs_of(folders["as it is"], args.method)
+    if not baseline or not reference:
+        fail(f"--study: {folders['as it is']} needs runs of both {args.baseline} and "
+             f"{args.method}")
+    figures = [variant_figures(label, reference if label == "as it is" else
+                               runs_of(folder, args.method), baseline,
+                               None if label == "as it is" else reference,
+                               baseline_name=args.baseline, reference_name="as it is")
+               for label, folder in folders.items()]
+    codes = sorted({f.code for f in figures} | {f"{args.baseline}: " + variant_figures(
+        "b", baseline, baseline, None, baseline_name="", reference_name="").code})
+    table = (f"{args.method} variants against {args.baseline} (runs at: "
+             f"{'; '.join(codes)})\n\n"
+             + variant_table(figures, baseline_name=args.baseline, reference_name="as it is"))
+    print(table)
+    if args.out:
+        try:
+            Path(args.out).write_text(table)
+        except OSError as e:
+            fail(f"--out: cannot write {args.out}: {e.strerror or e}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
