@@ -441,6 +441,13 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, c
     (out / "figure5.png").unlink()
     assert evaluate([*_command(tasks, out), "--summarize"]) == 0
     assert (out / "figure5.png").exists() and results.read_text().splitlines() == after
+    # The study's folder alone is enough to summarize it again: its settings fill in the rest.
+    before = json.loads((out / "results.json").read_text())
+    capsys.readouterr()
+    assert evaluate(["--out", str(out), "--summarize"]) == 0
+    assert "every run finished" in capsys.readouterr().out
+    again = json.loads((out / "results.json").read_text())
+    assert again["cells"] == before["cells"] and again["settings"]["tasks"] == str(tasks)
 
 
 @pytest.mark.parametrize("args, field", [
@@ -462,6 +469,17 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, args,
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and field in err[0]
     assert not out.exists()
+
+
+@pytest.mark.parametrize("args", [["--summarize"], []])
+def test_without_tasks_and_without_a_study_to_take_them_from_is_one_line(tmp_path, capsys,
+                                                                         args):
+    with pytest.raises(SystemExit) as exit_info:
+        evaluate(["--out", str(tmp_path / "nothing"), *args])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--tasks" in err[0]
+    assert not (tmp_path / "nothing").exists()
 
 
 def test_a_broken_task_file_is_named(tmp_path, capsys):

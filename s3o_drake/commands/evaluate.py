@@ -40,7 +40,8 @@ Written to --out:
                     dish, number of dishes), why dishes were lost, errors if any
 
 --summarize writes those from the runs finished so far and runs nothing (safe beside a
-running study: the result files are only read).
+running study: the result files are only read); `--out DIR --summarize` alone takes the
+study's tasks, methods, seeds, recovery and --set from DIR/results.json.
 
 --again DIR runs again, into --out, only the runs of the study in DIR (the same --tasks,
 --methods, --seeds and --recovery) that did not complete, or with --ended WORD... those
@@ -64,6 +65,7 @@ kept).
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import signal
@@ -88,8 +90,9 @@ SCHEDULER = re.compile(r"^(tcp|tls|inproc|ucx)://\S+$")
 def parse_args(argv: list[str] | None):
     parser = ArgumentParser(prog="python -m s3o_drake.commands.evaluate", description=__doc__,
                             formatter_class=doc_formatter())
-    parser.add_argument("--tasks", required=True, metavar="DIR",
-                        help="folder of task scenarios (*.yaml), e.g. scenarios/generated")
+    parser.add_argument("--tasks", metavar="DIR",
+                        help="folder of task scenarios (*.yaml), e.g. scenarios/generated "
+                             "(with --summarize: by default the study's own)")
     parser.add_argument("--methods", nargs="+", default=["all"], metavar="NAME",
                         help=f"'all' or some of: {', '.join(METHODS)} (default all)")
     parser.add_argument("--seeds", type=int, default=3, metavar="N",
@@ -123,6 +126,32 @@ def parse_args(argv: list[str] | None):
                         help="run nothing: write the tables and figures from the runs "
                              "finished so far (e.g. while the study runs elsewhere)")
     return parser.parse_args(argv)
+
+
+def _study_settings(args, argv: list[str]) -> None:
+    """--summarize with no --tasks: the study's own settings (its results.json) fill in
+    the options not given."""
+    if args.tasks is not None:
+        return
+    if not args.summarize:
+        fail("--tasks: required (a folder of task scenarios)")
+    saved = Path(args.out) / "results.json"
+    try:
+        settings = json.loads(saved.read_text())["settings"]
+    except (OSError, ValueError, KeyError, TypeError):
+        fail(f"--tasks: required: no study settings to take it from in {saved}")
+    given = {a.split("=", 1)[0] for a in argv if a.startswith("--")}
+    args.tasks = settings["tasks"]
+    if "--methods" not in given:
+        args.methods = list(settings["methods"])
+    if "--seeds" not in given:
+        args.seeds = len(settings["seeds"])
+    if "--limit" not in given and settings.get("limit") is not None:
+        args.limit = settings["limit"]
+    if "--recovery" not in given and "recovery" in settings:
+        args.recovery = settings["recovery"]
+    if "--set" not in given:
+        args.overrides = list(settings.get("overrides", []))
 
 
 def _validate(args) -> tuple[list[Path], list[str]]:
@@ -204,6 +233,7 @@ def _cannot_write(error: OSError, then: str) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    _study_settings(args, sys.argv[1:] if argv is None else argv)
     paths, methods = _validate(args)
     from s3o_drake.evaluation.difficulty import GROUPS, difficulty_groups
     from s3o_drake.evaluation.scheduler import run_jobs
@@ -263,7 +293,8 @@ def main(argv: list[str] | None = None) -> int:
     groups = difficulty_groups(areas)
     settings = {"tasks": str(Path(args.tasks)), "task_count": len(paths), "methods": methods,
                 "seeds": list(range(args.seeds)), "difficulty_seed": DIFFICULTY_SEED,
-                "overrides": list(args.overrides),
+                "overrides": list(args.overrides), "recovery": args.recovery,
+                "limit": args.limit,
                 "command": "python -m s3o_drake.commands.evaluate " + " ".join(
                     sys.argv[1:] if argv is None else argv)}
     # Which code made the runs: a study that resumed across commits says so.
@@ -299,8 +330,9 @@ def main(argv: list[str] | None = None) -> int:
             f"{code} ({n})" for code, n in settings["code"].items()))
     if args.summarize:
         left = sum(not store.finished(j.key) for j in run_job_list)
-        print(f"{left} of {len(run_job_list)} runs not finished yet; "
-              "the tables compare the methods on the finished (task, seed) pairs")
+        print("every run finished" if not left else
+              f"{left} of {len(run_job_list)} runs still to run; the tables compare the "
+              "methods on the finished (task, seed) pairs")
     errors = [r for r in runs if "error" in r] + [r for r in measured
                                                    if r is not None and "error" in r]
     if errors:

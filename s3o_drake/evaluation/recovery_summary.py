@@ -18,9 +18,12 @@ execution time of both, and the time recovery adds where both runs collected eve
 from collections import defaultdict
 from collections.abc import Mapping, Sequence
 
+from s3o_drake.evaluation.run_rows import code_of, has_time
 from s3o_drake.execution.messages import ran_to_end
 
 KINDS = ("correction", "retry", "replan", "give_up")
+PLURALS = {"correction": "corrections", "retry": "retries", "replan": "replans",
+           "give_up": "dishes given up"}
 #: Why a run did not collect every dish, in the order `incomplete_cause` tells them apart.
 CAUSES = ("no plan", "blocked drive", "dish given up", "dish unreachable on the map", "other")
 
@@ -89,12 +92,16 @@ def recovery_figures(runs: Sequence[Mapping], methods: Sequence[str],
                  if (key := (r["task"], method, r.get("run_seed"))) in twins]
         if pairs:
             both = [(r, o) for r, o in pairs if r.get("complete") and o.get("complete")]
+            # Runs without a plan have no execution time: the means are over the pairs
+            # where both runs made one.
+            timed = [(r, o) for r, o in pairs if has_time(r) and has_time(o)]
             figures[method]["open_loop"] = {
-                "pairs": len(pairs),
+                "pairs": len(pairs), "timed_pairs": len(timed),
+                "code": code_of([o for _, o in pairs]),
                 "complete": sum(bool(o.get("complete")) for _, o in pairs),
                 "complete_with_recovery": sum(bool(r.get("complete")) for r, _ in pairs),
-                "time": _mean([o["execution_time"] for _, o in pairs]),
-                "time_with_recovery": _mean([r["execution_time"] for r, _ in pairs]),
+                "time": _mean([o["execution_time"] for _, o in timed]),
+                "time_with_recovery": _mean([r["execution_time"] for r, _ in timed]),
                 "both_complete": len(both),
                 "extra_time_both_complete": _mean([r["execution_time"] - o["execution_time"]
                                                    for r, o in both])}
@@ -111,7 +118,7 @@ def recovery_table(figures: Mapping[str, Mapping]) -> str:
     rows = [("runs", lambda f: str(f["runs"])),
             ("completion", lambda f: f"{f['complete'] / f['runs']:.2f}" if f["runs"] else "-"),
             ("runs with a recovery", lambda f: str(f["runs_with_recovery"]))]
-    rows += [(f"{kind}s", lambda f, k=kind: str(f["recoveries"].get(k, 0))) for kind in KINDS]
+    rows += [(PLURALS[kind], lambda f, k=kind: str(f["recoveries"].get(k, 0))) for kind in KINDS]
     rows += [("recovery motion per run (simulated s)", lambda f: f"{f['cost_per_run']:.1f}"),
              ("replanning per run (wall s)", lambda f: f"{f['replan_planning_per_run']:.1f}"),
              ("pickable dishes collected",
@@ -120,14 +127,16 @@ def recovery_table(figures: Mapping[str, Mapping]) -> str:
     rows += [(f"incomplete runs: {cause}", lambda f, c=cause: str(f["incomplete"][c]))
              for cause in CAUSES]
     if all("open_loop" in figures[m] for m in methods):
-        rows += [("open loop: same runs", lambda f: str(f["open_loop"]["pairs"])),
+        rows += [("open loop: same runs (their commit)",
+                  lambda f: f"{f['open_loop']['pairs']} ({f['open_loop']['code']})"),
                  ("completion, open loop -> recovery",
                   lambda f: "{:.2f} -> {:.2f}".format(
                       f["open_loop"]["complete"] / f["open_loop"]["pairs"],
                       f["open_loop"]["complete_with_recovery"] / f["open_loop"]["pairs"])),
-                 ("execution time, mean s, open loop -> recovery",
+                 ("execution time, mean s, open loop -> recovery (pairs with two plans)",
                   lambda f: f"{f['open_loop']['time']:.1f} -> "
-                            f"{f['open_loop']['time_with_recovery']:.1f}"),
+                            f"{f['open_loop']['time_with_recovery']:.1f} "
+                            f"({f['open_loop']['timed_pairs']})"),
                  ("time recovery adds where both collected all (s, runs)",
                   lambda f: f"{f['open_loop']['extra_time_both_complete']:+.1f} "
                             f"({f['open_loop']['both_complete']})")]

@@ -16,7 +16,7 @@ were made at.
 import csv
 import json
 import math
-from collections import Counter, defaultdict
+from collections import defaultdict
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -30,6 +30,7 @@ from scipy.stats import binomtest
 
 from s3o_drake.evaluation.difficulty import GROUPS, difficulty_groups
 from s3o_drake.evaluation.recovery_summary import recovery_figures, recovery_table
+from s3o_drake.evaluation.run_rows import code_of, has_time, predicted_completion
 
 METHOD = "S3O-GROP*"
 ABLATION = "S3O-Random"
@@ -66,37 +67,6 @@ class Cell:
     no_plan: int = 0  # runs that made no plan: incomplete, no execution time
     predicted_completion: float = math.nan  # mean of `predicted_completion` over runs
     stops: float = math.nan  # mean stops of the runs with a plan
-
-
-def has_time(run: Mapping) -> bool:
-    """Whether a run has an execution time: it made a plan (one without has none, not 0 s)."""
-    return bool(run.get("planned", True))
-
-
-def predicted_completion(run: Mapping) -> float:
-    """The chance the run's plan gave itself of collecting every dish: the product of the
-    plan's Fea^m of its pickups, 0 with a dish left out or without a plan. Rows made before
-    it was recorded (`predicted_completion`) give it from their pickup records (each dish's
-    first, as planned), a dish without one counting 0."""
-    if "predicted_completion" in run:
-        return float(run["predicted_completion"])
-    if not has_time(run):
-        return 0.0
-    first: dict[str, float] = {}
-    for p in run.get("pickups", ()):
-        first.setdefault(p["dish"], p.get("planned") if p.get("planned") is not None
-                         else p["predicted"])
-    if len(first) < run.get("dishes", len(first)):
-        return 0.0
-    return float(np.prod(list(first.values()))) if first else 1.0
-
-
-def code_of(runs: Sequence[Mapping]) -> str:
-    """The commit the runs were made at ("a (n), b (m)" when several)."""
-    counts = Counter(r.get("code", "not recorded") for r in runs)
-    if len(counts) == 1:
-        return next(iter(counts))
-    return ", ".join(f"{c} ({n})" for c, n in counts.most_common())
 
 
 def comparable_runs(runs: Sequence[dict], methods: Sequence[str]) -> list[dict]:
@@ -411,19 +381,32 @@ def plot_figure_five(cells: Sequence[Cell], methods: Sequence[str], path: Path) 
             ("execution time (s, simulated)", "execution_time", "execution_time_std")),
             strict=True):
         for i, method in enumerate(methods):
-            means = [getattr(at[(g, method)], value) for g in GROUPS]
-            errs = [np.nan_to_num(getattr(at[(g, method)], spread)) for g in GROUPS]
-            ax.bar(x + (i - (len(methods) - 1) / 2) * width, np.nan_to_num(means), width,
-                   yerr=errs, capsize=3, label=method, color=colours(i))
+            offset = x + (i - (len(methods) - 1) / 2) * width
+            for k, g in enumerate(GROUPS):
+                cell = at[(g, method)]
+                mean = getattr(cell, value)
+                if math.isnan(mean):  # no runs (or none with a time): no bar, a word
+                    ax.text(offset[k], 0, "no runs", rotation=90, ha="center", va="bottom",
+                            fontsize=7, color="0.4")
+                    continue
+                err = getattr(cell, spread)
+                ax.bar(offset[k], mean, width, color=colours(i),
+                       yerr=None if math.isnan(err) else err, capsize=3)
+                if mean == 0:  # a real 0 would be an invisible bar
+                    ax.plot([offset[k] - width / 2, offset[k] + width / 2], [0, 0],
+                            color=colours(i), linewidth=3)
         ax.set_xticks(x, [g.capitalize() for g in GROUPS])
         ax.set_ylabel(label)
         ax.grid(axis="y", alpha=0.3)
     axes[0].set_ylim(0, 1.05)
-    axes[0].legend(fontsize=8, ncol=2)
+    handles = [plt.Rectangle((0, 0), 1, 1, color=colours(i)) for i in range(len(methods))]
+    # Below the axes: a legend inside them covers bars.
+    fig.legend(handles, methods, loc="lower center", ncol=min(len(methods), 7), fontsize=8,
+               frameon=False)
     runs = sum(at[(g, methods[0])].runs for g in GROUPS)
     fig.suptitle(f"Completion and execution time by task difficulty ({runs} runs per method; "
-                 "error bars: standard deviation over seeds)")
-    fig.tight_layout()
+                 "error bars: standard deviation over seeds; times: runs with a plan)")
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
@@ -493,7 +476,7 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
     written.append(path)
     plot_figure_five(cells, methods, out / "figure5.png")
     written.append(out / "figure5.png")
-    if METHOD in methods and ABLATION in methods:
+    if METHOD in methods:  # the ablations' columns say "–" where they were not run
         plot_table_one(cells, out / "table1.png")
         written.append(out / "table1.png")
     code = code_of(runs)

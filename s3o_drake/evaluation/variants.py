@@ -15,13 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import binomtest
 
-from s3o_drake.evaluation.summary import (
-    Paired,
-    code_of,
-    has_time,
-    paired_runs,
-    predicted_completion,
-)
+from s3o_drake.evaluation.run_rows import code_of, has_time, predicted_completion
+from s3o_drake.evaluation.summary import Paired, paired_runs
 
 
 @dataclass(frozen=True)

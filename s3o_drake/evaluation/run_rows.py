@@ -1,0 +1,38 @@
+"""What a study's result rows say beyond their fields: whether a run has an execution time,
+the completion its plan predicted, and the commit the rows were made at."""
+
+from collections import Counter
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+
+def has_time(run: Mapping) -> bool:
+    """Whether a run has an execution time: it made a plan (one without has none, not 0 s)."""
+    return bool(run.get("planned", True))
+
+
+def predicted_completion(run: Mapping) -> float:
+    """The chance the run's plan gave itself of collecting every dish: the product of the
+    plan's Fea^m of its pickups, 0 with a dish left out or without a plan. Rows made before
+    it was recorded (`predicted_completion`) give it from their pickup records (each dish's
+    first, as planned), a dish without one counting 0."""
+    if "predicted_completion" in run:
+        return float(run["predicted_completion"])
+    if not has_time(run):
+        return 0.0
+    first: dict[str, float] = {}
+    for p in run.get("pickups", ()):
+        first.setdefault(p["dish"], p.get("planned") if p.get("planned") is not None
+                         else p["predicted"])
+    if len(first) < run.get("dishes", len(first)):
+        return 0.0
+    return float(np.prod(list(first.values()))) if first else 1.0
+
+
+def code_of(runs: Sequence[Mapping]) -> str:
+    """The commit the runs were made at ("a (n), b (m)" when several)."""
+    counts = Counter(r.get("code", "not recorded") for r in runs)
+    if len(counts) == 1:
+        return next(iter(counts))
+    return ", ".join(f"{c} ({n})" for c, n in counts.most_common())
