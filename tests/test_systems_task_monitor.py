@@ -158,7 +158,7 @@ def test_report_carries_the_pickup_records_as_plain_json():
     assert pickups[1] == {"dish": "cup_b", "kind": "cup", "method": "S3O-GROP*",
                           "predicted": 0.6, "source": "fcn", "planned_pose": [1.0, 2.0, 0.5],
                           "actual_pose": [1.05, 1.9, 0.8], "outcome": "missed",
-                          "reach_noise": [0.03, 0.02], "attempt": 1}
+                          "reach_noise": [0.03, 0.02], "attempt": 1, "planned": None}
     # Through JSON and back: the same records.
     again = json.loads(json.dumps(pickups))
     assert tuple(PickupRecord.from_dict(p) for p in again) == RECORDS
