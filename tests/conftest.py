@@ -14,7 +14,7 @@ import pytest
 
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.scenario import Dish, Scenario, load_scenario
+from s3o_drake.world.scenario import Dish, Scenario, load_scenario
 
 TWO_DISHES = Path(__file__).resolve().parent.parent / "scenarios" / "small" / "two_dishes.yaml"
 

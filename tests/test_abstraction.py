@@ -21,10 +21,10 @@ from s3o_drake.abstraction import (
 )
 from s3o_drake.abstraction.candidates import best_sums, connected_components
 from s3o_drake.abstraction.voronoi import ARM_REACH
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.scenario import Dish, Room, Scenario, Table, load_scenario
+from s3o_drake.world.scenario import Dish, Room, Scenario, Table, load_scenario
 
 SMALL = Path(__file__).resolve().parent.parent / "scenarios" / "small"
 

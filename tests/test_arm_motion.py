@@ -13,14 +13,7 @@ import numpy as np
 import pytest
 from pydrake.math import RigidTransform
 
-from s3o_drake.angles import facing_yaw
-from s3o_drake.feasibility import ik
-from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.grasps import rotation_for
-from s3o_drake.feasibility.pickup_geometry import LIFT_HEIGHT, X_WA, moved
-from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.manipulation.arm_motion import (
+from s3o_drake.execution.arm.arm_motion import (
     ARM,
     CORNER_ROUNDINGS,
     STILL_DURATION,
@@ -31,14 +24,21 @@ from s3o_drake.manipulation.arm_motion import (
     rounded_corners,
     time_parameterize,
 )
-from s3o_drake.manipulation.pickup import (
+from s3o_drake.execution.arm.pickup import (
     FINGER_MAX_VELOCITY,
     SEGMENT_NAMES,
     plan_pickup,
     segment_limits,
 )
-from s3o_drake.robot import ARM_STOW, GRIPPER_CLOSED, GRIPPER_OPEN
-from s3o_drake.scenario import load_scenario
+from s3o_drake.feasibility import ik
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.grasps import rotation_for
+from s3o_drake.feasibility.pickup_geometry import LIFT_HEIGHT, X_WA, moved
+from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_CLOSED, GRIPPER_OPEN
+from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 # Facing north towards the table's free edge, 0.65 m from it.

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 from pydrake.common.value import AbstractValue
 
-from s3o_drake.angles import wrap
 from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.messages import BaseCommand, CommandState
 from s3o_drake.planning.base_motion import (
@@ -18,8 +17,9 @@ from s3o_drake.planning.base_motion import (
     motion_segments,
     trapezoid,
 )
-from s3o_drake.robot import NUM_POSITIONS
-from s3o_drake.scenario import load_scenario
+from s3o_drake.world.angles import wrap
+from s3o_drake.world.robot import NUM_POSITIONS
+from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 PROFILE = BaseProfile(speed=0.4)

@@ -11,7 +11,8 @@ import cv2
 import pytest
 
 from s3o_drake.commands.calibration import main
-from s3o_drake.evaluation.calibration import (
+from s3o_drake.execution.messages import PickupRecord
+from s3o_drake.experiments.calibration import (
     RecordsError,
     binomial_interval,
     calibrate,
@@ -19,7 +20,6 @@ from s3o_drake.evaluation.calibration import (
     grouped,
     read_records,
 )
-from s3o_drake.execution.messages import PickupRecord
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -6,7 +6,7 @@ import types
 import pytest
 
 from s3o_drake.commands import build_reachability, derive_times, train
-from s3o_drake.resources import REACHABILITY_MAP
+from s3o_drake.world.resources import REACHABILITY_MAP
 
 
 @pytest.mark.parametrize(("command", "argv", "default"), [

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from s3o_drake.commands.run import main as run_main
+from s3o_drake.commands.run_scenario import main as run_main
 
 REPO = Path(__file__).resolve().parent.parent
 TWO_DISHES = REPO / "scenarios" / "small" / "two_dishes.yaml"

@@ -16,11 +16,12 @@ import pytest
 
 from s3o_drake.commands.calibration import main as calibration
 from s3o_drake.commands.evaluate import main as evaluate
-from s3o_drake.evaluation.difficulty import difficulty_groups
-from s3o_drake.evaluation.jobs import RUN, Job
-from s3o_drake.evaluation.scheduler import run_jobs
-from s3o_drake.evaluation.store import ResultStore
-from s3o_drake.evaluation.summary import (
+from s3o_drake.execution.messages import PickupRecord
+from s3o_drake.experiments.difficulty import difficulty_groups
+from s3o_drake.experiments.jobs import RUN, Job
+from s3o_drake.experiments.scheduler import run_jobs
+from s3o_drake.experiments.store import ResultStore
+from s3o_drake.experiments.summary import (
     claims,
     comparable_runs,
     failure_table,
@@ -31,7 +32,6 @@ from s3o_drake.evaluation.summary import (
     table_one,
     write_outputs,
 )
-from s3o_drake.execution.messages import PickupRecord
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small"
@@ -134,9 +134,9 @@ def _alive(pid: int) -> bool:
 def test_workers_do_not_outlive_a_killed_study(tmp_path):
     script = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
               "from pathlib import Path; from test_evaluate import sleepy_work; "
-              "from s3o_drake.evaluation.jobs import Job; "
-              "from s3o_drake.evaluation.scheduler import run_jobs; "
-              "from s3o_drake.evaluation.store import ResultStore; "
+              "from s3o_drake.experiments.jobs import Job; "
+              "from s3o_drake.experiments.scheduler import run_jobs; "
+              "from s3o_drake.experiments.store import ResultStore; "
               f"d = Path({str(tmp_path)!r}); "
               "jobs = [Job('run', f't{i}', str(d), 'x', i, 'm') for i in range(2)]; "
               "run_jobs(jobs, ResultStore(d / 'r.jsonl'), workers=2, fn=sleepy_work, "
@@ -161,7 +161,7 @@ def test_every_row_says_which_code_made_it():
     package's version outside one), even a row whose job failed."""
     import re
 
-    from s3o_drake.evaluation.jobs import code_version, run_job
+    from s3o_drake.experiments.jobs import code_version, run_job
 
     row = run_job(Job(kind="nope", task="t", path="p", digest="d", seed=0))
     assert row["error"].startswith("ValueError") and row["code"] == code_version()
@@ -422,7 +422,7 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, c
     least = min(study["areas"], key=study["areas"].get)
     assert study["groups"][least] == "difficult"
     assert {c["method"] for c in study["cells"]} == set(METHODS)
-    from s3o_drake.evaluation.jobs import code_version
+    from s3o_drake.experiments.jobs import code_version
     assert study["settings"]["code"] == {code_version(): 6}  # the code that made the runs
     for picture in ("figure5.png", "table1.png"):
         image = matplotlib.image.imread(out / picture)
@@ -506,7 +506,7 @@ def test_a_variant_s_runs_are_runs_of_their_own():
 def test_each_task_draws_noise_of_its_own_and_the_methods_share_it():
     """A study seed alone seeded every task's noise streams alike (the same landing error on
     every task's 10th command); the run seed mixes in the task's own seed."""
-    from s3o_drake.evaluation.jobs import RUN, Job, run_seed
+    from s3o_drake.experiments.jobs import RUN, Job, run_seed
 
     seeds = {run_seed(task_seed, 0) for task_seed in range(200)}
     assert len(seeds) == 200  # every task its own

@@ -8,7 +8,7 @@ import pytest
 
 from s3o_drake.commands.evaluate import main as evaluate
 from s3o_drake.commands.evaluate import study_jobs
-from s3o_drake.evaluation.again import chosen, comparison
+from s3o_drake.experiments.again import chosen, comparison
 
 REPO = Path(__file__).resolve().parent.parent
 

@@ -15,7 +15,7 @@ from s3o_drake.planning.failure_price import (
     failure_reward,
     priced_planner,
 )
-from s3o_drake.scenario import Scenario
+from s3o_drake.world.scenario import Scenario
 
 
 def test_the_price_is_recovery_time_per_expected_failure():

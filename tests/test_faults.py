@@ -22,9 +22,9 @@ import pytest
 from test_evaluate import _toy_job, toy_work
 
 from s3o_drake.commands.evaluate import main as evaluate
-from s3o_drake.evaluation.jobs import RUN, Job
-from s3o_drake.evaluation.scheduler import run_jobs
-from s3o_drake.evaluation.store import ResultStore
+from s3o_drake.experiments.jobs import RUN, Job
+from s3o_drake.experiments.scheduler import run_jobs
+from s3o_drake.experiments.store import ResultStore
 
 REPO = Path(__file__).resolve().parent.parent
 TWO_DISHES = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -190,7 +190,7 @@ def test_a_full_disk_keeps_every_finished_row_readable(tmp_path, monkeypatch):
 
 
 def test_the_study_says_in_one_line_that_the_disk_is_full(tmp_path, monkeypatch):
-    import s3o_drake.evaluation.scheduler as scheduler
+    import s3o_drake.experiments.scheduler as scheduler
 
     tasks = tmp_path / "tasks"
     tasks.mkdir()
@@ -238,7 +238,7 @@ class _FailingSimulator:
 def test_a_failing_solver_is_reported_and_the_outputs_are_written(tmp_path, monkeypatch,
                                                                    capsys):
     import s3o_drake.execution.execute as execute_module
-    from s3o_drake.commands.run import main as run_main
+    from s3o_drake.commands.run_scenario import main as run_main
 
     monkeypatch.setattr(execute_module, "Simulator", _FailingSimulator)
     out = tmp_path / "out"
@@ -257,7 +257,7 @@ def test_a_failing_solver_is_reported_and_the_outputs_are_written(tmp_path, monk
 
 def test_a_failing_solver_ends_a_study_run_with_its_reason_not_an_error(monkeypatch):
     import s3o_drake.execution.execute as execute_module
-    from s3o_drake.evaluation.jobs import RUN, Job, file_digest, run_job
+    from s3o_drake.experiments.jobs import RUN, Job, file_digest, run_job
 
     monkeypatch.setattr(execute_module, "Simulator", _FailingSimulator)
     job = Job(RUN, "two_dishes", str(TWO_DISHES), file_digest(TWO_DISHES), 0, "V-PETLON")

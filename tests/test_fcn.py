@@ -24,8 +24,8 @@ from s3o_drake.feasibility.fcn import (
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE
 from s3o_drake.feasibility.pickup_geometry import place_probability
-from s3o_drake.goals import with_place_targets
-from s3o_drake.scenario import load_scenario
+from s3o_drake.world.goals import with_place_targets
+from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 WEIGHTS = REPO / "models" / "fcn" / "fcn.pt"

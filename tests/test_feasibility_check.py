@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 from pydrake.geometry import Role
 
-from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility import reachability as reach
 from s3o_drake.feasibility.agreement import sample_queries
@@ -25,9 +24,10 @@ from s3o_drake.feasibility.grasps import grasps_for
 from s3o_drake.feasibility.ik import grasp_error, solve_grasp_ik, verify
 from s3o_drake.feasibility.reachability_build import build_map
 from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
-from s3o_drake.furniture import DISH_KINDS
-from s3o_drake.robot import ARM_BASE_LINK, GRASP_FRAME, add_robot, robot_positions
-from s3o_drake.scenario import Chair, load_scenario
+from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.furniture import DISH_KINDS
+from s3o_drake.world.robot import ARM_BASE_LINK, GRASP_FRAME, add_robot, robot_positions
+from s3o_drake.world.scenario import Chair, load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 # In front of the plate, facing it (north), 0.34 m from the table's edge.
@@ -306,7 +306,7 @@ def test_build_command_rejects_bad_arguments_in_one_line():
 def test_plan_view_shortcuts_agree_with_drake(scenario_path):
     """The base check's shortcuts (far from everything: free; prisms overlapping: collides)
     never contradict the Drake collision checker, and settle most random poses."""
-    from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN
+    from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
 
     scenario = load_scenario(scenario_path)
     scene = FeasibilityScene(scenario)
@@ -333,8 +333,8 @@ def test_the_posed_shortcut_agrees_with_drake_next_to_furniture(scenario_path):
     the radius test leaves to Drake."""
     import shapely
 
-    from s3o_drake.known_world import Obstacles
-    from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN
+    from s3o_drake.world.obstacles import Obstacles
+    from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
 
     scenario = load_scenario(scenario_path)
     scene = FeasibilityScene(scenario)

@@ -5,7 +5,6 @@ import math
 import numpy as np
 import pytest
 
-from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.landing import (
     CHECK_STEP_XY,
     FINAL_APPROACH,
@@ -14,6 +13,7 @@ from s3o_drake.feasibility.landing import (
     stop_short,
     turn_until,
 )
+from s3o_drake.world.angles import facing_yaw
 
 # `checker` (tests/conftest.py) is on scenarios/small/two_dishes.yaml: a table x 1.4..2.6,
 # y 2.1..2.9; plate_a at (1.85, 2.3), 0.2 m inside its free south edge.

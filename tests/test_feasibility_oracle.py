@@ -7,7 +7,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import FeasibilityOracle
@@ -18,10 +17,11 @@ from s3o_drake.feasibility.pickup_geometry import (
 )
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.goals import with_place_targets
-from s3o_drake.placing import PLACE_TOLERANCE
-from s3o_drake.robot import BASE_WIDTH
-from s3o_drake.scenario import Chair, load_scenario
+from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.goals import with_place_targets
+from s3o_drake.world.placing import PLACE_TOLERANCE
+from s3o_drake.world.robot import BASE_WIDTH
+from s3o_drake.world.scenario import Chair, load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"

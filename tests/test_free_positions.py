@@ -7,17 +7,17 @@ import pytest
 from shapely.geometry import Point
 
 from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
-from s3o_drake.evaluation.plan_checks import plan_faults, ring_heatmaps
+from s3o_drake.belief.known_world import KnownWorld
+from s3o_drake.experiments.plan_checks import plan_faults, ring_heatmaps
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.free_positions import RADIUS, with_free_stops
+from s3o_drake.planning.methods import plan_task
 from s3o_drake.planning.motion_search import SequenceProblem, grop_star, location_regions
 from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.planning.planner import plan_task
-from s3o_drake.random_scenes import SceneShape, random_scene
-from s3o_drake.scenario import Planner, load_scenario
+from s3o_drake.world.random_scenes import SceneShape, random_scene
+from s3o_drake.world.scenario import Planner, load_scenario
 
 SEQUENCE = [("goto", "l0"), ("pickup", "plate_a"), ("goto", "l1"), ("pickup", "cup_b")]
 

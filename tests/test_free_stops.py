@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from s3o_drake.angles import facing_yaw
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.stops import FreeStops
-from s3o_drake.known_world import KnownWorld
+from s3o_drake.world.angles import facing_yaw
 
 CELL = 4.0 / 64
 
@@ -91,9 +91,9 @@ def test_planned_stops_are_free_in_a_crowded_task(method):
     (Before the rule, V-PETLON's uniform goals collided in about one stop in five.)"""
     from s3o_drake.feasibility.check import FeasibilityChecker
     from s3o_drake.feasibility.scene import FeasibilityScene
+    from s3o_drake.planning.methods import plan_task
     from s3o_drake.planning.plan import Goto
-    from s3o_drake.planning.planner import plan_task
-    from s3o_drake.scenario import load_scenario
+    from s3o_drake.world.scenario import load_scenario
 
     scenario = load_scenario("scenarios/generated/task_003.yaml")
     known = KnownWorld.perfect(scenario)

@@ -6,8 +6,8 @@ from pathlib import Path
 import pytest
 
 from s3o_drake.commands.generate import main as generate_main
-from s3o_drake.scenario import load_scenario, parse_scenario
-from s3o_drake.task_generation import CUSTOM_LAYOUT, generate_task, layout_of
+from s3o_drake.world.scenario import load_scenario, parse_scenario
+from s3o_drake.world.task_generation import CUSTOM_LAYOUT, generate_task, layout_of
 
 REPO = Path(__file__).resolve().parent.parent
 BASE = REPO / "scenarios" / "restaurant.yaml"
@@ -155,7 +155,7 @@ def test_a_chair_that_closes_the_aisle_to_a_dish_is_named_and_redrawn(dense_task
     import dataclasses
 
     from s3o_drake.planning.pipeline import dishes_without_stops
-    from s3o_drake.scenario import Chair, Dish
+    from s3o_drake.world.scenario import Chair, Dish
 
     dense = load_scenario(REPO / "scenarios" / "restaurant_dense.yaml")
     cup = Dish(name="cup_1", table="small_3", position=[1.224, 2.4393], kind="cup")

@@ -6,15 +6,15 @@ from pathlib import Path
 import pytest
 
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.furniture import DISH_SHAPES
-from s3o_drake.goals import (
+from s3o_drake.world.furniture import DISH_SHAPES
+from s3o_drake.world.goals import (
     PLACE_SUFFIX,
     PlaceTarget,
     place_target_name,
     place_targets,
     placed_object,
 )
-from s3o_drake.scenario import ScenarioError, load_scenario, parse_scenario, surface_height
+from s3o_drake.world.scenario import ScenarioError, load_scenario, parse_scenario, surface_height
 
 TIDY = Path(__file__).resolve().parent.parent / "scenarios" / "tidy_home.yaml"
 

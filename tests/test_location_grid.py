@@ -18,10 +18,10 @@ from s3o_drake.abstraction import (
     region_location,
     voronoi_partition,
 )
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.planner import plan_task
-from s3o_drake.scenario import load_scenario
+from s3o_drake.planning.methods import plan_task
+from s3o_drake.world.scenario import load_scenario
 
 
 def _scene():

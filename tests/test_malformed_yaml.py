@@ -24,8 +24,8 @@ import yaml
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from s3o_drake.commands.run import main as run_main
-from s3o_drake.scenario import ScenarioError, load_scenario
+from s3o_drake.commands.run_scenario import main as run_main
+from s3o_drake.world.scenario import ScenarioError, load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 BASES = [REPO / "scenarios" / "restaurant.yaml",
@@ -125,7 +125,8 @@ def run_command(path: Path, out: Path) -> tuple[int | None, str]:
     it passed validation and went on to the simulation's set-up) and its stderr."""
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()), \
-            mock.patch("s3o_drake.commands.run.start_meshcat", side_effect=ValidationPassedError):
+            mock.patch("s3o_drake.commands.run_scenario.start_meshcat",
+                       side_effect=ValidationPassedError):
         try:
             status = run_main([str(path), "--out", str(out)])
         except SystemExit as e:
@@ -248,7 +249,7 @@ def _schema_fields(path: Path_) -> set[str]:
     import dataclasses
     import typing
 
-    from s3o_drake.scenario import Scenario
+    from s3o_drake.world.scenario import Scenario
 
     schema = Scenario
     for part in path:

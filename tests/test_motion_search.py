@@ -10,9 +10,8 @@ import shapely
 from shapely.geometry import Point, box
 
 from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
-from s3o_drake.angles import facing_yaw, wrap
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.motion_search import (
     PENALTY,
     MotionResult,
@@ -22,7 +21,8 @@ from s3o_drake.planning.motion_search import (
 )
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.time_model import CostModel
-from s3o_drake.scenario import load_scenario
+from s3o_drake.world.angles import facing_yaw, wrap
+from s3o_drake.world.scenario import load_scenario
 
 CELL = 0.05
 SEQUENCE = [("goto", "l0"), ("pickup", "plate_a"), ("goto", "l1"), ("pickup", "cup_b")]

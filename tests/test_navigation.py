@@ -9,12 +9,12 @@ import shapely
 from shapely.geometry import LineString
 
 from s3o_drake.abstraction.voronoi import free_space
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.commands.navigation_benchmark import benchmark, main
 from s3o_drake.feasibility.scene import ENVIRONMENT_PADDING
-from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.navigation import DRIVE_RADIUS, INSCRIBED_TOLERANCE, NavigationMap
-from s3o_drake.robot import BASE_RADIUS, INSCRIBED_RADIUS
-from s3o_drake.scenario import Room, Scenario, Table, load_scenario
+from s3o_drake.world.robot import BASE_RADIUS, INSCRIBED_RADIUS
+from s3o_drake.world.scenario import Room, Scenario, Table, load_scenario
 
 RESTAURANT = "scenarios/restaurant.yaml"
 
@@ -299,7 +299,7 @@ def _door(width: float):
     """A 6 x 4 m room split at x = 3 by a wall with a door `width` wide, centred at y = 2."""
     from shapely.geometry import box
 
-    from s3o_drake.known_world import Obstacles
+    from s3o_drake.world.obstacles import Obstacles
 
     half = width / 2
     return Obstacles(room=box(0, 0, 6, 4), footprints=(box(2.9, 0, 3.1, 2 - half),
@@ -335,8 +335,8 @@ def test_the_way_out_leaves_a_pocket_that_leads_nowhere_aside():
     there backs out to the room beyond the table, not into the strip."""
     from shapely.geometry import box
 
-    from s3o_drake.known_world import Obstacles
     from s3o_drake.planning.navigation import WAY_OUT_MIN_AREA
+    from s3o_drake.world.obstacles import Obstacles
 
     nav = NavigationMap(Obstacles(room=box(0, 0, 6, 4), footprints=(box(0, 0.89, 6, 1.2),)))
     parts = sorted(g.area for g in shapely.get_parts(nav.driveable))

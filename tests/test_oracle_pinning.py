@@ -9,7 +9,7 @@ import pytest
 from s3o_drake.commands.oracle_pinning import executed, sample_poses, summarize
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.feasibility.pickup_geometry import catch_probability, grasp_tolerance
-from s3o_drake.scenario import load_scenario
+from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 TASK = REPO / "scenarios" / "generated" / "task_003.yaml"

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from shapely.geometry import Point
 
+from s3o_drake.belief import ChairPerception, draw_chairs, perceived_chairs
 from s3o_drake.commands.perception_benchmark import match, true_chairs
-from s3o_drake.perception import ChairPerception, draw_chairs, perceived_chairs
-from s3o_drake.scenario import load_scenario
 from s3o_drake.world.builder import render_overhead
+from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 CENTRE_TOLERANCE = 0.05  # m: the target
@@ -55,8 +55,8 @@ def test_two_touching_chairs_are_found_as_two():
 
 
 def test_a_blob_is_split_only_when_one_chair_cannot_make_it():
-    from s3o_drake.furniture import chair_footprint
-    from s3o_drake.perception.blobs import CHAIR_AREA, split
+    from s3o_drake.belief.blobs import CHAIR_AREA, split
+    from s3o_drake.world.furniture import chair_footprint
 
     def points_of(pose):
         shape = chair_footprint(pose)

@@ -4,10 +4,11 @@ clear of the dish names (checked on the labels the figure functions return, not 
 import numpy as np
 import pytest
 
-from s3o_drake.camera import overhead_camera
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.pictures import (
+from s3o_drake.planning.pipeline import plan_from
+from s3o_drake.planning.plan import Goto, TaskMotionPlan
+from s3o_drake.viz.pictures import (
     feasibility_figure,
     overhead_figure,
     plan_figure,
@@ -15,8 +16,7 @@ from s3o_drake.planning.pictures import (
     state_space_figure,
     stop_label,
 )
-from s3o_drake.planning.pipeline import plan_from
-from s3o_drake.planning.plan import Goto, TaskMotionPlan
+from s3o_drake.world.camera import overhead_camera
 
 
 @pytest.fixture(scope="module")
@@ -104,8 +104,8 @@ def test_thirty_stops_get_thirty_colours(scenario, top_view, tmp_path):
     """A plan of 30 stops (a plain Voronoi state space of 30 cups has one per cup) draws
     each in a colour of its own; tab10 repeated after 10. state_space.png takes its
     locations' colours from the same `location_colours`."""
-    from s3o_drake.planning.pictures import location_colours
     from s3o_drake.planning.plan import Pickup
+    from s3o_drake.viz.pictures import location_colours
 
     dish = scenario.dishes[0]
     x_min, y_min, x_max, y_max = scenario.room.bounds
@@ -137,7 +137,7 @@ def test_thirty_cups_close_together_keep_their_labels_clear(tmp_path):
     from PIL import Image
 
     from s3o_drake.planning.plan import Pickup
-    from s3o_drake.scenario import load_scenario
+    from s3o_drake.world.scenario import load_scenario
 
     room = load_scenario("scenarios/restaurant.yaml")
     cups = [(d, np.asarray(d.position) + 0.6 * out) for d, out in cups_along_edges(room, 30)]

@@ -6,11 +6,12 @@ import numpy as np
 import pytest
 
 from s3o_drake.abstraction.voronoi import free_space
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
-from s3o_drake.known_world import KnownWorld, Obstacles
 from s3o_drake.planning.pipeline import heatmaps_for, plan_from
 from s3o_drake.planning.plan import Goto
-from s3o_drake.scenario import Chair
+from s3o_drake.world.obstacles import Obstacles
+from s3o_drake.world.scenario import Chair
 
 
 @pytest.fixture(scope="module")
@@ -152,7 +153,7 @@ def test_best_stops_are_free_and_can_be_driven_to():
     the one above the tables (0.6). A dish no such stop picks has 0."""
     from s3o_drake.feasibility.oracle import Heatmap
     from s3o_drake.planning.pipeline import best_stops
-    from s3o_drake.scenario import parse_scenario
+    from s3o_drake.world.scenario import parse_scenario
 
     scenario = parse_scenario("""
 seed: 4

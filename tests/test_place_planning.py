@@ -5,13 +5,13 @@ from pathlib import Path
 
 import pytest
 
-from s3o_drake.evaluation.plan_checks import plan_faults, ring_heatmaps
+from s3o_drake.belief.known_world import KnownWorld
+from s3o_drake.experiments.plan_checks import plan_faults, ring_heatmaps
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.methods import plan_task
 from s3o_drake.planning.plan import Goto, Pickup, Place, TaskMotionPlan
-from s3o_drake.planning.planner import plan_task
-from s3o_drake.scenario import METHODS, load_scenario
+from s3o_drake.world.scenario import METHODS, load_scenario
 
 TIDY = Path(__file__).resolve().parent.parent / "scenarios" / "tidy_home.yaml"
 

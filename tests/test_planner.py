@@ -10,16 +10,16 @@ import pytest
 from shapely.geometry import Point
 
 from s3o_drake.abstraction import voronoi_partition
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.methods import PlanningTimeoutError, plan_task
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
-from s3o_drake.planning.planner import PlanningTimeoutError, plan_task
 from s3o_drake.planning.task_check import check_plan
 from s3o_drake.planning.task_planner import TaskProblem
 from s3o_drake.planning.time_model import TimeModel
-from s3o_drake.scenario import METHODS, load_scenario
+from s3o_drake.world.scenario import METHODS, load_scenario
 
 SCENES = ("two_dishes", "opposite_sides")
 
@@ -143,7 +143,7 @@ def test_the_plan_says_what_clingo_proved_of_its_order(plans, method):
     """Small scenes: every method's order is proven (in its rank), its bound is no more
     than its cost, and as many orders were found as asked for (or every one there is);
     the line the run command prints says so."""
-    from s3o_drake.commands.run import describe_plan
+    from s3o_drake.commands.run_scenario import describe_plan
 
     for scene in SCENES:
         order = plans[scene, method].order
@@ -200,7 +200,7 @@ def test_budget_cuts_the_search_short(scenes):
 def test_clingo_cut_by_its_budget_share_is_a_budget_timeout(scenes, monkeypatch):
     """clingo cut by its share of the budget before any order is the budget's timeout,
     named as such, not clingo's own time limit."""
-    import s3o_drake.planning.planner as planner
+    import s3o_drake.planning.methods as planner
 
     scenario, heatmaps, chairs = scenes["two_dishes"]
     monkeypatch.setattr(planner, "TASK_SHARE", 1e-9)
@@ -235,7 +235,7 @@ def _thirty_dishes():
 
     from conftest import cups_along_edges
 
-    from s3o_drake.scenario import dump_scenario, parse_scenario
+    from s3o_drake.world.scenario import dump_scenario, parse_scenario
 
     scenario = load_scenario("scenarios/restaurant.yaml")
     cups = [d for d, _ in cups_along_edges(scenario, 30)]
@@ -277,7 +277,7 @@ def test_workers_give_the_same_plan(scenes):
 def test_an_unreachable_dish_is_reported_and_the_rest_planned():
     """A cup in the far corner of a table pushed into the room's corner cannot be picked;
     the plate at the open edge still is."""
-    from s3o_drake.scenario import parse_scenario
+    from s3o_drake.world.scenario import parse_scenario
 
     scenario = parse_scenario("""
 seed: 3
@@ -313,9 +313,9 @@ def test_a_location_whose_best_spots_are_boxed_in_is_driven_to_elsewhere():
     driven to; a location with no such spot has none."""
     from shapely.geometry import box
 
-    from s3o_drake.known_world import Obstacles
     from s3o_drake.planning.navigation import NavigationMap
     from s3o_drake.planning.task_costs import REPRESENTATIVE_CANDIDATES, representative_points
+    from s3o_drake.world.obstacles import Obstacles
 
     # A pocket 1.5 m x 1 m in the room's lower-right corner, closed by two walls of boxes.
     obstacles = Obstacles(room=box(0.0, 0.0, 6.0, 4.0),

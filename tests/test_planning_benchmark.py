@@ -8,8 +8,8 @@ import math
 import pytest
 
 from s3o_drake.commands.planning_benchmark import long_run, main, summarize
-from s3o_drake.resources import shipped_tasks
-from s3o_drake.scenario import load_scenario
+from s3o_drake.world.resources import shipped_tasks
+from s3o_drake.world.scenario import load_scenario
 
 
 @pytest.mark.parametrize("argv", [

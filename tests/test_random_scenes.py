@@ -14,13 +14,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from s3o_drake.choices import METHODS
-from s3o_drake.evaluation.plan_checks import plan_and_check, ring_heatmaps
+from s3o_drake.belief.known_world import KnownWorld
+from s3o_drake.experiments.plan_checks import plan_and_check, ring_heatmaps
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.random_scenes import SceneShape, random_scene
-from s3o_drake.scenario import Planner, validate_scenario
+from s3o_drake.world.choices import METHODS
+from s3o_drake.world.random_scenes import SceneShape, random_scene
+from s3o_drake.world.scenario import Planner, validate_scenario
 
 EXAMPLES = settings(max_examples=int(os.environ.get("S3O_PROPERTY_EXAMPLES", "3")),
                     deadline=None, database=None, derandomize=True,

@@ -10,19 +10,20 @@ import numpy as np
 import pytest
 from shapely.geometry import LineString, Point
 
-from s3o_drake.angles import facing_yaw
+from s3o_drake.belief import scenario_unmapped_chairs
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.execution.execute import execute
+from s3o_drake.execution.executive_system import S3OPlanner
 from s3o_drake.execution.messages import Status
 from s3o_drake.execution.recovery import StopCheck, localise
-from s3o_drake.execution.s3o_planner import S3OPlanner
 from s3o_drake.feasibility.heatmaps import make_oracle
-from s3o_drake.known_world import CONTACT_RADIUS, KnownWorld
-from s3o_drake.perception import scenario_unmapped_chairs
 from s3o_drake.planning.navigation import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import heatmaps_for
 from s3o_drake.planning.plan import Goto, Pickup
-from s3o_drake.robot import robot_desired_state, robot_positions
-from s3o_drake.scenario import Uncertainty, load_scenario
+from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.obstacles import CONTACT_RADIUS
+from s3o_drake.world.robot import robot_desired_state, robot_positions
+from s3o_drake.world.scenario import Uncertainty, load_scenario
 from tests.test_systems_s3o_planner import _context, _step, _with_oracle
 
 SCENE = "scenarios/small/opposite_sides.yaml"
@@ -221,7 +222,7 @@ def test_a_dish_whose_replan_finds_no_plan_is_left_and_the_old_plan_goes_on(scen
                                                                             monkeypatch):
     """A replan after a dish failed its tries that finds no plan (the dense study's runs
     ended so, other dishes still on the tables) leaves that dish, and the plan goes on."""
-    import s3o_drake.execution.s3o_planner as module
+    import s3o_drake.execution.executive_system as module
 
     system, context = _planner(scenario, recovery="replan", max_tries=1)
     plan = system.GetOutputPort("plan").Eval(context)
@@ -276,7 +277,7 @@ def test_a_dish_left_out_unchecked_is_planned_for_again_at_the_plan_s_end(scenar
                                                                           monkeypatch):
     """A first plan that left a dish out on the network's Fea^m alone (no time for the
     Drake check) is followed, at its end, by a replan for that dish."""
-    import s3o_drake.execution.s3o_planner as module
+    import s3o_drake.execution.executive_system as module
 
     real = module.plan_from
     asked, margins = [], []
@@ -407,7 +408,7 @@ def test_in_simulation_a_dish_behind_a_wall_is_reported_unreachable_quickly():
 
 
 def test_a_study_s_recovery_figures_count_what_the_runs_report():
-    from s3o_drake.evaluation.recovery_summary import recovery_figures, recovery_table
+    from s3o_drake.experiments.recovery_summary import recovery_figures, recovery_table
 
     def pickup(dish, outcome):
         return {"dish": dish, "outcome": outcome}
@@ -443,7 +444,7 @@ def test_a_study_s_recovery_figures_count_what_the_runs_report():
 
 
 def test_incomplete_runs_are_told_apart_by_what_ended_them():
-    from s3o_drake.evaluation.recovery_summary import incomplete_cause
+    from s3o_drake.experiments.recovery_summary import incomplete_cause
 
     give_up = {"kind": "give_up"}
     assert incomplete_cause({"planned": False, "reason": "no plan: x"}) == "no plan"
@@ -461,7 +462,7 @@ def test_incomplete_runs_are_told_apart_by_what_ended_them():
 def test_recovery_is_set_against_the_same_runs_in_open_loop():
     """Each run with recovery meets its open-loop twin (task, method, run seed); the time
     recovery adds counts only pairs where both collected every dish."""
-    from s3o_drake.evaluation.recovery_summary import recovery_figures, recovery_table
+    from s3o_drake.experiments.recovery_summary import recovery_figures, recovery_table
 
     def run(task, seed, complete, time, recovery="replan"):
         return {"task": task, "method": "M", "run_seed": seed, "complete": complete,

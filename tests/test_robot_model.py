@@ -21,8 +21,8 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from s3o_drake import robot
-from s3o_drake.resources import make_parser
+from s3o_drake.world import robot
+from s3o_drake.world.resources import make_parser
 
 UR5E_POSITION_LIMITS = (2 * math.pi, 2 * math.pi, math.pi, 2 * math.pi, 2 * math.pi, 2 * math.pi)
 UR5E_EFFORT_LIMITS = (150.0, 150.0, 150.0, 28.0, 28.0, 28.0)

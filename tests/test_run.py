@@ -16,12 +16,12 @@ import cv2
 import numpy as np
 import pytest
 
-from s3o_drake.angles import facing_yaw, wrap
-from s3o_drake.commands.run import main as run_main
+from s3o_drake.commands.run_scenario import main as run_main
 from s3o_drake.execution.messages import PickupRecord
-from s3o_drake.furniture import DISH_SHAPES
 from s3o_drake.planning.plan import TaskMotionPlan
-from s3o_drake.scenario import dump_scenario, load_scenario
+from s3o_drake.world.angles import facing_yaw, wrap
+from s3o_drake.world.furniture import DISH_SHAPES
+from s3o_drake.world.scenario import dump_scenario, load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -189,7 +189,7 @@ def _report(**changes) -> dict:
 
 
 def test_the_summary_says_complete_only_when_every_dish_was_collected():
-    from s3o_drake.commands.run import describe_execution
+    from s3o_drake.commands.run_scenario import describe_execution
 
     assert describe_execution(_report()).endswith("plan ended: every dish collected.")
     missed = _report(collected=1, collected_dishes=["plate_a"], outcomes=[
@@ -231,7 +231,7 @@ def test_the_outputs_show_the_latest_plan():
     searched); when the replan found none, the plan before it."""
     import types
 
-    from s3o_drake.commands.run import latest_plan
+    from s3o_drake.commands.run_scenario import latest_plan
 
     first, replanned = object(), object()
     run = types.SimpleNamespace(plan=first, result=types.SimpleNamespace(plan=replanned))

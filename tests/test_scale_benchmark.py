@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from s3o_drake.commands import scale_benchmark
-from s3o_drake.evaluation.scale import state_space_row, summarize, target_lines
+from s3o_drake.experiments.scale import state_space_row, summarize, target_lines
 from s3o_drake.planning.exact_order import exact_order
 from s3o_drake.planning.task_planner import TaskProblem, plan_tasks
 from s3o_drake.planning.visit_order import visit_matrix

@@ -6,8 +6,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from s3o_drake.commands.run import main as run_main
-from s3o_drake.scenario import (
+from s3o_drake.commands.run_scenario import main as run_main
+from s3o_drake.world.scenario import (
     METHODS,
     ScenarioError,
     dump_scenario,
@@ -324,7 +324,7 @@ def test_a_place_on_a_table_and_two_places_that_overlap():
 
 
 def test_overrides_replace_fields_and_are_checked_like_the_file():
-    from s3o_drake.scenario import ScenarioError, with_overrides
+    from s3o_drake.world.scenario import ScenarioError, with_overrides
 
     base = load_scenario(REPO / "scenarios" / "restaurant.yaml")
     changed = with_overrides(base, ["planner.top_k=8", "uncertainty.nav_xy_std=0.2",

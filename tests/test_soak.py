@@ -7,7 +7,7 @@ import sys
 import pytest
 
 from s3o_drake.commands.soak import main
-from s3o_drake.evaluation.soak import EXECUTE, PLAN, loaded, memory, soak_jobs, tally
+from s3o_drake.experiments.soak import EXECUTE, PLAN, loaded, memory, soak_jobs, tally
 
 
 def test_jobs_interleave_plans_and_executions_and_take_the_methods_in_turn():
@@ -77,7 +77,7 @@ def test_soak_plans_executes_resumes_and_sums_up(tmp_path):
 def test_memory_growth_is_told_per_kind_of_job_past_the_warm_up():
     """The median growth over one job of each kind, past each worker's warm-up: here
     plan jobs add nothing and execute jobs 60 MB each."""
-    from s3o_drake.evaluation.soak import EXECUTE, PLAN, WARM_UP
+    from s3o_drake.experiments.soak import EXECUTE, PLAN, WARM_UP
 
     rss, rows = 100.0, []
     for i in range(WARM_UP + 6):
@@ -104,8 +104,8 @@ def test_one_worker_runs_every_job_executions_included(tmp_path, monkeypatch):
     frees its diagram), and replaced only after a hang or a crash."""
     from dataclasses import asdict
 
-    from s3o_drake.evaluation import soak
-    from s3o_drake.evaluation.store import ResultStore
+    from s3o_drake.experiments import soak
+    from s3o_drake.experiments.store import ResultStore
 
     started = []
 
@@ -151,7 +151,7 @@ def test_a_starved_method_is_told_apart_by_its_own_cpu_share():
     """A job's CPU share can hide one method that was starved: with each method's own CPU
     time in the row, that method's overrun is counted apart (and run again), while an
     overrun with a full core counts, whatever the job's share."""
-    from s3o_drake.evaluation.soak import method_loaded, run_again
+    from s3o_drake.experiments.soak import method_loaded, run_again
 
     row = {"kind": PLAN, "cpu": 9.0, "wall": 10.0, "hang": False, "methods": {
         "S3O-GROP*": {"crash": "", "overrun": False, "faults": [], "seconds": 4.0, "cpu": 4.0},
@@ -169,8 +169,8 @@ def test_jobs_counted_apart_run_again_on_request(tmp_path, monkeypatch):
     new row replaces the old one; a loaded job that overran nothing is kept."""
     from dataclasses import asdict
 
-    from s3o_drake.evaluation import soak
-    from s3o_drake.evaluation.store import ResultStore
+    from s3o_drake.experiments import soak
+    from s3o_drake.experiments.store import ResultStore
 
     ran = []
 

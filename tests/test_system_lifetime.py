@@ -1,4 +1,4 @@
-"""system_lifetime.py: a finished execution diagram and its Python systems are freed, so
+"""world/system_lifetime.py: a finished execution diagram and its Python systems are freed, so
 that many runs in one process (a study's worker, the soak) do not accumulate them."""
 
 import dataclasses
@@ -12,13 +12,13 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource
 
 from s3o_drake.execution.execute import execute
+from s3o_drake.execution.executive_system import S3OPlanner
 from s3o_drake.execution.messages import PlanProgress
-from s3o_drake.execution.s3o_planner import S3OPlanner
 from s3o_drake.execution.task_monitor import TaskMonitor
-from s3o_drake.scenario import load_scenario
-from s3o_drake.system_lifetime import release_diagram, weak_callback
 from s3o_drake.world.dish_messages import DishPoses, DishStates
 from s3o_drake.world.object_tracker import ObjectTracker
+from s3o_drake.world.scenario import load_scenario
+from s3o_drake.world.system_lifetime import release_diagram, weak_callback
 
 
 class _Counter:

@@ -25,19 +25,19 @@ from pydrake.systems.primitives import (
     VectorLogSink,
 )
 
+from s3o_drake.execution.arm.place import place_grasps
 from s3o_drake.execution.arm_controller import REACH_NOISE_STREAM, ArmController
 from s3o_drake.execution.messages import CommandState, PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import RIM_INSET
 from s3o_drake.feasibility.pickup_geometry import grasp_tolerance
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.furniture import DISH_SHAPES
-from s3o_drake.goals import with_place_targets
-from s3o_drake.manipulation.place import place_grasps
-from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
-from s3o_drake.scenario import Place, load_scenario
 from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.dish_messages import DishPoses, DishState, GripEvent
+from s3o_drake.world.furniture import DISH_SHAPES
+from s3o_drake.world.goals import with_place_targets
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.world.scenario import Place, load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 FRONT_OF_PLATE = np.array([1.85, 1.45, math.pi / 2])

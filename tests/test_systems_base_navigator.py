@@ -16,11 +16,11 @@ from pydrake.systems.primitives import (
     Multiplexer,
 )
 
-from s3o_drake.angles import wrap as wrap_angle
 from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.messages import BaseCommand, CommandState, Status
-from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.world.angles import wrap as wrap_angle
 from s3o_drake.world.builder import build_world_diagram
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 
 V = 0.4  # the scenario's planner speed (default)
 
@@ -386,7 +386,7 @@ def dense():
     import dataclasses
 
     from s3o_drake.feasibility.scene import FeasibilityScene
-    from s3o_drake.scenario import load_scenario
+    from s3o_drake.world.scenario import load_scenario
 
     scenario = dataclasses.replace(load_scenario("scenarios/restaurant_dense.yaml"), chairs=[])
     return scenario, FeasibilityScene(scenario)

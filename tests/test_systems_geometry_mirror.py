@@ -20,11 +20,11 @@ from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from s3o_drake.camera import overhead_camera
-from s3o_drake.robot import robot_desired_state, robot_positions
-from s3o_drake.scenario import load_scenario
 from s3o_drake.world.builder import build_world_diagram, robot_render_labels
+from s3o_drake.world.camera import overhead_camera
 from s3o_drake.world.geometry_mirror import AddGeometryMirror
+from s3o_drake.world.robot import robot_desired_state, robot_positions
+from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"

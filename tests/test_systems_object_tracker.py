@@ -16,10 +16,13 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from s3o_drake.camera import overhead_camera
-from s3o_drake.furniture import DISH_SHAPES
-from s3o_drake.goals import surface_below
-from s3o_drake.robot import (
+from s3o_drake.world.builder import build_world_diagram, populate_plant, robot_hold_state
+from s3o_drake.world.camera import overhead_camera
+from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
+from s3o_drake.world.furniture import DISH_SHAPES
+from s3o_drake.world.goals import surface_below
+from s3o_drake.world.object_tracker import STANDING_TILT, AddObjectTracker
+from s3o_drake.world.robot import (
     ARM_STOW,
     GRASP_FRAME,
     TRAY_INNER_LENGTH,
@@ -28,10 +31,7 @@ from s3o_drake.robot import (
     robot_desired_state,
     robot_positions,
 )
-from s3o_drake.scenario import Place
-from s3o_drake.world.builder import build_world_diagram, populate_plant, robot_hold_state
-from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
-from s3o_drake.world.object_tracker import STANDING_TILT, AddObjectTracker
+from s3o_drake.world.scenario import Place
 
 ARM_REACHING = np.array([0.3, -0.6, 1.2, -2.2, -1.571, 0.4])
 

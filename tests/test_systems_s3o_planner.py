@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
+from s3o_drake.belief import scenario_unmapped_chairs
+from s3o_drake.execution.executive_system import S3OPlanner
 from s3o_drake.execution.messages import NO_COMMAND, PickupRecord, Status
-from s3o_drake.execution.s3o_planner import S3OPlanner
-from s3o_drake.perception import scenario_unmapped_chairs
 from s3o_drake.planning.plan import Goto, Pickup, Place
-from s3o_drake.robot import robot_desired_state, robot_positions
-from s3o_drake.scenario import load_scenario
+from s3o_drake.world.robot import robot_desired_state, robot_positions
+from s3o_drake.world.scenario import load_scenario
 
 SCENE = "scenarios/small/opposite_sides.yaml"
 

@@ -22,8 +22,8 @@ from s3o_drake.execution.messages import (
     Status,
 )
 from s3o_drake.execution.task_monitor import OFF_PLACE, TaskMonitor
-from s3o_drake.goals import PlaceTarget
 from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates
+from s3o_drake.world.goals import PlaceTarget
 
 STATES = DishStates({"plate_a": DishState.TRAY, "cup_b": DishState.DROPPED,
                      "bowl_c": DishState.TRAY, "plate_d": DishState.TABLE})

@@ -15,18 +15,17 @@ import pytest
 from pydrake.common.value import AbstractValue
 from pydrake.systems.analysis import Simulator
 
-from s3o_drake.angles import facing_yaw, wrap
+from s3o_drake.belief import scenario_unmapped_chairs
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.diagram import build_execution_diagram
 from s3o_drake.execution.messages import BaseCommand
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.perception import scenario_unmapped_chairs
 from s3o_drake.planning import base_motion
 from s3o_drake.planning.base_motion import BaseProfile
+from s3o_drake.planning.methods import plan_task
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.plan import TaskMotionPlan
-from s3o_drake.planning.planner import plan_task
 from s3o_drake.planning.time_model import (
     PICKUP_FORMS,
     TURN_TOLERANCE,
@@ -34,8 +33,9 @@ from s3o_drake.planning.time_model import (
     TimeModel,
     command_overheads,
 )
-from s3o_drake.robot import CONTROL_PERIOD, NUM_POSITIONS
-from s3o_drake.scenario import dump_scenario, load_scenario
+from s3o_drake.world.angles import facing_yaw, wrap
+from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS
+from s3o_drake.world.scenario import dump_scenario, load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 TWO_DISHES = REPO / "scenarios" / "small" / "two_dishes.yaml"

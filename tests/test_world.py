@@ -12,10 +12,10 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from s3o_drake.camera import overhead_camera
-from s3o_drake.furniture import DISH_SHAPES
-from s3o_drake.scenario import load_scenario
 from s3o_drake.world.builder import build_world_diagram, populate_plant, robot_hold_state
+from s3o_drake.world.camera import overhead_camera
+from s3o_drake.world.furniture import DISH_SHAPES
+from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 

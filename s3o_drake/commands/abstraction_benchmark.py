@@ -35,13 +35,13 @@ from s3o_drake.abstraction.location_grid import LocationGrid
 from s3o_drake.abstraction.ranking import build_abstraction, rank
 from s3o_drake.abstraction.task_feasibility import TaskFeasibility
 from s3o_drake.abstraction.voronoi import voronoi_partition
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.furniture import DISH_SHAPES, RESTAURANT_KINDS
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.scenario import Dish, Scenario, ScenarioError, validate_scenario
-from s3o_drake.task_generation import DEFAULT_BASE, DISH_GAP, spot_on_table
+from s3o_drake.world.furniture import DISH_SHAPES, RESTAURANT_KINDS
+from s3o_drake.world.scenario import Dish, Scenario, ScenarioError, validate_scenario
+from s3o_drake.world.task_generation import DEFAULT_BASE, DISH_GAP, spot_on_table
 
 TARGETS = {7: 1.0, 30: 5.0}  # dishes -> seconds
 MAX_TRIES = 10_000

@@ -25,7 +25,6 @@ import statistics
 import sys
 from pathlib import Path
 
-from s3o_drake.choices import FEASIBILITY_SOURCES
 from s3o_drake.commands.common import (
     ArgumentParser,
     doc_formatter,
@@ -33,13 +32,14 @@ from s3o_drake.commands.common import (
     task_files,
     task_scenarios,
 )
-from s3o_drake.resources import TASKS_DIR
+from s3o_drake.world.choices import FEASIBILITY_SOURCES
+from s3o_drake.world.resources import TASKS_DIR
 
 
 def task_best_stops(scenario, feasibility: str) -> dict[str, float]:
     """Each dish's best stop (Fea^m) as the planner sees the task (a Scenario) at its
     start."""
-    from s3o_drake.perception import perceive_known_world
+    from s3o_drake.belief import perceive_known_world
     from s3o_drake.planning.pipeline import best_stops, heatmaps_for
     from s3o_drake.world.builder import render_overhead
 
@@ -82,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     json_path = Path(args.json) if args.json else None
     if json_path is not None and not json_path.parent.is_dir():
         fail(f"--json: no folder {json_path.parent}")
-    from s3o_drake.evaluation.store import ResultStore  # Drake, after the arguments
+    from s3o_drake.experiments.store import ResultStore  # Drake, after the arguments
 
     tasks = task_scenarios([str(p) for p in paths], len(paths))
     logging.getLogger("drake").setLevel(logging.WARNING)

@@ -35,8 +35,8 @@ from pathlib import Path
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.io import write_atomically
-from s3o_drake.resources import REACHABILITY_MAP, REPO_DIR
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import REACHABILITY_MAP, REPO_DIR
 
 DEFAULT_OUT = Path("out") / REACHABILITY_MAP.name
 """Where the map goes unless --out says otherwise: not over the shipped one."""

@@ -37,10 +37,11 @@ import json
 import sys
 from pathlib import Path
 
-# Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.choices import CALIBRATION_GROUPINGS, METHODS
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.io import write_atomically
+
+# Light imports only: the heavy ones come after the arguments are parsed.
+from s3o_drake.world.choices import CALIBRATION_GROUPINGS, METHODS
+from s3o_drake.world.files import write_atomically
 
 
 def parse_args(argv: list[str] | None):
@@ -71,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} is a file, not a folder")
-    from s3o_drake.evaluation.calibration import (
+    from s3o_drake.experiments.calibration import (
         RecordsError,
         calibrate_records,
         figures_table,

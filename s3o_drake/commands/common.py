@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, NoReturn
 if TYPE_CHECKING:
     from pydrake.geometry import Meshcat
 
-    from s3o_drake.scenario import Scenario
+    from s3o_drake.world.scenario import Scenario
 
 EXIT_BAD_INPUT = 2
 MESHCAT_HOST = "localhost"
@@ -33,7 +33,7 @@ def read_scenario(path: str | Path, option: str = "") -> "Scenario":
     field) is one line on stderr naming the file once and the field, and exit status 2
     (`option`, such as "--base", says which argument gave the file). An empty or
     comment-only file is all defaults."""
-    from s3o_drake.scenario import ScenarioError, load_scenario
+    from s3o_drake.world.scenario import ScenarioError, load_scenario
 
     try:
         return load_scenario(path)
@@ -65,7 +65,7 @@ def start_meshcat(host: str = MESHCAT_HOST) -> "Meshcat":
 
 def first_tasks(count: int) -> list[Path]:
     """The first `count` shipped tasks; a bad count (--tasks) is one line and exit 2."""
-    from s3o_drake.resources import shipped_tasks
+    from s3o_drake.world.resources import shipped_tasks
 
     available = shipped_tasks()
     if not 1 <= count <= len(available):

@@ -18,8 +18,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from s3o_drake.choices import METHODS
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.world.choices import METHODS
 
 
 def parse_args(argv: list[str] | None):
@@ -50,8 +50,8 @@ def main(argv: list[str] | None = None) -> int:
     for label, folder in folders.items():
         if not (folder / "results.jsonl").is_file():
             fail(f"{'--study' if label == 'as it is' else label}: no results.jsonl in {folder}")
-    from s3o_drake.evaluation.store import ResultStore
-    from s3o_drake.evaluation.variants import variant_figures, variant_table
+    from s3o_drake.experiments.store import ResultStore
+    from s3o_drake.experiments.variants import variant_figures, variant_table
 
     def runs_of(folder: Path, method: str) -> list[dict]:
         return [r for r in ResultStore(folder / "results.jsonl", read_only=True).rows()

@@ -2,7 +2,7 @@
 
     python -m s3o_drake.commands.dataset --count 300 --seed 1000 --out data/fcn --workers 2
 
-Scene i is task i of `s3o_drake.task_generation` drawn with --seed (the paper's protocol: the
+Scene i is task i of `s3o_drake.world.task_generation` drawn with --seed (the paper's protocol: the
 restaurant, 5-7 dishes, one unmapped chair near each). The shipped benchmark tasks
 (scenarios/generated) are drawn with seed 0, so use any other seed (default 1000) to keep
 the training scenes apart from them. For each scene the world is rendered once from the
@@ -27,8 +27,8 @@ from s3o_drake.feasibility.dataset import (
     MANIFEST,
     build_dataset,
 )
-from s3o_drake.io import write_atomically
-from s3o_drake.task_generation import DEFAULT_BASE
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.task_generation import DEFAULT_BASE
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -35,12 +35,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from s3o_drake.angles import facing_yaw
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.execution.arm.pickup import plan_pickup
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.io import write_atomically
-from s3o_drake.manipulation.pickup import plan_pickup
 from s3o_drake.planning.base_motion import (
     ACCELERATION,
     SETTLE_TIME,
@@ -55,9 +53,11 @@ from s3o_drake.planning.time_model import (
     TimeModel,
     command_overheads,
 )
-from s3o_drake.resources import REPO_DIR, RESTAURANT, TIME_MODEL, shipped_tasks
-from s3o_drake.robot import CONTROL_PERIOD
-from s3o_drake.scenario import load_scenario
+from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import REPO_DIR, RESTAURANT, TIME_MODEL, shipped_tasks
+from s3o_drake.world.robot import CONTROL_PERIOD
+from s3o_drake.world.scenario import load_scenario
 
 DEFAULT_OUT = Path("out") / TIME_MODEL.name
 """Where the model goes unless --out says otherwise: not over the shipped one."""

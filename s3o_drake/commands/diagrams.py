@@ -20,7 +20,7 @@ from pathlib import Path
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import ArgumentParser, doc_formatter
-from s3o_drake.resources import DIAGRAMS_DIR, SCENARIOS_DIR
+from s3o_drake.world.resources import DIAGRAMS_DIR, SCENARIOS_DIR
 
 SCENARIO = SCENARIOS_DIR / "small" / "two_dishes.yaml"
 """The structure does not depend on the scene; a small one builds fastest."""
@@ -50,7 +50,7 @@ def normalize(dot: str) -> str:
 def render() -> dict[str, str]:
     """{file name: normalized Graphviz text} of the project's diagrams."""
     from s3o_drake.execution.diagram import build_execution_diagram
-    from s3o_drake.scenario import load_scenario
+    from s3o_drake.world.scenario import load_scenario
 
     diagram = build_execution_diagram(load_scenario(SCENARIO))
     world = diagram.GetSubsystemByName("world")

@@ -74,12 +74,13 @@ from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-# Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.choices import METHODS, RECOVERY_MODES, Recovery
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
 
+# Light imports only: the heavy ones come after the arguments are parsed.
+from s3o_drake.world.choices import METHODS, RECOVERY_MODES, Recovery
+
 if TYPE_CHECKING:
-    from s3o_drake.evaluation.jobs import Job
+    from s3o_drake.experiments.jobs import Job
 
 DIFFICULTY_SEED = 0
 """The oracle's noise draws for the difficulty measure: one fixed seed, so that a task's
@@ -168,7 +169,7 @@ def _validate(args) -> tuple[list[Path], list[str]]:
     for path in paths:
         scenario = read_scenario(path)
     if args.overrides:
-        from s3o_drake.scenario import ScenarioError, with_overrides
+        from s3o_drake.world.scenario import ScenarioError, with_overrides
 
         try:
             with_overrides(scenario, args.overrides)
@@ -212,7 +213,7 @@ def study_jobs(paths: list[Path], methods: list[str], seeds: int,
                ) -> tuple[list[Job], list[Job]]:
     """The difficulty jobs (one per task) and the run jobs, seed by seed, then task by task,
     all methods of a task together: an interrupted study has whole comparisons done."""
-    from s3o_drake.evaluation.jobs import DIFFICULTY, RUN, Job, file_digest
+    from s3o_drake.experiments.jobs import DIFFICULTY, RUN, Job, file_digest
 
     digests = {p: file_digest(p) for p in paths}
     difficulty = [Job(DIFFICULTY, p.stem, str(p), digests[p], DIFFICULTY_SEED) for p in paths]
@@ -235,10 +236,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     _study_settings(args, sys.argv[1:] if argv is None else argv)
     paths, methods = _validate(args)
-    from s3o_drake.evaluation.difficulty import GROUPS, difficulty_groups
-    from s3o_drake.evaluation.scheduler import run_jobs
-    from s3o_drake.evaluation.store import ResultStore
-    from s3o_drake.evaluation.summary import markdown_tables, summarize, write_outputs
+    from s3o_drake.experiments.difficulty import GROUPS, difficulty_groups
+    from s3o_drake.experiments.scheduler import run_jobs
+    from s3o_drake.experiments.store import ResultStore
+    from s3o_drake.experiments.summary import markdown_tables, summarize, write_outputs
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -249,7 +250,7 @@ def main(argv: list[str] | None = None) -> int:
     before: dict[str, dict] = {}
     known = None  # the difficulty rows of --again's study
     if args.again is not None:
-        from s3o_drake.evaluation.again import chosen
+        from s3o_drake.experiments.again import chosen
 
         earlier = Path(args.again)
         before = {r["key"]: r for r in
@@ -312,7 +313,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     print(markdown_tables(summarize(runs, groups, methods), methods))
     if args.again is not None:
-        from s3o_drake.evaluation.again import comparison
+        from s3o_drake.experiments.again import comparison
 
         table = comparison(before, runs, methods)
         try:

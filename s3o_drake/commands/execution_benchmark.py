@@ -26,7 +26,7 @@ from s3o_drake.commands.common import (
     read_scenario,
     start_meshcat,
 )
-from s3o_drake.resources import RESTAURANT
+from s3o_drake.world.resources import RESTAURANT
 
 RATE_TARGET = 10.0
 SIZE_TARGET_MB = 20.0
@@ -35,7 +35,7 @@ FIVE_MINUTES = 300.0
 
 def measure(path: Path, seed: int) -> dict:
     from s3o_drake.execution.execute import execute
-    from s3o_drake.scenario import load_scenario
+    from s3o_drake.world.scenario import load_scenario
 
     scenario = load_scenario(path)
     run = execute(scenario, seed=seed, meshcat=start_meshcat(), progress=False)

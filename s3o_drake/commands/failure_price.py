@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
             fail(f"DIR: no results.jsonl in {folder}")
     import yaml
 
-    from s3o_drake.evaluation.store import ResultStore
+    from s3o_drake.experiments.store import ResultStore
     from s3o_drake.planning.failure_price import PRICE_FILE, FailurePrice, derive_price
 
     out = Path(args.out) if args.out else PRICE_FILE

@@ -52,8 +52,8 @@ from s3o_drake.feasibility.fcn import (
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.io import write_atomically
-from s3o_drake.resources import FCN_WEIGHTS
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import FCN_WEIGHTS
 
 WEIGHTS = FCN_WEIGHTS
 REPEATS = 5

@@ -34,10 +34,10 @@ from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import FeasibilityOracle
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.io import write_atomically
-from s3o_drake.resources import RESTAURANT
-from s3o_drake.scenario import load_scenario
-from s3o_drake.task_generation import generate_task
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import RESTAURANT
+from s3o_drake.world.scenario import load_scenario
+from s3o_drake.world.task_generation import generate_task
 
 
 def _batched_seconds(checker: FeasibilityChecker, queries) -> float:

@@ -45,8 +45,8 @@ from pathlib import Path
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_base
-from s3o_drake.io import write_atomically
-from s3o_drake.resources import LAYOUTS, REPO_DIR
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import LAYOUTS, REPO_DIR
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -106,8 +106,8 @@ def main(argv: list[str] | None = None) -> int:
     from tqdm import tqdm
 
     from s3o_drake.planning.pipeline import dishes_without_stops
-    from s3o_drake.scenario import dump_scenario
-    from s3o_drake.task_generation import generate_task
+    from s3o_drake.world.scenario import dump_scenario
+    from s3o_drake.world.task_generation import generate_task
 
     # The stop check builds a collision checker per chair drawn: one log line each is noise.
     logging.getLogger("drake").setLevel(logging.WARNING)

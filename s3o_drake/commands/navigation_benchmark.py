@@ -18,9 +18,9 @@ from shapely.geometry import Point
 from shapely.ops import unary_union
 
 from s3o_drake.abstraction.voronoi import free_space
-from s3o_drake.known_world import KnownWorld
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.resources import RESTAURANT
+from s3o_drake.world.resources import RESTAURANT
 
 
 def benchmark(known: KnownWorld, *, queries: int = 2000, seed: int = 0) -> dict[str, float]:

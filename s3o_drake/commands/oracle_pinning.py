@@ -29,12 +29,12 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from s3o_drake.angles import facing_yaw
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
+from s3o_drake.execution.arm.pickup import plan_pickup
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.feasibility.oracle import FeasibilityOracle
-from s3o_drake.manipulation.pickup import plan_pickup
-from s3o_drake.scenario import Scenario
+from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.scenario import Scenario
 
 #: Base positions drawn around each dish before choosing the poses.
 CANDIDATES = 150

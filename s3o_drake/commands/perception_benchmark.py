@@ -28,12 +28,12 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from tqdm import tqdm
 
-from s3o_drake.angles import wrap
+from s3o_drake.belief.chair_perception import ChairPerception, draw_chairs
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
-from s3o_drake.io import write_atomically
-from s3o_drake.perception.chairs import ChairPerception, draw_chairs
-from s3o_drake.scenario import Scenario
+from s3o_drake.world.angles import wrap
 from s3o_drake.world.builder import render_overhead
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.scenario import Scenario
 
 MATCH_RADIUS = 0.15
 """A detection this close (m) to a true chair's centre counts as finding it."""

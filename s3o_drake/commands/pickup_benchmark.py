@@ -40,14 +40,8 @@ import numpy as np
 from tqdm import tqdm
 
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, first_tasks
-from s3o_drake.feasibility.agreement import sample_queries
-from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.pickup_geometry import REASONS
-from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.io import write_atomically
-from s3o_drake.manipulation.arm_motion import time_parameterize
-from s3o_drake.manipulation.pickup import (
+from s3o_drake.execution.arm.arm_motion import time_parameterize
+from s3o_drake.execution.arm.pickup import (
     FINGER_MAX_ACCELERATION,
     FINGER_MAX_VELOCITY,
     SEGMENT_NAMES,
@@ -56,8 +50,14 @@ from s3o_drake.manipulation.pickup import (
     plan_pickup,
     segment_limits,
 )
-from s3o_drake.resources import RESTAURANT
-from s3o_drake.scenario import load_scenario
+from s3o_drake.feasibility.agreement import sample_queries
+from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.pickup_geometry import REASONS
+from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import RESTAURANT
+from s3o_drake.world.scenario import load_scenario
 
 TIMINGS = ("toppra", "toppra_stops", "trapezoid")
 #: The timing before TOPPRA (the reference): the arm's speed and acceleration (rad/s, rad/s²),

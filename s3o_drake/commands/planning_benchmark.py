@@ -44,8 +44,6 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-# Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.choices import METHODS
 from s3o_drake.commands.common import (
     ArgumentParser,
     doc_formatter,
@@ -54,8 +52,11 @@ from s3o_drake.commands.common import (
     task_scenarios,
 )
 
+# Light imports only: the heavy ones come after the arguments are parsed.
+from s3o_drake.world.choices import METHODS
+
 if TYPE_CHECKING:
-    from s3o_drake.scenario import Scenario
+    from s3o_drake.world.scenario import Scenario
 
 STAGES = ("feasibility", "navigation", "abstraction", "task_planning", "motion_search")
 TIME_TARGET = 5.0
@@ -74,8 +75,8 @@ def long_run(scenario: Scenario, factor: int) -> Scenario:
 def benchmark_task(name: str, scenario: Scenario, *, method: str, seed: int, workers: int,
                    factor: int) -> dict[str, Any]:
     """One task's row: heatmaps, the paper-count plan, the long run, their utility ratio."""
+    from s3o_drake.belief.known_world import KnownWorld
     from s3o_drake.feasibility.heatmaps import compute_heatmaps
-    from s3o_drake.known_world import KnownWorld
     from s3o_drake.planning.pipeline import plan_from
 
     row: dict[str, Any] = {"task": name, "dishes": len(scenario.dishes), "method": method,

@@ -25,7 +25,7 @@ from s3o_drake.feasibility.agreement import (
 )
 from s3o_drake.feasibility.reachability import ReachabilityMap, ReachabilityMapError
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.scenario import ScenarioError, load_scenario
+from s3o_drake.world.scenario import ScenarioError, load_scenario
 
 
 def main(argv: list[str] | None = None) -> int:

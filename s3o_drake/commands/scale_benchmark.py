@@ -38,8 +38,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-# Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.choices import METHODS
 from s3o_drake.commands.common import (
     ArgumentParser,
     doc_formatter,
@@ -47,7 +45,10 @@ from s3o_drake.commands.common import (
     finished_rows,
     read_scenario,
 )
-from s3o_drake.resources import REPO_DIR
+
+# Light imports only: the heavy ones come after the arguments are parsed.
+from s3o_drake.world.choices import METHODS
+from s3o_drake.world.resources import REPO_DIR
 
 TASKS_DIR = REPO_DIR / "scenarios" / "generated_scale"
 SIZES = (5, 10, 15, 20, 30, 40)
@@ -65,8 +66,8 @@ def plan_task_row(path: Path, *, method: str, seed: int | None, execute: bool,
                   reference_limit: float) -> dict[str, Any]:
     """One task's row: its planning figures (`evaluation.scale.plan_row`), and with
     `execute` what the simulated run collected."""
-    from s3o_drake.evaluation.scale import plan_row
-    from s3o_drake.perception import perceive_known_world
+    from s3o_drake.belief import perceive_known_world
+    from s3o_drake.experiments.scale import plan_row
     from s3o_drake.planning.pipeline import plan_from
     from s3o_drake.world.builder import render_overhead
 
@@ -161,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
 
     import logging
 
-    from s3o_drake.evaluation.scale import summarize, summary_table, target_lines
+    from s3o_drake.experiments.scale import summarize, summary_table, target_lines
 
     logging.getLogger("drake").setLevel(logging.WARNING)
     settings = {"method": args.method, "seed": args.seed, "execute": args.execute}

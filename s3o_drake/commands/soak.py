@@ -5,7 +5,7 @@ budget overruns, hangs and memory growth.
            [--seed 0] [--budget 5] [--execute-budget 60] [--limit 900] [--dishes 30]
            [--quiet] [--summarize] [--again-loaded]
 
-Scene i is drawn from --seed and i alone (s3o_drake/random_scenes.py: a room of random
+Scene i is drawn from --seed and i alone (s3o_drake/world/random_scenes.py: a room of random
 size, 1 to 5 tables anywhere, 0 to --dishes dishes, crowding chairs, sometimes a robot
 boxed in). Each of the first --plan scenes is planned by every method through `plan_from`
 (Fea^m: a cheap ring around each dish, so that the time measured is the planner's) with a
@@ -74,15 +74,15 @@ def main(argv: list[str] | None = None) -> int:
     if out.exists() and not out.is_dir():
         fail(f"--out: {out} exists and is not a folder")
 
-    from s3o_drake.evaluation.soak import (
+    from s3o_drake.experiments.soak import (
         run_soak,
         scene_counts,
         soak_jobs,
         summary_table,
         tally,
     )
-    from s3o_drake.evaluation.store import ResultStore
-    from s3o_drake.io import write_atomically
+    from s3o_drake.experiments.store import ResultStore
+    from s3o_drake.world.files import write_atomically
 
     out.mkdir(parents=True, exist_ok=True)
     store = ResultStore(out / "soak.jsonl")

@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.commands.common import (
     ArgumentParser,
     doc_formatter,
@@ -44,16 +45,15 @@ from s3o_drake.commands.common import (
     task_files,
     task_scenarios,
 )
-from s3o_drake.evaluation.scheduler import local_pool
-from s3o_drake.evaluation.store import ResultStore
 from s3o_drake.execution.execute import execute
+from s3o_drake.experiments.scheduler import local_pool
+from s3o_drake.experiments.store import ResultStore
 from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.motion_search import SequenceProblem, location_regions
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.time_model import MODEL_FILE, CostModel
-from s3o_drake.resources import TASKS_DIR
-from s3o_drake.scenario import COST_PROFILES, METHODS, Recovery, Scenario
+from s3o_drake.world.resources import TASKS_DIR
+from s3o_drake.world.scenario import COST_PROFILES, METHODS, Recovery, Scenario
 
 TARGETS = {"off": 0.03, "on": 0.08}
 """Median |predicted - simulated| / simulated allowed, per noise setting."""
@@ -231,7 +231,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'task':<10} {'noise':>5} {'dishes':>7} {'predicted':>9} {'simulated':>9} "
           f"{'error':>7}  failures", flush=True)
     # The runs execute in worker processes that are replaced now and then
-    # (evaluation/scheduler.TASKS_PER_CHILD): before execute() freed its diagram, a single
+    # (experiments/scheduler.TASKS_PER_CHILD): before execute() freed its diagram, a single
     # process grew to 21 GB over 140 runs.
     with local_pool(args.workers) as pool:
         measured = pool.map(_measure, [(run, args.method, version) for run in pending])

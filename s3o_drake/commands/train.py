@@ -29,7 +29,7 @@ from pathlib import Path
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
 from s3o_drake.feasibility.train_config import TrainConfig
-from s3o_drake.resources import FCN_WEIGHTS, REPO_DIR
+from s3o_drake.world.resources import FCN_WEIGHTS, REPO_DIR
 
 DEFAULT_OUT = Path("out") / "fcn"
 """Where the weights go unless --out says otherwise: not over the shipped models/fcn/."""

@@ -23,17 +23,17 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 from pydrake.trajectories import Trajectory
 
+from s3o_drake.execution.arm.pickup import PickupPlan, plan_pickup, plan_release
+from s3o_drake.execution.arm.place import place_grasps, plan_place
 from s3o_drake.execution.messages import NO_COMMAND, CommandState, PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.pickup_geometry import caught
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.goals import place_target_name
-from s3o_drake.manipulation.pickup import PickupPlan, plan_pickup, plan_release
-from s3o_drake.manipulation.place import place_grasps, plan_place
-from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
-from s3o_drake.scenario import Scenario
-from s3o_drake.system_lifetime import weak_callback
 from s3o_drake.world.dish_messages import DishPoses, GripEvent
+from s3o_drake.world.goals import place_target_name
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.world.scenario import Scenario
+from s3o_drake.world.system_lifetime import weak_callback
 
 #: The arm's and the fingers' positions among the robot's 11.
 ARM_AND_FINGERS = slice(3, NUM_POSITIONS)

@@ -20,7 +20,6 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 
-from s3o_drake.angles import wrap
 from s3o_drake.execution.messages import NO_COMMAND, BaseCommand, CommandState, Status
 from s3o_drake.feasibility.landing import (
     CHECK_STEP_XY,
@@ -38,9 +37,10 @@ from s3o_drake.planning.base_motion import (
     motion_segments,
     trapezoid,
 )
-from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
-from s3o_drake.scenario import Scenario
-from s3o_drake.system_lifetime import weak_callback
+from s3o_drake.world.angles import wrap
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
+from s3o_drake.world.scenario import Scenario
+from s3o_drake.world.system_lifetime import weak_callback
 
 #: How far (m) the base may back straight out of a tight stop, or drive straight on, before
 #: it turns, tried in turn (backing out first at each distance) when the direct motion is

@@ -26,14 +26,14 @@ from pydrake.systems.primitives import MatrixGain, Multiplexer
 
 from s3o_drake.execution.arm_controller import ArmController
 from s3o_drake.execution.base_navigator import BaseNavigator
-from s3o_drake.execution.s3o_planner import Perceive, S3OPlanner
+from s3o_drake.execution.executive_system import Perceive, S3OPlanner
 from s3o_drake.execution.task_monitor import TaskMonitor
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.goals import place_targets, with_place_targets
-from s3o_drake.robot import CONTROL_PERIOD, NUM_POSITIONS
-from s3o_drake.scenario import Scenario
 from s3o_drake.world.builder import build_world_diagram, robot_render_labels
+from s3o_drake.world.goals import place_targets, with_place_targets
+from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS
+from s3o_drake.world.scenario import Scenario
 
 TIME_LIMIT = 1800.0
 """Simulated seconds after which an execution is stopped whatever its state."""

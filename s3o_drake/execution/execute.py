@@ -1,6 +1,6 @@
 """Execute a scenario's task: build the execution diagram, plan at initialization, simulate
 until the task monitor ends the run, and collect what happened (`execute`). The `run`
-command (s3o_drake/commands/run.py) is a thin main over it."""
+command (s3o_drake/commands/run_scenario.py) is a thin main over it."""
 
 
 import sys
@@ -13,13 +13,13 @@ from pydrake.geometry import Meshcat
 from pydrake.systems.analysis import InitializeParams, Simulator
 from tqdm import tqdm
 
+from s3o_drake.belief import Perceive
 from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
-from s3o_drake.perception import Perceive
 from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import TaskMotionPlan
-from s3o_drake.scenario import Scenario
-from s3o_drake.system_lifetime import release_diagram
 from s3o_drake.world.builder import overhead_images
+from s3o_drake.world.scenario import Scenario
+from s3o_drake.world.system_lifetime import release_diagram
 
 SOLVER_RESTARTS = 5
 """Restarts of the contact solver from rest allowed in one run (`_simulate`)."""

@@ -8,7 +8,7 @@ pickup and goes on with the next action, or stops at a failed goto). Id 0 means 
 command": controllers hold still.
 
 `PickupRecord` is what the planner learns of each executed pickup (for the calibration of
-Fea^m, s3o_drake.evaluation.calibration); it travels in `PlanProgress` to the task monitor,
+Fea^m, s3o_drake.experiments.calibration); it travels in `PlanProgress` to the task monitor,
 whose `RunReport` is what a run reports (its `to_dict()` is report.json's data).
 
 All are frozen dataclasses: a port value is copied by Drake, and nothing may change it in
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-from s3o_drake.placing import PLACE_TOLERANCE, SURFACE_TOLERANCE
+from s3o_drake.world.placing import PLACE_TOLERANCE, SURFACE_TOLERANCE
 
 NO_COMMAND = 0
 

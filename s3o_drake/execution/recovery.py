@@ -37,13 +37,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from s3o_drake.angles import facing_yaw
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.feasibility.oracle import FeasibilityOracle, Heatmap
-from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.base_motion import BaseProfile
 from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.scenario import Uncertainty
+from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.scenario import Uncertainty
 
 #: Stream tag of the localisation noise in `numpy.random.default_rng([seed, tag, command
 #: id])`: its own numbers, apart from the landing's (1) and the reach's (2).

@@ -61,7 +61,7 @@ from s3o_drake.feasibility.grasp_targets import (
 from s3o_drake.feasibility.grasps import Grasp, grasps_for
 from s3o_drake.feasibility.reachability import ReachabilityMap, place
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
 
 REASONS = ("ok", "base_collision", "out_of_reach", "arm_collision", "no_ik")
 METHODS = ("map", "ik")

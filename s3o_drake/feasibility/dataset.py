@@ -1,7 +1,7 @@
 """The FCN's training data: overhead crops of random scenes with Drake-oracle labels. Made
 by `python -m s3o_drake.commands.dataset`, read by `load_dataset`.
 
-Scene i is task i of `s3o_drake.task_generation` drawn with the dataset's seed (the paper's
+Scene i is task i of `s3o_drake.world.task_generation` drawn with the dataset's seed (the paper's
 protocol: the restaurant, 5-7 dishes, one unmapped chair near each). The shipped benchmark
 tasks (scenarios/generated) are drawn with seed 0, so use any other seed (default 1000) to
 keep the training scenes apart from them. For each scene the world is rendered once from the
@@ -25,9 +25,9 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from s3o_drake.io import write_atomically
-from s3o_drake.scenario import load_scenario
-from s3o_drake.task_generation import DEFAULT_BASE, generate_task
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.scenario import load_scenario
+from s3o_drake.world.task_generation import DEFAULT_BASE, generate_task
 
 MANIFEST = "dataset.json"
 
@@ -39,10 +39,10 @@ def scene_path(out: Path, index: int) -> Path:
 
 def make_scene(base_path: Path, seed: int, index: int) -> dict[str, np.ndarray]:
     """Inputs and oracle labels of every dish of scene `index` (arrays for np.savez)."""
-    from s3o_drake.camera import overhead_camera
     from s3o_drake.feasibility.fcn import crop_inputs, overhead_view
     from s3o_drake.feasibility.heatmaps import compute_heatmaps
     from s3o_drake.world.builder import render_overhead
+    from s3o_drake.world.camera import overhead_camera
 
     scenario = generate_task(load_scenario(base_path), seed, index)
     _, depth, label, robot_labels = render_overhead(scenario)

@@ -47,13 +47,13 @@ import numpy as np
 import torch
 from torch import nn
 
-from s3o_drake.camera import OverheadCamera, back_project, overhead_camera
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE, Heatmap
 from s3o_drake.feasibility.pickup_geometry import catch_probability, goal_probability
-from s3o_drake.furniture import DISH_SHAPES, NETWORK_KIND, RESTAURANT_KINDS
-from s3o_drake.resources import FCN_WEIGHTS
-from s3o_drake.scenario import Dish, Scenario
 from s3o_drake.world.builder import render_overhead
+from s3o_drake.world.camera import OverheadCamera, back_project, overhead_camera
+from s3o_drake.world.furniture import DISH_SHAPES, NETWORK_KIND, RESTAURANT_KINDS
+from s3o_drake.world.resources import FCN_WEIGHTS
+from s3o_drake.world.scenario import Dish, Scenario
 
 DEFAULT_WEIGHTS = FCN_WEIGHTS
 """The shipped network (see models/fcn/README.md for the commands that made it)."""

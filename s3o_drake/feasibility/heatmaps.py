@@ -18,8 +18,8 @@ from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE, FeasibilityOracle, Heatmap
 from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.known_world import Obstacles
-from s3o_drake.scenario import Scenario
+from s3o_drake.world.obstacles import Obstacles
+from s3o_drake.world.scenario import Scenario
 
 _worker_oracle: FeasibilityOracle | None = None
 

@@ -23,7 +23,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from s3o_drake.angles import facing_yaw, wrap
+from s3o_drake.world.angles import facing_yaw, wrap
 
 #: Sampling of a motion for the collision check: one pose per this much travel (m, rad).
 CHECK_STEP_XY = 0.02

@@ -37,7 +37,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
-from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.landing import pickup_poses, stop_short
 from s3o_drake.feasibility.pickup_geometry import (
@@ -46,9 +45,10 @@ from s3o_drake.feasibility.pickup_geometry import (
     pickup_feasible_many,
     place_error_stds,
 )
-from s3o_drake.goals import placed_object
-from s3o_drake.placing import PLACE_TOLERANCE
-from s3o_drake.scenario import Uncertainty
+from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.goals import placed_object
+from s3o_drake.world.placing import PLACE_TOLERANCE
+from s3o_drake.world.scenario import Uncertainty
 
 CROP_SIZE = 4.0
 CROP_CELLS = 64

@@ -52,7 +52,7 @@ class _NodeSolver:
         from pydrake.planning import RobotDiagramBuilder, SceneGraphCollisionChecker
         from pydrake.solvers import SnoptSolver, SolverOptions
 
-        from s3o_drake.robot import ARM_BASE_LINK, GRASP_FRAME, add_robot
+        from s3o_drake.world.robot import ARM_BASE_LINK, GRASP_FRAME, add_robot
 
         builder = RobotDiagramBuilder(time_step=0.0)
         self.model = add_robot(builder.parser())
@@ -75,14 +75,14 @@ class _NodeSolver:
                                int(max_major_iterations))
 
     def _q(self, arm: np.ndarray) -> np.ndarray:
-        from s3o_drake.robot import GRIPPER_OPEN
+        from s3o_drake.world.robot import GRIPPER_OPEN
         return np.concatenate([np.zeros(3), arm, GRIPPER_OPEN])
 
     def solve(self, R_AG: np.ndarray, p_AG: np.ndarray, seeds: np.ndarray) -> list[np.ndarray]:
         """Arm configurations found by IK from each seed (in seed order), verified."""
         from pydrake.math import RotationMatrix
 
-        from s3o_drake.robot import GRIPPER_OPEN
+        from s3o_drake.world.robot import GRIPPER_OPEN
 
         ik = self.InverseKinematics(self.plant, self.plant_context, with_joint_limits=True)
         q = ik.q()

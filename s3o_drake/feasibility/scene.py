@@ -21,8 +21,9 @@ from s3o_drake.feasibility.clearance import (
     robot_horizontal_radius,
     robot_plan_extent,
 )
-from s3o_drake.known_world import Obstacles
-from s3o_drake.robot import (
+from s3o_drake.world.builder import populate_plant
+from s3o_drake.world.obstacles import Obstacles
+from s3o_drake.world.robot import (
     ARM_BASE_LINK,
     ARM_MOUNT_XYZ,
     ARM_STOW,
@@ -30,8 +31,7 @@ from s3o_drake.robot import (
     GRIPPER_OPEN,
     robot_positions,
 )
-from s3o_drake.scenario import Scenario
-from s3o_drake.world.builder import populate_plant
+from s3o_drake.world.scenario import Scenario
 
 # Robot-environment clearance of a feasible configuration (m): the arm stays at least 1 cm
 # from every obstacle, and the base keeps the same small margin.

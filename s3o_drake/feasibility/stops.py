@@ -33,11 +33,11 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from s3o_drake.angles import facing_yaw
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.known_world import KnownWorld
+from s3o_drake.world.angles import facing_yaw
 
 #: A cell's centre and corners, in cells from its lower-left corner.
 _CORNERS = ((0, 0), (0, 1), (1, 0), (1, 1))

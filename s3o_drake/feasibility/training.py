@@ -31,7 +31,7 @@ from tqdm import tqdm
 
 from s3o_drake.feasibility.fcn import CHANNELS, FeasibilityUNet, auroc
 from s3o_drake.feasibility.train_config import TrainConfig
-from s3o_drake.io import write_atomically
+from s3o_drake.world.files import write_atomically
 
 OFFSET_CHANNELS = [CHANNELS.index("dx"), CHANNELS.index("dy")]
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from s3o_drake.angles import wrap
+from s3o_drake.world.angles import wrap
 
 #: Segments shorter than this (m or rad) are left out: nothing to drive or turn.
 TINY = 1e-9

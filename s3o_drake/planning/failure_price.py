@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 import yaml
 
-from s3o_drake.choices import Recovery
-from s3o_drake.resources import MODELS_DIR
-from s3o_drake.scenario import Planner, Scenario
+from s3o_drake.world.choices import Recovery
+from s3o_drake.world.resources import MODELS_DIR
+from s3o_drake.world.scenario import Planner, Scenario
 
 PRICE_FILE = MODELS_DIR / "failure_price.yaml"
 FORMAT = "s3o_drake.FailurePrice/1"

@@ -37,7 +37,7 @@ from s3o_drake.planning.task_planner import (
     plan_problem,
 )
 from s3o_drake.planning.time_model import CostModel
-from s3o_drake.scenario import Planner
+from s3o_drake.world.scenario import Planner
 
 COST_SCALE = 10.0
 """Task-planner costs are seconds x 10, rounded (clingo optimises integers)."""

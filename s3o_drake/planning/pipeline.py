@@ -20,17 +20,17 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 
-from s3o_drake.camera import overhead_camera
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.stops import FreeStops
-from s3o_drake.known_world import KnownWorld
+from s3o_drake.planning.methods import PlanningError, PlanningResult, plan_task
 from s3o_drake.planning.navigation import DRIVE_MARGIN, NavigationMap
-from s3o_drake.planning.planner import PlanningError, PlanningResult, plan_task
 from s3o_drake.planning.task_costs import first_reachable
 from s3o_drake.planning.task_planner import TaskPlanningError
-from s3o_drake.robot import INSCRIBED_RADIUS
-from s3o_drake.scenario import FEASIBILITY_SOURCES, FeasibilitySource, Scenario
+from s3o_drake.world.camera import overhead_camera
+from s3o_drake.world.robot import INSCRIBED_RADIUS
+from s3o_drake.world.scenario import FEASIBILITY_SOURCES, FeasibilitySource, Scenario
 
 STOP_CELL = 0.05
 """Grid spacing (m) of the candidate stops `dishes_without_stops` tries."""

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from s3o_drake.abstraction import Abstraction
 from s3o_drake.abstraction.location_grid import LocationGrid
 from s3o_drake.abstraction.voronoi import VoronoiPartition
-from s3o_drake.known_world import KnownWorld
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.plan import TaskMotionPlan
 

@@ -50,13 +50,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
-from s3o_drake.angles import facing_yaw, wrap
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
-from s3o_drake.known_world import KnownWorld
 from s3o_drake.planning.base_motion import SETTLE_TIME, BaseProfile
-from s3o_drake.resources import TIME_MODEL
-from s3o_drake.robot import CONTROL_PERIOD
-from s3o_drake.scenario import Planner
+from s3o_drake.world.angles import facing_yaw, wrap
+from s3o_drake.world.resources import TIME_MODEL
+from s3o_drake.world.robot import CONTROL_PERIOD
+from s3o_drake.world.scenario import Planner
 
 if TYPE_CHECKING:  # only for hints: the systems import this module for their period
     from s3o_drake.planning.navigation import NavigationMap

@@ -13,9 +13,9 @@ import shapely
 from scipy.sparse.csgraph import shortest_path
 from shapely.geometry.base import BaseGeometry
 
-from s3o_drake.angles import wrap
 from s3o_drake.planning.base_motion import BaseProfile
 from s3o_drake.planning.visibility import BlockingEdges, VertexSight, cross, rings
+from s3o_drake.world.angles import wrap
 
 EPS = 1e-9
 SLACK = 1e-4

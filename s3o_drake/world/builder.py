@@ -41,19 +41,19 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import MatrixGain
 from pydrake.systems.sensors import RgbdSensor
 
-from s3o_drake import furniture as fu
-from s3o_drake.camera import overhead_camera
-from s3o_drake.resources import make_parser, models_dir
-from s3o_drake.robot import (
+from s3o_drake.world import furniture as fu
+from s3o_drake.world.camera import overhead_camera
+from s3o_drake.world.geometry_mirror import AddGeometryMirror
+from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
+from s3o_drake.world.resources import make_parser, models_dir
+from s3o_drake.world.robot import (
     CONTROL_PERIOD,
     ROBOT_JOINTS,
     add_robot,
     robot_desired_state,
     robot_positions,
 )
-from s3o_drake.scenario import Chair, Dish, Scenario, Table, surface_height
-from s3o_drake.world.geometry_mirror import AddGeometryMirror
-from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
+from s3o_drake.world.scenario import Chair, Dish, Scenario, Table, surface_height
 
 RENDERER = "vtk"
 FLOOR_RGBA = np.array([0.82, 0.80, 0.76, 1.0])
