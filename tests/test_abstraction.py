@@ -24,7 +24,9 @@ from s3o_drake.abstraction.voronoi import ARM_REACH
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.world.scenario import Dish, Room, Scenario, Table, load_scenario
+from s3o_drake.world.map import Room, Table
+from s3o_drake.world.objects import Dish
+from s3o_drake.world.scenario import Scenario, load_scenario
 
 SMALL = Path(__file__).resolve().parent.parent / "scenarios" / "small"
 
@@ -326,7 +328,7 @@ def test_a_chair_between_two_cells_does_not_keep_their_dishes_apart():
     cup, plate = partition.dishes.index("cup_1"), partition.dishes.index("plate_1")
     assert not partition.cells[cup].buffer(1e-3).intersects(partition.cells[plate])
     assert plate in partition.adjacency[cup]
-    heatmaps = compute_heatmaps(known.as_scenario(), ["cup_1", "plate_1"], progress=False,
+    heatmaps = compute_heatmaps(known, ["cup_1", "plate_1"], progress=False,
                                 obstacles=known.obstacles)
     alone = build_abstraction(known, heatmaps, dishes=["cup_1", "plate_1"])
     claimed = alone.partition.claims

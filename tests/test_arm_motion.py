@@ -330,7 +330,8 @@ def test_at_arm_s_length_the_lift_draws_the_dish_in():
     """A stop that the benchmark's S3O-GROP* plan chose for cup_3 of task_002, 1.03 m
     from it: the grasp is reachable but the hand cannot rise 9 cm straight up there; the
     pickup still succeeds, lifting the cup up and towards the arm."""
-    scene = FeasibilityScene(load_scenario(REPO / "scenarios" / "generated" / "task_002.yaml"))
+    task = load_scenario(REPO / "scenarios" / "generated" / "task_002.yaml")
+    scene = FeasibilityScene(task.contents)
     checker = FeasibilityChecker(scene, ReachabilityMap.load())
     base = np.array([6.368, 2.618, -1.275])
     result = checker.check(base, "cup_3", None)

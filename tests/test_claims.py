@@ -13,7 +13,8 @@ from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.methods import plan_task
 from s3o_drake.planning.task_check import check_plan
 from s3o_drake.planning.task_planner import TaskProblem
-from s3o_drake.world.scenario import METHODS, parse_scenario
+from s3o_drake.world.choices import METHODS
+from s3o_drake.world.scenario import parse_scenario
 
 # A cup on the left of a table and a plate on its right: the line x = 3 splits their cells.
 SCENE = """

@@ -26,8 +26,9 @@ from s3o_drake.feasibility.reachability_build import build_map
 from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.furniture import DISH_KINDS
+from s3o_drake.world.map import Chair
 from s3o_drake.world.robot import ARM_BASE_LINK, GRASP_FRAME, add_robot, robot_positions
-from s3o_drake.world.scenario import Chair, load_scenario
+from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 # In front of the plate, facing it (north), 0.34 m from the table's edge.
@@ -84,19 +85,19 @@ def test_far_away_and_under_the_table_are_infeasible(method, by_map, by_ik):
 
 def test_a_chair_on_the_feasible_spot_makes_it_infeasible(scene, reachability):
     blocker = Chair(name="blocker", pose=[FRONT_OF_PLATE[0], FRONT_OF_PLATE[1], 0.0])
-    scenario = dataclasses.replace(scene.scenario, chairs=[*scene.scenario.chairs, blocker])
-    cluttered = FeasibilityScene(scenario)
+    contents = dataclasses.replace(scene.contents, chairs=(*scene.contents.chairs, blocker))
+    cluttered = FeasibilityScene(contents)
     assert FeasibilityChecker(scene, reachability).check(FRONT_OF_PLATE, "plate_a").feasible
     result = FeasibilityChecker(cluttered, reachability).check(FRONT_OF_PLATE, "plate_a")
     assert not result.feasible and result.reason == "base_collision"
 
 
-def _min_robot_environment_distance(scenario, q, dish) -> float:
+def _min_robot_environment_distance(contents, q, dish) -> float:
     """Smallest distance between the robot and the rest, by a fresh scene graph query.
 
     The gripper's distance to the grasped dish does not count (it touches it).
     """
-    world = FeasibilityScene(scenario)
+    world = FeasibilityScene(contents)
     plant = world.plant
     context = world.diagram.CreateDefaultContext()
     plant.SetPositions(plant.GetMyMutableContextFromRoot(context), world.robot, q)
@@ -140,10 +141,10 @@ def test_returned_configuration_is_free_and_grasps_the_target(method, scene, by_
                 continue
             found += 1
             # Independently: a fresh checker, and a fresh scene graph distance query.
-            fresh = FeasibilityScene(scene.scenario)
+            fresh = FeasibilityScene(scene.contents)
             with fresh.grasping(dish):
                 assert fresh.checker.CheckConfigCollisionFree(result.q)
-            assert _min_robot_environment_distance(scene.scenario, result.q, dish) >= 0.0099
+            assert _min_robot_environment_distance(scene.contents, result.q, dish) >= 0.0099
             grasp = next(g for g in checker.grasps(base, dish, offset) if g.kind == result.grasp)
             angle, distance = grasp_error(fresh, result.q, grasp.X_WG)
             assert distance <= POSITION_TOLERANCE and angle <= ANGLE_TOLERANCE
@@ -309,7 +310,7 @@ def test_plan_view_shortcuts_agree_with_drake(scenario_path):
     from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
 
     scenario = load_scenario(scenario_path)
-    scene = FeasibilityScene(scenario)
+    scene = FeasibilityScene(scenario.contents)
     rng = np.random.default_rng(5)
     x0, y0, x1, y1 = scenario.room.bounds
     n = 3000
@@ -337,9 +338,9 @@ def test_the_posed_shortcut_agrees_with_drake_next_to_furniture(scenario_path):
     from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
 
     scenario = load_scenario(scenario_path)
-    scene = FeasibilityScene(scenario)
+    scene = FeasibilityScene(scenario.contents)
     rng = np.random.default_rng(7)
-    rings = Obstacles.of_scenario(scenario).union.buffer(0.25).boundary
+    rings = Obstacles.of_contents(scenario.contents).union.buffer(0.25).boundary
     n = 3000
     on_ring = shapely.get_coordinates(shapely.line_interpolate_point(
         rings, rng.uniform(0, 1, n), normalized=True))

@@ -19,9 +19,10 @@ from s3o_drake.feasibility.reachability import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.goals import with_place_targets
+from s3o_drake.world.map import Chair
 from s3o_drake.world.placing import PLACE_TOLERANCE
 from s3o_drake.world.robot import BASE_WIDTH
-from s3o_drake.world.scenario import Chair, load_scenario
+from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -36,7 +37,7 @@ def rmap():
 
 
 def _oracle(scenario, rmap) -> FeasibilityOracle:
-    return FeasibilityOracle(FeasibilityChecker(FeasibilityScene(scenario), rmap),
+    return FeasibilityOracle(FeasibilityChecker(FeasibilityScene(scenario.contents), rmap),
                              scenario.uncertainty)
 
 

@@ -17,7 +17,8 @@ from s3o_drake.planning.methods import plan_task
 from s3o_drake.planning.motion_search import SequenceProblem, grop_star, location_regions
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.world.random_scenes import SceneShape, random_scene
-from s3o_drake.world.scenario import Planner, load_scenario
+from s3o_drake.world.scenario import load_scenario
+from s3o_drake.world.settings import PlanningSettings
 
 SEQUENCE = [("goto", "l0"), ("pickup", "plate_a"), ("goto", "l1"), ("pickup", "cup_b")]
 
@@ -77,9 +78,9 @@ def test_soak_scene_33_plans_free_stops():
     free-stop rule keeps, and S3O-GROP planned dish_2's stop inside it, 1 cm from free
     space. Every goto pose must be free by the execution's own check."""
     scene = random_scene(0, 33, SceneShape(max_dishes=30),
-                         planner=Planner(time_budget=5.0, workers=1))
+                         planner=PlanningSettings(time_budget=5.0, workers=1))
     known = KnownWorld.perfect(scene)
-    checker = FeasibilityChecker(FeasibilityScene(known.as_scenario()))
+    checker = FeasibilityChecker(FeasibilityScene(known.contents))
     heatmaps: list[Heatmap] = ring_heatmaps(known)
     for method in ("S3O-GROP", "V-GROP"):
         plan = plan_task(known, method=method, heatmaps=heatmaps, seed=scene.seed,

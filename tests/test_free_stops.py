@@ -5,6 +5,7 @@ import pytest
 
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.feasibility.stops import FreeStops
 from s3o_drake.world.angles import facing_yaw
 
@@ -13,7 +14,7 @@ CELL = 4.0 / 64
 
 @pytest.fixture(scope="module")
 def stops(scenario) -> FreeStops:
-    return FreeStops(KnownWorld.perfect(scenario))
+    return PlanningScene(KnownWorld.perfect(scenario)).free_stops
 
 
 def _disc_heatmap(scenario, dish: str, radius: float) -> Heatmap:
@@ -98,7 +99,7 @@ def test_planned_stops_are_free_in_a_crowded_task(method):
     scenario = load_scenario("scenarios/generated/task_003.yaml")
     known = KnownWorld.perfect(scenario)
     heatmaps = [_disc_heatmap(scenario, d.name, 1.3) for d in scenario.dishes]
-    check = FeasibilityChecker(FeasibilityScene(known.as_scenario()), method="ik")
+    check = FeasibilityChecker(FeasibilityScene(known.contents), method="ik")
     model = {h.dish: h for h in heatmaps}
     poses = []
     for seed in range(3):

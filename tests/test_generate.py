@@ -154,8 +154,9 @@ def test_a_chair_that_closes_the_aisle_to_a_dish_is_named_and_redrawn(dense_task
     stop for every dish."""
     import dataclasses
 
-    from s3o_drake.planning.pipeline import dishes_without_stops
-    from s3o_drake.world.scenario import Chair, Dish
+    from s3o_drake.experiments.generation import dishes_without_stops
+    from s3o_drake.world.map import Chair
+    from s3o_drake.world.objects import Dish
 
     dense = load_scenario(REPO / "scenarios" / "restaurant_dense.yaml")
     cup = Dish(name="cup_1", table="small_3", position=[1.224, 2.4393], kind="cup")
@@ -177,7 +178,7 @@ def test_tasks_at_scale_have_their_dishes_and_chairs_and_a_stop_for_each_dish(tm
     """--dishes 12 --chairs 3: twelve dishes, three chairs each near a dish of the task,
     and every dish keeps a stop that a drive reaches; the shipped scale tasks are what
     the generator makes."""
-    from s3o_drake.planning.pipeline import dishes_without_stops
+    from s3o_drake.experiments.generation import dishes_without_stops
 
     assert generate_main(["--dishes", "12", "--chairs", "3", "--count", "1", "--seed", "0",
                           "--out", str(tmp_path), "--quiet"]) == 0
@@ -206,7 +207,7 @@ def test_a_dish_whose_only_way_passes_a_chair_by_millimetres_is_named_with_a_mar
     of the study reached them. `generate --check` lists such tasks."""
     import shutil
 
-    from s3o_drake.planning.pipeline import dishes_without_stops
+    from s3o_drake.experiments.generation import dishes_without_stops
 
     dense = REPO / "scenarios" / "generated_dense"
     task = load_scenario(dense / "task_045.yaml")

@@ -14,7 +14,9 @@ from s3o_drake.world.goals import (
     place_targets,
     placed_object,
 )
-from s3o_drake.world.scenario import ScenarioError, load_scenario, parse_scenario, surface_height
+from s3o_drake.world.objects import surface_height
+from s3o_drake.world.scenario import load_scenario, parse_scenario
+from s3o_drake.world.scenario_checks import ScenarioError
 
 TIDY = Path(__file__).resolve().parent.parent / "scenarios" / "tidy_home.yaml"
 
@@ -33,8 +35,8 @@ def test_the_apple_goes_onto_the_plate_at_the_plates_top():
     assert as_dish.elevation == pytest.approx(DISH_SHAPES["plate"].height)
     # Standing there, in the feasibility scene and the world, it is on the plate's top.
     scene_scenario = dataclasses.replace(scenario, dishes=[*scenario.dishes, as_dish])
-    assert surface_height(scene_scenario, as_dish) == pytest.approx(apple.surface)
-    scene = FeasibilityScene(scene_scenario)
+    assert surface_height(scene_scenario.tables, as_dish) == pytest.approx(apple.surface)
+    scene = FeasibilityScene(scene_scenario.contents)
     p_WD, z = scene.dish_p_WD("apple__place")
     assert z == pytest.approx(apple.surface) and tuple(p_WD) == apple.position
     X_WD = scene.plant.EvalBodyPoseInWorld(scene.plant.CreateDefaultContext(),

@@ -25,7 +25,8 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from s3o_drake.commands.run_scenario import main as run_main
-from s3o_drake.world.scenario import ScenarioError, load_scenario
+from s3o_drake.world.scenario import load_scenario
+from s3o_drake.world.scenario_checks import ScenarioError
 
 REPO = Path(__file__).resolve().parent.parent
 BASES = [REPO / "scenarios" / "restaurant.yaml",

@@ -13,8 +13,9 @@ from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.commands.navigation_benchmark import benchmark, main
 from s3o_drake.feasibility.scene import ENVIRONMENT_PADDING
 from s3o_drake.planning.navigation import DRIVE_RADIUS, INSCRIBED_TOLERANCE, NavigationMap
+from s3o_drake.world.map import Room, Table
 from s3o_drake.world.robot import BASE_RADIUS, INSCRIBED_RADIUS
-from s3o_drake.world.scenario import Room, Scenario, Table, load_scenario
+from s3o_drake.world.scenario import Scenario, load_scenario
 
 RESTAURANT = "scenarios/restaurant.yaml"
 

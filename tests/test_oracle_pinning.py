@@ -40,7 +40,7 @@ def test_the_heatmap_is_the_expected_success_of_a_noisy_landing(oracle):
     """Where the heatmap is neither 0 nor 1, its value is the mean of S over landings drawn
     from the noise (S: the success from where a landing at that point picks), times the
     chance that the fingers catch the dish."""
-    dish = oracle.checker.scene.scenario.dishes[0]
+    dish = oracle.checker.scene.contents.dishes[0]
     heatmap = oracle.heatmap(dish.name)
     values = heatmap.values.ravel()
     rng = np.random.default_rng(3)

@@ -9,8 +9,10 @@ import pytest
 from shapely.geometry import Point
 
 from s3o_drake.belief import ChairPerception, draw_chairs, perceived_chairs
+from s3o_drake.belief.known_world import Briefing
 from s3o_drake.commands.perception_benchmark import match, true_chairs
 from s3o_drake.world.builder import render_overhead
+from s3o_drake.world.camera import overhead_camera
 from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
@@ -36,7 +38,7 @@ def two_dishes():
 
 def test_finds_the_unmapped_chair_of_a_small_scene(two_dishes):
     scenario, images = two_dishes
-    _assert_found(scenario, perceived_chairs(scenario, images))
+    _assert_found(scenario, perceived_chairs(Briefing.of(scenario), images))
 
 
 @pytest.mark.parametrize("task", ["task_016"])
@@ -44,14 +46,16 @@ def test_finds_every_unmapped_chair_of_a_generated_task(task):
     # task_016: a chair whose backrest faces the image centre, so the camera sees the
     # floor under its seat from the side and the blob comes in two pieces.
     scenario = load_scenario(REPO / "scenarios" / "generated" / f"{task}.yaml")
-    _assert_found(scenario, perceived_chairs(scenario, render_overhead(scenario)[:3]))
+    _assert_found(scenario, perceived_chairs(Briefing.of(scenario),
+                                             render_overhead(scenario)[:3]))
 
 
 def test_two_touching_chairs_are_found_as_two():
     # Dense task_080: two chairs that touch make one blob; taken for one chair between
     # them, the other was off the map and blocked the robot's drives.
     scenario = load_scenario(REPO / "scenarios" / "generated_dense" / "task_080.yaml")
-    _assert_found(scenario, perceived_chairs(scenario, render_overhead(scenario)[:3]))
+    _assert_found(scenario, perceived_chairs(Briefing.of(scenario),
+                                             render_overhead(scenario)[:3]))
 
 
 def test_a_blob_is_split_only_when_one_chair_cannot_make_it():
@@ -80,14 +84,14 @@ def test_a_blob_is_split_only_when_one_chair_cannot_make_it():
 def test_a_scene_without_chairs_gives_none(two_dishes):
     scenario, _ = two_dishes
     empty = dataclasses.replace(scenario, chairs=[])
-    assert perceived_chairs(empty, render_overhead(empty)[:3]) == []
+    assert perceived_chairs(Briefing.of(empty), render_overhead(empty)[:3]) == []
 
 
 def test_mapped_chairs_are_not_reported(two_dishes):
     scenario, _ = two_dishes
     mapped = dataclasses.replace(
         scenario, chairs=[dataclasses.replace(c, mapped=True) for c in scenario.chairs])
-    assert perceived_chairs(mapped, render_overhead(mapped)[:3]) == []
+    assert perceived_chairs(Briefing.of(mapped), render_overhead(mapped)[:3]) == []
 
 
 def test_takes_the_images_as_the_world_diagram_produces_them(two_dishes):
@@ -100,7 +104,8 @@ def test_takes_the_images_as_the_world_diagram_produces_them(two_dishes):
     color, depth, label = (diagram.GetOutputPort(f"overhead_{name}_image").Eval(context).data
                            for name in ("color", "depth", "label"))
     assert color.shape[2] == 4 and depth.shape[2] == 1 and label.shape[2] == 1
-    found = ChairPerception(scenario)(color, depth[:, :, 0], label[:, :, 0])
+    perception = ChairPerception(scenario.map, scenario.camera, pose=scenario.robot.start)
+    found = perception(color, depth[:, :, 0], label[:, :, 0])
     _assert_found(scenario, found)
     assert all(isinstance(v, float) for pose in found for v in pose)
     assert all(-math.pi <= pose[2] < math.pi for pose in found)
@@ -109,11 +114,13 @@ def test_takes_the_images_as_the_world_diagram_produces_them(two_dishes):
 def test_rejects_an_image_of_the_wrong_size(two_dishes):
     scenario, (color, depth, label) = two_dishes
     with pytest.raises(ValueError, match="depth"):
-        ChairPerception(scenario)(color, depth[:-1], label)
+        perception = ChairPerception(scenario.map, scenario.camera, pose=scenario.robot.start)
+        perception(color, depth[:-1], label)
 
 
 def test_draws_the_chairs_on_the_overhead_image(two_dishes):
     scenario, (color, _, _) = two_dishes
-    picture = draw_chairs(scenario, color, true_chairs(scenario))
+    camera = overhead_camera(scenario.room, scenario.camera)
+    picture = draw_chairs(camera, color, true_chairs(scenario))
     assert picture.shape == (*color.shape[:2], 3) and picture.dtype == np.uint8
     assert np.any(np.all(picture == (0, 200, 0), axis=2))

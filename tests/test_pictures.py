@@ -23,7 +23,7 @@ from s3o_drake.world.camera import overhead_camera
 def heatmaps(scenario):
     """Coarse oracle heatmaps of the two dishes (32 x 32 cells: fast)."""
     known = KnownWorld.perfect(scenario)
-    return compute_heatmaps(known.as_scenario(), cells=32, progress=False,
+    return compute_heatmaps(known, cells=32, progress=False,
                             obstacles=known.obstacles)
 
 
@@ -88,7 +88,7 @@ def test_feasibility_shows_each_dish_in_a_panel_of_its_own(scenario, heatmaps, t
 def test_overhead_picture_has_axes_in_metres(scenario, tmp_path):
     """The camera's image is drawn over the floor it sees: its outer pixels' edges are the
     extent's corners, and the room lies inside."""
-    camera = overhead_camera(scenario)
+    camera = overhead_camera(scenario.room, scenario.camera)
     x0, x1, y0, y1 = camera.floor_extent()
     assert camera.pixel_of([x0, y1, 0.0]) == pytest.approx([-0.5, -0.5])
     assert camera.pixel_of([x1, y0, 0.0]) == pytest.approx([camera.width - 0.5,

@@ -10,8 +10,8 @@ from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.planning.pipeline import heatmaps_for, plan_from
 from s3o_drake.planning.plan import Goto
+from s3o_drake.world.map import Chair
 from s3o_drake.world.obstacles import Obstacles
-from s3o_drake.world.scenario import Chair
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +22,7 @@ def known(scenario) -> KnownWorld:
 @pytest.fixture(scope="module")
 def heatmaps(known):
     """Coarse oracle heatmaps of the known world (32 x 32 cells: fast)."""
-    return compute_heatmaps(known.as_scenario(), cells=32, progress=False,
+    return compute_heatmaps(known, cells=32, progress=False,
                             obstacles=known.obstacles)
 
 
@@ -30,7 +30,7 @@ def test_the_known_world_holds_the_map_and_what_was_perceived_never_the_truth(sc
     """The unmapped chair of the scenario is not in the KnownWorld unless perceived; mapped
     chairs are, and the obstacles are exactly those."""
     blind = KnownWorld.of(scenario, perceived_chairs=[])
-    assert blind.chair_poses == () and blind.settings.chairs == []
+    assert blind.chair_poses == () and blind.map.chairs == ()
     assert blind.pose == tuple(scenario.robot.start)
     assert [d.name for d in blind.dishes] == ["plate_a", "cup_b"]
     assert len(blind.obstacles.footprints) == len(scenario.tables)
@@ -44,16 +44,19 @@ def test_the_known_world_holds_the_map_and_what_was_perceived_never_the_truth(sc
     assert KnownWorld.of(mapped, perceived_chairs=[]).chair_poses == ((3.0, 1.0, 0.5),)
 
 
-def test_as_scenario_is_the_known_world_for_the_drake_oracle(scenario):
+def test_the_known_world_s_plant_holds_the_perceived_chairs_and_what_remains(scenario):
     known = KnownWorld.of(scenario, perceived_chairs=[[3.0, 1.0, 0.5]], pose=[1.0, 1.2, 0.3],
                           dishes=["cup_b"])
-    s = known.as_scenario()
-    assert [(c.name, c.pose, c.mapped) for c in s.chairs] == [("perceived_0", [3.0, 1.0, 0.5],
-                                                                False)]
-    assert [d.name for d in s.dishes] == ["cup_b"] and s.robot.start == [1.0, 1.2, 0.3]
-    assert s.tables == scenario.tables and s.planner == scenario.planner
+    c = known.contents
+    assert [(ch.name, ch.pose, ch.mapped) for ch in c.chairs] == [("perceived_0",
+                                                                    [3.0, 1.0, 0.5], False)]
+    assert [d.name for d in c.dishes] == ["cup_b"] and c.start == (1.0, 1.2, 0.3)
+    assert c.tables == tuple(scenario.tables) and known.planner == scenario.planner
     # The oracle's clearance test of the known world sees the same obstacles.
-    assert Obstacles.of_scenario(s).union.equals(known.obstacles.union)
+    assert Obstacles.of_contents(c).union.equals(known.obstacles.union)
+    # Neither the true world's unmapped chair nor its settings' robot start is in it.
+    truth = {tuple(ch.pose) for ch in scenario.chairs if not ch.mapped}
+    assert truth and not truth & {tuple(ch.pose) for ch in c.chairs}
 
 
 def test_the_obstacle_geometry_is_built_once_and_shared(known):
@@ -91,8 +94,8 @@ def test_moved_keeps_the_map_and_changes_what_changes(known):
     later = known.moved(pose=[1.5, 1.0, 0.2], dishes=["plate_a"])
     assert later.pose == (1.5, 1.0, 0.2) and later.dish_names == ["plate_a"]
     assert later.perceived_chairs == known.perceived_chairs
-    assert later.settings.tables == known.settings.tables
-    assert later.as_scenario().robot.start == [1.5, 1.0, 0.2]
+    assert later.map == known.map and later.settings == known.settings
+    assert later.contents.start == (1.5, 1.0, 0.2)
 
 
 def test_plan_from_returns_the_plan_and_what_it_was_made_on(known, heatmaps):
@@ -184,8 +187,8 @@ def test_dishes_left_out_on_the_network_alone_are_unchecked(known, heatmaps, mon
     lost = known.dish_names[0]
     real = pipeline._plan
 
-    def losing(known, method, maps, seed, budget, *rest):
-        result = real(known, method, maps, seed, 60.0, *rest)
+    def losing(known, scene, method, maps, seed, budget, *rest):
+        result = real(known, scene, method, maps, seed, 60.0, *rest)
         return dataclasses.replace(result, plan=dataclasses.replace(
             result.plan, unreachable=(lost,)))
 
@@ -196,8 +199,8 @@ def test_dishes_left_out_on_the_network_alone_are_unchecked(known, heatmaps, mon
     assert result.unchecked == (lost,)
     # The check ran and found no stop: left out for good.
     empty = [dataclasses.replace(h, values=np.zeros_like(h.values)) for h in heatmaps]
-    monkeypatch.setattr(pipeline, "compute_heatmaps",
-                        lambda scenario, dishes, **kwargs: [
+    monkeypatch.setattr(pipeline, "oracle_heatmaps",
+                        lambda oracle, dishes, **kwargs: [
                             next(h for h in empty if h.dish == d) for d in dishes])
     result = plan_from(known, method="V-GROP", heatmaps=heatmaps, feasibility="fcn",
                        time_budget=60.0)

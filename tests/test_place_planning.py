@@ -11,7 +11,8 @@ from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.methods import plan_task
 from s3o_drake.planning.plan import Goto, Pickup, Place, TaskMotionPlan
-from s3o_drake.world.scenario import METHODS, load_scenario
+from s3o_drake.world.choices import METHODS
+from s3o_drake.world.scenario import load_scenario
 
 TIDY = Path(__file__).resolve().parent.parent / "scenarios" / "tidy_home.yaml"
 
@@ -27,7 +28,7 @@ def test_the_known_world_plans_for_objects_and_place_targets(known):
     assert known.dish_names == ["can_1", "can_2", "apple", "can_3", "apple__place"]
     assert [d.name for d in known.fixtures] == ["plate"]
     assert known.places == {"apple": "apple__place"}
-    assert {d.name for d in known.as_scenario().dishes} == {*known.dish_names, "plate"}
+    assert {d.name for d in known.contents.dishes} == {*known.dish_names, "plate"}
     later = known.moved(pose=(1.0, 1.0, 0.0), dishes=["can_3", "apple"])
     assert later.dish_names == ["apple", "can_3", "apple__place"]
     assert later.moved(pose=(1.0, 1.0, 0.0), dishes=["can_3"]).places == {}
@@ -37,7 +38,7 @@ def test_the_known_world_plans_for_objects_and_place_targets(known):
 def test_every_method_picks_the_apple_then_puts_it_down_on_the_plate(known, method):
     plan = plan_task(known, method=method, heatmaps=ring_heatmaps(known), seed=0,
                      time_budget=10.0).plan
-    checker = FeasibilityChecker(FeasibilityScene(known.as_scenario()))
+    checker = FeasibilityChecker(FeasibilityScene(known.contents))
     assert plan_faults(known, plan, checker.base_free) == []
     (place,) = plan.places
     # (V-PETLON draws its stops at random in the location's region: Fea^m may be 0 there.)

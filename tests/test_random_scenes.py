@@ -20,7 +20,8 @@ from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.choices import METHODS
 from s3o_drake.world.random_scenes import SceneShape, random_scene
-from s3o_drake.world.scenario import Planner, validate_scenario
+from s3o_drake.world.scenario_checks import validate_scenario
+from s3o_drake.world.settings import PlanningSettings
 
 EXAMPLES = settings(max_examples=int(os.environ.get("S3O_PROPERTY_EXAMPLES", "3")),
                     deadline=None, database=None, derandomize=True,
@@ -28,7 +29,7 @@ EXAMPLES = settings(max_examples=int(os.environ.get("S3O_PROPERTY_EXAMPLES", "3"
 SHAPE = SceneShape(max_dishes=int(os.environ.get("S3O_PROPERTY_DISHES", "8")), max_chairs=8,
                    boxed_in=0.3)
 # Small searches: the properties hold for any size, and the suite's time is short.
-CHEAP = Planner(feasibility="oracle", top_k=2, cma_generations=2, cma_population=4,
+CHEAP = PlanningSettings(feasibility="oracle", top_k=2, cma_generations=2, cma_population=4,
                 location_samples=10, workers=1)
 # Stages that cannot be interrupted (building the collision checker, the navigation map)
 # overshoot a passed deadline by their length, up to ~0.1 s: 5 % of 2 s.
@@ -37,7 +38,7 @@ BUDGET = 2.0
 
 def _check(scene, budget: float = BUDGET) -> dict[str, dict]:
     known = KnownWorld.perfect(scene)
-    checker = FeasibilityChecker(FeasibilityScene(known.as_scenario()))
+    checker = FeasibilityChecker(FeasibilityScene(known.contents))
     rows = plan_and_check(known, heatmaps=ring_heatmaps(known), budget=budget,
                           base_free=checker.base_free)
     for method, row in rows.items():
@@ -77,7 +78,7 @@ def test_petlon_keeps_a_small_budget_in_a_crowded_scene():
     deadline (3.5 s for a 0.5 s budget): the draws now stop at the deadline."""
     scene = random_scene(0, 0, SHAPE, planner=CHEAP)
     known = KnownWorld.perfect(scene)
-    checker = FeasibilityChecker(FeasibilityScene(known.as_scenario()))
+    checker = FeasibilityChecker(FeasibilityScene(known.contents))
     heatmaps = ring_heatmaps(known)
     plan_and_check(known, heatmaps=heatmaps, budget=1.0, base_free=checker.base_free,
                    methods=["V-PETLON"])  # warm: the free-stop checker is built once

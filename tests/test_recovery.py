@@ -23,7 +23,8 @@ from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.obstacles import CONTACT_RADIUS
 from s3o_drake.world.robot import robot_desired_state, robot_positions
-from s3o_drake.world.scenario import Uncertainty, load_scenario
+from s3o_drake.world.scenario import load_scenario
+from s3o_drake.world.settings import Uncertainty
 from tests.test_systems_s3o_planner import _context, _step, _with_oracle
 
 SCENE = "scenarios/small/opposite_sides.yaml"
@@ -107,11 +108,11 @@ def test_where_the_robot_stands_is_rated_by_the_model_and_moves_go_to_free_stops
     """The stop check rates the believed position with the model's Fea^m (the robot stands
     there: whether a stop *sent* there would collide is not the question), and corrects
     only to free stops, the plan's heatmap cells with Fea^m > 0."""
-    from s3o_drake.feasibility.stops import FreeStops
+    from s3o_drake.feasibility.planning_scene import PlanningScene
 
     known = KnownWorld.perfect(scenario)
     model = tuple(heatmaps_for(known, source="oracle"))
-    plan = FreeStops(known).restrict_all(model)
+    plan = PlanningScene(known).free_stops.restrict_all(model)
     check = StopCheck(known, plan, model_heatmaps=model)
     south = next(h for h in model if h.dish == "bowl_south")
     kept = next(h for h in plan if h.dish == "bowl_south")

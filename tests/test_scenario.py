@@ -7,13 +7,9 @@ import pytest
 import yaml
 
 from s3o_drake.commands.run_scenario import main as run_main
-from s3o_drake.world.scenario import (
-    METHODS,
-    ScenarioError,
-    dump_scenario,
-    load_scenario,
-    parse_scenario,
-)
+from s3o_drake.world.choices import METHODS
+from s3o_drake.world.scenario import dump_scenario, load_scenario, parse_scenario
+from s3o_drake.world.scenario_checks import ScenarioError
 
 REPO = Path(__file__).resolve().parent.parent
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -324,7 +320,8 @@ def test_a_place_on_a_table_and_two_places_that_overlap():
 
 
 def test_overrides_replace_fields_and_are_checked_like_the_file():
-    from s3o_drake.world.scenario import ScenarioError, with_overrides
+    from s3o_drake.world.scenario import with_overrides
+    from s3o_drake.world.scenario_checks import ScenarioError
 
     base = load_scenario(REPO / "scenarios" / "restaurant.yaml")
     changed = with_overrides(base, ["planner.top_k=8", "uncertainty.nav_xy_std=0.2",

@@ -36,8 +36,9 @@ from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.dish_messages import DishPoses, DishState, GripEvent
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import with_place_targets
+from s3o_drake.world.objects import Place
 from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
-from s3o_drake.world.scenario import Place, load_scenario
+from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parent.parent
 FRONT_OF_PLATE = np.array([1.85, 1.45, math.pi / 2])
@@ -244,7 +245,7 @@ def tidy(scenario):
     scenario = dataclasses.replace(scenario, dishes=[
         dataclasses.replace(plate, goal="stay"),
         dataclasses.replace(cup, goal="place", place=Place(onto="plate_a"))])
-    scene = FeasibilityScene(with_place_targets(scenario))
+    scene = FeasibilityScene(with_place_targets(scenario).contents)
     return scenario, scene, FeasibilityChecker(scene)
 
 
@@ -417,7 +418,7 @@ def test_an_object_to_place_is_picked_with_a_grasp_it_can_be_put_down_with():
     place's stop, the pickup takes the side grasp and the place succeeds; not told, it
     takes the top grasp and the place fails no_ik."""
     tidy = load_scenario(REPO / "scenarios" / "tidy_home.yaml")
-    scene = FeasibilityScene(with_place_targets(tidy))
+    scene = FeasibilityScene(with_place_targets(tidy).contents)
     checker = FeasibilityChecker(scene)
     pick_at, place_at = np.array([2.4, 4.0, math.pi]), (4.95, 2.7, math.pi / 2)
     assert place_grasps(scene, checker, np.array(place_at), "apple__place") == ["side"]
@@ -440,7 +441,7 @@ def test_a_place_grasp_is_rated_by_the_landings_at_the_place():
     (4.95, 2.7) only a side grasp: landings that put the base twice at the second and once
     at the first rank the side grasp first; the stop alone ranks only the top grasp."""
     tidy = with_place_targets(load_scenario(REPO / "scenarios" / "tidy_home.yaml"))
-    scene = FeasibilityScene(tidy)
+    scene = FeasibilityScene(tidy.contents)
     checker = FeasibilityChecker(scene)
     stop = np.array([5.5, 3.75, math.pi])
     assert place_grasps(scene, checker, stop, "apple__place") == ["top"]

@@ -389,7 +389,7 @@ def dense():
     from s3o_drake.world.scenario import load_scenario
 
     scenario = dataclasses.replace(load_scenario("scenarios/restaurant_dense.yaml"), chairs=[])
-    return scenario, FeasibilityScene(scenario)
+    return scenario, FeasibilityScene(scenario.contents)
 
 
 def test_a_base_that_cannot_leave_a_tight_spot_goes_back_the_way_it_came(dense):

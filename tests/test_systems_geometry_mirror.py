@@ -119,7 +119,7 @@ def test_camera_sees_the_robot_where_the_simulation_moved_it():
     after = robot_centroid_px()
     # The robot's pixels moved by the base's 0.5 m along the image's u axis (camera x is
     # world x), at the scale of the robot's height band (floor to ~1.2 m).
-    camera = overhead_camera(scenario)
+    camera = overhead_camera(scenario.room, scenario.camera)
     height = scenario.camera.height
     du, dv = after - before
     assert 0.5 * camera.focal / height < du < 0.5 * camera.focal / (height - 1.3)

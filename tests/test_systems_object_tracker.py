@@ -22,6 +22,7 @@ from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, Grip
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import surface_below
 from s3o_drake.world.object_tracker import STANDING_TILT, AddObjectTracker
+from s3o_drake.world.objects import Place
 from s3o_drake.world.robot import (
     ARM_STOW,
     GRASP_FRAME,
@@ -31,7 +32,6 @@ from s3o_drake.world.robot import (
     robot_desired_state,
     robot_positions,
 )
-from s3o_drake.world.scenario import Place
 
 ARM_REACHING = np.array([0.3, -0.6, 1.2, -2.2, -1.571, 0.4])
 
@@ -47,7 +47,7 @@ def tracker_and_plant(scenario):
 def test_adding_a_tracker_needs_a_finalized_plant(scenario):
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.0), builder)
-    models = populate_plant(plant, scene_graph, scenario, dishes=False)
+    models = populate_plant(plant, scene_graph, scenario.contents, dishes=False)
     sources = scene_graph.model_inspector().num_sources()
     with pytest.raises(ValueError, match="finalized"):
         AddObjectTracker(builder, scenario=scenario, plant=plant, robot=models.robot,
@@ -217,7 +217,7 @@ def test_released_dish_not_placed_drops_to_the_floor(tracker_and_plant):
 def _tracker_of(scenario):
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=0.0), builder)
-    models = populate_plant(plant, scene_graph, scenario, dishes=False)
+    models = populate_plant(plant, scene_graph, scenario.contents, dishes=False)
     plant.Finalize()
     tracker = AddObjectTracker(builder, scenario=scenario, plant=plant, robot=models.robot,
                                scene_graph=scene_graph)
@@ -302,7 +302,7 @@ def test_world_with_tracked_dishes_sees_them_on_the_tables(scenario):
     assert world.GetOutputPort("dish_states").Eval(world_context) == {
         "plate_a": DishState.TABLE, "cup_b": DishState.TABLE}
     poses = world.GetOutputPort("dish_poses").Eval(world_context)
-    camera = overhead_camera(scenario)
+    camera = overhead_camera(scenario.room, scenario.camera)
     depth = world.GetOutputPort("overhead_depth_image").Eval(world_context).data[:, :, 0]
     label = world.GetOutputPort("overhead_label_image").Eval(world_context).data[:, :, 0]
     labels = world.GetSubsystemByName("object_tracker").labels

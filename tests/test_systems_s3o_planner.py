@@ -148,7 +148,7 @@ def test_perception_decides_the_obstacles(scenario):
     assert seen == [((8, 8, 4), (8, 8), (8, 8))]
     known = system.GetOutputPort("planning_result").Eval(context).known
     assert known.perceived_chairs == ((1.0, 1.0, 0.0),)
-    assert known.settings.chairs == [c for c in scenario.chairs if c.mapped]
+    assert known.map.chairs == tuple(c for c in scenario.chairs if c.mapped)
 
 
 def test_turns_to_face_each_further_dish_before_picking_it():

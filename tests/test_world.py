@@ -63,13 +63,19 @@ def test_dishes_stand_on_their_tables(restaurant):
         np.testing.assert_allclose(p_WD, [*dish.position, heights[dish.table]], atol=1e-9)
 
 
-def test_planning_plant_can_leave_out_unmapped_chairs():
+def test_a_belief_s_plant_holds_the_perceived_chairs_not_the_true_ones():
+    from s3o_drake.belief.known_world import KnownWorld
+
     scenario = load_scenario(REPO / "scenarios" / "restaurant.yaml")
     builder = RobotDiagramBuilder(time_step=0.0)
-    models = populate_plant(builder.plant(), builder.scene_graph(), scenario,
-                            unmapped_chairs=False)
+    blind = KnownWorld.of(scenario, perceived_chairs=[])
+    models = populate_plant(builder.plant(), builder.scene_graph(), blind.contents)
     assert models.chairs == {}
     assert len(models.tables) == 7 and len(models.dishes) == 6
+    seen = KnownWorld.of(scenario, perceived_chairs=[(2.0, 2.0, 0.3)])
+    builder = RobotDiagramBuilder(time_step=0.0)
+    models = populate_plant(builder.plant(), builder.scene_graph(), seen.contents)
+    assert list(models.chairs) == ["perceived_0"]
 
 
 def _label_of(diagram, model_name: str) -> int:
@@ -93,7 +99,7 @@ def _label_of(diagram, model_name: str) -> int:
 
 def test_overhead_camera_sees_tables_dishes_and_chairs_where_they_are(restaurant):
     scenario, diagram, context = restaurant
-    camera = overhead_camera(scenario)
+    camera = overhead_camera(scenario.room, scenario.camera)
     depth = diagram.GetOutputPort("overhead_depth_image").Eval(context).data[:, :, 0]
     label = diagram.GetOutputPort("overhead_label_image").Eval(context).data[:, :, 0]
     color = diagram.GetOutputPort("overhead_color_image").Eval(context).data
@@ -135,7 +141,7 @@ def test_overhead_camera_sees_tables_dishes_and_chairs_where_they_are(restaurant
 
 def test_camera_maps_pixels_back_to_the_floor():
     scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
-    camera = overhead_camera(scenario)
+    camera = overhead_camera(scenario.room, scenario.camera)
     for p_W in ([0.0, 0.0, 0.0], [4.0, 4.0, 0.0], [1.0, 3.0, 0.75]):
         u, v = camera.pixel_of(p_W)
         np.testing.assert_allclose(camera.point_at(u, v, p_W[2]), p_W, atol=1e-9)

@@ -1,7 +1,8 @@
 """Perception from the overhead camera: what the robot's map lacks (the chairs).
 
-`ChairPerception(scenario)(color, depth, label)` returns the unmapped chairs' poses
-[x, y, yaw]; `perceived_chairs(scenario, images)` is the one-call form, and
+`ChairPerception(map, camera, pose=pose)(color, depth, label)` returns the unmapped chairs'
+poses [x, y, yaw], given only what the robot knows; `perceived_chairs(briefing, images)` is
+the one-call form, and
 `perceive_known_world` makes the planner's `KnownWorld` of them;
 `scenario_unmapped_chairs(scenario)` is perfect perception, for tests and comparisons. See `chairs`
 for the method and `s3o_drake.commands.perception_benchmark` for its accuracy.

@@ -38,21 +38,28 @@ The yaw reported is the direction the seat faces (the scenario's Chair.pose conv
 away from the backrest.
 """
 
+from __future__ import annotations
+
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 from scipy.optimize import minimize
 
 from s3o_drake.belief.blobs import blobs, split
-from s3o_drake.belief.known_world import KnownWorld, OverheadImages
+from s3o_drake.belief.known_world import Briefing, KnownWorld, OverheadImages
 from s3o_drake.world import furniture as fu
 from s3o_drake.world.angles import wrap
 from s3o_drake.world.camera import OverheadCamera, back_project, overhead_camera
+from s3o_drake.world.map import Map
 from s3o_drake.world.robot import footprint_polygon
-from s3o_drake.world.scenario import Scenario
+from s3o_drake.world.settings import Camera
+
+if TYPE_CHECKING:  # the truth, read only by perfect perception (tests, benchmarks)
+    from s3o_drake.world.scenario import Scenario
 
 OBSTACLE_HEIGHT = 0.10
 """Anything higher above the floor (m) that the map does not explain is an obstacle."""
@@ -95,7 +102,7 @@ class ChairModel:
     """Height (m) of the backrest's top view along the chair's x: (x values, heights)."""
 
     @classmethod
-    def from_furniture(cls) -> "ChairModel":
+    def from_furniture(cls) -> ChairModel:
         """The rectangles from the furniture dimensions the world builder uses."""
         half_d, half_w = fu.CHAIR_SEAT_DEPTH / 2, fu.CHAIR_SEAT_WIDTH / 2
         back_x, back_z = fu.chair_back_offset()
@@ -226,32 +233,30 @@ Perceive = Callable[[np.ndarray, np.ndarray, np.ndarray], list[list[float]]]
 class ChairPerception:
     """Finds the unmapped chairs in the overhead images: `__call__(color, depth, label)`.
 
-    Constructed with what the robot knows (its map): the scenario's room, tables, mapped
-    chairs and camera, and where the robot stands. The scenario's unmapped chairs are never
-    read. Returns the chairs' poses [x, y, yaw] (the seat's centre and the direction it
-    faces), sorted by x then y so that the output does not depend on blob numbering.
+    Constructed with what the robot knows: its map (the room, the tables, the mapped
+    chairs), the camera's settings, and where the robot stands. It is never given the true
+    world's unmapped chairs. Returns the chairs' poses [x, y, yaw] (the seat's centre and
+    the direction it faces), sorted by x then y so that the output does not depend on blob
+    numbering.
     """
 
-    def __init__(self, scenario: Scenario, *, pose: Sequence[float] | None = None,
+    def __init__(self, map: Map, camera: Camera, *, pose: Sequence[float],
                  cell: float | None = None):
-        """`pose`: where the robot stands, (x, y, yaw) (default: the scenario's start);
-        its own pixels are explained by it. `cell`: the top-view grid's cell (m); default
-        one camera pixel on the floor."""
-        self._camera = overhead_camera(scenario)
+        """`pose`: where the robot stands, (x, y, yaw); its own pixels are explained by it.
+        `cell`: the top-view grid's cell (m); default one camera pixel on the floor."""
+        self._camera = overhead_camera(map.room, camera)
         if cell is None:
-            cell = scenario.camera.height / self._camera.focal
-        self._bounds = list(scenario.room.bounds)
+            cell = camera.height / self._camera.focal
+        self._bounds = list(map.room.bounds)
         self._cell = cell
         self._model = ChairModel.from_furniture()
         self._samples = self._model.samples(cell)
         self._sample_heights = self._model.heights(self._samples)
         # The map's footprints; the room's walls are outside the grid, plus a rim of cells.
         shapes = [fu.table_footprint(t.center, t.yaw, t.size).buffer(MAP_MARGIN)
-                  for t in scenario.tables]
-        shapes += [fu.chair_footprint(c.pose).buffer(MAP_MARGIN)
-                   for c in scenario.chairs if c.mapped]
-        here = scenario.robot.start if pose is None else pose
-        shapes.append(footprint_polygon(*here).buffer(ROBOT_MARGIN))
+                  for t in map.tables]
+        shapes += [fu.chair_footprint(c.pose).buffer(MAP_MARGIN) for c in map.chairs]
+        shapes.append(footprint_polygon(*pose).buffer(ROBOT_MARGIN))
         self._map_shapes = shapes
         self._explained: np.ndarray | None = None
 
@@ -369,14 +374,16 @@ class ChairPerception:
         return [float(x), float(y), float(wrap(float(yaw)))]
 
 
-def perceived_chairs(scenario: Scenario, images: tuple[np.ndarray, np.ndarray, np.ndarray]
+def perceived_chairs(given: Briefing, images: tuple[np.ndarray, np.ndarray, np.ndarray]
                      ) -> list[list[float]]:
-    """The unmapped chairs found in (color, depth, label) overhead images of `scenario`."""
+    """The unmapped chairs found in (color, depth, label) overhead images, by a robot
+    `given` its map and settings, standing at its start."""
     color, depth, label = images
-    return ChairPerception(scenario)(color, depth, label)
+    return ChairPerception(given.map, given.settings.camera, pose=given.start)(color, depth,
+                                                                               label)
 
 
-def draw_chairs(scenario: Scenario, color: np.ndarray, poses: list[list[float]], *,
+def draw_chairs(camera: OverheadCamera, color: np.ndarray, poses: list[list[float]], *,
                 truth: list[list[float]] | None = None) -> np.ndarray:
     """The overhead colour image (RGB uint8) with chair footprints drawn on it.
 
@@ -384,7 +391,6 @@ def draw_chairs(scenario: Scenario, color: np.ndarray, poses: list[list[float]],
     centre in the direction it faces; `truth`, if given, in thin magenta. The outlines are
     drawn at seat height, where the camera sees the chairs.
     """
-    camera = overhead_camera(scenario)
     image = np.ascontiguousarray(np.asarray(color)[..., :3], dtype=np.uint8).copy()
 
     def pixels(xy) -> np.ndarray:
@@ -410,21 +416,21 @@ def scenario_unmapped_chairs(scenario: Scenario) -> Perceive:
     return lambda color, depth, label: [list(c) for c in chairs]
 
 
-def perceive_known_world(scenario: Scenario, images: tuple[np.ndarray, np.ndarray, np.ndarray],
+def perceive_known_world(given: Briefing, images: tuple[np.ndarray, np.ndarray, np.ndarray],
                          *, pose: Sequence[float], dishes: Sequence[str],
                          perceive: Perceive | None = None,
                          robot_labels: frozenset[int] = frozenset(),
                          held: str = "") -> KnownWorld:
     """What the robot knows, standing at `pose` with `dishes` left (`held`, one of them,
-    in the gripper), from the overhead (color, depth, label) images: its map (the
-    scenario's mapped furniture), the chairs perception finds (`perceive`, default
-    ChairPerception from where the robot stands), and the images the learned Fea^m reads
-    (`robot_labels`: the robot's own pixels)."""
+    in the gripper), from the overhead (color, depth, label) images: what it was `given`
+    (its map, the settings, the task's objects), the chairs perception finds (`perceive`,
+    default ChairPerception from where the robot stands), and the images the learned Fea^m
+    reads (`robot_labels`: the robot's own pixels)."""
     color, depth, label = images
     depth = np.asarray(depth)[..., 0] if np.ndim(depth) == 3 else np.asarray(depth)
     label = np.asarray(label)[..., 0] if np.ndim(label) == 3 else np.asarray(label)
-    find = perceive or ChairPerception(scenario, pose=pose)
+    find = perceive or ChairPerception(given.map, given.settings.camera, pose=pose)
     chairs = find(color, depth, label)
-    return KnownWorld.of(scenario, perceived_chairs=chairs, pose=pose, dishes=dishes,
+    return KnownWorld.of(given, perceived_chairs=chairs, pose=pose, dishes=dishes,
                          held=held, overhead=OverheadImages(depth=depth, label=label,
                                                  robot_labels=robot_labels))

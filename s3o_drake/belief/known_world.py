@@ -18,13 +18,20 @@ import dataclasses
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from s3o_drake.world.choices import Goal
+from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.goals import place_target_dishes, placed_object
+from s3o_drake.world.map import Chair, Map, Table
+from s3o_drake.world.objects import Dish
 from s3o_drake.world.obstacles import Obstacles, Pose2
-from s3o_drake.world.scenario import Chair, Dish, Scenario
+from s3o_drake.world.settings import PlanningSettings, Settings, Uncertainty
+
+if TYPE_CHECKING:  # the truth is read once, to make the first belief
+    from s3o_drake.world.scenario import Scenario
 
 
 def _pose(values: Iterable[float]) -> Pose2:
@@ -43,16 +50,43 @@ class OverheadImages:
 
 
 @dataclass(frozen=True)
+class Briefing:
+    """What the robot is given before it looks: its map, the settings, the task's objects
+    (what to collect or place, and where) and where it starts. Never the unmapped chairs:
+    those it knows only by perceiving them. A scenario's is `Briefing.of(scenario)`."""
+
+    map: Map
+    settings: Settings
+    objects: tuple[Dish, ...]
+    start: Pose2
+
+    @classmethod
+    def of(cls, scenario: Scenario) -> Briefing:
+        return cls(map=scenario.map, settings=scenario.settings,
+                   objects=tuple(scenario.dishes), start=_pose(scenario.robot.start))
+
+    @property
+    def tables(self) -> tuple[Table, ...]:
+        return self.map.tables
+
+    @property
+    def dishes(self) -> tuple[Dish, ...]:
+        """The objects (the name the schema and the goals' rules read)."""
+        return self.objects
+
+
+@dataclass(frozen=True)
 class KnownWorld:
     """What the robot knows when it plans.
 
-    `settings` is the scenario as a map and its settings: the room, the tables, the mapped
-    chairs only (never the unmapped ones: the robot knows those only by perceiving them),
-    no dishes, and the planner's, noise and camera settings. The rest is what changes
-    between plans: the perceived chairs, the dishes that remain, and the robot's pose.
+    `map` is what it was given of the room: the room, the tables, the mapped chairs only
+    (never the unmapped ones: the robot knows those only by perceiving them); `settings` are
+    the run's parameters. The rest is what changes between plans: the perceived chairs, the
+    objects that remain, and the robot's pose.
     """
 
-    settings: Scenario
+    map: Map
+    settings: Settings
     perceived_chairs: tuple[Pose2, ...]
     dishes: tuple[Dish, ...]
     """What the plan is for: the objects left to collect or to place, and the place target
@@ -72,27 +106,26 @@ class KnownWorld:
     checks (pickups, free stops) do not see them: the robot knows a point, not a shape."""
 
     @classmethod
-    def of(cls, scenario: Scenario, *, perceived_chairs: Iterable[Sequence[float]],
+    def of(cls, given: Briefing | Scenario, *, perceived_chairs: Iterable[Sequence[float]],
            pose: Sequence[float] | None = None, dishes: Iterable[str] | None = None,
            overhead: OverheadImages | None = None, held: str = "") -> KnownWorld:
-        """The robot's knowledge in `scenario` with these perceived chairs, standing at
-        `pose` (default: the scenario's start) with the objects `dishes` left (default:
-        all) and the place targets of those to place; `held` (one of `dishes`) is in the
-        gripper, so only its place target is planned for."""
+        """The robot's knowledge with what it was `given` (a Briefing, or a scenario's) and
+        these perceived chairs, standing at `pose` (default: its start) with the objects
+        `dishes` left (default: all) and the place targets of those to place; `held` (one
+        of `dishes`) is in the gripper, so only its place target is planned for."""
+        given = given if isinstance(given, Briefing) else Briefing.of(given)
         left = None if dishes is None else set(dishes)
-        kept = [d for d in scenario.dishes if d.goal != Goal.STAY.value
+        kept = [d for d in given.objects if d.goal != Goal.STAY.value
                 and (left is None or d.name in left) and d.name != held]
-        targets = {placed_object(t.name): t for t in place_target_dishes(scenario)}
+        targets = {placed_object(t.name): t for t in place_target_dishes(given)}
         kept += [t for name, t in targets.items() if left is None or name in left]
         if held and held not in targets:
             raise ValueError(f"held: {held!r} is no object to place")
-        here = _pose(scenario.robot.start if pose is None else pose)
-        settings = dataclasses.replace(
-            scenario, chairs=[c for c in scenario.chairs if c.mapped], dishes=[],
-            robot=dataclasses.replace(scenario.robot, start=list(here)))
-        return cls(settings=settings, perceived_chairs=tuple(_pose(p) for p in perceived_chairs),
+        here = given.start if pose is None else _pose(pose)
+        return cls(map=given.map, settings=given.settings,
+                   perceived_chairs=tuple(_pose(p) for p in perceived_chairs),
                    dishes=tuple(kept), pose=here, overhead=overhead,
-                   fixtures=tuple(d for d in scenario.dishes if d.goal == Goal.STAY.value),
+                   fixtures=tuple(d for d in given.objects if d.goal == Goal.STAY.value),
                    held=held)
 
     @classmethod
@@ -114,21 +147,19 @@ class KnownWorld:
             self, pose=_pose(pose),
             dishes=tuple(d for d in self.dishes
                          if d.name in left or placed_object(d.name) in left),
-            perceived_chairs=chairs, overhead=self.overhead if overhead is None else overhead,
-            settings=dataclasses.replace(self.settings, robot=dataclasses.replace(
-                self.settings.robot, start=list(_pose(pose)))))
+            perceived_chairs=chairs, overhead=self.overhead if overhead is None else overhead)
 
     @property
-    def planner(self):
+    def planner(self) -> PlanningSettings:
         return self.settings.planner
 
     @property
-    def uncertainty(self):
+    def uncertainty(self) -> Uncertainty:
         return self.settings.uncertainty
 
     @property
     def mapped_chairs(self) -> tuple[Pose2, ...]:
-        return tuple(_pose(c.pose) for c in self.settings.chairs)
+        return tuple(_pose(c.pose) for c in self.map.chairs)
 
     @property
     def chair_poses(self) -> tuple[Pose2, ...]:
@@ -146,7 +177,7 @@ class KnownWorld:
 
     @cached_property
     def obstacles(self) -> Obstacles:
-        return Obstacles.of(self.settings.room.bounds, self.settings.tables, self.chair_poses,
+        return Obstacles.of(self.map.room.bounds, self.map.tables, self.chair_poses,
                             self.contacts)
 
     def obstacles_grown(self, margin: float) -> Obstacles:
@@ -155,14 +186,18 @@ class KnownWorld:
         if margin <= 0.0:
             return self.obstacles
         margins = [0.0] * len(self.mapped_chairs) + [margin] * len(self.perceived_chairs)
-        return Obstacles.of(self.settings.room.bounds, self.settings.tables, self.chair_poses,
+        return Obstacles.of(self.map.room.bounds, self.map.tables, self.chair_poses,
                             self.contacts, chair_margins=margins)
 
-    def as_scenario(self) -> Scenario:
-        """The known world as a Scenario, for what builds a Drake plant of it (the oracle's
-        FeasibilityScene): the perceived chairs as unmapped chairs `perceived_<i>`, the
-        dishes that remain, the robot at its pose."""
+    @property
+    def contents(self) -> SceneContents:
+        """The known world as a Drake plant holds it (the planner's scene): the mapped
+        chairs and the perceived ones (`perceived_<i>`), the objects that remain and the
+        fixtures, the robot at its pose. The contacts are not in it: the robot knows a
+        point, not a shape."""
         seen = [Chair(name=f"perceived_{i}", pose=list(p), mapped=False)
                 for i, p in enumerate(self.perceived_chairs)]
-        return dataclasses.replace(self.settings, chairs=[*self.settings.chairs, *seen],
-                                   dishes=[*self.dishes, *self.fixtures])
+        return SceneContents(room=self.map.room, tables=self.map.tables,
+                             chairs=(*self.map.chairs, *seen),
+                             dishes=(*self.dishes, *self.fixtures), start=self.pose,
+                             floor_margin=self.settings.camera.margin)

@@ -40,7 +40,9 @@ from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.world.furniture import DISH_SHAPES, RESTAURANT_KINDS
-from s3o_drake.world.scenario import Dish, Scenario, ScenarioError, validate_scenario
+from s3o_drake.world.objects import Dish
+from s3o_drake.world.scenario import Scenario
+from s3o_drake.world.scenario_checks import ScenarioError, validate_scenario
 from s3o_drake.world.task_generation import DEFAULT_BASE, DISH_GAP, spot_on_table
 
 TARGETS = {7: 1.0, 30: 5.0}  # dishes -> seconds

@@ -40,11 +40,13 @@ def task_best_stops(scenario, feasibility: str) -> dict[str, float]:
     """Each dish's best stop (Fea^m) as the planner sees the task (a Scenario) at its
     start."""
     from s3o_drake.belief import perceive_known_world
+    from s3o_drake.belief.known_world import Briefing
     from s3o_drake.planning.pipeline import best_stops, heatmaps_for
     from s3o_drake.world.builder import render_overhead
 
     color, depth, label, robot_labels = render_overhead(scenario)
-    known = perceive_known_world(scenario, (color, depth, label), pose=scenario.robot.start,
+    known = perceive_known_world(Briefing.of(scenario), (color, depth, label),
+                                 pose=scenario.robot.start,
                                  dishes=[d.name for d in scenario.dishes],
                                  robot_labels=robot_labels)
     return best_stops(known, heatmaps_for(known, source=feasibility))

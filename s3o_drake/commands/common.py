@@ -33,7 +33,8 @@ def read_scenario(path: str | Path, option: str = "") -> "Scenario":
     field) is one line on stderr naming the file once and the field, and exit status 2
     (`option`, such as "--base", says which argument gave the file). An empty or
     comment-only file is all defaults."""
-    from s3o_drake.world.scenario import ScenarioError, load_scenario
+    from s3o_drake.world.scenario import load_scenario
+    from s3o_drake.world.scenario_checks import ScenarioError
 
     try:
         return load_scenario(path)

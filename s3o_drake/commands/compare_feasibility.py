@@ -26,7 +26,8 @@ from s3o_drake.commands.common import (
     start_meshcat,
 )
 from s3o_drake.execution.execute import execute
-from s3o_drake.world.scenario import FEASIBILITY_SOURCES, Recovery, load_scenario
+from s3o_drake.world.choices import FEASIBILITY_SOURCES, Recovery
+from s3o_drake.world.scenario import load_scenario
 
 SOURCES = FEASIBILITY_SOURCES
 

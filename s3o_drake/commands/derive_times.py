@@ -85,7 +85,7 @@ def sample_pickups(paths: Sequence[Path], samples: int, seed: int, *,
         scenario = load_scenario(path)
         if not scenario.dishes:
             continue
-        scene = FeasibilityScene(scenario)
+        scene = FeasibilityScene(scenario.contents)
         checker = FeasibilityChecker(scene)
         order = rng.permutation(len(scenario.dishes))
         for k in range(min(per_task, samples - len(rows))):

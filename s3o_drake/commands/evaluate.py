@@ -169,7 +169,8 @@ def _validate(args) -> tuple[list[Path], list[str]]:
     for path in paths:
         scenario = read_scenario(path)
     if args.overrides:
-        from s3o_drake.world.scenario import ScenarioError, with_overrides
+        from s3o_drake.world.scenario import with_overrides
+        from s3o_drake.world.scenario_checks import ScenarioError
 
         try:
             with_overrides(scenario, args.overrides)

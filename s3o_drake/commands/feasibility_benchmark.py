@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
     seconds = {"batched": 0.0, "full_ik": 0.0}
     for k, scenario in enumerate(scenarios):
         count = args.queries // len(scenarios) + (k < args.queries % len(scenarios))
-        scene = FeasibilityScene(scenario)
+        scene = FeasibilityScene(scenario.contents)
         queries = sample_queries(scene, count, rng)
         label = "restaurant" if k == 0 else f"task_{k - 1:03d}"
         measure(scene, queries, rmap, ik_map_seeds=False, label=label, result=result,
@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
             full_ik.check(queries.bases[i], queries.dishes[i], queries.offsets[i])
             seconds["full_ik"] += time.perf_counter() - start
 
-    oracle = FeasibilityOracle(FeasibilityChecker(FeasibilityScene(restaurant), rmap),
+    oracle = FeasibilityOracle(FeasibilityChecker(FeasibilityScene(restaurant.contents), rmap),
                                restaurant.uncertainty)
     oracle.heatmap(restaurant.dishes[0].name, cells=8)  # allocate the thread contexts
     heatmap_s = {}

@@ -105,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from tqdm import tqdm
 
-    from s3o_drake.planning.pipeline import dishes_without_stops
+    from s3o_drake.experiments.generation import dishes_without_stops
     from s3o_drake.world.scenario import dump_scenario
     from s3o_drake.world.task_generation import generate_task
 
@@ -144,7 +144,7 @@ def _check(folder: Path, margin: float, *, quiet: bool) -> int:
 
     from tqdm import tqdm
 
-    from s3o_drake.planning.pipeline import dishes_without_stops
+    from s3o_drake.experiments.generation import dishes_without_stops
 
     logging.getLogger("drake").setLevel(logging.WARNING)
     flagged = 0

@@ -32,6 +32,7 @@ from s3o_drake.belief.chair_perception import ChairPerception, draw_chairs
 from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
 from s3o_drake.world.angles import wrap
 from s3o_drake.world.builder import render_overhead
+from s3o_drake.world.camera import overhead_camera
 from s3o_drake.world.files import write_atomically
 from s3o_drake.world.scenario import Scenario
 
@@ -65,7 +66,7 @@ def match(truth: list[list[float]], found: list[list[float]]
 def benchmark_task(name: str, scenario: Scenario, pictures: Path | None) -> dict[str, Any]:
     """One task's row: counts, errors and the perception time."""
     images = render_overhead(scenario)[:3]
-    perception = ChairPerception(scenario)
+    perception = ChairPerception(scenario.map, scenario.camera, pose=scenario.robot.start)
     start = time.perf_counter()
     found = perception(*images)
     elapsed = time.perf_counter() - start
@@ -74,7 +75,8 @@ def benchmark_task(name: str, scenario: Scenario, pictures: Path | None) -> dict
     if pictures is not None:
         import cv2
 
-        picture = draw_chairs(scenario, images[0], found, truth=truth)
+        camera = overhead_camera(scenario.room, scenario.camera)
+        picture = draw_chairs(camera, images[0], found, truth=truth)
         ok, png = cv2.imencode(".png", cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
         if ok:
             write_atomically(pictures / f"{name}.png", png.tobytes())

@@ -166,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     records = []
     with tqdm(total=args.poses, desc="pickups", unit="pose", file=sys.stderr) as bar:
         for k, path in enumerate(paths):
-            scene = FeasibilityScene(load_scenario(path))
+            scene = FeasibilityScene(load_scenario(path).contents)
             checker = FeasibilityChecker(scene, rmap)
             count = args.poses // len(paths) + (k < args.poses % len(paths))
             for dish, base, offset in feasible_poses(scene, checker, count, rng):

@@ -85,7 +85,7 @@ def benchmark_task(name: str, scenario: Scenario, *, method: str, seed: int, wor
     # planning (perception has its own, s3o_drake.commands.perception_benchmark).
     known = KnownWorld.perfect(scenario)
     start = time.perf_counter()
-    heatmaps = compute_heatmaps(known.as_scenario(), workers=1, progress=False,
+    heatmaps = compute_heatmaps(known, workers=1, progress=False,
                                 obstacles=known.obstacles)
     feasibility = time.perf_counter() - start
     short_result = plan_from(known, method=method, heatmaps=heatmaps, seed=seed,

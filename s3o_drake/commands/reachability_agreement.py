@@ -25,7 +25,8 @@ from s3o_drake.feasibility.agreement import (
 )
 from s3o_drake.feasibility.reachability import ReachabilityMap, ReachabilityMapError
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.world.scenario import ScenarioError, load_scenario
+from s3o_drake.world.scenario import load_scenario
+from s3o_drake.world.scenario_checks import ScenarioError
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -58,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
     result = Agreement()
     for k, (path, scenario) in enumerate(zip(args.scenarios, scenarios, strict=True)):
         count = args.queries // len(scenarios) + (k < args.queries % len(scenarios))
-        scene = FeasibilityScene(scenario)
+        scene = FeasibilityScene(scenario.contents)
         queries = sample_queries(scene, count, rng, vertical_reach=args.vertical_reach)
         measure(scene, queries, reachability, fallback_ik=args.fallback,
                 ik_map_seeds=not args.independent_ik,

@@ -200,7 +200,7 @@ def _write_pictures(scenario: Scenario, run: Execution, plan: TaskMotionPlan | N
     from s3o_drake.world.camera import orthophoto, overhead_camera
 
     written = []
-    camera = overhead_camera(scenario)
+    camera = overhead_camera(scenario.room, scenario.camera)
     color, depth = run.images
     if scenario.outputs.overhead:
         overhead_figure(scenario, camera, color, out / "overhead.png")

@@ -67,6 +67,7 @@ def plan_task_row(path: Path, *, method: str, seed: int | None, execute: bool,
     """One task's row: its planning figures (`evaluation.scale.plan_row`), and with
     `execute` what the simulated run collected."""
     from s3o_drake.belief import perceive_known_world
+    from s3o_drake.belief.known_world import Briefing
     from s3o_drake.experiments.scale import plan_row
     from s3o_drake.planning.pipeline import plan_from
     from s3o_drake.world.builder import render_overhead
@@ -80,7 +81,8 @@ def plan_task_row(path: Path, *, method: str, seed: int | None, execute: bool,
     start = time.perf_counter()
     color, depth, label, robot_labels = render_overhead(scenario)
     t0 = time.perf_counter()  # the run's planning time starts at perception too
-    known = perceive_known_world(scenario, (color, depth, label), pose=scenario.robot.start,
+    known = perceive_known_world(Briefing.of(scenario), (color, depth, label),
+                                 pose=scenario.robot.start,
                                  dishes=[d.name for d in scenario.dishes],
                                  robot_labels=robot_labels)
     result = plan_from(known, method=method, seed=seed, started=t0)

@@ -52,8 +52,9 @@ from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.motion_search import SequenceProblem, location_regions
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.time_model import MODEL_FILE, CostModel
+from s3o_drake.world.choices import COST_PROFILES, METHODS, Recovery
 from s3o_drake.world.resources import TASKS_DIR
-from s3o_drake.world.scenario import COST_PROFILES, METHODS, Recovery, Scenario
+from s3o_drake.world.scenario import Scenario
 
 TARGETS = {"off": 0.03, "on": 0.08}
 """Median |predicted - simulated| / simulated allowed, per noise setting."""

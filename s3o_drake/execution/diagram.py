@@ -71,7 +71,7 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
         scenario, meshcat=meshcat, track_dishes=True, show_collisions=show_collisions))
     # The controllers act in the true world: their collision checks see every chair, and
     # the arm's the place targets it puts objects down at.
-    truth = FeasibilityScene(with_place_targets(scenario))
+    truth = FeasibilityScene(with_place_targets(scenario).contents)
     planner = builder.AddNamedSystem("planner", S3OPlanner(
         scenario=scenario, method=method, seed=seed, perceive=perceive,
         progress_bar=progress_bar, control_period=CONTROL_PERIOD,

@@ -68,9 +68,10 @@ from s3o_drake.planning.navigation import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import plan_from
 from s3o_drake.planning.plan import Goto, Pickup, Place
 from s3o_drake.world.angles import facing_yaw, wrap
+from s3o_drake.world.choices import Recovery
 from s3o_drake.world.goals import place_target_name, place_targets
 from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS
-from s3o_drake.world.scenario import Recovery, Scenario
+from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.system_lifetime import weak_callback
 
 #: A dish that fails all its tries in this many plans is left (execution.recovery replan).

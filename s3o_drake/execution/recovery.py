@@ -38,12 +38,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from s3o_drake.belief.known_world import KnownWorld
-from s3o_drake.feasibility.heatmaps import make_oracle
-from s3o_drake.feasibility.oracle import FeasibilityOracle, Heatmap
+from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.planning.base_motion import BaseProfile
 from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.world.angles import facing_yaw
-from s3o_drake.world.scenario import Uncertainty
+from s3o_drake.world.settings import Uncertainty
 
 #: Stream tag of the localisation noise in `numpy.random.default_rng([seed, tag, command
 #: id])`: its own numbers, apart from the landing's (1) and the reach's (2).
@@ -87,16 +87,18 @@ class StopCheck:
 
     def __init__(self, known: KnownWorld, heatmaps: tuple[Heatmap, ...],
                  navigation: NavigationMap | None = None, *,
-                 model_heatmaps: tuple[Heatmap, ...] = ()):
+                 model_heatmaps: tuple[Heatmap, ...] = (),
+                 scene: PlanningScene | None = None):
         """`heatmaps`: the plan's (corrective stops are chosen on them); `model_heatmaps`:
         the same before the free-stop rule (rating where the robot stands; default
-        `heatmaps`)."""
+        `heatmaps`); `scene`: the plan's Drake scene of `known` (made when first needed if
+        not given)."""
         self._known = known
+        self._scene = scene
         self._navigation = navigation
         self._profile = BaseProfile(speed=known.planner.speed)
         self._heatmaps = {h.dish: h for h in heatmaps}
         self._model = {h.dish: h for h in (model_heatmaps or heatmaps)}
-        self._oracle: FeasibilityOracle | None = None
         self._dish_xy = {d.name: np.asarray(d.position, dtype=float) for d in known.dishes}
 
     @property
@@ -104,11 +106,11 @@ class StopCheck:
         return self._known
 
     def _success(self, positions: np.ndarray, dish: str) -> np.ndarray:
-        if self._oracle is None:
-            self._oracle = make_oracle(self._known.as_scenario(), obstacles=self._known.obstacles)
+        if self._scene is None:
+            self._scene = PlanningScene(self._known)
         positions = np.asarray(positions, dtype=float).reshape(-1, 2)
         poses = np.column_stack([positions, facing_yaw(positions, self._dish_xy[dish])])
-        return self._oracle.success(poses, dish)
+        return self._scene.oracle.success(poses, dish)
 
     def feasibility(self, position: np.ndarray, dish: str) -> float:
         """The model's Fea^m of `dish` from base position `position` (0 off its heatmap)."""

@@ -79,10 +79,10 @@ def soak_jobs(seed: int, plans: int, executions: int, budget: float,
 
 def _scene(job: SoakJob):
     from s3o_drake.world.random_scenes import SceneShape, random_scene
-    from s3o_drake.world.scenario import Planner
+    from s3o_drake.world.settings import PlanningSettings
 
     return random_scene(job.seed, job.index, SceneShape(max_dishes=job.max_dishes),
-                        planner=Planner(time_budget=job.budget, workers=1))
+                        planner=PlanningSettings(time_budget=job.budget, workers=1))
 
 
 def run_soak_job(job: SoakJob) -> dict:
@@ -106,7 +106,7 @@ def _plan(scene, job: SoakJob) -> dict:
     from s3o_drake.feasibility.scene import FeasibilityScene
 
     known = KnownWorld.perfect(scene)
-    checker = FeasibilityChecker(FeasibilityScene(known.as_scenario()))
+    checker = FeasibilityChecker(FeasibilityScene(known.contents))
     methods = plan_and_check(known, heatmaps=ring_heatmaps(known), budget=job.budget,
                              base_free=checker.base_free)
     crashes = [m for m, r in methods.items() if r["crash"]]

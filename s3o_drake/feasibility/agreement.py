@@ -44,7 +44,7 @@ def sample_queries(scene: FeasibilityScene, count: int, rng: np.random.Generator
     The reach offset is horizontal (the dish's y_o is 2D), or 3D with `vertical_reach`.
     """
     names = sorted(scene.dishes)
-    x_min, y_min, x_max, y_max = scene.scenario.room.bounds
+    x_min, y_min, x_max, y_max = scene.contents.room.bounds
     dishes, bases = [], []
     while len(bases) < count:
         name = names[rng.integers(len(names))]

@@ -46,7 +46,8 @@ def make_scene(base_path: Path, seed: int, index: int) -> dict[str, np.ndarray]:
 
     scenario = generate_task(load_scenario(base_path), seed, index)
     _, depth, label, robot_labels = render_overhead(scenario)
-    view = overhead_view(overhead_camera(scenario), depth, label, robot_labels)
+    view = overhead_view(overhead_camera(scenario.room, scenario.camera), depth, label,
+                         robot_labels)
     heatmaps = compute_heatmaps(scenario, progress=False)
     inputs = np.stack([crop_inputs(view, np.asarray(d.position[:2]), d.kind)
                        for d in scenario.dishes])

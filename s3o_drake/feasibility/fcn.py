@@ -52,8 +52,9 @@ from s3o_drake.feasibility.pickup_geometry import catch_probability, goal_probab
 from s3o_drake.world.builder import render_overhead
 from s3o_drake.world.camera import OverheadCamera, back_project, overhead_camera
 from s3o_drake.world.furniture import DISH_SHAPES, NETWORK_KIND, RESTAURANT_KINDS
+from s3o_drake.world.objects import Dish
 from s3o_drake.world.resources import FCN_WEIGHTS
-from s3o_drake.world.scenario import Dish, Scenario
+from s3o_drake.world.scenario import Scenario
 
 DEFAULT_WEIGHTS = FCN_WEIGHTS
 """The shipped network (see models/fcn/README.md for the commands that made it)."""
@@ -128,7 +129,8 @@ def overhead_view(camera: OverheadCamera, depth: np.ndarray, label: np.ndarray,
 def view_of(scenario: Scenario) -> OverheadView:
     """Renders the scenario once and returns its overhead view."""
     _, depth, label, robot_labels = render_overhead(scenario)
-    return overhead_view(overhead_camera(scenario), depth, label, robot_labels)
+    return overhead_view(overhead_camera(scenario.room, scenario.camera), depth, label,
+                         robot_labels)
 
 
 def crop_grid(p_WD: np.ndarray) -> tuple[float, float, float]:

@@ -48,7 +48,7 @@ from s3o_drake.feasibility.pickup_geometry import (
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.goals import placed_object
 from s3o_drake.world.placing import PLACE_TOLERANCE
-from s3o_drake.world.scenario import Uncertainty
+from s3o_drake.world.settings import Uncertainty
 
 CROP_SIZE = 4.0
 CROP_CELLS = 64
@@ -252,7 +252,7 @@ class FeasibilityOracle:
 
     def room_heatmap(self, dish: str, *, cell: float = 0.05) -> Heatmap:
         """Fea^m over the whole room at `cell` resolution (m)."""
-        x_min, y_min, x_max, y_max = self.checker.scene.scenario.room.bounds
+        x_min, y_min, x_max, y_max = self.checker.scene.contents.room.bounds
         cols = math.ceil((x_max - x_min) / cell)
         rows = math.ceil((y_max - y_min) / cell)
         xs = x_min + (np.arange(cols) + 0.5) * cell

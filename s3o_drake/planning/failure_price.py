@@ -30,7 +30,7 @@ import yaml
 
 from s3o_drake.world.choices import Recovery
 from s3o_drake.world.resources import MODELS_DIR
-from s3o_drake.world.scenario import Planner, Scenario
+from s3o_drake.world.settings import PlanningSettings, Settings
 
 PRICE_FILE = MODELS_DIR / "failure_price.yaml"
 FORMAT = "s3o_drake.FailurePrice/1"
@@ -102,7 +102,7 @@ def derive_price(records: Iterable[PickupRecord], *, resamples: int = 2000,
             "recovery_time": float(data[:, 1].sum())}
 
 
-def failure_reward(settings: Scenario, price: FailurePrice | None = None) -> float:
+def failure_reward(settings: Settings, price: FailurePrice | None = None) -> float:
     """λ as the utility prices a pickup's failure under `settings`: the planner's λ, or with
     `failure_price: execution` and recovery on, the recorded recovery price."""
     planner = settings.planner
@@ -111,7 +111,7 @@ def failure_reward(settings: Scenario, price: FailurePrice | None = None) -> flo
     return (price or FailurePrice.load()).seconds
 
 
-def priced_planner(settings: Scenario, price: FailurePrice | None = None) -> Planner:
+def priced_planner(settings: Settings, price: FailurePrice | None = None) -> PlanningSettings:
     """The planner settings with λ replaced by `failure_reward` (unchanged when equal)."""
     reward = failure_reward(settings, price)
     planner = settings.planner

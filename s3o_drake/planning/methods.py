@@ -81,7 +81,7 @@ from s3o_drake.abstraction.location_grid import LocationGrid
 from s3o_drake.abstraction.motion_feasibility import as_motion_feasibility, heatmap_tuple
 from s3o_drake.abstraction.voronoi import VoronoiPartition
 from s3o_drake.belief.known_world import KnownWorld
-from s3o_drake.feasibility.stops import FreeStops
+from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.planning.failure_price import priced_planner
 from s3o_drake.planning.free_positions import FreeTest, with_free_stops
 from s3o_drake.planning.motion_search import (
@@ -110,8 +110,8 @@ from s3o_drake.planning.task_planner import (
 )
 from s3o_drake.planning.time_model import CostModel
 from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.choices import METHODS
 from s3o_drake.world.goals import place_target_name
-from s3o_drake.world.scenario import METHODS
 
 WORKER_SLACK = 0.03
 """Share of the remaining budget by which worker processes stop before the deadline."""
@@ -284,6 +284,7 @@ def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: Navig
 
 
 def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
+              scene: PlanningScene | None = None,
               time_budget: float | None = None, n_sequences: int = 3, workers: int = 1,
               feasibility_time: float = 0.0, drive_margin: float = DRIVE_MARGIN
               ) -> PlanningResult:
@@ -334,7 +335,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         return True
 
     t = time.monotonic()  # only stops free as planned are commanded (feasibility/stops.py)
-    stops = FreeStops.of(known)
+    scene = PlanningScene(known) if scene is None else scene
+    stops = scene.free_stops
     model_heatmaps = heatmap_tuple(heatmaps)
     fea = as_motion_feasibility(heatmaps := stops.restrict_source(
         heatmaps, lambda: expired("the free stops")))
@@ -391,7 +393,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         made = _assemble(method, seed, best, known, nav, timing,
                          time.monotonic() - t_start + feasibility_time, result.draws,
                          result.draws, complete)
-        return PlanningResult(known=known, method=method, seed=int(seed), plan=made,
+        return PlanningResult(known=known, scene=scene, method=method, seed=int(seed),
+                              plan=made,
                               heatmaps=heatmap_tuple(heatmaps), navigation=nav,
                               model_heatmaps=model_heatmaps, partition=partition,
                               planning_time=made.planning_time)
@@ -437,7 +440,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
                             f"regions or on an undrivable leg)")
     made = _assemble(method, seed, best, known, nav, timing,
                      time.monotonic() - t_start + feasibility_time, searches, samples, complete)
-    return PlanningResult(known=known, method=method, seed=int(seed), plan=made, navigation=nav,
+    return PlanningResult(known=known, scene=scene, method=method, seed=int(seed), plan=made,
+                          navigation=nav,
                           heatmaps=heatmap_tuple(heatmaps), partition=partition, grid=grid,
                           model_heatmaps=model_heatmaps, abstraction=abstraction,
                           planning_time=made.planning_time,

@@ -76,7 +76,7 @@ from s3o_drake.planning.navigation import NavigationMap
 from s3o_drake.planning.task_planner import Action
 from s3o_drake.planning.time_model import CostModel
 from s3o_drake.world.goals import place_target_name
-from s3o_drake.world.scenario import Planner
+from s3o_drake.world.settings import PlanningSettings
 
 PENALTY = 1e4
 """Utility offset of an invalid sample (outside a region or not drivable); any valid
@@ -171,7 +171,8 @@ class SequenceProblem:
 
     def __init__(self, sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
                  feasibility: MotionFeasibility, nav: NavigationMap,
-                 start_xy: Sequence[float], planner: Planner, pickup_duration: float | None,
+                 start_xy: Sequence[float], planner: PlanningSettings,
+                 pickup_duration: float | None,
                  costs: CostModel | None = None, *, grid: LocationGrid | None = None,
                  groups: Mapping[str, Sequence[str]] | None = None):
         if grid is not None and groups is None:
@@ -373,7 +374,7 @@ def _seed_of(seed: int | None, rng: np.random.Generator | None) -> int:
 
 def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
               feasibility: MotionFeasibility, nav: NavigationMap, start_xy: Sequence[float],
-              planner: Planner, *, seed: int | None = None,
+              planner: PlanningSettings, *, seed: int | None = None,
               rng: np.random.Generator | None = None, generations: int | None = None,
               population: int | None = None, pickup_duration: float | None = None,
               deadline: float | None = None, costs: CostModel | None = None,
@@ -448,7 +449,8 @@ def _evolve(es: cma.CMAEvolutionStrategy, problem: SequenceProblem, tally: _Tall
 
 def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
          feasibility: MotionFeasibility, nav: NavigationMap, start_xy: Sequence[float],
-         planner: Planner, *, seed: int | None = None, rng: np.random.Generator | None = None,
+         planner: PlanningSettings, *, seed: int | None = None,
+         rng: np.random.Generator | None = None,
          generations: int | None = None, population: int | None = None,
          pickup_duration: float | None = None, deadline: float | None = None,
          costs: CostModel | None = None, grid: LocationGrid | None = None,

@@ -37,7 +37,7 @@ from s3o_drake.planning.task_planner import (
     plan_problem,
 )
 from s3o_drake.planning.time_model import CostModel
-from s3o_drake.world.scenario import Planner
+from s3o_drake.world.settings import PlanningSettings
 
 COST_SCALE = 10.0
 """Task-planner costs are seconds x 10, rounded (clingo optimises integers)."""
@@ -125,7 +125,7 @@ def _passing_lattice(region: BaseGeometry, nav: NavigationMap, start: np.ndarray
 
 def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
            feasibility: MotionFeasibility, nav: NavigationMap, start_xy: Sequence[float],
-           planner: Planner, *, rng: np.random.Generator, draws: int = 1,
+           planner: PlanningSettings, *, rng: np.random.Generator, draws: int = 1,
            unreachable: Sequence[str] = (), deadline: float | None = None,
            costs: CostModel | None = None, free: FreeTest | None = None,
            places: Mapping[str, str] | None = None) -> PetlonResult:

@@ -25,7 +25,7 @@ models/time_model.yaml (`TimeModel`), which everything reads: the pickup's durat
 arm's, and changes with it (re-run the command after changing the arm's motion).
 
 The utility keeps the paper's form, R(goto) = -Cst(goto) with Cst = time + γ, and
-R(pickup) = -δ + λ Fea^m, under one of two cost profiles (`Planner.cost_profile`):
+R(pickup) = -δ + λ Fea^m, under one of two cost profiles (`PlanningSettings.cost_profile`):
 
 - "robot": the terms above: Cst(goto) = t_drive + γ + Σ_turns at its stop (t_turn + γ), δ
   the recorded pickup time; the utility's costs are then the predicted time;
@@ -56,7 +56,7 @@ from s3o_drake.planning.base_motion import SETTLE_TIME, BaseProfile
 from s3o_drake.world.angles import facing_yaw, wrap
 from s3o_drake.world.resources import TIME_MODEL
 from s3o_drake.world.robot import CONTROL_PERIOD
-from s3o_drake.world.scenario import Planner
+from s3o_drake.world.settings import PlanningSettings
 
 if TYPE_CHECKING:  # only for hints: the systems import this module for their period
     from s3o_drake.planning.navigation import NavigationMap
@@ -202,7 +202,7 @@ def _load(path: str) -> TimeModel:
     return TimeModel.from_dict(yaml.safe_load(Path(path).read_text()))
 
 
-def base_profile(planner: Planner) -> BaseProfile:
+def base_profile(planner: PlanningSettings) -> BaseProfile:
     """The base's motion profile as the navigator drives it: the planner's speed v and the
     navigator's other limits."""
     return BaseProfile(speed=planner.speed)
@@ -225,7 +225,7 @@ class CostModel:
     estimate Σ len / v + δ per pickup.
     """
 
-    def __init__(self, planner: Planner, *, profile: str | None = None,
+    def __init__(self, planner: PlanningSettings, *, profile: str | None = None,
                  dishes: Mapping[str, DishPlace] | None = None,
                  start: Sequence[float] | None = None, time_model: TimeModel | None = None):
         self.planner = planner
@@ -242,7 +242,7 @@ class CostModel:
         self.reward = planner.reward
 
     @classmethod
-    def paper(cls, planner: Planner) -> CostModel:
+    def paper(cls, planner: PlanningSettings) -> CostModel:
         """The paper's costs from the planner settings alone (no time prediction)."""
         return cls(planner, profile="paper")
 

@@ -7,7 +7,8 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.sensors import CameraInfo
 
-from s3o_drake.world.scenario import Scenario
+from s3o_drake.world.map import Room
+from s3o_drake.world.settings import Camera
 
 
 @dataclass(frozen=True)
@@ -55,10 +56,9 @@ class OverheadCamera:
         return float(x_min), float(x_max), float(y_min), float(y_max)
 
 
-def overhead_camera(scenario: Scenario) -> OverheadCamera:
-    """The camera that sees the whole room (and the margin) at the scenario's resolution."""
-    x_min, y_min, x_max, y_max = scenario.room.bounds
-    cam = scenario.camera
+def overhead_camera(room: Room, cam: Camera) -> OverheadCamera:
+    """The camera that sees the whole room (and the margin) at the settings' resolution."""
+    x_min, y_min, x_max, y_max = room.bounds
     span_x = x_max - x_min + 2 * cam.margin
     span_y = y_max - y_min + 2 * cam.margin
     width = math.ceil(span_x * cam.pixels_per_meter)

@@ -23,7 +23,8 @@ from shapely.geometry import Point
 
 from s3o_drake.world.choices import Goal
 from s3o_drake.world.furniture import DISH_SHAPES, dish_footprint, table_footprint
-from s3o_drake.world.scenario import Dish, Scenario, surface_height
+from s3o_drake.world.objects import Dish, surface_height
+from s3o_drake.world.scenario import Scenario
 
 PLACE_SUFFIX = "__place"
 """Ends the name of a place target (`place_target_name`); names in a scenario hold no
@@ -80,7 +81,7 @@ def place_targets(scenario: Scenario) -> list[PlaceTarget]:
             under = by_name[place.onto]
             out.append(PlaceTarget(dish.name, dish.kind, under.table,
                                    (float(under.position[0]), float(under.position[1])),
-                                   surface_height(scenario, under)
+                                   surface_height(scenario.tables, under)
                                    + DISH_SHAPES[under.kind].height,
                                    onto=under.name))
         else:
@@ -114,7 +115,7 @@ def surface_below(scenario: Scenario, p_W: Sequence[float], *,
     heights = [0.0]
     heights += [t.height for t in scenario.tables
                 if table_footprint(t.center, t.yaw, t.size).covers(point)]
-    heights += [surface_height(scenario, d) + DISH_SHAPES[d.kind].height
+    heights += [surface_height(scenario.tables, d) + DISH_SHAPES[d.kind].height
                 for d in scenario.dishes
                 if d.goal == Goal.STAY.value and d.name not in ignore
                 and dish_footprint(d.position, d.kind).covers(point)]

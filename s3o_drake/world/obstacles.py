@@ -16,7 +16,7 @@ from shapely.ops import unary_union
 from s3o_drake.world.furniture import chair_footprint, table_footprint
 
 if TYPE_CHECKING:
-    from s3o_drake.world.scenario import Scenario
+    from s3o_drake.world.contents import SceneContents
 
 Pose2 = tuple[float, float, float]
 """A planar pose (x, y, yaw) in the world frame: m, m, rad."""
@@ -51,10 +51,10 @@ class Obstacles:
         return cls(room=box(*bounds), footprints=tuple(shapes))
 
     @classmethod
-    def of_scenario(cls, scenario: Scenario) -> Obstacles:
-        """Every chair the scenario lists, mapped or not: the true world's obstacles (what
-        the simulated robot collides with), or a known world's `as_scenario()`."""
-        return cls.of(scenario.room.bounds, scenario.tables, [c.pose for c in scenario.chairs])
+    def of_contents(cls, contents: SceneContents) -> Obstacles:
+        """The obstacles of what a plant holds: every chair of the true world
+        (`Scenario.contents`), or the mapped and perceived ones of a belief."""
+        return cls.of(contents.room.bounds, contents.tables, [c.pose for c in contents.chairs])
 
     @cached_property
     def union(self) -> BaseGeometry:

@@ -23,19 +23,12 @@ from s3o_drake.world.furniture import (
     chair_footprint,
     table_footprint,
 )
+from s3o_drake.world.map import Chair, Room, Table
+from s3o_drake.world.objects import Dish
 from s3o_drake.world.robot import BASE_RADIUS, footprint_polygon
-from s3o_drake.world.scenario import (
-    START_CLEARANCE,
-    Chair,
-    Dish,
-    Planner,
-    Robot,
-    Room,
-    Scenario,
-    ScenarioError,
-    Table,
-    validate_scenario,
-)
+from s3o_drake.world.scenario import Scenario
+from s3o_drake.world.scenario_checks import START_CLEARANCE, ScenarioError, validate_scenario
+from s3o_drake.world.settings import PlanningSettings, Robot
 
 TRIES = 200  # draws per table, dish or chair before it is left out
 GAP = 0.03  # free space kept between pieces of furniture (m)
@@ -78,7 +71,7 @@ def _dish_on(table: Table, kind: str, rng: np.random.Generator) -> list[float] |
 
 
 def random_scene(seed: int, index: int = 0, shape: SceneShape = SceneShape(),
-                 planner: Planner | None = None) -> Scenario:
+                 planner: PlanningSettings | None = None) -> Scenario:
     """Scene `index` of the set drawn with `seed` (see the module docstring); `planner`
     replaces the default planner settings."""
     rng = np.random.default_rng([int(seed), int(index)])

@@ -8,7 +8,7 @@ position and yaw. Chairs never overlap furniture, walls or each other, and the r
 start stays free; each task passes the same validation as a hand-written scenario.
 
 With `stops` (the benchmark's tasks: `python -m s3o_drake.commands.generate` passes
-`planning.pipeline.dishes_without_stops`), every dish also keeps a candidate stop that a
+`experiments.generation.dishes_without_stops`), every dish also keeps a candidate stop that a
 drive from the start reaches: dishes drawn where no stop reaches them are drawn again, and
 so is a chair that would close the last way to one. In a dense room the chairs of the
 protocol otherwise fill the aisles (docs/results.md); in the spacious one it redrew
@@ -32,17 +32,14 @@ from s3o_drake.world.furniture import (
     dish_footprint,
     table_footprint,
 )
+from s3o_drake.world.map import Chair, Table
+from s3o_drake.world.objects import Dish, Place
 from s3o_drake.world.resources import LAYOUTS, RESTAURANT
 from s3o_drake.world.robot import footprint_polygon
-from s3o_drake.world.scenario import (
+from s3o_drake.world.scenario import Scenario, load_scenario
+from s3o_drake.world.scenario_checks import (
     START_CLEARANCE,
-    Chair,
-    Dish,
-    Place,
-    Scenario,
     ScenarioError,
-    Table,
-    load_scenario,
     room_polygon,
     validate_scenario,
 )
