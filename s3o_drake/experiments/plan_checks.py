@@ -91,8 +91,10 @@ def plan_and_check(known: KnownWorld, *, heatmaps: Sequence[Heatmap], budget: fl
     CPU seconds over the same span: a planner that got much less than `seconds` was starved
     by other work, and its wall-time budget with it) and `overrun` (more than OVERRUN over
     `budget`)."""
+    from s3o_drake.feasibility.planning_scene import PlanningScene
     from s3o_drake.planning.pipeline import plan_from  # Drake's import is the caller's
 
+    scene = PlanningScene(known)  # one belief, planned by every method
     out = {}
     for method in methods:
         row: dict = {"planned": False, "error": "", "crash": "", "faults": []}
@@ -101,7 +103,7 @@ def plan_and_check(known: KnownWorld, *, heatmaps: Sequence[Heatmap], budget: fl
             # "oracle": the heatmaps given are not the network's, which plan_from would
             # check again with the oracle for the dishes it leaves out.
             result = plan_from(known, method=method, seed=seed, workers=1, time_budget=budget,
-                               heatmaps=list(heatmaps), feasibility="oracle")
+                               heatmaps=list(heatmaps), feasibility="oracle", scene=scene)
             seconds = time.perf_counter() - start
             row["planned"] = result.plan is not None
             row["error"] = result.error

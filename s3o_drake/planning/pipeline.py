@@ -85,8 +85,8 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
               workers: int | None = None, time_budget: float | None = None,
               n_sequences: int = 3, heatmaps: Sequence[Heatmap] | None = None,
               feasibility: str | None = None, progress: bool = False,
-              started: float | None = None, drive_margin: float = DRIVE_MARGIN
-              ) -> PlanningResult:
+              started: float | None = None, drive_margin: float = DRIVE_MARGIN,
+              scene: PlanningScene | None = None) -> PlanningResult:
     """Plans from `known` (see the module docstring).
 
     Method, seed, workers, budget and the Fea^m source (`feasibility`) default to the
@@ -99,21 +99,26 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
     so that the planning time counts perception too. `drive_margin` is the navigation
     map's (`navigation.TIGHT_DRIVE_MARGIN` for a squeeze). A plan that cannot be made is a
     result with `plan` None and `error` saying why; an unknown method raises ValueError.
+    `scene`: the Drake scene of `known`, when the caller plans the same belief several
+    times (built here otherwise, within the budget).
     """
     t0 = time.perf_counter() if started is None else started
-    # One Drake scene of the belief serves the heatmaps, the free stops and the stop checks.
-    scene = PlanningScene(known)
+    # One Drake scene of the belief serves the heatmaps, the free stops and the stop checks;
+    # building it is part of the budget.
+    t_scene = time.perf_counter()
+    scene = PlanningScene(known) if scene is None else scene
+    building = time.perf_counter() - t_scene
     method = known.planner.method if method is None else method
     seed = known.settings.seed if seed is None else int(seed)
     workers = known.planner.workers if workers is None else workers
     if heatmaps is None:
         heatmaps = heatmaps_for(known, source=feasibility, progress=progress, scene=scene)
     maps = tuple(heatmaps) if isinstance(heatmaps, (list, tuple)) else ()
-    result = _plan(known, scene, method, heatmaps, seed, time_budget, n_sequences, workers,
-                   t0, drive_margin)
+    budget = known.planner.time_budget if time_budget is None else time_budget
+    result = _plan(known, scene, method, heatmaps, seed, max(0.0, budget - building),
+                   n_sequences, workers, t0, drive_margin)
     source = known.planner.feasibility if feasibility is None else feasibility
     lost = () if result.plan is None else result.plan.unreachable
-    budget = known.planner.time_budget if time_budget is None else time_budget
     exact: dict[str, Heatmap] = {}
     if lost and source == FeasibilitySource.FCN and maps:
         # The network is an approximation: before a dish is left out, the Drake check of
