@@ -473,7 +473,9 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, c
     (["--seeds", "0"], "--seeds"),
     (["--workers", "0"], "--workers"),
     (["--scheduler", "localhost"], "--scheduler"),
-    (["--limit", "0"], "--limit"),
+    (["--count", "0"], "--count"),
+    (["--count", "9"], "--count"),  # more than the folder holds
+    (["--limit", "2"], "--count"),  # renamed
     (["--open-loop", "."], "--open-loop"),  # the study is open loop itself
     (["--recovery", "replan", "--open-loop", "nowhere"], "--open-loop"),
     (["--set", "planner.top_k=none"], "--set planner.top_k"),
