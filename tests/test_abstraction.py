@@ -311,7 +311,7 @@ def test_benchmark_help_and_bad_input(tmp_path):
     command = [sys.executable, "-m", "s3o_drake.commands.abstraction_benchmark"]
     result = subprocess.run([*command, "--help"], capture_output=True, text=True, check=True)
     assert "--counts" in result.stdout and "<= 1 s" in result.stdout
-    for bad in (["--counts", "0"], ["--scenario", str(tmp_path / "nope.yaml")], ["--fast"]):
+    for bad in (["--counts", "0"], ["--base", str(tmp_path / "nope.yaml")], ["--fast"]):
         result = subprocess.run([*command, *bad], capture_output=True, text=True, cwd=tmp_path)
         assert result.returncode == 2, bad
         assert result.stderr.count("\n") == 1, result.stderr

@@ -5,7 +5,7 @@ from s3o_drake.commands import diagrams
 
 def test_committed_diagrams_are_current():
     stale = diagrams.stale()
-    assert not stale, f"{stale} out of date: run python -m s3o_drake.commands.diagrams"
+    assert not stale, f"{stale} out of date: run s3o diagrams"
 
 
 def test_rendering_is_deterministic_and_names_every_system(tmp_path):

@@ -100,6 +100,24 @@ def test_store_keeps_complete_lines_and_cuts_a_line_cut_short(tmp_path):
         reader.append({"key": "e"})
 
 
+def test_rows_say_their_schema_and_code_and_rows_from_before_still_read(tmp_path):
+    from s3o_drake.experiments.store import SCHEMA, code_version, schema_of
+
+    path = tmp_path / "results.jsonl"
+    path.write_text('{"key": "old", "v": 1}\n{"task": "t", "v": 2}\n')  # before the schema
+    store = ResultStore(path)
+    assert store.finished("old") and schema_of(store.get("old")) == 0
+    assert store.get("t") is None  # a row without a key is not a result...
+    keyed = ResultStore(path, key=lambda row: row["task"])  # ...unless its reader keys it
+    assert keyed.get("t")["v"] == 2 and keyed.get("old")["v"] == 1
+    store.append({"key": "new", "v": 3})
+    store.append({"key": "copied", "code": "abc", "schema": 0})  # keeps what it says
+    new, copied = (json.loads(line) for line in path.read_text().splitlines()[2:])
+    assert (new["schema"], new["code"]) == (SCHEMA, code_version()) and schema_of(new) == 1
+    assert (copied["schema"], copied["code"]) == (0, "abc")
+    assert ResultStore(path).get("new") == new
+
+
 def test_a_killed_worker_is_replaced_and_no_result_is_lost_or_repeated(tmp_path):
     marker = tmp_path / "killed"
     jobs = [_toy_job(i, marker) for i in range(6)]
@@ -455,7 +473,9 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, c
     (["--seeds", "0"], "--seeds"),
     (["--workers", "0"], "--workers"),
     (["--scheduler", "localhost"], "--scheduler"),
-    (["--limit", "0"], "--limit"),
+    (["--count", "0"], "--count"),
+    (["--count", "9"], "--count"),  # more than the folder holds
+    (["--limit", "2"], "--count"),  # renamed
     (["--open-loop", "."], "--open-loop"),  # the study is open loop itself
     (["--recovery", "replan", "--open-loop", "nowhere"], "--open-loop"),
     (["--set", "planner.top_k=none"], "--set planner.top_k"),

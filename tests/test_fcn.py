@@ -123,7 +123,8 @@ def test_dataset_writes_scenes_and_a_rerun_resumes(tmp_path, monkeypatch):
     (dataset_command, ["--count", "2"], "--out"),
     (train_command, ["--data", "/nonexistent/fcn"], "--data"),
     (train_command, ["--data", "x", "--lr", "-1"], "--lr"),
-    (fcn_benchmark, ["--tasks", "0"], "--tasks"),
+    (fcn_benchmark, ["--count", "0"], "--count"),
+    (fcn_benchmark, ["--tasks", "10"], "--count 10"),  # a count was --tasks before
     (fcn_benchmark, ["--weights", "/nonexistent.pt"], "--weights"),
 ])
 def test_bad_arguments_are_one_line_and_exit_2(module, argv, field, capsys, tmp_path,

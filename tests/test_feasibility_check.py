@@ -274,7 +274,7 @@ def test_shipped_map_loads_and_records_its_settings(reachability):
 
 
 def test_missing_map_names_the_build_command(tmp_path):
-    with pytest.raises(reach.ReachabilityMapError, match="reachability build"):
+    with pytest.raises(reach.ReachabilityMapError, match="s3o build reachability"):
         reach.ReachabilityMap.load(tmp_path / "none.npz")
 
 

@@ -201,9 +201,9 @@ def test_cli(capsys):
     assert info.value.code == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
     with pytest.raises(SystemExit) as info:
-        main(["no_such_file.yaml"])
+        main(["--tasks", "no_such_file.yaml"])
     assert info.value.code == 2
-    assert main([RESTAURANT]) == 0
+    assert main(["--tasks", str(RESTAURANT)]) == 0
 
 
 def test_fast_visibility_agrees_with_the_exact_segment_test(restaurant):

@@ -16,8 +16,9 @@ from s3o_drake.commands.pickup_benchmark import (
 
 @pytest.mark.parametrize("argv", [
     ["--poses", "0"],
-    ["--tasks", "-1"],
-    ["--tasks", "100000"],
+    ["--count", "0"],
+    ["--count", "100000"],
+    ["--tasks", "no/such/task.yaml"],
     ["--seed", "-1"],
     ["--json", "/no/such/folder/out.json"],
     ["--bogus"],
@@ -51,7 +52,7 @@ def test_reference_trapezoids() -> None:
 
 def test_two_poses_in_the_restaurant(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "pickups.json"
-    assert main(["--poses", "2", "--tasks", "0", "--json", str(out)]) == 0
+    assert main(["--poses", "2", "--count", "1", "--json", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "2 feasible poses (restaurant; seed 0)" in printed
     result = json.loads(out.read_text())

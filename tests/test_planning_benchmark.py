@@ -80,6 +80,7 @@ def test_resumes_from_the_tasks_in_its_json_file(tmp_path, monkeypatch, capsys) 
     done = {**_row("task_000", 1.5, 0.99), **settings, "dishes": 7, "utility": 800.0,
             "long_utility": 808.0, "complete": True, "long_complete": True}
     other = {**done, "task": "task_001", "seed": 5}
+    # Lines of a file from before the benchmark used the result store: no key, no schema.
     path.write_text(json.dumps(done) + "\n" + json.dumps(other) + "\n" + '{"task": "cut sh')
     planned = []
 
@@ -89,9 +90,12 @@ def test_resumes_from_the_tasks_in_its_json_file(tmp_path, monkeypatch, capsys) 
                 "utility": 1.0, "long_utility": 1.0, "complete": True, "long_complete": True}
 
     monkeypatch.setattr(benchmark, "benchmark_task", fake)
-    assert main(["--tasks", "2", "--json", str(path)]) == 0
+    assert main(["--count", "2", "--json", str(path)]) == 0
     assert planned == ["task_001"]
     assert "resuming: 1 tasks" in capsys.readouterr().out
-    records = [json.loads(line) for line in path.read_text().splitlines()[3:]]
+    lines = path.read_text().splitlines()
+    assert len(lines) == 4  # the line cut short is cut off, the two rows appended
+    records = [json.loads(line) for line in lines[2:]]
+    assert all(r["schema"] == 1 and "code" in r for r in records)
     assert records[0]["task"] == "task_001" and records[-1]["summary"]["tasks"] == 2
     assert records[-1]["summary"]["median_planning_s"] == 2.0

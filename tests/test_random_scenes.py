@@ -5,7 +5,7 @@ the known world, and no budget overrun by more than 5 %.
 Bounded: the suite stays fast (a few small scenes, a cheap Fea^m, tiny budgets).
 S3O_PROPERTY_EXAMPLES=200 tries many more, S3O_PROPERTY_DISHES=30 larger scenes,
 S3O_PROPERTY_LARGE=1 adds a 28-dish scene; the soak
-(`python -m s3o_drake.commands.soak`) runs the full-size version.
+(`s3o bench soak`) runs the full-size version.
 """
 
 import os

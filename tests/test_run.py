@@ -149,9 +149,16 @@ def test_help_explains_every_option():
     result = subprocess.run([sys.executable, "-m", "s3o_drake.run", "--help"],
                             capture_output=True, text=True, check=True, cwd=REPO)
     for option in ("--out", "--meshcat", "--method", "--seed", "--no-noise", "--feasibility",
-                   "S3O-GROP*", "V-PETLON", "report.json", "playback.html", "overhead.png",
-                   "plan.json", "search.png", "Exit status"):
+                   "S3O-GROP*", "V-PETLON", "report.json", "playback.html", "plan.json",
+                   "Exit status", "docs/commands.md"):
         assert option in result.stdout
+    # Every output, one by one, where the help points: its --help fits a screen.
+    docs = (REPO / "docs" / "commands.md").read_text()
+    section = docs.split("\n## s3o run\n", 1)[1].split("\n## ", 1)[0]
+    for output in ("report.json", "plan.json", "playback.html", "overhead.png",
+                   "feasibility.png", "state_space.png", "plan.png", "search.png",
+                   "Exit status"):
+        assert output in section
 
 
 @pytest.mark.parametrize("argv, field", [

@@ -59,9 +59,9 @@ def test_soak_plans_executes_resumes_and_sums_up(tmp_path):
             assert not any(m["overrun"] or m["faults"] for m in r["methods"].values())
             assert all(m["cpu"] > 0 for m in r["methods"].values())  # `method_loaded`
     # Every row says which code it measured (this checkout's commit).
-    head = subprocess.run(["git", "rev-parse", "--short=7", "HEAD"], capture_output=True,
+    head = subprocess.run(["git", "rev-parse", "--short=12", "HEAD"], capture_output=True,
                           text=True).stdout.strip()
-    assert {r["code"].removesuffix("-dirty") for r in rows} == {head}
+    assert {r["code"].removesuffix("+changes") for r in rows} == {head}
     assert f"code: {rows[0]['code']}" in first.stdout
     run = next(r for r in rows if r["kind"] == EXECUTE)
     assert run["planned"] and run["finished"]

@@ -66,7 +66,7 @@ def test_overheads_follow_the_control_period():
 
 def test_the_recorded_model_was_made_from_the_code_as_it_is():
     """A stale models/time_model.yaml (the navigator's or the systems' timing changed since
-    it was derived) fails here: re-run `python -m s3o_drake.commands.derive_times`."""
+    it was derived) fails here: re-run `s3o build time-model`."""
     model = TimeModel.load()
     o = command_overheads(CONTROL_PERIOD, base_motion.SETTLE_TIME)
     assert model.overheads.gamma == pytest.approx(o.gamma, abs=1e-6)
@@ -78,10 +78,11 @@ def test_the_recorded_model_was_made_from_the_code_as_it_is():
         "acceleration": base_motion.ACCELERATION, "yaw_rate": base_motion.YAW_RATE,
         "yaw_acceleration": base_motion.YAW_ACCELERATION,
         "settle_time": base_motion.SETTLE_TIME}
-    # The command as it was run: derive_times lived in s3o_drake.execution before the
-    # commands moved to s3o_drake.commands (the recorded model predates the move).
-    assert model.provenance["command"].split()[2] in ("s3o_drake.commands.derive_times",
-                                                      "s3o_drake.execution.derive_times")
+    # The command as it was run: `s3o build time-model`, or at its addresses before the
+    # s3o command (the recorded model predates it).
+    command = model.provenance["command"]
+    assert command.startswith("s3o build time-model ") or command.split()[2] in (
+        "s3o_drake.commands.derive_times", "s3o_drake.execution.derive_times")
     assert model.provenance["samples"] >= 100 and model.pickup.form in PICKUP_FORMS
     held_out = model.fit["held_out"]
     assert held_out[model.pickup.form]["rmse"] == min(e["rmse"] for e in held_out.values())
@@ -261,3 +262,9 @@ def test_an_unknown_cost_profile_is_one_line_and_status_2(tmp_path):
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and "planner.cost_profile" in result.stderr
     assert "fastest" in result.stderr and not (tmp_path / "out").exists()
+
+
+def test_the_command_fits_every_form_of_the_model_in_its_order():
+    from s3o_drake.commands.derive_times import FORMS
+
+    assert tuple(FORMS) == PICKUP_FORMS

@@ -5,7 +5,7 @@ poses [x, y, yaw], given only what the robot knows; `perceived_chairs(briefing, 
 the one-call form, and
 `perceive_known_world` makes the planner's `KnownWorld` of them;
 `scenario_unmapped_chairs(scenario)` is perfect perception, for tests and comparisons. See `chairs`
-for the method and `s3o_drake.commands.perception_benchmark` for its accuracy.
+for the method and `s3o bench perception` for its accuracy.
 """
 
 from s3o_drake.belief.chair_perception import (

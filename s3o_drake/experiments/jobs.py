@@ -7,11 +7,8 @@ workers; `run_job` is importable by name on the other side.
 """
 
 import dataclasses
-import functools
 import hashlib
-import importlib.metadata
 import logging
-import subprocess
 import time
 import traceback
 from dataclasses import dataclass
@@ -19,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from s3o_drake.world.resources import PACKAGE_NAME, REPO_DIR
+from s3o_drake.experiments.store import code_version
 from s3o_drake.world.scenario import Scenario, load_scenario, with_overrides
 from s3o_drake.world.task_generation import layout_of
 
@@ -89,24 +86,6 @@ def run_job(job: Job) -> dict:
                "traceback": traceback.format_exc(limit=8)}
     return {"key": job.key, **dataclasses.asdict(job), **row,
             "job_seconds": time.perf_counter() - start, "code": code_version()}
-
-
-@functools.cache
-def code_version() -> str:
-    """The code a row was made with: the commit of the checkout the package runs from (12
-    hex digits; "+changes" when its s3o_drake/ differs from it), else the package's
-    version. Studies run for days and resume across commits; each row says which."""
-    def git(*args: str) -> subprocess.CompletedProcess:
-        return subprocess.run(["git", "-C", str(REPO_DIR), *args], capture_output=True,
-                              text=True, timeout=30, check=False)
-    try:
-        head = git("rev-parse", "--short=12", "HEAD")
-        if head.returncode == 0:
-            changed = git("diff", "--quiet", "HEAD", "--", PACKAGE_NAME).returncode != 0
-            return head.stdout.strip() + ("+changes" if changed else "")
-    except (OSError, subprocess.SubprocessError):
-        pass
-    return f"{PACKAGE_NAME} {importlib.metadata.version(PACKAGE_NAME)}"
 
 
 def benchmark_scenario(path: str, recovery: str = "none",

@@ -1,4 +1,4 @@
-"""The figures of the scale benchmark (`python -m s3o_drake.commands.scale_benchmark`): for
+"""The figures of the scale benchmark (`s3o bench scale`): for
 one planned task, the planning time by stage, and for every state space that clingo
 ordered, its order against the exact optimum of the same ordering problem on the same
 costs (`planning.exact_order`); over the tasks of each size, the medians, the worst cases

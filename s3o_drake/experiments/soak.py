@@ -21,16 +21,14 @@ ResultStore: a killed soak resumes where it stopped).
 from __future__ import annotations
 
 import multiprocessing
-import subprocess
 import time
 import traceback
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass
-from pathlib import Path
 
 import numpy as np
 
-from s3o_drake.experiments.store import ResultStore
+from s3o_drake.experiments.store import ResultStore, code_version
 from s3o_drake.world.choices import METHODS
 
 PLAN, EXECUTE = "plan", "execute"
@@ -228,24 +226,6 @@ class _Worker:
             self.process.kill()
             self.process.join(10)
         self.conn.close()
-
-
-def code_version() -> str:
-    """The commit of the package's checkout ("-dirty" when its files differ from it), or
-    "unknown" outside a git checkout: a soak runs for days, and its rows must say which
-    code they measured."""
-    package = Path(__file__).resolve().parents[1]
-
-    def git(*args: str) -> str:
-        return subprocess.run(["git", "-C", str(package), *args], capture_output=True,
-                              text=True, check=True, timeout=30).stdout.strip()
-
-    try:
-        commit = git("rev-parse", "--short=7", "HEAD")
-        dirty = git("status", "--porcelain", "--", str(package))
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-    return commit + ("-dirty" if dirty else "")
 
 
 def run_soak(jobs: Iterable[SoakJob], store: ResultStore, *, limit: float,

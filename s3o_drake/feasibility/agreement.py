@@ -6,7 +6,7 @@ dish plus navigation noise, and a reach offset of the dish (T^m, horizontal). Bo
 answer every query (`FeasibilityChecker` with method "map" and method "ik"); the report
 gives the agreement over all queries and over those whose base is collision-free (the base
 check is shared, so those are the informative ones), and lists the disagreements. The
-command is `python -m s3o_drake.commands.reachability_agreement`.
+command is `s3o bench reachability-agreement`.
 """
 
 import math

@@ -1,5 +1,5 @@
 """The FCN's training data: overhead crops of random scenes with Drake-oracle labels. Made
-by `python -m s3o_drake.commands.dataset`, read by `load_dataset`.
+by `s3o build fcn-data`, read by `load_dataset`.
 
 Scene i is task i of `s3o_drake.world.task_generation` drawn with the dataset's seed (the paper's
 protocol: the restaurant, 5-7 dishes, one unmapped chair near each). The shipped benchmark

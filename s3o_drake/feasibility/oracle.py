@@ -28,7 +28,7 @@ Two ways to compute it:
   centre, halved where S changes between neighbouring points, and blurred with
   `scipy.ndimage.gaussian_filter`. What this leaves out (the drive's heading
   taken along the line to the dish, a yaw within `TURN_TOLERANCE` of facing taken as
-  facing) is measured against `probabilities` by `python -m s3o_drake.commands.oracle_pinning`.
+  facing) is measured against `probabilities` by `s3o bench oracle-pinning`.
 """
 
 import math

@@ -22,7 +22,7 @@ collision), "no_ik" (no collision-free grasp, or no pre-grasp or lift on any gra
 or "no_path" (no free tray or release configuration). What it leaves to the execution are
 the three joint-space paths between these configurations (approach, to the tray, stow), which
 OMPL's RRT-Connect searches; how rarely they decide an outcome is measured by
-`python -m s3o_drake.commands.oracle_pinning` (docs/feasibility.md).
+`s3o bench oracle-pinning` (docs/feasibility.md).
 
 Which checker judges each configuration: the scene's own (1 cm padding, nothing may be
 touched) for the pre-grasp, release and stow; the grasping checker (`ik.grasp_checker`: the

@@ -21,7 +21,7 @@ of the joint angles), verifies it by forward kinematics and, where it is not yet
 tolerance, moves it onto the target with a few Newton steps; so the answer does not depend on
 the grid's resolution, and a target beyond the arm's reach has no candidates.
 
-`python -m s3o_drake.commands.build_reachability build` builds the map deterministically
+`s3o build reachability` builds the map deterministically
 with worker processes (a few minutes on two cores) and writes it atomically, with its
 settings, as a compressed .npz; `ReachabilityMap.load()` reads it.
 """
@@ -41,7 +41,7 @@ from s3o_drake.feasibility.ik import ANGLE_TOLERANCE, POSITION_TOLERANCE
 from s3o_drake.world.resources import REACHABILITY_MAP, ROBOT_URDF
 
 DEFAULT_PATH = REACHABILITY_MAP
-BUILD_COMMAND = "python -m s3o_drake.commands.build_reachability build"
+BUILD_COMMAND = "s3o build reachability"
 FORMAT_VERSION = 1
 
 #: A query's candidate is accepted without Newton steps within these errors.

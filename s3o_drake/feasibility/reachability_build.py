@@ -5,7 +5,7 @@ At each node of a (ρ, h) grid the closed-form solutions of the UR5e (all eight
 shoulder/wrist/elbow branches) seed `InverseKinematics` with the grasp-frame constraints and
 a self-collision clearance of 1 cm (SNOPT, capped iterations); each verified solution is kept
 in its branch's slot. `build_map` solves the rows of the grid in worker processes,
-deterministically, for `python -m s3o_drake.commands.build_reachability build`.
+deterministically, for `s3o build reachability`.
 """
 
 import datetime

@@ -1,5 +1,5 @@
 """Training of the feasibility FCN on the oracle-labelled crops of
-`s3o_drake.feasibility.dataset`; the command is `python -m s3o_drake.commands.train`.
+`s3o_drake.feasibility.dataset`; the command is `s3o build fcn`.
 
 The scenes (not the crops: the dishes of one scene share a room) are split at random into
 training and validation (--val-fraction). Inputs are normalised per channel with the

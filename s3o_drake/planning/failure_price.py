@@ -12,7 +12,7 @@ over the first pickup attempt of every dish of recorded runs with recovery (Fea^
 the recoveries the corrections and retries of that dish). It is a ratio estimator: with a
 calibrated Fea^m the expected number of failures is Σ (1 - Fea^m), and recoveries that Fea^m
 does not foresee (a correction after a poor landing) are priced in too. `derive_price` computes
-it; `python -m s3o_drake.commands.failure_price` derives it from studies and records it in
+it; `s3o failure-price` derives it from studies and records it in
 models/failure_price.yaml; `priced_planner` applies it.
 """
 
@@ -68,7 +68,7 @@ class FailurePrice:
 def _load(path: str) -> FailurePrice:
     if not Path(path).is_file():
         raise FileNotFoundError(f"{path}: no failure price; make it with "
-                                "`python -m s3o_drake.commands.failure_price`")
+                                "`s3o failure-price`")
     return FailurePrice.from_dict(yaml.safe_load(Path(path).read_text()))
 
 

@@ -31,7 +31,7 @@ or touching an obstacle, or outside the room) is not a position of the base at a
 can score such samples with its penalty).
 
 Design: docs/planning.md ("The navigation map's design"), measured with
-`python -m s3o_drake.commands.navigation_benchmark --benchmark`.
+`s3o bench navigation --benchmark`.
 """
 
 from __future__ import annotations

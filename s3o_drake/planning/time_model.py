@@ -20,7 +20,7 @@ execution time is predicted as
 - T_0: the start and the end of the run (the first command starts a control period after
   t = 0; the run ends when the planner reads the last report, without the next hand-over).
 
-γ, δ and T_0 are derived by `python -m s3o_drake.commands.derive_times` and recorded in
+γ, δ and T_0 are derived by `s3o build time-model` and recorded in
 models/time_model.yaml (`TimeModel`), which everything reads: the pickup's duration is the
 arm's, and changes with it (re-run the command after changing the arm's motion).
 
@@ -198,7 +198,7 @@ class TimeModel:
 def _load(path: str) -> TimeModel:
     if not Path(path).is_file():
         raise FileNotFoundError(f"{path}: no time model; make it with "
-                                "`python -m s3o_drake.commands.derive_times`")
+                                "`s3o build time-model`")
     return TimeModel.from_dict(yaml.safe_load(Path(path).read_text()))
 
 

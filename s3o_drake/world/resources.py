@@ -17,7 +17,7 @@ RESTAURANT = SCENARIOS_DIR / "restaurant.yaml"
 RESTAURANT_DENSE = SCENARIOS_DIR / "restaurant_dense.yaml"
 """The same seven tables packed as in the paper's Gazebo world (the dense layout)."""
 TASKS_DIR = SCENARIOS_DIR / "generated"
-"""The shipped benchmark tasks (`python -m s3o_drake.commands.generate --count 100 --seed 0`)."""
+"""The shipped benchmark tasks (`s3o generate --count 100 --seed 0`)."""
 LAYOUTS = {"spacious": (RESTAURANT, TASKS_DIR),
            "dense": (RESTAURANT_DENSE, SCENARIOS_DIR / "generated_dense")}
 """Each benchmark layout (its `room.layout`): its base scenario and its shipped tasks."""

@@ -62,7 +62,7 @@ class PlanningSettings:
     depth image) or "oracle" (the Drake check under the noise model, on the known world).
     The default is measured: on 6 held-out tasks S3O-GROP* completed 3 with the network and
     none with the oracle, collected 85% against 64% of the dishes, and planned in 4.9 s
-    against 8.5 s (`python -m s3o_drake.commands.compare_feasibility --tasks 6`): CMA-ES
+    against 8.5 s (`s3o bench compare-feasibility --count 6`): CMA-ES
     maximising the oracle's 5-sample estimates picks spots that were lucky (docs/fcn.md)."""
 
 

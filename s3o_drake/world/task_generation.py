@@ -1,5 +1,5 @@
 """Benchmark tasks drawn by the paper's protocol (S3O, section V); the command that writes
-them is `python -m s3o_drake.commands.generate`.
+them is `s3o generate`.
 
 Every task keeps the room, the seven tables, the robot's start and the settings of a base
 scenario (default: scenarios/restaurant.yaml) and draws anew: 5 to 7 dishes at random
@@ -7,7 +7,7 @@ spots on random tables, and one chair that is not on the map near each dish, at 
 position and yaw. Chairs never overlap furniture, walls or each other, and the robot's
 start stays free; each task passes the same validation as a hand-written scenario.
 
-With `stops` (the benchmark's tasks: `python -m s3o_drake.commands.generate` passes
+With `stops` (the benchmark's tasks: `s3o generate` passes
 `experiments.generation.dishes_without_stops`), every dish also keeps a candidate stop that a
 drive from the start reaches: dishes drawn where no stop reaches them are drawn again, and
 so is a chair that would close the last way to one. In a dense room the chairs of the
