@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 from shapely.geometry import Point
 
-from s3o_drake.belief import ChairPerception, draw_chairs, perceived_chairs
+from s3o_drake.belief import ChairPerception, perceived_chairs
 from s3o_drake.belief.known_world import Briefing
 from s3o_drake.commands.perception_benchmark import match, true_chairs
+from s3o_drake.viz.chairs import draw_chairs
 from s3o_drake.world.builder import render_overhead
 from s3o_drake.world.camera import overhead_camera
 from s3o_drake.world.scenario import load_scenario

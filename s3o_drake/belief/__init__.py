@@ -1,21 +1,21 @@
-"""Perception from the overhead camera: what the robot's map lacks (the chairs).
+"""What the robot knows: its belief, apart from the true world.
 
-`ChairPerception(map, camera, pose=pose)(color, depth, label)` returns the unmapped chairs'
-poses [x, y, yaw], given only what the robot knows; `perceived_chairs(briefing, images)` is
-the one-call form, and
-`perceive_known_world` makes the planner's `KnownWorld` of them;
-`scenario_unmapped_chairs(scenario)` is perfect perception, for tests and comparisons. See `chairs`
-for the method and `s3o bench perception` for its accuracy.
-"""
+`known_world.py`: the `Briefing` (what the robot is given: its map, the settings, the task's
+objects, its start) and the `KnownWorld` it plans from (the map, the perceived chairs, the
+objects that remain, its pose). `chair_perception.py`: the unmapped chairs found in the
+overhead camera's images (`ChairPerception(map, camera, pose=pose)(color, depth, label)`,
+`perceived_chairs(briefing, images)`), and `perceive_known_world`, which makes the KnownWorld
+of them; `scenario_unmapped_chairs(scenario)` is perfect perception, for tests and
+comparisons (it reads the truth). `blobs.py`: the obstacle blobs perception starts from.
+`s3o bench perception` measures its accuracy."""
 
 from s3o_drake.belief.chair_perception import (
     ChairPerception,
     Perceive,
-    draw_chairs,
     perceive_known_world,
     perceived_chairs,
     scenario_unmapped_chairs,
 )
 
-__all__ = ["ChairPerception", "Perceive", "draw_chairs", "perceive_known_world",
+__all__ = ["ChairPerception", "Perceive", "perceive_known_world",
            "perceived_chairs", "scenario_unmapped_chairs"]

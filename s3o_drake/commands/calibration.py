@@ -49,8 +49,8 @@ def main(argv: list[str] | None = None) -> int:
         figures_table,
         grouped,
         read_records,
-        reliability_figure,
     )
+    from s3o_drake.viz.calibration import reliability_figure
 
     try:
         records = read_records(args.results)

@@ -59,7 +59,8 @@ def match(truth: list[list[float]], found: list[list[float]]
 
 def benchmark_task(name: str, scenario: Scenario, pictures: Path | None) -> dict[str, Any]:
     """One task's row: counts, errors and the perception time."""
-    from s3o_drake.belief.chair_perception import ChairPerception, draw_chairs
+    from s3o_drake.belief.chair_perception import ChairPerception
+    from s3o_drake.viz.chairs import draw_chairs
     from s3o_drake.world.builder import render_overhead
     from s3o_drake.world.camera import overhead_camera
 

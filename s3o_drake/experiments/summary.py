@@ -21,16 +21,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 from scipy.stats import binomtest
 
 from s3o_drake.experiments.difficulty import GROUPS, difficulty_groups
 from s3o_drake.experiments.recovery_summary import recovery_figures, recovery_table
 from s3o_drake.experiments.run_rows import code_of, has_time, predicted_completion
+from s3o_drake.viz.study import plot_figure_five, plot_table
 
 METHOD = "S3O-GROP*"
 ABLATION = "S3O-Random"
@@ -368,66 +365,6 @@ def failure_table(runs: Sequence[dict], methods: Sequence[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def plot_figure_five(cells: Sequence[Cell], methods: Sequence[str], path: Path) -> None:
-    """The paper's Fig. 5: completion rate and execution time per group and method, bars
-    with the spread over seeds as error bars."""
-    at = {(c.group, c.method): c for c in cells}
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
-    width = 0.8 / len(methods)
-    x = np.arange(len(GROUPS))
-    colours = plt.get_cmap("tab10")
-    for ax, (label, value, spread) in zip(axes, (
-            ("task completion rate", "completion", "completion_std"),
-            ("execution time (s, simulated)", "execution_time", "execution_time_std")),
-            strict=True):
-        for i, method in enumerate(methods):
-            offset = x + (i - (len(methods) - 1) / 2) * width
-            for k, g in enumerate(GROUPS):
-                cell = at[(g, method)]
-                mean = getattr(cell, value)
-                if math.isnan(mean):  # no runs (or none with a time): no bar, a word
-                    ax.text(offset[k], 0, "no runs", rotation=90, ha="center", va="bottom",
-                            fontsize=7, color="0.4")
-                    continue
-                err = getattr(cell, spread)
-                ax.bar(offset[k], mean, width, color=colours(i),
-                       yerr=None if math.isnan(err) else err, capsize=3)
-                if mean == 0:  # a real 0 would be an invisible bar
-                    ax.plot([offset[k] - width / 2, offset[k] + width / 2], [0, 0],
-                            color=colours(i), linewidth=3)
-        ax.set_xticks(x, [g.capitalize() for g in GROUPS])
-        ax.set_ylabel(label)
-        ax.grid(axis="y", alpha=0.3)
-    axes[0].set_ylim(0, 1.05)
-    handles = [plt.Rectangle((0, 0), 1, 1, color=colours(i)) for i in range(len(methods))]
-    # Below the axes: a legend inside them covers bars.
-    fig.legend(handles, methods, loc="lower center", ncol=min(len(methods), 7), fontsize=8,
-               frameon=False)
-    runs = sum(at[(g, methods[0])].runs for g in GROUPS)
-    fig.suptitle(f"Completion and execution time by task difficulty ({runs} runs per method; "
-                 "error bars: standard deviation over seeds; times: runs with a plan)")
-    fig.tight_layout(rect=(0, 0.07, 1, 1))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def plot_table_one(cells: Sequence[Cell], path: Path) -> None:
-    """Table I as a picture."""
-    at = {(c.group, c.method): c for c in cells}
-    columns = [m for m, _ in _table_one_methods(cells)]
-    rows = [[group.capitalize(), *(_table_one_cell(at.get((group, method)))
-                                   for method in columns)] for group in GROUPS]
-    fig, ax = plt.subplots(figsize=(2.7 * (len(columns) + 1), 1.9))
-    ax.axis("off")
-    labels = ["Task difficulty", *("S3O" if m == METHOD else m for m in columns)]
-    table = ax.table(cellText=rows, colLabels=labels, loc="center", cellLoc="center")
-    table.scale(1, 1.6)
-    ax.set_title("Table I: task completion rate / execution time (s)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
 def placement_table(runs: Sequence[dict], methods: Sequence[str]) -> str:
     """The objects to place, per method: how many, how many stand at their places (within
     the tolerance, upright, on the place's surface), how many were put down elsewhere, and
@@ -474,10 +411,15 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
         "runs": sorted(runs, key=lambda r: (r["task"], r["method"], r["seed"]))},
         indent=1, default=float))
     written.append(path)
-    plot_figure_five(cells, methods, out / "figure5.png")
+    plot_figure_five(cells, methods, GROUPS, out / "figure5.png")
     written.append(out / "figure5.png")
     if METHOD in methods:  # the ablations' columns say "–" where they were not run
-        plot_table_one(cells, out / "table1.png")
+        at = {(c.group, c.method): c for c in cells}
+        columns = [m for m, _ in _table_one_methods(cells)]
+        plot_table([[g.capitalize(), *(_table_one_cell(at.get((g, m))) for m in columns)]
+                    for g in GROUPS],
+                   ["Task difficulty", *("S3O" if m == METHOD else m for m in columns)],
+                   "Table I: task completion rate / execution time (s)", out / "table1.png")
         written.append(out / "table1.png")
     code = code_of(runs)
     lines = ["# Benchmark summary", "",
