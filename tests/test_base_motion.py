@@ -1,5 +1,5 @@
-"""The base's motion profile (planning/base_motion.py): the segments and durations that the
-BaseNavigator plays and the planner's cost model times."""
+"""The base's motion profile (planning/navigation/base_motion.py): the segments and durations
+that the BaseNavigator plays and the planner's cost model times."""
 
 import math
 from pathlib import Path
@@ -10,7 +10,7 @@ from pydrake.common.value import AbstractValue
 
 from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.messages import BaseCommand, CommandState
-from s3o_drake.planning.base_motion import (
+from s3o_drake.planning.navigation.base_motion import (
     BaseProfile,
     backs_away,
     chain_time,

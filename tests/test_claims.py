@@ -11,8 +11,8 @@ from s3o_drake.abstraction import LocationGrid, voronoi_partition
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.methods import plan_task
-from s3o_drake.planning.task_check import check_plan
-from s3o_drake.planning.task_planner import TaskProblem
+from s3o_drake.planning.task.check import check_plan
+from s3o_drake.planning.task.planner import TaskProblem
 from s3o_drake.world.choices import METHODS
 from s3o_drake.world.scenario import parse_scenario
 
@@ -118,8 +118,8 @@ def test_petlon_finds_the_one_free_spot_of_a_sliver_cell():
     bounding box. Rejection rounds in the box miss it; the draw then comes from the lattice."""
     from shapely.geometry import box
 
-    from s3o_drake.planning.navigation import NavigationMap
-    from s3o_drake.planning.petlon import random_position
+    from s3o_drake.planning.motion.petlon import random_position
+    from s3o_drake.planning.navigation.map import NavigationMap
     from s3o_drake.world.obstacles import Obstacles
 
     nav = NavigationMap(Obstacles(room=box(0.0, 0.0, 6.0, 4.0), footprints=()))
@@ -161,8 +161,8 @@ def test_petlon_gives_up_a_cell_without_a_free_spot_early():
     the soak's V-PETLON ran out of its budget on them); its lattice now tells early."""
     from shapely.geometry import box
 
-    from s3o_drake.planning.navigation import NavigationMap
-    from s3o_drake.planning.petlon import DRAWS_PER_POSITION, LATTICE_AFTER, random_position
+    from s3o_drake.planning.motion.petlon import DRAWS_PER_POSITION, LATTICE_AFTER, random_position
+    from s3o_drake.planning.navigation.map import NavigationMap
     from s3o_drake.world.obstacles import Obstacles
 
     nav = NavigationMap(Obstacles(room=box(0.0, 0.0, 6.0, 4.0), footprints=()))

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from s3o_drake.planning.exact_order import assignment_bound, exact_order
-from s3o_drake.planning.first_order import path_cost
-from s3o_drake.planning.task_planner import TaskProblem, plan_tasks
-from s3o_drake.planning.visit_order import visit_matrix
+from s3o_drake.planning.task.exact_order import assignment_bound, exact_order
+from s3o_drake.planning.task.first_order import path_cost
+from s3o_drake.planning.task.planner import TaskProblem, plan_tasks
+from s3o_drake.planning.task.visit_order import visit_matrix
 
 
 def random_costs(n: int, seed: int) -> np.ndarray:
@@ -65,7 +65,7 @@ def test_forty_locations_are_solved_in_seconds():
 
 
 def test_local_search_gives_distinct_orders_the_same_each_time_near_the_optimum():
-    from s3o_drake.planning.first_order import good_orders
+    from s3o_drake.planning.task.first_order import good_orders
 
     for seed in (9, 10, 11):
         costs = random_costs(21, seed)

@@ -12,10 +12,10 @@ from s3o_drake.experiments.plan_checks import plan_faults, ring_heatmaps
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.planning.free_positions import RADIUS, with_free_stops
 from s3o_drake.planning.methods import plan_task
-from s3o_drake.planning.motion_search import SequenceProblem, grop_star, location_regions
-from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.motion.free_positions import RADIUS, with_free_stops
+from s3o_drake.planning.motion.grop import SequenceProblem, grop_star, location_regions
+from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.world.random_scenes import SceneShape, random_scene
 from s3o_drake.world.scenario import load_scenario
 from s3o_drake.world.settings import PlanningSettings

@@ -81,7 +81,7 @@ def test_fea_m_is_0_where_the_base_cannot_drive_and_the_search_starts_where_it_c
     """Chairs across plate_a's cell at x = 1.5 (as `drivable` has it): the points beyond
     keep their place in the grid but pick nothing, so Fea^t and the motion search's start
     and draws see only the side the base reaches."""
-    from s3o_drake.planning.motion_search import draw, initial_point
+    from s3o_drake.planning.motion.grop import draw, initial_point
 
     scenario, _, partition = _scene()
     rings = _rings(scenario)
@@ -135,7 +135,7 @@ def test_a_sliver_has_its_representative_point():
 def test_planner_shares_one_grid(method, monkeypatch):
     """The S3O methods plan on the abstraction's grid, the V- searches on one of the plain
     partition; V-PETLON reads no grid, and no search rasterises a region of its own."""
-    from s3o_drake.planning import motion_search
+    from s3o_drake.planning.motion import grop as motion_search
 
     def no_own_grid(*args, **kwargs):
         raise AssertionError("a region rasterised outside the plan's grid")

@@ -12,14 +12,14 @@ from shapely.geometry import Point, box
 from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.planning.motion_search import (
+from s3o_drake.planning.motion.grop import (
     PENALTY,
     MotionResult,
     grop,
     grop_star,
     location_regions,
 )
-from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.planning.time_model import CostModel
 from s3o_drake.world.angles import facing_yaw, wrap
 from s3o_drake.world.scenario import load_scenario

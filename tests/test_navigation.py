@@ -12,7 +12,7 @@ from s3o_drake.abstraction.voronoi import free_space
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.commands.navigation_benchmark import benchmark, main
 from s3o_drake.feasibility.scene import ENVIRONMENT_PADDING
-from s3o_drake.planning.navigation import DRIVE_RADIUS, INSCRIBED_TOLERANCE, NavigationMap
+from s3o_drake.planning.navigation.map import DRIVE_RADIUS, INSCRIBED_TOLERANCE, NavigationMap
 from s3o_drake.world.map import Room, Table
 from s3o_drake.world.robot import BASE_RADIUS, INSCRIBED_RADIUS
 from s3o_drake.world.scenario import Scenario, load_scenario
@@ -271,7 +271,7 @@ def test_every_free_position_near_the_dishes_is_reachable(restaurant):
 
 
 def test_a_full_endpoint_cache_starts_afresh_without_losing_the_batch(monkeypatch):
-    from s3o_drake.planning import navigation
+    from s3o_drake.planning.navigation import map as navigation
 
     monkeypatch.setattr(navigation, "_ENDPOINT_CACHE_SIZE", 4)
     nav = NavigationMap(_known(_room(), []).obstacles)
@@ -311,7 +311,7 @@ def test_a_tight_map_passes_a_door_the_usual_margin_closes_by_millimetres():
     """A door 0.88 m wide, its jambs' corners rounded as the map circumscribes them (up to
     2 % more): closed by 13 mm with the usual drive clearance (0.438 m), open by 7 mm with
     the tight one (0.428 m, the collision check's padding)."""
-    from s3o_drake.planning.navigation import TIGHT_DRIVE_MARGIN
+    from s3o_drake.planning.navigation.map import TIGHT_DRIVE_MARGIN
 
     rounding = 1.0 / math.cos(math.pi / 16)
     assert 2 * (BASE_RADIUS + TIGHT_DRIVE_MARGIN) * rounding < 0.88 < \
@@ -336,7 +336,7 @@ def test_the_way_out_leaves_a_pocket_that_leads_nowhere_aside():
     there backs out to the room beyond the table, not into the strip."""
     from shapely.geometry import box
 
-    from s3o_drake.planning.navigation import WAY_OUT_MIN_AREA
+    from s3o_drake.planning.navigation.map import WAY_OUT_MIN_AREA
     from s3o_drake.world.obstacles import Obstacles
 
     nav = NavigationMap(Obstacles(room=box(0, 0, 6, 4), footprints=(box(0, 0.89, 6, 1.2),)))

@@ -17,8 +17,8 @@ from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.methods import PlanningTimeoutError, plan_task
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
-from s3o_drake.planning.task_check import check_plan
-from s3o_drake.planning.task_planner import TaskProblem
+from s3o_drake.planning.task.check import check_plan
+from s3o_drake.planning.task.planner import TaskProblem
 from s3o_drake.planning.time_model import TimeModel
 from s3o_drake.world.choices import METHODS
 from s3o_drake.world.scenario import load_scenario
@@ -319,8 +319,8 @@ def test_a_location_whose_best_spots_are_boxed_in_is_driven_to_elsewhere():
     driven to; a location with no such spot has none."""
     from shapely.geometry import box
 
-    from s3o_drake.planning.navigation import NavigationMap
-    from s3o_drake.planning.task_costs import REPRESENTATIVE_CANDIDATES, representative_points
+    from s3o_drake.planning.navigation.map import NavigationMap
+    from s3o_drake.planning.task.costs import REPRESENTATIVE_CANDIDATES, representative_points
     from s3o_drake.world.obstacles import Obstacles
 
     # A pocket 1.5 m x 1 m in the room's lower-right corner, closed by two walls of boxes.

@@ -17,7 +17,7 @@ from s3o_drake.execution.executive_system import S3OPlanner
 from s3o_drake.execution.messages import Status
 from s3o_drake.execution.recovery import StopCheck, localise
 from s3o_drake.feasibility.heatmaps import make_oracle
-from s3o_drake.planning.navigation import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
+from s3o_drake.planning.navigation.map import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import heatmaps_for
 from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.world.angles import facing_yaw
@@ -74,7 +74,7 @@ def test_a_dish_out_of_reach_across_the_table_is_reached_by_a_detour(scenario):
     """A stop on the far side of the table (a merged stop that suits the other dish) has no
     acceptable stop for bowl_south within the correction radius; the detour drives round
     the table, along the navigation map, to a stop the true world's arm picks it from."""
-    from s3o_drake.planning.navigation import NavigationMap
+    from s3o_drake.planning.navigation.map import NavigationMap
 
     known = KnownWorld.perfect(scenario)
     nav = NavigationMap(known.obstacles)

@@ -8,9 +8,9 @@ import pytest
 
 from s3o_drake.commands import scale_benchmark
 from s3o_drake.experiments.scale import state_space_row, summarize, target_lines
-from s3o_drake.planning.exact_order import exact_order
-from s3o_drake.planning.task_planner import TaskProblem, plan_tasks
-from s3o_drake.planning.visit_order import visit_matrix
+from s3o_drake.planning.task.exact_order import exact_order
+from s3o_drake.planning.task.planner import TaskProblem, plan_tasks
+from s3o_drake.planning.task.visit_order import visit_matrix
 
 
 def random_problem(m: int, seed: int) -> TaskProblem:

@@ -7,8 +7,8 @@ import time
 import numpy as np
 import pytest
 
-from s3o_drake.planning.task_check import check_plan
-from s3o_drake.planning.task_planner import (
+from s3o_drake.planning.task.check import check_plan
+from s3o_drake.planning.task.planner import (
     TaskPlanningError,
     TaskProblem,
     cost_lower_bound,
@@ -169,8 +169,8 @@ def test_a_cut_search_says_what_it_found_and_its_bound():
     """On 20 locations 0.2 s proves nothing: the plans found (local search's, as clingo's
     models) say they are not optimal, and the bound lies below the optimum (solved
     exactly), and above the cheapest drive into each location."""
-    from s3o_drake.planning.exact_order import exact_order
-    from s3o_drake.planning.visit_order import visit_matrix
+    from s3o_drake.planning.task.exact_order import exact_order
+    from s3o_drake.planning.task.visit_order import visit_matrix
 
     problem = random_problem(20, seed=1)
     try:
@@ -190,7 +190,7 @@ def test_a_cut_search_says_what_it_found_and_its_bound():
 def test_the_visit_order_encoding_gives_the_time_step_encodings_answers(seed, monkeypatch):
     """A problem that only collects is solved by order.lp; domain.lp, which every other
     problem takes, gives the same three best costs, and both plans pass the checker."""
-    from s3o_drake.planning import task_planner
+    from s3o_drake.planning.task import planner as task_planner
 
     problem = random_problem(7, seed=seed, dishes_per_location=1.5)
     problem = dataclasses.replace(problem, start="l0")  # it picks l0's dishes first
@@ -344,8 +344,8 @@ def test_a_large_order_starts_from_local_search_and_is_near_the_optimum():
     best order, and it looks only for cheaper ones. The best order is within 2 % of the
     exact optimum, three distinct valid orders come back, and clingo stops once its
     search stalls, before the limit."""
-    from s3o_drake.planning.exact_order import exact_order
-    from s3o_drake.planning.visit_order import visit_matrix
+    from s3o_drake.planning.task.exact_order import exact_order
+    from s3o_drake.planning.task.visit_order import visit_matrix
 
     problem = random_problem(30, seed=1)
     result = plan_tasks(problem, n_plans=3, time_limit=2.0)

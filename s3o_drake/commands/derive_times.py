@@ -175,7 +175,7 @@ def derive(samples: int, seed: int, command: str, *, progress: bool = True
            ) -> tuple[TimeModel, list[dict]]:
     """The time model from `samples` planned pickups (docs/commands.md, "s3o build
     time-model")."""
-    from s3o_drake.planning.base_motion import (
+    from s3o_drake.planning.navigation.base_motion import (
         ACCELERATION,
         SETTLE_TIME,
         YAW_ACCELERATION,

@@ -5,7 +5,7 @@
 Without --benchmark it prints each map's size (graph vertices, grid, blocking edges); with
 it, the build time and the milliseconds per path-length query on CMA-ES-like workloads. The
 unmapped chairs play the perceived ones. The map's design, measured with this command, is
-described in s3o_drake/planning/navigation.py.
+described in s3o_drake/planning/navigation/map.py.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ def benchmark(known: KnownWorld, *, queries: int = 2000, seed: int = 0) -> dict[
     from shapely.ops import unary_union
 
     from s3o_drake.abstraction.voronoi import free_space
-    from s3o_drake.planning.navigation import NavigationMap
+    from s3o_drake.planning.navigation.map import NavigationMap
 
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
@@ -110,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     scenarios = [(path.stem, read_scenario(path)) for path in task_paths(args)]
     from s3o_drake.belief.known_world import KnownWorld
-    from s3o_drake.planning.navigation import NavigationMap
+    from s3o_drake.planning.navigation.map import NavigationMap
 
     for name, scenario in scenarios:
         known = KnownWorld.perfect(scenario)

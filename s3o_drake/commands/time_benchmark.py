@@ -123,8 +123,8 @@ def evaluation_cost(scenario: Scenario, *, generations: int = 20, population: in
     from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
     from s3o_drake.belief.known_world import KnownWorld
     from s3o_drake.feasibility.oracle import Heatmap
-    from s3o_drake.planning.motion_search import SequenceProblem, location_regions
-    from s3o_drake.planning.navigation import NavigationMap
+    from s3o_drake.planning.motion.grop import SequenceProblem, location_regions
+    from s3o_drake.planning.navigation.map import NavigationMap
     from s3o_drake.planning.time_model import CostModel
 
     known = KnownWorld.perfect(scenario)

@@ -28,7 +28,7 @@ from s3o_drake.feasibility.landing import (
     TURN_TOLERANCE,
 )
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.planning.base_motion import (
+from s3o_drake.planning.navigation.base_motion import (
     ACCELERATION,
     SETTLE_TIME,
     TINY,
@@ -85,7 +85,7 @@ class _Segment:
     @staticmethod
     def make(start, end, *, turn: bool, length: float, max_speed: float,
              accel: float) -> "_Segment":
-        # The profile's arithmetic is the planner's too (planning/base_motion.py).
+        # The profile's arithmetic is the planner's too (planning/navigation/base_motion.py).
         speed, duration = trapezoid(length, max_speed, accel)
         return _Segment(tuple(map(float, start)), tuple(map(float, end)), turn, float(length),
                         speed, accel, duration)

@@ -64,7 +64,7 @@ from s3o_drake.execution.messages import (
 )
 from s3o_drake.execution.recovery import MIN_CORRECTION, StopCheck, describe_move, localise
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
-from s3o_drake.planning.navigation import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
+from s3o_drake.planning.navigation.map import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import plan_from
 from s3o_drake.planning.plan import Goto, Pickup, Place
 from s3o_drake.world.angles import facing_yaw, wrap

@@ -40,8 +40,8 @@ import numpy as np
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.planning_scene import PlanningScene
-from s3o_drake.planning.base_motion import BaseProfile
-from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.navigation.base_motion import BaseProfile
+from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.settings import Uncertainty
 

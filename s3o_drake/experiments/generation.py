@@ -15,7 +15,7 @@ import shapely
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.planning_scene import PlanningScene
-from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.world.robot import INSCRIBED_RADIUS
 from s3o_drake.world.scenario import Scenario
 

@@ -20,8 +20,8 @@ import numpy as np
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.plan import Goto, TaskMotionPlan
-from s3o_drake.planning.task_check import check_plan
-from s3o_drake.planning.task_planner import TaskProblem
+from s3o_drake.planning.task.check import check_plan
+from s3o_drake.planning.task.planner import TaskProblem
 from s3o_drake.world.choices import METHODS
 from s3o_drake.world.goals import place_target_name, placed_object
 

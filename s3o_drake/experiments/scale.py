@@ -13,10 +13,10 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-from s3o_drake.planning.exact_order import exact_order
 from s3o_drake.planning.result import PlanningResult
-from s3o_drake.planning.task_problem import TaskPlanResult
-from s3o_drake.planning.visit_order import visit_matrix, visits_only
+from s3o_drake.planning.task.exact_order import exact_order
+from s3o_drake.planning.task.problem import TaskPlanResult
+from s3o_drake.planning.task.visit_order import visit_matrix, visits_only
 
 STAGES = ("feasibility", "navigation", "abstraction", "task_planning", "motion_search")
 TASK_TARGET = 2.0

@@ -83,16 +83,16 @@ from s3o_drake.abstraction.voronoi import VoronoiPartition
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.planning.failure_price import priced_planner
-from s3o_drake.planning.free_positions import FreeTest, with_free_stops
-from s3o_drake.planning.motion_search import (
+from s3o_drake.planning.motion.free_positions import FreeTest, with_free_stops
+from s3o_drake.planning.motion.grop import (
     MotionResult,
     SequenceProblem,
     grop,
     grop_star,
     location_regions,
 )
-from s3o_drake.planning.navigation import DRIVE_MARGIN, NavigationMap
-from s3o_drake.planning.petlon import petlon
+from s3o_drake.planning.motion.petlon import petlon
+from s3o_drake.planning.navigation.map import DRIVE_MARGIN, NavigationMap
 from s3o_drake.planning.plan import (
     Goto,
     Pickup,
@@ -102,8 +102,8 @@ from s3o_drake.planning.plan import (
     samples_tuple,
 )
 from s3o_drake.planning.result import PlanningResult
-from s3o_drake.planning.task_costs import dead_dishes, location_costs, representative_points
-from s3o_drake.planning.task_planner import (
+from s3o_drake.planning.task.costs import dead_dishes, location_costs, representative_points
+from s3o_drake.planning.task.planner import (
     TaskPlanningTimeoutError,
     TaskPlanResult,
     plan_problem,

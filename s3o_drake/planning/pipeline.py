@@ -24,9 +24,9 @@ from s3o_drake.feasibility.heatmaps import oracle_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.planning.methods import PlanningError, PlanningResult, plan_task
-from s3o_drake.planning.navigation import DRIVE_MARGIN, NavigationMap
-from s3o_drake.planning.task_costs import first_reachable
-from s3o_drake.planning.task_planner import TaskPlanningError
+from s3o_drake.planning.navigation.map import DRIVE_MARGIN, NavigationMap
+from s3o_drake.planning.task.costs import first_reachable
+from s3o_drake.planning.task.planner import TaskPlanningError
 from s3o_drake.world.camera import overhead_camera
 from s3o_drake.world.choices import FEASIBILITY_SOURCES, FeasibilitySource
 

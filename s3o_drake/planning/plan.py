@@ -65,7 +65,7 @@ PlanAction = Goto | Pickup | Place
 class TaskOrder:
     """What the task planner could say of the plan's order (its navigation cost is
     clingo's integer objective: the drive time at the planner's speed x COST_SCALE,
-    planning/petlon.py)."""
+    planning/motion/petlon.py)."""
 
     cost: int
     """The order's navigation cost."""

@@ -9,7 +9,7 @@ from s3o_drake.abstraction.location_grid import LocationGrid
 from s3o_drake.abstraction.voronoi import VoronoiPartition
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.planning_scene import PlanningScene
-from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.planning.plan import TaskMotionPlan
 
 

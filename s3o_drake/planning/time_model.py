@@ -52,14 +52,14 @@ import yaml
 
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
-from s3o_drake.planning.base_motion import SETTLE_TIME, BaseProfile
+from s3o_drake.planning.navigation.base_motion import SETTLE_TIME, BaseProfile
 from s3o_drake.world.angles import facing_yaw, wrap
 from s3o_drake.world.resources import TIME_MODEL
 from s3o_drake.world.robot import CONTROL_PERIOD
 from s3o_drake.world.settings import PlanningSettings
 
 if TYPE_CHECKING:  # only for hints: the systems import this module for their period
-    from s3o_drake.planning.navigation import NavigationMap
+    from s3o_drake.planning.navigation.map import NavigationMap
 
 MODEL_FILE = TIME_MODEL
 FORMAT = "s3o_drake.TimeModel/1"

@@ -15,8 +15,8 @@ from importlib import resources
 import clingo
 import numpy as np
 
-from s3o_drake.planning.first_order import good_orders
-from s3o_drake.planning.task_problem import Action, TaskProblem, sym_str
+from s3o_drake.planning.task.first_order import good_orders
+from s3o_drake.planning.task.problem import Action, TaskProblem, sym_str
 
 ORDER = "order.lp"  # the visit-order encoding, for problems that only collect
 LOCATIONS = "locations.lp"  # what both encodings share: nodes, reachability, dishes
@@ -75,7 +75,7 @@ def hinted_models(problem: TaskProblem, facts: str, orders: Sequence[Sequence[st
         return []
     ctl = clingo.Control(["--opt-mode=opt", "--seed=0", "--parallel-mode=1", "--warn=none"])
     for name in (LOCATIONS, ORDER):
-        ctl.add("base", [], resources.files("s3o_drake.planning").joinpath(name).read_text())
+        ctl.add("base", [], resources.files("s3o_drake.planning.task").joinpath(name).read_text())
     ctl.add("base", [], facts)
     ctl.ground([("base", [])])
     models: list[Model | None] = []

@@ -28,9 +28,10 @@ from shapely.geometry.base import BaseGeometry
 
 from s3o_drake.abstraction.motion_feasibility import MotionFeasibility
 from s3o_drake.abstraction.voronoi import lattice_in
-from s3o_drake.planning.motion_search import MotionResult, SequenceProblem
-from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.planning.task_planner import (
+from s3o_drake.planning.motion.grop import MotionResult, SequenceProblem
+from s3o_drake.planning.navigation.map import NavigationMap
+from s3o_drake.planning.task.costs import COST_SCALE
+from s3o_drake.planning.task.planner import (
     START,
     TaskPlanningTimeoutError,
     TaskPlanResult,
@@ -39,8 +40,6 @@ from s3o_drake.planning.task_planner import (
 from s3o_drake.planning.time_model import CostModel
 from s3o_drake.world.settings import PlanningSettings
 
-COST_SCALE = 10.0
-"""Task-planner costs are seconds x 10, rounded (clingo optimises integers)."""
 DRAWS_PER_POSITION = 100
 """Rejection rounds (of 32 points each) to find a drivable point of a cell."""
 LATTICE_AFTER = 10

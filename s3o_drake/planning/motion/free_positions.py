@@ -22,7 +22,7 @@ import numpy as np
 import shapely
 
 from s3o_drake.abstraction.voronoi import lattice_in
-from s3o_drake.planning.motion_search import MotionResult, SequenceProblem
+from s3o_drake.planning.motion.grop import MotionResult, SequenceProblem
 
 FreeTest = Callable[[np.ndarray, Sequence[str]], np.ndarray]
 """(positions (m, 2), dishes (m,)) -> bool (m,): the base at each position, facing its

@@ -1,6 +1,6 @@
 """Segment-crossing and visibility tests against the edges of the inflated obstacles.
 
-The navigation map (s3o_drake/planning/navigation.py) asks two questions many thousand
+The navigation map (s3o_drake/planning/navigation/map.py) asks two questions many thousand
 times per plan: does a segment cross an edge of the blocking polygons (`BlockingEdges`),
 and which graph vertices does a point see (`VertexSight`: the tangent ones, tested with
 `VisibilityPolygons`, the segment test's answer in O(log n) from polygons precomputed by

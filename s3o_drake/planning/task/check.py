@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from s3o_drake.planning.task_planner import Action, TaskProblem
+from s3o_drake.planning.task.planner import Action, TaskProblem
 
 
 def check_plan(problem: TaskProblem, actions: Sequence[Action],

@@ -20,10 +20,11 @@ import numpy as np
 from shapely.geometry.base import BaseGeometry
 
 from s3o_drake.abstraction.location_grid import LocationGrid
-from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.planning.petlon import COST_SCALE
-from s3o_drake.planning.task_planner import START
+from s3o_drake.planning.navigation.map import NavigationMap
+from s3o_drake.planning.task.planner import START
 
+COST_SCALE = 10.0
+"""clingo's costs are integers: seconds of driving x COST_SCALE (a tenth of a second)."""
 REPRESENTATIVE_CANDIDATES = 20
 """Best grid points tried (by joint Fea^m) for a location's representative point."""
 

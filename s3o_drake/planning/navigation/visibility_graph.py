@@ -1,6 +1,6 @@
 """The navigation map's visibility graph: the convex corners of the inflated obstacles,
 the straight chords between them that no obstacle blocks, and the shortest routes over
-them (s3o_drake/planning/navigation.py asks it for the detours of blocked pairs, in batches).
+them (s3o_drake/planning/navigation/map.py asks it for the detours of blocked pairs, in batches).
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import shapely
 from scipy.sparse.csgraph import shortest_path
 from shapely.geometry.base import BaseGeometry
 
-from s3o_drake.planning.base_motion import BaseProfile
-from s3o_drake.planning.visibility import BlockingEdges, VertexSight, cross, rings
+from s3o_drake.planning.navigation.base_motion import BaseProfile
+from s3o_drake.planning.navigation.visibility import BlockingEdges, VertexSight, cross, rings
 from s3o_drake.world.angles import wrap
 
 EPS = 1e-9

@@ -72,8 +72,8 @@ from threadpoolctl import ThreadpoolController
 
 from s3o_drake.abstraction.location_grid import GridLocation, LocationGrid, region_location
 from s3o_drake.abstraction.motion_feasibility import MotionFeasibility
-from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.planning.task_planner import Action
+from s3o_drake.planning.navigation.map import NavigationMap
+from s3o_drake.planning.task.planner import Action
 from s3o_drake.planning.time_model import CostModel
 from s3o_drake.world.goals import place_target_name
 from s3o_drake.world.settings import PlanningSettings

@@ -47,8 +47,8 @@ from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
-from s3o_drake.planning.base_motion import BaseProfile, chain_time
-from s3o_drake.planning.visibility_graph import SLACK, VisibilityGraph
+from s3o_drake.planning.navigation.base_motion import BaseProfile, chain_time
+from s3o_drake.planning.navigation.visibility_graph import SLACK, VisibilityGraph
 from s3o_drake.world.furniture import DistanceField
 from s3o_drake.world.obstacles import Obstacles
 from s3o_drake.world.robot import BASE_RADIUS, INSCRIBED_RADIUS

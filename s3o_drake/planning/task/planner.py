@@ -44,8 +44,8 @@ from typing import Literal
 import clingo
 import numpy as np
 
-from s3o_drake.planning.exact_order import assignment_bound
-from s3o_drake.planning.task_problem import (
+from s3o_drake.planning.task.exact_order import assignment_bound
+from s3o_drake.planning.task.problem import (
     START,
     Action,
     CostSpec,
@@ -56,7 +56,7 @@ from s3o_drake.planning.task_problem import (
     problem_facts,
     sym_str,
 )
-from s3o_drake.planning.visit_order import (
+from s3o_drake.planning.task.visit_order import (
     LOCATIONS,
     ORDER,
     hinted_models,
@@ -162,7 +162,7 @@ def plan_tasks(problem: TaskProblem, *, n_plans: int = 1, time_limit: float = 5.
                           "-c", f"h={horizon(problem)}", "--warn=none"])
     by_order = visits_only(problem)
     for name in (LOCATIONS, ORDER if by_order else DOMAIN):
-        ctl.add("base", [], resources.files("s3o_drake.planning").joinpath(name).read_text())
+        ctl.add("base", [], resources.files("s3o_drake.planning.task").joinpath(name).read_text())
     ctl.add("base", [], facts)
     ctl.ground([("base", [])])
     t_ground = time.perf_counter() - t0
