@@ -21,8 +21,8 @@ from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.diagram import build_execution_diagram
 from s3o_drake.execution.messages import BaseCommand
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
-from s3o_drake.planning.navigation import base_motion
 from s3o_drake.planning.methods import plan_task
+from s3o_drake.planning.navigation import base_motion
 from s3o_drake.planning.navigation.base_motion import BaseProfile
 from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.planning.plan import TaskMotionPlan
