@@ -391,3 +391,14 @@ def test_one_location_price_ranks_with_the_search_s_gamma(scenes):
     for groups, cost in values["paper"].items():
         assert cost == pytest.approx(len(groups) * 20.0 / 150.0)
         assert values["search"][groups] == pytest.approx(len(groups) * gamma / 150.0)
+
+
+def test_the_registry_holds_every_method_the_settings_name():
+    """The settings' choices (light, for --help) and the planner's registry agree."""
+    from s3o_drake.planning.methods import REGISTRY, method_of
+    from s3o_drake.world.choices import METHODS
+
+    assert tuple(REGISTRY) == METHODS
+    assert method_of("V-PETLON").spaces is None and method_of("S3O-GROP*").abstraction
+    with pytest.raises(ValueError, match="unknown planning method 'S3O'"):
+        method_of("S3O")

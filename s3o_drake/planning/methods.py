@@ -1,4 +1,4 @@
-"""The planner: every compared method by name, under one time budget.
+"""The compared methods, as a registry (`REGISTRY`, `Method`), planned under one time budget.
 
 `plan_task(known, method=..., heatmaps=..., seed=...)` plans from what the robot knows (a
 `KnownWorld`) with Fea^m given; the planning pipeline (`pipeline.plan_from`) computes Fea^m
@@ -112,6 +112,7 @@ from s3o_drake.planning.time_model import CostModel
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.choices import METHODS
 from s3o_drake.world.goals import place_target_name
+from s3o_drake.world.settings import PlanningSettings
 
 WORKER_SLACK = 0.03
 """Share of the remaining budget by which worker processes stop before the deadline."""
@@ -221,9 +222,78 @@ class _Searches:
         _inherited = None
 
 
-def _check_method(method: str) -> None:
-    if method not in METHODS:
-        raise ValueError(f"unknown planning method {method!r}; known: {', '.join(METHODS)}")
+Spaces = list[tuple[tuple[tuple[str, ...], ...], float | None]]
+"""The state spaces a method searches, one per iteration: (groups, the paper's Score)."""
+
+
+def _plain_spaces(abstraction: Abstraction | None, partition: VoronoiPartition,
+                  rng: np.random.Generator, iterations: int,
+                  planner: PlanningSettings) -> Spaces:
+    """V-: the plain Voronoi space, searched every iteration with fresh seeds."""
+    return [(tuple((d,) for d in partition.dishes), None)] * iterations
+
+
+def _top_k_spaces(abstraction: Abstraction | None, partition: VoronoiPartition,
+                  rng: np.random.Generator, iterations: int,
+                  planner: PlanningSettings) -> Spaces:
+    """S3O: the top K in an order drawn from their scores (`_order`), and with
+    `search_plain_voronoi` the unmerged space after them when it is not among them."""
+    assert abstraction is not None
+    spaces = [(s.groups, s.score) for s in _order(abstraction, rng)]
+    plain = abstraction.plain_voronoi
+    if planner.search_plain_voronoi and all(g != plain.groups for g, _ in spaces):
+        # Searched last: the top K keep their seeds and their share of the budget.
+        spaces.append((plain.groups, plain.score))
+    return spaces
+
+
+def _random_spaces(abstraction: Abstraction | None, partition: VoronoiPartition,
+                   rng: np.random.Generator, iterations: int,
+                   planner: PlanningSettings) -> Spaces:
+    """S3O-Random: K state spaces drawn uniformly among all candidates."""
+    assert abstraction is not None
+    return [(s.groups, s.score) for s in
+            (abstraction.random_candidate(rng) for _ in range(iterations))]
+
+
+def _one_random_space(abstraction: Abstraction | None, partition: VoronoiPartition,
+                      rng: np.random.Generator, iterations: int,
+                      planner: PlanningSettings) -> Spaces:
+    """S3O-Random-Paper: one state space drawn uniformly, searched every iteration."""
+    assert abstraction is not None
+    drawn = abstraction.random_candidate(rng)
+    return [(drawn.groups, drawn.score)] * iterations
+
+
+@dataclass(frozen=True)
+class Method:
+    """One compared method: whether it builds S3O's abstraction, how it chooses the state
+    spaces it searches, and the motion search it runs on each of their task-level sequences.
+    V-PETLON (no `spaces`, no `search`) draws its own goals (`motion/petlon.py`)."""
+
+    name: str
+    abstraction: bool
+    spaces: Callable[..., Spaces] | None
+    search: Callable[..., MotionResult] | None
+
+
+REGISTRY: dict[str, Method] = {m.name: m for m in (
+    Method("S3O-GROP*", True, _top_k_spaces, grop_star),
+    Method("S3O-GROP", True, _top_k_spaces, grop),
+    Method("V-GROP*", False, _plain_spaces, grop_star),
+    Method("V-GROP", False, _plain_spaces, grop),
+    Method("V-PETLON", False, None, None),
+    Method("S3O-Random", True, _random_spaces, grop_star),
+    Method("S3O-Random-Paper", True, _one_random_space, grop_star),
+)}
+"""The methods by name (`choices.METHODS` names them without importing this module)."""
+
+
+def method_of(name: str) -> Method:
+    """The registered method `name`; ValueError naming the known ones otherwise."""
+    if name not in REGISTRY:
+        raise ValueError(f"unknown planning method {name!r}; known: {', '.join(METHODS)}")
+    return REGISTRY[name]
 
 
 def _order(abstraction: Abstraction, rng: np.random.Generator) -> list[StateSpace]:
@@ -297,7 +367,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     ValueError for an unknown method, `PlanningTimeoutError` when the budget expires before
     any plan, `PlanningError` (or `TaskPlanningError`) when no dish can be planned.
     """
-    _check_method(method)
+    spec = method_of(method)
     t_start = time.monotonic()
     # λ as the execution's mode prices a pickup's failure (`failure_price.py`): every part
     # of the plan reads the planner settings from here on.
@@ -358,7 +428,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     t = time.monotonic()
     abstraction: Abstraction | None = None
     grid: LocationGrid | None = None
-    if method.startswith("S3O"):
+    if spec.abstraction:
         # One price for a location: the ranking's γ / λ is the paper's, or the search's own.
         location_cost = costs.gamma / costs.reward \
             if planner.location_price == "search" and costs.reward > 0 else None
@@ -370,14 +440,14 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     else:
         partition = voronoi_partition(known, feasibility=fea, deadline=deadline,
                                       drivable=partial(nav.reachable, start))
-        if method != "V-PETLON":  # PETLON draws its goals uniformly: it reads no grid
+        if spec.spaces is not None:  # PETLON draws its goals uniformly: it reads no grid
             grid = LocationGrid.of(partition, fea, drivable=partial(nav.reachable, start))
     timing["abstraction"] = time.monotonic() - t
     expired("the abstraction")
     cells = dict(zip(partition.dishes, partition.cells, strict=True))
     iterations = max(planner.top_k, 1)
 
-    if method == "V-PETLON":
+    if spec.spaces is None:  # V-PETLON
         groups = tuple((d,) for d in partition.dishes)
         regions = location_regions(groups, cells)
         result = petlon(groups, regions, fea, nav, start, planner,
@@ -400,27 +470,9 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
                               planning_time=made.planning_time)
 
     # The state spaces to search, one per iteration.
-    rng = np.random.default_rng([seed, _ORDER])
-    spaces: list[tuple[tuple[tuple[str, ...], ...], float | None]]
-    if method.startswith("V-"):
-        groups = tuple((d,) for d in partition.dishes)
-        spaces = [(groups, None)] * iterations
-    elif method == "S3O-Random":
-        assert abstraction is not None
-        spaces = [(s.groups, s.score) for s in
-                  (abstraction.random_candidate(rng) for _ in range(iterations))]
-    elif method == "S3O-Random-Paper":
-        assert abstraction is not None
-        drawn = abstraction.random_candidate(rng)
-        spaces = [(drawn.groups, drawn.score)] * iterations
-    else:
-        assert abstraction is not None
-        spaces = [(s.groups, s.score) for s in _order(abstraction, rng)]
-        plain = abstraction.plain_voronoi
-        if planner.search_plain_voronoi and all(g != plain.groups for g, _ in spaces):
-            # Searched last: the top K keep their seeds and their share of the budget.
-            spaces.append((plain.groups, plain.score))
-    search = grop if method.endswith("GROP") else grop_star
+    spaces = spec.spaces(abstraction, partition, np.random.default_rng([seed, _ORDER]),
+                         iterations, planner)
+    search = spec.search
 
     tasks: dict[tuple[tuple[str, ...], ...], tuple[TaskPlanResult, dict[str, BaseGeometry]]] = {}
     assert grid is not None
