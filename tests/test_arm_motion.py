@@ -34,7 +34,7 @@ from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import rotation_for
 from s3o_drake.feasibility.pickup_geometry import LIFT_HEIGHT, X_WA, moved
-from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.reachability.map import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.robot import ARM_STOW, GRIPPER_CLOSED, GRIPPER_OPEN

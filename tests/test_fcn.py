@@ -10,8 +10,9 @@ import pytest
 from s3o_drake.commands import dataset as dataset_command
 from s3o_drake.commands import fcn_benchmark
 from s3o_drake.commands import train as train_command
-from s3o_drake.feasibility import dataset, training
-from s3o_drake.feasibility.fcn import (
+from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.feasibility.learned import dataset, training
+from s3o_drake.feasibility.learned.fcn import (
     CHANNELS,
     FEA_FLOOR,
     LABEL_REACH_STD,
@@ -21,7 +22,6 @@ from s3o_drake.feasibility.fcn import (
     crop_inputs,
     view_of,
 )
-from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE
 from s3o_drake.feasibility.pickup_geometry import place_probability
 from s3o_drake.world.goals import with_place_targets

@@ -15,7 +15,7 @@ from s3o_drake.feasibility.pickup_geometry import (
     goal_probability,
     place_probability,
 )
-from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.reachability.map import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.goals import with_place_targets

@@ -50,7 +50,7 @@ def main(argv: list[str] | None = None) -> int:
     if argv[:1] == ["build"]:
         argv = argv[1:]
     args = parser.parse_args(argv)
-    from s3o_drake.feasibility.reachability_build import RESOLUTION, build_map
+    from s3o_drake.feasibility.reachability.build import RESOLUTION, build_map
 
     if args.resolution is None:
         args.resolution = RESOLUTION

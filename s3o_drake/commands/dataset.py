@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     read_base(args.base)
     out = out_folder(args.out)
-    from s3o_drake.feasibility.dataset import MANIFEST, build_dataset
+    from s3o_drake.feasibility.learned.dataset import MANIFEST, build_dataset
 
     manifest = {"seed": args.seed, "base": Path(args.base).resolve().name}
     if (out / MANIFEST).exists():

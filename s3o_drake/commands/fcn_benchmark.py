@@ -47,7 +47,7 @@ def save_picture(path: Path, inputs: np.ndarray, predicted: Heatmap, oracle: Hea
     """Input height crop | predicted | oracle heatmap, side by side, in world coordinates."""
     import matplotlib
 
-    from s3o_drake.feasibility.fcn import CHANNELS
+    from s3o_drake.feasibility.learned.fcn import CHANNELS
 
     matplotlib.use("Agg")  # files only; never a window
     import matplotlib.pyplot as plt
@@ -89,9 +89,15 @@ def main(argv: list[str] | None = None) -> int:
     import torch
     from tqdm import tqdm
 
-    from s3o_drake.feasibility.fcn import CHANNELS, FcnFeasibility, auroc, crop_inputs, view_of
     from s3o_drake.feasibility.heatmaps import compute_heatmaps
-    from s3o_drake.feasibility.reachability import ReachabilityMap
+    from s3o_drake.feasibility.learned.fcn import (
+        CHANNELS,
+        FcnFeasibility,
+        auroc,
+        crop_inputs,
+        view_of,
+    )
+    from s3o_drake.feasibility.reachability.map import ReachabilityMap
 
     try:
         fcn = FcnFeasibility.load(Path(args.weights))

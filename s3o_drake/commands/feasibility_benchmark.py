@@ -49,10 +49,10 @@ def main(argv: list[str] | None = None) -> int:
     json_path = json_file(args)
     from tqdm import tqdm
 
-    from s3o_drake.feasibility.agreement import Agreement, measure, sample_queries
+    from s3o_drake.experiments.reachability_agreement import Agreement, measure, sample_queries
     from s3o_drake.feasibility.check import FeasibilityChecker
     from s3o_drake.feasibility.oracle import FeasibilityOracle
-    from s3o_drake.feasibility.reachability import ReachabilityMap
+    from s3o_drake.feasibility.reachability.map import ReachabilityMap
     from s3o_drake.feasibility.scene import FeasibilityScene
     from s3o_drake.world.scenario import load_scenario
     from s3o_drake.world.task_generation import generate_task

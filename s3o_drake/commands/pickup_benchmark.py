@@ -111,7 +111,7 @@ def durations(plan: PickupPlan, scene: FeasibilityScene) -> dict[str, dict[str, 
 def feasible_poses(scene: FeasibilityScene, checker: FeasibilityChecker, count: int,
                    rng: np.random.Generator) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """`count` (dish, base, reach offset) that `checker.check` calls feasible."""
-    from s3o_drake.feasibility.agreement import sample_queries
+    from s3o_drake.experiments.reachability_agreement import sample_queries
 
     found = []
     while len(found) < count:
@@ -145,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.execution.arm.pickup import SEGMENT_NAMES, plan_pickup
     from s3o_drake.feasibility.check import FeasibilityChecker
     from s3o_drake.feasibility.pickup_geometry import REASONS
-    from s3o_drake.feasibility.reachability import ReachabilityMap
+    from s3o_drake.feasibility.reachability.map import ReachabilityMap
     from s3o_drake.feasibility.scene import FeasibilityScene
     from s3o_drake.world.scenario import load_scenario
 

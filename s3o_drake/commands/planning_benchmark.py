@@ -150,7 +150,7 @@ def main(argv: list[str] | None = None) -> int:
     done = {name: store.get(row_key({"task": name, **settings})) for name, _ in scenarios
             if store is not None and store.finished(row_key({"task": name, **settings}))}
 
-    from s3o_drake.feasibility.reachability import ReachabilityMap
+    from s3o_drake.feasibility.reachability.map import ReachabilityMap
 
     start = time.perf_counter()
     ReachabilityMap.shared().prepare_all()

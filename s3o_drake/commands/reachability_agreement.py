@@ -36,8 +36,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     paths = task_paths(args)
     scenarios = [read_scenario(path) for path in paths]
-    from s3o_drake.feasibility.agreement import Agreement, measure, sample_queries
-    from s3o_drake.feasibility.reachability import ReachabilityMap, ReachabilityMapError
+    from s3o_drake.experiments.reachability_agreement import Agreement, measure, sample_queries
+    from s3o_drake.feasibility.reachability.map import ReachabilityMap, ReachabilityMapError
     from s3o_drake.feasibility.scene import FeasibilityScene
 
     try:

@@ -15,7 +15,7 @@ from pathlib import Path
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import command_parser, fail
 from s3o_drake.commands.options import add_out, add_quiet, out_folder
-from s3o_drake.feasibility.train_config import TrainConfig
+from s3o_drake.feasibility.learned.train_config import TrainConfig
 from s3o_drake.world.resources import FCN_WEIGHTS, REPO_DIR
 
 DEFAULT_OUT = Path("out") / "fcn"
@@ -57,9 +57,9 @@ def main(argv: list[str] | None = None) -> int:
     import numpy as np
     import torch
 
-    from s3o_drake.feasibility.dataset import load_dataset
-    from s3o_drake.feasibility.fcn import CHANNELS
-    from s3o_drake.feasibility.training import save, train
+    from s3o_drake.feasibility.learned.dataset import load_dataset
+    from s3o_drake.feasibility.learned.fcn import CHANNELS
+    from s3o_drake.feasibility.learned.training import save, train
 
     try:
         data = load_dataset(Path(args.data))

@@ -59,7 +59,7 @@ from s3o_drake.feasibility.grasp_targets import (
     target_geometry,
 )
 from s3o_drake.feasibility.grasps import Grasp, grasps_for
-from s3o_drake.feasibility.reachability import ReachabilityMap, place
+from s3o_drake.feasibility.reachability.map import ReachabilityMap, place
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
 

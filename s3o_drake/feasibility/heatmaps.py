@@ -17,7 +17,7 @@ from tqdm import tqdm
 
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE, FeasibilityOracle, Heatmap
-from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.reachability.map import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.obstacles import Obstacles

@@ -16,7 +16,7 @@ from pathlib import Path
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import FeasibilityOracle
-from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.reachability.map import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.feasibility.stops import FreeStops
 

@@ -47,7 +47,7 @@ def heatmaps_for(known: KnownWorld, *, source: str | None = None, progress: bool
             raise ValueError("planner.feasibility fcn: the network needs the overhead images, "
                              "and this KnownWorld has none")
         # Imported here: torch is heavy, and only this source needs it.
-        from s3o_drake.feasibility.fcn import FcnFeasibility, overhead_view, use_one_thread
+        from s3o_drake.feasibility.learned.fcn import FcnFeasibility, overhead_view, use_one_thread
 
         view = overhead_view(overhead_camera(known.map.room, known.settings.camera),
                              known.overhead.depth, known.overhead.label,

@@ -1,5 +1,5 @@
 """Building the arm's inverse reachability map with Drake IK (the map and its queries are in
-s3o_drake/feasibility/reachability.py).
+s3o_drake/feasibility/reachability/map.py).
 
 At each node of a (ρ, h) grid the closed-form solutions of the UR5e (all eight
 shoulder/wrist/elbow branches) seed `InverseKinematics` with the grasp-frame constraints and
@@ -23,7 +23,7 @@ from s3o_drake.feasibility.ik import (
     MIN_DISTANCE,
     POSITION_TOLERANCE,
 )
-from s3o_drake.feasibility.reachability import (
+from s3o_drake.feasibility.reachability.map import (
     FORMAT_VERSION,
     R_KIND,
     ReachabilityMap,

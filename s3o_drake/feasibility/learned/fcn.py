@@ -3,7 +3,7 @@
 The paper predicts a dish's feasibility heatmap from the ceiling camera with a VGG-16 FCN.
 That network (~130 M parameters, pretrained on ImageNet) is too heavy for a CPU and nothing
 can be downloaded here, so this is a small U-Net-like encoder-decoder trained from scratch
-on labels from the Drake oracle (`s3o_drake.feasibility.dataset`, `...train`):
+on labels from the Drake oracle (`s3o_drake.feasibility.learned.dataset`, `...train`):
 
 - input: a crop of `CROP_CELLS` x `CROP_CELLS` cells over `CROP_SIZE` x `CROP_SIZE` metres
   centred on the dish, the oracle's own grid (row i goes north, column j east), with
@@ -207,7 +207,7 @@ class FcnFeasibility:
 
     @classmethod
     def load(cls, path: Path) -> "FcnFeasibility":
-        """Reads a checkpoint written by `s3o_drake.feasibility.training`."""
+        """Reads a checkpoint written by `s3o_drake.feasibility.learned.training`."""
         checkpoint = torch.load(Path(path), map_location="cpu", weights_only=True)
         model = FeasibilityUNet(**checkpoint["config"])
         model.load_state_dict(checkpoint["state_dict"])

@@ -1,5 +1,5 @@
 """The FCN training's hyper-parameters (TrainConfig): a plain dataclass, apart from the
-training (s3o_drake.feasibility.training, which needs torch), so that the train command can
+training (s3o_drake.feasibility.learned.training, which needs torch), so that the train command can
 show the defaults in its --help without importing torch."""
 
 from dataclasses import dataclass

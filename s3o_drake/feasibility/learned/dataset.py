@@ -39,8 +39,8 @@ def scene_path(out: Path, index: int) -> Path:
 
 def make_scene(base_path: Path, seed: int, index: int) -> dict[str, np.ndarray]:
     """Inputs and oracle labels of every dish of scene `index` (arrays for np.savez)."""
-    from s3o_drake.feasibility.fcn import crop_inputs, overhead_view
     from s3o_drake.feasibility.heatmaps import compute_heatmaps
+    from s3o_drake.feasibility.learned.fcn import crop_inputs, overhead_view
     from s3o_drake.world.builder import render_overhead
     from s3o_drake.world.camera import overhead_camera
 

@@ -1,5 +1,5 @@
 """Training of the feasibility FCN on the oracle-labelled crops of
-`s3o_drake.feasibility.dataset`; the command is `s3o build fcn`.
+`s3o_drake.feasibility.learned.dataset`; the command is `s3o build fcn`.
 
 The scenes (not the crops: the dishes of one scene share a room) are split at random into
 training and validation (--val-fraction). Inputs are normalised per channel with the
@@ -29,8 +29,8 @@ import torch
 from torch import nn
 from tqdm import tqdm
 
-from s3o_drake.feasibility.fcn import CHANNELS, FeasibilityUNet, auroc
-from s3o_drake.feasibility.train_config import TrainConfig
+from s3o_drake.feasibility.learned.fcn import CHANNELS, FeasibilityUNet, auroc
+from s3o_drake.feasibility.learned.train_config import TrainConfig
 from s3o_drake.world.files import write_atomically
 
 OFFSET_CHANNELS = [CHANNELS.index("dx"), CHANNELS.index("dy")]

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.reachability.map import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.resources import RESTAURANT

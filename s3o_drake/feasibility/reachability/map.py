@@ -8,7 +8,7 @@ every bearing and turn. The map therefore stores, for each kind, configurations 
 over the grasp point's horizontal distance ρ from A and its height h above A.
 
 Built once with Drake IK on a plant that holds the robot alone (the build is in
-s3o_drake/feasibility/reachability_build.py): at each grid node the closed-form solutions of
+s3o_drake/feasibility/reachability/build.py): at each grid node the closed-form solutions of
 the UR5e (all eight shoulder/wrist/elbow branches) seed `InverseKinematics` with the
 grasp-frame constraints and a self-collision clearance of 1 cm (SNOPT, capped iterations),
 and each verified solution is kept in its branch's slot (at most K = 8 per node). The
