@@ -416,21 +416,3 @@ def test_a_base_that_cannot_leave_a_tight_spot_goes_back_the_way_it_came(dense):
     stranger.send(leave, t=1.0)
     _, status = stranger.final()
     assert (status.state, status.reason) == (CommandState.FAILED, "blocked")
-
-
-def test_the_trail_starts_at_the_last_long_drive_s_last_leg():
-    from s3o_drake.execution.base_navigator import _Segment, _trail
-
-    def seg(start, end, turn=False):
-        length = abs(end[2] - start[2]) if turn else math.dist(start[:2], end[:2])
-        return _Segment.make(start, end, turn=turn, length=length, max_speed=1.0, accel=1.0)
-
-    turn = seg((0, 0, 0), (0, 0, 1.0), turn=True)
-    leg_1 = seg((0, 0, 1.0), (1, 0, 1.0))
-    leg_2 = seg((1, 0, 1.0), (2, 0, 1.0))
-    face = seg((2, 0, 1.0), (2, 0, 1.5), turn=True)
-    trail = _trail((), [turn, leg_1, leg_2, face])
-    assert trail == (leg_2, face)
-    # A turn in place, or a short corrective move, adds to it.
-    nudge = seg((2, 0, 1.5), (2.1, 0, 1.5))
-    assert _trail(trail, [nudge]) == (leg_2, face, nudge)
