@@ -18,7 +18,7 @@ from pydrake.systems.analysis import Simulator
 from s3o_drake.belief import scenario_unmapped_chairs
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.execution.base_navigator import BaseNavigator
-from s3o_drake.execution.diagram import build_execution_diagram
+from s3o_drake.execution.diagram import build_execution_diagram, navigator_params
 from s3o_drake.execution.messages import BaseCommand
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.planning import base_motion
@@ -100,7 +100,7 @@ def test_goto_times_are_the_navigators_motion():
     chairs = [c.pose for c in scenario.chairs if not c.mapped]
     nav = NavigationMap(_known(scenario, chairs).obstacles)
     profile = BaseProfile(speed=scenario.planner.speed)
-    navigator = BaseNavigator(scenario=scenario, scene=None, noise=False)
+    navigator = BaseNavigator(params=navigator_params(scenario, noise=False), scene=None)
     rng = np.random.default_rng(0)
     free = [p for p in rng.uniform([0.5, 0.5], [9.5, 7.5], (400, 2))
             if nav.clearance(p[None])[0] > 0.5][:60]

@@ -21,15 +21,24 @@ from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSys
 from s3o_drake.execution.escape import MotionProfile, Segment, extend_trail, plan_motion
 from s3o_drake.execution.messages import NO_COMMAND, BaseCommand, CommandState, Status
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.planning.base_motion import (
-    ACCELERATION,
-    SETTLE_TIME,
-    YAW_ACCELERATION,
-    YAW_RATE,
-)
+from s3o_drake.planning.base_motion import SETTLE_TIME
 from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
-from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.system_lifetime import weak_callback
+
+
+@dataclass(frozen=True)
+class NavigatorParams:
+    """What the navigator needs of the scenario: how the base moves (`profile`), where it
+    starts (X_WB as x, y, yaw: held until the first update reads robot_state), the run's
+    `seed`, and the navigation noise T^n as standard deviations (m, rad; 0: exact
+    landings). A command's status turns done or failed `settle_time` s after its motion."""
+
+    profile: MotionProfile
+    start: tuple[float, float, float]
+    seed: int
+    nav_xy_std: float = 0.0
+    nav_yaw_std: float = 0.0
+    settle_time: float = SETTLE_TIME
 
 
 @dataclass(frozen=True)
@@ -101,8 +110,8 @@ class BaseNavigator(LeafSystem):
     equals the landing's only modulo 2 pi.
 
     The landing is `command.pose` + (dx, dy, dyaw) with dx, dy ~ N(0, nav_xy_std^2) and
-    dyaw ~ N(0, nav_yaw_std^2) from numpy.random.default_rng([seed, 1, command.id]), or
-    exactly `command.pose` with `noise=False`. With a `scene` (the true world), poses every
+    dyaw ~ N(0, nav_yaw_std^2) from numpy.random.default_rng([seed, 1, command.id]) (the
+    `params`; exactly `command.pose` when both are 0). With a `scene` (the true world), poses every
     2 cm / 0.05 rad along the motion are checked (inside the room and collision-free, arm
     stowed); the motion is cut at the last free pose before the first collision. A
     collision within the last 0.5 m of driving or in the final turn ends the command done
@@ -117,28 +126,18 @@ class BaseNavigator(LeafSystem):
     (`escape.plan_motion`).
     """
 
-    def __init__(self, *, scenario: Scenario, scene: FeasibilityScene | None,
-                 seed: int | None = None, control_period: float = 0.01,
-                 max_yaw_rate: float = YAW_RATE, noise: bool = True,
-                 settle_time: float = SETTLE_TIME, acceleration: float = ACCELERATION,
-                 yaw_acceleration: float = YAW_ACCELERATION) -> None:
+    def __init__(self, *, params: NavigatorParams, scene: FeasibilityScene | None,
+                 control_period: float = 0.01) -> None:
         super().__init__()
-        self._speed = scenario.planner.speed
-        self._xy_std = scenario.uncertainty.nav_xy_std if noise else 0.0
-        self._yaw_std = scenario.uncertainty.nav_yaw_std if noise else 0.0
-        self._seed = scenario.seed if seed is None else seed
+        self._params = params
         self._scene = scene
-        self._settle_time = settle_time
-        self._profile = MotionProfile(speed=self._speed, max_yaw_rate=max_yaw_rate,
-                                      acceleration=acceleration,
-                                      yaw_acceleration=yaw_acceleration)
 
         self._command_port = self.DeclareAbstractInputPort(
             "base_command", AbstractValue.Make(BaseCommand()))
         self._state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
         # Until the initialization event reads robot_state, hold the scenario's start pose
         # (where the world puts the robot by default).
-        start = tuple(float(v) for v in scenario.robot.start)
+        start = tuple(float(v) for v in params.start)
         self._motion_index = self.DeclareAbstractState(
             AbstractValue.Make(_Motion(hold=start)))
         # Outputs depend on time and state only: no direct feedthrough from robot_state,
@@ -183,8 +182,9 @@ class BaseNavigator(LeafSystem):
         (none for a turn in place)."""
         if command.turn:
             return np.asarray(command.pose, dtype=float)
-        rng = np.random.default_rng([self._seed, 1, command.id])
-        noise = rng.normal(0.0, 1.0, 3) * [self._xy_std, self._xy_std, self._yaw_std]
+        p = self._params
+        rng = np.random.default_rng([p.seed, 1, command.id])
+        noise = rng.normal(0.0, 1.0, 3) * [p.nav_xy_std, p.nav_xy_std, p.nav_yaw_std]
         return np.asarray(command.pose, dtype=float) + noise
 
     def _plan(self, command: BaseCommand, base: np.ndarray, t: float,
@@ -192,7 +192,7 @@ class BaseNavigator(LeafSystem):
         cut = plan_motion(base, self._landing(command), path=command.path, stop=command.pose,
                           turn=command.turn, trail=trail,
                           free=None if self._scene is None else self._free,
-                          profile=self._profile)
+                          profile=self._params.profile)
         # What blocked the base, where it touched: the bumper's reading on the status.
         contact = (self._scene.clearance.contact(cut.hit)
                    if cut.blocked and cut.hit is not None else None)
@@ -222,7 +222,7 @@ class BaseNavigator(LeafSystem):
         motion = self._motion(context)
         if motion.id == NO_COMMAND:
             output.set_value(Status())
-        elif context.get_time() < motion.t0 + motion.duration + self._settle_time:
+        elif context.get_time() < motion.t0 + motion.duration + self._params.settle_time:
             output.set_value(Status(id=motion.id, state=CommandState.RUNNING))
         else:
             output.set_value(Status(id=motion.id, state=motion.outcome, reason=motion.reason,

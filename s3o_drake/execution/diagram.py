@@ -15,6 +15,9 @@
 The navigator drives the base's three positions and the arm controller the six arm joints
 and the two fingers; `desired_state_mux` interleaves their [q, v] into the plant's [q(11),
 v(11)] with a permutation (a Multiplexer and a MatrixGain: no code of ours in the loop).
+
+The controllers take small parameter dataclasses, which `navigator_params` and `arm_params`
+make from the Scenario.
 """
 
 from __future__ import annotations
@@ -24,8 +27,9 @@ from pydrake.geometry import Meshcat
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import MatrixGain, Multiplexer
 
-from s3o_drake.execution.arm_controller import ArmController
-from s3o_drake.execution.base_navigator import BaseNavigator
+from s3o_drake.execution.arm_controller import ArmController, ArmParams
+from s3o_drake.execution.base_navigator import BaseNavigator, NavigatorParams
+from s3o_drake.execution.escape import MotionProfile
 from s3o_drake.execution.executive_system import Perceive, S3OPlanner
 from s3o_drake.execution.task_monitor import TaskMonitor
 from s3o_drake.feasibility.check import FeasibilityChecker
@@ -49,6 +53,28 @@ def desired_state_permutation() -> np.ndarray:
     P = np.zeros((2 * n, 2 * n))
     P[np.arange(2 * n), order] = 1.0
     return P
+
+
+def navigator_params(scenario: Scenario, *, seed: int | None = None,
+                     noise: bool = True) -> NavigatorParams:
+    """The BaseNavigator's params: the planner's speed, the robot's start, the navigation
+    noise (none without `noise`) and `seed` (default the scenario's)."""
+    u = scenario.uncertainty
+    return NavigatorParams(
+        profile=MotionProfile(speed=scenario.planner.speed),
+        start=tuple(float(v) for v in scenario.robot.start),
+        seed=scenario.seed if seed is None else seed,
+        nav_xy_std=u.nav_xy_std if noise else 0.0, nav_yaw_std=u.nav_yaw_std if noise else 0.0)
+
+
+def arm_params(scenario: Scenario, *, seed: int | None = None, noise: bool = True) -> ArmParams:
+    """The ArmController's params: the reach and navigation noise (none without `noise`),
+    the objects to place and `seed` (default the scenario's)."""
+    u = scenario.uncertainty
+    return ArmParams(seed=scenario.seed if seed is None else int(seed),
+                     reach_std=u.reach_std if noise else 0.0,
+                     nav_std=(u.nav_xy_std, u.nav_xy_std, u.nav_yaw_std) if noise else None,
+                     to_place=frozenset(d.name for d in scenario.dishes if d.goal == "place"))
 
 
 def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
@@ -77,10 +103,11 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
         progress_bar=progress_bar, control_period=CONTROL_PERIOD,
         robot_labels=robot_render_labels(world), noise=noise))
     navigator = builder.AddNamedSystem("base_navigator", BaseNavigator(
-        scenario=scenario, scene=truth, seed=seed, noise=noise, control_period=CONTROL_PERIOD))
+        params=navigator_params(scenario, seed=seed, noise=noise), scene=truth,
+        control_period=CONTROL_PERIOD))
     arm = builder.AddNamedSystem("arm_controller", ArmController(
-        scenario=scenario, scene=truth, checker=FeasibilityChecker(truth), seed=seed,
-        noise=noise, control_period=CONTROL_PERIOD))
+        params=arm_params(scenario, seed=seed, noise=noise), scene=truth,
+        checker=FeasibilityChecker(truth), control_period=CONTROL_PERIOD))
     monitor = builder.AddNamedSystem("task_monitor", TaskMonitor(
         period=CONTROL_PERIOD, settle_time=scenario.simulation.hold_time,
         time_limit=time_limit, places=place_targets(scenario),
