@@ -94,7 +94,7 @@ def test_the_recorded_model_was_made_from_the_code_as_it_is():
 
 def test_goto_times_are_the_navigators_motion():
     """For paths on the restaurant's map, the navigator's motion (played from the command the
-    S3OPlanner sends: the map's path from where the base stands, the stop's pose) lasts what
+    ExecutiveSystem sends: the map's path from where the base stands, the stop's pose) lasts what
     NavigationMap.path_times says, from any start yaw, with or without a final yaw."""
     scenario = load_scenario(REPO / "scenarios" / "restaurant.yaml")
     chairs = [c.pose for c in scenario.chairs if not c.mapped]
@@ -129,7 +129,7 @@ def test_goto_times_are_the_navigators_motion():
 
 
 def test_turns_at_a_merged_stop():
-    """The S3OPlanner's rule: before each further pickup, a turn in place if the dish is
+    """The ExecutiveSystem's rule: before each further pickup, a turn in place if the dish is
     more than TURN_TOLERANCE off; the base leaves facing the last dish it turned to."""
     scenario = load_scenario(TWO_DISHES)
     costs = CostModel.for_known(KnownWorld.perfect(scenario))
@@ -171,8 +171,8 @@ def executed():
     simulator.AdvanceTo(600.0)
     monitor = diagram.GetSubsystemByName("task_monitor")
     report = monitor.GetOutputPort("report").Eval(monitor.GetMyContextFromRoot(context))
-    planner = diagram.GetSubsystemByName("planner")
-    the_plan = planner.GetOutputPort("plan").Eval(planner.GetMyContextFromRoot(context))
+    executive = diagram.GetSubsystemByName("executive")
+    the_plan = executive.GetOutputPort("plan").Eval(executive.GetMyContextFromRoot(context))
     return scenario, the_plan, report, drives, arms
 
 

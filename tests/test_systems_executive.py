@@ -1,4 +1,4 @@
-"""The S3OPlanner LeafSystem alone: it plans at initialization and walks the plan, one
+"""The ExecutiveSystem LeafSystem alone: it plans at initialization and walks the plan, one
 command at a time, advancing on the controllers' reports."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.belief import scenario_unmapped_chairs
-from s3o_drake.execution.executive_system import S3OPlanner
+from s3o_drake.execution.diagram import make_executive_system
 from s3o_drake.execution.messages import NO_COMMAND, PickupRecord, Status
 from s3o_drake.planning.plan import Goto, Pickup, Place
 from s3o_drake.world.robot import robot_desired_state, robot_positions
@@ -59,7 +59,7 @@ def _step(system, context):
 
 @pytest.fixture(scope="module")
 def planned(scenario):
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+    system = make_executive_system(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -80,7 +80,7 @@ def test_plans_at_initialization(planned, scenario):
 
 
 def test_walks_the_plan_on_the_controllers_reports(scenario):
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+    system = make_executive_system(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -119,7 +119,7 @@ def test_walks_the_plan_on_the_controllers_reports(scenario):
 
 
 def test_a_failed_goto_ends_the_execution(scenario):
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+    system = make_executive_system(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -142,7 +142,7 @@ def test_perception_decides_the_obstacles(scenario):
         seen.append((color.shape, depth.shape, label.shape))
         return [[1.0, 1.0, 0.0]]
 
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0, perceive=perceive)
+    system = make_executive_system(scenario, method="V-GROP*", seed=0, perceive=perceive)
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
     assert seen == [((8, 8, 4), (8, 8), (8, 8))]
@@ -155,7 +155,7 @@ def test_turns_to_face_each_further_dish_before_picking_it():
     """Fea^m assumed the base faces the dish it picks: at a stop that serves two dishes,
     the second pickup is preceded by a turn in place (no navigation noise), then picked."""
     scenario = _with_oracle(load_scenario("scenarios/small/two_dishes.yaml"))
-    system = S3OPlanner(scenario=scenario, method="S3O-GROP*", seed=0,
+    system = make_executive_system(scenario, method="S3O-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -192,7 +192,7 @@ def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenari
     """Each finished pickup leaves a PickupRecord on `progress`: the plan's Fea^m and the
     stop it was predicted for, where the base really stood when the pick was sent, the
     arm's outcome and reach noise."""
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+    system = make_executive_system(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -235,7 +235,7 @@ def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenari
 
 def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
     scenario = _with_oracle(load_scenario("scenarios/small/two_dishes.yaml"))
-    system = S3OPlanner(scenario=scenario, method="S3O-GROP*", seed=0,
+    system = make_executive_system(scenario, method="S3O-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -271,10 +271,10 @@ def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
 
 
 def _tidy_planner():
-    """An S3OPlanner of tidy_home (V-GROP*, open loop) that has planned: with its context
+    """An ExecutiveSystem of tidy_home (V-GROP*, open loop) that has planned: with its context
     and plan."""
     tidy = _with_oracle(load_scenario("scenarios/tidy_home.yaml"))
-    system = S3OPlanner(scenario=tidy, method="V-GROP*", seed=0,
+    system = make_executive_system(tidy, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(tidy))
     context = _context(system, tidy)
     system.GetInputPort("replan_request").FixValue(context, [0.0])
