@@ -35,14 +35,18 @@ are planned for again at its end, on the tight navigation map. Every recovery is
 
 Modes (with nothing out, the next `Tick` sends the next command):
 
-    IDLE --Start--> PLANNING --PlanReady--> SEND | FINISHED (no actions)   --PlanFailed--> FINISHED
-    SEND, goto --> DRIVING --done--> SEND (next action) | FINISHED (plan ended: recheck?)
+    IDLE --Start--> PLANNING --PlanReady--> SEND (FINISHED: no actions)
+                             --PlanFailed--> FINISHED
+    SEND, goto --> DRIVING --done--> SEND (the next action) | FINISHED (the plan ended)
                            --failed--> PLANNING (replan) | FINISHED
-    SEND, pickup/place --> [stop check] CORRECTING --landed--> SEND (checked again)
-                       --> TURNING --done--> PICK --> PICKING      --failed--> (as a failed pick)
-                       --> PICKING --done--> SEND (next action)
-                                   --failed--> SEND (retry) | PLANNING (replan) | give up
-    give up / failed place --> RELEASE --> RELEASING --> SEND (next action)
+    SEND, pickup or place --> CORRECTING (the stop check asks for a move) --> SEND
+                          --> TURNING (not facing) --done--> PICK --> PICKING
+                                                   --failed--> as a failed attempt
+                          --> PICKING --done--> SEND | FINISHED
+                                      --failed--> SEND (retry) | PLANNING (replan)
+                                                  | SEND (given up) | RELEASE (a place)
+    RELEASE --> RELEASING --> SEND | FINISHED
+    FINISHED (the plan ended; recovery replan) --> PLANNING (the dishes left out, once)
 """
 
 from __future__ import annotations
