@@ -1,5 +1,6 @@
-"""The ExecutiveSystem LeafSystem alone: it plans at initialization and walks the plan, one
-command at a time, advancing on the controllers' reports."""
+"""The ExecutiveSystem LeafSystem alone (fixed inputs, forced updates, and a short
+simulation): it plans at initialization and walks the plan, one command at a time,
+advancing on the controllers' reports."""
 
 from __future__ import annotations
 
@@ -7,6 +8,10 @@ import dataclasses
 
 import numpy as np
 import pytest
+from pydrake.common.value import AbstractValue
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.belief import scenario_unmapped_chairs
@@ -77,6 +82,34 @@ def test_plans_at_initialization(planned, scenario):
     assert system.GetOutputPort("planning_time").Eval(context)[0] > 0
     result = system.GetOutputPort("planning_result").Eval(context)
     assert result.plan is plan and result.navigation is not None and result.heatmaps
+
+
+def test_in_a_short_simulation_it_plans_then_sends_the_first_drive(scenario):
+    """Inside a diagram whose controllers never report: the plan is made at initialization,
+    the first goto's drive goes out at the first control period, and nothing more."""
+    builder = DiagramBuilder()
+    system = builder.AddSystem(make_executive_system(
+        scenario, method="V-GROP*", seed=0, perceive=scenario_unmapped_chairs(scenario)))
+    state = robot_desired_state(robot_positions(*scenario.robot.start))
+    inputs = {"overhead_color_image": ImageRgba8U(8, 8),
+              "overhead_depth_image": ImageDepth32F(8, 8),
+              "overhead_label_image": ImageLabel16I(8, 8),
+              "base_status": Status(), "arm_status": Status()}
+    for name, value in inputs.items():
+        source = builder.AddSystem(ConstantValueSource(AbstractValue.Make(value)))
+        builder.Connect(source.get_output_port(), system.GetInputPort(name))
+    robot = builder.AddSystem(ConstantVectorSource(state))
+    builder.Connect(robot.get_output_port(), system.GetInputPort("robot_state"))
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(0.3)
+    context = system.GetMyContextFromRoot(simulator.get_context())
+    plan = system.GetOutputPort("plan").Eval(context)
+    command = system.GetOutputPort("base_command").Eval(context)
+    assert isinstance(plan.actions[0], Goto) and command.id == 1
+    assert command.pose == pytest.approx(plan.actions[0].pose)
+    progress = system.GetOutputPort("progress").Eval(context)
+    assert progress.step == 1 and not progress.finished and not progress.outcomes
+    assert system.GetOutputPort("pick_command").Eval(context).id == NO_COMMAND
 
 
 def test_walks_the_plan_on_the_controllers_reports(scenario):
