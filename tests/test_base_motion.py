@@ -9,6 +9,7 @@ import pytest
 from pydrake.common.value import AbstractValue
 
 from s3o_drake.execution.base_navigator import BaseNavigator
+from s3o_drake.execution.diagram import navigator_params
 from s3o_drake.execution.messages import BaseCommand, CommandState
 from s3o_drake.planning.navigation.base_motion import (
     BaseProfile,
@@ -105,7 +106,7 @@ def test_chain_time_with_a_stretch_of_legs_and_no_final_yaw():
 def test_the_navigator_plays_the_profile_time():
     """The navigator's motion lasts what the profile says, for constructed paths."""
     scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
-    navigator = BaseNavigator(scenario=scenario, scene=None, noise=False)
+    navigator = BaseNavigator(params=navigator_params(scenario, noise=False), scene=None)
     profile = BaseProfile(speed=scenario.planner.speed)
     rng = np.random.default_rng(5)
     for cid in range(1, 21):

@@ -97,7 +97,7 @@ def test_every_command_help_fits_a_screen_and_names_its_s3o_form():
 
 def test_a_subcommand_runs_its_module_with_the_arguments_after_its_name(
         tmp_path, monkeypatch, capsys):
-    from s3o_drake.feasibility.reachability import build as reachability_build
+    from s3o_drake.feasibility.reachability.map import build as reachability_build
 
     fake = types.SimpleNamespace(to_bytes=lambda: b"map",
                                  settings={"nodes": 1, "configurations": 1, "build_seconds": 0})

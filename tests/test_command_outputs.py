@@ -23,7 +23,7 @@ def test_the_default_output_is_under_out(command, argv, default, capsys):
 
 
 def test_build_writes_under_out_and_leaves_the_shipped_map(tmp_path, monkeypatch, capsys):
-    from s3o_drake.feasibility.reachability import build as reachability_build
+    from s3o_drake.feasibility.reachability.map import build as reachability_build
 
     fake = types.SimpleNamespace(to_bytes=lambda: b"map",
                                  settings={"nodes": 1, "configurations": 1, "build_seconds": 0})

@@ -12,7 +12,7 @@ def test_rendering_is_deterministic_and_names_every_system(tmp_path):
     diagrams.write(tmp_path)
     assert diagrams.stale(tmp_path) == []
     execution = (tmp_path / "execution.dot").read_text()
-    for name in ("world", "planner", "base_navigator", "arm_controller", "task_monitor",
+    for name in ("world", "executive", "base_navigator", "arm_controller", "task_monitor",
                  "desired_state_mux", "base_command", "pick_command", "grip"):
         assert name in execution, name
     assert "object_tracker" in (tmp_path / "world.dot").read_text()

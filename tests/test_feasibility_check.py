@@ -21,8 +21,8 @@ from s3o_drake.feasibility.check import CheckResult, FeasibilityChecker
 from s3o_drake.feasibility.grasp_targets import arm_base_positions, grasp_specs
 from s3o_drake.feasibility.grasps import grasps_for
 from s3o_drake.feasibility.ik import grasp_error, solve_grasp_ik, verify
-from s3o_drake.feasibility.reachability import map as reach
 from s3o_drake.feasibility.reachability.build import build_map
+from s3o_drake.feasibility.reachability.map import map as reach
 from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.furniture import DISH_KINDS

@@ -93,7 +93,7 @@ def test_positions_in_regions_and_utility_by_hand(scene, search):
 
 def _hand_robot_costs(result: MotionResult, scenario, nav, fea, costs: CostModel):
     """Utility and predicted time under the robot profile from single, unbatched queries:
-    the navigator's segments along each path (BaseProfile.motion_time), the S3OPlanner's
+    the navigator's segments along each path (BaseProfile.motion_time), the ExecutiveSystem's
     turn rule at a stop, the recorded pickup times."""
     model, profile = costs.model, costs.base
     gamma = model.overheads.gamma

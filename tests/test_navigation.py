@@ -271,7 +271,7 @@ def test_every_free_position_near_the_dishes_is_reachable(restaurant):
 
 
 def test_a_full_endpoint_cache_starts_afresh_without_losing_the_batch(monkeypatch):
-    from s3o_drake.planning.navigation import map as navigation
+    from s3o_drake.planning.navigation.map import map as navigation
 
     monkeypatch.setattr(navigation, "_ENDPOINT_CACHE_SIZE", 4)
     nav = NavigationMap(_known(_room(), []).obstacles)

@@ -1,4 +1,4 @@
-"""Execution that recovers (execution.recovery): the stop check alone, the S3OPlanner's
+"""Execution that recovers (execution.recovery): the stop check alone, the ExecutiveSystem's
 corrections, retries and replans driven by hand, and each inside a short simulation."""
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from shapely.geometry import LineString, Point
 
 from s3o_drake.belief import scenario_unmapped_chairs
 from s3o_drake.belief.known_world import KnownWorld
+from s3o_drake.execution.diagram import make_executive_system
 from s3o_drake.execution.execute import execute
-from s3o_drake.execution.executive_system import S3OPlanner
 from s3o_drake.execution.messages import Status
 from s3o_drake.execution.recovery import StopCheck, localise
 from s3o_drake.feasibility.heatmaps import make_oracle
@@ -25,7 +25,7 @@ from s3o_drake.world.obstacles import CONTACT_RADIUS
 from s3o_drake.world.robot import robot_desired_state, robot_positions
 from s3o_drake.world.scenario import load_scenario
 from s3o_drake.world.settings import Uncertainty
-from tests.test_systems_s3o_planner import _context, _step, _with_oracle
+from tests.test_systems_executive import _context, _step, _with_oracle
 
 SCENE = "scenarios/small/opposite_sides.yaml"
 
@@ -130,7 +130,7 @@ def test_where_the_robot_stands_is_rated_by_the_model_and_moves_go_to_free_stops
 def _planner(scenario, **changes):
     scenario = dataclasses.replace(scenario, execution=dataclasses.replace(
         scenario.execution, **changes))
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0, noise=False,
+    system = make_executive_system(scenario, method="V-GROP*", seed=0, noise=False,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)

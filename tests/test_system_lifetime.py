@@ -12,7 +12,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantValueSource
 
 from s3o_drake.execution.execute import execute
-from s3o_drake.execution.executive_system import S3OPlanner
+from s3o_drake.execution.executive_system import ExecutiveSystem
 from s3o_drake.execution.messages import PlanProgress
 from s3o_drake.execution.task_monitor import TaskMonitor
 from s3o_drake.world.dish_messages import DishPoses, DishStates
@@ -78,9 +78,9 @@ def test_an_execution_leaves_no_diagram_behind():
     scenario = load_scenario("scenarios/small/two_dishes.yaml")
     scenario = dataclasses.replace(scenario, planner=dataclasses.replace(
         scenario.planner, feasibility="oracle"))
-    before = (_live(S3OPlanner), _live(ObjectTracker))
+    before = (_live(ExecutiveSystem), _live(ObjectTracker))
     run = execute(scenario, meshcat=None, progress=False)
     assert run.report["collected"] == 2
     # The run's results stay; its diagram (plant, scene graph, renderer, systems) does not.
     assert run.result is not None and run.plan is not None
-    assert (_live(S3OPlanner), _live(ObjectTracker)) == before
+    assert (_live(ExecutiveSystem), _live(ObjectTracker)) == before

@@ -27,6 +27,7 @@ from pydrake.systems.primitives import (
 
 from s3o_drake.execution.arm.place import place_grasps
 from s3o_drake.execution.arm_controller import REACH_NOISE_STREAM, ArmController
+from s3o_drake.execution.diagram import arm_params
 from s3o_drake.execution.messages import CommandState, PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import RIM_INSET
@@ -46,8 +47,9 @@ STOWED = np.concatenate([ARM_STOW, GRIPPER_OPEN])
 PLANNING_REASONS = ("no_ik", "no_path", "base_collision")
 
 
-def _controller(scenario, scene, checker, **kwargs):
-    arm = ArmController(scenario=scenario, scene=scene, checker=checker, **kwargs)
+def _controller(scenario, scene, checker, *, seed=None, noise=True):
+    arm = ArmController(params=arm_params(scenario, seed=seed, noise=noise), scene=scene,
+                        checker=checker)
     return arm, arm.CreateDefaultContext()
 
 
@@ -340,7 +342,7 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     world = builder.AddNamedSystem(
         "world", build_world_diagram(start, **({"track_dishes": True} if tracked else {})))
     arm = builder.AddNamedSystem("arm_controller", ArmController(
-        scenario=start, scene=scene, checker=checker, noise=False))
+        params=arm_params(start, noise=False), scene=scene, checker=checker))
     command = builder.AddSystem(ConstantValueSource(
         AbstractValue.Make(PickCommand(id=1, dish="plate_a"))))
     base = builder.AddSystem(ConstantVectorSource(np.concatenate([FRONT_OF_PLATE, np.zeros(3)])))

@@ -1,6 +1,7 @@
 """BaseNavigator: drives a command's path at v, lands with the seeded noise, stops short of
 collisions; alone (forced updates, Eval at chosen times) and driving the world's plant."""
 
+import dataclasses
 import math
 import time
 
@@ -17,6 +18,7 @@ from pydrake.systems.primitives import (
 )
 
 from s3o_drake.execution.base_navigator import BaseNavigator
+from s3o_drake.execution.diagram import navigator_params
 from s3o_drake.execution.messages import BaseCommand, CommandState, Status
 from s3o_drake.world.angles import wrap as wrap_angle
 from s3o_drake.world.builder import build_world_diagram
@@ -56,9 +58,10 @@ class _Alone:
         return self.at(1e3)
 
 
-def _navigator(scenario, scene=None, **kwargs) -> BaseNavigator:
-    kwargs.setdefault("noise", False)
-    return BaseNavigator(scenario=scenario, scene=scene, **kwargs)
+def _navigator(scenario, scene=None, *, seed=None, noise=False, **changes) -> BaseNavigator:
+    """A navigator of `scenario` (without noise unless asked), `changes` made to its params."""
+    params = navigator_params(scenario, seed=seed, noise=noise)
+    return BaseNavigator(params=dataclasses.replace(params, **changes), scene=scene)
 
 
 def test_ports_and_no_feedthrough(scenario):
@@ -283,7 +286,8 @@ def test_a_noisy_landing_is_reached_along_the_planned_leg(scenario, scene):
     assert not all(free(p) for p in swung if p[0] < 3.4 - 0.6)  # far from the stop
     # The path's last leg starts at a waypoint, where backing out or driving on first
     # (the escapes from a tight start) changes nothing.
-    alone = _Alone(Landing(scenario=scenario, scene=scene, noise=False), base=(0.8, 1.72, 0.0))
+    alone = _Alone(Landing(params=navigator_params(scenario, noise=False), scene=scene),
+                   base=(0.8, 1.72, 0.0))
     alone.send(BaseCommand(id=3, path=((0.8, 1.72), (1.6, 1.72), (3.4, 1.72)),
                            pose=(3.4, 1.72, 0.0)))
     final, status = alone.final()
@@ -383,8 +387,6 @@ def test_a_turn_cut_a_hair_short_of_a_collision_stops_a_step_earlier(scenario, s
 def dense():
     """The dense restaurant without chairs, and its scene: a 0.85 m aisle between the wall
     (y = 0) and the 2 x 2 block of small tables (y >= 0.85)."""
-    import dataclasses
-
     from s3o_drake.feasibility.scene import FeasibilityScene
     from s3o_drake.world.scenario import load_scenario
 
@@ -416,21 +418,3 @@ def test_a_base_that_cannot_leave_a_tight_spot_goes_back_the_way_it_came(dense):
     stranger.send(leave, t=1.0)
     _, status = stranger.final()
     assert (status.state, status.reason) == (CommandState.FAILED, "blocked")
-
-
-def test_the_trail_starts_at_the_last_long_drive_s_last_leg():
-    from s3o_drake.execution.base_navigator import _Segment, _trail
-
-    def seg(start, end, turn=False):
-        length = abs(end[2] - start[2]) if turn else math.dist(start[:2], end[:2])
-        return _Segment.make(start, end, turn=turn, length=length, max_speed=1.0, accel=1.0)
-
-    turn = seg((0, 0, 0), (0, 0, 1.0), turn=True)
-    leg_1 = seg((0, 0, 1.0), (1, 0, 1.0))
-    leg_2 = seg((1, 0, 1.0), (2, 0, 1.0))
-    face = seg((2, 0, 1.0), (2, 0, 1.5), turn=True)
-    trail = _trail((), [turn, leg_1, leg_2, face])
-    assert trail == (leg_2, face)
-    # A turn in place, or a short corrective move, adds to it.
-    nudge = seg((2, 0, 1.5), (2.1, 0, 1.5))
-    assert _trail(trail, [nudge]) == (leg_2, face, nudge)

@@ -18,13 +18,12 @@ from pydrake.systems.analysis import Simulator
 from s3o_drake.belief import scenario_unmapped_chairs
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.execution.base_navigator import BaseNavigator
-from s3o_drake.execution.diagram import build_execution_diagram
+from s3o_drake.execution.diagram import build_execution_diagram, navigator_params
 from s3o_drake.execution.messages import BaseCommand
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.planning.methods import plan_task
-from s3o_drake.planning.navigation import base_motion
 from s3o_drake.planning.navigation.base_motion import BaseProfile
-from s3o_drake.planning.navigation.map import NavigationMap
+from s3o_drake.planning.navigation.map import NavigationMap, base_motion
 from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.planning.time_model import (
     PICKUP_FORMS,
@@ -95,13 +94,13 @@ def test_the_recorded_model_was_made_from_the_code_as_it_is():
 
 def test_goto_times_are_the_navigators_motion():
     """For paths on the restaurant's map, the navigator's motion (played from the command the
-    S3OPlanner sends: the map's path from where the base stands, the stop's pose) lasts what
+    ExecutiveSystem sends: the map's path from where the base stands, the stop's pose) lasts what
     NavigationMap.path_times says, from any start yaw, with or without a final yaw."""
     scenario = load_scenario(REPO / "scenarios" / "restaurant.yaml")
     chairs = [c.pose for c in scenario.chairs if not c.mapped]
     nav = NavigationMap(_known(scenario, chairs).obstacles)
     profile = BaseProfile(speed=scenario.planner.speed)
-    navigator = BaseNavigator(scenario=scenario, scene=None, noise=False)
+    navigator = BaseNavigator(params=navigator_params(scenario, noise=False), scene=None)
     rng = np.random.default_rng(0)
     free = [p for p in rng.uniform([0.5, 0.5], [9.5, 7.5], (400, 2))
             if nav.clearance(p[None])[0] > 0.5][:60]
@@ -130,7 +129,7 @@ def test_goto_times_are_the_navigators_motion():
 
 
 def test_turns_at_a_merged_stop():
-    """The S3OPlanner's rule: before each further pickup, a turn in place if the dish is
+    """The ExecutiveSystem's rule: before each further pickup, a turn in place if the dish is
     more than TURN_TOLERANCE off; the base leaves facing the last dish it turned to."""
     scenario = load_scenario(TWO_DISHES)
     costs = CostModel.for_known(KnownWorld.perfect(scenario))
@@ -172,8 +171,8 @@ def executed():
     simulator.AdvanceTo(600.0)
     monitor = diagram.GetSubsystemByName("task_monitor")
     report = monitor.GetOutputPort("report").Eval(monitor.GetMyContextFromRoot(context))
-    planner = diagram.GetSubsystemByName("planner")
-    the_plan = planner.GetOutputPort("plan").Eval(planner.GetMyContextFromRoot(context))
+    executive = diagram.GetSubsystemByName("executive")
+    the_plan = executive.GetOutputPort("plan").Eval(executive.GetMyContextFromRoot(context))
     return scenario, the_plan, report, drives, arms
 
 

@@ -14,7 +14,7 @@ landing "into" a table as a failure is pessimistic next to tables):
    face it from where it stands (Fea^m assumes the arm faces the dish; a stop that serves
    several dishes faces the first).
 
-These constants are the execution's: the BaseNavigator and the S3OPlanner read them here.
+These constants are the execution's: the BaseNavigator and the Executive read them here.
 A pose is "free" when it is inside the room and collision-free with the arm stowed
 (`FeasibilityChecker.base_free`).
 """

@@ -7,7 +7,7 @@ with the method (`planner.plan_task`: one navigation map, the abstraction, cling
 search). It returns a `PlanningResult`: the plan or the reason there is none, with the
 heatmaps, the navigation map, the state spaces and the location grid it was made on.
 
-The S3OPlanner system, `run`, the benchmarks and the evaluation plan through it; a replan is
+The ExecutiveSystem, `run`, the benchmarks and the evaluation plan through it; a replan is
 the same call with a newer KnownWorld (`KnownWorld.moved`).
 """
 

@@ -1,6 +1,6 @@
 """The plan's time model: what the simulated execution will take, and the utility's costs.
 
-A plan runs as a chain of commands, one at a time (systems/s3o_planner.py): a base command
+A plan runs as a chain of commands, one at a time (execution/executive.py): a base command
 per `goto`, a turn in place before a pickup whose dish the base does not face (a stop that
 serves several dishes faces the first), and an arm command per `pickup`. Its simulated
 execution time is predicted as
@@ -11,7 +11,7 @@ execution time is predicted as
   left its previous stop with to the stop's yaw (facing its first dish): turns in place,
   trapezoidal drives, backing away from a stop (`base_motion`, `NavigationMap.path_times`);
 - t_turn: a turn in place before a further pickup at a stop, when the dish is more than
-  TURN_TOLERANCE off the base's heading (the S3OPlanner's rule);
+  TURN_TOLERANCE off the base's heading (the Executive's rule);
 - γ: the fixed time of a base command that its motion does not cover: the navigator's
   settle time, and the hand-over between commands (see `command_overheads`);
 - δ(kind, d): a pickup: the ArmController's motion, a fitted function of the dish's kind,

@@ -1,5 +1,6 @@
-"""The S3OPlanner LeafSystem alone: it plans at initialization and walks the plan, one
-command at a time, advancing on the controllers' reports."""
+"""The ExecutiveSystem LeafSystem alone (fixed inputs, forced updates, and a short
+simulation): it plans at initialization and walks the plan, one command at a time,
+advancing on the controllers' reports."""
 
 from __future__ import annotations
 
@@ -7,10 +8,14 @@ import dataclasses
 
 import numpy as np
 import pytest
+from pydrake.common.value import AbstractValue
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.belief import scenario_unmapped_chairs
-from s3o_drake.execution.executive_system import S3OPlanner
+from s3o_drake.execution.diagram import make_executive_system
 from s3o_drake.execution.messages import NO_COMMAND, PickupRecord, Status
 from s3o_drake.planning.plan import Goto, Pickup, Place
 from s3o_drake.world.robot import robot_desired_state, robot_positions
@@ -59,7 +64,7 @@ def _step(system, context):
 
 @pytest.fixture(scope="module")
 def planned(scenario):
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+    system = make_executive_system(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -79,8 +84,36 @@ def test_plans_at_initialization(planned, scenario):
     assert result.plan is plan and result.navigation is not None and result.heatmaps
 
 
+def test_in_a_short_simulation_it_plans_then_sends_the_first_drive(scenario):
+    """Inside a diagram whose controllers never report: the plan is made at initialization,
+    the first goto's drive goes out at the first control period, and nothing more."""
+    builder = DiagramBuilder()
+    system = builder.AddSystem(make_executive_system(
+        scenario, method="V-GROP*", seed=0, perceive=scenario_unmapped_chairs(scenario)))
+    state = robot_desired_state(robot_positions(*scenario.robot.start))
+    inputs = {"overhead_color_image": ImageRgba8U(8, 8),
+              "overhead_depth_image": ImageDepth32F(8, 8),
+              "overhead_label_image": ImageLabel16I(8, 8),
+              "base_status": Status(), "arm_status": Status()}
+    for name, value in inputs.items():
+        source = builder.AddSystem(ConstantValueSource(AbstractValue.Make(value)))
+        builder.Connect(source.get_output_port(), system.GetInputPort(name))
+    robot = builder.AddSystem(ConstantVectorSource(state))
+    builder.Connect(robot.get_output_port(), system.GetInputPort("robot_state"))
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(0.3)
+    context = system.GetMyContextFromRoot(simulator.get_context())
+    plan = system.GetOutputPort("plan").Eval(context)
+    command = system.GetOutputPort("base_command").Eval(context)
+    assert isinstance(plan.actions[0], Goto) and command.id == 1
+    assert command.pose == pytest.approx(plan.actions[0].pose)
+    progress = system.GetOutputPort("progress").Eval(context)
+    assert progress.step == 1 and not progress.finished and not progress.outcomes
+    assert system.GetOutputPort("pick_command").Eval(context).id == NO_COMMAND
+
+
 def test_walks_the_plan_on_the_controllers_reports(scenario):
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+    system = make_executive_system(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -119,7 +152,7 @@ def test_walks_the_plan_on_the_controllers_reports(scenario):
 
 
 def test_a_failed_goto_ends_the_execution(scenario):
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+    system = make_executive_system(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -142,7 +175,7 @@ def test_perception_decides_the_obstacles(scenario):
         seen.append((color.shape, depth.shape, label.shape))
         return [[1.0, 1.0, 0.0]]
 
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0, perceive=perceive)
+    system = make_executive_system(scenario, method="V-GROP*", seed=0, perceive=perceive)
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
     assert seen == [((8, 8, 4), (8, 8), (8, 8))]
@@ -155,7 +188,7 @@ def test_turns_to_face_each_further_dish_before_picking_it():
     """Fea^m assumed the base faces the dish it picks: at a stop that serves two dishes,
     the second pickup is preceded by a turn in place (no navigation noise), then picked."""
     scenario = _with_oracle(load_scenario("scenarios/small/two_dishes.yaml"))
-    system = S3OPlanner(scenario=scenario, method="S3O-GROP*", seed=0,
+    system = make_executive_system(scenario, method="S3O-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -192,7 +225,7 @@ def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenari
     """Each finished pickup leaves a PickupRecord on `progress`: the plan's Fea^m and the
     stop it was predicted for, where the base really stood when the pick was sent, the
     arm's outcome and reach noise."""
-    system = S3OPlanner(scenario=scenario, method="V-GROP*", seed=0,
+    system = make_executive_system(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -235,7 +268,7 @@ def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenari
 
 def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
     scenario = _with_oracle(load_scenario("scenarios/small/two_dishes.yaml"))
-    system = S3OPlanner(scenario=scenario, method="S3O-GROP*", seed=0,
+    system = make_executive_system(scenario, method="S3O-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -271,10 +304,10 @@ def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
 
 
 def _tidy_planner():
-    """An S3OPlanner of tidy_home (V-GROP*, open loop) that has planned: with its context
+    """An ExecutiveSystem of tidy_home (V-GROP*, open loop) that has planned: with its context
     and plan."""
     tidy = _with_oracle(load_scenario("scenarios/tidy_home.yaml"))
-    system = S3OPlanner(scenario=tidy, method="V-GROP*", seed=0,
+    system = make_executive_system(tidy, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(tidy))
     context = _context(system, tidy)
     system.GetInputPort("replan_request").FixValue(context, [0.0])
