@@ -3,7 +3,7 @@
 The subcommands are a table of names, module paths and one-line summaries: `s3o --help`
 lists them without importing a command module (several import Drake, torch or matplotlib
 at the top of their work), and `s3o NAME ...` imports only the module it runs. The table's
-summaries are the modules' first docstring lines (tests/test_cli.py holds them together).
+summaries are the modules' first docstring lines (tests/commands/test_cli.py holds them together).
 """
 
 from __future__ import annotations

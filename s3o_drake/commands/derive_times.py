@@ -105,7 +105,8 @@ FORMS = {"constant": (0, "all"), "per_kind": (0, "kind"), "linear": (1, "all"),
          "per_kind_linear": (1, "kind"), "per_kind_grasp": (0, "kind/grasp"),
          "per_kind_grasp_linear": (1, "kind/grasp"),
          "per_kind_grasp_quadratic": (2, "kind/grasp")}
-"""The forms of planning/time_model.PICKUP_FORMS, in its order (tests/test_time_model.py)."""
+"""The forms of planning/time_model.PICKUP_FORMS, in its order
+(tests/planning/test_time_model.py)."""
 
 
 def side_thresholds(kinds: np.ndarray, grasps: np.ndarray, d: np.ndarray) -> dict[str, float]:

@@ -97,7 +97,7 @@ def command_overheads(control_period: float = CONTROL_PERIOD,
     the same two ticks: 3.5 periods. The first command is written at t = 0 and started one
     tick later; the run's execution time is the tick at which the planner reads the last
     report, so the last command's two hand-over ticks do not happen: -1 period per plan.
-    (Measured against full simulations in tests/test_time_model.py.)
+    (Measured against full simulations in tests/planning/test_time_model.py.)
     """
     p = float(control_period)
     return Overheads(gamma=settle_time + 2.5 * p, pickup=3.5 * p, plan=-p)
