@@ -17,7 +17,7 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.objects import Dish
 from s3o_drake.world.scenario import Scenario, load_scenario
 
-TWO_DISHES = Path(__file__).resolve().parent.parent / "scenarios" / "small" / "two_dishes.yaml"
+TWO_DISHES = Path(__file__).resolve().parents[1] / "scenarios" / "small" / "two_dishes.yaml"
 
 
 @pytest.fixture(scope="module")

@@ -237,7 +237,7 @@ def _thirty_dishes():
     """The restaurant with 30 cups along its tables' long edges."""
     import dataclasses
 
-    from conftest import cups_along_edges
+    from tests.conftest import cups_along_edges
 
     from s3o_drake.world.scenario import dump_scenario, parse_scenario
 

@@ -133,7 +133,7 @@ def test_thirty_cups_close_together_keep_their_labels_clear(tmp_path):
     become numbers keyed beside the plot, and no label covers another."""
     import dataclasses
 
-    from conftest import cups_along_edges
+    from tests.conftest import cups_along_edges
     from PIL import Image
 
     from s3o_drake.planning.plan import Pickup
