@@ -237,9 +237,8 @@ def _thirty_dishes():
     """The restaurant with 30 cups along its tables' long edges."""
     import dataclasses
 
-    from tests.conftest import cups_along_edges
-
     from s3o_drake.world.scenario import dump_scenario, parse_scenario
+    from tests.conftest import cups_along_edges
 
     scenario = load_scenario("scenarios/restaurant.yaml")
     cups = [d for d, _ in cups_along_edges(scenario, 30)]

@@ -133,11 +133,11 @@ def test_thirty_cups_close_together_keep_their_labels_clear(tmp_path):
     become numbers keyed beside the plot, and no label covers another."""
     import dataclasses
 
-    from tests.conftest import cups_along_edges
     from PIL import Image
 
     from s3o_drake.planning.plan import Pickup
     from s3o_drake.world.scenario import load_scenario
+    from tests.conftest import cups_along_edges
 
     room = load_scenario("scenarios/restaurant.yaml")
     cups = [(d, np.asarray(d.position) + 0.6 * out) for d, out in cups_along_edges(room, 30)]
