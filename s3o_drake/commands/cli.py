@@ -81,6 +81,8 @@ COMMANDS: tuple[Command, ...] = (
        "Variants of a method against a baseline, paired: the attribution table."),
     _c("bench best-stops", "best_stops",
        "Each dish's best stop by Fea^m: the best odds of an open-loop plan."),
+    _c("bench same-runs", "same_runs",
+       "Whether two studies' runs did the same, the machine's timings aside."),
     _c("bench soak", "soak",
        "Plan and execute many random scenes: crashes, overruns, hangs, memory."),
 )

@@ -36,3 +36,38 @@ def code_of(runs: Sequence[Mapping]) -> str:
     if len(counts) == 1:
         return next(iter(counts))
     return ", ".join(f"{c} ({n})" for c, n in counts.most_common())
+
+
+BOOKKEEPING = frozenset({"code", "schema", "job_seconds", "planning_time", "realtime_rate",
+                         "key", "path", "digest"})
+"""Fields of a run's row that say when, where and how fast it ran, not what it did."""
+
+
+def _what_it_did(value: object) -> object:
+    """`value` without bookkeeping and wall-clock timings, at any depth."""
+    if isinstance(value, Mapping):
+        return {k: _what_it_did(v) for k, v in value.items()
+                if k not in BOOKKEEPING and "wall" not in k and k != "timing"}
+    if isinstance(value, list | tuple):
+        return [_what_it_did(v) for v in value]
+    return value
+
+
+def run_differences(before: Sequence[Mapping], after: Sequence[Mapping]
+                    ) -> tuple[int, list[str]]:
+    """The runs that both sets hold (by task, method, run seed and recovery), and one line
+    per field where a run did something else: plans, outcomes, pickups, recoveries,
+    simulated times. Timings of the machine and bookkeeping are left out."""
+    def keyed(rows):
+        return {(r["task"], r["method"], r.get("run_seed"), r.get("recovery", "none")): r
+                for r in rows if "error" not in r}
+    a, b = keyed(before), keyed(after)
+    common = sorted(set(a) & set(b))
+    lines = []
+    for key in common:
+        x, y = _what_it_did(a[key]), _what_it_did(b[key])
+        for field in sorted(set(x) | set(y)):
+            if x.get(field) != y.get(field):
+                lines.append(f"{'/'.join(map(str, key))}: {field}: {str(x.get(field))[:80]} "
+                             f"-> {str(y.get(field))[:80]}")
+    return len(common), lines
