@@ -49,3 +49,7 @@ def test_a_run_without_a_plan_has_no_time_and_predicts_nothing():
     assert predicted_completion(_run(dishes=2)) == 0.0  # a dish without a pickup
     assert predicted_completion(_run()) == pytest.approx(0.9)
     assert predicted_completion({"predicted_completion": 0.5}) == 0.5
+
+
+def test_a_field_only_one_version_records_is_no_difference():
+    assert run_differences([_run()], [_run(predicted_time=41.0)]) == (1, [])
