@@ -14,9 +14,10 @@ import pytest
 
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.scenario import Dish, Scenario, load_scenario
+from s3o_drake.world.objects import Dish
+from s3o_drake.world.scenario import Scenario, load_scenario
 
-TWO_DISHES = Path(__file__).resolve().parent.parent / "scenarios" / "small" / "two_dishes.yaml"
+TWO_DISHES = Path(__file__).resolve().parents[1] / "scenarios" / "small" / "two_dishes.yaml"
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +30,7 @@ def scenario() -> Scenario:
 @pytest.fixture(scope="module")
 def scene(scenario: Scenario) -> FeasibilityScene:
     """The feasibility scene (plant, collision checker) of `scenario`."""
-    return FeasibilityScene(scenario)
+    return FeasibilityScene(scenario.contents)
 
 
 @pytest.fixture(scope="module")

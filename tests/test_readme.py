@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from s3o_drake import scenario as schema
+from s3o_drake.world import scenario as schema
 
 REPO = Path(__file__).resolve().parent.parent
 README = (REPO / "README.md").read_text()
@@ -47,7 +47,7 @@ def test_the_scenario_table_lists_every_field():
 
 
 def test_the_run_usage_line_has_every_option():
-    from s3o_drake.commands.run import main
+    from s3o_drake.commands.run_scenario import main
 
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed), pytest.raises(SystemExit):

@@ -2,7 +2,7 @@
 
 A location is the union of some Voronoi cells (`voronoi.py`). Fea^t (`task_feasibility.py`),
 the planner's representative points and the motion search's starting points and draws
-(`planning/planner.py`, `planning/motion_search.py`) all read a location through this grid:
+(`planning/methods.py`, `planning/motion/grop.py`) all read a location through this grid:
 
 - Lattice. The centres of a regular grid of `GRID_CELL` (5 cm), anchored at multiples of
   the cell so that the grids of different scenes and regions line up, over the bounding box

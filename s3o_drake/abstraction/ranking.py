@@ -36,8 +36,8 @@ from s3o_drake.abstraction.candidates import (
 from s3o_drake.abstraction.location_grid import GRID_CELL, LocationGrid
 from s3o_drake.abstraction.task_feasibility import TaskFeasibility
 from s3o_drake.abstraction.voronoi import Drivable, VoronoiPartition, voronoi_partition
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.robot import INSCRIBED_RADIUS
+from s3o_drake.belief.known_world import KnownWorld
+from s3o_drake.world.robot import INSCRIBED_RADIUS
 
 KEEP = 1000
 """How many of the best candidates are kept, scored and ranked in full."""

@@ -38,7 +38,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from s3o_drake.abstraction.location_grid import GridFallback, LocationGrid
-from s3o_drake.choices import GROUP_POSITIONS
+from s3o_drake.world.choices import GROUP_POSITIONS
 
 
 def _draw(weights: np.ndarray, u: np.ndarray) -> np.ndarray:

@@ -57,9 +57,9 @@ from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
 from s3o_drake.abstraction.motion_feasibility import MotionFeasibility, as_motion_feasibility
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import REACH_LIMIT
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.robot import INSCRIBED_RADIUS
+from s3o_drake.world.robot import INSCRIBED_RADIUS
 
 ARM_REACH = REACH_LIMIT
 """How far (m) from a dish a base can stand and still pick it: the arm's full reach with a

@@ -1,8 +1,9 @@
-"""Every command of the project, each a thin `main` over library calls; `python -m
-s3o_drake.commands.<name> --help` explains one. The library never imports from here.
+"""Every command of the project, each a thin `main` over library calls, run as a subcommand
+of the `s3o` console script (cli.py: `s3o --help` lists them; docs/commands.md explains
+them). The library never imports from here.
 
-  run, evaluate, generate, calibration, diagrams    the user's commands
-  dataset, train, build_reachability, derive_times  make what ships in models/
-  *_benchmark, oracle_pinning, compare_feasibility,
-  reachability_agreement                            measurements (figures in docs/)
+  s3o run, generate, evaluate, calibrate,     the user's commands
+      failure-price, diagrams
+  s3o build reachability|time-model|...       make what ships in models/
+  s3o bench planning|execution|...            measurements (figures in docs/)
 """

@@ -1,47 +1,32 @@
-"""Benchmark of the state-space abstraction: candidates counted and time taken.
+"""The state-space abstraction: candidates counted and time taken.
 
-    python -m s3o_drake.commands.abstraction_benchmark [--counts 5 7 15 30]
+    s3o bench abstraction [--counts 5 7 15 30] [--dense 7 10] [--cache FILE.npz]
 
-Scenes are scenarios/restaurant.yaml (six dishes, six chairs, all passed as perceived)
-cut to its first dishes, or extended with dishes drawn at random free spots on the
-restaurant's tables (seeded, validated like any scenario). Fea^m heatmaps are computed
-before any timing, once on the largest scene (4 m x 4 m crops at --cells x --cells):
-they are the feasibility step's cost, not this one's.
-The time is everything `build_abstraction` does: free space, Voronoi cells, adjacency,
-the position grid, candidate generation, Fea^t of every group, Score and ranking.
-"candidates" counts all generated partitions (the product over the adjacency graph's
-components); "search" says whether every component was enumerated or some needed the
-beam; "complete" whether generation ended within the count and time bounds.
-
-Dense rows (--dense) put all their dishes on one table that the robot can walk around
-(--dense-table, default mid_1) and perceive no chairs, so that most cells neighbour each
-other: the case where full enumeration is largest.
-
-Targets (issue 4): 7 dishes fully enumerated and ranked in <= 1 s; 30 dishes give a
-top-K in <= 5 s.
-
-Exit status: 0 when the targets are met, 1 when one is missed, 2 on bad input (one line
-on stderr).
+The restaurant (--base) cut to its first dishes or extended with dishes drawn on its tables;
+dense rows put every dish on one table (--dense-table). Times everything build_abstraction
+does (free space, Voronoi cells, candidates, Fea^t, ranking) on heatmaps computed before.
+Targets: 7 dishes fully enumerated and ranked in <= 1 s; 30 dishes give a top-K in <= 5 s.
+Exit status: 0 when the targets are met, 1 when one is missed, 2 on bad input.
 """
+
+from __future__ import annotations
 
 import sys
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from s3o_drake.abstraction.location_grid import LocationGrid
-from s3o_drake.abstraction.ranking import build_abstraction, rank
-from s3o_drake.abstraction.task_feasibility import TaskFeasibility
-from s3o_drake.abstraction.voronoi import voronoi_partition
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
-from s3o_drake.feasibility.heatmaps import compute_heatmaps
-from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.furniture import DISH_SHAPES, RESTAURANT_KINDS
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.scenario import Dish, Scenario, ScenarioError, validate_scenario
-from s3o_drake.task_generation import DEFAULT_BASE, DISH_GAP, spot_on_table
+# Light imports only: --help and bad arguments answer before Drake and shapely load.
+from s3o_drake.commands.common import command_parser, fail, read_scenario
+from s3o_drake.commands.options import add_seed, add_workers, at_least
+from s3o_drake.world.resources import REPO_DIR, RESTAURANT
+
+if TYPE_CHECKING:
+    from s3o_drake.feasibility.oracle import Heatmap
+    from s3o_drake.world.scenario import Scenario
 
 TARGETS = {7: 1.0, 30: 5.0}  # dishes -> seconds
 MAX_TRIES = 10_000
@@ -54,6 +39,11 @@ def with_dish_count(base: Scenario, count: int, seed: int, *,
     With `table`, all `count` dishes are drawn on that one table instead (a dense scene:
     many mutually adjacent cells, the enumeration's worst case).
     """
+    from s3o_drake.world.furniture import DISH_SHAPES, RESTAURANT_KINDS
+    from s3o_drake.world.objects import Dish
+    from s3o_drake.world.scenario_checks import ScenarioError, validate_scenario
+    from s3o_drake.world.task_generation import DISH_GAP, spot_on_table
+
     dishes = [] if table else list(base.dishes[:count])
     tables = [t for t in base.tables if t.name == table] if table else base.tables
     placed = [(np.array(d.position), DISH_SHAPES[d.kind].radius) for d in dishes]
@@ -93,6 +83,8 @@ def _cache_key(scene: Scenario, cells: int) -> str:
 
 def _load_cache(path: Path, key: str) -> list[Heatmap] | None:
     """The cached heatmaps if the file exists and was made for the same scene."""
+    from s3o_drake.feasibility.oracle import Heatmap
+
     if not path.is_file():
         return None
     with np.load(path) as data:
@@ -115,6 +107,12 @@ def _save_cache(path: Path, key: str, heatmaps: list[Heatmap]) -> None:
 def _synthetic_row(label: str, scene: Scenario, perceived: list, heatmaps: dict,
                    adjacency: list[set[int]], target: float | None, note: str) -> bool:
     """Times the abstraction with the cells' adjacency replaced; prints one row."""
+    from s3o_drake.abstraction.location_grid import LocationGrid
+    from s3o_drake.abstraction.ranking import rank
+    from s3o_drake.abstraction.task_feasibility import TaskFeasibility
+    from s3o_drake.abstraction.voronoi import voronoi_partition
+    from s3o_drake.belief.known_world import KnownWorld
+
     t0 = time.perf_counter()
     partition = voronoi_partition(KnownWorld.of(scene, perceived_chairs=perceived))
     partition.adjacency = adjacency
@@ -136,32 +134,28 @@ def _synthetic_row(label: str, scene: Scenario, perceived: list, heatmaps: dict,
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.abstraction_benchmark",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--scenario", default=str(DEFAULT_BASE),
-                        help="base scene (default: scenarios/restaurant.yaml)")
-    parser.add_argument("--counts", type=int, nargs="+", default=[5, 7, 15, 30],
+    parser = command_parser("bench abstraction", __doc__)
+    parser.add_argument("--base", metavar="YAML", default=str(RESTAURANT),
+                        help=f"base scene (default {RESTAURANT.relative_to(REPO_DIR)})")
+    parser.add_argument("--counts", type=at_least(1), nargs="+", default=[5, 7, 15, 30],
                         metavar="N", help="dish counts to time (default: 5 7 15 30)")
-    parser.add_argument("--dense", type=int, nargs="*", default=[7, 10], metavar="N",
-                        help="dish counts of dense rows, all on --dense-table "
-                             "(default: 7 10)")
-    parser.add_argument("--dense-table", default="mid_1",
+    parser.add_argument("--dense", type=at_least(1), nargs="*", default=[7, 10], metavar="N",
+                        help="dish counts of dense rows, all on --dense-table (default: 7 10)")
+    parser.add_argument("--dense-table", default="mid_1", metavar="NAME",
                         help="the table of the dense rows (default: mid_1, free all round)")
-    parser.add_argument("--cells", type=int, default=64,
+    parser.add_argument("--cells", type=at_least(1), default=64, metavar="N",
                         help="heatmap cells per side (default: 64)")
-    parser.add_argument("--workers", type=int, default=1,
-                        help="processes computing the heatmaps (default: 1)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the extra dishes")
+    add_workers(parser, 1, "processes computing the heatmaps")
+    add_seed(parser, 0, "seed of the extra dishes")
     parser.add_argument("--cache", metavar="FILE.npz",
-                        help="keep the heatmaps in this file and reuse them when the dishes, "
-                             "and cells match")
+                        help="keep the heatmaps in this file and reuse them for the same scene")
     args = parser.parse_args(argv)
-    if any(n < 1 for n in args.counts + args.dense):
-        fail("--counts, --dense: every count must be at least 1")
-    for name in ("cells", "workers"):
-        if getattr(args, name) < 1:
-            fail(f"--{name}: must be at least 1, got {getattr(args, name)}")
-    base = read_scenario(args.scenario)
+    from s3o_drake.abstraction.ranking import build_abstraction
+    from s3o_drake.belief.known_world import KnownWorld
+    from s3o_drake.feasibility.heatmaps import compute_heatmaps
+    from s3o_drake.world.scenario_checks import ScenarioError
+
+    base = read_scenario(args.base, "--base")
     try:
         largest = with_dish_count(base, max(args.counts), args.seed)
         if args.dense_table not in {t.name for t in base.tables}:
@@ -170,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
         dense = with_dish_count(replace(base, chairs=[]), max(args.dense), args.seed,
                                 table=longest) if args.dense else None
     except ScenarioError as e:
-        fail(str(e) if e.path.startswith("--") else f"{args.scenario}: {e}")
+        fail(str(e) if e.path.startswith("--") else f"--base: {args.base}: {e}")
     scenes = [(n, "", largest) for n in args.counts]
     scenes += [(n, f" ({longest})", dense) for n in args.dense]
     perceived = [c.pose for c in base.chairs if not c.mapped]

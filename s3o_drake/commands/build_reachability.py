@@ -1,87 +1,62 @@
-"""The arm's inverse reachability map: stored grasp configurations, looked up in microseconds.
+"""Build the arm's inverse reachability map with Drake IK.
 
-A grasp's frame depends only on its kind ("top", "side"), the bearing from the arm base A to
-the dish and a wrist turn about the approach axis (see `grasps`). Turning the shoulder-pan
-joint by Δ turns the whole arm about A's z axis, and turning wrist 3 turns the gripper about
-the approach axis, so one arm configuration that grasps at bearing 0 with wrist turn 0 serves
-every bearing and turn. The map therefore stores, for each kind, configurations on a grid
-over the grasp point's horizontal distance ρ from A and its height h above A.
+    s3o build reachability [--out out/reachability_map.npz] [--workers 2] [--resolution M]
 
-Built once with Drake IK on a plant that holds the robot alone: at each grid node the
-closed-form solutions of the UR5e (all eight shoulder/wrist/elbow branches) seed
-`InverseKinematics` with the grasp-frame constraints and a self-collision clearance of 1 cm
-(SNOPT, capped iterations), and each verified solution is kept in its branch's slot (at most
-K = 8 per node). The environment is left to query time, where the configurations are moved to
-the query's bearing and checked against the scene with the collision checker
-(`s3o_drake.feasibility.check`).
-
-A query between nodes takes each branch from the grid cell's corners (bilinear interpolation
-of the joint angles), verifies it by forward kinematics and, where it is not yet within
-tolerance, moves it onto the target with a few Newton steps; so the answer does not depend on
-the grid's resolution, and a target beyond the arm's reach has no candidates.
-
-    python -m s3o_drake.commands.build_reachability build [--out out/reachability_map.npz]
-                                                       [--workers 2] [--resolution 0.01]
-
-builds the map deterministically with worker processes (a few minutes on two cores) and writes
-it atomically, with its settings, as a compressed .npz; `ReachabilityMap.load()` reads the
-shipped one, models/reachability_map.npz, which only `--out models/reachability_map.npz`
-replaces.
+The inverse reachability map stores, per grasp kind, arm configurations on a grid over the
+grasp point's horizontal distance and height from the arm base; the feasibility check
+looks them up in microseconds. The build is deterministic (the same file, whatever
+--workers), about 6 minutes on two cores; the shipped map, models/reachability_map.npz, is
+replaced only when --out names it.
 """
 
+import argparse
 import math
 import sys
 from pathlib import Path
 
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.io import write_atomically
-from s3o_drake.resources import REACHABILITY_MAP, REPO_DIR
+from s3o_drake.commands.common import command_parser, fail
+from s3o_drake.commands.options import add_out, add_quiet, add_workers, out_file
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import REACHABILITY_MAP, REPO_DIR
 
 DEFAULT_OUT = Path("out") / REACHABILITY_MAP.name
 """Where the map goes unless --out says otherwise: not over the shipped one."""
 
 
 def _positive(text: str) -> float:
-    value = float(text)
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
     if not (value > 0 and math.isfinite(value)):
-        raise ValueError(text)
+        raise argparse.ArgumentTypeError(f"expected a positive number of metres, got {text!r}")
     return value
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.build_reachability",
-                            description=__doc__, formatter_class=doc_formatter())
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
-                                parser_class=ArgumentParser)
-    build = sub.add_parser("build", help="build the map with Drake IK and write it",
-                           description="Builds the reachability map with Drake IK and writes "
-                                       "it atomically with its settings: deterministic "
-                                       "(the same file content, build time and date aside, "
-                                       "whatever --workers), about 6 minutes on two cores "
-                                       "at the default resolution.")
-    build.add_argument("--out", metavar="NPZ", default=str(DEFAULT_OUT),
-                       help=f"output file (default {DEFAULT_OUT}; the shipped map is replaced "
-                            f"only when told: --out {REACHABILITY_MAP.relative_to(REPO_DIR)})")
-    build.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
-    build.add_argument("--resolution", type=_positive,
-                       help="grid step in metres (default: the shipped map's, "
-                            "reachability_build.RESOLUTION)")
-    build.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser = command_parser("build reachability", __doc__)
+    add_out(parser, file=True, default=str(DEFAULT_OUT),
+            note=f"the shipped map is replaced only when told: --out "
+                 f"{REACHABILITY_MAP.relative_to(REPO_DIR)}")
+    add_workers(parser, 2)
+    parser.add_argument("--resolution", type=_positive, metavar="M",
+                        help="grid step in metres (default: the shipped map's)")
+    add_quiet(parser)
+    if argv is None:
+        argv = sys.argv[1:]
+    # Its first address had a subcommand: `python -m s3o_drake.commands.build_reachability
+    # build ...`, in the project's records; it is still understood.
+    if argv[:1] == ["build"]:
+        argv = argv[1:]
     args = parser.parse_args(argv)
-    from s3o_drake.feasibility.reachability_build import RESOLUTION, build_map
+    from s3o_drake.feasibility.reachability.build import RESOLUTION, build_map
 
     if args.resolution is None:
         args.resolution = RESOLUTION
-    if args.workers < 1:
-        fail(f"--workers: must be at least 1, got {args.workers}")
     if not 0.002 <= args.resolution <= 0.1:
         fail(f"--resolution: must be between 0.002 and 0.1 m, got {args.resolution}")
-    out = Path(args.out)
-    if out.is_dir():
-        fail(f"--out: {out} is a folder")
-    if any(folder.exists() and not folder.is_dir() for folder in out.parents):
-        fail(f"--out: {out.parent} is not a folder")
+    out = out_file(args.out)
     reach_map = build_map(resolution=args.resolution, workers=args.workers,
                           progress=not args.quiet)
     data = reach_map.to_bytes()

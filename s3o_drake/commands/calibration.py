@@ -1,84 +1,56 @@
-"""Calibration of Fea^m against executed pickups: is a pickup rated p picked a share p of
-the time?
+"""Calibration of Fea^m against executed pickups: reliability, ECE, Brier.
 
-    python -m s3o_drake.commands.calibration RESULTS [RESULTS ...] [--out DIR] [--methods NAME ...]
-                                    [--by all|method|source|action] [--bins N]
+    s3o calibrate RESULTS [RESULTS ...] [--by all|method|source|action] [--out DIR]
 
-RESULTS: a results.jsonl of `python -m s3o_drake.commands.evaluate`, a folder holding one (else the
-report.json files below it), or report.json files of `python -m s3o_drake.run`. Each executed
-pickup there carries the plan's Fea^m of it (from the planned stop), the source of that
-model (planner.feasibility: fcn or oracle), the planned and the real stop, and the outcome.
-Pickups a run never reached (after a blocked drive) are not executions and do not count.
-
-Prints, over all pickups, per method, per source and per action (pickup, or place: the
-putting down of an object at its place, which succeeds when the object stands there,
-report.json's placements): the number of pickups, their observed
-success and mean predicted Fea^m, the expected calibration error (ECE: the predictions in
---bins equal-width bins of [0, 1], |mean prediction - observed success| per bin weighted by
-its count), the Brier score (mean squared difference between prediction and outcome, 1 or
-0), and the observed success of the pickups predicted >= 0.9 with their count and a 95 %
-binomial (Clopper-Pearson) interval.
-
-Written to --out (default out/calibration):
-  reliability.png   per bin, the mean prediction against the observed success (with its
-                    95 % interval and the count beside the point), the diagonal of a
-                    calibrated model, and the pickups per bin below; one curve for all
-                    pickups, or one per method, source or action (pickup, place) with --by
-  calibration.json  the figures above, per group and per bin, and the inputs read
-
-Rows written before pickups were recorded (results of an older version) carry no
-prediction per pickup: they are refused, not guessed.
-
-Exit status: 0, or 2 on bad input (one line on stderr naming the problem; nothing is
-written).
+Is a pickup rated p picked a share p of the time? RESULTS: a study's results.jsonl (or its
+folder), or the report.json files of `s3o run`. Prints the pickups, their observed success,
+the expected calibration error (ECE) and the Brier score, over all and per method, source
+and action; writes reliability.png (the reliability diagram) and calibration.json.
+Exit status: 0, or 2 on bad input (one line on stderr; nothing is written).
 """
 
+import argparse
 import json
 import sys
-from pathlib import Path
+
+from s3o_drake.commands.common import command_parser, fail
+from s3o_drake.commands.options import add_out, at_least, out_folder
 
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.choices import CALIBRATION_GROUPINGS, METHODS
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.io import write_atomically
+from s3o_drake.world.choices import CALIBRATION_GROUPINGS, METHODS
+from s3o_drake.world.files import write_atomically
 
 
-def parse_args(argv: list[str] | None):
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.calibration", description=__doc__,
-                            formatter_class=doc_formatter())
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = command_parser("calibrate", __doc__)
     parser.add_argument("results", nargs="+", metavar="RESULTS",
                         help="results.jsonl, a folder holding one or run outputs, or "
                              "report.json files")
-    parser.add_argument("--out", default="out/calibration", metavar="DIR",
-                        help="output folder (default out/calibration)")
+    add_out(parser, file=False, default="out/calibration")
     parser.add_argument("--methods", nargs="+", metavar="NAME",
                         help=f"only these methods' pickups, some of: {', '.join(METHODS)}")
     parser.add_argument("--by", choices=CALIBRATION_GROUPINGS, default="all",
                         help="the diagram's curves: all pickups (default), per method or "
                              "per source of Fea^m")
-    parser.add_argument("--bins", type=int, default=10, metavar="N",
+    parser.add_argument("--bins", type=at_least(1), default=10, metavar="N",
                         help="equal-width bins of the predictions (default 10)")
     return parser.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    if args.bins < 1:
-        fail(f"--bins: must be at least 1, got {args.bins}")
     unknown = [m for m in args.methods or () if m not in METHODS]
     if unknown:
         fail(f"--methods: unknown method {unknown[0]!r} (choose from {', '.join(METHODS)})")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        fail(f"--out: {out} is a file, not a folder")
-    from s3o_drake.evaluation.calibration import (
+    out = out_folder(args.out)
+    from s3o_drake.experiments.calibration import (
         RecordsError,
         calibrate_records,
         figures_table,
         grouped,
         read_records,
-        reliability_figure,
     )
+    from s3o_drake.viz.calibration import reliability_figure
 
     try:
         records = read_records(args.results)

@@ -1,38 +1,38 @@
-"""Compare the planner's two Fea^m sources end to end: plan with each, execute, count dishes.
+"""The planner's two Fea^m sources end to end: plan, execute, count dishes.
 
-    python -m s3o_drake.commands.compare_feasibility --tasks 6 [--seed 0] [--json FILE]
+    s3o bench compare-feasibility [--count 6] [--seed 0] [--json FILE]
 
-For each of the first N shipped tasks (scenarios/generated, never used to train the network)
-and each source (`planner.feasibility`: "oracle", the Drake check under the noise model;
-"fcn", the network in models/fcn/), plans with S3O-GROP* and executes the plan in the full
-diagram with the same seed (so the same noise draws per command), as `python -m
-s3o_drake.run` does. Prints per task the dishes collected and the planning time with each
-source, then the completion rate (all dishes collected), the share of dishes collected and
-the median planning time per source. --json FILE appends one JSON line per run as it ends.
+For each task and each source of Fea^m ("oracle": the Drake check under the noise model;
+"fcn": the network), plans with S3O-GROP* and executes the plan open loop with the same
+seed, as `s3o run` does. Prints per task the dishes collected and the planning time with
+each source, then per source the completion rate, the share of dishes collected and the
+median planning time.
 """
 
 import dataclasses
-import json
 import logging
 import statistics
 import sys
 from pathlib import Path
 
-from s3o_drake.commands.common import (
-    ArgumentParser,
-    doc_formatter,
-    fail,
-    first_tasks,
-    start_meshcat,
-)
-from s3o_drake.execution.execute import execute
-from s3o_drake.scenario import FEASIBILITY_SOURCES, Recovery, load_scenario
+# Light imports only: the heavy ones come after the arguments are parsed.
+from s3o_drake.commands.common import command_parser, read_scenario, start_meshcat
+from s3o_drake.commands.options import add_json, add_seed, add_tasks, json_store, task_paths
+from s3o_drake.world.choices import FEASIBILITY_SOURCES, Recovery
 
 SOURCES = FEASIBILITY_SOURCES
 
 
+def row_key(row: dict) -> str:
+    """A run is reused for the same task, source and seed."""
+    return f"{row['task']}|{row['source']}|{row['seed']}"
+
+
 def run_task(path: Path, source: str, seed: int) -> dict:
-    scenario = load_scenario(path)
+    """One task planned with one source of Fea^m and executed open loop: its row."""
+    from s3o_drake.execution.execute import execute
+
+    scenario = read_scenario(path)
     # Open loop (the paper's): a model's worth shows in what its plan does unaided.
     scenario = dataclasses.replace(
         scenario, planner=dataclasses.replace(scenario.planner, feasibility=source),
@@ -45,18 +45,15 @@ def run_task(path: Path, source: str, seed: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.compare_feasibility",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--tasks", type=int, default=6, help="first N shipped tasks (default 6)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of every run (default 0)")
-    parser.add_argument("--json", metavar="FILE", help="append one JSON line per run")
+    parser = command_parser("bench compare-feasibility", __doc__)
+    add_tasks(parser, count=6)
+    add_seed(parser, 0, "seed of every run")
+    add_json(parser, "run")
     args = parser.parse_args(argv)
-    tasks = first_tasks(args.tasks)
-    if args.seed < 0:
-        fail(f"--seed: must be a non-negative integer, got {args.seed}")
-    json_path = Path(args.json) if args.json else None
-    if json_path is not None and not json_path.parent.is_dir():
-        fail(f"--json: no folder {json_path.parent}")
+    tasks = task_paths(args)
+    for path in tasks:
+        read_scenario(path)
+    store = json_store(args, key=row_key)
     logging.getLogger("drake").setLevel(logging.WARNING)
 
     print(f"{'task':<10} " + "  ".join(f"{s + ' dishes':>13} {s + ' plan s':>12}"
@@ -65,13 +62,16 @@ def main(argv: list[str] | None = None) -> int:
     for path in tasks:
         cells = []
         for source in SOURCES:
-            row = run_task(path, source, args.seed)
+            key = row_key({"task": path.stem, "source": source, "seed": args.seed})
+            if store is not None and store.finished(key):
+                row = store.get(key)
+            else:
+                row = run_task(path, source, args.seed)
+                if store is not None:
+                    row = store.append({"key": key, **row})
             rows.append(row)
             cells.append(f"{row['collected']:>9}/{row['dishes']:<3} "
                          f"{row['planning_time']:12.2f}")
-            if json_path is not None:
-                with json_path.open("a") as out:
-                    out.write(json.dumps(row) + "\n")
         print(f"{path.stem:<10} " + "  ".join(cells), flush=True)
     for source in SOURCES:
         mine = [r for r in rows if r["source"] == source]

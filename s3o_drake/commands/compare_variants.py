@@ -1,39 +1,33 @@
-"""Variants of a method against a baseline and against the method as it is, paired by task
-and seed: the attribution table.
+"""Variants of a method against a baseline, paired: the attribution table.
 
-    python -m s3o_drake.commands.compare_variants --study DIR LABEL=DIR [LABEL=DIR ...]
-           [--method S3O-GROP*] [--baseline V-GROP*] [--out FILE]
+    s3o bench compare-variants --study DIR LABEL=DIR [LABEL=DIR ...] [--out FILE]
 
---study DIR holds the runs of --baseline and of --method as it is (the reference, the
-table's first row). Each LABEL=DIR is a study of --method with some scenario fields
-replaced (`evaluate --set ... --out DIR`) on the same tasks and seeds. Per row: completion
-with its Wilson 95 % interval, the plans' predicted completion, the stops, the sign test and
-the paired execution time (mean difference, 95 % bootstrap interval, and as a share of the
-other's time) on the pairs where both made a plan and where both collected every dish,
-against the baseline and against the reference. --out writes the table as Markdown.
+--study DIR holds the runs of --baseline and of --method as it is; each LABEL=DIR is a study
+of --method with some scenario fields replaced (`s3o evaluate --set ...`) on the same tasks
+and seeds. Per row: completion, predicted completion, stops, the sign test and the paired
+execution time against the baseline and against the method as it is.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
-from s3o_drake.choices import METHODS
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import command_parser, fail
+from s3o_drake.commands.options import add_method, add_out, method, out_file
 
 
-def parse_args(argv: list[str] | None):
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.compare_variants",
-                            description=__doc__, formatter_class=doc_formatter())
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = command_parser("bench compare-variants", __doc__)
     parser.add_argument("--study", required=True, metavar="DIR",
                         help="the study with the baseline and the method as it is")
     parser.add_argument("variants", nargs="*", metavar="LABEL=DIR",
                         help="a variant's study folder and its label")
-    parser.add_argument("--method", default="S3O-GROP*", choices=METHODS, metavar="NAME",
-                        help="the method whose variants are compared (default S3O-GROP*)")
-    parser.add_argument("--baseline", default="V-GROP*", choices=METHODS, metavar="NAME",
+    add_method(parser)
+    parser.add_argument("--baseline", default="V-GROP*", type=method, metavar="NAME",
                         help="the baseline (default V-GROP*)")
-    parser.add_argument("--out", metavar="FILE", help="write the table here (Markdown)")
+    add_out(parser, file=True, text="write the table here (Markdown)")
     return parser.parse_args(argv)
 
 
@@ -50,8 +44,8 @@ def main(argv: list[str] | None = None) -> int:
     for label, folder in folders.items():
         if not (folder / "results.jsonl").is_file():
             fail(f"{'--study' if label == 'as it is' else label}: no results.jsonl in {folder}")
-    from s3o_drake.evaluation.store import ResultStore
-    from s3o_drake.evaluation.variants import variant_figures, variant_table
+    from s3o_drake.experiments.store import ResultStore
+    from s3o_drake.experiments.variants import variant_figures, variant_table
 
     def runs_of(folder: Path, method: str) -> list[dict]:
         return [r for r in ResultStore(folder / "results.jsonl", read_only=True).rows()
@@ -74,6 +68,7 @@ def main(argv: list[str] | None = None) -> int:
              + variant_table(figures, baseline_name=args.baseline, reference_name="as it is"))
     print(table)
     if args.out:
+        out_file(args.out)
         try:
             Path(args.out).write_text(table)
         except OSError as e:

@@ -1,58 +1,47 @@
-"""Make the FCN's training data: overhead crops of random scenes with Drake-oracle labels.
+"""Make the FCN's training data: overhead crops with Drake-oracle labels.
 
-    python -m s3o_drake.commands.dataset --count 300 --seed 1000 --out data/fcn --workers 2
+    s3o build fcn-data --count 300 --seed 1000 --out out/fcn_data --workers 2
 
-Scene i is task i of `s3o_drake.task_generation` drawn with --seed (the paper's protocol: the
-restaurant, 5-7 dishes, one unmapped chair near each). The shipped benchmark tasks
-(scenarios/generated) are drawn with seed 0, so use any other seed (default 1000) to keep
-the training scenes apart from them. For each scene the world is rendered once from the
-overhead camera (robot at its start pose) and, for every dish, the input crop
-(`fcn.crop_inputs`) and the label, the oracle's 4 m x 4 m, 64 x 64 heatmap
-(`compute_heatmaps` with the scene's own seed, chairs included), are stored.
-
-One file per scene, scene_00000.npz, ...: inputs (n, C, 64, 64), labels (n, 64, 64), the
-dishes' names, kinds and positions, and the depth and label images (to rebuild other
-inputs without rerunning the oracle). Scene i depends only on (--seed, i), whatever the
-worker count. Each file is written whole as soon as its scene is done, so an interrupted
-run loses nothing, and a rerun skips the scenes already on disk (a larger --count extends
-a smaller one). The folder remembers its seed; a rerun with another seed is refused.
+Scene i is task i of the task generator drawn with --seed (the shipped benchmark tasks use
+seed 0: keep them apart). Each scene is rendered once from the overhead camera and, per
+dish, the network's input crop and the oracle's heatmap are stored in scene_00000.npz, ...
+A rerun skips the scenes on disk; a folder made with another seed or base is refused.
 """
 
 import json
 import sys
 from pathlib import Path
 
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_base
-from s3o_drake.feasibility.dataset import (
-    MANIFEST,
-    build_dataset,
+# Light imports only: the heavy ones come after the arguments are parsed.
+from s3o_drake.commands.common import command_parser, fail, read_base
+from s3o_drake.commands.options import (
+    add_out,
+    add_quiet,
+    add_seed,
+    add_workers,
+    at_least,
+    out_folder,
 )
-from s3o_drake.io import write_atomically
-from s3o_drake.task_generation import DEFAULT_BASE
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import REPO_DIR, RESTAURANT
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.dataset",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--count", type=int, required=True, help="number of scenes")
-    parser.add_argument("--seed", type=int, default=1000,
-                        help="scene seed (default 1000; the benchmark tasks use 0)")
-    parser.add_argument("--out", metavar="DIR", required=True, help="output folder")
-    parser.add_argument("--workers", type=int, default=1, help="processes (default 1)")
-    parser.add_argument("--base", metavar="YAML", default=str(DEFAULT_BASE),
-                        help="base scenario of the generator (default scenarios/restaurant.yaml)")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser = command_parser("build fcn-data", __doc__)
+    parser.add_argument("--count", type=at_least(1), required=True, metavar="N",
+                        help="the first N scenes of the seed")
+    add_seed(parser, 1000, "scene seed (the benchmark tasks use 0)")
+    add_out(parser, file=False, required=True)
+    add_workers(parser, 1)
+    parser.add_argument("--base", metavar="YAML", default=str(RESTAURANT),
+                        help="base scenario of the generator (default "
+                             f"{RESTAURANT.relative_to(REPO_DIR)})")
+    add_quiet(parser)
     args = parser.parse_args(argv)
-    if args.count < 1:
-        fail(f"--count: must be at least 1, got {args.count}")
-    if args.seed < 0:
-        fail(f"--seed: must be a non-negative integer, got {args.seed}")
-    if args.workers < 1:
-        fail(f"--workers: must be at least 1, got {args.workers}")
     read_base(args.base)
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        fail(f"--out: {out} exists and is not a folder")
+    out = out_folder(args.out)
+    from s3o_drake.feasibility.learned.dataset import MANIFEST, build_dataset
+
     manifest = {"seed": args.seed, "base": Path(args.base).resolve().name}
     if (out / MANIFEST).exists():
         known = json.loads((out / MANIFEST).read_text())

@@ -1,29 +1,15 @@
-"""Derive the planner's time model from the robot's own motions, and record it.
+"""Derive the planner's time model from the robot's own motions.
 
-    python -m s3o_drake.commands.derive_times [--samples 400] [--seed 0]
-                                               [--out out/time_model.yaml]
+    s3o build time-model [--samples 400] [--seed 0] [--out out/time_model.yaml]
 
-Pickups: from the shipped tasks (scenarios/restaurant.yaml and scenarios/generated/, in name
-order, a share of the samples each), draws base positions up to 0.5 m beyond the planner's
-reach from a dish (uniform over the disc's area, yaw facing the dish), keeps one the
-feasibility check accepts, and plans the pickup there with `plan_pickup`, what the
-ArmController runs (arm stowed, gripper open, as after every pickup; no reach noise). Its
-duration is the motion's, from approach to stow. Candidate models of the duration are
-polynomials in d, the distance from the base's centre to the dish (m), fitted by least
-squares: one for all pickups (constant, linear), per dish kind (per_kind, per_kind_linear),
-or per kind and grasp (per_kind_grasp, _linear, _quadratic; the grasp predicted from d: a
-cup beyond a fitted distance takes the side grasp). They are compared by their error on
-held-out tasks (5 folds, each task's samples in one fold, the grasp predicted); the one with
-the least root-mean-square error is fitted on all samples and recorded.
-
-The command overheads (γ per base command, the pickup's hand-over, the plan's start and end)
-follow from the execution's control period and the navigator's settle time
-(`planning.time_model.command_overheads`).
-
-Writes the model (YAML) with its settings, the command, seed and sample count, and the
-fit's held-out errors; prints the comparison. Deterministic for a seed. Re-run it whenever
-the arm's or the base's motion changes: everything reads the file.
+Plans --samples pickups from base positions the feasibility check accepts near the shipped
+tasks' dishes, as the ArmController runs them, fits candidate models of their duration by
+the base-dish distance, and records the one with the least held-out error, with the
+command overheads of the control period. Deterministic for a seed; re-run it whenever the
+arm's or the base's motion changes.
 """
+
+from __future__ import annotations
 
 import logging
 import math
@@ -31,33 +17,19 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import yaml
 
-from s3o_drake.angles import facing_yaw
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.io import write_atomically
-from s3o_drake.manipulation.pickup import plan_pickup
-from s3o_drake.planning.base_motion import (
-    ACCELERATION,
-    SETTLE_TIME,
-    YAW_ACCELERATION,
-    YAW_RATE,
-)
-from s3o_drake.planning.time_model import (
-    MODEL_FILE,
-    PICKUP_FORMS,
-    TURN_TOLERANCE,
-    PickupModel,
-    TimeModel,
-    command_overheads,
-)
-from s3o_drake.resources import REPO_DIR, RESTAURANT, TIME_MODEL, shipped_tasks
-from s3o_drake.robot import CONTROL_PERIOD
-from s3o_drake.scenario import load_scenario
+# Light imports only: --help and bad arguments answer before Drake loads; the functions
+# import the planner's and the arm's modules where they use them.
+from s3o_drake.commands.common import command_parser
+from s3o_drake.commands.options import add_out, add_seed, at_least, out_file
+from s3o_drake.world.resources import REPO_DIR, TIME_MODEL
+
+if TYPE_CHECKING:
+    from s3o_drake.feasibility.check import FeasibilityChecker
+    from s3o_drake.planning.time_model import PickupModel, TimeModel
 
 DEFAULT_OUT = Path("out") / TIME_MODEL.name
 """Where the model goes unless --out says otherwise: not over the shipped one."""
@@ -76,6 +48,11 @@ def sample_pickups(paths: Sequence[Path], samples: int, seed: int, *,
                    progress: bool = True) -> list[dict]:
     """Feasible pickups planned with `plan_pickup` (see the module docstring): one row per
     planned pickup with the task, dish, kind, distance (m), grasp, outcome and duration (s)."""
+    from s3o_drake.execution.arm.pickup import plan_pickup
+    from s3o_drake.feasibility.check import FeasibilityChecker
+    from s3o_drake.feasibility.scene import FeasibilityScene
+    from s3o_drake.world.scenario import load_scenario
+
     rng = np.random.default_rng(seed)
     per_task = math.ceil(samples / len(paths))
     rows: list[dict] = []
@@ -85,7 +62,7 @@ def sample_pickups(paths: Sequence[Path], samples: int, seed: int, *,
         scenario = load_scenario(path)
         if not scenario.dishes:
             continue
-        scene = FeasibilityScene(scenario)
+        scene = FeasibilityScene(scenario.contents)
         checker = FeasibilityChecker(scene)
         order = rng.permutation(len(scenario.dishes))
         for k in range(min(per_task, samples - len(rows))):
@@ -109,6 +86,8 @@ def _feasible_base(checker: FeasibilityChecker, dish: str, p_WD: np.ndarray, rad
                    rng: np.random.Generator) -> np.ndarray | None:
     """A base pose facing the dish, uniform over the disc of `radius` around it, that the
     feasibility check accepts; None if no round of draws found one."""
+    from s3o_drake.world.angles import facing_yaw
+
     for _ in range(ROUNDS):
         r = np.sqrt(rng.uniform(MIN_DISTANCE**2, radius**2, CANDIDATES_PER_ROUND))
         a = rng.uniform(-math.pi, math.pi, CANDIDATES_PER_ROUND)
@@ -126,7 +105,8 @@ FORMS = {"constant": (0, "all"), "per_kind": (0, "kind"), "linear": (1, "all"),
          "per_kind_linear": (1, "kind"), "per_kind_grasp": (0, "kind/grasp"),
          "per_kind_grasp_linear": (1, "kind/grasp"),
          "per_kind_grasp_quadratic": (2, "kind/grasp")}
-assert tuple(FORMS) == PICKUP_FORMS
+"""The forms of planning/time_model.PICKUP_FORMS, in its order
+(tests/planning/test_time_model.py)."""
 
 
 def side_thresholds(kinds: np.ndarray, grasps: np.ndarray, d: np.ndarray) -> dict[str, float]:
@@ -148,6 +128,8 @@ def fit(form: str, kinds: np.ndarray, grasps: np.ndarray, d: np.ndarray,
         y: np.ndarray) -> PickupModel:
     """Least-squares polynomials of one candidate form, per group; every model also holds
     "*" (all samples, same degree) for a group its samples did not have."""
+    from s3o_drake.planning.time_model import PickupModel
+
     degree, grouping = FORMS[form]
     keys = {"all": np.full(len(d), "*"), "kind": kinds,
             "kind/grasp": np.char.add(np.char.add(kinds.astype(str), "/"), grasps.astype(str))
@@ -171,7 +153,7 @@ def held_out_errors(rows: list[dict], folds: int = FOLDS) -> dict[str, dict[str,
     fold = np.array([fold_of[r["task"]] for r in rows])
     kinds, grasps, d, y = _arrays(rows)
     out = {}
-    for form in PICKUP_FORMS:
+    for form in FORMS:
         errors = np.full(len(rows), np.nan)
         for f in range(folds):
             test, train = fold == f, fold != f
@@ -192,14 +174,25 @@ def _arrays(rows: list[dict]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
 
 def derive(samples: int, seed: int, command: str, *, progress: bool = True
            ) -> tuple[TimeModel, list[dict]]:
-    """The time model from `samples` planned pickups (see the module docstring)."""
+    """The time model from `samples` planned pickups (docs/commands.md, "s3o build
+    time-model")."""
+    from s3o_drake.planning.navigation.base_motion import (
+        ACCELERATION,
+        SETTLE_TIME,
+        YAW_ACCELERATION,
+        YAW_RATE,
+    )
+    from s3o_drake.planning.time_model import TURN_TOLERANCE, TimeModel, command_overheads
+    from s3o_drake.world.resources import RESTAURANT, shipped_tasks
+    from s3o_drake.world.robot import CONTROL_PERIOD
+
     paths = [RESTAURANT, *shipped_tasks()]
     rows = sample_pickups(paths, samples, seed, progress=progress)
     good = [r for r in rows if r["ok"]]
     if len(good) < 2 * FOLDS:
         raise RuntimeError(f"only {len(good)} pickups could be planned; need {2 * FOLDS}")
     errors = held_out_errors(good)
-    best = min(PICKUP_FORMS, key=lambda f: errors[f]["rmse"])
+    best = min(FORMS, key=lambda f: errors[f]["rmse"])
     kinds, grasps, d, y = _arrays(good)
     model = fit(best, kinds, grasps, d, y)
     residual = y - np.array([model.duration(k, x) for k, x in zip(kinds, d, strict=True)])
@@ -236,6 +229,11 @@ def derive(samples: int, seed: int, command: str, *, progress: bool = True
 
 
 def write_model(model: TimeModel, path: Path) -> None:
+    """The model as YAML, written whole or not at all."""
+    import yaml
+
+    from s3o_drake.world.files import write_atomically
+
     header = ("# The planner's time model for our robot (s3o_drake/planning/time_model.py).\n"
               "# Written by the command below; do not edit by hand: re-run it whenever the\n"
               "# arm's or the base's motion changes.\n")
@@ -257,28 +255,17 @@ def _rounded(value):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.derive_times",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--samples", type=int, default=400,
+    parser = command_parser("build time-model", __doc__)
+    parser.add_argument("--samples", type=at_least(2 * FOLDS), default=400, metavar="N",
                         help="pickups to plan (default 400)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
-    parser.add_argument("--out", default=str(DEFAULT_OUT),
-                        help=f"where to write the model (default {DEFAULT_OUT}; the shipped "
-                             f"model is replaced only when told: --out "
-                             f"{MODEL_FILE.relative_to(REPO_DIR)})")
+    add_seed(parser, 0, "seed of the draws")
+    add_out(parser, file=True, default=str(DEFAULT_OUT),
+            note=f"the shipped model is replaced only when told: --out "
+                 f"{TIME_MODEL.relative_to(REPO_DIR)}")
     args = parser.parse_args(argv)
-    if args.samples < 2 * FOLDS:
-        fail(f"--samples: must be at least {2 * FOLDS}, got {args.samples}")
-    if args.seed < 0:
-        fail(f"--seed: must be a non-negative integer, got {args.seed}")
-    out = Path(args.out)
-    if out.is_dir():
-        fail(f"--out: {out} is a folder")
-    if any(folder.exists() and not folder.is_dir() for folder in out.parents):
-        fail(f"--out: {out.parent} is not a folder")
+    out = out_file(args.out)
     logging.getLogger("drake").setLevel(logging.WARNING)
-    command = ("python -m s3o_drake.commands.derive_times "
-               f"--samples {args.samples} --seed {args.seed}")
+    command = f"s3o build time-model --samples {args.samples} --seed {args.seed}"
     t0 = time.perf_counter()
     model, rows = derive(args.samples, args.seed, command)
     out.parent.mkdir(parents=True, exist_ok=True)

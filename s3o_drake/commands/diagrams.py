@@ -1,15 +1,10 @@
-"""Regenerate the Graphviz pictures of the project's Drake diagrams in diagrams/.
+"""Regenerate the Graphviz pictures of the Drake diagrams.
 
-    python -m s3o_drake.commands.diagrams [--check]
+    s3o diagrams [--check]
 
-Writes diagrams/execution.dot (the whole execution diagram: world, planner, controllers,
-monitor, one level deep) and diagrams/world.dot (the simulated restaurant inside it), and an
-.svg of each when Graphviz's `dot` is installed. The .dot files are what the tests compare:
-Drake numbers systems by a process-wide counter, so those numbers are replaced by their
-order of appearance, and the text then depends only on the diagrams' structure.
-
---check writes nothing and exits 1 when a committed .dot file differs from what the code
-builds now (the test suite does the same).
+Writes diagrams/execution.dot (the execution diagram, one level deep) and diagrams/world.dot
+(the simulated restaurant in it), and an .svg of each where Graphviz's `dot` is installed.
+--check writes nothing and exits 1 when a committed .dot file is stale.
 """
 
 import re
@@ -19,8 +14,8 @@ import sys
 from pathlib import Path
 
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.commands.common import ArgumentParser, doc_formatter
-from s3o_drake.resources import DIAGRAMS_DIR, SCENARIOS_DIR
+from s3o_drake.commands.common import command_parser
+from s3o_drake.world.resources import DIAGRAMS_DIR, SCENARIOS_DIR
 
 SCENARIO = SCENARIOS_DIR / "small" / "two_dishes.yaml"
 """The structure does not depend on the scene; a small one builds fastest."""
@@ -50,7 +45,7 @@ def normalize(dot: str) -> str:
 def render() -> dict[str, str]:
     """{file name: normalized Graphviz text} of the project's diagrams."""
     from s3o_drake.execution.diagram import build_execution_diagram
-    from s3o_drake.scenario import load_scenario
+    from s3o_drake.world.scenario import load_scenario
 
     diagram = build_execution_diagram(load_scenario(SCENARIO))
     world = diagram.GetSubsystemByName("world")
@@ -80,15 +75,14 @@ def write(directory: Path = DIAGRAMS_DIR) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.diagrams", description=__doc__,
-                            formatter_class=doc_formatter())
+    parser = command_parser("diagrams", __doc__)
     parser.add_argument("--check", action="store_true",
                         help="compare with the committed files instead of writing them")
     args = parser.parse_args(argv)
     if args.check:
         names = stale()
         for name in names:
-            print(f"{DIAGRAMS_DIR.name}/{name} is stale; run python -m s3o_drake.commands.diagrams")
+            print(f"{DIAGRAMS_DIR.name}/{name} is stale; run s3o diagrams")
         return 1 if names else 0
     for path in write():
         print(f"wrote {path}")

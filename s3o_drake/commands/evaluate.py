@@ -1,70 +1,17 @@
-"""Benchmark study: plan and execute every task x method x seed, group the tasks by
-difficulty, and write the paper's Fig. 5 and Table I.
+"""The benchmark study: every task x method x seed, Fig. 5 and Table I.
 
-    python -m s3o_drake.commands.evaluate --tasks DIR --methods all --seeds 3 --out results/
-           [--recovery none|retry|replan] [--workers N | --scheduler tcp://HOST:PORT]
-           [--limit N] [--quiet] [--summarize] [--open-loop DIR] [--set PATH=VALUE ...]
+    s3o evaluate --tasks scenarios/generated --methods all --seeds 3 --out results/
 
-Each run plans the task (the scenario file) with the method, the noise and the planner's
-randomness drawn from the seed, and executes the plan in the full Drake simulation, as
-`python -m s3o_drake.run` does but without the playback. It records whether every dish was
-collected (task completion), the share of dishes collected, the execution time (simulated)
-and the planning time, and per executed pickup the plan's Fea^m against the outcome (read
-by `python -m s3o_drake.commands.calibration`), and the recoveries. Study seeds are 0 to
-N-1; a run draws its noise and planning from its own seed, mixed from the task's seed and
-the study seed (`jobs.run_seed`, recorded as `run_seed`), so that every task gets noise of
-its own while the methods compared on a task share it.
-
---recovery sets every run's `execution.recovery`, whatever the task files say: "none" (the
-default) is the paper's open loop, the protocol of its study; "retry" corrects stops and
-retries pickups; "replan" also replans what remains after a blocked drive or a dish that
-fails its tries (docs/execution.md). Runs of another recovery are other runs. --open-loop
-DIR names the same study run open loop (its --out): summary.md then sets each run against
-its open-loop twin (same task, method and run seed) for the time that recovery costs.
-
-Difficulty (the paper's measure): Σ_o ∫ Fea^m(y, o) dy, the expected area from which each
-dish can be picked, from the Drake oracle under the scenario's noise model, summed over the
-task's dishes. Tasks are sorted by it and split into thirds: easy, moderate, difficult.
-
-Written to --out:
-  results.jsonl     one line per finished run, written as it finishes (the resume log)
-  difficulty.jsonl  one line per task: its pickable area, per dish and in all
-  results.csv       one row per run, with the task's area and group
-  results.json      settings, areas, groups, the per-group figures, the claims, the paired
-                    comparison, every run
-  figure5.png       completion rate and execution time per group and method (Fig. 5)
-  table1.png        S3O-GROP* against S3O-Random (and S3O-Random-Paper) per group (Table I)
-  summary.md        the same as Markdown tables, the claims checked, S3O-GROP* against each
-                    method on the same tasks (wins, losses, sign test, time saved),
-                    completion under other splits of the tasks (hardest dish, area per
-                    dish, number of dishes), why dishes were lost, errors if any
-
---summarize writes those from the runs finished so far and runs nothing (safe beside a
-running study: the result files are only read); `--out DIR --summarize` alone takes the
-study's tasks, methods, seeds, recovery and --set from DIR/results.json.
-
---again DIR runs again, into --out, only the runs of the study in DIR (the same --tasks,
---methods, --seeds and --recovery) that did not complete, or with --ended WORD... those
-whose ending names one of the words (e.g. --ended blocked "no plan"): a fix measured on
-the runs it was made for. Each new run keeps its old twin's seed; again.md (also printed)
-sets them side by side per method. The tasks' difficulty is read from DIR.
-
-Scale-out: a local pool of --workers spawned processes (default: one per core), or, with
---scheduler, the workers of a Dask distributed cluster (they need s3o_drake installed; each
-run plans with one search process, the parallelism being across runs). Ctrl-C or `kill
-PID` stops the study at once, abandoning the runs in flight. Interrupted or crashed, the
-same command resumes: finished runs are read back from results.jsonl and not run again; a
-run abandoned or ended in an error is run again. Editing a task file makes its runs
-new ones. A progress bar shows the rate and the time left.
-
-Exit status: 0 when every run finished, 1 when some ended in an error (listed in
-summary.md) or a result could not be written (a full disk: one line says so; the finished
-runs are kept), 2 on bad input (nothing is written), 130 when interrupted (finished runs
-kept).
+Plans and executes every run as `s3o run` does (without the playback) on local worker
+processes or a Dask cluster. Each finished run is a line of OUT/results.jsonl at once, and
+the same command resumes an interrupted study. Groups the tasks by the paper's difficulty
+and writes results.csv, results.json, figure5.png, table1.png and summary.md. Exit status:
+0; 1 when some run ended in an error; 2 on bad input (nothing written); 130 interrupted.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import re
@@ -74,12 +21,22 @@ from collections import Counter
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from s3o_drake.commands.common import command_parser, fail, read_scenario
+from s3o_drake.commands.options import (
+    add_out,
+    add_quiet,
+    add_seeds,
+    add_tasks,
+    add_workers,
+    out_folder,
+    task_paths,
+)
+
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.choices import METHODS, RECOVERY_MODES, Recovery
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, read_scenario
+from s3o_drake.world.choices import METHODS, RECOVERY_MODES, Recovery
 
 if TYPE_CHECKING:
-    from s3o_drake.evaluation.jobs import Job
+    from s3o_drake.experiments.jobs import Job
 
 DIFFICULTY_SEED = 0
 """The oracle's noise draws for the difficulty measure: one fixed seed, so that a task's
@@ -87,44 +44,38 @@ group does not depend on how many seeds the study runs."""
 SCHEDULER = re.compile(r"^(tcp|tls|inproc|ucx)://\S+$")
 
 
-def parse_args(argv: list[str] | None):
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.evaluate", description=__doc__,
-                            formatter_class=doc_formatter())
-    parser.add_argument("--tasks", metavar="DIR",
-                        help="folder of task scenarios (*.yaml), e.g. scenarios/generated "
-                             "(with --summarize: by default the study's own)")
+def _renamed(text: str) -> str:
+    raise argparse.ArgumentTypeError("now --count N (the first N tasks)")
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = command_parser("evaluate", __doc__)
+    add_tasks(parser, default=(), required="required, but with --summarize the study's own")
+    parser.add_argument("--limit", type=_renamed, help=argparse.SUPPRESS)
     parser.add_argument("--methods", nargs="+", default=["all"], metavar="NAME",
                         help=f"'all' or some of: {', '.join(METHODS)} (default all)")
-    parser.add_argument("--seeds", type=int, default=3, metavar="N",
-                        help="seeds 0..N-1 per task and method (default 3)")
-    parser.add_argument("--out", required=True, metavar="DIR", help="results folder")
+    add_seeds(parser, 3)
+    add_out(parser, file=False, required=True, text="the study's folder")
     parser.add_argument("--recovery", choices=RECOVERY_MODES, default=Recovery.NONE.value,
                         help="what execution does when an action fails (default none: the "
                              "paper's open loop)")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
                         dest="overrides",
                         help="replace a scenario field in every run, e.g. "
-                             "planner.group_positions=shared (repeatable; a variant's runs "
-                             "are runs of their own)")
-    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, metavar="N",
-                        help="local worker processes (default: one per core)")
+                             "planner.group_positions=shared (repeatable)")
+    add_workers(parser, os.cpu_count() or 1, "local worker processes")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="a Dask scheduler, tcp://HOST:PORT, instead of the local pool")
-    parser.add_argument("--limit", type=int, metavar="N",
-                        help="only the first N tasks of the folder (by name)")
-    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_quiet(parser)
     parser.add_argument("--open-loop", metavar="DIR",
-                        help="with --recovery retry|replan: the same study run open loop "
-                             "(its --out), for the time recovery costs in summary.md")
+                        help="with --recovery retry|replan: the same study open loop, for "
+                             "the time recovery costs")
     parser.add_argument("--again", metavar="DIR",
-                        help="run again only the runs of the study in DIR that did not "
-                             "complete (or that --ended names), and compare")
+                        help="run again the runs of the study in DIR that did not complete")
     parser.add_argument("--ended", nargs="+", metavar="WORD",
-                        help="with --again: the runs whose ending contains one of these "
-                             "words, e.g. blocked 'no plan'")
+                        help="with --again: the runs whose ending has one of these words")
     parser.add_argument("--summarize", action="store_true",
-                        help="run nothing: write the tables and figures from the runs "
-                             "finished so far (e.g. while the study runs elsewhere)")
+                        help="run nothing: the tables and figures of the runs so far")
     return parser.parse_args(argv)
 
 
@@ -141,34 +92,29 @@ def _study_settings(args, argv: list[str]) -> None:
     except (OSError, ValueError, KeyError, TypeError):
         fail(f"--tasks: required: no study settings to take it from in {saved}")
     given = {a.split("=", 1)[0] for a in argv if a.startswith("--")}
-    args.tasks = settings["tasks"]
+    tasks = settings["tasks"]
+    args.tasks = [tasks] if isinstance(tasks, str) else list(tasks)
     if "--methods" not in given:
         args.methods = list(settings["methods"])
     if "--seeds" not in given:
         args.seeds = len(settings["seeds"])
-    if "--limit" not in given and settings.get("limit") is not None:
-        args.limit = settings["limit"]
+    # Studies from before --count recorded it as "limit".
+    count = settings.get("count", settings.get("limit"))
+    if "--count" not in given and count is not None:
+        args.count = count
     if "--recovery" not in given and "recovery" in settings:
         args.recovery = settings["recovery"]
     if "--set" not in given:
         args.overrides = list(settings.get("overrides", []))
 
 
-def _validate(args) -> tuple[list[Path], list[str]]:
-    folder = Path(args.tasks)
-    if not folder.is_dir():
-        fail(f"--tasks: no folder {folder}")
-    paths = sorted(folder.glob("*.yaml"))
-    if not paths:
-        fail(f"--tasks: no *.yaml task in {folder}")
-    if args.limit is not None:
-        if args.limit < 1:
-            fail(f"--limit: must be at least 1, got {args.limit}")
-        paths = paths[:args.limit]
+def _validate(args: argparse.Namespace) -> tuple[list[Path], list[str]]:
+    paths = task_paths(args)
     for path in paths:
         scenario = read_scenario(path)
     if args.overrides:
-        from s3o_drake.scenario import ScenarioError, with_overrides
+        from s3o_drake.world.scenario import with_overrides
+        from s3o_drake.world.scenario_checks import ScenarioError
 
         try:
             with_overrides(scenario, args.overrides)
@@ -182,10 +128,6 @@ def _validate(args) -> tuple[list[Path], list[str]]:
             fail(f"--methods: unknown method {unknown[0]!r} (choose from 'all', "
                  f"{', '.join(METHODS)})")
         methods = list(dict.fromkeys(args.methods))
-    if args.seeds < 1:
-        fail(f"--seeds: must be at least 1, got {args.seeds}")
-    if args.workers < 1:
-        fail(f"--workers: must be at least 1, got {args.workers}")
     if args.open_loop is not None:
         if args.recovery == Recovery.NONE.value:
             fail("--open-loop: compares a study with recovery (--recovery retry or replan) "
@@ -201,9 +143,7 @@ def _validate(args) -> tuple[list[Path], list[str]]:
             fail("--again: the runs go to a folder of their own; --out names the same one")
     if args.scheduler is not None and not SCHEDULER.match(args.scheduler):
         fail(f"--scheduler: expected an address like tcp://HOST:PORT, got {args.scheduler!r}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        fail(f"--out: {out} is a file, not a folder")
+    out_folder(args.out)
     return paths, methods
 
 
@@ -212,7 +152,7 @@ def study_jobs(paths: list[Path], methods: list[str], seeds: int,
                ) -> tuple[list[Job], list[Job]]:
     """The difficulty jobs (one per task) and the run jobs, seed by seed, then task by task,
     all methods of a task together: an interrupted study has whole comparisons done."""
-    from s3o_drake.evaluation.jobs import DIFFICULTY, RUN, Job, file_digest
+    from s3o_drake.experiments.jobs import DIFFICULTY, RUN, Job, file_digest
 
     digests = {p: file_digest(p) for p in paths}
     difficulty = [Job(DIFFICULTY, p.stem, str(p), digests[p], DIFFICULTY_SEED) for p in paths]
@@ -235,10 +175,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     _study_settings(args, sys.argv[1:] if argv is None else argv)
     paths, methods = _validate(args)
-    from s3o_drake.evaluation.difficulty import GROUPS, difficulty_groups
-    from s3o_drake.evaluation.scheduler import run_jobs
-    from s3o_drake.evaluation.store import ResultStore
-    from s3o_drake.evaluation.summary import markdown_tables, summarize, write_outputs
+    from s3o_drake.experiments.difficulty import GROUPS, difficulty_groups
+    from s3o_drake.experiments.scheduler import run_jobs
+    from s3o_drake.experiments.store import ResultStore
+    from s3o_drake.experiments.summary import markdown_tables, summarize, write_outputs
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -249,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
     before: dict[str, dict] = {}
     known = None  # the difficulty rows of --again's study
     if args.again is not None:
-        from s3o_drake.evaluation.again import chosen
+        from s3o_drake.experiments.again import chosen
 
         earlier = Path(args.again)
         before = {r["key"]: r for r in
@@ -291,12 +231,12 @@ def main(argv: list[str] | None = None) -> int:
                 for j in difficulty_jobs]
     areas = {r["task"]: r["area"] for r in measured if r is not None and "error" not in r}
     groups = difficulty_groups(areas)
-    settings = {"tasks": str(Path(args.tasks)), "task_count": len(paths), "methods": methods,
-                "seeds": list(range(args.seeds)), "difficulty_seed": DIFFICULTY_SEED,
-                "overrides": list(args.overrides), "recovery": args.recovery,
-                "limit": args.limit,
-                "command": "python -m s3o_drake.commands.evaluate " + " ".join(
-                    sys.argv[1:] if argv is None else argv)}
+    tasks = [str(Path(t)) for t in args.tasks]
+    settings = {"tasks": tasks[0] if len(tasks) == 1 else tasks, "task_count": len(paths),
+                "methods": methods, "seeds": list(range(args.seeds)),
+                "difficulty_seed": DIFFICULTY_SEED, "overrides": list(args.overrides),
+                "recovery": args.recovery, "count": args.count,
+                "command": "s3o evaluate " + " ".join(sys.argv[1:] if argv is None else argv)}
     # Which code made the runs: a study that resumed across commits says so.
     settings["code"] = dict(Counter(r.get("code", "not recorded") for r in runs).most_common())
     dish_areas = {r["task"]: r["areas"] for r in measured
@@ -312,7 +252,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     print(markdown_tables(summarize(runs, groups, methods), methods))
     if args.again is not None:
-        from s3o_drake.evaluation.again import comparison
+        from s3o_drake.experiments.again import comparison
 
         table = comparison(before, runs, methods)
         try:

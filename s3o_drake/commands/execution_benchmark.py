@@ -1,41 +1,36 @@
-"""Benchmark the execution: how much faster than real time a plan runs, and the playback's size.
+"""How much faster than real time a plan runs, and the playback's size.
 
-    python -m s3o_drake.commands.execution_benchmark [--scenarios YAML ...] [--seeds 0 1 2]
+    s3o bench execution [--tasks PATH ...] [--seeds 3] [--json FILE]
 
-For each scenario (default: scenarios/restaurant.yaml, six dishes) and seed, plans with
-S3O-GROP* and executes the plan in the full diagram with the Meshcat recording on, as
-`python -m s3o_drake.run` does, and prints: dishes collected, simulated execution time, the
-simulation's wall time (planning excluded) and their ratio (target: at least 10x faster than
-real time), and the playback page's size, per simulated second and extrapolated to a
-five-minute execution (target: under 20 MB).
-
---json FILE appends one JSON line per run as soon as it ends.
+For each scenario (default scenarios/restaurant.yaml, six dishes) and seed, plans with
+S3O-GROP* and executes the plan with the Meshcat recording on, as `s3o run` does; prints
+dishes collected, simulated and wall time and their ratio (target: at least 10x faster
+than real time), and the playback's size extrapolated to five minutes (target: < 20 MB).
 """
 
-import json
 import logging
 import statistics
 import sys
 from pathlib import Path
 
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.commands.common import (
-    ArgumentParser,
-    doc_formatter,
-    fail,
-    read_scenario,
-    start_meshcat,
-)
-from s3o_drake.resources import RESTAURANT
+from s3o_drake.commands.common import command_parser, read_scenario, start_meshcat
+from s3o_drake.commands.options import add_json, add_seeds, add_tasks, json_store, task_paths
+from s3o_drake.world.resources import RESTAURANT
 
 RATE_TARGET = 10.0
 SIZE_TARGET_MB = 20.0
 FIVE_MINUTES = 300.0
 
 
+def row_key(row: dict) -> str:
+    """A run is reused for the same scenario and seed."""
+    return f"{row['scenario']}|{row['seed']}"
+
+
 def measure(path: Path, seed: int) -> dict:
     from s3o_drake.execution.execute import execute
-    from s3o_drake.scenario import load_scenario
+    from s3o_drake.world.scenario import load_scenario
 
     scenario = load_scenario(path)
     run = execute(scenario, seed=seed, meshcat=start_meshcat(), progress=False)
@@ -53,37 +48,34 @@ def measure(path: Path, seed: int) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.execution_benchmark",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--scenarios", nargs="+", metavar="YAML",
-                        default=[str(RESTAURANT)])
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0], metavar="N")
-    parser.add_argument("--json", metavar="FILE", help="append one JSON line per run")
+    parser = command_parser("bench execution", __doc__)
+    add_tasks(parser, default=(RESTAURANT,))
+    add_seeds(parser, 1)
+    add_json(parser, "run")
     args = parser.parse_args(argv)
-    paths = [Path(p) for p in args.scenarios]
+    paths = task_paths(args)
     for path in paths:
         read_scenario(path)
-    if any(s < 0 for s in args.seeds):
-        fail("--seeds: seeds are non-negative integers")
-    json_path = Path(args.json) if args.json else None
-    if json_path is not None and not json_path.parent.is_dir():
-        fail(f"--json: no folder {json_path.parent}")
+    store = json_store(args, key=row_key)
     logging.getLogger("drake").setLevel(logging.WARNING)
 
     print(f"{'scenario':<16} {'seed':>4} {'dishes':>7} {'exec s':>7} {'wall s':>7} "
           f"{'x real':>7} {'page MB':>8} {'MB/5min':>8}", flush=True)
     rows = []
     for path in paths:
-        for seed in args.seeds:
-            row = measure(path, seed)
+        for seed in range(args.seeds):
+            key = row_key({"scenario": str(path), "seed": seed})
+            if store is not None and store.finished(key):
+                row = store.get(key)
+            else:
+                row = measure(path, seed)
+                if store is not None:
+                    row = store.append({"key": key, **row})
             rows.append(row)
             print(f"{path.stem:<16} {seed:>4} {row['collected']:>3}/{row['dishes']:<3} "
                   f"{row['execution_time']:7.1f} {row['wall_time']:7.1f} "
                   f"{row['realtime_rate']:7.1f} {row['playback_mb']:8.2f} "
                   f"{row['playback_mb_5min']:8.2f}", flush=True)
-            if json_path is not None:
-                with json_path.open("a") as out:
-                    out.write(json.dumps(row) + "\n")
     rate = statistics.median(r["realtime_rate"] for r in rows)
     slowest = min(r["realtime_rate"] for r in rows)
     size = max(r["playback_mb_5min"] for r in rows)

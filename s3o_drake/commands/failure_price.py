@@ -1,34 +1,30 @@
-"""Derive what a pickup's chance of failing costs with recovery, from recorded runs.
+"""What a pickup's chance of failing costs with recovery, from studies.
 
-    python -m s3o_drake.commands.failure_price DIR [DIR ...] [--out models/failure_price.yaml]
+    s3o failure-price DIR [DIR ...] [--out models/failure_price.yaml]
 
-DIR: studies run with recovery (`evaluate --recovery retry|replan --out DIR`). For every
-dish of every run, its first pickup's Fea^m as planned and the simulated time of its
-corrections and retries give the price c = Σ recovery time / Σ (1 - Fea^m), seconds per
-expected failure (planning/failure_price.py). It is printed with a 95 % bootstrap interval
-per study and over all, and written to --out with the studies, their code and the counts.
-The planner uses it with `planner.failure_price: execution` when the execution recovers.
-
-Runs recorded before the plan's Fea^m was kept with each pickup (`planned`) cannot be used:
-a correction replaces the pickup's `predicted` by the corrected stop's.
+DIR: studies run with recovery (`s3o evaluate --recovery retry|replan`). The price is
+seconds of recovery per expected failure, c = sum of recovery time / sum of (1 - Fea^m),
+printed with a 95 % bootstrap interval per study and over all, and written to --out; the
+planner uses it with `planner.failure_price: execution`.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 from collections import Counter, defaultdict
 from pathlib import Path
 
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
+from s3o_drake.commands.common import command_parser, fail
+from s3o_drake.commands.options import add_out, out_file
 
 
-def parse_args(argv: list[str] | None):
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.failure_price",
-                            description=__doc__, formatter_class=doc_formatter())
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = command_parser("failure-price", __doc__)
     parser.add_argument("studies", nargs="+", metavar="DIR",
                         help="study folders run with recovery (their results.jsonl)")
-    parser.add_argument("--out", metavar="FILE", help="where to write the price (default: "
-                        "models/failure_price.yaml)")
+    add_out(parser, file=True, text="where to write the price (default "
+                                    "models/failure_price.yaml)")
     return parser.parse_args(argv)
 
 
@@ -64,10 +60,10 @@ def main(argv: list[str] | None = None) -> int:
             fail(f"DIR: no results.jsonl in {folder}")
     import yaml
 
-    from s3o_drake.evaluation.store import ResultStore
+    from s3o_drake.experiments.store import ResultStore
     from s3o_drake.planning.failure_price import PRICE_FILE, FailurePrice, derive_price
 
-    out = Path(args.out) if args.out else PRICE_FILE
+    out = out_file(args.out) if args.out else PRICE_FILE
     everything, per_study, codes = [], {}, Counter()
     for folder in folders:
         rows = ResultStore(folder / "results.jsonl", read_only=True).rows()
@@ -84,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
               f"expected failures, {p['recovery_time']:.0f} s of recoveries)")
     total = derive_price(everything)
     price = FailurePrice(total["seconds"], {
-        "command": "python -m s3o_drake.commands.failure_price " + " ".join(
+        "command": "s3o failure-price " + " ".join(
             sys.argv[1:] if argv is None else argv),
         "interval": [round(total["low"], 3), round(total["high"], 3)],
         "pickups": total["pickups"], "expected_failures": round(total["expected_failures"], 2),

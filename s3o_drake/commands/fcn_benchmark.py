@@ -1,28 +1,14 @@
-"""Benchmark the feasibility FCN against the Drake oracle on scenes never used in training.
+"""The feasibility FCN against the Drake oracle on unseen scenes.
 
-    python -m s3o_drake.commands.fcn_benchmark --tasks 10 --pictures out/fcn_pictures
+    s3o bench fcn [--count 10] [--pictures out/fcn_pictures] [--json FILE]
 
-The scenes are the first N shipped benchmark tasks (scenarios/generated, drawn with seed 0;
-the training scenes come from another seed, 1000 by default). Each task is rendered once
-from the overhead camera; then, for every dish, the FCN's heatmap (crop + network) and the
-oracle's (`compute_heatmaps`, in this process, the task's own seed, chairs included) are
-computed and timed in the same run. The reachability map is loaded
-and prepared before the first task; that one-time start-up is left out.
-
-Prints per task and overall: mean absolute error of the FCN against the oracle over all
-cells, AUROC of the FCN's value as a score for "feasible" (oracle above 0.5), and the speed
-ratio oracle time / FCN time per heatmap, rendering excluded (the render, shared by all the
-dishes of a scene, is reported apart, and the ratio with it included too). The FCN's time
-is that of one batched call for all the dishes of a task (as a planner asks), divided by
-their number, on --threads torch threads (default 1); one call per dish is timed too and
-reported beside it; each FCN time is the median of 5 runs. The oracle's collision checker
-spreads its batches over the cores; it is timed once.
-Targets: MAE <= 0.06, AUROC >= 0.95, ratio >= 100.
-
---pictures DIR writes, for the first --picture-count dishes, the input height crop, the
-predicted and the oracle heatmap side by side (dish_<task>_<dish>.png). --json FILE also
-writes the figures.
+For every dish of the tasks (the shipped ones: never used in training), the network's
+heatmap and the oracle's, computed and timed in the same run. Prints per task and overall
+the mean absolute error, the AUROC of "feasible" (oracle above 0.5) and the speed ratio
+oracle / FCN per heatmap. Targets: MAE <= 0.06, AUROC >= 0.95, ratio >= 100.
 """
+
+from __future__ import annotations
 
 import json
 import logging
@@ -30,30 +16,26 @@ import statistics
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
-from tqdm import tqdm
 
-from s3o_drake.commands.common import (
-    ArgumentParser,
-    doc_formatter,
-    fail,
-    first_tasks,
-    read_scenario,
+# Light imports only: --help and bad arguments answer before torch and Drake load.
+from s3o_drake.commands.common import command_parser, fail, read_scenario
+from s3o_drake.commands.options import (
+    add_json,
+    add_quiet,
+    add_tasks,
+    at_least,
+    json_file,
+    out_folder,
+    task_paths,
 )
-from s3o_drake.feasibility.fcn import (
-    CHANNELS,
-    FcnFeasibility,
-    auroc,
-    crop_inputs,
-    view_of,
-)
-from s3o_drake.feasibility.heatmaps import compute_heatmaps
-from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.io import write_atomically
-from s3o_drake.resources import FCN_WEIGHTS
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import FCN_WEIGHTS, REPO_DIR
+
+if TYPE_CHECKING:
+    from s3o_drake.feasibility.oracle import Heatmap
 
 WEIGHTS = FCN_WEIGHTS
 REPEATS = 5
@@ -64,6 +46,8 @@ TARGETS = {"mae": 0.06, "auroc": 0.95, "speed_ratio": 100.0}
 def save_picture(path: Path, inputs: np.ndarray, predicted: Heatmap, oracle: Heatmap) -> None:
     """Input height crop | predicted | oracle heatmap, side by side, in world coordinates."""
     import matplotlib
+
+    from s3o_drake.feasibility.learned.fcn import CHANNELS
 
     matplotlib.use("Agg")  # files only; never a window
     import matplotlib.pyplot as plt
@@ -85,33 +69,40 @@ def save_picture(path: Path, inputs: np.ndarray, predicted: Heatmap, oracle: Hea
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.fcn_benchmark",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--tasks", type=int, default=10, help="number of tasks (default 10)")
+    parser = command_parser("bench fcn", __doc__)
+    add_tasks(parser, count=10)
     parser.add_argument("--weights", metavar="PT", default=str(WEIGHTS),
-                        help="checkpoint (default models/fcn/fcn.pt)")
+                        help=f"checkpoint (default {WEIGHTS.relative_to(REPO_DIR)})")
     parser.add_argument("--pictures", metavar="DIR", help="write side-by-side pictures here")
-    parser.add_argument("--picture-count", type=int, default=4,
+    parser.add_argument("--picture-count", type=at_least(0), default=4, metavar="N",
                         help="dishes to picture (default 4)")
-    parser.add_argument("--json", metavar="FILE", help="also write the figures to this file")
-    parser.add_argument("--threads", type=int, default=1,
+    add_json(parser, None)
+    parser.add_argument("--threads", type=at_least(1), default=1, metavar="N",
                         help="torch threads for the FCN (default 1)")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_quiet(parser)
     args = parser.parse_args(argv)
-    tasks = first_tasks(args.tasks)
-    if args.picture_count < 0:
-        fail(f"--picture-count: must be non-negative, got {args.picture_count}")
-    if args.threads < 1:
-        fail(f"--threads: must be at least 1, got {args.threads}")
+    tasks = task_paths(args)
+    json_path = json_file(args)
     if not Path(args.weights).is_file():
         fail(f"--weights: no such file {args.weights}")
+    pictures = out_folder(args.pictures, "--pictures") if args.pictures else None
+    import torch
+    from tqdm import tqdm
+
+    from s3o_drake.feasibility.heatmaps import compute_heatmaps
+    from s3o_drake.feasibility.learned.fcn import (
+        CHANNELS,
+        FcnFeasibility,
+        auroc,
+        crop_inputs,
+        view_of,
+    )
+    from s3o_drake.feasibility.reachability.map import ReachabilityMap
+
     try:
         fcn = FcnFeasibility.load(Path(args.weights))
     except Exception as e:  # a corrupt or foreign file: say so in one line
         fail(f"--weights: cannot load {args.weights}: {e}")
-    pictures = Path(args.pictures) if args.pictures else None
-    if pictures is not None and pictures.exists() and not pictures.is_dir():
-        fail(f"--pictures: {pictures} exists and is not a folder")
     scenarios = [(path.stem, read_scenario(path)) for path in tasks]
 
     logging.getLogger("drake").setLevel(logging.WARNING)
@@ -186,9 +177,9 @@ def main(argv: list[str] | None = None) -> int:
           f"ratio {summary['speed_ratio_one_at_a_time']:.0f}x")
     print(f"  rendering     {summary['render_s_per_task']:.3f} s per task (once for all its "
           f"dishes): ratio {summary['speed_ratio_render_included']:.0f}x rendering included")
-    if args.json:
-        write_atomically(Path(args.json), json.dumps({"tasks": rows, "summary": summary},
-                                                     indent=1) + "\n")
+    if json_path is not None:
+        write_atomically(json_path, json.dumps({"tasks": rows, "summary": summary},
+                                               indent=1) + "\n")
     return 0
 
 

@@ -1,43 +1,30 @@
-"""Benchmark the feasibility check: speed with the reachability map and with full IK in the
-same run, their agreement, and the time of one heatmap.
+"""The feasibility check: map and IK speed, agreement, one heatmap's time.
 
-    python -m s3o_drake.commands.feasibility_benchmark --queries 500 --tasks 4
+    s3o bench feasibility [--queries 500] [--generated 4] [--json FILE]
 
-Queries are drawn as a planner makes them (`agreement.sample_queries`): base positions
-within 1.1 m of a dish, yaw facing it with navigation noise, a horizontal reach offset, in
-cluttered scenes: scenarios/restaurant.yaml and generated benchmark tasks (chairs
-included). Every query is answered by
-
-- the map, one `check` call at a time, and batched (`check_many`, one thread): the two
-  per-core rates;
-- full IK: Drake `InverseKinematics` with the 1 cm minimum-distance constraint from the
-  stow configuration, one solve per grasp (the speed reference, one thread);
-- exhaustive IK: many seeds (closed-form branches, stow, random; never the map's own
-  configurations): the ground truth for the agreement.
-
-Then one 64 x 64 heatmap (`FeasibilityOracle.heatmap`) is timed for every dish of the
-restaurant with the batched check on two threads (the issue's target is the worst dish).
-Prints the figures; --json also writes them to a file.
+Queries drawn as a planner makes them, in the restaurant and --generated tasks drawn with
+--seed, are answered by the reachability map (one at a time and batched), by full IK (the
+speed reference) and by exhaustive IK (the truth for the agreement). Then one 64 x 64
+heatmap is timed for every dish of the restaurant. Prints the figures.
 """
+
+from __future__ import annotations
 
 import json
 import sys
 import time
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from tqdm import tqdm
 
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail
-from s3o_drake.feasibility.agreement import Agreement, measure, sample_queries
-from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.oracle import FeasibilityOracle
-from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.io import write_atomically
-from s3o_drake.resources import RESTAURANT
-from s3o_drake.scenario import load_scenario
-from s3o_drake.task_generation import generate_task
+# Light imports only: --help and bad arguments answer before Drake loads.
+from s3o_drake.commands.common import command_parser
+from s3o_drake.commands.options import add_json, add_seed, at_least, json_file
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import RESTAURANT
+
+if TYPE_CHECKING:
+    from s3o_drake.feasibility.check import FeasibilityChecker
 
 
 def _batched_seconds(checker: FeasibilityChecker, queries) -> float:
@@ -51,30 +38,35 @@ def _batched_seconds(checker: FeasibilityChecker, queries) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.feasibility_benchmark",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--queries", type=int, default=500,
+    parser = command_parser("bench feasibility", __doc__)
+    parser.add_argument("--queries", type=at_least(10), default=500, metavar="N",
                         help="queries in all, split over the scenes (default 500)")
-    parser.add_argument("--tasks", type=int, default=4,
-                        help="generated tasks used besides the restaurant (default 4)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--json", metavar="FILE", help="also write the figures here")
+    parser.add_argument("--generated", type=at_least(0), default=4, metavar="N",
+                        help="tasks drawn with --seed besides the restaurant (default 4)")
+    add_seed(parser)
+    add_json(parser, None)
     args = parser.parse_args(argv)
-    if args.queries < 10:
-        fail(f"--queries: must be at least 10, got {args.queries}")
-    if args.tasks < 0:
-        fail(f"--tasks: must be at least 0, got {args.tasks}")
+    json_path = json_file(args)
+    from tqdm import tqdm
+
+    from s3o_drake.experiments.reachability_agreement import Agreement, measure, sample_queries
+    from s3o_drake.feasibility.check import FeasibilityChecker
+    from s3o_drake.feasibility.oracle import FeasibilityOracle
+    from s3o_drake.feasibility.reachability.map import ReachabilityMap
+    from s3o_drake.feasibility.scene import FeasibilityScene
+    from s3o_drake.world.scenario import load_scenario
+    from s3o_drake.world.task_generation import generate_task
 
     rng = np.random.default_rng(args.seed)
     restaurant = load_scenario(RESTAURANT)
     scenarios = [restaurant] + [generate_task(restaurant, args.seed, i)
-                                for i in range(args.tasks)]
+                                for i in range(args.generated)]
     rmap = ReachabilityMap.load()
     result = Agreement()
     seconds = {"batched": 0.0, "full_ik": 0.0}
     for k, scenario in enumerate(scenarios):
         count = args.queries // len(scenarios) + (k < args.queries % len(scenarios))
-        scene = FeasibilityScene(scenario)
+        scene = FeasibilityScene(scenario.contents)
         queries = sample_queries(scene, count, rng)
         label = "restaurant" if k == 0 else f"task_{k - 1:03d}"
         measure(scene, queries, rmap, ik_map_seeds=False, label=label, result=result,
@@ -88,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
             full_ik.check(queries.bases[i], queries.dishes[i], queries.offsets[i])
             seconds["full_ik"] += time.perf_counter() - start
 
-    oracle = FeasibilityOracle(FeasibilityChecker(FeasibilityScene(restaurant), rmap),
+    oracle = FeasibilityOracle(FeasibilityChecker(FeasibilityScene(restaurant.contents), rmap),
                                restaurant.uncertainty)
     oracle.heatmap(restaurant.dishes[0].name, cells=8)  # allocate the thread contexts
     heatmap_s = {}
@@ -134,8 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     print("one 64x64 heatmap of the executed pickup, 2 threads: "
           + ", ".join(f"{k} {v:.2f} s" for k, v in heatmap_s.items())
           + f"; worst {f['heatmap_64x64x5_worst_s']:.2f} s")
-    if args.json:
-        write_atomically(Path(args.json), json.dumps(figures, indent=2) + "\n")
+    if json_path is not None:
+        write_atomically(json_path, json.dumps(figures, indent=2) + "\n")
     return 0
 
 

@@ -1,26 +1,28 @@
-"""Builds a scenario's navigation map and times its path-length queries.
+"""A scenario's navigation map: its size and its path-length query times.
 
-    python -m s3o_drake.commands.navigation_benchmark [scenario] [--benchmark] [--queries 2000]
+    s3o bench navigation [--tasks scenarios/restaurant.yaml] [--benchmark] [--queries 2000]
 
-Without --benchmark it prints the map's size (graph vertices, grid, blocking edges); with
-it, the build time and milliseconds per query on CMA-ES-like workloads (`benchmark`). The
-map's design, measured with this command, is described in s3o_drake/planning/navigation.py.
+Without --benchmark it prints each map's size (graph vertices, grid, blocking edges); with
+it, the build time and the milliseconds per path-length query on CMA-ES-like workloads. The
+unmapped chairs play the perceived ones. The map's design, measured with this command, is
+described in s3o_drake/planning/navigation/map.py.
 """
 
 from __future__ import annotations
 
 import sys
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
-import shapely
-from shapely.geometry import Point
-from shapely.ops import unary_union
 
-from s3o_drake.abstraction.voronoi import free_space
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.resources import RESTAURANT
+# Light imports only: --help and bad arguments answer before Drake and shapely load.
+from s3o_drake.commands.common import command_parser, read_scenario
+from s3o_drake.commands.options import add_tasks, at_least, task_paths
+from s3o_drake.world.resources import RESTAURANT
+
+if TYPE_CHECKING:
+    from s3o_drake.belief.known_world import KnownWorld
 
 
 def benchmark(known: KnownWorld, *, queries: int = 2000, seed: int = 0) -> dict[str, float]:
@@ -33,6 +35,13 @@ def benchmark(known: KnownWorld, *, queries: int = 2000, seed: int = 0) -> dict[
     sequence, one batch of 50 pairs). Returns milliseconds per query: cold (empty
     endpoint cache) for single calls and batches of 10, warm (the same queries again).
     """
+    import shapely
+    from shapely.geometry import Point
+    from shapely.ops import unary_union
+
+    from s3o_drake.abstraction.voronoi import free_space
+    from s3o_drake.planning.navigation.map import NavigationMap
+
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
     nav = NavigationMap(known.obstacles)
@@ -92,29 +101,27 @@ def benchmark(known: KnownWorld, *, queries: int = 2000, seed: int = 0) -> dict[
 
 
 def main(argv: list[str] | None = None) -> int:
-    """`python -m s3o_drake.commands.navigation_benchmark [scenario] --benchmark`."""
-    from s3o_drake.commands.common import ArgumentParser, doc_formatter, read_scenario
-
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.navigation_benchmark",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("scenario", nargs="?", default=str(RESTAURANT),
-                        help="scenario YAML (default: scenarios/restaurant.yaml); its "
-                             "unmapped chairs play the perceived ones")
+    parser = command_parser("bench navigation", __doc__)
+    add_tasks(parser, default=(RESTAURANT,))
     parser.add_argument("--benchmark", action="store_true",
                         help="time path-length queries and print the figures")
-    parser.add_argument("--queries", type=int, default=2000, help="queries per workload")
+    parser.add_argument("--queries", type=at_least(10), default=2000, metavar="N",
+                        help="queries per workload (default 2000)")
     args = parser.parse_args(argv)
-    if args.queries < 10:
-        parser.error(f"--queries must be at least 10, got {args.queries}")
-    scenario = read_scenario(args.scenario)
-    known = KnownWorld.perfect(scenario)
-    if not args.benchmark:
-        nav = NavigationMap(known.obstacles)
-        print(f"{len(nav.vertices)} graph vertices, grid {nav.occupancy.shape}, "
-              f"{len(nav._blocking_edges.edges)} blocking edges")
-        return 0
-    for key, value in benchmark(known, queries=args.queries).items():
-        print(f"{key:28s} {value:.4f}")
+    scenarios = [(path.stem, read_scenario(path)) for path in task_paths(args)]
+    from s3o_drake.belief.known_world import KnownWorld
+    from s3o_drake.planning.navigation.map import NavigationMap
+
+    for name, scenario in scenarios:
+        known = KnownWorld.perfect(scenario)
+        print(f"{name}:")
+        if not args.benchmark:
+            nav = NavigationMap(known.obstacles)
+            print(f"  {len(nav.vertices)} graph vertices, grid {nav.occupancy.shape}, "
+                  f"{len(nav._blocking_edges.edges)} blocking edges")
+            continue
+        for key, value in benchmark(known, queries=args.queries).items():
+            print(f"  {key:28s} {value:.4f}")
     return 0
 
 

@@ -1,40 +1,37 @@
-"""How well Fea^m's oracle models the executed pickup: the two measurements behind it.
+"""Fea^m's oracle against the executed pickup and against Monte Carlo.
 
-    python -m s3o_drake.commands.oracle_pinning [--tasks 5] [--poses 40] [--positions 20]
-                                            [--seed 0] [--json FILE]
+    s3o bench oracle-pinning [--count 5] [--poses 40] [--positions 20] [--json FILE]
 
-1. The success test against the ArmController's pickup. On exact base poses (no noise)
-   around every dish of the first --tasks shipped tasks (scenarios/generated), the oracle's
-   test (`FeasibilityOracle.success`: the pickup's configurations, without the arm's
-   joint-space paths) is compared with `plan_pickup`, which is what the ArmController runs
-   (without noise, a planned pickup plays open loop and holds the dish: its outcome is the
-   plan's). --poses per task, half of them feasible by the oracle where there are enough.
-   The disagreements are the pickups that RRT-Connect's paths decided.
-2. The heatmap's expectation against Monte Carlo. At --positions per task where the
-   heatmap is between 0.05 and 0.95, the heatmap's value (`heatmap`: the landing's success
-   blurred by the noise) is compared with `probabilities` (100 landings of the execution's
-   landing model: drive heading towards the dish, stop short, turn to the noisy yaw, turn
-   to face the dish when more than 0.03 rad off; reach noise in the grasp target). Their
-   difference is what the blur's simplifications cost; the Monte-Carlo standard error is
-   at most 0.05.
-
-Prints both figures; --json writes them with the per-pose and per-position rows.
+1. On exact base poses around every dish of the tasks, the oracle's success test against
+   `plan_pickup`, what the ArmController runs: the disagreements are the pickups that
+   RRT-Connect's paths decided. 2. Where a heatmap is between 0.05 and 0.95, its value
+   against 100 executed landings (Monte Carlo): what the blur's simplifications cost.
 """
+
+from __future__ import annotations
 
 import json
 import sys
 import time
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from tqdm import tqdm
 
-from s3o_drake.angles import facing_yaw
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
-from s3o_drake.feasibility.heatmaps import make_oracle
-from s3o_drake.feasibility.oracle import FeasibilityOracle
-from s3o_drake.manipulation.pickup import plan_pickup
-from s3o_drake.scenario import Scenario
+# Light imports only: --help and bad arguments answer before Drake loads.
+from s3o_drake.commands.common import command_parser, read_scenario
+from s3o_drake.commands.options import (
+    add_json,
+    add_seed,
+    add_tasks,
+    at_least,
+    json_file,
+    task_paths,
+)
+from s3o_drake.world.angles import facing_yaw
+
+if TYPE_CHECKING:
+    from s3o_drake.feasibility.oracle import FeasibilityOracle
+    from s3o_drake.world.scenario import Scenario
 
 #: Base positions drawn around each dish before choosing the poses.
 CANDIDATES = 150
@@ -65,12 +62,16 @@ def sample_poses(oracle: FeasibilityOracle, count: int,
 
 def executed(oracle: FeasibilityOracle, dish: str, base: np.ndarray, seed: int) -> str:
     """The ArmController's pickup from `base` without noise: "ok" or the failure reason."""
+    from s3o_drake.execution.arm.pickup import plan_pickup
+
     plan = plan_pickup(oracle.checker.scene, oracle.checker, base, dish, seed=seed)
     return "ok" if plan.ok else plan.reason
 
 
 def compare_tests(scenario: Scenario, poses: int, seed: int) -> list[dict]:
     """Measurement 1 on one task: one row per pose."""
+    from s3o_drake.feasibility.heatmaps import make_oracle
+
     oracle = make_oracle(scenario)
     rng = np.random.default_rng([seed, 1])
     rows = []
@@ -83,6 +84,8 @@ def compare_tests(scenario: Scenario, poses: int, seed: int) -> list[dict]:
 
 def compare_expectation(scenario: Scenario, positions: int, seed: int) -> list[dict]:
     """Measurement 2 on one task: one row per position."""
+    from s3o_drake.feasibility.heatmaps import make_oracle
+
     oracle = make_oracle(scenario)
     rng = np.random.default_rng([seed, 2])
     rows = []
@@ -125,21 +128,19 @@ def summarize(test_rows: list[dict], expectation_rows: list[dict]) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.oracle_pinning",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--tasks", type=int, default=5, help="first shipped tasks (default 5)")
-    parser.add_argument("--poses", type=int, default=40,
+    parser = command_parser("bench oracle-pinning", __doc__)
+    add_tasks(parser, count=5)
+    parser.add_argument("--poses", type=at_least(1), default=40, metavar="N",
                         help="exact poses per task for the test comparison (default 40)")
-    parser.add_argument("--positions", type=int, default=20,
+    parser.add_argument("--positions", type=at_least(0), default=20, metavar="N",
                         help="positions per task for the expectation comparison (default 20)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the sampling (default 0)")
-    parser.add_argument("--json", type=Path, help="write the figures and rows here")
+    add_seed(parser, 0, "seed of the sampling")
+    add_json(parser, None)
     args = parser.parse_args(argv)
-    if args.poses < 1:
-        fail(f"--poses: must be at least 1, got {args.poses}")
-    if args.positions < 0:
-        fail(f"--positions: must be at least 0, got {args.positions}")
-    tasks = task_scenarios(None, args.tasks)
+    tasks = [(path.stem, read_scenario(path)) for path in task_paths(args)]
+    json_path = json_file(args)
+    from tqdm import tqdm
+
     start = time.perf_counter()
     test_rows: list[dict] = []
     expectation_rows: list[dict] = []
@@ -163,11 +164,11 @@ def main(argv: list[str] | None = None) -> int:
               f"90th percentile {figures['p90_abs_difference']:.3f}, mean difference "
               f"{figures['mean_difference']:+.3f}")
     print(f"({time.perf_counter() - start:.0f} s)")
-    if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps({"settings": vars(args) | {"json": str(args.json)},
-                                         "figures": figures, "poses": test_rows,
-                                         "positions": expectation_rows}, indent=1))
+    if json_path is not None:
+        settings = {k: v for k, v in vars(args).items() if k != "task_defaults"}
+        json_path.write_text(json.dumps({"settings": settings, "figures": figures,
+                                         "poses": test_rows, "positions": expectation_rows},
+                                        indent=1))
     return 0
 
 

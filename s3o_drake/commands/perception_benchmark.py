@@ -1,39 +1,32 @@
-"""Benchmark chair perception: how close the perceived chairs are to the true ones.
+"""Chair perception: the perceived chairs against the true ones.
 
-    python -m s3o_drake.commands.perception_benchmark --tasks 20
+    s3o bench perception [--tasks PATH ...] [--count 20] [--pictures DIR]
 
-For each of the first N shipped tasks (scenarios/generated/task_*.yaml; or the files given
-with --scenarios) the overhead camera renders the scene (the world diagram with the robot
-at its start), `ChairPerception` finds the unmapped chairs, and the detections are matched
-to the true unmapped chairs by the Hungarian method on centre distance
-(scipy.optimize.linear_sum_assignment). A true chair is detected when its match lies
-within 15 cm; a detection matched to nothing that close is a false positive.
-
-Prints a line per task and the summary: detection rate, false positives, median and
-95th-percentile centre error (m) and yaw error (rad) over the detected chairs, the share
-of all true chairs found within 5 cm (the target: all of them), and the perception time
-per scene (rendering excluded).
-
---pictures DIR writes each task's overhead image with the perceived (green) and true
-(magenta) chair outlines as DIR/<task>.png.
+For each task the overhead camera renders the scene, ChairPerception finds the unmapped
+chairs, and the detections are matched to the true ones (Hungarian method on the centres;
+a match within 15 cm is a detection). Prints a line per task, the detection rate, false
+positives, centre and yaw errors, and the share of chairs found within 5 cm (the target:
+all). --pictures DIR draws the perceived (green) and true (magenta) chairs.
 """
+
+from __future__ import annotations
 
 import math
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
-from tqdm import tqdm
 
-from s3o_drake.angles import wrap
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, task_scenarios
-from s3o_drake.io import write_atomically
-from s3o_drake.perception.chairs import ChairPerception, draw_chairs
-from s3o_drake.scenario import Scenario
-from s3o_drake.world.builder import render_overhead
+# Light imports only: --help and bad arguments answer before Drake, scipy and OpenCV load.
+from s3o_drake.commands.common import command_parser, fail, read_scenario
+from s3o_drake.commands.options import add_tasks, task_paths
+from s3o_drake.world.angles import wrap
+from s3o_drake.world.files import write_atomically
+
+if TYPE_CHECKING:
+    from s3o_drake.world.scenario import Scenario
 
 MATCH_RADIUS = 0.15
 """A detection this close (m) to a true chair's centre counts as finding it."""
@@ -52,6 +45,8 @@ def match(truth: list[list[float]], found: list[list[float]]
     matching on centre distance; pairs farther apart than MATCH_RADIUS are left out."""
     if not truth or not found:
         return []
+    from scipy.optimize import linear_sum_assignment
+
     t, f = np.asarray(truth, dtype=float), np.asarray(found, dtype=float)
     distance = np.linalg.norm(t[:, None, :2] - f[None, :, :2], axis=2)
     pairs = []
@@ -64,8 +59,13 @@ def match(truth: list[list[float]], found: list[list[float]]
 
 def benchmark_task(name: str, scenario: Scenario, pictures: Path | None) -> dict[str, Any]:
     """One task's row: counts, errors and the perception time."""
+    from s3o_drake.belief.chair_perception import ChairPerception
+    from s3o_drake.viz.chairs import draw_chairs
+    from s3o_drake.world.builder import render_overhead
+    from s3o_drake.world.camera import overhead_camera
+
     images = render_overhead(scenario)[:3]
-    perception = ChairPerception(scenario)
+    perception = ChairPerception(scenario.map, scenario.camera, pose=scenario.robot.start)
     start = time.perf_counter()
     found = perception(*images)
     elapsed = time.perf_counter() - start
@@ -74,7 +74,8 @@ def benchmark_task(name: str, scenario: Scenario, pictures: Path | None) -> dict
     if pictures is not None:
         import cv2
 
-        picture = draw_chairs(scenario, images[0], found, truth=truth)
+        camera = overhead_camera(scenario.room, scenario.camera)
+        picture = draw_chairs(camera, images[0], found, truth=truth)
         ok, png = cv2.imencode(".png", cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
         if ok:
             write_atomically(pictures / f"{name}.png", png.tobytes())
@@ -107,19 +108,16 @@ def summarize(rows: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.perception_benchmark",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--tasks", type=int, default=20,
-                        help="first N shipped tasks (default 20)")
-    parser.add_argument("--scenarios", nargs="+", metavar="YAML",
-                        help="these scenario files instead of the shipped tasks")
+    parser = command_parser("bench perception", __doc__)
+    add_tasks(parser, count=20)
     parser.add_argument("--pictures", metavar="DIR",
                         help="write each task's overhead image with the chairs drawn here")
     args = parser.parse_args(argv)
-    scenarios = task_scenarios(args.scenarios, args.tasks)
+    scenarios = [(path.stem, read_scenario(path)) for path in task_paths(args)]
     pictures = Path(args.pictures) if args.pictures else None
     if pictures is not None and not pictures.is_dir():
         fail(f"--pictures: no folder {pictures}")
+    from tqdm import tqdm
 
     rows = []
     bar = tqdm(scenarios, desc="perception", unit="task", file=sys.stderr)

@@ -1,32 +1,15 @@
-"""Benchmark the pickup's duration: TOPPRA under the UR5e's limits against the old trapezoids.
+"""Pickup durations: TOPPRA under the UR5e's limits against trapezoids.
 
-    python -m s3o_drake.commands.pickup_benchmark [--poses 200] [--tasks 4] [--seed 0]
-                                                   [--json FILE]
+    s3o bench pickup [--poses 200] [--count 5] [--seed 0] [--json FILE]
 
-Samples feasible pickups with a fixed seed, an equal share of --poses in each scene:
-scenarios/restaurant.yaml and the first --tasks shipped tasks of scenarios/generated/. Base
-poses are drawn as a planner's landings look (`feasibility.agreement.sample_queries`: within
-1.1 m of a random dish, yaw facing it with 0.05 rad of noise, a horizontal reach offset of
-1 cm) and kept when `FeasibilityChecker.check` says feasible. Each is planned with
-`plan_pickup` from the stow configuration (planner seed: the pose's number). A plan's paths
-do not depend on their timing, so three timings are measured on the same paths, approach to
-stow (all seven segments, the fingers' close and release included):
-
-- toppra: the plan's own: TOPPRA under the model's joint limits, corners rounded where the
-  rounded curve is collision-free, `SLOW` of the limits near the dish;
-- toppra_stops: TOPPRA with the same limits, stopping at every waypoint (what the rounding
-  gains);
-- trapezoid (the reference, the timing before TOPPRA): a rest-to-rest trapezoid along each
-  straight edge at 1 rad/s and 2 rad/s² for the arm (half of it near the dish), the fingers
-  at 0.1 m/s and 0.5 m/s².
-
-Prints each timing's duration distribution (median, quartiles, 90th percentile, max), the
-median of each segment, and the plans' failures by reason. Failures are the same for every
-timing: they time the same paths, and a timing cannot fail a pickup (TOPPRA failing on a
-rounded curve falls back to stops; on a straight edge it raises). Also prints how many
-multi-waypoint motions were rounded.
---json FILE writes the figures and one record per pose.
+Samples feasible pickups as a planner's landings look, an equal share of --poses in each of
+the tasks (by default the restaurant and the first four shipped tasks), plans each with
+`plan_pickup`, and times the same paths three ways: the plan's own TOPPRA timing, TOPPRA
+stopping at every waypoint, and the old trapezoids. Prints each timing's distribution,
+the median per segment and the failures by reason (target: median pickup <= 8 s).
 """
+
+from __future__ import annotations
 
 import itertools
 import json
@@ -34,30 +17,27 @@ import logging
 import math
 import sys
 from collections import Counter
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from tqdm import tqdm
 
-from s3o_drake.commands.common import ArgumentParser, doc_formatter, fail, first_tasks
-from s3o_drake.feasibility.agreement import sample_queries
-from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.pickup_geometry import REASONS
-from s3o_drake.feasibility.reachability import ReachabilityMap
-from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.io import write_atomically
-from s3o_drake.manipulation.arm_motion import time_parameterize
-from s3o_drake.manipulation.pickup import (
-    FINGER_MAX_ACCELERATION,
-    FINGER_MAX_VELOCITY,
-    SEGMENT_NAMES,
-    SLOW_SEGMENTS,
-    PickupPlan,
-    plan_pickup,
-    segment_limits,
+# Light imports only: --help and bad arguments answer before Drake loads.
+from s3o_drake.commands.common import command_parser
+from s3o_drake.commands.options import (
+    add_json,
+    add_seed,
+    add_tasks,
+    at_least,
+    json_file,
+    task_paths,
 )
-from s3o_drake.resources import RESTAURANT
-from s3o_drake.scenario import load_scenario
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import RESTAURANT, TASKS_DIR
+
+if TYPE_CHECKING:
+    from s3o_drake.execution.arm.pickup import PickupPlan
+    from s3o_drake.feasibility.check import FeasibilityChecker
+    from s3o_drake.feasibility.scene import FeasibilityScene
 
 TIMINGS = ("toppra", "toppra_stops", "trapezoid")
 #: The timing before TOPPRA (the reference): the arm's speed and acceleration (rad/s, rad/s²),
@@ -96,6 +76,12 @@ def trapezoid_duration(path: np.ndarray, max_velocity: np.ndarray,
 
 def trapezoid_limits(name: str) -> tuple[np.ndarray, np.ndarray]:
     """The reference timing's limits of the robot's 11 positions in segment `name`."""
+    from s3o_drake.execution.arm.pickup import (
+        FINGER_MAX_ACCELERATION,
+        FINGER_MAX_VELOCITY,
+        SLOW_SEGMENTS,
+    )
+
     v = np.concatenate([np.ones(3), np.full(6, TRAPEZOID_ARM_VELOCITY),
                         np.full(2, FINGER_MAX_VELOCITY)])
     a = np.concatenate([np.ones(3), np.full(6, TRAPEZOID_ARM_ACCELERATION),
@@ -107,6 +93,9 @@ def trapezoid_limits(name: str) -> tuple[np.ndarray, np.ndarray]:
 
 def durations(plan: PickupPlan, scene: FeasibilityScene) -> dict[str, dict[str, float]]:
     """Each segment's duration under each of TIMINGS (s), by timing and segment name."""
+    from s3o_drake.execution.arm.arm_motion import time_parameterize
+    from s3o_drake.execution.arm.pickup import segment_limits
+
     plant = scene.checker.plant()
     out = {timing: {} for timing in TIMINGS}
     for segment in plan.segments:
@@ -122,6 +111,8 @@ def durations(plan: PickupPlan, scene: FeasibilityScene) -> dict[str, dict[str, 
 def feasible_poses(scene: FeasibilityScene, checker: FeasibilityChecker, count: int,
                    rng: np.random.Generator) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """`count` (dish, base, reach offset) that `checker.check` calls feasible."""
+    from s3o_drake.experiments.reachability_agreement import sample_queries
+
     found = []
     while len(found) < count:
         queries = sample_queries(scene, BATCH, rng)
@@ -140,25 +131,24 @@ def distribution(values: list[float]) -> dict[str, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.pickup_benchmark",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--poses", type=int, default=200,
-                        help="feasible poses in all, split over the scenes (default 200)")
-    parser.add_argument("--tasks", type=int, default=4,
-                        help="shipped tasks used besides the restaurant (default 4)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--json", metavar="FILE", help="also write the figures here")
+    parser = command_parser("bench pickup", __doc__)
+    parser.add_argument("--poses", type=at_least(1), default=200, metavar="N",
+                        help="feasible poses in all, split over the tasks (default 200)")
+    add_tasks(parser, default=(RESTAURANT, TASKS_DIR), count=5)
+    add_seed(parser)
+    add_json(parser, None)
     args = parser.parse_args(argv)
-    if args.poses < 1:
-        fail(f"--poses: must be at least 1, got {args.poses}")
-    if args.seed < 0:
-        fail(f"--seed: must be a non-negative integer, got {args.seed}")
-    if args.tasks < 0:
-        fail(f"--tasks: must be at least 0, got {args.tasks}")
-    json_path = Path(args.json) if args.json else None
-    if json_path is not None and not json_path.parent.is_dir():
-        fail(f"--json: no folder {json_path.parent}")
-    paths = [RESTAURANT] + (first_tasks(args.tasks) if args.tasks > 0 else [])
+    paths = task_paths(args)
+    json_path = json_file(args)
+    from tqdm import tqdm
+
+    from s3o_drake.execution.arm.pickup import SEGMENT_NAMES, plan_pickup
+    from s3o_drake.feasibility.check import FeasibilityChecker
+    from s3o_drake.feasibility.pickup_geometry import REASONS
+    from s3o_drake.feasibility.reachability.map import ReachabilityMap
+    from s3o_drake.feasibility.scene import FeasibilityScene
+    from s3o_drake.world.scenario import load_scenario
+
     logging.getLogger("drake").setLevel(logging.WARNING)
 
     rng = np.random.default_rng(args.seed)
@@ -166,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
     records = []
     with tqdm(total=args.poses, desc="pickups", unit="pose", file=sys.stderr) as bar:
         for k, path in enumerate(paths):
-            scene = FeasibilityScene(load_scenario(path))
+            scene = FeasibilityScene(load_scenario(path).contents)
             checker = FeasibilityChecker(scene, rmap)
             count = args.poses // len(paths) + (k < args.poses % len(paths))
             for dish, base, offset in feasible_poses(scene, checker, count, rng):

@@ -1,61 +1,38 @@
-"""Benchmark the planner: planning time per task at the paper's sample counts, broken down,
-and the plan's utility against a run with 10x the samples per sequence.
+"""Planning time per task, broken down, and utility against 10x the samples.
 
-    python -m s3o_drake.commands.planning_benchmark --tasks 10 --method S3O-GROP* --seed 0
+    s3o bench planning --count 10 [--method S3O-GROP*] [--json FILE]
 
-For each of the first N shipped tasks (scenarios/generated/task_*.yaml, 5-7 dishes each;
-or the files given with --scenarios):
-
-1. the feasibility heatmaps (Fea^m) of every dish, timed as "feasibility": in this process,
-   whose collision checker already spreads its batches over the cores (worker processes
-   would only add their start-up); the reachability map is loaded and prepared once
-   before the first task and that one-time start-up is reported apart;
-2. `plan` with the method at the scenario's sample counts (the paper's: 20 CMA-ES
-   generations x 10 per sequence), timed, with the planner's own breakdown: feasibility,
-   navigation, abstraction, task_planning, motion_search;
-3. `plan` again on the same task, seed and heatmaps with --factor (default 10) times the
-   CMA-ES generations, i.e. 10x the samples per sequence: the long run.
-
-Both plans search on --workers processes (forked by the planner).
-
-The utility ratio is the paper-count utility / the long-run utility (1.0: no loss; above
-1: the short run happened to do better). The time budget is the scenario's, a cap, not a
-target. The unmapped chairs of a scenario count as perceived.
-
-Prints a per-task table and the summary: median planning time with the heatmaps excluded
-and included (target: median <= 5 s on 2 cores) and the median and worst utility ratio
-(target: within 5 %, ratio >= 0.95). A task whose planning fails is listed with its error
-and left out of the medians.
-
---json FILE: one JSON line per task is appended (and flushed) as soon as the task is done,
-then a {"summary": {...}} line. Run again with the same file and settings and it resumes:
-tasks already in the file (same method, seed, workers and factor) are read back, not
-planned again, and the summary covers all of them. --fresh starts the file over.
+For each task: the Fea^m heatmaps of every dish (timed as "feasibility"), a plan at the
+paper's sample counts with the planner's own breakdown (navigation, abstraction, task
+planning, motion search), and a plan with --factor times the CMA-ES generations, the long
+run. Prints a row per task and the medians against the targets: planning at most 5 s on
+2 cores, utility within 5 % of the long run. The unmapped chairs count as perceived.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import statistics
 import sys
 import time
-from pathlib import Path
-from typing import TYPE_CHECKING, Any, TextIO
+from typing import TYPE_CHECKING, Any
 
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.choices import METHODS
-from s3o_drake.commands.common import (
-    ArgumentParser,
-    doc_formatter,
-    fail,
-    finished_rows,
-    task_scenarios,
+from s3o_drake.commands.common import command_parser, read_scenario
+from s3o_drake.commands.options import (
+    add_json,
+    add_method,
+    add_seed,
+    add_tasks,
+    add_workers,
+    at_least,
+    json_store,
+    task_paths,
 )
 
 if TYPE_CHECKING:
-    from s3o_drake.scenario import Scenario
+    from s3o_drake.world.scenario import Scenario
 
 STAGES = ("feasibility", "navigation", "abstraction", "task_planning", "motion_search")
 TIME_TARGET = 5.0
@@ -74,8 +51,8 @@ def long_run(scenario: Scenario, factor: int) -> Scenario:
 def benchmark_task(name: str, scenario: Scenario, *, method: str, seed: int, workers: int,
                    factor: int) -> dict[str, Any]:
     """One task's row: heatmaps, the paper-count plan, the long run, their utility ratio."""
+    from s3o_drake.belief.known_world import KnownWorld
     from s3o_drake.feasibility.heatmaps import compute_heatmaps
-    from s3o_drake.known_world import KnownWorld
     from s3o_drake.planning.pipeline import plan_from
 
     row: dict[str, Any] = {"task": name, "dishes": len(scenario.dishes), "method": method,
@@ -84,7 +61,7 @@ def benchmark_task(name: str, scenario: Scenario, *, method: str, seed: int, wor
     # planning (perception has its own, s3o_drake.commands.perception_benchmark).
     known = KnownWorld.perfect(scenario)
     start = time.perf_counter()
-    heatmaps = compute_heatmaps(known.as_scenario(), workers=1, progress=False,
+    heatmaps = compute_heatmaps(known, workers=1, progress=False,
                                 obstacles=known.obstacles)
     feasibility = time.perf_counter() - start
     short_result = plan_from(known, method=method, heatmaps=heatmaps, seed=seed,
@@ -151,80 +128,54 @@ def _print_row(r: dict[str, Any]) -> None:
           flush=True)
 
 
-def _append(out: TextIO | None, record: dict[str, Any]) -> None:
-    if out is not None:
-        out.write(json.dumps(record) + "\n")
-        out.flush()
+def row_key(row: dict[str, Any]) -> str:
+    """A task's row is reused for the same task, method, seed, workers and factor."""
+    return "|".join(str(row[k]) for k in ("task", "method", "seed", "workers", "factor"))
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.planning_benchmark",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--tasks", type=int, default=10,
-                        help="first N shipped tasks (default 10)")
-    parser.add_argument("--scenarios", nargs="+", metavar="YAML",
-                        help="these scenario files instead of the shipped tasks")
-    parser.add_argument("--method", default="S3O-GROP*",
-                        help=f"one of {', '.join(METHODS)} (default S3O-GROP*)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--workers", type=int, default=2,
-                        help="processes for the heatmaps and the planner (default 2)")
-    parser.add_argument("--factor", type=int, default=10,
+    parser = command_parser("bench planning", __doc__)
+    add_tasks(parser, count=10)
+    add_method(parser)
+    add_seed(parser)
+    add_workers(parser, 2, "processes for the heatmaps and the planner")
+    parser.add_argument("--factor", type=at_least(2), default=10, metavar="N",
                         help="sample multiplier of the long run (default 10)")
-    parser.add_argument("--json", metavar="FILE",
-                        help="append one JSON line per task as it finishes, then the summary; "
-                             "resumes from the tasks already in it")
-    parser.add_argument("--fresh", action="store_true",
-                        help="start the --json file over instead of resuming")
+    add_json(parser, "task")
     args = parser.parse_args(argv)
-    if args.method not in METHODS:
-        fail(f"--method: unknown method {args.method!r}; one of {', '.join(METHODS)}")
-    if args.workers < 1:
-        fail(f"--workers: must be at least 1, got {args.workers}")
-    if args.factor < 2:
-        fail(f"--factor: must be at least 2, got {args.factor}")
-    scenarios = task_scenarios(args.scenarios, args.tasks)
-    json_path = Path(args.json) if args.json else None
-    if json_path is not None and not json_path.parent.is_dir():
-        fail(f"--json: no folder {json_path.parent}")
-
+    scenarios = [(path.stem, read_scenario(path)) for path in task_paths(args)]
+    store = json_store(args, key=row_key)
     settings = {"method": args.method, "seed": args.seed, "workers": args.workers,
                 "factor": args.factor}
-    done = {} if json_path is None or args.fresh else finished_rows(json_path, settings)
-    if json_path is not None and args.fresh:
-        json_path.unlink(missing_ok=True)
+    done = {name: store.get(row_key({"task": name, **settings})) for name, _ in scenarios
+            if store is not None and store.finished(row_key({"task": name, **settings}))}
 
-    from s3o_drake.feasibility.reachability import ReachabilityMap
+    from s3o_drake.feasibility.reachability.map import ReachabilityMap
 
     start = time.perf_counter()
     ReachabilityMap.shared().prepare_all()
     startup = time.perf_counter() - start
     print(f"{args.method}, seed {args.seed}, {args.workers} workers, long run x{args.factor}; "
           f"times in s; one-time start-up (reachability map) {startup:.2f} s"
-          + (f"; resuming: {len(done)} tasks read from {json_path}" if done else ""))
+          + (f"; resuming: {len(done)} tasks read from {args.json}" if done else ""))
     print(f"{'task':<14} {'n':>2} {'heatmap':>7} {'nav':>6} {'abstr':>6} {'task':>6} "
           f"{'motion':>6} {'plan':>7} {'+heat':>7} {'utility':>9} {'long':>9} {'ratio':>6}",
           flush=True)
     rows: list[dict[str, Any]] = []
-    out = json_path.open("a") if json_path is not None else None
-    if out is not None and json_path.stat().st_size and not json_path.read_bytes().endswith(b"\n"):
-        out.write("\n")  # after a line an interruption cut short
-    try:
-        for name, scenario in scenarios:
-            if name in done:
-                row = done[name]
-            else:
-                row = benchmark_task(name, scenario, method=args.method, seed=args.seed,
-                                     workers=args.workers, factor=args.factor)
-                _append(out, row)
-            rows.append(row)
-            _print_row(row)
-        summary = summarize(rows)
-        summary.update(settings, startup_s=startup)
-        _append(out, {"summary": summary})
-    finally:
-        if out is not None:
-            out.close()
+    for name, scenario in scenarios:
+        if name in done:
+            row = done[name]
+        else:
+            row = benchmark_task(name, scenario, method=args.method, seed=args.seed,
+                                 workers=args.workers, factor=args.factor)
+            if store is not None:
+                row = store.append({"key": row_key(row), **row})
+        rows.append(row)
+        _print_row(row)
+    summary = summarize(rows)
+    summary.update(settings, startup_s=startup)
+    if store is not None:
+        store.append({"key": row_key({"task": "summary", **settings}), "summary": summary})
 
     s = summary
     t = s["median_timing"]
@@ -238,8 +189,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"utility ratio (paper counts / x{args.factor} samples): median "
           f"{s['median_utility_ratio']:.3f}, worst {s['worst_utility_ratio']:.3f} "
           f"(target >= {RATIO_TARGET:g}: {'met' if s['utility_target_met'] else 'NOT met'})")
-    if json_path is not None:
-        print(f"wrote {json_path}")
+    if store is not None:
+        print(f"wrote {store.path}")
     return 0
 
 

@@ -1,53 +1,32 @@
-"""Benchmark the planner at scale: 5 to 40 dishes, planning time by stage, the task
-planner's orders against the exact optimum, and (--execute) executed completion.
+"""5 to 40 dishes: planning time by stage, task orders against the optimum.
 
-    python -m s3o_drake.commands.scale_benchmark --json docs/scale/scale.jsonl
+    s3o bench scale [--dishes 5 10 15 20 30 40] [--count 3] [--execute] [--json FILE]
 
-The tasks are scenarios/generated_scale/dishes_NN/task_*.yaml (--tasks-dir), NN dishes on
-the restaurant's tables and 5 chairs off the map near 5 of them, made by
-
-    python -m s3o_drake.commands.generate --dishes NN --chairs 5 --count 3 --seed 0 \\
-        --out scenarios/generated_scale/dishes_NN
-
-Each task is planned as `run` plans it: the overhead camera's images, the chairs that
-perception finds, Fea^m from the planner's settings, then the method (default S3O-GROP*)
-with the scenario's budget and workers. For every state space that clingo ordered, its
-best order is compared with the exact optimum of the same ordering problem on the same
-costs, solved by an integer program (HiGHS, `planning.exact_order`): "above" is how far
-clingo's order lies above it. The exact solver's time is printed beside clingo's, the
-reference measured in the same run. With --execute, each task is also run as `run` runs
-it (planned again the same way, simulated, replanned where the scenario's recovery says
-so), and the dishes collected are counted.
-
-Prints a line per task, then per size: the median plan time and its stages, clingo's time
-per state space (median and max), the orders proven, the orders above the optimum (median
-and max), completion, and from 30 dishes on, the targets (docs/planning.md): task planning
-at most 2 s per state space, every order within 2 % of the optimum, the whole plan at most
-5 s (median). --markdown prints the summary as the table docs/planning.md shows.
-
---json FILE: a JSON line per task, appended as soon as it is done; run again with the
-same file and settings and the tasks already there are read back, not run again. --fresh
-starts the file over.
+Plans each task of scenarios/generated_scale/dishes_NN/ as `s3o run` plans it and compares
+clingo's best order of every state space with the exact optimum of the same ordering
+problem (HiGHS); --execute also simulates each plan. Prints a line per task and per size
+the median plan time and stages, clingo's time, the orders above the optimum, completion,
+and from 30 dishes on the targets (docs/planning.md).
 """
 
 from __future__ import annotations
 
-import json
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.choices import METHODS
-from s3o_drake.commands.common import (
-    ArgumentParser,
-    doc_formatter,
-    fail,
-    finished_rows,
-    read_scenario,
+from s3o_drake.commands.common import command_parser, fail, read_scenario
+from s3o_drake.commands.options import (
+    add_json,
+    add_method,
+    add_seed,
+    at_least,
+    json_store,
+    seconds,
 )
-from s3o_drake.resources import REPO_DIR
+from s3o_drake.world.resources import REPO_DIR
 
 TASKS_DIR = REPO_DIR / "scenarios" / "generated_scale"
 SIZES = (5, 10, 15, 20, 30, 40)
@@ -61,12 +40,18 @@ def _name(path: Path) -> str:
         return str(path)
 
 
+def row_key(row: dict[str, Any]) -> str:
+    """A task's row is reused for the same task, method, seed and --execute."""
+    return "|".join(str(row[k]) for k in ("task", "method", "seed", "execute"))
+
+
 def plan_task_row(path: Path, *, method: str, seed: int | None, execute: bool,
                   reference_limit: float) -> dict[str, Any]:
     """One task's row: its planning figures (`evaluation.scale.plan_row`), and with
     `execute` what the simulated run collected."""
-    from s3o_drake.evaluation.scale import plan_row
-    from s3o_drake.perception import perceive_known_world
+    from s3o_drake.belief import perceive_known_world
+    from s3o_drake.belief.known_world import Briefing
+    from s3o_drake.experiments.scale import plan_row
     from s3o_drake.planning.pipeline import plan_from
     from s3o_drake.world.builder import render_overhead
 
@@ -79,7 +64,8 @@ def plan_task_row(path: Path, *, method: str, seed: int | None, execute: bool,
     start = time.perf_counter()
     color, depth, label, robot_labels = render_overhead(scenario)
     t0 = time.perf_counter()  # the run's planning time starts at perception too
-    known = perceive_known_world(scenario, (color, depth, label), pose=scenario.robot.start,
+    known = perceive_known_world(Briefing.of(scenario), (color, depth, label),
+                                 pose=scenario.robot.start,
                                  dishes=[d.name for d in scenario.dishes],
                                  robot_labels=robot_labels)
     result = plan_from(known, method=method, seed=seed, started=t0)
@@ -119,78 +105,57 @@ def _print_row(r: dict[str, Any]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.scale_benchmark",
-                            description=__doc__, formatter_class=doc_formatter())
+    parser = command_parser("bench scale", __doc__)
     parser.add_argument("--dishes", type=int, nargs="+", default=list(SIZES), metavar="N",
-                        help=f"the task sizes (default {' '.join(map(str, SIZES))}): "
-                             "the folders dishes_NN of --tasks-dir")
-    parser.add_argument("--count", type=int, default=3,
-                        help="tasks per size, the first of each folder (default 3)")
+                        help=f"the task sizes, folders dishes_NN of --tasks-dir (default "
+                             f"{' '.join(map(str, SIZES))})")
+    parser.add_argument("--count", type=at_least(1), default=3, metavar="N",
+                        help="the first N tasks of each size (default 3)")
     parser.add_argument("--tasks-dir", default=str(TASKS_DIR), metavar="DIR",
                         help="where the dishes_NN folders are (default "
                              "scenarios/generated_scale)")
-    parser.add_argument("--method", default="S3O-GROP*",
-                        help=f"one of {', '.join(METHODS)} (default S3O-GROP*)")
-    parser.add_argument("--seed", type=int, help="planning seed (default: each task's own)")
+    add_method(parser)
+    add_seed(parser, None, "planning seed")
     parser.add_argument("--execute", action="store_true",
                         help="also simulate each plan and count the dishes collected")
-    parser.add_argument("--reference-limit", type=float, default=120.0, metavar="S",
-                        help="time limit of the exact solution, per state space (default 120)")
-    parser.add_argument("--json", metavar="FILE", help="append a JSON line per task (resumes)")
-    parser.add_argument("--fresh", action="store_true", help="start the --json file over")
+    parser.add_argument("--reference-limit", type=seconds, default=120.0, metavar="S",
+                        help="time limit of the exact solution per state space (default 120)")
+    add_json(parser, "task")
     parser.add_argument("--markdown", action="store_true",
                         help="print the summary as a Markdown table too")
     args = parser.parse_args(argv)
-    if args.method not in METHODS:
-        fail(f"--method: must be one of {', '.join(METHODS)}, got {args.method!r}")
-    if args.count < 1:
-        fail(f"--count: must be at least 1, got {args.count}")
-    if args.seed is not None and args.seed < 0:
-        fail(f"--seed: must be a non-negative integer, got {args.seed}")
-    if not args.reference_limit > 0:
-        fail(f"--reference-limit: must be positive, got {args.reference_limit}")
     paths: list[Path] = []
     for size in args.dishes:
         folder = Path(args.tasks_dir) / f"dishes_{size:02d}"
         found = sorted(folder.glob("task_*.yaml"))
         if len(found) < args.count:
             fail(f"--dishes: {folder} has {len(found)} tasks, {args.count} needed (make them "
-                 f"with: python -m s3o_drake.commands.generate --dishes {size} --chairs 5 "
-                 f"--count {args.count} --seed 0 --out {folder})")
+                 f"with: s3o generate --dishes {size} --chairs 5 --count {args.count} "
+                 f"--seed 0 --out {folder})")
         paths += found[:args.count]
+    seeds = {path: read_scenario(path).seed if args.seed is None else args.seed
+             for path in paths}
+    store = json_store(args, key=row_key)
 
     import logging
 
-    from s3o_drake.evaluation.scale import summarize, summary_table, target_lines
+    from s3o_drake.experiments.scale import summarize, summary_table, target_lines
 
     logging.getLogger("drake").setLevel(logging.WARNING)
-    settings = {"method": args.method, "seed": args.seed, "execute": args.execute}
-    out = None
-    done: dict[str, dict[str, Any]] = {}
-    if args.json:
-        target = Path(args.json)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        if args.fresh:
-            target.write_text("")
-        done = finished_rows(target, {k: v for k, v in settings.items() if v is not None})
-        out = target.open("a")
     rows = []
     print(f"{len(paths)} tasks, {args.method}" + (", executed" if args.execute else ""),
           flush=True)
-    try:
-        for path in paths:
-            row = done.get(_name(path))
-            if row is None:
-                row = plan_task_row(path, method=args.method, seed=args.seed,
-                                    execute=args.execute, reference_limit=args.reference_limit)
-                if out is not None:
-                    out.write(json.dumps(row) + "\n")
-                    out.flush()
-            rows.append(row)
-            _print_row(row)
-    finally:
-        if out is not None:
-            out.close()
+    for path in paths:
+        key = row_key({"task": _name(path), "method": args.method, "seed": seeds[path],
+                       "execute": args.execute})
+        row = store.get(key) if store is not None and store.finished(key) else None
+        if row is None:
+            row = plan_task_row(path, method=args.method, seed=args.seed,
+                                execute=args.execute, reference_limit=args.reference_limit)
+            if store is not None:
+                row = store.append({"key": key, **row})
+        rows.append(row)
+        _print_row(row)
     summary = summarize(rows)
     print()
     print(summary_table(summary) if args.markdown else "\n".join(

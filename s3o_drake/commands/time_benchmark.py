@@ -1,30 +1,15 @@
-"""Benchmark the time model: the plan's predicted execution time against the simulated one.
+"""The plan's predicted execution time against the simulated one.
 
-    python -m s3o_drake.commands.time_benchmark [--tasks DIR | YAML ...] [--count N]
-        [--noise on off] [--method NAME] [--seed N] [--cost-profile robot|paper]
-        [--json FILE] [--workers N] [--evaluation]
+    s3o bench time [--tasks PATH ...] [--count N] [--noise on off] [--json FILE]
 
-Plans and executes each task as `python -m s3o_drake.run` does (the scenario's settings,
-no playback), once with the simulated noise off (`run --no-noise`) and once with it on, and
-compares the plan's `predicted_time` with the report's `execution_time` (simulated, without
-the run's trailing hold time). Targets over the 100 generated tasks: the median of
-|predicted - simulated| / simulated at most 3 % with the noise off, 8 % with it on.
-
-With the noise on, the prediction is the time of the plan as planned: every landing exact
-and every action done. The execution differs where a landing's noise changes the drives and
-adds a turn before a stop's first pickup, where a pickup fails (a `no_ik` or `no_path`
-failure takes no arm time, a `missed` one the whole motion) and where a blocked drive ends
-the run early. Each row records the failures, and the summary gives the medians also over
-the runs where every action was done.
-
-Each run executes in a worker process (--workers of them; replaced every few runs, since
-pydrake keeps every executed diagram: docs/reliability.md).
-
---json FILE: one JSON line per (task, noise setting), written as each run ends; the same
-command resumes from the runs already in it (rows of another time model, method or seed are
-not reused). --evaluation instead measures the cost of one CMA-ES sample's evaluation
-under the robot and the paper cost profile on the tasks' plain Voronoi locations.
+Plans and executes each task as `s3o run` does (no playback, open loop), once with the
+simulated noise off and once on, and compares the plan's predicted_time with the report's
+execution_time. Targets over the 100 generated tasks: median |predicted - simulated| /
+simulated at most 3 % with the noise off, 8 % with it on. Each run executes in a worker
+process. --evaluation instead measures one CMA-ES sample's evaluation cost.
 """
+
+from __future__ import annotations
 
 import dataclasses
 import hashlib
@@ -33,33 +18,35 @@ import statistics
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
-from s3o_drake.commands.common import (
-    ArgumentParser,
-    doc_formatter,
-    fail,
-    task_files,
-    task_scenarios,
+# Light imports only: --help and bad arguments answer before Drake loads; the functions
+# import the planner and the execution where they use them.
+from s3o_drake.commands.common import command_parser, read_scenario
+from s3o_drake.commands.options import (
+    add_json,
+    add_method,
+    add_seed,
+    add_tasks,
+    add_workers,
+    json_store,
+    task_paths,
 )
-from s3o_drake.evaluation.scheduler import local_pool
-from s3o_drake.evaluation.store import ResultStore
-from s3o_drake.execution.execute import execute
-from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.motion_search import SequenceProblem, location_regions
-from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.planning.time_model import MODEL_FILE, CostModel
-from s3o_drake.resources import TASKS_DIR
-from s3o_drake.scenario import COST_PROFILES, METHODS, Recovery, Scenario
+from s3o_drake.world.choices import COST_PROFILES, Recovery
+from s3o_drake.world.resources import TIME_MODEL
+
+if TYPE_CHECKING:
+    from concurrent.futures import ProcessPoolExecutor
+
+    from s3o_drake.world.scenario import Scenario
 
 TARGETS = {"off": 0.03, "on": 0.08}
 """Median |predicted - simulated| / simulated allowed, per noise setting."""
 
 
-def model_version(path: Path = MODEL_FILE) -> str:
+def model_version(path: Path = TIME_MODEL) -> str:
     """A short digest of the recorded time model: rows of another model are not reused."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:12]
 
@@ -68,6 +55,8 @@ def measure(name: str, scenario: Scenario, *, method: str, seed: int, noise: boo
     """One planned and simulated run: the prediction, the simulated time and what happened.
     The run is open loop (execution.recovery none): the prediction is of the plan as
     planned, and recoveries are the execution's own (docs/execution.md)."""
+    from s3o_drake.execution.execute import execute
+
     scenario = dataclasses.replace(scenario, execution=dataclasses.replace(
         scenario.execution, recovery=Recovery.NONE.value))
     run = execute(scenario, method=method, seed=seed, meshcat=None, noise=noise, progress=False)
@@ -100,6 +89,13 @@ def _measure(job: tuple) -> dict:
             **measure(name, scenario, method=method, seed=seed, noise=noise == "on")}
 
 
+def local_pool(workers: int) -> ProcessPoolExecutor:
+    """The scheduler's worker processes, imported when the runs start (it loads Drake)."""
+    from s3o_drake.experiments.scheduler import local_pool as pool
+
+    return pool(workers)
+
+
 def summarize(rows: list[dict], noise: str) -> dict:
     """Median and percentiles of |error| over the rows of one noise setting, and over those
     where every action was done."""
@@ -124,6 +120,13 @@ def evaluation_cost(scenario: Scenario, *, generations: int = 20, population: in
     generation jittered by 3 cm around a centre), Fea^m 1 everywhere (the same for both
     profiles). The paper profile's evaluation is the one the motion search had before the
     time model (one path-length batch); the robot's adds the motion times."""
+    from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
+    from s3o_drake.belief.known_world import KnownWorld
+    from s3o_drake.feasibility.oracle import Heatmap
+    from s3o_drake.planning.motion.grop import SequenceProblem, location_regions
+    from s3o_drake.planning.navigation.map import NavigationMap
+    from s3o_drake.planning.time_model import CostModel
+
     known = KnownWorld.perfect(scenario)
     nav = NavigationMap(known.obstacles)
     partition = voronoi_partition(known)
@@ -171,40 +174,24 @@ def _print_summary(s: dict) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = ArgumentParser(prog="python -m s3o_drake.commands.time_benchmark",
-                            description=__doc__, formatter_class=doc_formatter())
-    parser.add_argument("--tasks", nargs="+", default=[str(TASKS_DIR)], metavar="PATH",
-                        help="a folder of task_*.yaml (default scenarios/generated) or files")
-    parser.add_argument("--count", type=int, metavar="N", help="only the first N tasks")
+    parser = command_parser("bench time", __doc__)
+    add_tasks(parser)
     parser.add_argument("--noise", nargs="+", choices=("off", "on"), default=["off", "on"],
                         help="the simulated noise settings to run (default: off on)")
-    parser.add_argument("--method", default="S3O-GROP*", metavar="NAME",
-                        help=f"planning method (default S3O-GROP*), one of {', '.join(METHODS)}")
-    parser.add_argument("--seed", type=int, default=None, metavar="N",
-                        help="seed of every run (default: each scenario's own)")
+    add_method(parser)
+    add_seed(parser, None, "seed of every run")
     parser.add_argument("--cost-profile", choices=COST_PROFILES,
-                        help="plan with this cost profile (default: each scenario's own); the "
-                             "prediction is the time model's under either")
-    parser.add_argument("--json", metavar="FILE", help="append one JSON line per run; resumes")
-    parser.add_argument("--workers", type=int, default=1, metavar="N",
-                        help="runs at once, each in a worker process (default 1)")
+                        help="plan with this cost profile (default: each scenario's own)")
+    add_json(parser, "run")
+    add_workers(parser, 1, "runs at once, each in a worker process")
     parser.add_argument("--evaluation", action="store_true",
                         help="measure the CMA-ES evaluation cost per sample instead")
     args = parser.parse_args(argv)
-    if args.method not in METHODS:
-        fail(f"--method: unknown method {args.method!r}; one of {', '.join(METHODS)}")
-    if args.seed is not None and args.seed < 0:
-        fail(f"--seed: must be a non-negative integer, got {args.seed}")
-    if args.workers < 1:
-        fail(f"--workers: must be at least 1, got {args.workers}")
-    paths = task_files(args.tasks, args.count)
-    tasks = task_scenarios([str(p) for p in paths], len(paths))
+    tasks = [(path.stem, read_scenario(path)) for path in task_paths(args)]
     if args.cost_profile is not None:
         tasks = [(name, dataclasses.replace(scenario, planner=dataclasses.replace(
             scenario.planner, cost_profile=args.cost_profile))) for name, scenario in tasks]
-    json_path = Path(args.json) if args.json else None
-    if json_path is not None and not json_path.parent.is_dir():
-        fail(f"--json: no folder {json_path.parent}")
+    store = None if args.evaluation else json_store(args)
     logging.getLogger("drake").setLevel(logging.WARNING)
 
     if args.evaluation:
@@ -219,7 +206,6 @@ def main(argv: list[str] | None = None) -> int:
               f"{statistics.median(ratios):.2f}x (range {min(ratios):.2f}-{max(ratios):.2f})")
         return 0
 
-    store = ResultStore(json_path) if json_path is not None else None
     version = model_version()
     runs = [(f"{name}|{args.method}|{seed}|{noise}|{scenario.planner.cost_profile}|{version}",
              name, scenario, seed, noise)
@@ -231,7 +217,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'task':<10} {'noise':>5} {'dishes':>7} {'predicted':>9} {'simulated':>9} "
           f"{'error':>7}  failures", flush=True)
     # The runs execute in worker processes that are replaced now and then
-    # (evaluation/scheduler.TASKS_PER_CHILD): before execute() freed its diagram, a single
+    # (experiments/scheduler.TASKS_PER_CHILD): before execute() freed its diagram, a single
     # process grew to 21 GB over 140 runs.
     with local_pool(args.workers) as pool:
         measured = pool.map(_measure, [(run, args.method, version) for run in pending])

@@ -10,7 +10,7 @@ leave the real dish within the gripper's tolerance of the grasp point
 
 An object whose goal is place is picked the same way but kept in the gripper, held above
 the tray (`plan_pickup(..., hold=True)`), until a command with `place` puts it down at its
-place target (`manipulation.place.plan_place`: with the grasp it was picked with, the
+place target (`arm.place.plan_place`: with the grasp it was picked with, the
 reach noise added to where it goes down). The scene the controller checks in must hold the
 place targets (`goals.with_place_targets`).
 """
@@ -23,17 +23,16 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 from pydrake.trajectories import Trajectory
 
+from s3o_drake.execution.arm.pickup import PickupPlan, plan_pickup, plan_release
+from s3o_drake.execution.arm.place import place_grasps, plan_place
 from s3o_drake.execution.messages import NO_COMMAND, CommandState, PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.pickup_geometry import caught
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.goals import place_target_name
-from s3o_drake.manipulation.pickup import PickupPlan, plan_pickup, plan_release
-from s3o_drake.manipulation.place import place_grasps, plan_place
-from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
-from s3o_drake.scenario import Scenario
-from s3o_drake.system_lifetime import weak_callback
 from s3o_drake.world.dish_messages import DishPoses, GripEvent
+from s3o_drake.world.goals import place_target_name
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.world.system_lifetime import weak_callback
 
 #: The arm's and the fingers' positions among the robot's 11.
 ARM_AND_FINGERS = slice(3, NUM_POSITIONS)
@@ -84,6 +83,21 @@ class _Activity:
         return self
 
 
+@dataclass(frozen=True)
+class ArmParams:
+    """What the arm controller needs of the scenario: the run's `seed`; the reach noise
+    T^m (`reach_std`, m; 0: none) and the navigation noise T^n (`nav_std`: x, y in m, yaw in
+    rad; None: none), which the choice of an object to place's grasp rates its place's
+    landings with; the objects whose goal is place (`to_place`, held after their pickup);
+    and the cap (s) on one motion plan."""
+
+    seed: int
+    reach_std: float = 0.0
+    nav_std: tuple[float, float, float] | None = None
+    to_place: frozenset[str] = frozenset()
+    plan_time_limit: float = 5.0
+
+
 class ArmController(LeafSystem):
     """Plans and plays the arm's motion of each `PickCommand`; reports grip and status.
 
@@ -118,21 +132,18 @@ class ArmController(LeafSystem):
     last motion ended (a failed plan leaves the arm where it is).
     """
 
-    def __init__(self, *, scenario: Scenario, scene: FeasibilityScene,
-                 checker: FeasibilityChecker, seed: int | None = None,
-                 control_period: float = 0.01, noise: bool = True,
-                 plan_time_limit: float = 5.0) -> None:
+    def __init__(self, *, params: ArmParams, scene: FeasibilityScene,
+                 checker: FeasibilityChecker, control_period: float = 0.01) -> None:
         super().__init__()
         if control_period <= 0:
             raise ValueError(f"control_period: expected a positive period, got {control_period}")
         self._scene = scene
         self._checker = checker
-        self._seed = scenario.seed if seed is None else int(seed)
-        self._reach_std = scenario.uncertainty.reach_std if noise else 0.0
-        u = scenario.uncertainty
-        self._nav_std = np.array([u.nav_xy_std, u.nav_xy_std, u.nav_yaw_std]) if noise else None
-        self._to_place = {d.name for d in scenario.dishes if d.goal == "place"}
-        self._plan_time_limit = plan_time_limit
+        self._seed = params.seed
+        self._reach_std = params.reach_std
+        self._nav_std = None if params.nav_std is None else np.array(params.nav_std)
+        self._to_place = params.to_place
+        self._plan_time_limit = params.plan_time_limit
 
         self._command_port = self.DeclareAbstractInputPort(
             "pick_command", AbstractValue.Make(PickCommand()))

@@ -1,39 +1,49 @@
-"""The execution diagram: the simulated restaurant, the S3O planner and the controllers.
+"""The execution diagram: the simulated restaurant, the executive and the controllers.
 
 `build_execution_diagram(scenario, ...)` returns the Diagram "s3o_execution":
 
     world (plant, scene graph, overhead camera, object tracker, Meshcat)
-      robot_state ──> planner, base_navigator, arm_controller
-      overhead images ──> planner (perception)
+      robot_state ──> executive, base_navigator, arm_controller
+      overhead images ──> executive (perception)
       dish_poses ──> arm_controller, task_monitor     dish_states ──> task_monitor
-    planner ── base_command ──> base_navigator ── status ──> planner
-            ── pick_command ──> arm_controller ── status ──> planner
-            ── progress ──> task_monitor (ends the simulation)
+    executive ── base_command ──> base_navigator ── status ──> executive
+              ── pick_command ──> arm_controller ── status ──> executive
+              ── progress ──> task_monitor (ends the simulation)
     arm_controller ── grip ──> world (the tracker moves the held dish)
     base_navigator (6) + arm_controller (16) ── desired_state_mux ──> world.robot_desired_state
 
 The navigator drives the base's three positions and the arm controller the six arm joints
 and the two fingers; `desired_state_mux` interleaves their [q, v] into the plant's [q(11),
 v(11)] with a permutation (a Multiplexer and a MatrixGain: no code of ours in the loop).
+
+The systems take small parameter dataclasses; the functions here make them from the
+Scenario (`executive_params`, `navigator_params`, `arm_params`, `make_executive_system`).
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import MatrixGain, Multiplexer
 
-from s3o_drake.execution.arm_controller import ArmController
-from s3o_drake.execution.base_navigator import BaseNavigator
-from s3o_drake.execution.s3o_planner import Perceive, S3OPlanner
+from s3o_drake.belief import Perceive, perceive_known_world
+from s3o_drake.belief.known_world import Briefing, KnownWorld
+from s3o_drake.execution.arm_controller import ArmController, ArmParams
+from s3o_drake.execution.base_navigator import BaseNavigator, NavigatorParams
+from s3o_drake.execution.escape import MotionProfile
+from s3o_drake.execution.executive import ExecutiveParams, TaskObject
+from s3o_drake.execution.executive_system import ExecutiveSystem, ExecutiveSystemParams
 from s3o_drake.execution.task_monitor import TaskMonitor
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.goals import place_targets, with_place_targets
-from s3o_drake.robot import CONTROL_PERIOD, NUM_POSITIONS
-from s3o_drake.scenario import Scenario
 from s3o_drake.world.builder import build_world_diagram, robot_render_labels
+from s3o_drake.world.choices import Recovery
+from s3o_drake.world.goals import place_target_name, place_targets, with_place_targets
+from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS
+from s3o_drake.world.scenario import Scenario
 
 TIME_LIMIT = 1800.0
 """Simulated seconds after which an execution is stopped whatever its state."""
@@ -51,6 +61,74 @@ def desired_state_permutation() -> np.ndarray:
     return P
 
 
+def executive_params(scenario: Scenario, *, method: str) -> ExecutiveParams:
+    """The Executive's params: `scenario`'s objects, targets and execution settings."""
+    settings = scenario.execution
+    return ExecutiveParams(
+        objects=tuple(TaskObject(d.name, d.kind, d.goal) for d in scenario.dishes),
+        # Where each pick and each place is: the dish, or the object's place target.
+        targets={d.name: tuple(d.position) for d in scenario.dishes}
+        | {t.target: t.position for t in place_targets(scenario)},
+        place_targets={t.name: place_target_name(t.name) for t in place_targets(scenario)},
+        method=method, recovery=Recovery(settings.recovery),
+        time_budget=scenario.planner.time_budget, replan_budget=settings.replan_budget,
+        min_feasibility=settings.min_feasibility, correction_radius=settings.correction_radius,
+        detour=settings.detour, max_corrections=settings.max_corrections,
+        max_tries=settings.max_tries, max_replans=settings.max_replans)
+
+
+def make_executive_system(scenario: Scenario, *, method: str | None = None,
+                          seed: int | None = None, perceive: Perceive | None = None,
+                          workers: int | None = None, noise: bool = True,
+                          robot_labels: frozenset[int] = frozenset(),
+                          progress_bar: bool = False,
+                          control_period: float = CONTROL_PERIOD) -> ExecutiveSystem:
+    """The ExecutiveSystem of `scenario`: planning with `method` (default the scenario's),
+    from `seed` (default the scenario's), perceiving the chairs with `perceive` (default
+    `belief.ChairPerception`); `robot_labels`: the robot's own pixels, for the FCN's view;
+    `noise=False`: exact localisation."""
+    method = method or scenario.planner.method
+    params = ExecutiveSystemParams(
+        executive=executive_params(scenario, method=method), method=method,
+        seed=scenario.seed if seed is None else int(seed),
+        workers=scenario.planner.workers if workers is None else workers,
+        feasibility=scenario.planner.feasibility, uncertainty=scenario.uncertainty,
+        noise=noise)
+
+    # The system is given what the robot is given, never the true world's chairs.
+    briefing = Briefing.of(scenario)
+
+    def perceive_world(images: tuple[np.ndarray, np.ndarray, np.ndarray], *,
+                       pose: Sequence[float], dishes: Sequence[str], held: str) -> KnownWorld:
+        return perceive_known_world(briefing, images, pose=pose, dishes=dishes,
+                                    perceive=perceive, robot_labels=robot_labels, held=held)
+
+    return ExecutiveSystem(params=params, perceive_world=perceive_world,
+                           control_period=control_period, progress_bar=progress_bar)
+
+
+def navigator_params(scenario: Scenario, *, seed: int | None = None,
+                     noise: bool = True) -> NavigatorParams:
+    """The BaseNavigator's params: the planner's speed, the robot's start, the navigation
+    noise (none without `noise`) and `seed` (default the scenario's)."""
+    u = scenario.uncertainty
+    return NavigatorParams(
+        profile=MotionProfile(speed=scenario.planner.speed),
+        start=tuple(float(v) for v in scenario.robot.start),
+        seed=scenario.seed if seed is None else seed,
+        nav_xy_std=u.nav_xy_std if noise else 0.0, nav_yaw_std=u.nav_yaw_std if noise else 0.0)
+
+
+def arm_params(scenario: Scenario, *, seed: int | None = None, noise: bool = True) -> ArmParams:
+    """The ArmController's params: the reach and navigation noise (none without `noise`),
+    the objects to place and `seed` (default the scenario's)."""
+    u = scenario.uncertainty
+    return ArmParams(seed=scenario.seed if seed is None else int(seed),
+                     reach_std=u.reach_std if noise else 0.0,
+                     nav_std=(u.nav_xy_std, u.nav_xy_std, u.nav_yaw_std) if noise else None,
+                     to_place=frozenset(d.name for d in scenario.dishes if d.goal == "place"))
+
+
 def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
                             seed: int | None = None, meshcat: Meshcat | None = None,
                             perceive: Perceive | None = None, noise: bool = True,
@@ -59,8 +137,8 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     """The whole system (see the module docstring), named "s3o_execution".
 
     `noise=False` turns off the simulated navigation, reaching and localisation noise (the
-    planner still plans with the scenario's noise model). `perceive` replaces the planner's
-    perception.
+    planner still plans with the scenario's noise model). `perceive` replaces the
+    executive's perception of the chairs.
     `show_collisions` adds Meshcat's (hidden) collision-geometry view, for live watching.
     The task monitor ends the simulation `scenario.simulation.hold_time` after the plan has
     ended, or at `time_limit` simulated seconds.
@@ -71,16 +149,16 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
         scenario, meshcat=meshcat, track_dishes=True, show_collisions=show_collisions))
     # The controllers act in the true world: their collision checks see every chair, and
     # the arm's the place targets it puts objects down at.
-    truth = FeasibilityScene(with_place_targets(scenario))
-    planner = builder.AddNamedSystem("planner", S3OPlanner(
-        scenario=scenario, method=method, seed=seed, perceive=perceive,
-        progress_bar=progress_bar, control_period=CONTROL_PERIOD,
-        robot_labels=robot_render_labels(world), noise=noise))
+    truth = FeasibilityScene(with_place_targets(scenario).contents)
+    executive = builder.AddNamedSystem("executive", make_executive_system(
+        scenario, method=method, seed=seed, perceive=perceive, progress_bar=progress_bar,
+        control_period=CONTROL_PERIOD, robot_labels=robot_render_labels(world), noise=noise))
     navigator = builder.AddNamedSystem("base_navigator", BaseNavigator(
-        scenario=scenario, scene=truth, seed=seed, noise=noise, control_period=CONTROL_PERIOD))
+        params=navigator_params(scenario, seed=seed, noise=noise), scene=truth,
+        control_period=CONTROL_PERIOD))
     arm = builder.AddNamedSystem("arm_controller", ArmController(
-        scenario=scenario, scene=truth, checker=FeasibilityChecker(truth), seed=seed,
-        noise=noise, control_period=CONTROL_PERIOD))
+        params=arm_params(scenario, seed=seed, noise=noise), scene=truth,
+        checker=FeasibilityChecker(truth), control_period=CONTROL_PERIOD))
     monitor = builder.AddNamedSystem("task_monitor", TaskMonitor(
         period=CONTROL_PERIOD, settle_time=scenario.simulation.hold_time,
         time_limit=time_limit, places=place_targets(scenario),
@@ -91,18 +169,19 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
                                      MatrixGain(desired_state_permutation()))
 
     for name in ("overhead_color_image", "overhead_depth_image", "overhead_label_image"):
-        builder.Connect(world.GetOutputPort(name), planner.GetInputPort(name))
-    for system in (planner, navigator, arm):
+        builder.Connect(world.GetOutputPort(name), executive.GetInputPort(name))
+    for system in (executive, navigator, arm):
         builder.Connect(world.GetOutputPort("robot_state"), system.GetInputPort("robot_state"))
     builder.Connect(world.GetOutputPort("dish_poses"), arm.GetInputPort("dish_poses"))
     builder.Connect(world.GetOutputPort("dish_states"), monitor.GetInputPort("dish_states"))
     builder.Connect(world.GetOutputPort("dish_poses"), monitor.GetInputPort("dish_poses"))
     builder.Connect(arm.GetOutputPort("grip"), world.GetInputPort("grip"))
-    builder.Connect(planner.GetOutputPort("base_command"), navigator.GetInputPort("base_command"))
-    builder.Connect(planner.GetOutputPort("pick_command"), arm.GetInputPort("pick_command"))
-    builder.Connect(navigator.GetOutputPort("status"), planner.GetInputPort("base_status"))
-    builder.Connect(arm.GetOutputPort("status"), planner.GetInputPort("arm_status"))
-    builder.Connect(planner.GetOutputPort("progress"), monitor.GetInputPort("progress"))
+    builder.Connect(executive.GetOutputPort("base_command"),
+                    navigator.GetInputPort("base_command"))
+    builder.Connect(executive.GetOutputPort("pick_command"), arm.GetInputPort("pick_command"))
+    builder.Connect(navigator.GetOutputPort("status"), executive.GetInputPort("base_status"))
+    builder.Connect(arm.GetOutputPort("status"), executive.GetInputPort("arm_status"))
+    builder.Connect(executive.GetOutputPort("progress"), monitor.GetInputPort("progress"))
     builder.Connect(navigator.GetOutputPort("base_desired_state"), mux.get_input_port(0))
     builder.Connect(arm.GetOutputPort("arm_desired_state"), mux.get_input_port(1))
     builder.Connect(mux.get_output_port(), permute.get_input_port())

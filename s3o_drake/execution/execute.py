@@ -1,6 +1,6 @@
 """Execute a scenario's task: build the execution diagram, plan at initialization, simulate
 until the task monitor ends the run, and collect what happened (`execute`). The `run`
-command (s3o_drake/commands/run.py) is a thin main over it."""
+command (s3o_drake/commands/run_scenario.py) is a thin main over it."""
 
 
 import sys
@@ -13,13 +13,13 @@ from pydrake.geometry import Meshcat
 from pydrake.systems.analysis import InitializeParams, Simulator
 from tqdm import tqdm
 
+from s3o_drake.belief import Perceive
 from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
-from s3o_drake.perception import Perceive
 from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import TaskMotionPlan
-from s3o_drake.scenario import Scenario
-from s3o_drake.system_lifetime import release_diagram
 from s3o_drake.world.builder import overhead_images
+from s3o_drake.world.scenario import Scenario
+from s3o_drake.world.system_lifetime import release_diagram
 
 SOLVER_RESTARTS = 5
 """Restarts of the contact solver from rest allowed in one run (`_simulate`)."""
@@ -120,7 +120,7 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
             progress: bool = True, perceive: Perceive | None = None) -> Execution:
     """Builds the execution diagram, plans (at initialization) and simulates until the task
     monitor ends the run; records the playback in `meshcat` (none without one: the
-    benchmark's runs). `perceive` replaces the planner's perception of the chairs (at
+    benchmark's runs). `perceive` replaces the executive's perception of the chairs (at
     every plan and replan)."""
     diagram = build_execution_diagram(scenario, method=method, seed=seed, meshcat=meshcat,
                                       perceive=perceive, noise=noise, progress_bar=progress,
@@ -129,13 +129,13 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
         frame_room(meshcat, scenario)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
-    planner = diagram.GetSubsystemByName("planner")
-    planner_context = planner.GetMyContextFromRoot(context)
-    simulator.Initialize()  # the planner plans here
+    executive = diagram.GetSubsystemByName("executive")
+    executive_context = executive.GetMyContextFromRoot(context)
+    simulator.Initialize()  # the executive plans here
     world = diagram.GetSubsystemByName("world")
     color, depth, _ = overhead_images(world, world.GetMyContextFromRoot(context))
     images = (color[:, :, :3], depth)
-    plan = planner.GetOutputPort("plan").Eval(planner_context)
+    plan = executive.GetOutputPort("plan").Eval(executive_context)
     visualizer = None
     if meshcat is not None:
         visualizer = world.GetSubsystemByName("meshcat_visualizer")
@@ -163,14 +163,14 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     monitor_context = monitor.GetMyContextFromRoot(context)
     # The RunReport as plain JSON data: what report.json and the evaluation's rows hold.
     report = monitor.GetOutputPort("report").Eval(monitor_context).to_dict()
-    result = planner.GetOutputPort("planning_result").Eval(planner_context)
+    result = executive.GetOutputPort("planning_result").Eval(executive_context)
     if failure is not None:
         report.update(finished=False, reason=failure, execution_time=context.get_time())
-    planning_time = float(planner.GetOutputPort("planning_time").Eval(planner_context)[0])
+    planning_time = float(executive.GetOutputPort("planning_time").Eval(executive_context)[0])
     report.update(planning_time=planning_time, wall_time=wall, solver_restarts=restarts,
                   realtime_rate=context.get_time() / wall if wall > 0 else float("inf"),
                   simulated_time=context.get_time())
     html = None if meshcat is None else meshcat.StaticHtml()
-    del simulator, planner, world, monitor, visualizer, planner_context, monitor_context
+    del simulator, executive, world, monitor, visualizer, executive_context, monitor_context
     release_diagram(diagram)
     return Execution(plan=plan, report=report, images=images, result=result, html=html)

@@ -1,14 +1,14 @@
 """The messages the execution systems pass on their abstract-valued ports.
 
-The planner (`S3OPlanner`) numbers the plan's actions 1, 2, ... and emits at most one
+The executive (`ExecutiveSystem`) numbers its commands 1, 2, ... and emits at most one
 command per controller at a time; a controller starts a command when its `id` changes and
 reports on its status port, with the same `id`, when the command is done or has failed. The
-planner advances when the status of its current command says done (or gives up on a failed
-pickup and goes on with the next action, or stops at a failed goto). Id 0 means "no
+executive advances when the status of its current command says it ended (the `Executive`
+decides what follows: the next action, a retry, a replan or the end). Id 0 means "no
 command": controllers hold still.
 
-`PickupRecord` is what the planner learns of each executed pickup (for the calibration of
-Fea^m, s3o_drake.evaluation.calibration); it travels in `PlanProgress` to the task monitor,
+`PickupRecord` is what the executive learns of each executed pickup (for the calibration of
+Fea^m, s3o_drake.experiments.calibration); it travels in `PlanProgress` to the task monitor,
 whose `RunReport` is what a run reports (its `to_dict()` is report.json's data).
 
 All are frozen dataclasses: a port value is copied by Drake, and nothing may change it in
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-from s3o_drake.placing import PLACE_TOLERANCE, SURFACE_TOLERANCE
+from s3o_drake.world.placing import PLACE_TOLERANCE, SURFACE_TOLERANCE
 
 NO_COMMAND = 0
 

@@ -22,9 +22,9 @@ left), never on the true world:
   (`execution.min_feasibility`), the same choice is made over the dish's whole heatmap,
   timed along the navigation map: the robot drives round to the dish's own best stop. A
   plan that merges dishes may stand where one of them is out of reach (S3O's utility can
-  accept a pickup rated 0.2 to save a drive); in the dense study's recovery runs such
-  pickups, with nothing better within 0.3 m, succeeded 13 % of the time, and each failure
-  cost tries and a replan that chose the same stop again (docs/results.md).
+  accept a pickup rated 0.2 to save a drive), and such a pickup, with nothing better
+  nearby, mostly fails, each failure costing tries and a replan that may choose the same
+  stop again.
 
 The oracle is built on first use for each KnownWorld (about a second: the known world's
 plant and collision checker), and only when the robot has to judge a stop.
@@ -32,24 +32,20 @@ plant and collision checker), and only when the robot has to judge a stop.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-
 import numpy as np
 
-from s3o_drake.angles import facing_yaw
-from s3o_drake.feasibility.heatmaps import make_oracle
-from s3o_drake.feasibility.oracle import FeasibilityOracle, Heatmap
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.base_motion import BaseProfile
-from s3o_drake.planning.navigation import NavigationMap
-from s3o_drake.scenario import Uncertainty
+from s3o_drake.belief.known_world import KnownWorld
+from s3o_drake.execution.executive import Assessment
+from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.feasibility.planning_scene import PlanningScene
+from s3o_drake.planning.navigation.base_motion import BaseProfile
+from s3o_drake.planning.navigation.map import NavigationMap
+from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.settings import Uncertainty
 
 #: Stream tag of the localisation noise in `numpy.random.default_rng([seed, tag, command
 #: id])`: its own numbers, apart from the landing's (1) and the reach's (2).
 LOCALIZATION_STREAM = 3
-#: A corrective move shorter than this (m) is not worth a drive: the stop stays.
-MIN_CORRECTION = 0.02
 #: Stops within this much of the best Fea^m nearby are as good: the quickest to reach wins.
 CORRECTION_SLACK = 0.02
 #: A detour tests the pickup on the heatmap's best cells this many at a time, best first,
@@ -70,33 +66,24 @@ def localise(pose: np.ndarray, *, uncertainty: Uncertainty, seed: int, command_i
                                              uncertainty.localization_yaw_std]
 
 
-@dataclass(frozen=True)
-class Assessment:
-    """The stop check's verdict from a believed position: `feasible` (the pickup test
-    passes, facing the dish) and the plan's `feasibility` (Fea^m) there."""
-
-    feasible: bool
-    feasibility: float
-
-    def acceptable(self, threshold: float) -> bool:
-        return self.feasible and self.feasibility >= threshold
-
-
 class StopCheck:
-    """Judges and corrects stops on one KnownWorld with its plan's heatmaps (see the module)."""
+    """Judges and corrects stops on one KnownWorld with its plan's heatmaps (see the module):
+    the Executive's `StopChecker`."""
 
     def __init__(self, known: KnownWorld, heatmaps: tuple[Heatmap, ...],
                  navigation: NavigationMap | None = None, *,
-                 model_heatmaps: tuple[Heatmap, ...] = ()):
+                 model_heatmaps: tuple[Heatmap, ...] = (),
+                 scene: PlanningScene | None = None):
         """`heatmaps`: the plan's (corrective stops are chosen on them); `model_heatmaps`:
         the same before the free-stop rule (rating where the robot stands; default
-        `heatmaps`)."""
+        `heatmaps`); `scene`: the plan's Drake scene of `known` (made when first needed if
+        not given)."""
         self._known = known
+        self._scene = scene
         self._navigation = navigation
         self._profile = BaseProfile(speed=known.planner.speed)
         self._heatmaps = {h.dish: h for h in heatmaps}
         self._model = {h.dish: h for h in (model_heatmaps or heatmaps)}
-        self._oracle: FeasibilityOracle | None = None
         self._dish_xy = {d.name: np.asarray(d.position, dtype=float) for d in known.dishes}
 
     @property
@@ -104,11 +91,11 @@ class StopCheck:
         return self._known
 
     def _success(self, positions: np.ndarray, dish: str) -> np.ndarray:
-        if self._oracle is None:
-            self._oracle = make_oracle(self._known.as_scenario(), obstacles=self._known.obstacles)
+        if self._scene is None:
+            self._scene = PlanningScene(self._known)
         positions = np.asarray(positions, dtype=float).reshape(-1, 2)
         poses = np.column_stack([positions, facing_yaw(positions, self._dish_xy[dish])])
-        return self._oracle.success(poses, dish)
+        return self._scene.oracle.success(poses, dish)
 
     def feasibility(self, position: np.ndarray, dish: str) -> float:
         """The model's Fea^m of `dish` from base position `position` (0 off its heatmap)."""
@@ -205,8 +192,3 @@ class StopCheck:
         chosen = good[int(np.argmin(times))]
         return centers[chosen].copy(), float(values[chosen])
 
-
-def describe_move(start: np.ndarray, target: np.ndarray) -> str:
-    """`moved 0.18 m to (3.42, 2.10)`: a corrective move, as the report says it."""
-    length = math.dist(np.asarray(start)[:2], np.asarray(target)[:2])
-    return f"moved {length:.2f} m to ({target[0]:.2f}, {target[1]:.2f})"

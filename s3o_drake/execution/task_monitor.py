@@ -8,10 +8,10 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
 
 from s3o_drake.execution.messages import PickupRecord, Placement, PlanProgress, RunReport
-from s3o_drake.goals import PlaceTarget, place_target_name
-from s3o_drake.system_lifetime import weak_callback
 from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates
+from s3o_drake.world.goals import PlaceTarget, place_target_name
 from s3o_drake.world.object_tracker import STANDING_TILT, tilt
+from s3o_drake.world.system_lifetime import weak_callback
 
 TIME_LIMIT_REASON = "time limit"
 #: The outcome of a put-down that left its object standing off its place (`_judged`).

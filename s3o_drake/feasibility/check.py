@@ -19,7 +19,7 @@ with the arm mounted on the base's x axis, that yaw also points the arm base A a
 (dx, dy, dz).
 
 Two methods give the same answers. On 2,750 random queries in the restaurant and ten generated
-tasks (`python -m s3o_drake.commands.reachability_agreement`), 718 of them with a
+tasks (`s3o bench reachability-agreement`), 718 of them with a
 collision-free base,
 they disagreed twice (99.7% of those, 99.9% of all): both times the map found a configuration
 whose clearance lies within IK's 0.1 mm margin of the 1 cm, which IK then could not certify.
@@ -59,9 +59,9 @@ from s3o_drake.feasibility.grasp_targets import (
     target_geometry,
 )
 from s3o_drake.feasibility.grasps import Grasp, grasps_for
-from s3o_drake.feasibility.reachability import ReachabilityMap, place
+from s3o_drake.feasibility.reachability.map import ReachabilityMap, place
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
 
 REASONS = ("ok", "base_collision", "out_of_reach", "arm_collision", "no_ik")
 METHODS = ("map", "ik")

@@ -14,7 +14,7 @@ Soundness rests on two bounds, both computed rather than assumed:
 - the robot's extent: the plan-view box of all its collision shapes' bounding boxes in the
   base's frame, with the arm stowed and the fingers open (from the plant), and its radius,
   the farthest corner of that box from the base's vertical axis;
-- the field: the footprints of `s3o_drake.furniture` (the same numbers the plant is built
+- the field: the footprints of `s3o_drake.world.furniture` (the same numbers the plant is built
   from; a dish lies within its table's top) rasterised with every cell touching an obstacle
   marked, and the distance read at a point reduced by one cell diagonal.
 """
@@ -26,9 +26,9 @@ import numpy as np
 import shapely
 from pydrake.geometry import Box, Capsule, Cylinder, Role, Sphere
 
-from s3o_drake.furniture import DistanceField
-from s3o_drake.known_world import Obstacles
-from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN, robot_positions
+from s3o_drake.world.furniture import DistanceField
+from s3o_drake.world.obstacles import Obstacles
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, robot_positions
 
 #: Raster cell (m): fine enough that the one-cell-diagonal allowance costs little.
 FIELD_RESOLUTION = 0.02

@@ -17,8 +17,8 @@ import numpy as np
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.grasps import grasps_for
-from s3o_drake.feasibility.reachability import R_KIND, place
-from s3o_drake.robot import ARM_MOUNT_XYZ, ARM_STOW
+from s3o_drake.feasibility.reachability.map import R_KIND, place
+from s3o_drake.world.robot import ARM_MOUNT_XYZ, ARM_STOW
 
 #: Exhaustive IK: random seeds after the closed-form ones and ARM_STOW.
 RANDOM_SEEDS = 2

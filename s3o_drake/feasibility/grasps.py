@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.math import RigidTransform, RotationMatrix
 
-from s3o_drake.furniture import DISH_SHAPES
-from s3o_drake.gripper import holds_whole
-from s3o_drake.robot import FINGERTIP_OFFSET, GRASP_OFFSET
+from s3o_drake.world.furniture import DISH_SHAPES
+from s3o_drake.world.gripper import holds_whole
+from s3o_drake.world.robot import FINGERTIP_OFFSET, GRASP_OFFSET
 
 GRASP_KINDS = ("top", "side")
 # The fingers must stay this far above the table top (m); matches the 1 cm clearance of

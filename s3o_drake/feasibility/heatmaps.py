@@ -11,36 +11,52 @@ import multiprocessing
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import Protocol
 
 from tqdm import tqdm
 
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE, FeasibilityOracle, Heatmap
-from s3o_drake.feasibility.reachability import ReachabilityMap
+from s3o_drake.feasibility.reachability.map import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.known_world import Obstacles
-from s3o_drake.scenario import Scenario
+from s3o_drake.world.contents import SceneContents
+from s3o_drake.world.obstacles import Obstacles
+from s3o_drake.world.settings import Uncertainty
 
+# Each spawned worker's oracle, made once by its initializer.
 _worker_oracle: FeasibilityOracle | None = None
 
 
-def make_oracle(scenario: Scenario, *, method: str = "map",
+class SceneSource(Protocol):
+    """A room and a noise model to rate pickups in: the true world (a `Scenario`: every
+    chair, for labels and ground truth) or a belief (a `KnownWorld`: what a planner knows)."""
+
+    @property
+    def contents(self) -> SceneContents: ...
+
+    @property
+    def uncertainty(self) -> Uncertainty: ...
+
+
+def make_oracle(source: SceneSource, *, method: str = "map",
                 reachability: Path | None = None,
                 obstacles: Obstacles | None = None) -> FeasibilityOracle:
-    """Scene, checker and oracle for a scenario (ground-truth chairs: those it lists);
-    `obstacles` are its furniture's footprints when the caller has them already."""
-    scene = FeasibilityScene(scenario, obstacles=obstacles)
+    """Scene, checker and oracle for a room (its chairs: those it lists); `obstacles` are
+    its furniture's footprints when the caller has them already."""
+    scene = FeasibilityScene(source.contents, obstacles=obstacles)
     rmap = ReachabilityMap.shared(reachability) if method == "map" else None
     return FeasibilityOracle(FeasibilityChecker(scene, rmap, method=method),
-                             scenario.uncertainty)
+                             source.uncertainty)
 
 
-def _init_worker(scenario: Scenario, method: str, reachability: Path | None,
-                 obstacles: Obstacles | None = None) -> None:
+def _init_worker(contents: SceneContents, uncertainty: Uncertainty, method: str,
+                 reachability: Path | None, obstacles: Obstacles | None = None) -> None:
     global _worker_oracle
     logging.getLogger("drake").setLevel(logging.WARNING)  # one line per worker is noise
-    _worker_oracle = make_oracle(scenario, method=method, reachability=reachability,
-                                 obstacles=obstacles)
+    scene = FeasibilityScene(contents, obstacles=obstacles)
+    rmap = ReachabilityMap.shared(reachability) if method == "map" else None
+    _worker_oracle = FeasibilityOracle(FeasibilityChecker(scene, rmap, method=method),
+                                       uncertainty)
 
 
 def _heatmap_job(job: tuple) -> Heatmap:
@@ -50,7 +66,15 @@ def _heatmap_job(job: tuple) -> Heatmap:
     return _worker_oracle.heatmap(dish, size=size, cells=cells)
 
 
-def compute_heatmaps(scenario: Scenario, dishes: Sequence[str] | None = None, *,
+def oracle_heatmaps(oracle: FeasibilityOracle, dishes: Sequence[str], *,
+                    size: float = CROP_SIZE, cells: int = CROP_CELLS,
+                    progress: bool = False) -> list[Heatmap]:
+    """Crop heatmaps of the dishes from an oracle the caller holds (a plan's one scene)."""
+    bar = tqdm(dishes, desc="feasibility heatmaps", unit="dish", disable=not progress)
+    return [oracle.heatmap(name, size=size, cells=cells) for name in bar]
+
+
+def compute_heatmaps(source: SceneSource, dishes: Sequence[str] | None = None, *,
                      workers: int = 1, size: float = CROP_SIZE,
                      cells: int = CROP_CELLS, whole_room: bool = False,
                      method: str = "map", reachability: Path | None = None,
@@ -60,21 +84,24 @@ def compute_heatmaps(scenario: Scenario, dishes: Sequence[str] | None = None, *,
 
     Crops of `size` metres at `cells` x `cells` around each dish, or, with
     `whole_room=True`, the whole room at a cell of `size` metres. `obstacles`: the
-    scenario's furniture footprints, when the caller has them (a KnownWorld's).
+    room's furniture footprints, when the caller has them (a KnownWorld's). Each worker
+    builds its own scene; a caller that holds an oracle already uses `oracle_heatmaps`.
     """
-    names = list(dishes) if dishes is not None else [d.name for d in scenario.dishes]
+    contents = source.contents
+    names = list(dishes) if dishes is not None else [d.name for d in contents.dishes]
     jobs = [(name, size, cells, whole_room) for name in names]
     bar = tqdm(total=len(jobs), desc="feasibility heatmaps", unit="dish", disable=not progress)
     results: list[Heatmap] = []
     if workers <= 1 or len(jobs) <= 1:
-        _init_worker(scenario, method, reachability, obstacles)
+        _init_worker(contents, source.uncertainty, method, reachability, obstacles)
         for job in jobs:
             results.append(_heatmap_job(job))
             bar.update()
     else:
         # Spawned, not forked: a fork would copy Drake's thread pools mid-use and hang.
         with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_init_worker,
-                                 initargs=(scenario, method, reachability, obstacles),
+                                 initargs=(contents, source.uncertainty, method, reachability,
+                                           obstacles),
                                  mp_context=multiprocessing.get_context("spawn")) as pool:
             for heatmap in pool.map(_heatmap_job, jobs):
                 results.append(heatmap)

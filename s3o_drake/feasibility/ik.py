@@ -29,7 +29,7 @@ from pydrake.solvers import SnoptSolver, SolverOptions
 
 from s3o_drake.feasibility.grasps import Grasp
 from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
-from s3o_drake.robot import ARM_STOW, GRIPPER_OPEN
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
 
 #: Grasp-frame tolerances of an IK solution.
 POSITION_TOLERANCE = 0.002

@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-from s3o_drake.angles import wrap
-from s3o_drake.robot import GRASP_OFFSET
+from s3o_drake.world.angles import wrap
+from s3o_drake.world.robot import GRASP_OFFSET
 
 # UR5e standard DH parameters (m, rad), as in models/robot/mobile_manipulator.urdf.
 DH_A = np.array([0.0, -0.425, -0.3922, 0.0, 0.0, 0.0])

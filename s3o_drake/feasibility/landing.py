@@ -14,7 +14,7 @@ landing "into" a table as a failure is pessimistic next to tables):
    face it from where it stands (Fea^m assumes the arm faces the dish; a stop that serves
    several dishes faces the first).
 
-These constants are the execution's: the BaseNavigator and the S3OPlanner read them here.
+These constants are the execution's: the BaseNavigator and the Executive read them here.
 A pose is "free" when it is inside the room and collision-free with the arm stowed
 (`FeasibilityChecker.base_free`).
 """
@@ -23,7 +23,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from s3o_drake.angles import facing_yaw, wrap
+from s3o_drake.world.angles import facing_yaw, wrap
 
 #: Sampling of a motion for the collision check: one pose per this much travel (m, rad).
 CHECK_STEP_XY = 0.02

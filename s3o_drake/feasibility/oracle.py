@@ -28,7 +28,7 @@ Two ways to compute it:
   centre, halved where S changes between neighbouring points, and blurred with
   `scipy.ndimage.gaussian_filter`. What this leaves out (the drive's heading
   taken along the line to the dish, a yaw within `TURN_TOLERANCE` of facing taken as
-  facing) is measured against `probabilities` by `python -m s3o_drake.commands.oracle_pinning`.
+  facing) is measured against `probabilities` by `s3o bench oracle-pinning`.
 """
 
 import math
@@ -37,7 +37,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
-from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.landing import pickup_poses, stop_short
 from s3o_drake.feasibility.pickup_geometry import (
@@ -46,9 +45,10 @@ from s3o_drake.feasibility.pickup_geometry import (
     pickup_feasible_many,
     place_error_stds,
 )
-from s3o_drake.goals import placed_object
-from s3o_drake.placing import PLACE_TOLERANCE
-from s3o_drake.scenario import Uncertainty
+from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.goals import placed_object
+from s3o_drake.world.placing import PLACE_TOLERANCE
+from s3o_drake.world.settings import Uncertainty
 
 CROP_SIZE = 4.0
 CROP_CELLS = 64
@@ -252,7 +252,7 @@ class FeasibilityOracle:
 
     def room_heatmap(self, dish: str, *, cell: float = 0.05) -> Heatmap:
         """Fea^m over the whole room at `cell` resolution (m)."""
-        x_min, y_min, x_max, y_max = self.checker.scene.scenario.room.bounds
+        x_min, y_min, x_max, y_max = self.checker.scene.contents.room.bounds
         cols = math.ceil((x_max - x_min) / cell)
         rows = math.ceil((y_max - y_min) / cell)
         xs = x_min + (np.arange(cols) + 0.5) * cell

@@ -1,6 +1,6 @@
 """The configurations of an executed pickup: the one test shared by the ArmController and Fea^m.
 
-A pickup, as the ArmController runs it (`s3o_drake.manipulation.pickup.plan_pickup`), passes
+A pickup, as the ArmController runs it (`s3o_drake.execution.arm.pickup.plan_pickup`), passes
 through these configurations of the robot's 11 positions, from where the base stands:
 
 - grasp: a collision-free arm configuration at one of the dish's grasps
@@ -22,7 +22,7 @@ collision), "no_ik" (no collision-free grasp, or no pre-grasp or lift on any gra
 or "no_path" (no free tray or release configuration). What it leaves to the execution are
 the three joint-space paths between these configurations (approach, to the tray, stow), which
 OMPL's RRT-Connect searches; how rarely they decide an outcome is measured by
-`python -m s3o_drake.commands.oracle_pinning` (docs/feasibility.md).
+`s3o bench oracle-pinning` (docs/feasibility.md).
 
 Which checker judges each configuration: the scene's own (1 cm padding, nothing may be
 touched) for the pre-grasp, release and stow; the grasping checker (`ik.grasp_checker`: the
@@ -51,11 +51,11 @@ from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP, RIM_INSET
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.furniture import DISH_SHAPES
-from s3o_drake.goals import placed_object
-from s3o_drake.gripper import holds_whole
-from s3o_drake.placing import PLACE_TOLERANCE
-from s3o_drake.robot import (
+from s3o_drake.world.furniture import DISH_SHAPES
+from s3o_drake.world.goals import placed_object
+from s3o_drake.world.gripper import holds_whole
+from s3o_drake.world.placing import PLACE_TOLERANCE
+from s3o_drake.world.robot import (
     ARM_MOUNT_XYZ,
     ARM_POSITIONS,
     ARM_STOW,

@@ -1,11 +1,11 @@
 """The world as the feasibility checks see it: a RobotDiagram and a collision checker.
 
-A `FeasibilityScene` holds the robot, the tables, the dishes and the chairs of a scenario in
-a `RobotDiagram` (plant + scene graph, no simulation), and a `SceneGraphCollisionChecker`
-over the robot's 11 positions with a padding between robot and environment. Which chairs it
-holds is the caller's choice: the scenario's own (ground truth, for labels) or the ones a
-perception system reported (what a planner may know), by passing a scenario whose `chairs`
-were replaced.
+A `FeasibilityScene` holds the robot, the tables, the dishes and the chairs of a room in a
+`RobotDiagram` (plant + scene graph, no simulation), and a `SceneGraphCollisionChecker` over
+the robot's 11 positions with a padding between robot and environment. Which room it holds
+is the caller's choice: the true world's (`Scenario.contents`: ground truth, for labels and
+the execution's judge) or a belief's (`KnownWorld.contents`: what a planner may know; the
+planner's one scene per plan is `feasibility.planning_scene.PlanningScene`).
 """
 
 from collections.abc import Iterator
@@ -21,8 +21,10 @@ from s3o_drake.feasibility.clearance import (
     robot_horizontal_radius,
     robot_plan_extent,
 )
-from s3o_drake.known_world import Obstacles
-from s3o_drake.robot import (
+from s3o_drake.world.builder import populate_plant
+from s3o_drake.world.contents import SceneContents
+from s3o_drake.world.obstacles import Obstacles
+from s3o_drake.world.robot import (
     ARM_BASE_LINK,
     ARM_MOUNT_XYZ,
     ARM_STOW,
@@ -30,8 +32,6 @@ from s3o_drake.robot import (
     GRIPPER_OPEN,
     robot_positions,
 )
-from s3o_drake.scenario import Scenario
-from s3o_drake.world.builder import populate_plant
 
 # Robot-environment clearance of a feasible configuration (m): the arm stays at least 1 cm
 # from every obstacle, and the base keeps the same small margin.
@@ -45,13 +45,13 @@ EDGE_STEP = 0.05
 class FeasibilityScene:
     """Robot and environment for IK and collision queries, built once per scene."""
 
-    def __init__(self, scenario: Scenario, *, padding: float = ENVIRONMENT_PADDING,
+    def __init__(self, contents: SceneContents, *, padding: float = ENVIRONMENT_PADDING,
                  obstacles: Obstacles | None = None):
-        """`obstacles`: the footprints of the scenario's furniture, when the caller has them
-        already (a KnownWorld's); made from the scenario otherwise."""
-        self.scenario = scenario
+        """`obstacles`: the footprints of the room's furniture, when the caller has them
+        already (a KnownWorld's); made from `contents` otherwise."""
+        self.contents = contents
         builder = RobotDiagramBuilder(time_step=0.0)
-        self.models = populate_plant(builder.plant(), builder.scene_graph(), scenario)
+        self.models = populate_plant(builder.plant(), builder.scene_graph(), contents)
         builder.plant().Finalize()
         self.diagram = builder.Build()
         self.plant = self.diagram.plant()
@@ -59,8 +59,8 @@ class FeasibilityScene:
         self.checker = SceneGraphCollisionChecker(
             model=self.diagram, robot_model_instances=[self.robot],
             edge_step_size=EDGE_STEP, env_collision_padding=padding)
-        self.table_height = {t.name: t.height for t in scenario.tables}
-        self.dishes = {d.name: d for d in scenario.dishes}
+        self.table_height = {t.name: t.height for t in contents.tables}
+        self.dishes = {d.name: d for d in contents.dishes}
         self.grasp_frame = self.plant.GetFrameByName(GRASP_FRAME, self.robot)
         self.arm_base_frame = self.plant.GetFrameByName(ARM_BASE_LINK, self.robot)
         context = self.plant.CreateDefaultContext()
@@ -69,7 +69,7 @@ class FeasibilityScene:
         self.robot_radius = robot_horizontal_radius(extent)
         """Horizontal reach (m) of the robot's collision geometry with the arm stowed."""
         self.clearance = BaseClearance(
-            Obstacles.of_scenario(scenario) if obstacles is None else obstacles,
+            Obstacles.of_contents(contents) if obstacles is None else obstacles,
             robot_extent=extent, padding=padding)
         self.collision = CertainCollision.of_scene(self.plant, inspector, self.robot, context)
         """Base positions that need no collision query (see `clearance`)."""

@@ -33,42 +33,25 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from s3o_drake.angles import facing_yaw
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.known_world import KnownWorld
+from s3o_drake.world.angles import facing_yaw
 
 #: A cell's centre and corners, in cells from its lower-left corner.
 _CORNERS = ((0, 0), (0, 1), (1, 0), (1, 1))
-#: Scenes kept for reuse (`FreeStops.of`): a replan, or a second plan of the same scene.
-_KEEP = 4
-_built: dict[str, FreeStops] = {}
 
 
 class FreeStops:
-    """The known world's free-stop test (see the module docstring)."""
+    """The known world's free-stop test (see the module docstring), on the plan's one scene
+    of it (`planning_scene.PlanningScene.free_stops`)."""
 
-    @classmethod
-    def of(cls, known: KnownWorld) -> FreeStops:
-        """The test for `known`, reused when a recent one was built for the same furniture,
-        chairs and dishes (building the collision checker takes about 0.3 s, a stage that a
-        small planning budget cannot interrupt)."""
-        seen = known.as_scenario()
-        key = repr((seen.room, seen.tables, seen.chairs, seen.dishes))
-        if key not in _built:
-            if len(_built) >= _KEEP:
-                _built.pop(next(iter(_built)))
-            _built[key] = cls(known)
-        return _built[key]
-
-    def __init__(self, known: KnownWorld):
-        scene = FeasibilityScene(known.as_scenario(), obstacles=known.obstacles)
+    def __init__(self, scene: FeasibilityScene, dishes: Sequence[str]):
         # Only base_free is asked: no reachability map is needed ("ik" loads none).
         self._checker = FeasibilityChecker(scene, method="ik")
-        self._p_WD = {d: scene.dish_p_WD(d)[0][:2] for d in known.dish_names}
+        self._p_WD = {d: scene.dish_p_WD(d)[0][:2] for d in dishes}
         # The free cells of a heatmap depend only on its grid and which cells are asked: a
-        # second plan on the same heatmaps (a replan, the FCN's re-plan) reuses them.
+        # second plan on the same heatmaps (the FCN's re-plan) reuses them.
         self._cells: dict[tuple, np.ndarray] = {}
 
     def free(self, points: np.ndarray, dish: str) -> np.ndarray:

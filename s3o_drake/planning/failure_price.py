@@ -12,7 +12,7 @@ over the first pickup attempt of every dish of recorded runs with recovery (Fea^
 the recoveries the corrections and retries of that dish). It is a ratio estimator: with a
 calibrated Fea^m the expected number of failures is Σ (1 - Fea^m), and recoveries that Fea^m
 does not foresee (a correction after a poor landing) are priced in too. `derive_price` computes
-it; `python -m s3o_drake.commands.failure_price` derives it from studies and records it in
+it; `s3o failure-price` derives it from studies and records it in
 models/failure_price.yaml; `priced_planner` applies it.
 """
 
@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 import yaml
 
-from s3o_drake.choices import Recovery
-from s3o_drake.resources import MODELS_DIR
-from s3o_drake.scenario import Planner, Scenario
+from s3o_drake.world.choices import Recovery
+from s3o_drake.world.resources import MODELS_DIR
+from s3o_drake.world.settings import PlanningSettings, Settings
 
 PRICE_FILE = MODELS_DIR / "failure_price.yaml"
 FORMAT = "s3o_drake.FailurePrice/1"
@@ -68,7 +68,7 @@ class FailurePrice:
 def _load(path: str) -> FailurePrice:
     if not Path(path).is_file():
         raise FileNotFoundError(f"{path}: no failure price; make it with "
-                                "`python -m s3o_drake.commands.failure_price`")
+                                "`s3o failure-price`")
     return FailurePrice.from_dict(yaml.safe_load(Path(path).read_text()))
 
 
@@ -102,7 +102,7 @@ def derive_price(records: Iterable[PickupRecord], *, resamples: int = 2000,
             "recovery_time": float(data[:, 1].sum())}
 
 
-def failure_reward(settings: Scenario, price: FailurePrice | None = None) -> float:
+def failure_reward(settings: Settings, price: FailurePrice | None = None) -> float:
     """λ as the utility prices a pickup's failure under `settings`: the planner's λ, or with
     `failure_price: execution` and recovery on, the recorded recovery price."""
     planner = settings.planner
@@ -111,7 +111,7 @@ def failure_reward(settings: Scenario, price: FailurePrice | None = None) -> flo
     return (price or FailurePrice.load()).seconds
 
 
-def priced_planner(settings: Scenario, price: FailurePrice | None = None) -> Planner:
+def priced_planner(settings: Settings, price: FailurePrice | None = None) -> PlanningSettings:
     """The planner settings with λ replaced by `failure_reward` (unchanged when equal)."""
     reward = failure_reward(settings, price)
     planner = settings.planner

@@ -7,7 +7,7 @@ with the method (`planner.plan_task`: one navigation map, the abstraction, cling
 search). It returns a `PlanningResult`: the plan or the reason there is none, with the
 heatmaps, the navigation map, the state spaces and the location grid it was made on.
 
-The S3OPlanner system, `run`, the benchmarks and the evaluation plan through it; a replan is
+The ExecutiveSystem, `run`, the benchmarks and the evaluation plan through it; a replan is
 the same call with a newer KnownWorld (`KnownWorld.moved`).
 """
 
@@ -18,31 +18,26 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
-import shapely
 
-from s3o_drake.camera import overhead_camera
-from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.belief.known_world import KnownWorld
+from s3o_drake.feasibility.heatmaps import oracle_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.feasibility.stops import FreeStops
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.navigation import DRIVE_MARGIN, NavigationMap
-from s3o_drake.planning.planner import PlanningError, PlanningResult, plan_task
-from s3o_drake.planning.task_costs import first_reachable
-from s3o_drake.planning.task_planner import TaskPlanningError
-from s3o_drake.robot import INSCRIBED_RADIUS
-from s3o_drake.scenario import FEASIBILITY_SOURCES, FeasibilitySource, Scenario
+from s3o_drake.feasibility.planning_scene import PlanningScene
+from s3o_drake.planning.methods import PlanningError, PlanningResult, plan_task
+from s3o_drake.planning.navigation.map import DRIVE_MARGIN, NavigationMap
+from s3o_drake.planning.task.costs import first_reachable
+from s3o_drake.planning.task.planner import TaskPlanningError
+from s3o_drake.world.camera import overhead_camera
+from s3o_drake.world.choices import FEASIBILITY_SOURCES, FeasibilitySource
 
-STOP_CELL = 0.05
-"""Grid spacing (m) of the candidate stops `dishes_without_stops` tries."""
-
-__all__ = ["PlanningResult", "best_stops", "dishes_without_stops", "heatmaps_for",
-           "plan_from"]  # the pipeline's API
+__all__ = ["PlanningResult", "best_stops", "heatmaps_for", "plan_from"]  # the pipeline's API
 
 
-def heatmaps_for(known: KnownWorld, *, source: str | None = None,
-                 progress: bool = False) -> list[Heatmap]:
+def heatmaps_for(known: KnownWorld, *, source: str | None = None, progress: bool = False,
+                 scene: PlanningScene | None = None) -> list[Heatmap]:
     """Every remaining dish's Fea^m heatmap, from `source` ("oracle" or "fcn"; default the
-    planner's `feasibility`)."""
+    planner's `feasibility`); the oracle's on `scene`, the plan's one scene of `known`
+    (built here when not given)."""
     source = known.planner.feasibility if source is None else source
     if source not in FEASIBILITY_SOURCES:
         raise ValueError(f"unknown feasibility source {source!r}; known: "
@@ -52,28 +47,31 @@ def heatmaps_for(known: KnownWorld, *, source: str | None = None,
             raise ValueError("planner.feasibility fcn: the network needs the overhead images, "
                              "and this KnownWorld has none")
         # Imported here: torch is heavy, and only this source needs it.
-        from s3o_drake.feasibility.fcn import FcnFeasibility, overhead_view, use_one_thread
+        from s3o_drake.feasibility.learned.fcn import FcnFeasibility, overhead_view, use_one_thread
 
-        view = overhead_view(overhead_camera(known.settings), known.overhead.depth,
-                             known.overhead.label, known.overhead.robot_labels)
+        view = overhead_view(overhead_camera(known.map.room, known.settings.camera),
+                             known.overhead.depth, known.overhead.label,
+                             known.overhead.robot_labels)
         use_one_thread()
         return FcnFeasibility.shared().heatmaps(view, list(known.dishes))
-    return compute_heatmaps(known.as_scenario(), workers=1, progress=progress,
-                            obstacles=known.obstacles)
+    scene = PlanningScene(known) if scene is None else scene
+    return oracle_heatmaps(scene.oracle, [d.name for d in known.contents.dishes],
+                           progress=progress)
 
 
-def best_stops(known: KnownWorld, heatmaps: Sequence[Heatmap] | None = None
-               ) -> dict[str, float]:
+def best_stops(known: KnownWorld, heatmaps: Sequence[Heatmap] | None = None,
+               scene: PlanningScene | None = None) -> dict[str, float]:
     """Each remaining dish's highest Fea^m (`heatmaps`, default `heatmaps_for(known)`) over
     the stops a plan may command from where the robot stands: free as planned
     (`FreeStops`) and reachable by a collision-free drive. With a calibrated Fea^m their mean
     is the pickup success that an open-loop plan standing at each dish's own best stop can
     expect: no plan does better in expectation, whatever it trades for time."""
-    heatmaps = heatmaps_for(known) if heatmaps is None else heatmaps
+    scene = PlanningScene(known) if scene is None else scene
+    heatmaps = heatmaps_for(known, scene=scene) if heatmaps is None else heatmaps
     nav = NavigationMap(known.obstacles)
     start = nav.way_out(known.pose[:2])
     best = {}
-    for heatmap in FreeStops.of(known).restrict_all(heatmaps):
+    for heatmap in scene.free_stops.restrict_all(heatmaps):
         centres = heatmap.centers().reshape(-1, 2)
         values = heatmap.values.reshape(-1)
         order = np.argsort(-values, kind="stable")
@@ -83,64 +81,12 @@ def best_stops(known: KnownWorld, heatmaps: Sequence[Heatmap] | None = None
     return best
 
 
-def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0, *,
-                         first: bool = False) -> list[str]:
-    """The dishes (and place targets) of `scenario` that have no candidate stop: no base
-    position within the planner's reach (`planner.reach`) of them that is free as planned
-    (`FreeStops`, on a grid of STOP_CELL) and that a drive from the robot's start reaches,
-    in the true world (every chair where the scenario puts it). No method can pick such a
-    dish; the benchmark's tasks have none (`task_generation.generate_task`, `stops`).
-
-    `chair_margin` (m): the drives are asked on a map whose unmapped chairs are grown by
-    it, where perception may put them. A dish whose only way passes a chair within that
-    of the drives' clearance is then named too: on the chairs perception finds, millimetres
-    off, the planner may find no way there (dense task_030 and task_045, docs/results.md).
-
-    `best_stops` with Fea^m 1 within reach, but cheaper (the generator asks once per chair
-    drawn): the collision check, the costly part, is asked only at positions that keep
-    the base's inscribed radius from every obstacle (nearer, every yaw collides) and that a
-    drive reaches, and only until one free stop is found (`FreeStops.any_free_cell`).
-
-    `first`: return at the first dish found without a stop (a list of one), for a caller
-    that asks only whether there is one. The generator's rejected chairs mostly close a
-    dish's last drivable way, which the navigation map alone shows: they then cost no
-    collision checker."""
-    known = KnownWorld.perfect(scenario)
-    reach = known.planner.reach
-    nav = NavigationMap(known.obstacles_grown(chair_margin))
-    start = nav.way_out(known.pose[:2])
-    clear = known.obstacles.free_space(INSCRIBED_RADIUS)
-    cells = int(np.ceil(2 * reach / STOP_CELL))
-    missing, asked = [], []
-    for dish in known.dishes:
-        p = np.asarray(dish.position[:2], float)
-        grid = Heatmap(dish.name, np.zeros((cells, cells)), p[0] - reach, p[1] - reach,
-                       STOP_CELL)
-        centres = grid.centers()
-        ask = (np.linalg.norm(centres - p, axis=-1) <= reach) & shapely.contains_xy(
-            clear, centres[..., 0], centres[..., 1])
-        ask[ask] = nav.reachable(start, centres[ask])
-        if not ask.any():
-            if first:
-                return [dish.name]
-            missing.append(dish.name)
-        else:
-            asked.append(dataclasses.replace(grid, values=ask.astype(float)))
-    stops = FreeStops.of(known) if asked else None
-    for grid in asked:
-        if not stops.any_free_cell(grid):
-            if first:
-                return [grid.dish]
-            missing.append(grid.dish)
-    return sorted(missing)
-
-
 def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None = None,
               workers: int | None = None, time_budget: float | None = None,
               n_sequences: int = 3, heatmaps: Sequence[Heatmap] | None = None,
               feasibility: str | None = None, progress: bool = False,
-              started: float | None = None, drive_margin: float = DRIVE_MARGIN
-              ) -> PlanningResult:
+              started: float | None = None, drive_margin: float = DRIVE_MARGIN,
+              scene: PlanningScene | None = None) -> PlanningResult:
     """Plans from `known` (see the module docstring).
 
     Method, seed, workers, budget and the Fea^m source (`feasibility`) default to the
@@ -153,19 +99,26 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
     so that the planning time counts perception too. `drive_margin` is the navigation
     map's (`navigation.TIGHT_DRIVE_MARGIN` for a squeeze). A plan that cannot be made is a
     result with `plan` None and `error` saying why; an unknown method raises ValueError.
+    `scene`: the Drake scene of `known`, when the caller plans the same belief several
+    times (built here otherwise, within the budget).
     """
     t0 = time.perf_counter() if started is None else started
+    # One Drake scene of the belief serves the heatmaps, the free stops and the stop checks;
+    # building it is part of the budget.
+    t_scene = time.perf_counter()
+    scene = PlanningScene(known) if scene is None else scene
+    building = time.perf_counter() - t_scene
     method = known.planner.method if method is None else method
     seed = known.settings.seed if seed is None else int(seed)
     workers = known.planner.workers if workers is None else workers
     if heatmaps is None:
-        heatmaps = heatmaps_for(known, source=feasibility, progress=progress)
+        heatmaps = heatmaps_for(known, source=feasibility, progress=progress, scene=scene)
     maps = tuple(heatmaps) if isinstance(heatmaps, (list, tuple)) else ()
-    result = _plan(known, method, heatmaps, seed, time_budget, n_sequences, workers, t0,
-                   drive_margin)
+    budget = known.planner.time_budget if time_budget is None else time_budget
+    result = _plan(known, scene, method, heatmaps, seed, max(0.0, budget - building),
+                   n_sequences, workers, t0, drive_margin)
     source = known.planner.feasibility if feasibility is None else feasibility
     lost = () if result.plan is None else result.plan.unreachable
-    budget = known.planner.time_budget if time_budget is None else time_budget
     exact: dict[str, Heatmap] = {}
     if lost and source == FeasibilitySource.FCN and maps:
         # The network is an approximation: before a dish is left out, the Drake check of
@@ -176,12 +129,11 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
         for dish in lost:
             if time.perf_counter() - t0 >= budget:
                 break
-            exact[dish] = compute_heatmaps(known.as_scenario(), [dish], workers=1,
-                                           progress=False, obstacles=known.obstacles)[0]
+            exact[dish] = oracle_heatmaps(scene.oracle, [dish])[0]
         maps = tuple(exact.get(h.dish, h) for h in maps)
         left = budget - (time.perf_counter() - t0)
         if any(h.values.max() > 0.0 for h in exact.values()) and left > 0:
-            result = _plan(known, method, maps, seed, left, n_sequences, workers, t0,
+            result = _plan(known, scene, method, maps, seed, left, n_sequences, workers, t0,
                            drive_margin)
     unchecked = ()
     if source == FeasibilitySource.FCN and result.plan is not None:
@@ -193,16 +145,17 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
                                unchecked=unchecked)
 
 
-def _plan(known: KnownWorld, method: str, heatmaps, seed: int, time_budget: float | None,
-          n_sequences: int, workers: int, t0: float, drive_margin: float) -> PlanningResult:
+def _plan(known: KnownWorld, scene: PlanningScene, method: str, heatmaps, seed: int,
+          time_budget: float | None, n_sequences: int, workers: int, t0: float,
+          drive_margin: float) -> PlanningResult:
     """`plan_task`, a PlanningError becoming a result that says why there is no plan."""
     maps = tuple(heatmaps) if isinstance(heatmaps, (list, tuple)) else ()
     try:
-        return plan_task(known, method=method, heatmaps=heatmaps, seed=seed,
+        return plan_task(known, scene=scene, method=method, heatmaps=heatmaps, seed=seed,
                          time_budget=time_budget, n_sequences=n_sequences, workers=workers,
                          feasibility_time=time.perf_counter() - t0,
                          drive_margin=drive_margin)
     except (PlanningError, TaskPlanningError) as e:
-        return PlanningResult(known=known, method=method, seed=seed, plan=None,
+        return PlanningResult(known=known, scene=scene, method=method, seed=seed, plan=None,
                               error=f"no plan: {e}", heatmaps=maps,
                               planning_time=time.perf_counter() - t0)

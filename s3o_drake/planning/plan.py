@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from s3o_drake.io import write_atomically
+from s3o_drake.world.files import write_atomically
 
 FORMAT = "s3o_drake.TaskMotionPlan/1"
 """Tag of the JSON form, so that a reader can tell a plan file from another JSON file."""
@@ -50,7 +50,7 @@ class Pickup:
 @dataclass(frozen=True)
 class Place:
     """Put `dish`, held in the gripper, down at its place, from where the latest goto left
-    the base (goals.py)."""
+    the base (world/goals.py)."""
 
     dish: str
     location: str
@@ -65,7 +65,7 @@ PlanAction = Goto | Pickup | Place
 class TaskOrder:
     """What the task planner could say of the plan's order (its navigation cost is
     clingo's integer objective: the drive time at the planner's speed x COST_SCALE,
-    planning/petlon.py)."""
+    planning/motion/petlon.py)."""
 
     cost: int
     """The order's navigation cost."""

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from s3o_drake.abstraction import Abstraction
 from s3o_drake.abstraction.location_grid import LocationGrid
 from s3o_drake.abstraction.voronoi import VoronoiPartition
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.navigation import NavigationMap
+from s3o_drake.belief.known_world import KnownWorld
+from s3o_drake.feasibility.planning_scene import PlanningScene
+from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.planning.plan import TaskMotionPlan
 
 
@@ -44,6 +45,8 @@ class PlanningResult:
     task_plans: tuple = ()
     """clingo's answer for each state space it ordered, as (groups, `TaskPlanResult`), in
     the order planned (GROP and GROP*; the problem solved is in each result)."""
+    scene: PlanningScene | None = field(default=None, compare=False, repr=False)
+    """The plan's one Drake scene of `known`: the recovery's stop check asks it too."""
     unchecked: tuple[str, ...] = ()
     """Dishes the plan leaves out as unreachable on the network's Fea^m alone: the budget
     left no time for the Drake check of the known world, or for planning again after it

@@ -1,6 +1,6 @@
 """The plan's time model: what the simulated execution will take, and the utility's costs.
 
-A plan runs as a chain of commands, one at a time (systems/s3o_planner.py): a base command
+A plan runs as a chain of commands, one at a time (execution/executive.py): a base command
 per `goto`, a turn in place before a pickup whose dish the base does not face (a stop that
 serves several dishes faces the first), and an arm command per `pickup`. Its simulated
 execution time is predicted as
@@ -11,7 +11,7 @@ execution time is predicted as
   left its previous stop with to the stop's yaw (facing its first dish): turns in place,
   trapezoidal drives, backing away from a stop (`base_motion`, `NavigationMap.path_times`);
 - t_turn: a turn in place before a further pickup at a stop, when the dish is more than
-  TURN_TOLERANCE off the base's heading (the S3OPlanner's rule);
+  TURN_TOLERANCE off the base's heading (the Executive's rule);
 - γ: the fixed time of a base command that its motion does not cover: the navigator's
   settle time, and the hand-over between commands (see `command_overheads`);
 - δ(kind, d): a pickup: the ArmController's motion, a fitted function of the dish's kind,
@@ -20,12 +20,12 @@ execution time is predicted as
 - T_0: the start and the end of the run (the first command starts a control period after
   t = 0; the run ends when the planner reads the last report, without the next hand-over).
 
-γ, δ and T_0 are derived by `python -m s3o_drake.commands.derive_times` and recorded in
+γ, δ and T_0 are derived by `s3o build time-model` and recorded in
 models/time_model.yaml (`TimeModel`), which everything reads: the pickup's duration is the
 arm's, and changes with it (re-run the command after changing the arm's motion).
 
 The utility keeps the paper's form, R(goto) = -Cst(goto) with Cst = time + γ, and
-R(pickup) = -δ + λ Fea^m, under one of two cost profiles (`Planner.cost_profile`):
+R(pickup) = -δ + λ Fea^m, under one of two cost profiles (`PlanningSettings.cost_profile`):
 
 - "robot": the terms above: Cst(goto) = t_drive + γ + Σ_turns at its stop (t_turn + γ), δ
   the recorded pickup time; the utility's costs are then the predicted time;
@@ -50,16 +50,16 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
-from s3o_drake.angles import facing_yaw, wrap
+from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
-from s3o_drake.known_world import KnownWorld
-from s3o_drake.planning.base_motion import SETTLE_TIME, BaseProfile
-from s3o_drake.resources import TIME_MODEL
-from s3o_drake.robot import CONTROL_PERIOD
-from s3o_drake.scenario import Planner
+from s3o_drake.planning.navigation.base_motion import SETTLE_TIME, BaseProfile
+from s3o_drake.world.angles import facing_yaw, wrap
+from s3o_drake.world.resources import TIME_MODEL
+from s3o_drake.world.robot import CONTROL_PERIOD
+from s3o_drake.world.settings import PlanningSettings
 
 if TYPE_CHECKING:  # only for hints: the systems import this module for their period
-    from s3o_drake.planning.navigation import NavigationMap
+    from s3o_drake.planning.navigation.map import NavigationMap
 
 MODEL_FILE = TIME_MODEL
 FORMAT = "s3o_drake.TimeModel/1"
@@ -97,7 +97,7 @@ def command_overheads(control_period: float = CONTROL_PERIOD,
     the same two ticks: 3.5 periods. The first command is written at t = 0 and started one
     tick later; the run's execution time is the tick at which the planner reads the last
     report, so the last command's two hand-over ticks do not happen: -1 period per plan.
-    (Measured against full simulations in tests/test_time_model.py.)
+    (Measured against full simulations in tests/planning/test_time_model.py.)
     """
     p = float(control_period)
     return Overheads(gamma=settle_time + 2.5 * p, pickup=3.5 * p, plan=-p)
@@ -198,11 +198,11 @@ class TimeModel:
 def _load(path: str) -> TimeModel:
     if not Path(path).is_file():
         raise FileNotFoundError(f"{path}: no time model; make it with "
-                                "`python -m s3o_drake.commands.derive_times`")
+                                "`s3o build time-model`")
     return TimeModel.from_dict(yaml.safe_load(Path(path).read_text()))
 
 
-def base_profile(planner: Planner) -> BaseProfile:
+def base_profile(planner: PlanningSettings) -> BaseProfile:
     """The base's motion profile as the navigator drives it: the planner's speed v and the
     navigator's other limits."""
     return BaseProfile(speed=planner.speed)
@@ -225,7 +225,7 @@ class CostModel:
     estimate Σ len / v + δ per pickup.
     """
 
-    def __init__(self, planner: Planner, *, profile: str | None = None,
+    def __init__(self, planner: PlanningSettings, *, profile: str | None = None,
                  dishes: Mapping[str, DishPlace] | None = None,
                  start: Sequence[float] | None = None, time_model: TimeModel | None = None):
         self.planner = planner
@@ -242,7 +242,7 @@ class CostModel:
         self.reward = planner.reward
 
     @classmethod
-    def paper(cls, planner: Planner) -> CostModel:
+    def paper(cls, planner: PlanningSettings) -> CostModel:
         """The paper's costs from the planner settings alone (no time prediction)."""
         return cls(planner, profile="paper")
 

@@ -41,19 +41,22 @@ from pydrake.systems.framework import Diagram, DiagramBuilder
 from pydrake.systems.primitives import MatrixGain
 from pydrake.systems.sensors import RgbdSensor
 
-from s3o_drake import furniture as fu
-from s3o_drake.camera import overhead_camera
-from s3o_drake.resources import make_parser, models_dir
-from s3o_drake.robot import (
+from s3o_drake.world import furniture as fu
+from s3o_drake.world.camera import overhead_camera
+from s3o_drake.world.contents import SceneContents
+from s3o_drake.world.geometry_mirror import AddGeometryMirror
+from s3o_drake.world.map import Chair, Room, Table
+from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
+from s3o_drake.world.objects import Dish, surface_height
+from s3o_drake.world.resources import make_parser, models_dir
+from s3o_drake.world.robot import (
     CONTROL_PERIOD,
     ROBOT_JOINTS,
     add_robot,
     robot_desired_state,
     robot_positions,
 )
-from s3o_drake.scenario import Chair, Dish, Scenario, Table, surface_height
-from s3o_drake.world.geometry_mirror import AddGeometryMirror
-from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
+from s3o_drake.world.scenario import Scenario
 
 RENDERER = "vtk"
 FLOOR_RGBA = np.array([0.82, 0.80, 0.76, 1.0])
@@ -116,14 +119,15 @@ def dish_sdf(dish: Dish) -> str:
         rgba=" ".join(f"{c:g}" for c in shape.rgba))
 
 
-def _add_room(plant: MultibodyPlant, scenario: Scenario) -> None:
-    """Floor (seen, not collided with) and four walls, on the world body."""
-    x_min, y_min, x_max, y_max = scenario.room.bounds
+def _add_room(plant: MultibodyPlant, room: Room, margin: float) -> None:
+    """Floor (seen, not collided with; `margin` beyond the walls) and four walls, on the
+    world body."""
+    x_min, y_min, x_max, y_max = room.bounds
     cx, cy = (x_min + x_max) / 2, (y_min + y_max) / 2
     size_x, size_y = x_max - x_min, y_max - y_min
-    t, h = scenario.room.wall_thickness, scenario.room.wall_height
+    t, h = room.wall_thickness, room.wall_height
     world = plant.world_body()
-    floor_margin = 2 * t + 2 * scenario.camera.margin
+    floor_margin = 2 * t + 2 * margin
     plant.RegisterVisualGeometry(
         world, RigidTransform([cx, cy, -0.005]),
         Box(size_x + floor_margin, size_y + floor_margin, 0.01), "floor", FLOOR_RGBA)
@@ -164,35 +168,31 @@ def _add_gravity_compensation(builder: DiagramBuilder, plant: MultibodyPlant) ->
     builder.Connect(to_actuators.get_output_port(), plant.get_actuation_input_port())
 
 
-def populate_plant(plant: MultibodyPlant, scene_graph: SceneGraph | None, scenario: Scenario,
-                   *, unmapped_chairs: bool = True, dishes: bool = True) -> WorldModels:
-    """Adds the scenario's room, furniture, dishes and robot to an unfinalized plant.
-
-    `unmapped_chairs=False` leaves out the chairs the robot's map does not have (what a
-    planner may assume); `dishes=False` leaves out the dishes (for systems that own them).
-    """
+def populate_plant(plant: MultibodyPlant, scene_graph: SceneGraph | None,
+                   contents: SceneContents, *, dishes: bool = True) -> WorldModels:
+    """Adds a room, its furniture, its objects and the robot to an unfinalized plant: the
+    true world's (`Scenario.contents`) or a belief's (`KnownWorld.contents`).
+    `dishes=False` leaves out the objects (for systems that own them)."""
     parser = make_parser(plant, scene_graph)
-    _add_room(plant, scenario)
+    _add_room(plant, contents.room, contents.floor_margin)
     models = WorldModels(robot=add_robot(parser))
-    q0 = robot_positions(*scenario.robot.start)
+    q0 = robot_positions(*contents.start)
     for name, q in zip(ROBOT_JOINTS, q0, strict=True):
         plant.GetJointByName(name, models.robot).set_default_positions([q])
 
-    for table in scenario.tables:
+    for table in contents.tables:
         (model,) = parser.AddModelsFromString(table_sdf(table), "sdf")
         _weld(plant, model, "table", _planar_pose(table.center[0], table.center[1], table.yaw))
         models.tables[table.name] = model
-    for chair in scenario.chairs:
-        if not (chair.mapped or unmapped_chairs):
-            continue
+    for chair in contents.chairs:
         (model,) = parser.AddModelsFromString(chair_sdf(chair), "sdf")
         _weld(plant, model, "chair", _planar_pose(*chair.pose))
         models.chairs[chair.name] = model
     if dishes:
-        for dish in scenario.dishes:
+        for dish in contents.dishes:
             (model,) = parser.AddModelsFromString(dish_sdf(dish), "sdf")
             X_WD = _planar_pose(dish.position[0], dish.position[1], 0.0,
-                                surface_height(scenario, dish))
+                                surface_height(contents.tables, dish))
             _weld(plant, model, "dish", X_WD)
             models.dishes[dish.name] = model
     return models
@@ -212,7 +212,7 @@ def _add_overhead_camera(builder: DiagramBuilder, plant: MultibodyPlant,
     builder.Connect(plant.get_geometry_pose_output_port(), mirror.get_input_port(0))
     if tracker is not None:
         builder.Connect(tracker.GetOutputPort("geometry_pose"), mirror.get_input_port(1))
-    camera = overhead_camera(scenario)
+    camera = overhead_camera(scenario.room, scenario.camera)
     far = scenario.camera.height + 1.0
     core = RenderCameraCore(RENDERER, camera.info(), ClippingRange(0.05, far), RigidTransform())
     sensor = builder.AddNamedSystem("overhead_camera", RgbdSensor(
@@ -296,7 +296,7 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
                                   discrete_contact_approximation="sap")
     plant, scene_graph = AddMultibodyPlant(config, builder)
     plant.set_name("plant")
-    models = populate_plant(plant, scene_graph, scenario, dishes=not track_dishes)
+    models = populate_plant(plant, scene_graph, scenario.contents, dishes=not track_dishes)
     plant.Finalize()
     _anchor_fixed_geometry(plant, scene_graph, models)
     tracker = None

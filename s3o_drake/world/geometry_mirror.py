@@ -26,7 +26,7 @@ from pydrake.geometry import (
 )
 from pydrake.systems.framework import Context, DiagramBuilder, InputPort, LeafSystem
 
-from s3o_drake.system_lifetime import weak_callback
+from s3o_drake.world.system_lifetime import weak_callback
 
 #: Per mirrored source: its name, and (original frame id, twin frame id) per frame that has
 #: perception geometry.

@@ -40,10 +40,12 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from s3o_drake.furniture import DISH_SHAPES
-from s3o_drake.goals import surface_below
-from s3o_drake.gripper import holds_whole
-from s3o_drake.robot import (
+from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
+from s3o_drake.world.furniture import DISH_SHAPES
+from s3o_drake.world.goals import surface_below
+from s3o_drake.world.gripper import holds_whole
+from s3o_drake.world.objects import surface_height
+from s3o_drake.world.robot import (
     BASE_LINK,
     GRASP_FRAME,
     NUM_POSITIONS,
@@ -51,9 +53,8 @@ from s3o_drake.robot import (
     TRAY_INNER_WIDTH,
     TRAY_LINK,
 )
-from s3o_drake.scenario import Scenario, surface_height
-from s3o_drake.system_lifetime import weak_callback
-from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
+from s3o_drake.world.scenario import Scenario
+from s3o_drake.world.system_lifetime import weak_callback
 
 
 @dataclass(frozen=True)
@@ -213,7 +214,8 @@ class ObjectTracker(LeafSystem):
         # As world.populate_plant welds the dishes: bottom centre on the surface.
         initial = tuple(
             _Track(d.name, DishState.TABLE,
-                   RigidTransform([d.position[0], d.position[1], surface_height(scenario, d)]))
+                   RigidTransform([d.position[0], d.position[1],
+                                   surface_height(scenario.tables, d)]))
             for d in scenario.dishes)
 
         self._robot_state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)

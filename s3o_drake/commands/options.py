@@ -1,0 +1,213 @@
+"""The options that several commands share, defined and checked in one place, so that one
+name means one thing in every command (docs/commands.md, "Shared options"):
+
+  --tasks PATH ...  task scenario files, or folders of them (every *.yaml, by name)
+  --count N         only the first N of --tasks
+  --seed N          one seed;  --seeds N: the seeds 0 to N-1
+  --workers N       worker processes
+  --out DIR|FILE    where the command writes (its --help says a folder or a file)
+  --json FILE       the results as JSON: a line per task or run where the command makes
+                    such rows (appended as each is done, resumed from; --fresh starts over),
+                    else the figures as one JSON document
+  --method NAME     one planning method;  --quiet: no progress bars
+
+A bad value is refused while the arguments are parsed: one line naming the option, exit
+status 2, nothing written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from s3o_drake.commands.common import fail
+from s3o_drake.world.choices import METHODS
+from s3o_drake.world.resources import REPO_DIR, TASKS_DIR
+
+if TYPE_CHECKING:
+    from s3o_drake.experiments.store import ResultStore
+
+
+def at_least(low: int) -> Callable[[str], int]:
+    """An argparse type: an integer of at least `low`."""
+    def integer(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be at least {low}, got {value}")
+        return value
+    return integer
+
+
+def seconds(text: str) -> float:
+    """An argparse type: a positive, finite number of seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text}")
+    return value
+
+
+def method(text: str) -> str:
+    """An argparse type: one of the planning methods."""
+    if text not in METHODS:
+        raise argparse.ArgumentTypeError(f"unknown method {text!r}; one of {', '.join(METHODS)}")
+    return text
+
+
+def _shown(path: Path) -> str:
+    try:
+        return str(path.relative_to(REPO_DIR))
+    except ValueError:
+        return str(path)
+
+
+def add_tasks(parser: argparse.ArgumentParser, *, default: Sequence[Path] = (TASKS_DIR,),
+              count: int | None = None, required: str = "required") -> None:
+    """--tasks PATH ... and --count N; `task_paths` reads them. `count`: how many of the
+    tasks the command takes when --count is not given (None: all); `required`: what the
+    help says of --tasks without a default."""
+    shown = f"default {' '.join(_shown(p) for p in default)}" if default else required
+    parser.add_argument("--tasks", nargs="+", metavar="PATH",
+                        help=f"task files or folders of them (every *.yaml, by name; {shown})")
+    parser.add_argument("--count", type=at_least(1), metavar="N",
+                        help=f"only the first N tasks (default {count or 'all'})")
+    parser.set_defaults(task_defaults=(tuple(default), count))
+
+
+def task_paths(args: argparse.Namespace) -> list[Path]:
+    """The task files --tasks and --count name, in order; a missing file or folder, an empty
+    folder, two tasks of one name (rows are keyed by it) or too few tasks for --count is one
+    line and exit status 2."""
+    default, count = args.task_defaults
+    if not (args.tasks or default):
+        fail("--tasks: required (task files or folders of them)")
+    paths: list[Path] = []
+    for item in map(Path, args.tasks or default):
+        if item.is_dir():
+            found = sorted(item.glob("*.yaml"))
+            if not found:
+                fail(f"--tasks: no *.yaml task in {item}")
+            paths += found
+        elif item.is_file():
+            paths.append(item)
+        else:
+            hint = f" (the first {item} tasks: --count {item})" if str(item).isdigit() else ""
+            fail(f"--tasks: no such folder or file {item}{hint}")
+    names: dict[str, Path] = {}
+    for path in paths:
+        if names.setdefault(path.stem, path) != path:
+            fail(f"--tasks: two tasks named {path.stem} ({names[path.stem]}, {path})")
+    if args.count is not None:
+        if args.count > len(paths):
+            fail(f"--count: --tasks holds {len(paths)} tasks, {args.count} asked")
+        return paths[:args.count]
+    return paths if count is None else paths[:count]
+
+
+def add_seed(parser: argparse.ArgumentParser, default: int | None = 0,
+             what: str = "random seed") -> None:
+    """--seed N: one seed (None: the scenario's own)."""
+    shown = "the scenario's own" if default is None else default
+    parser.add_argument("--seed", type=at_least(0), default=default, metavar="N",
+                        help=f"{what} (default {shown})")
+
+
+def add_seeds(parser: argparse.ArgumentParser, default: int) -> None:
+    """--seeds N: the seeds 0 to N-1."""
+    parser.add_argument("--seeds", type=at_least(1), default=default, metavar="N",
+                        help=f"seeds 0 to N-1 (default {default})")
+
+
+def add_workers(parser: argparse.ArgumentParser, default: int,
+                what: str = "worker processes") -> None:
+    parser.add_argument("--workers", type=at_least(1), default=default, metavar="N",
+                        help=f"{what} (default {default})")
+
+
+def add_quiet(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def add_method(parser: argparse.ArgumentParser, default: str | None = "S3O-GROP*",
+               shown: str | None = None) -> None:
+    """--method NAME, checked against the planning methods."""
+    parser.add_argument("--method", type=method, default=default, metavar="NAME",
+                        help=f"planning method, one of {', '.join(METHODS)} (default "
+                             f"{shown or default})")
+
+
+def add_out(parser: argparse.ArgumentParser, *, file: bool, default: str | None = None,
+            required: bool = False, text: str = "", note: str = "") -> None:
+    """--out DIR (a folder) or --out FILE; `note` follows the default."""
+    said = [f"default {default}"] if default is not None else []
+    said += [note] if note else []
+    parser.add_argument("--out", metavar="FILE" if file else "DIR", default=default,
+                        required=required,
+                        help=(text or ("output file" if file else "output folder"))
+                        + (f" ({'; '.join(said)})" if said else ""))
+
+
+def out_folder(path: str | Path, option: str = "--out") -> Path:
+    """A folder to write into: anything else in its place is one line and exit 2."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        fail(f"{option}: {path} exists and is not a folder")
+    return path
+
+
+def out_file(path: str | Path, option: str = "--out") -> Path:
+    """A file to write: a folder in its place, or a file where a folder of its path should
+    be, is one line and exit 2."""
+    path = Path(path)
+    if path.is_dir():
+        fail(f"{option}: {path} is a folder")
+    if any(folder.exists() and not folder.is_dir() for folder in path.parents):
+        fail(f"{option}: {path.parent} is not a folder")
+    return path
+
+
+def add_json(parser: argparse.ArgumentParser, rows: str | None) -> None:
+    """--json FILE: with `rows` (what a line holds, e.g. "task"), JSON lines appended as
+    each is done and resumed from, and --fresh; without, one JSON document of figures."""
+    if rows is None:
+        parser.add_argument("--json", metavar="FILE",
+                            help="also write the figures to FILE (one JSON document)")
+        return
+    parser.add_argument("--json", metavar="FILE",
+                        help=f"append a JSON line per {rows} to FILE as each is done; the "
+                             "same command resumes from them")
+    parser.add_argument("--fresh", action="store_true", help="start the --json file over")
+
+
+def json_file(args: argparse.Namespace) -> Path | None:
+    """The --json file, if any; its folder must exist (one line and exit 2)."""
+    if not args.json:
+        return None
+    path = Path(args.json)
+    if not path.parent.is_dir():
+        fail(f"--json: no folder {path.parent}")
+    if path.is_dir():
+        fail(f"--json: {path} is a folder")
+    return path
+
+
+def json_store(args: argparse.Namespace,
+               key: Callable[[dict], str] | None = None) -> ResultStore | None:
+    """The result store of --json (None without it), emptied first with --fresh. `key`
+    keys the lines written before the command used the store."""
+    path = json_file(args)
+    if path is None:
+        return None
+    from s3o_drake.experiments.store import ResultStore
+
+    if getattr(args, "fresh", False):
+        path.unlink(missing_ok=True)
+    return ResultStore(path, key=key)

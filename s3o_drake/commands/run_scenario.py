@@ -1,0 +1,281 @@
+"""Plan a scenario's task with S3O and execute it in a Drake simulation.
+
+    s3o run scenarios/restaurant.yaml        (the same: python -m s3o_drake.run ...)
+
+Perceives the unmapped chairs with the overhead camera, computes every dish's Fea^m, plans
+with the method and simulates the plan with navigation and reaching noise, recovering from
+failures as --recovery says. Writes report.json, plan.json, playback.html (open it in a
+browser) and pictures to out/<scenario file stem>/. Exit status: 0 when every dish was
+collected, 1 when not, 2 on bad input (one line on stderr; nothing is written).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from s3o_drake.commands.common import (
+    MESHCAT_HOST,
+    command_parser,
+    fail,
+    read_scenario,
+    start_meshcat,
+)
+from s3o_drake.commands.options import add_method, add_out, add_seed, out_folder
+from s3o_drake.execution.messages import ran_to_end
+from s3o_drake.planning.plan import Goto, Place, TaskMotionPlan
+
+# Light imports only: --help and bad arguments answer before Drake, OpenCV, torch and
+# matplotlib load (main imports them once the arguments are parsed).
+from s3o_drake.world.choices import FEASIBILITY_SOURCES, RECOVERY_MODES
+from s3o_drake.world.files import write_atomically
+
+if TYPE_CHECKING:
+    from s3o_drake.execution.execute import Execution
+    from s3o_drake.world.scenario import Scenario
+
+TOP_VIEW_CELL = 0.02  # m per pixel of the pictures' top view
+
+
+def describe_plan(p: TaskMotionPlan) -> str:
+    """The plan as a person reads it: one line per action, then the figures. Locations are
+    named as in plan.json and state_space.png, stops numbered as in plan.png."""
+    lines = [f"{p.method} plan (seed {p.seed}): {len(p.gotos)} stops, {len(p.pickups)} pickups"
+             + (f", {len(p.places)} place{'s' if len(p.places) != 1 else ''}" if p.places else "")
+             + (f", unreachable: {', '.join(p.unreachable)}" if p.unreachable else "")]
+    stops = 0
+    for i, a in enumerate(p.actions, 1):
+        if isinstance(a, Goto):
+            stops += 1
+            x, y, yaw = a.pose
+            lines.append(f"  {i:2d}. goto {a.location:<4} (stop {stops}) to ({x:5.2f}, "
+                         f"{y:5.2f}) m, yaw {yaw:+.2f} rad, path {a.length:.2f} m")
+        else:
+            verb = "place" if isinstance(a, Place) else "pickup"
+            lines.append(f"  {i:2d}. {verb} {a.dish} (Fea^m {a.feasibility:.2f})")
+    t = p.timing
+    lines.append(f"  expected utility {p.utility:.1f}, predicted execution time "
+                 f"{p.predicted_time:.1f} s; planned in {p.planning_time:.2f} s (feasibility "
+                 f"{t.get('feasibility', 0):.2f}, navigation {t.get('navigation', 0):.2f}, "
+                 f"abstraction {t.get('abstraction', 0):.2f}, task planning "
+                 f"{t.get('task_planning', 0):.2f}, motion search "
+                 f"{t.get('motion_search', 0):.2f}); {p.searches} searches, {p.samples} samples"
+                 + ("" if p.complete else "; the time budget cut the search short"))
+    if p.order is not None:
+        lines.append(f"  {p.order.describe()}")
+    return "\n".join(lines)
+
+
+def describe_execution(report: dict) -> str:
+    """The execution's outcome: each action, then the summary line."""
+    lines = ["Execution:"]
+    # A record per finished pickup and place, in the order of their outcomes.
+    predicted = iter(record["predicted"] for record in report.get("pickups", []))
+    for i, (action, arg, outcome) in enumerate(report["outcomes"], 1):
+        fea = next(predicted, None) if action in ("pickup", "place") else None
+        lines.append(f"  {i:2d}. {action} {arg}: {outcome}"
+                     + ("" if fea is None else f" (predicted Fea^m {fea:.2f})"))
+    recoveries = report.get("recoveries", [])
+    if recoveries:
+        lines.append("Recoveries:")
+    for r in recoveries:
+        what = f"{r['kind']}{' ' + r['dish'] if r['dish'] else ''}"
+        cost = f"{r['cost']:.1f} s" + (f", planning {r['planning_time']:.1f} s"
+                                       if r["kind"] == "replan" else "")
+        lines.append(f"  {what}: {r['trigger']} -> {r['action']}: {r['result']} ({cost})")
+    if report.get("unreachable"):
+        lines.append(f"Unreachable (no free pose of the known map can pick them): "
+                     f"{', '.join(report['unreachable'])}")
+    plans = 1 + sum(r["kind"] == "replan" for r in recoveries)
+    placements = report.get("placements", [])
+    for p in placements:
+        where = ("at its place" if p["placed"] else "not at its place") + (
+            f" ({100 * p['error']:.1f} cm from it, {'upright' if p['upright'] else 'tilted'})"
+            if p["state"] == "placed" else f" ({p['state']})")
+        lines.append(f"{p['object']} stands {where}")
+    got = (f"Collected {report['collected']} and placed {report['placed']} of "
+           f"{report['dishes']} objects" if placements else
+           f"Collected {report['collected']} of {report['dishes']} dishes")
+    lines.append(f"{got} in "
+                 f"{report['execution_time']:.1f} s of execution (simulated); planning took "
+                 f"{report['planning_time']:.2f} s"
+                 + (f" in all ({plans} plans)" if plans > 1 else "")
+                 + f"; simulated {report['simulated_time']:.1f} s in {report['wall_time']:.1f} s "
+                 f"({report['realtime_rate']:.1f}x real time); {ending(report)}.")
+    return "\n".join(lines)
+
+
+def ending(report: dict) -> str:
+    """Why the run ended, in words that are true: a plan that ran to its end says which
+    objects it did not collect or place (a failed pickup is not "complete")."""
+    if not ran_to_end(report["reason"]):
+        return report["reason"]  # e.g. "goto l1 failed: blocked", "no plan: ..."
+    done = set(report["collected_dishes"]) | {
+        p["object"] for p in report.get("placements", []) if p["placed"]}
+    unreachable = [d for d in report.get("unreachable", []) if d not in done]
+    failed = sorted({dish for action, dish, outcome in report["outcomes"]
+                     if action in ("pickup", "place") and outcome != "done"}
+                    - done - set(unreachable))
+    missed = [f"{len(failed)} pickup{'s' if len(failed) > 1 else ''} or place"
+              f"{'s' if len(failed) > 1 else ''} failed ({', '.join(failed)})"
+              if report.get("placements") else
+              f"{len(failed)} pickup{'s' if len(failed) > 1 else ''} failed "
+              f"({', '.join(failed)})"] if failed else []
+    if unreachable:
+        missed.append(f"{len(unreachable)} dish{'es' if len(unreachable) > 1 else ''} "
+                      f"unreachable ({', '.join(unreachable)})")
+    completed = report.get("completed", report["collected"])
+    if not missed and completed == report["dishes"]:
+        return ("plan ended: every object collected or placed" if report.get("placements")
+                else "plan ended: every dish collected")
+    return "plan ended: " + ("; ".join(missed) or
+                             f"{report['dishes'] - completed} of {report['dishes']} not "
+                             "collected or placed")
+
+
+def _write_pictures(scenario: Scenario, run: Execution, plan: TaskMotionPlan | None,
+                    out: Path) -> list[Path]:
+    """The pictures of `plan` and what it was made on (the latest planning's result), so
+    that they name its locations and stops as plan.json does."""
+    from s3o_drake.viz.pictures import (
+        feasibility_figure,
+        overhead_figure,
+        plan_figure,
+        search_figure,
+        state_space_figure,
+    )
+    from s3o_drake.world.camera import orthophoto, overhead_camera
+
+    written = []
+    camera = overhead_camera(scenario.room, scenario.camera)
+    color, depth = run.images
+    if scenario.outputs.overhead:
+        overhead_figure(scenario, camera, color, out / "overhead.png")
+        written.append(out / "overhead.png")
+    result = run.result
+    heatmaps = list(result.heatmaps) if result is not None else []
+    if not heatmaps and plan is None:
+        return written
+    top_view = orthophoto(camera, color, depth, scenario.room.bounds, TOP_VIEW_CELL)
+    if heatmaps and scenario.outputs.feasibility:
+        feasibility_figure(scenario, top_view, heatmaps, out / "feasibility.png")
+        written.append(out / "feasibility.png")
+    # The state space only of the result that holds the plan (a replan that found none
+    # leaves the plan before it, whose state space is not kept).
+    made_on = result is not None and result.plan is plan
+    if plan is not None and made_on and result.partition is not None \
+            and scenario.outputs.state_space:
+        state_space_figure(scenario, top_view, result, out / "state_space.png")
+        written.append(out / "state_space.png")
+    if plan is not None:
+        start = result.known.pose if made_on else None
+        plan_figure(scenario, top_view, plan, out / "plan.png", start=start)
+        written.append(out / "plan.png")
+        if plan.early_samples:
+            search_figure(scenario, top_view, heatmaps, plan, out / "search.png")
+            written.append(out / "search.png")
+    return written
+
+
+def latest_plan(run: Execution) -> TaskMotionPlan | None:
+    """The plan the outputs show: the latest one (after replans, the plan of what
+    remained), or the one before it when a replan found none."""
+    if run.result is not None and run.result.plan is not None:
+        return run.result.plan
+    return run.plan
+
+
+def main(argv: list[str] | None = None, prog: str | None = None) -> int:
+    """`s3o run`; `prog` names the command in its messages (the card's address,
+    `python -m s3o_drake.run`, says its own)."""
+    parser = command_parser("run", __doc__, prog)
+    parser.add_argument("scenario", help="the scenario YAML file")
+    add_method(parser, None, shown="the scenario's planner.method")
+    add_seed(parser, None, "seed of all randomness")
+    add_out(parser, file=False, text="output folder (default out/<scenario file stem>/)")
+    parser.add_argument("--meshcat", action="store_true",
+                        help="also serve a live Meshcat and simulate in real time")
+    parser.add_argument("--host", default=MESHCAT_HOST,
+                        help=f"the address Meshcat listens on (default {MESHCAT_HOST}: this "
+                             "machine only; 0.0.0.0: every network interface)")
+    parser.add_argument("--feasibility", choices=FEASIBILITY_SOURCES,
+                        help="source of Fea^m: the Drake oracle or the network (default: the "
+                             "scenario's planner.feasibility)")
+    parser.add_argument("--recovery", choices=RECOVERY_MODES,
+                        help="what execution does when an action fails (default: the "
+                             "scenario's execution.recovery, replan unless it says otherwise)")
+    parser.add_argument("--no-noise", action="store_true",
+                        help="simulate without navigation and reaching noise (the planner "
+                             "still plans with the scenario's noise model)")
+    args = parser.parse_args(argv)
+
+    import dataclasses
+
+    from s3o_drake.world.scenario import scenario_stem
+
+    scenario = read_scenario(args.scenario)
+    if not any(d.goal != "stay" for d in scenario.dishes):
+        fail(f"{args.scenario}: dishes: none to collect or place (an empty file is all "
+             "defaults: a room without tables or dishes)")
+    if args.feasibility is not None:
+        scenario = dataclasses.replace(scenario, planner=dataclasses.replace(
+            scenario.planner, feasibility=args.feasibility))
+    if args.recovery is not None:
+        scenario = dataclasses.replace(scenario, execution=dataclasses.replace(
+            scenario.execution, recovery=args.recovery))
+    seed = scenario.seed if args.seed is None else args.seed
+    out = out_folder(args.out or scenario.outputs.directory
+                     or Path("out") / scenario_stem(args.scenario))
+
+    from s3o_drake.execution.execute import execute
+
+    if not args.meshcat:  # the recording needs a Meshcat, but nobody is watching it live
+        logging.getLogger("drake").setLevel(logging.WARNING)
+    meshcat = start_meshcat(args.host)
+    if args.meshcat:
+        print(f"Meshcat: {meshcat.web_url()}", flush=True)
+    run = execute(scenario, method=args.method, seed=seed, meshcat=meshcat,
+                  realtime=args.meshcat, noise=not args.no_noise)
+
+    out.mkdir(parents=True, exist_ok=True)
+    report = {"scenario": str(args.scenario), "method": args.method or scenario.planner.method,
+              "feasibility": scenario.planner.feasibility, "seed": seed,
+              "recovery": scenario.execution.recovery,
+              "noise": not args.no_noise, **run.report}
+    write_atomically(out / "report.json", json.dumps(report, indent=1) + "\n")
+    written = [out / "report.json"]
+    plan = latest_plan(run)
+    if plan is not None:
+        plan.write(out / "plan.json")
+        written.append(out / "plan.json")
+    if scenario.outputs.playback:
+        write_atomically(out / "playback.html", run.html)
+        written.append(out / "playback.html")
+    written += _write_pictures(scenario, run, plan, out)
+
+    plans = 1 + sum(r["kind"] == "replan" for r in report.get("recoveries", []))
+    if plan is not None:
+        if plans > 1:
+            print(f"The latest of {plans} plans (plan.json; the execution below lists the "
+                  "actions of every plan):")
+        print(describe_plan(plan))
+    print(describe_execution(report))
+    if run.plan is not None:
+        # The prediction made before the execution began: the first plan's.
+        predicted, simulated = run.plan.predicted_time, report["execution_time"]
+        first = f" by the first of {plans} plans" if plans > 1 else ""
+        print(f"Execution time: predicted {predicted:.1f} s{first}, simulated {simulated:.1f} s "
+              f"({100 * (predicted - simulated) / max(simulated, 1e-9):+.1f} %; the prediction "
+              "is the plan as planned: exact landings, every action done).")
+    for path in written:
+        print(f"  wrote {path}")
+    if args.meshcat and sys.stdin.isatty():
+        input("Meshcat is still serving; press Enter to exit.")
+    return 0 if report["completed"] == report["dishes"] else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,50 @@
+"""Whether two studies' runs did the same, the machine's timings aside.
+
+    s3o bench same-runs BEFORE AFTER
+
+BEFORE and AFTER: study folders (their results.jsonl) of the same tasks, methods and seeds,
+made by two versions of the code. Runs are paired by task, method, run seed and recovery;
+for each pair every field of the row is compared but the bookkeeping and the wall-clock
+timings (code, schema, job_seconds, planning_time, realtime_rate and anything of "wall").
+Prints the pairs compared and each difference; exit status 0 when they are identical, 1
+when some run did something else, 2 on bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from s3o_drake.commands.common import command_parser, fail
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = command_parser("bench same-runs", __doc__)
+    parser.add_argument("before", metavar="BEFORE", help="a study folder")
+    parser.add_argument("after", metavar="AFTER", help="the same study, other code")
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    for name, folder in (("BEFORE", args.before), ("AFTER", args.after)):
+        if not (Path(folder) / "results.jsonl").is_file():
+            fail(f"{name}: no results.jsonl in {folder}")
+    from s3o_drake.experiments.run_rows import run_differences
+    from s3o_drake.experiments.store import ResultStore
+
+    rows = [ResultStore(Path(f) / "results.jsonl", read_only=True).rows()
+            for f in (args.before, args.after)]
+    pairs, differences = run_differences(*rows)
+    if pairs == 0:
+        fail("AFTER: no run of BEFORE's tasks, methods and seeds")
+    for line in differences:
+        print(line)
+    print(f"{pairs} runs compared: " + ("identical, timings aside" if not differences
+                                         else f"{len(differences)} differences"))
+    return 1 if differences else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,306 @@
+"""The base's motion to a landing, checked against a collision predicate, with the escapes
+a blocked motion tries: what the BaseNavigator drives.
+
+A motion is a chain of `Segment`s, each a turn in place or a straight drive
+(`base_motion.motion_segments`), timed with a trapezoidal speed profile (`MotionProfile`).
+`cut_at_collision` samples its poses every CHECK_STEP_XY / CHECK_STEP_YAW and keeps it up
+to the last free one: a collision within FINAL_APPROACH of the end of the driving, or in
+the final turn, only shortens the landing; an earlier one, or one in the turn before any
+driving, blocks the way. `plan_motion` makes the direct motion and, when it is blocked,
+tries the escapes in turn (the first that is not blocked wins): the first turn the other
+way round, keeping to the planned last leg, backing out or driving straight on
+(ESCAPE_STEPS) before turning, and going back the way the base came (its trail). A
+motion that lands short facing away from the stop's heading is replaced, where one fits,
+by one that turns before the stop and drives the last APPROACH_STEPS straight in.
+
+Nothing here knows the world: "free" is a `FreeTest` (base poses (n, 3) -> bool (n,)), so
+that the search is tested on a predicate of a few lines.
+"""
+
+import itertools
+import math
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from s3o_drake.feasibility.landing import (
+    CHECK_STEP_XY,
+    CHECK_STEP_YAW,
+    FINAL_APPROACH,
+    TURN_TOLERANCE,
+    FreeTest,
+)
+from s3o_drake.planning.navigation.base_motion import (
+    ACCELERATION,
+    TINY,
+    YAW_ACCELERATION,
+    YAW_RATE,
+    motion_segments,
+    trapezoid,
+)
+from s3o_drake.world.angles import wrap
+
+#: How far (m) the base may back straight out of a tight stop, or drive straight on, before
+#: it turns, tried in turn (backing out first at each distance) when the direct motion is
+#: blocked.
+ESCAPE_STEPS = tuple(0.05 * k for k in range(1, 13))
+#: A motion that drives at least this far (m) starts a new trail (`extend_trail`): the base
+#: came from open floor.
+RETRACE_RESET = 0.5
+#: The base must stand within this (m, rad) of where its trail ends to retrace it.
+RETRACE_TOLERANCE = 0.05
+#: How far (m) before a stop the base may turn to the stop's heading and drive straight in,
+#: tried in turn when the direct motion lands short.
+APPROACH_STEPS = tuple(0.1 * k for k in range(1, 9))
+#: A drive cut short of a collision ends at its last free sample only when the pose this
+#: share of a check step beyond it (1 mm, 0.0025 rad) is free too, else a sample earlier:
+#: the plant settles within a hair of its set point (0.00008 rad past a turn's end was
+#: seen), and a sample that close to the collision left the base standing in it (a pickup
+#: then failed "base_collision").
+SETTLE_MARGIN = 0.05
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A straight move from pose `start` to pose `end` (x, y, yaw): a drive (xy changes) or a
+    turn (yaw changes), `length` m or rad long, run with a trapezoidal speed profile."""
+
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+    turn: bool
+    length: float
+    speed: float  # cruise speed actually reached (m/s or rad/s)
+    accel: float
+    duration: float
+
+    @staticmethod
+    def make(start: Sequence[float], end: Sequence[float], *, turn: bool, length: float,
+             max_speed: float, accel: float) -> "Segment":
+        # The profile's arithmetic is the planner's too (planning/navigation/base_motion.py).
+        speed, duration = trapezoid(length, max_speed, accel)
+        return Segment(tuple(map(float, start)), tuple(map(float, end)), turn, float(length),
+                       speed, accel, duration)
+
+    def at(self, tau: float) -> tuple[float, float]:
+        """Distance travelled and its rate, `tau` s after the segment began."""
+        tau = min(max(tau, 0.0), self.duration)
+        t_ramp = self.speed / self.accel
+        if tau < t_ramp:
+            return 0.5 * self.accel * tau**2, self.accel * tau
+        remaining = self.duration - tau
+        if remaining < t_ramp:
+            return self.length - 0.5 * self.accel * remaining**2, self.accel * remaining
+        return 0.5 * self.speed * t_ramp + self.speed * (tau - t_ramp), self.speed
+
+    def pose(self, s: float) -> np.ndarray:
+        """The pose after travelling `s` along the segment."""
+        a, b = np.asarray(self.start), np.asarray(self.end)
+        return a + (b - a) * (s / self.length)
+
+
+@dataclass(frozen=True)
+class MotionProfile:
+    """How fast the base moves: cruise `speed` (m/s) and `max_yaw_rate` (rad/s), reached and
+    left at `acceleration` (m/s²) and `yaw_acceleration` (rad/s²)."""
+
+    speed: float
+    max_yaw_rate: float = YAW_RATE
+    acceleration: float = ACCELERATION
+    yaw_acceleration: float = YAW_ACCELERATION
+
+    def segment(self, start: Sequence[float], end: Sequence[float], *, turn: bool,
+                length: float) -> Segment:
+        if turn:
+            return Segment.make(start, end, turn=True, length=length,
+                                max_speed=self.max_yaw_rate, accel=self.yaw_acceleration)
+        return Segment.make(start, end, turn=False, length=length, max_speed=self.speed,
+                            accel=self.acceleration)
+
+    def segments(self, waypoints: Sequence[np.ndarray], yaw: float, target_yaw: float, *,
+                 long_way: bool = False) -> list[Segment]:
+        """Turn-then-drive segments through the waypoints, then the turn to `target_yaw`
+        (`base_motion.motion_segments`: the rule the planner's cost model times); with
+        `long_way`, the first turn goes the other way round."""
+        return [self.segment(s.start, s.end, turn=s.turn, length=s.length)
+                for s in motion_segments(waypoints, yaw, target_yaw, long_way=long_way)]
+
+
+@dataclass(frozen=True)
+class Cut:
+    """A motion checked against the world: its `segments` up to the last free pose, whether
+    the collision `blocked` the way (rather than shortening the landing), and the first
+    colliding pose `hit` (None when none collides: the segments are the motion's own)."""
+
+    segments: list[Segment]
+    blocked: bool = False
+    hit: np.ndarray | None = None
+
+
+def facing(segments: Sequence[Segment], yaw: float) -> bool:
+    """Whether the motion ends facing `yaw` (within the landing model's TURN_TOLERANCE)."""
+    return bool(segments) and abs(wrap(segments[-1].end[2] - yaw)) <= TURN_TOLERANCE
+
+
+def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence[float]],
+                stop: Sequence[float], turn: bool, trail: tuple[Segment, ...],
+                free: FreeTest | None, profile: MotionProfile) -> Cut:
+    """The motion from the true pose `base` (x, y, yaw) to the landing `target` (x, y, yaw)
+    through the inner waypoints of `path` (its first and last stand for `base` and
+    `target`), checked with `free` (None: everything is free), with the escapes of the
+    module docstring when it is blocked. `stop`: the commanded stop (x, y), which the
+    planned last leg runs to; `turn`: a turn in place where the base stands; `trail`: the
+    way the base came (`extend_trail`)."""
+    waypoints = [np.asarray(base[:2], float)]
+    if not turn:
+        waypoints += [np.asarray(p, float) for p in path[1:-1]]
+        waypoints.append(target[:2])
+    # A turn turns where the base stands: its pose's x, y are where the planner saw the
+    # base a control period earlier, and the base has since drifted by micrometres (the
+    # arm's motion pushes it against its PD); driving there first meant turning towards
+    # that micro-drive, up to π/2 out of the way and back.
+    cut = cut_at_collision(profile.segments(waypoints, float(base[2]), float(target[2])),
+                           free, profile)
+    if cut.blocked:
+        # The noisy landing left the base where the turn towards the path hits something
+        # (a stop only keeps the inscribed radius): first turn the other way round,
+        # then back straight out or drive straight on (ESCAPE_STEPS, the shortest
+        # first) before turning.
+        yaw = float(base[2])
+        heading = np.array([math.cos(yaw), math.sin(yaw)])
+        # Built one at a time: the first that is not blocked ends the search.
+        # The way in, each of them then retraced: a base that backs out of a pocket
+        # it drove into may still need to keep to the planned leg of the next one.
+        ways = [waypoints, *along_plan(stop, waypoints, turn=turn)]
+        escapes = itertools.chain(
+            [profile.segments(waypoints, yaw, float(target[2]), long_way=True)],
+            (profile.segments(way, yaw, float(target[2])) for way in ways[1:]),
+            (profile.segments([waypoints[0], waypoints[0] + d * heading, *waypoints[1:]],
+                              yaw, float(target[2]))
+             for step in ESCAPE_STEPS for d in (-step, step)),
+            itertools.chain.from_iterable(
+                retrace(trail, base, way, float(target[2]), profile) for way in ways))
+        for escape in escapes:
+            escaped = cut_at_collision(escape, free, profile)
+            if not escaped.blocked:
+                return escaped
+    elif cut.hit is not None and not turn and not facing(cut.segments, target[2]):
+        # Landed short, facing away from the stop's heading: the final turn towards the
+        # dish hits something (a noisy landing between a chair and the bar: the pickups
+        # then failed, the arm facing away). Turn before, where there is room, and drive
+        # the last APPROACH_STEPS straight in along the stop's heading, as Fea^m's landing
+        # model has it (`landing.stop_short`: a landing that collides stops short along
+        # its heading, facing the dish).
+        h = np.array([math.cos(target[2]), math.sin(target[2])])
+        for d in APPROACH_STEPS:
+            approach = profile.segments([*waypoints[:-1], target[:2] - d * h, target[:2]],
+                                        float(base[2]), float(target[2]))
+            approached = cut_at_collision(approach, free, profile)
+            if not approached.blocked and facing(approached.segments, target[2]):
+                return approached
+    return cut
+
+
+def along_plan(stop: Sequence[float], waypoints: list[np.ndarray], *, turn: bool
+               ) -> Iterator[list[np.ndarray]]:
+    """Waypoints that keep to the planned last leg, towards the commanded `stop`, and turn
+    off it to the noisy landing (`waypoints[-1]`) only APPROACH_STEPS before the stop,
+    the nearest first. The straight drive from the last waypoint to the landing swings
+    the whole leg by the noise; next to a chair, its first metre then clips what the
+    planned leg clears (a 1 m leg, 10 cm of noise, blocked 4 cm after the turn)."""
+    if turn or len(waypoints) < 2:
+        return
+    stop = np.asarray(stop[:2], dtype=float)
+    leg = stop - waypoints[-2]
+    length = float(np.linalg.norm(leg))
+    for d in APPROACH_STEPS:
+        if d >= length:
+            return
+        yield [*waypoints[:-1], stop - d * leg / length, waypoints[-1]]
+
+
+def retrace(trail: tuple[Segment, ...], base: np.ndarray, waypoints: list[np.ndarray],
+            target_yaw: float, profile: MotionProfile) -> Iterator[list[Segment]]:
+    """The last escape: back the way the base came (`trail`, undone move by move: its
+    turns turned back, its drives driven in reverse), to where the last long drive's
+    last leg began, then on to the waypoints; none when the base no longer stands
+    where the trail ends. In an aisle too narrow to turn in (the dense restaurant's
+    0.85 m), a noisy landing leaves the base where it can neither turn towards its
+    next path nor back out by ESCAPE_STEPS, but the way in is free."""
+    if not trail:
+        return
+    end = np.asarray(trail[-1].end)
+    if (np.linalg.norm(end[:2] - base[:2]) > RETRACE_TOLERANCE
+            or abs(wrap(end[2] - base[2])) > RETRACE_TOLERANCE):
+        return
+    back = [profile.segment(seg.end, seg.start, turn=seg.turn, length=seg.length)
+            for seg in reversed(trail)]
+    origin = np.asarray(trail[0].start)
+    yield back + profile.segments([origin[:2], *waypoints[1:]], float(origin[2]), target_yaw)
+
+
+def cut_at_collision(segments: list[Segment], free: FreeTest | None,
+                     profile: MotionProfile) -> Cut:
+    """The segments up to the last free pose, whether the collision blocks the way, and
+    the first colliding pose (see `Cut`). Collisions at the very start (the base already
+    stands there) are ignored until the first free pose."""
+    if free is None or not segments:
+        return Cut(segments)
+    # Samples: (segment index, distance along it, pose); index -1 is the start pose.
+    samples = [(-1, 0.0, np.asarray(segments[0].start))]
+    for i, seg in enumerate(segments):
+        n = max(1, math.ceil(seg.length / (CHECK_STEP_YAW if seg.turn else CHECK_STEP_XY)))
+        samples += [(i, seg.length * k / n, seg.pose(seg.length * k / n))
+                    for k in range(1, n + 1)]
+    is_free = free(np.array([pose for _, _, pose in samples]))
+    first_free = int(np.argmax(is_free)) if is_free.any() else len(is_free)
+    colliding = np.flatnonzero(~is_free[first_free:])
+    if colliding.size == 0:
+        return Cut(segments)
+    hit = first_free + int(colliding[0])
+    last = hit - 1
+    if last > first_free and not free(nudged(samples[last][2], samples[hit][2])[None])[0]:
+        # The collision begins a hair past the last free pose: the plant, which settles
+        # within a hair of its set point, would stand in it. Stop a step earlier.
+        last -= 1
+    last_i, last_s, _ = samples[last]
+    kept = list(segments[:last_i]) if last_i >= 0 else []
+    if last_i >= 0 and last_s > TINY:
+        seg = segments[last_i]
+        if last_s >= seg.length - TINY:
+            kept.append(seg)
+        else:
+            kept.append(profile.segment(seg.start, seg.pose(last_s), turn=seg.turn,
+                                        length=last_s))
+    return Cut(kept, blocked=blocks(segments, samples[hit][:2]), hit=samples[hit][2])
+
+
+def nudged(free_pose: np.ndarray, colliding_pose: np.ndarray) -> np.ndarray:
+    """The pose SETTLE_MARGIN of the way from a free sample to the colliding one."""
+    step = np.asarray(colliding_pose, dtype=float) - free_pose
+    step[2] = wrap(step[2])
+    return free_pose + SETTLE_MARGIN * step
+
+
+def blocks(segments: Sequence[Segment], hit: tuple[int, float]) -> bool:
+    """Whether a collision `hit` = (segment index, distance along it) blocks the way,
+    rather than only shortening the landing."""
+    i, s = hit
+    drives = [0.0 if seg.turn else seg.length for seg in segments]
+    final_turn = segments[i].turn and i == len(segments) - 1
+    travelled = sum(drives[:i]) + (0.0 if segments[i].turn else s)
+    # A turn before any driving that collides is no landing short, however short the
+    # drive after it (a corrective move of 10 cm next to a table): it is blocked, so that
+    # the escapes (the other way round, backing out first) get their try.
+    turn_first = segments[i].turn and travelled == 0.0 and sum(drives) > 0.0
+    return turn_first or not (final_turn or travelled >= sum(drives) - FINAL_APPROACH)
+
+
+def extend_trail(before: tuple[Segment, ...], segments: Sequence[Segment]
+                 ) -> tuple[Segment, ...]:
+    """The way the base came after a motion of `segments`: from its last drive leg on
+    when it drove at least RETRACE_RESET, else `before` and the motion."""
+    drives = [i for i, seg in enumerate(segments) if not seg.turn]
+    if drives and sum(segments[i].length for i in drives) >= RETRACE_RESET:
+        return tuple(segments[drives[-1]:])
+    return (*before, *segments)

@@ -1,0 +1,292 @@
+"""Calibration of Fea^m against executed pickups: the figures and the reliability diagram.
+
+Fea^m is a probability: of the pickups it rates p, a share p should succeed. The records
+(`PickupRecord`, one per executed pickup, written by `run` into report.json and by
+`evaluate` into each row of results.jsonl) pair the plan's prediction with the outcome.
+From them:
+
+- the reliability diagram: the predictions in equal-width bins of [0, 1], each bin's mean
+  prediction against its observed success (with a 95 % Clopper-Pearson interval and the
+  count); a calibrated model lies on the diagonal;
+- the expected calibration error, ECE = Σ_b (n_b / N) |mean predicted_b - observed_b|;
+- the Brier score, mean (p - y)² with y = 1 for a success, 0 for a failure;
+- the observed success of the pickups predicted at or above `HIGH` (0.9), with its count
+  and 95 % interval: the pickups a planner counts on.
+
+Records of runs from before they were recorded do not exist: such rows are refused, not
+guessed (`RecordsError`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only; never a window
+import numpy as np
+from scipy.stats import beta
+
+from s3o_drake.execution.messages import PickupRecord
+from s3o_drake.experiments.store import ResultStore
+from s3o_drake.world.choices import CALIBRATION_GROUPINGS
+from s3o_drake.world.goals import placed_object
+
+HIGH = 0.9
+"""Pickups predicted at or above this are the ones a plan counts on."""
+LEVEL = 0.95
+"""Confidence level of the binomial intervals."""
+RESULTS_FILE = "results.jsonl"
+REPORT_FILE = "report.json"
+
+
+class RecordsError(ValueError):
+    """The input holds no usable pickup records; the message names the file and why."""
+
+
+@dataclass(frozen=True)
+class Bin:
+    """Predictions in [low, high) (the last bin includes 1): how many, their mean, and the
+    share that succeeded with its 95 % interval (NaN and None for an empty bin)."""
+
+    low: float
+    high: float
+    count: int
+    successes: int
+    mean_predicted: float
+    interval: tuple[float, float] | None
+
+    @property
+    def observed(self) -> float:
+        return self.successes / self.count if self.count else math.nan
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """The calibration figures of one set of pickups (see the module docstring)."""
+
+    count: int
+    successes: int
+    mean_predicted: float
+    ece: float
+    brier: float
+    high_count: int
+    """Pickups predicted >= HIGH."""
+    high_successes: int
+    high_interval: tuple[float, float] | None
+    """95 % interval of their success rate (None when there are none)."""
+    bins: tuple[Bin, ...]
+
+    @property
+    def success_rate(self) -> float:
+        return self.successes / self.count if self.count else math.nan
+
+    @property
+    def high_success(self) -> float:
+        return self.high_successes / self.high_count if self.high_count else math.nan
+
+    def to_dict(self) -> dict:
+        """Plain JSON data (None for what is undefined)."""
+        def number(v: float) -> float | None:
+            return None if math.isnan(v) else v
+
+        return {"pickups": self.count, "successes": self.successes,
+                "success_rate": number(self.success_rate),
+                "mean_predicted": number(self.mean_predicted), "ece": number(self.ece),
+                "brier": number(self.brier), "high_threshold": HIGH,
+                "high_pickups": self.high_count, "high_successes": self.high_successes,
+                "high_success": number(self.high_success),
+                "high_interval": None if self.high_interval is None
+                else list(self.high_interval),
+                "bins": [{"low": b.low, "high": b.high, "pickups": b.count,
+                          "successes": b.successes,
+                          "mean_predicted": number(b.mean_predicted),
+                          "observed": number(b.observed),
+                          "interval": None if b.interval is None else list(b.interval)}
+                         for b in self.bins]}
+
+
+def binomial_interval(successes: int, count: int, level: float = LEVEL) -> tuple[float, float]:
+    """Clopper-Pearson (exact) interval of a success rate: conservative, and meaningful for
+    the few pickups of a sparse bin and for rates near 1, where the normal one is not."""
+    if count <= 0 or not 0 <= successes <= count:
+        raise ValueError(f"need 0 <= successes <= count and count > 0, got {successes}/{count}")
+    alpha = 1.0 - level
+    low = 0.0 if successes == 0 else float(beta.ppf(alpha / 2, successes,
+                                                    count - successes + 1))
+    high = 1.0 if successes == count else float(beta.ppf(1 - alpha / 2, successes + 1,
+                                                         count - successes))
+    return low, high
+
+
+def calibrate(predicted: Sequence[float], succeeded: Sequence[bool], *,
+              bins: int = 10) -> Calibration:
+    """The figures of pickups predicted `predicted` (each in [0, 1]) with outcomes
+    `succeeded`, over `bins` equal-width bins."""
+    p = np.asarray(predicted, dtype=float)
+    y = np.asarray(succeeded, dtype=bool)
+    if p.shape != y.shape or p.ndim != 1:
+        raise ValueError("predicted and succeeded must be two sequences of one length")
+    if bins < 1:
+        raise ValueError(f"bins: expected at least 1, got {bins}")
+    if np.any((p < 0) | (p > 1) | ~np.isfinite(p)):
+        raise ValueError("predictions must lie in [0, 1]")
+    n = len(p)
+    index = np.minimum((p * bins).astype(int), bins - 1)  # 1.0 falls in the last bin
+    table = []
+    ece = 0.0
+    for b in range(bins):
+        inside = index == b
+        count, wins = int(inside.sum()), int(y[inside].sum())
+        mean = float(p[inside].mean()) if count else math.nan
+        if count:
+            ece += count / n * abs(mean - wins / count)
+        table.append(Bin(low=b / bins, high=(b + 1) / bins, count=count, successes=wins,
+                         mean_predicted=mean,
+                         interval=binomial_interval(wins, count) if count else None))
+    high = p >= HIGH
+    high_count, high_wins = int(high.sum()), int(y[high].sum())
+    return Calibration(
+        count=n, successes=int(y.sum()), mean_predicted=float(p.mean()) if n else math.nan,
+        ece=ece if n else math.nan,
+        brier=float(np.mean((p - y) ** 2)) if n else math.nan,
+        high_count=high_count, high_successes=high_wins,
+        high_interval=binomial_interval(high_wins, high_count) if high_count else None,
+        bins=tuple(table))
+
+
+def calibrate_records(records: Iterable[PickupRecord], *, bins: int = 10) -> Calibration:
+    records = list(records)
+    return calibrate([r.predicted for r in records], [r.succeeded for r in records],
+                     bins=bins)
+
+
+# --------------------------------------------------------------------------- reading
+
+@dataclass(frozen=True)
+class Records:
+    """The pickups read from some results, and how many runs they came from."""
+
+    pickups: tuple[PickupRecord, ...]
+    runs: int
+    files: tuple[Path, ...]
+
+
+def read_records(paths: Sequence[str | Path]) -> Records:
+    """The pickup records of `paths`: results.jsonl files of `evaluate`, folders holding one
+    (else the report.json files below them), report.json files of `run`. RecordsError
+    names the first file that holds none or a bad one."""
+    pickups: list[PickupRecord] = []
+    runs = 0
+    files: list[Path] = []
+    for path in map(Path, paths):
+        for file in _result_files(path):
+            if any(file.resolve() == seen.resolve() for seen in files):
+                continue  # named twice (a folder and its file): its runs count once
+            found, count = (_read_results(file) if file.suffix == ".jsonl"
+                            else _read_report(file))
+            pickups += found
+            runs += count
+            files.append(file)
+    return Records(pickups=tuple(pickups), runs=runs, files=tuple(files))
+
+
+def _result_files(path: Path) -> list[Path]:
+    if path.is_dir():
+        if (path / RESULTS_FILE).is_file():
+            return [path / RESULTS_FILE]
+        reports = sorted(p for p in path.rglob(REPORT_FILE) if p.is_file())
+        if not reports:
+            raise RecordsError(f"{path}: no {RESULTS_FILE} in it and no {REPORT_FILE} "
+                               "below it")
+        return reports
+    if not path.is_file():
+        raise RecordsError(f"{path}: no such file or folder")
+    return [path]
+
+
+def _read_results(path: Path) -> tuple[list[PickupRecord], int]:
+    """A study's results (JSON lines, as ResultStore reads them: the last row of a key)."""
+    rows = [r for r in ResultStore(path, read_only=True).rows()
+            if r.get("kind") == "run" and "error" not in r]
+    if not rows:
+        raise RecordsError(f"{path}: no finished runs (not a results.jsonl of evaluate?)")
+    old = [r for r in rows if "pickups" not in r]
+    if old:
+        raise RecordsError(
+            f"{path}: {len(old)} of {len(rows)} runs have no per-pickup records (written "
+            "before they were recorded: their predicted Fea^m is not in the file)")
+    pickups = []
+    for row in rows:
+        pickups += _parse(row["pickups"], f"{path}: run {row['key']}")
+    return pickups, len(rows)
+
+
+def _read_report(path: Path) -> tuple[list[PickupRecord], int]:
+    try:
+        report = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise RecordsError(f"{path}: not a JSON report ({str(e).splitlines()[0]})") from e
+    if not isinstance(report, dict) or "outcomes" not in report:
+        raise RecordsError(f"{path}: not a run report (no outcomes)")
+    if "pickups" not in report:
+        raise RecordsError(f"{path}: a run report without per-pickup records (written "
+                           "before they were recorded)")
+    return _parse(report["pickups"], str(path)), 1
+
+
+def _parse(data: object, where: str) -> list[PickupRecord]:
+    if not isinstance(data, list):
+        raise RecordsError(f"{where}: pickups: expected a list, got {data!r:.60}")
+    records = []
+    for i, item in enumerate(data):
+        try:
+            records.append(PickupRecord.from_dict(item))
+        except ValueError as e:
+            raise RecordsError(f"{where}: pickups[{i}]: {e}") from e
+    return records
+
+
+# ------------------------------------------------------------------------- reporting
+
+def action_of(record: PickupRecord) -> str:
+    """"place" for the record of putting an object down (its dish is a place target),
+    else "pickup"."""
+    return "pickup" if placed_object(record.dish) is None else "place"
+
+
+def grouped(records: Sequence[PickupRecord], by: str) -> dict[str, list[PickupRecord]]:
+    """The records by "method", "source" or "action" (`action_of`; keys sorted), or all
+    under "all" (by "all")."""
+    if by == "all":
+        return {"all": list(records)}
+    if by not in CALIBRATION_GROUPINGS:
+        raise ValueError(f"by: expected one of {', '.join(CALIBRATION_GROUPINGS)}, got {by!r}")
+    groups: dict[str, list[PickupRecord]] = {}
+    for record in records:
+        key = action_of(record) if by == "action" else getattr(record, by)
+        groups.setdefault(key, []).append(record)
+    return dict(sorted(groups.items()))
+
+
+def figures_table(figures: Mapping[str, Calibration]) -> str:
+    """One line per group: pickups, success, mean prediction, ECE, Brier, and the success
+    of those predicted >= HIGH with its count and 95 % interval."""
+    name_width = max(12, *(len(name) for name in figures))
+    lines = [f"{'':<{name_width}}  pickups  success  mean Fea^m    ECE   Brier   "
+             f"Fea^m >= {HIGH:g}: success (n) [95 % interval]"]
+    for name, f in figures.items():
+        if f.high_count:
+            low, high = f.high_interval
+            top = f"{f.high_success:.3f} ({f.high_count}) [{low:.3f}, {high:.3f}]"
+        else:
+            top = "none"
+        lines.append(f"{name:<{name_width}}  {f.count:7d}  {f.success_rate:7.3f}  "
+                     f"{f.mean_predicted:10.3f}  {f.ece:5.3f}  {f.brier:6.3f}   {top}")
+    return "\n".join(lines)
+
+

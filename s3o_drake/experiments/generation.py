@@ -1,0 +1,75 @@
+"""The task generator's check on the true world: which dishes no stop can serve.
+
+The generator (`world.task_generation`) draws chairs and keeps a task only when every dish
+keeps a candidate stop; `python -m s3o_drake.commands.generate` gives it this test. It reads
+the truth (every chair where the scenario puts it), as a generator may, and never plans.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import shapely
+
+from s3o_drake.belief.known_world import KnownWorld
+from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.feasibility.planning_scene import PlanningScene
+from s3o_drake.planning.navigation.map import NavigationMap
+from s3o_drake.world.robot import INSCRIBED_RADIUS
+from s3o_drake.world.scenario import Scenario
+
+STOP_CELL = 0.05
+"""Grid spacing (m) of the candidate stops `dishes_without_stops` tries."""
+
+
+def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0, *,
+                         first: bool = False) -> list[str]:
+    """The dishes (and place targets) of `scenario` that have no candidate stop: no base
+    position within the planner's reach (`planner.reach`) of them that is free as planned
+    (`FreeStops`, on a grid of STOP_CELL) and that a drive from the robot's start reaches,
+    in the true world (every chair where the scenario puts it). No method can pick such a
+    dish; the benchmark's tasks have none (`task_generation.generate_task`, `stops`).
+
+    `chair_margin` (m): the drives are asked on a map whose unmapped chairs are grown by
+    it, where perception may put them. A dish whose only way passes a chair within that
+    of the drives' clearance is then named too: on the chairs perception finds, millimetres
+    off, the planner may find no way there (dense task_030 and task_045, docs/results.md).
+
+    `best_stops` with Fea^m 1 within reach, but cheaper (the generator asks once per chair
+    drawn): the collision check, the costly part, is asked only at positions that keep
+    the base's inscribed radius from every obstacle (nearer, every yaw collides) and that a
+    drive reaches, and only until one free stop is found (`FreeStops.any_free_cell`).
+
+    `first`: return at the first dish found without a stop (a list of one), for a caller
+    that asks only whether there is one. The generator's rejected chairs mostly close a
+    dish's last drivable way, which the navigation map alone shows: they then cost no
+    collision checker."""
+    known = KnownWorld.perfect(scenario)
+    reach = known.planner.reach
+    nav = NavigationMap(known.obstacles_grown(chair_margin))
+    start = nav.way_out(known.pose[:2])
+    clear = known.obstacles.free_space(INSCRIBED_RADIUS)
+    cells = int(np.ceil(2 * reach / STOP_CELL))
+    missing, asked = [], []
+    for dish in known.dishes:
+        p = np.asarray(dish.position[:2], float)
+        grid = Heatmap(dish.name, np.zeros((cells, cells)), p[0] - reach, p[1] - reach,
+                       STOP_CELL)
+        centres = grid.centers()
+        ask = (np.linalg.norm(centres - p, axis=-1) <= reach) & shapely.contains_xy(
+            clear, centres[..., 0], centres[..., 1])
+        ask[ask] = nav.reachable(start, centres[ask])
+        if not ask.any():
+            if first:
+                return [dish.name]
+            missing.append(dish.name)
+        else:
+            asked.append(dataclasses.replace(grid, values=ask.astype(float)))
+    stops = PlanningScene(known).free_stops if asked else None
+    for grid in asked:
+        if not stops.any_free_cell(grid):
+            if first:
+                return [grid.dish]
+            missing.append(grid.dish)
+    return sorted(missing)

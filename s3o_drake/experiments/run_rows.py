@@ -1,0 +1,75 @@
+"""What a study's result rows say beyond their fields: whether a run has an execution time,
+the completion its plan predicted, and the commit the rows were made at."""
+
+from collections import Counter
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+
+def has_time(run: Mapping) -> bool:
+    """Whether a run has an execution time: it made a plan (one without has none, not 0 s)."""
+    return bool(run.get("planned", True))
+
+
+def predicted_completion(run: Mapping) -> float:
+    """The chance the run's plan gave itself of collecting every dish: the product of the
+    plan's Fea^m of its pickups, 0 with a dish left out or without a plan. Rows made before
+    it was recorded (`predicted_completion`) give it from their pickup records (each dish's
+    first, as planned), a dish without one counting 0."""
+    if "predicted_completion" in run:
+        return float(run["predicted_completion"])
+    if not has_time(run):
+        return 0.0
+    first: dict[str, float] = {}
+    for p in run.get("pickups", ()):
+        first.setdefault(p["dish"], p.get("planned") if p.get("planned") is not None
+                         else p["predicted"])
+    if len(first) < run.get("dishes", len(first)):
+        return 0.0
+    return float(np.prod(list(first.values()))) if first else 1.0
+
+
+def code_of(runs: Sequence[Mapping]) -> str:
+    """The commit the runs were made at ("a (n), b (m)" when several)."""
+    counts = Counter(r.get("code", "not recorded") for r in runs)
+    if len(counts) == 1:
+        return next(iter(counts))
+    return ", ".join(f"{c} ({n})" for c, n in counts.most_common())
+
+
+BOOKKEEPING = frozenset({"code", "schema", "job_seconds", "planning_time", "realtime_rate",
+                         "key", "path", "digest"})
+"""Fields of a run's row that say when, where and how fast it ran, not what it did."""
+
+
+def _what_it_did(value: object) -> object:
+    """`value` without bookkeeping and wall-clock timings, at any depth."""
+    if isinstance(value, Mapping):
+        return {k: _what_it_did(v) for k, v in value.items()
+                if k not in BOOKKEEPING and "wall" not in k and k != "timing"}
+    if isinstance(value, list | tuple):
+        return [_what_it_did(v) for v in value]
+    return value
+
+
+def run_differences(before: Sequence[Mapping], after: Sequence[Mapping]
+                    ) -> tuple[int, list[str]]:
+    """The runs that both sets hold (by task, method, run seed and recovery), and one line
+    per field where a run did something else: plans, outcomes, pickups, recoveries,
+    simulated times. Timings of the machine and bookkeeping are left out, and so are fields
+    that only one of the versions records."""
+    def keyed(rows):
+        return {(r["task"], r["method"], r.get("run_seed"), r.get("recovery", "none")): r
+                for r in rows if "error" not in r}
+    a, b = keyed(before), keyed(after)
+    common = sorted(set(a) & set(b))
+    lines = []
+    for key in common:
+        x, y = _what_it_did(a[key]), _what_it_did(b[key])
+        # A field one version does not record yet is no difference in what the run did.
+        for field in sorted(set(x) & set(y)):
+            if x[field] != y[field]:
+                lines.append(f"{'/'.join(map(str, key))}: {field}: {str(x[field])[:80]} "
+                             f"-> {str(y[field])[:80]}")
+    return len(common), lines

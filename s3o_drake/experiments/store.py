@@ -1,0 +1,127 @@
+"""Results as append-only JSON lines: written as each job finishes, read back on resume.
+
+Each finished job is one line, flushed and fsynced before the next is written, so a run
+that is killed loses at most the line it was writing. That cut-short line is cut off when
+the store is opened again (its job then runs again); every complete line is kept. A write
+that fails (a full disk) takes back what it wrote of its line before it raises.
+
+Every row written says its layout's version (`schema`) and the code that made it (`code`):
+studies and benchmarks resume across commits, and a reader must be able to tell the rows
+apart. Rows written before the schema was recorded have none and read as they are.
+"""
+
+import contextlib
+import functools
+import importlib.metadata
+import json
+import os
+import subprocess
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+from s3o_drake.world.resources import PACKAGE_NAME, REPO_DIR
+
+SCHEMA = 1
+"""The version of the rows' layout that `append` writes as each row's "schema". Rows
+without it (written before it was recorded) are version 0: their fields are a subset of
+version 1's, so they read alike."""
+
+
+def schema_of(row: Mapping) -> int:
+    """The layout version a row was written with (0: before it was recorded)."""
+    return int(row.get("schema", 0))
+
+
+@functools.cache
+def code_version() -> str:
+    """The code a row was made with: the commit of the checkout the package runs from (12
+    hex digits; "+changes" when its s3o_drake/ differs from it, untracked files included),
+    else the package's version. Studies and soaks run for days and resume across commits;
+    each row says which code made it. The one code version: every row the store writes
+    carries it."""
+    def git(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(["git", "-C", str(REPO_DIR), *args], capture_output=True,
+                              text=True, timeout=30, check=False)
+    try:
+        head = git("rev-parse", "--short=12", "HEAD")
+        if head.returncode == 0:
+            status = git("status", "--porcelain", "--", PACKAGE_NAME)
+            changed = status.returncode != 0 or bool(status.stdout.strip())
+            return head.stdout.strip() + ("+changes" if changed else "")
+    except (OSError, subprocess.SubprocessError):
+        pass
+    try:
+        return f"{PACKAGE_NAME} {importlib.metadata.version(PACKAGE_NAME)}"
+    except importlib.metadata.PackageNotFoundError:  # run from a copy, neither git nor pip
+        return f"{PACKAGE_NAME} (unknown version)"
+
+
+class ResultStore:
+    """The rows of `path` (JSON lines), by job key; the last row of a key wins."""
+
+    def __init__(self, path: Path, *, read_only: bool = False,
+                 key: Callable[[dict], str] | None = None) -> None:
+        """`read_only`: never touch the file (another process may be appending to it); a
+        cut-short last line is then only skipped. `key`: the key of a row written without
+        one (a benchmark's file from before it used the store); rows it cannot key
+        (KeyError) are not read."""
+        self.path = Path(path)
+        self.read_only = read_only
+        self._rows: dict[str, dict] = {}
+        if not self.path.exists():
+            return
+        data = self.path.read_bytes()
+        end = data.rfind(b"\n") + 1
+        if end < len(data) and not read_only:  # cut short by a crash: drop it, keep the rest
+            with self.path.open("r+b") as f:
+                f.truncate(end)
+        for line in data[:end].splitlines():
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            if not isinstance(row, dict):
+                continue
+            if "key" not in row and key is not None:
+                with contextlib.suppress(KeyError, TypeError):
+                    row = {"key": key(row), **row}
+            if "key" in row:
+                self._rows[row["key"]] = row
+
+    def rows(self) -> list[dict]:
+        return list(self._rows.values())
+
+    def finished(self, key: str) -> bool:
+        """A job is finished when it has a row without an error (errors run again)."""
+        row = self._rows.get(key)
+        return row is not None and "error" not in row
+
+    def get(self, key: str) -> dict | None:
+        return self._rows.get(key)
+
+    def append(self, row: dict) -> dict:
+        """Adds the row as one line, on disk when this returns, stamped with the layout's
+        version and the code (a row that already names its own, copied from another
+        store, keeps them); returns the row as written. A write that fails (the disk
+        full: OSError ENOSPC) leaves no part of the line behind, so that the next row does
+        not run into it and make both unreadable; the error is raised."""
+        if self.read_only:
+            raise PermissionError(f"{self.path} was opened read-only")
+        row = {"schema": SCHEMA, "code": code_version(), **row}
+        data = (json.dumps(row, sort_keys=True) + "\n").encode()
+        fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+        try:
+            size = os.fstat(fd).st_size
+            try:
+                written = 0
+                while written < len(data):  # os.write may write less than asked
+                    written += os.write(fd, data[written:])
+                os.fsync(fd)
+            except OSError as e:
+                with contextlib.suppress(OSError):  # truncating frees space; best effort
+                    os.ftruncate(fd, size)
+                raise OSError(e.errno, e.strerror, str(self.path)) from e  # names the file
+        finally:
+            os.close(fd)
+        self._rows[row["key"]] = row
+        return row

@@ -1,0 +1,339 @@
+"""The arm's inverse reachability map: stored grasp configurations, looked up in microseconds.
+
+A grasp's frame depends only on its kind ("top", "side"), the bearing from the arm base A to
+the dish and a wrist turn about the approach axis (see `grasps`). Turning the shoulder-pan
+joint by Δ turns the whole arm about A's z axis, and turning wrist 3 turns the gripper about
+the approach axis, so one arm configuration that grasps at bearing 0 with wrist turn 0 serves
+every bearing and turn. The map therefore stores, for each kind, configurations on a grid
+over the grasp point's horizontal distance ρ from A and its height h above A.
+
+Built once with Drake IK on a plant that holds the robot alone (the build is in
+s3o_drake/feasibility/reachability/build.py): at each grid node the closed-form solutions of
+the UR5e (all eight shoulder/wrist/elbow branches) seed `InverseKinematics` with the
+grasp-frame constraints and a self-collision clearance of 1 cm (SNOPT, capped iterations),
+and each verified solution is kept in its branch's slot (at most K = 8 per node). The
+environment is left to query time, where the configurations are moved to the query's
+bearing and checked against the scene with the collision checker
+(`s3o_drake.feasibility.check`).
+
+A query between nodes takes each branch from the grid cell's corners (bilinear interpolation
+of the joint angles), verifies it by forward kinematics and, where it is not yet within
+tolerance, moves it onto the target with a few Newton steps; so the answer does not depend on
+the grid's resolution, and a target beyond the arm's reach has no candidates.
+
+`s3o build reachability` builds the map deterministically
+with worker processes (a few minutes on two cores) and writes it atomically, with its
+settings, as a compressed .npz; `ReachabilityMap.load()` reads it.
+"""
+
+import hashlib
+import io
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from s3o_drake.feasibility import kinematics as kin
+from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP
+from s3o_drake.feasibility.ik import ANGLE_TOLERANCE, POSITION_TOLERANCE
+from s3o_drake.world.resources import REACHABILITY_MAP, ROBOT_URDF
+
+DEFAULT_PATH = REACHABILITY_MAP
+BUILD_COMMAND = "s3o build reachability"
+FORMAT_VERSION = 1
+
+#: A query's candidate is accepted without Newton steps within these errors.
+ACCEPT_POSITION = POSITION_TOLERANCE
+ACCEPT_ANGLE = ANGLE_TOLERANCE
+#: Newton steps go on until within these errors (else the candidate is dropped).
+NEWTON_POSITION = 1e-4
+NEWTON_ANGLE = 1e-3
+#: A grid cell's interpolation is used without verification where it stays this close to
+#: the target at the cell's centre and edge midpoints (else forward kinematics checks it).
+TRUST_POSITION = 0.0005
+TRUST_ANGLE = math.radians(0.5)
+#: Steps that let the orientation give way (weight in m/rad): a 2° tilt then weighs as much
+#: as 0.35 mm of position error.
+TILT_WEIGHT = 0.01
+TILT_ITERATIONS = 12
+
+#: Rotation R_AG of each kind's grasp at bearing 0, wrist turn 0.
+R_KIND = {"top": R_BEARING_TOP.matrix(), "side": R_BEARING_SIDE.matrix()}
+
+
+class ReachabilityMapError(RuntimeError):
+    """The map file is missing, unreadable or was built for another robot model."""
+
+
+def robot_model_sha256() -> str:
+    """SHA-256 of the robot's URDF, recorded in the map so that a stale map is noticed."""
+    urdf = ROBOT_URDF
+    return hashlib.sha256(urdf.read_bytes()).hexdigest()
+
+
+def grid_axis(lo: float, hi: float, step: float) -> np.ndarray:
+    """Nodes from lo to hi (inclusive, rounded to whole steps)."""
+    n = round((hi - lo) / step) + 1
+    return lo + step * np.arange(n)
+
+
+def unwrap_to(q: np.ndarray, q_ref: np.ndarray) -> np.ndarray:
+    """q with each angle moved by whole turns to lie within π of q_ref."""
+    return q_ref + kin.wrap(q - q_ref)
+
+
+_SHARED: dict[tuple, "ReachabilityMap"] = {}
+
+
+@dataclass
+class ReachabilityMap:
+    """Stored arm configurations (bearing 0, wrist turn 0) per grasp kind on a (ρ, h) grid.
+
+    `configs[kind]` is (n_rho, n_h, K, 6) float32, NaN where a branch has no solution;
+    `branch_order[kind]` lists the slots in the order in which query candidates are tried
+    (most often collision-free near tables first); `settings` records how it was built.
+    """
+
+    rho: np.ndarray
+    height: np.ndarray
+    configs: dict[str, np.ndarray]
+    branch_order: dict[str, np.ndarray]
+    settings: dict
+
+    # ----------------------------------------------------------------------------- file
+    @classmethod
+    def shared(cls, path: str | Path | None = None) -> "ReachabilityMap":
+        """`load(path)`, read once per process and file version: the map is never
+        modified, and its lookups, prepared on first use (about 0.3 s per grasp kind), then
+        serve every scene and planning problem of the process."""
+        path = Path(path) if path is not None else DEFAULT_PATH
+        key = (str(path.resolve()), path.stat().st_mtime_ns if path.is_file() else None)
+        if key not in _SHARED:
+            _SHARED[key] = cls.load(path)
+        return _SHARED[key]
+
+    @classmethod
+    def load(cls, path: str | Path | None = None, *, check_robot: bool = True) -> "ReachabilityMap":
+        """Reads a map file (default: the shipped models/reachability_map.npz).
+
+        Raises ReachabilityMapError naming the build command when the file is missing, or
+        when it was built for a different robot model (`check_robot=False` skips that test).
+        """
+        path = Path(path) if path is not None else DEFAULT_PATH
+        if not path.is_file():
+            raise ReachabilityMapError(
+                f"reachability map {path} not found; build it with `{BUILD_COMMAND} --out {path}`")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                settings = json.loads(str(data["settings"]))
+                if settings.get("format") != FORMAT_VERSION:
+                    raise ReachabilityMapError(
+                        f"reachability map {path} has format {settings.get('format')}, expected "
+                        f"{FORMAT_VERSION}; rebuild it with `{BUILD_COMMAND} --out {path}`")
+                configs = {k: data[f"configs_{k}"].astype(np.float32) for k in settings["kinds"]}
+                order = {k: data[f"order_{k}"].astype(np.int64) for k in settings["kinds"]}
+        except (OSError, KeyError, ValueError) as e:
+            raise ReachabilityMapError(
+                f"reachability map {path} is unreadable ({e}); rebuild it with "
+                f"`{BUILD_COMMAND} --out {path}`") from e
+        if check_robot and settings.get("robot_urdf_sha256") != robot_model_sha256():
+            raise ReachabilityMapError(
+                f"reachability map {path} was built for another version of the robot model; "
+                f"rebuild it with `{BUILD_COMMAND} --out {path}`")
+        rho = grid_axis(*settings["rho_range"], settings["resolution"])
+        height = grid_axis(*settings["height_range"], settings["resolution"])
+        return cls(rho=rho, height=height, configs=configs, branch_order=order,
+                   settings=settings)
+
+    def to_bytes(self) -> bytes:
+        """The map as a compressed .npz file's bytes."""
+        buffer = io.BytesIO()
+        arrays = {"settings": np.array(json.dumps(self.settings, sort_keys=True))}
+        for kind, q in self.configs.items():
+            arrays[f"configs_{kind}"] = q.astype(np.float32)
+            arrays[f"order_{kind}"] = np.asarray(self.branch_order[kind], dtype=np.int8)
+        np.savez_compressed(buffer, **arrays)
+        return buffer.getvalue()
+
+    # ---------------------------------------------------------------------------- query
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        return tuple(self.configs)
+
+    def candidates(self, kind: str, rho: float, h: float) -> np.ndarray:
+        """Arm configurations (k, 6) grasping (ρ, h) at bearing 0 with wrist turn 0.
+
+        In the order to try them; empty when (ρ, h) is outside the map or out of reach.
+        """
+        q, valid = self.candidates_many(kind, np.array([rho]), np.array([h]))
+        return q[0][valid[0]]
+
+    def candidates_many(self, kind: str, rho: np.ndarray, h: np.ndarray, *,
+                        pitch: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Vectorised `candidates`: (n, K, 6) configurations and an (n, K) validity mask.
+
+        Slots are in the try order (`branch_order`); invalid slots hold NaN. A `pitch`
+        (rad) tilts the grasp frame about the bearing frame's y axis (positive: the approach
+        axis dips, the wrist behind the grasp point rises); the configurations then solve
+        that tilted target exactly.
+        """
+        rho = np.asarray(rho, dtype=float).reshape(-1)
+        h = np.asarray(h, dtype=float).reshape(-1)
+        cells = self._cells(kind)
+        n_i, n_j, k = cells.full.shape
+        out = np.full((len(rho), k, 6), np.nan)
+        valid = np.zeros((len(rho), k), dtype=bool)
+        u = (rho - self.rho[0]) / self.settings["resolution"]
+        v = (h - self.height[0]) / self.settings["resolution"]
+        rows = np.flatnonzero((u >= 0) & (u <= n_i) & (v >= 0) & (v <= n_j))
+        if rows.size == 0:
+            return out, valid
+        u, v = u[rows], v[rows]
+        i, j = np.minimum(u.astype(int), n_i - 1), np.minimum(v.astype(int), n_j - 1)
+        fu, fv = (u - i)[:, None, None], (v - j)[:, None, None]
+        start = cells.nearest[i, j, np.rint(fu[:, 0, 0]).astype(int),
+                              np.rint(fv[:, 0, 0]).astype(int)]  # (m, K): a corner, or -1
+        has = start >= 0
+        if not has.any():
+            return out, valid
+        # Cells whose four corners hold the branch: bilinear interpolation of the angles.
+        a, b, c, d = (cells.coefficients[i, j, :, n] for n in range(4))
+        q = a + b * fu + c * fv + d * (fu * fv)
+        full = cells.full[i, j]
+        # Elsewhere (at the edge of the reach): the nearest corner holding it.
+        partial = has & ~full
+        if partial.any():
+            m_idx, b_idx = np.nonzero(partial)
+            corner = start[m_idx, b_idx]
+            q[m_idx, b_idx] = cells.table[i[m_idx] + corner // 2, j[m_idx] + corner % 2, b_idx]
+        # Trusted cells interpolate within 0.5 mm and 0.5°; the others are verified and, if
+        # need be, moved onto the target.
+        check = has & ~(full & cells.trusted[i, j]) if not pitch else has
+        m_idx, b_idx = np.nonzero(check)
+        ok_all = has.copy()
+        if m_idx.size:
+            q_c = q[m_idx, b_idx]
+            p_target = np.zeros((len(m_idx), 3))
+            p_target[:, 0], p_target[:, 2] = rho[rows][m_idx], h[rows][m_idx]
+            R_target = R_KIND[kind]
+            if pitch:
+                cp, sp = math.cos(pitch), math.sin(pitch)
+                R_target = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]]) @ R_target
+            R, p = kin.forward(q_c)
+            angle, distance = kin.pose_error(R, p, R_target, p_target)
+            ok = (angle <= (NEWTON_ANGLE if pitch else ACCEPT_ANGLE)) & (
+                distance <= ACCEPT_POSITION)
+            if not ok.all():
+                # Newton steps onto the exact target; where that fails (a target just beyond
+                # the reach with the exact orientation), steps that let the orientation give
+                # way within its tolerance.
+                R_target = np.broadcast_to(R_target, (len(m_idx), 3, 3))
+                for weight, iterations, max_angle, max_distance in (
+                        (1.0, 3, NEWTON_ANGLE, NEWTON_POSITION),
+                        (TILT_WEIGHT, TILT_ITERATIONS, ACCEPT_ANGLE, ACCEPT_POSITION)):
+                    redo = np.flatnonzero(~ok)
+                    if redo.size == 0:
+                        break
+                    q_new, angle, distance = kin.refine(
+                        q_c[redo], R_target[redo], p_target[redo], iterations=iterations,
+                        rotation_weight=weight)
+                    good = (angle <= max_angle) & (distance <= max_distance)
+                    q_c[redo[good]] = q_new[good]
+                    ok[redo] = good
+            q[m_idx, b_idx] = q_c
+            ok_all[m_idx, b_idx] = ok
+        # Wrapped into [-π, π): within every joint's limits (the elbow's is ±π).
+        rank = self._rank[kind]
+        out[rows[:, None], rank] = np.where(ok_all[..., None], kin.wrap(q), np.nan)
+        valid[rows[:, None], rank] = ok_all
+        return out, valid
+
+    def prepare_all(self) -> None:
+        """Readies the lookups of every grasp kind of the map."""
+        for kind in self.configs:
+            self.prepare(kind)
+
+    def prepare(self, kind: str) -> None:
+        """Readies the lookups of a grasp kind now rather than at its first query."""
+        self._cells(kind)
+
+    def _cells(self, kind: str) -> "_Cells":
+        """The grid cells of a kind, prepared for lookups on first use (about 0.3 s)."""
+        if kind not in self._cache:
+            self._cache[kind] = _Cells.of(self.configs[kind], self.rho, self.height,
+                                          self.settings["resolution"], R_KIND[kind])
+            self._rank[kind] = np.argsort(self.branch_order[kind])
+        return self._cache[kind]
+
+    def __post_init__(self) -> None:
+        self._cache: dict[str, _Cells] = {}
+        self._rank: dict[str, np.ndarray] = {}
+
+
+@dataclass
+class _Cells:
+    """Per grid cell and branch: bilinear coefficients of the angles (unwrapped to the
+    cell's first corner), whether all four corners hold the branch (`full`), whether the
+    interpolation stays within 0.5 mm and 0.5° of the targets at the cell's centre and edge
+    midpoints (`trusted`), and for each quarter of the cell the nearest corner that holds
+    the branch (0..3 as 2 di + dj, -1 for none)."""
+
+    table: np.ndarray
+    coefficients: np.ndarray  # (n_rho - 1, n_h - 1, K, 4, 6)
+    full: np.ndarray  # (n_rho - 1, n_h - 1, K)
+    trusted: np.ndarray  # (n_rho - 1, n_h - 1, K)
+    nearest: np.ndarray  # (n_rho - 1, n_h - 1, 2, 2, K)
+
+    @classmethod
+    def of(cls, configs: np.ndarray, rho: np.ndarray, height: np.ndarray, step: float,
+           R_target: np.ndarray) -> "_Cells":
+        present = ~np.isnan(configs[..., 0])
+        table = np.nan_to_num(configs.astype(float))
+        c00 = table[:-1, :-1]
+        c10 = c00 + kin.wrap(table[1:, :-1] - c00)
+        c01 = c00 + kin.wrap(table[:-1, 1:] - c00)
+        c11 = c00 + kin.wrap(table[1:, 1:] - c00)
+        coefficients = np.stack([c00, c10 - c00, c01 - c00, c11 - c10 - c01 + c00], axis=-2)
+        corners = np.stack([present[:-1, :-1], present[:-1, 1:], present[1:, :-1],
+                            present[1:, 1:]], axis=-1)  # (..., K, 4), index 2 di + dj
+        full = corners.all(axis=-1)
+        trusted = np.zeros_like(full)
+        cells = np.argwhere(full)
+        if len(cells):
+            worst = np.zeros(len(cells))
+            for fu, fv in ((0.5, 0.5), (0.5, 0.0), (0.0, 0.5), (1.0, 0.5), (0.5, 1.0)):
+                c = coefficients[full]
+                q = c[:, 0] + c[:, 1] * fu + c[:, 2] * fv + c[:, 3] * fu * fv
+                p_target = np.stack([rho[cells[:, 0]] + fu * step, np.zeros(len(cells)),
+                                     height[cells[:, 1]] + fv * step], axis=1)
+                R, p = kin.forward(q)
+                angle, distance = kin.pose_error(R, p, R_target, p_target)
+                worst = np.maximum(worst, np.maximum(distance / TRUST_POSITION,
+                                                     angle / TRUST_ANGLE))
+            trusted[full] = worst < 1.0
+        # Nearest corner holding the branch, for each quarter (qi, qj) of the cell.
+        nearest = np.full((*full.shape[:2], 2, 2, full.shape[2]), -1, dtype=np.int64)
+        for qi in (0, 1):
+            for qj in (0, 1):
+                order = sorted(range(4), key=lambda n, qi=qi, qj=qj: (
+                    abs(n // 2 - qi) + abs(n % 2 - qj), n))
+                pick = np.full(full.shape, -1, dtype=np.int64)
+                for n in reversed(order):
+                    pick = np.where(corners[..., n], n, pick)
+                nearest[:, :, qi, qj] = pick
+        return cls(table=table, coefficients=coefficients, full=full, trusted=trusted,
+                   nearest=nearest)
+
+
+def place(q: np.ndarray, bearing: np.ndarray | float, wrist_turn: np.ndarray | float) -> np.ndarray:
+    """Configurations (..., 6) at bearing 0, turn 0 moved to `bearing` and `wrist_turn`.
+
+    The shoulder pan turns the arm about A's z axis and wrist 3 the gripper about the
+    approach axis; both joints turn ±2π, so the results are wrapped into [-π, π).
+    """
+    q = np.array(q, dtype=float)
+    q[..., 0] = kin.wrap(q[..., 0] + bearing)
+    q[..., 5] = kin.wrap(q[..., 5] + wrist_turn)
+    return q

@@ -1,0 +1,54 @@
+"""Where the project's shipped files live (models, scenarios, the diagrams' pictures), and a
+Drake parser that finds the models. Every path to a shipped file is made here."""
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # pydrake is imported where a parser is made, so that the paths are light
+    from pydrake.multibody.parsing import Parser
+
+PACKAGE_NAME = "s3o_drake"
+REPO_DIR = Path(__file__).resolve().parents[2]
+"""The checkout the package is installed from (`pip install -e .`)."""
+MODELS_DIR = REPO_DIR / "models"
+SCENARIOS_DIR = REPO_DIR / "scenarios"
+RESTAURANT = SCENARIOS_DIR / "restaurant.yaml"
+"""The default scenario: the restaurant of the paper's benchmark (the spacious layout)."""
+RESTAURANT_DENSE = SCENARIOS_DIR / "restaurant_dense.yaml"
+"""The same seven tables packed as in the paper's Gazebo world (the dense layout)."""
+TASKS_DIR = SCENARIOS_DIR / "generated"
+"""The shipped benchmark tasks (`s3o generate --count 100 --seed 0`)."""
+LAYOUTS = {"spacious": (RESTAURANT, TASKS_DIR),
+           "dense": (RESTAURANT_DENSE, SCENARIOS_DIR / "generated_dense")}
+"""Each benchmark layout (its `room.layout`): its base scenario and its shipped tasks."""
+DIAGRAMS_DIR = REPO_DIR / "diagrams"
+ROBOT_URDF = MODELS_DIR / "robot" / "mobile_manipulator.urdf"
+FCN_WEIGHTS = MODELS_DIR / "fcn" / "fcn.pt"
+REACHABILITY_MAP = MODELS_DIR / "reachability_map.npz"
+TIME_MODEL = MODELS_DIR / "time_model.yaml"
+
+
+def models_dir() -> Path:
+    """The `models/` folder (with its package.xml) of this checkout."""
+    if not (MODELS_DIR / "package.xml").is_file():
+        raise FileNotFoundError(
+            f"models/package.xml not found at {MODELS_DIR}; install s3o_drake from its "
+            "repository with `pip install -e .` so that the model files are next to the package"
+        )
+    return MODELS_DIR
+
+
+def shipped_tasks() -> list[Path]:
+    """The shipped benchmark tasks, in name order."""
+    return sorted(TASKS_DIR.glob("task_*.yaml"))
+
+
+def make_parser(plant, scene_graph=None) -> "Parser":
+    """A Parser for `plant` that resolves package://s3o_drake/... URLs."""
+    from pydrake.multibody.parsing import Parser
+
+    parser = Parser(plant, scene_graph) if scene_graph is not None else Parser(plant)
+    packages = parser.package_map()
+    if not packages.Contains(PACKAGE_NAME):
+        packages.Add(PACKAGE_NAME, str(models_dir()))
+    return parser

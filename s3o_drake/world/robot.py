@@ -1,0 +1,183 @@
+"""The mobile manipulator: its model file, joint layout, named configurations and footprint.
+
+The model (``models/robot/mobile_manipulator.urdf``) is built from primitives: an RMP-110-class
+base (footprint ``BASE_LENGTH`` x ``BASE_WIDTH``, ~100 kg) carrying a VLP-16-class lidar, a dish
+tray and a pedestal, a UR5e arm (standard DH parameters) on the pedestal, and a Robotiq
+2F-140-class parallel gripper. The base moves on three actuated joints from the world
+(``base_x``, ``base_y`` prismatic, ``base_yaw`` revolute about z; Drake's PlanarJoint cannot be
+actuated), so the whole robot is one model instance with 11 positions, 11 velocities and
+11 PD-controlled actuators, all in the order
+
+    ``BASE_JOINTS + ARM_JOINTS + GRIPPER_JOINTS``
+
+(positions, velocities, actuators and the plant's desired-state input alike). The PD gains are
+in the URDF (``<drake:controller_gains>``) and are tuned for a discrete plant (SAP, time step
+1e-3..2e-3 s) whose actuators also carry the robot's gravity as a feed-forward (the world's
+"gravity_compensation", `world/builder.py`), as the UR5e's own controller does.
+
+Frames (names of bodies in the model):
+
+- ``base_link`` (B): on the floor at the centre of the footprint, x forward, z up. For base
+  positions (x, y, yaw), ``X_WB = RigidTransform(RotationMatrix.MakeZRotation(yaw), [x, y, 0])``.
+- ``ur_base_link``: the UR5e's DH base frame, at ``ARM_MOUNT_XYZ`` in B (axes parallel to B's).
+- ``tool0``: the UR5e's tool flange.
+- ``grasp_frame`` (G): the centre between the fingertip pads, ``GRASP_OFFSET`` beyond ``tool0``
+  along its z axis, which is the approach direction; the fingers open along G's y axis.
+- ``tray_link``: the centre of the tray's inner floor surface (z up), at ``TRAY_XYZ`` in B.
+- ``lidar_link``: the centre of the lidar's head.
+"""
+
+import math
+
+import numpy as np
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.tree import ModelInstanceIndex
+from shapely.geometry import Polygon
+
+from s3o_drake.world.resources import PACKAGE_NAME, models_dir
+
+ROBOT_URL = "package://s3o_drake/robot/mobile_manipulator.urdf"
+
+BASE_JOINTS = ("base_x", "base_y", "base_yaw")
+ARM_JOINTS = (
+    "shoulder_pan_joint",
+    "shoulder_lift_joint",
+    "elbow_joint",
+    "wrist_1_joint",
+    "wrist_2_joint",
+    "wrist_3_joint",
+)
+GRIPPER_JOINTS = ("left_finger_joint", "right_finger_joint")
+#: All joints, in the order of the model instance's positions, velocities and actuators.
+ROBOT_JOINTS = BASE_JOINTS + ARM_JOINTS + GRIPPER_JOINTS
+NUM_POSITIONS = len(ROBOT_JOINTS)
+#: The arm's six joints among the robot's positions (and velocities).
+ARM_POSITIONS = slice(len(BASE_JOINTS), len(BASE_JOINTS) + len(ARM_JOINTS))
+
+BASE_LINK = "base_link"
+ARM_BASE_LINK = "ur_base_link"
+TOOL_FRAME = "tool0"
+GRASP_FRAME = "grasp_frame"
+TRAY_LINK = "tray_link"
+LIDAR_LINK = "lidar_link"
+
+#: Chassis footprint (m) along the base's x (forward) and y axes. Nothing of the robot in its
+#: stow configuration sticks out of it.
+BASE_LENGTH = 0.62
+BASE_WIDTH = 0.56
+#: Circumscribed radius of the footprint (m), for inflating obstacles.
+BASE_RADIUS = math.hypot(BASE_LENGTH / 2, BASE_WIDTH / 2)
+#: Inscribed radius (m): the largest disc inside the footprint, whatever its yaw. Closer than
+#: this to an obstacle the base collides at every yaw, so standing spots keep at least this.
+INSCRIBED_RADIUS = BASE_WIDTH / 2
+
+#: Position of ur_base_link in base_link (m); see the URDF's header for the reasons.
+ARM_MOUNT_XYZ = (0.15, 0.0, 0.75)
+#: Distance (m) from tool0 to grasp_frame along tool0's z axis.
+GRASP_OFFSET = 0.225
+#: Distance (m) from tool0 to the fingertips along tool0's z axis.
+FINGERTIP_OFFSET = 0.24
+#: Travel of each finger (m); the opening between the fingers is the sum of both positions.
+FINGER_TRAVEL = 0.07
+
+#: Position of tray_link (centre of the tray's inner floor) in base_link (m).
+TRAY_XYZ = (-0.14, 0.0, 0.41)
+#: Inner floor of the tray (m): along the base's x, along its y; height of the rim above it.
+TRAY_INNER_LENGTH = 0.30
+TRAY_INNER_WIDTH = 0.48
+TRAY_RIM_HEIGHT = 0.03
+
+
+def _frozen(values) -> np.ndarray:
+    array = np.array(values, dtype=float)
+    array.flags.writeable = False
+    return array
+
+
+#: The arm's stow configuration (rad), in ARM_JOINTS order: the arm folded in the base's x-z
+#: plane, upper arm leaning slightly back from vertical (shoulder lift -1.3), elbow folded
+#: (2.7), wrist 1 chosen so that the gripper points straight down (q2 + q3 + q4 = -pi/2),
+#: wrist 2 at -pi/2, wrist 3 turning the gripper so that its fingers open across the robot.
+#: The grasp frame is then above the right half of the tray, at about (-0.13, -0.13, 0.61) m
+#: in base_link (fingertips 0.19 m above the tray's floor); the arm and gripper stay inside
+#: x in [-0.18, 0.21] m, y in [-0.24, 0.06] m of the footprint and below 1.39 m, at least
+#: 0.019 m from any self-collision.
+ARM_STOW = _frozen([0.0, -1.3, 2.7, -math.pi / 2 + 1.3 - 2.7, -math.pi / 2, math.pi / 2])
+#: Finger positions (m): fully open (opening 0.14 m) and closed (fingers touching).
+GRIPPER_OPEN = _frozen([FINGER_TRAVEL, FINGER_TRAVEL])
+GRIPPER_CLOSED = _frozen([0.0, 0.0])
+
+
+def add_robot(parser: Parser, *, name: str = "robot") -> ModelInstanceIndex:
+    """Parses the robot into `parser`'s (not yet finalized) plant as model instance `name`.
+
+    The ``s3o_drake`` package is registered with `parser`'s package map if it is not already
+    (as ``resources.make_parser`` does). Returns the new model instance; its positions are
+    in ``ROBOT_JOINTS`` order (see ``robot_positions``).
+    """
+    packages = parser.package_map()
+    if not packages.Contains(PACKAGE_NAME):
+        packages.Add(PACKAGE_NAME, str(models_dir()))
+    plant = parser.plant()
+    if plant.HasModelInstanceNamed(name):
+        raise ValueError(f"the plant already has a model instance named {name!r}")
+    (model,) = parser.AddModels(url=ROBOT_URL)
+    plant.RenameModelInstance(model, name)
+    return model
+
+
+def robot_positions(
+    x: float,
+    y: float,
+    yaw: float,
+    arm: np.ndarray = ARM_STOW,
+    gripper: np.ndarray = GRIPPER_OPEN,
+) -> np.ndarray:
+    """The robot's 11 positions (model instance order) with base_link at (x, y, yaw) in W.
+
+    `arm` holds the 6 arm joint angles (rad) in ``ARM_JOINTS`` order, `gripper` the 2 finger
+    positions (m) in ``GRIPPER_JOINTS`` order.
+    """
+    arm = np.asarray(arm, dtype=float).reshape(-1)
+    gripper = np.asarray(gripper, dtype=float).reshape(-1)
+    if arm.shape != (len(ARM_JOINTS),):
+        raise ValueError(f"arm: expected {len(ARM_JOINTS)} joint angles, got {arm.size}")
+    if gripper.shape != (len(GRIPPER_JOINTS),):
+        raise ValueError(f"gripper: expected {len(GRIPPER_JOINTS)} positions, got {gripper.size}")
+    return np.concatenate([[x, y, yaw], arm, gripper])
+
+
+def robot_desired_state(positions: np.ndarray, velocities: np.ndarray | None = None) -> np.ndarray:
+    """The value for ``plant.get_desired_state_input_port(model)``: [q_d, v_d] (22 values).
+
+    The actuators are in the order of the positions, so this is ``positions`` followed by
+    ``velocities`` (zero if not given).
+    """
+    positions = np.asarray(positions, dtype=float).reshape(-1)
+    if positions.shape != (NUM_POSITIONS,):
+        raise ValueError(f"positions: expected {NUM_POSITIONS} values, got {positions.size}")
+    if velocities is None:
+        velocities = np.zeros(NUM_POSITIONS)
+    velocities = np.asarray(velocities, dtype=float).reshape(-1)
+    if velocities.shape != (NUM_POSITIONS,):
+        raise ValueError(f"velocities: expected {NUM_POSITIONS} values, got {velocities.size}")
+    return np.concatenate([positions, velocities])
+
+
+def footprint_polygon(x: float, y: float, yaw: float) -> Polygon:
+    """The base's footprint (BASE_LENGTH x BASE_WIDTH rectangle) in the world's x-y plane."""
+    half_l, half_w = BASE_LENGTH / 2, BASE_WIDTH / 2
+    p_BC = np.array([[half_l, half_w], [-half_l, half_w], [-half_l, -half_w], [half_l, -half_w]])
+    c, s = math.cos(yaw), math.sin(yaw)
+    R_WB = np.array([[c, -s], [s, c]])
+    p_WC = p_BC @ R_WB.T + np.array([x, y])
+    return Polygon(p_WC)
+
+
+#: How often (s) the execution systems of the full diagram look at their inputs: commands,
+#: reports and grips change a few times a minute, and a 50 ms reaction is invisible next
+#: to seconds-long motions, while every periodic event costs a state copy per firing.
+#: (Trajectories are evaluated at every plant step regardless.) A property of the robot's
+#: controllers, here at the bottom because the time model counts the hand-over between
+#: commands.
+CONTROL_PERIOD = 0.05

@@ -1,0 +1,180 @@
+"""Scenario files: one task, the true world and its settings, as YAML; loading them, their
+validation, overrides from the command line.
+
+A scenario is one task: the room, its furniture, the objects to collect or place, the
+robot's start, and the settings of the planner, the uncertainty model, the camera, the
+simulation, the execution and the outputs. The schema's parts live where they belong
+(`map.py`: room, tables, chairs; `objects.py`: the objects; `settings.py`: the parameters);
+`Scenario` puts them together as the file has them. `load_scenario` reads a YAML file with
+pydrake's `yaml_load_typed` after checking its structure against these dataclasses, then
+checks what the types cannot say (`validate_scenario`: sizes positive, names unique,
+references resolvable, every dish on its table, no furniture overlapping other furniture or
+the walls, the robot starting free), so that every problem is reported as one
+`ScenarioError` that names the field (`tables[2].size: expected 3 positive numbers, got
+[1.2, -0.8]`).
+
+A Scenario is the truth: the simulator builds it. Planning never receives one; it receives a
+`belief.known_world.KnownWorld` made of `map`, `settings`, the task's objects and what
+perception reports.
+
+Vectors are lists (yaml_load_typed supports neither tuples nor Literal); units are SI,
+angles radians, positions in the world frame W (z up, the floor at z = 0).
+"""
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+
+from s3o_drake.world.contents import SceneContents
+from s3o_drake.world.map import Chair, Map, Room, Table
+from s3o_drake.world.objects import Dish
+from s3o_drake.world.scenario_checks import ScenarioError, validate_scenario
+from s3o_drake.world.settings import (
+    Camera,
+    ExecutionSettings,
+    Outputs,
+    PlanningSettings,
+    Robot,
+    Settings,
+    Simulation,
+    Uncertainty,
+)
+from s3o_drake.world.yaml_checks import (
+    FieldError,
+    check_structure,
+    load_yaml,
+)
+
+
+@dataclass
+class Scenario:
+    """One task as its file gives it: the true world (the room, every table, chair and
+    object, the robot's start) and the settings. The simulator builds the truth; the robot
+    is given `map` and `settings` and the task's objects, and perceives the rest."""
+
+    seed: int = 0
+    """Drives every random draw of a run."""
+    room: Room = field(default_factory=Room)
+    tables: list[Table] = field(default_factory=list)
+    chairs: list[Chair] = field(default_factory=list)
+    dishes: list[Dish] = field(default_factory=list)
+    robot: Robot = field(default_factory=Robot)
+    planner: PlanningSettings = field(default_factory=PlanningSettings)
+    uncertainty: Uncertainty = field(default_factory=Uncertainty)
+    camera: Camera = field(default_factory=Camera)
+    simulation: Simulation = field(default_factory=Simulation)
+    execution: ExecutionSettings = field(default_factory=ExecutionSettings)
+    outputs: Outputs = field(default_factory=Outputs)
+
+    @property
+    def map(self) -> Map:
+        """What the robot's map holds: the room, the tables, the mapped chairs."""
+        return Map(room=self.room, tables=tuple(self.tables),
+                   chairs=tuple(c for c in self.chairs if c.mapped))
+
+    @property
+    def contents(self) -> SceneContents:
+        """The true world as a plant holds it: every chair, every object."""
+        return SceneContents(room=self.room, tables=tuple(self.tables),
+                             chairs=tuple(self.chairs), dishes=tuple(self.dishes),
+                             start=tuple(float(v) for v in self.robot.start),
+                             floor_margin=self.camera.margin)
+
+    @property
+    def settings(self) -> Settings:
+        return Settings(seed=self.seed, planner=self.planner, uncertainty=self.uncertainty,
+                        camera=self.camera, simulation=self.simulation,
+                        execution=self.execution, outputs=self.outputs)
+
+
+def parse_scenario(text: str) -> Scenario:
+    """Parses and validates scenario YAML text; raises ScenarioError."""
+    try:
+        raw = load_yaml(text)
+        if raw is None:  # an empty or comment-only file: every field has its default
+            raw, text = {}, "{}"
+        check_structure(raw, Scenario, "")
+        scenario = yaml_load_typed(schema=Scenario, data=text)
+    except FieldError as e:
+        raise ScenarioError(e.path, e.message) from None
+    except (RuntimeError, ValueError) as e:  # the checks should have caught it; keep one line
+        raise ScenarioError("", str(e).splitlines()[0]) from None
+    validate_scenario(scenario)
+    return scenario
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Loads and validates a scenario file; raises ScenarioError naming the file and the field.
+    An empty or comment-only file is all defaults, as `{}` is."""
+    path = Path(path)
+    if path.is_dir():
+        raise ScenarioError("", "is a folder, not a scenario file", file=str(path))
+    if not path.is_file():
+        raise ScenarioError("", "no such scenario file", file=str(path))
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise ScenarioError("", f"cannot read: {e.strerror or e}", file=str(path)) from None
+    try:
+        text = data.decode("utf-8")  # YAML's encoding, whatever the locale's is
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        raise ScenarioError(f"line {line}", f"not UTF-8 text (byte 0x{data[e.start]:02x} at "
+                                            f"offset {e.start})", file=str(path)) from None
+    try:
+        return parse_scenario(text)
+    except ScenarioError as e:
+        raise ScenarioError(e.path, e.message, file=str(path)) from None
+
+
+def with_overrides(scenario: Scenario, overrides: Sequence[str]) -> Scenario:
+    """The scenario with fields replaced, each override `PATH=VALUE` (`planner.top_k=8`,
+    `tables[0].height=0.8`; VALUE is YAML), validated like the file: a bad path or value is
+    a ScenarioError naming the field."""
+    if not overrides:
+        return scenario
+    data = load_yaml(dump_scenario(scenario))
+    for item in overrides:
+        path, sep, value = item.partition("=")
+        path = path.strip()
+        if not sep or not path:
+            raise ScenarioError("--set", f"expected PATH=VALUE, got {item!r}")
+        try:
+            parsed = load_yaml(value) if value.strip() else ""
+        except FieldError as e:
+            raise ScenarioError(path, f"not a YAML value: {e.message}") from None
+        parts = [p for p in re.split(r"\.|\[(\d+)\]", path) if p]
+        node = data
+        for k, part in enumerate(parts):
+            where = ".".join(parts[:k + 1])
+            last = k == len(parts) - 1
+            if isinstance(node, list):
+                if not part.isdigit() or int(part) >= len(node):
+                    raise ScenarioError(path, f"no item {part} in {where.rsplit('.', 1)[0]} "
+                                              f"({len(node)} items)")
+                key: int | str = int(part)
+            elif isinstance(node, dict):
+                if not last and part not in node:
+                    raise ScenarioError(path, f"unknown field {part!r}")
+                key = part
+            else:
+                raise ScenarioError(path, f"{where.rsplit('.', 1)[0]} has no fields")
+            if last:
+                node[key] = parsed
+            else:
+                node = node[key]
+    return parse_scenario(yaml.safe_dump(data, sort_keys=False))
+
+
+def dump_scenario(scenario: Scenario) -> str:
+    """The scenario as YAML text that `parse_scenario` reads back to an equal Scenario."""
+    return yaml_dump_typed(scenario)
+
+
+def scenario_stem(path: str | Path) -> str:
+    """The name a scenario's outputs go under: its file name without the extension."""
+    return Path(path).stem

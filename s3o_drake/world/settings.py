@@ -1,0 +1,157 @@
+"""The robot's start and the parameters of a scenario: planning, the uncertainty model, the
+camera, the simulation, the execution's recovery and the outputs. The dataclasses mirror the
+YAML (`world/scenario.py`); `Settings` gathers them for what the robot is given (with the
+`Map`), apart from the true world.
+"""
+
+from dataclasses import dataclass, field
+
+
+@dataclass
+class Robot:
+    start: list[float] = field(default_factory=lambda: [1.0, 1.0, 0.0])
+    """[x, y, yaw] of the base at the start."""
+
+
+@dataclass
+class PlanningSettings:
+    """Planning settings; defaults are the paper's."""
+
+    method: str = "S3O-GROP*"
+    top_k: int = 5
+    cma_generations: int = 20
+    cma_population: int = 10
+    cost_profile: str = "robot"
+    """The utility's costs (planning/time_model.py): "robot", the execution's predicted
+    time (the base navigator's motion profile along the path, turns included, and the
+    recorded pickup and command times of models/time_model.yaml); or "paper", the paper's
+    Cst(goto) = len / v + γ and δ below."""
+    delta: float = 5.0
+    """δ: constant cost of a pickup (the "paper" cost profile)."""
+    gamma: float = 20.0
+    """γ: constant cost of starting to drive (the "paper" cost profile)."""
+    reward: float = 150.0
+    """λ: reward of a successful pickup, weighted by its feasibility."""
+    speed: float = 0.4
+    """v: the base's cruise speed (m/s): the navigator drives at it, and both cost profiles
+    cost navigation with it."""
+    reach: float = 1.0
+    """How far from the base centre the robot can pick a dish (m)."""
+    location_samples: int = 100
+    """N: positions drawn from a location to estimate its task-level feasibility."""
+    group_positions: str = "per_dish"
+    """How Fea^t of a merged location draws its N positions (abstraction/task_feasibility.py):
+    "per_dish", for each dish by its own Fea^m (the paper's code); "shared", by the group's
+    joint value, every dish evaluated at the same positions (the one stop that serves it)."""
+    search_plain_voronoi: bool = False
+    """S3O-GROP* and S3O-GROP also search the unmerged state space when it is not among
+    their top K."""
+    location_price: str = "paper"
+    """The ranking's price of a location, c in Score - c|L|: "paper", γ / λ of the fields
+    below; "search", the γ / λ of the motion search's cost profile."""
+    failure_price: str = "paper"
+    """What a pickup's chance of failing costs the utility, λ (1 - Fea^m): "paper", λ below
+    whatever the execution does; "execution", λ in open loop (a failed pickup loses the
+    dish) and the recovery's recorded time per failure with recovery
+    (models/failure_price.yaml)."""
+    time_budget: float = 300.0
+    """Wall-clock cap on planning (s)."""
+    workers: int = 2
+    feasibility: str = "fcn"
+    """Source of the Fea^m heatmaps: "fcn" (the network in models/fcn/, from the overhead
+    depth image) or "oracle" (the Drake check under the noise model, on the known world).
+    The default is measured: on 6 held-out tasks S3O-GROP* completed 3 with the network and
+    none with the oracle, collected 85% against 64% of the dishes, and planned in 4.9 s
+    against 8.5 s (`s3o bench compare-feasibility --count 6`): CMA-ES
+    maximising the oracle's 5-sample estimates picks spots that were lucky (docs/fcn.md)."""
+
+
+@dataclass
+class Uncertainty:
+    """Gaussian noise of navigation (T^n) and reaching (T^m), as standard deviations."""
+
+    nav_xy_std: float = 0.10
+    nav_yaw_std: float = 0.05
+    reach_std: float = 0.01
+    localization_xy_std: float = 0.02
+    """How far off (m, per axis) the robot's estimate of its own pose is after it lands:
+    what the recovery's stop check believes (execution.recovery)."""
+    localization_yaw_std: float = 0.02
+    """The same for the heading (rad)."""
+
+
+@dataclass
+class Camera:
+    """The overhead camera, above the room's centre looking straight down."""
+
+    height: float = 10.0
+    pixels_per_meter: float = 50.0
+    """Image resolution at floor level; the field of view covers the room and the margin."""
+    margin: float = 0.3
+
+
+@dataclass
+class Simulation:
+    time_step: float = 0.01
+    """The discrete plant's step (s). SAP treats the joints' PD actuators implicitly; the arm
+    follows its trajectory one step behind (at most π rad/s x 0.01 s, nothing at the rests
+    where it grasps and releases). At 0.02 s runs were 1.5x faster but SAP failed to
+    converge in 2 of 16 runs (a robot at rest, no contact), so 0.01 s it is."""
+    hold_time: float = 1.0
+    """How long the simulation runs on after the plan has ended (s), so that the playback
+    shows the robot at rest with what it collected."""
+    publish_period: float = 0.2
+    """Frame period of the Meshcat recording (s). The page interpolates between frames, so
+    5 frames per second look smooth at the robot's speeds (0.4 m/s; the arm up to π rad/s);
+    a five-minute execution's playback page stays near 6.5 MB (docs/execution.md), and each
+    frame costs simulation time."""
+
+
+@dataclass
+class ExecutionSettings:
+    """What execution does when an action fails (see `Recovery`), and its limits."""
+
+    recovery: str = "replan"
+    """none | retry | replan. `run` uses it as given; `evaluate` runs its own --recovery
+    (default none, the paper's protocol)."""
+    min_feasibility: float = 0.5
+    """A stop whose Fea^m, at the localised pose, is below this is corrected before the
+    pickup."""
+    correction_radius: float = 0.3
+    """How far (m) a corrective move may go from the localised pose."""
+    detour: bool = True
+    """When no stop within correction_radius reaches min_feasibility, a correction may
+    drive round to the dish's best stop anywhere on its heatmap."""
+    max_corrections: int = 2
+    """Corrective moves before one pickup attempt, at most."""
+    max_tries: int = 3
+    """Pickup attempts per dish and plan, at most."""
+    max_replans: int = 4
+    """Replans per run, at most."""
+    replan_budget: float = 60.0
+    """Wall-clock cap (s) on one replan (the first plan has planner.time_budget)."""
+
+
+@dataclass
+class Outputs:
+    directory: str = ""
+    """Output folder; empty means out/<scenario file stem>/."""
+    playback: bool = True
+    overhead: bool = True
+    feasibility: bool = True
+    """Draw each dish's Fea^m heatmap (feasibility.png)."""
+    state_space: bool = True
+    """Draw the S3O state space the plan searched, with its rank (state_space.png)."""
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The parameters of a run: one seed drives every random draw."""
+
+    seed: int
+    planner: PlanningSettings
+    uncertainty: Uncertainty
+    camera: Camera
+    simulation: Simulation
+    execution: ExecutionSettings
+    outputs: Outputs

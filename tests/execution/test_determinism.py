@@ -1,0 +1,82 @@
+"""Whole runs are deterministic (issue 19, item 3): the same scenario and seed give the same
+plan.json and report.json, wall-clock timings aside, whether the planner searches in one
+process or two, and whether the run is made here or on a Dask worker (as `evaluate
+--scheduler` makes them). Users compare runs and methods on that promise (DESIGN,
+conventions: randomness flows from one seed)."""
+
+import contextlib
+import io
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from s3o_drake.commands.run_scenario import main as run_main
+
+REPO = Path(__file__).resolve().parents[2]
+TWO_DISHES = REPO / "scenarios" / "small" / "two_dishes.yaml"
+TIMINGS = {"planning_time", "feasibility_time", "wall_time", "realtime_rate", "timing",
+           "job_seconds"}
+"""Wall-clock figures: how long things took on this machine, not what was planned or done."""
+
+
+def without_timings(value):
+    """`value` (JSON data) without the wall-clock fields, at any depth."""
+    if isinstance(value, dict):
+        return {k: without_timings(v) for k, v in value.items() if k not in TIMINGS}
+    if isinstance(value, list):
+        return [without_timings(v) for v in value]
+    return value
+
+
+def scenario(folder: Path, workers: int) -> Path:
+    """two_dishes.yaml with `workers` search processes, the network's Fea^m (the quicker
+    source) and no pictures or playback (they are drawn from the same data)."""
+    data = yaml.safe_load(TWO_DISHES.read_text())
+    data["planner"] = {"feasibility": "fcn", "workers": workers}
+    data["outputs"] = {"playback": False, "overhead": False, "feasibility": False,
+                       "state_space": False}
+    folder.mkdir(parents=True)
+    path = folder / "two_dishes.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def run(path: Path, out: Path) -> int:
+    """The run command, quietly (in whatever process calls it)."""
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        return run_main([str(path), "--out", str(out), "--seed", "7"])
+
+
+def outputs(out: Path) -> dict:
+    report = json.loads((out / "report.json").read_text())
+    report.pop("scenario")  # the file's path: each run has its own copy
+    return {"report": without_timings(report),
+            "plan": without_timings(json.loads((out / "plan.json").read_text()))}
+
+
+def s3o_drake_file() -> str:
+    import s3o_drake
+
+    return s3o_drake.__file__
+
+
+def test_runs_with_one_or_two_search_processes_and_on_dask_are_identical(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    one, two = scenario(tmp_path / "one", 1), scenario(tmp_path / "two", 2)
+    status = run(one, tmp_path / "out_one")
+    assert run(two, tmp_path / "out_two") == status
+    with distributed.LocalCluster(n_workers=1, processes=True, threads_per_worker=1,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        # The worker runs this checkout's code, not another installed copy.
+        assert client.submit(s3o_drake_file).result() == s3o_drake_file()
+        assert client.submit(run, two, tmp_path / "out_dask").result() == status
+
+    reference = outputs(tmp_path / "out_one")
+    # The run did something worth comparing: a plan, executed, with noise drawn.
+    assert reference["plan"]["actions"] and reference["report"]["outcomes"]
+    assert all(p["reach_noise"] is not None for p in reference["report"]["pickups"])
+    for other in ("out_two", "out_dask"):
+        assert outputs(tmp_path / other) == reference, other

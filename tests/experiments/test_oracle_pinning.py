@@ -1,0 +1,66 @@
+"""Fea^m's oracle is the ArmController's pickup: pinned on exact poses, and its heatmap is
+the expectation of that success under the noise."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from s3o_drake.commands.oracle_pinning import executed, sample_poses, summarize
+from s3o_drake.feasibility.heatmaps import make_oracle
+from s3o_drake.feasibility.pickup_geometry import catch_probability, grasp_tolerance
+from s3o_drake.world.scenario import load_scenario
+
+REPO = Path(__file__).resolve().parents[2]
+TASK = REPO / "scenarios" / "generated" / "task_003.yaml"
+
+
+@pytest.fixture(scope="module")
+def oracle():
+    return make_oracle(load_scenario(TASK))
+
+
+def test_feasible_by_the_oracle_is_executed_and_infeasible_fails(oracle):
+    """On 50 exact base poses around the dishes (no noise), 25 called feasible and 25
+    infeasible by the oracle, the pickup that the ArmController plans and plays
+    (`plan_pickup`: without noise its outcome is the plan's) agrees every time."""
+    poses = sample_poses(oracle, 50, np.random.default_rng(7))
+    assert len(poses) == 50
+    assert sum(feasible for _, _, feasible in poses) == 25
+    rows = [{"dish": dish, "oracle": feasible, "executed": executed(oracle, dish, base, k)}
+            for k, (dish, base, feasible) in enumerate(poses)]
+    figures = summarize(rows, [])
+    assert figures["disagreements"] == 0, [r for r in rows
+                                           if r["oracle"] != (r["executed"] == "ok")]
+    # The infeasible ones fail for the reasons the oracle's test has, not a path search.
+    assert {r["executed"] for r in rows if not r["oracle"]} <= {"no_ik", "no_path"}
+
+
+def test_the_heatmap_is_the_expected_success_of_a_noisy_landing(oracle):
+    """Where the heatmap is neither 0 nor 1, its value is the mean of S over landings drawn
+    from the noise (S: the success from where a landing at that point picks), times the
+    chance that the fingers catch the dish."""
+    dish = oracle.checker.scene.contents.dishes[0]
+    heatmap = oracle.heatmap(dish.name)
+    values = heatmap.values.ravel()
+    rng = np.random.default_rng(3)
+    middle = rng.permutation(np.flatnonzero((values > 0.3) & (values < 0.7)))[:3]
+    noise = oracle.noise
+    sigma = np.hypot(noise.nav_xy_std, noise.reach_std)
+    caught = catch_probability(dish.kind, noise.reach_std)
+    for k in middle:
+        y = heatmap.centers().reshape(-1, 2)[k]
+        landings = y + rng.normal(0.0, sigma, (400, 2))
+        estimate = caught * oracle.landing_success(landings, dish.name).mean()
+        # 400 draws: standard error <= 0.025; the grid's resolution adds ~0.01.
+        assert values[k] == pytest.approx(estimate, abs=0.09)
+
+
+def test_the_catch_probability_is_that_of_the_rayleigh_radius():
+    rng = np.random.default_rng(0)
+    for kind in ("cup", "bowl", "plate"):
+        xi = rng.normal(0.0, 0.01, (200_000, 2))
+        empirical = np.mean(np.linalg.norm(xi, axis=1) <= grasp_tolerance(kind))
+        assert catch_probability(kind, 0.01) == pytest.approx(empirical, abs=0.003)
+    assert catch_probability("cup", 0.01) == pytest.approx(1 - np.exp(-3.125))
+    assert catch_probability("cup", 0.0) == 1.0

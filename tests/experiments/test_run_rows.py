@@ -1,0 +1,55 @@
+"""What a study's rows say: a run's time, its predicted completion, and whether two versions
+of the code made the same runs (the behaviour check of a restructuring)."""
+
+import json
+
+import pytest
+
+from s3o_drake.commands.same_runs import main as same_runs
+from s3o_drake.experiments.run_rows import has_time, predicted_completion, run_differences
+
+
+def _run(task="t", method="S3O-GROP*", **fields):
+    row = {"task": task, "method": method, "run_seed": 7, "recovery": "none",
+           "outcomes": ["goto l0: done", "pickup cup: done"], "execution_time": 40.0,
+           "planning_time": 3.2, "job_seconds": 9.0, "code": "abc", "schema": 1,
+           "pickups": [{"dish": "cup", "predicted": 0.9, "planned": 0.9}], "dishes": 1}
+    return {**row, **fields}
+
+
+def test_runs_that_differ_only_in_timings_and_bookkeeping_are_the_same():
+    before = [_run(), _run(task="u")]
+    after = [_run(planning_time=9.9, job_seconds=1.0, code="def", schema=2,
+                  timing={"wall": 1.0}), _run(task="u")]
+    assert run_differences(before, after) == (2, [])
+
+
+def test_a_run_that_did_something_else_is_named_with_its_field():
+    pairs, lines = run_differences([_run()], [_run(execution_time=41.0)])
+    assert pairs == 1 and lines == ["t/S3O-GROP*/7/none: execution_time: 40.0 -> 41.0"]
+
+
+def test_the_command_exits_1_on_a_difference_and_2_without_runs(tmp_path, capsys):
+    for name, rows in (("a", [_run()]), ("b", [_run(outcomes=["goto l0: failed"])]),
+                       ("c", [_run(task="other")])):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "results.jsonl").write_text(
+            "".join(json.dumps({"key": r["task"], **r}) + "\n" for r in rows))
+    assert same_runs([str(tmp_path / "a"), str(tmp_path / "a")]) == 0
+    assert same_runs([str(tmp_path / "a"), str(tmp_path / "b")]) == 1
+    assert "outcomes" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as e:
+        same_runs([str(tmp_path / "a"), str(tmp_path / "c")])
+    assert e.value.code == 2
+
+
+def test_a_run_without_a_plan_has_no_time_and_predicts_nothing():
+    assert not has_time({"planned": False}) and has_time({})
+    assert predicted_completion({"planned": False, "pickups": []}) == 0.0
+    assert predicted_completion(_run(dishes=2)) == 0.0  # a dish without a pickup
+    assert predicted_completion(_run()) == pytest.approx(0.9)
+    assert predicted_completion({"predicted_completion": 0.5}) == 0.5
+
+
+def test_a_field_only_one_version_records_is_no_difference():
+    assert run_differences([_run()], [_run(predicted_time=41.0)]) == (1, [])

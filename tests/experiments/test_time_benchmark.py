@@ -1,0 +1,65 @@
+"""The time benchmark: predicted against simulated execution time, one JSON line per run,
+resumed from its file."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from s3o_drake.commands import time_benchmark
+from s3o_drake.commands.time_benchmark import main, summarize
+
+REPO = Path(__file__).resolve().parents[2]
+SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
+
+
+def test_runs_writes_a_line_per_run_and_resumes(tmp_path, capsys, monkeypatch):
+    out = tmp_path / "times.jsonl"
+    assert main(["--tasks", str(SMALL), "--noise", "off", "--json", str(out)]) == 0
+    (row,) = [json.loads(line) for line in out.read_text().splitlines()]
+    assert row["task"] == "two_dishes" and row["noise"] is False
+    assert row["cost_profile"] == "robot" and row["method"] == "S3O-GROP*"
+    assert row["rel_error"] == pytest.approx(
+        (row["predicted_time"] - row["execution_time"]) / row["execution_time"])
+    assert row["time_model"] == time_benchmark.model_version()
+    printed = capsys.readouterr().out
+    assert "two_dishes" in printed and "noise off      all:   1 runs" in printed
+
+    # The same command again runs nothing: the row comes from the file.
+    class NoRuns:  # the worker pool, asked for no run
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def map(self, fn, jobs):
+            assert not list(jobs), "a finished run was run again"
+            return iter(())
+
+    monkeypatch.setattr(time_benchmark, "local_pool", lambda workers: NoRuns())
+    assert main(["--tasks", str(SMALL), "--noise", "off", "--json", str(out)]) == 0
+    assert len(out.read_text().splitlines()) == 1
+    assert f"{100 * abs(row['rel_error']):.2f} %" in capsys.readouterr().out
+
+
+def test_summary_splits_runs_with_failures():
+    rows = [{"noise": True, "rel_error": e, "all_done": done}
+            for e, done in ((-0.05, True), (0.02, True), (0.3, False))]
+    s = summarize(rows, "on")
+    assert s["all"]["runs"] == 3 and s["all"]["median_abs"] == pytest.approx(0.05)
+    assert s["all_done"]["runs"] == 2 and s["all_done"]["median_abs"] == pytest.approx(0.035)
+    assert s["all_done"]["mean_signed"] == pytest.approx(-0.015)
+    assert summarize(rows, "off") == {"noise": "off", "runs": 0}
+
+
+@pytest.mark.parametrize("argv, field", [(["--count", "0"], "--count"),
+                                         (["--tasks", "nowhere"], "--tasks"),
+                                         (["--method", "RRT"], "--method")])
+def test_bad_input_is_one_line_and_status_2(tmp_path, argv, field):
+    result = subprocess.run([sys.executable, "-m", "s3o_drake.commands.time_benchmark", *argv],
+                            capture_output=True, text=True, cwd=REPO)
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and field in result.stderr

@@ -1,0 +1,130 @@
+"""The base's motion profile (planning/navigation/base_motion.py): the segments and durations
+that the BaseNavigator plays and the planner's cost model times."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pydrake.common.value import AbstractValue
+
+from s3o_drake.execution.base_navigator import BaseNavigator
+from s3o_drake.execution.diagram import navigator_params
+from s3o_drake.execution.messages import BaseCommand, CommandState
+from s3o_drake.planning.navigation.base_motion import (
+    BaseProfile,
+    backs_away,
+    chain_time,
+    motion_segments,
+    trapezoid,
+)
+from s3o_drake.world.angles import wrap
+from s3o_drake.world.robot import NUM_POSITIONS
+from s3o_drake.world.scenario import load_scenario
+
+REPO = Path(__file__).resolve().parents[2]
+PROFILE = BaseProfile(speed=0.4)
+
+
+def test_trapezoid_cruises_or_peaks_half_way():
+    # 2 m at 0.4 m/s, 1 m/s²: 0.4 s ramps each way cover 0.08 m, the 1.84 m cruise 4.6 s.
+    assert trapezoid(2.0, 0.4, 1.0) == pytest.approx((0.4, 0.4 + 4.6 + 0.4))
+    # 0.1 m never reaches 0.4 m/s: peaks at sqrt(0.1) m/s, two ramps of sqrt(0.1) s.
+    peak, duration = trapezoid(0.1, 0.4, 1.0)
+    assert peak == pytest.approx(math.sqrt(0.1)) and duration == pytest.approx(2 * math.sqrt(0.1))
+    assert trapezoid(0.0, 0.4, 1.0)[1] == 0.0
+    # Arrays give the same numbers as scalars.
+    lengths = np.array([0.0, 0.05, 0.16, 0.17, 3.0])
+    np.testing.assert_allclose(PROFILE.drive_time(lengths),
+                               [PROFILE.drive_time(float(x)) for x in lengths])
+    assert PROFILE.turn_time(-1.0) == PROFILE.turn_time(1.0)
+
+
+def test_backing_away_beyond_a_right_angle():
+    assert not backs_away(0.0, 1.5)
+    assert backs_away(0.0, 1.6)
+    assert not backs_away(3.0, -3.0)  # 0.28 rad apart through π, not 6 rad
+    np.testing.assert_array_equal(backs_away(np.array([0.0, math.pi]), 0.0), [False, True])
+
+
+def test_segments_turn_drive_and_back_away():
+    # Facing north; the first leg goes south (backed), the second east, then face west.
+    segs = motion_segments([(0, 0), (0, -1), (1, -1)], math.pi / 2, math.pi)
+    kinds = [(s.turn, round(s.length, 9)) for s in segs]
+    # Backing: no turn, drive 1 m; then turn from north (backed south) to east: -pi/2;
+    # drive 1 m; turn east -> west: pi.
+    assert kinds == [(False, 1.0), (True, round(math.pi / 2, 9)), (False, 1.0),
+                     (True, round(math.pi, 9))]
+    assert segs[0].start[2] == segs[0].end[2] == pytest.approx(math.pi / 2)
+
+
+def _random_paths(rng, m: int, k: int):
+    points = rng.uniform(0, 5, (m, k + 1, 2))
+    return points, rng.uniform(-math.pi, math.pi, m), rng.uniform(-math.pi, math.pi, m)
+
+
+def test_chain_time_equals_the_segments_timed_one_by_one():
+    rng = np.random.default_rng(3)
+    points, yaw0, yaw1 = _random_paths(rng, 200, 4)
+    # One item per leg; every other path gets a zero-length leg (skipped by both).
+    points[::2, 2] = points[::2, 1]
+    d = np.diff(points, axis=1)
+    heading = np.arctan2(d[..., 1], d[..., 0])
+    length = np.hypot(d[..., 0], d[..., 1])
+    got, end = chain_time(PROFILE, heading, heading, length, PROFILE.drive_time(length),
+                          yaw0, yaw1)
+    want = [PROFILE.motion_time(p, a, b) for p, a, b in zip(points, yaw0, yaw1, strict=True)]
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    np.testing.assert_array_equal(end, yaw1)
+
+
+def test_chain_time_with_a_stretch_of_legs_and_no_final_yaw():
+    rng = np.random.default_rng(4)
+    points, yaw0, _ = _random_paths(rng, 50, 5)
+    d = np.diff(points, axis=1)
+    heading = np.arctan2(d[..., 1], d[..., 0])
+    length = np.hypot(d[..., 0], d[..., 1])
+    # Legs 2..3 as one stretch: its own time holds their drives and the turn between them.
+    inner = PROFILE.turn_time(wrap(heading[:, 3] - heading[:, 2]))
+    stretch_time = PROFILE.drive_time(length[:, 2]) + inner + PROFILE.drive_time(length[:, 3])
+    cols = [0, 1, 2, 4]
+    h_in = heading[:, cols]
+    h_out = h_in.copy()
+    h_out[:, 2] = heading[:, 3]
+    lengths = length[:, cols].copy()
+    lengths[:, 2] += length[:, 3]
+    own = PROFILE.drive_time(length[:, cols])
+    own[:, 2] = stretch_time
+    # NaN: the landing faces along the last leg (the plan's yaw of a goto without pickup).
+    got, end = chain_time(PROFILE, h_in, h_out, lengths, own, yaw0, np.full(50, np.nan))
+    last = np.arctan2(*(points[:, -1] - points[:, -2]).T[::-1])
+    want = [PROFILE.motion_time(p, a, b) for p, a, b in zip(points, yaw0, last, strict=True)]
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(end, last)
+
+
+def test_the_navigator_plays_the_profile_time():
+    """The navigator's motion lasts what the profile says, for constructed paths."""
+    scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
+    navigator = BaseNavigator(params=navigator_params(scenario, noise=False), scene=None)
+    profile = BaseProfile(speed=scenario.planner.speed)
+    rng = np.random.default_rng(5)
+    for cid in range(1, 21):
+        points = rng.uniform(0.5, 3.5, (int(rng.integers(2, 6)), 2))
+        yaw0, yaw1 = rng.uniform(-math.pi, math.pi, 2)
+        context = navigator.CreateDefaultContext()
+        state = np.zeros(2 * NUM_POSITIONS)
+        state[:3] = [*points[0], yaw0]
+        navigator.GetInputPort("robot_state").FixValue(context, state)
+        command = BaseCommand(id=cid, path=tuple(map(tuple, points)), pose=(*points[-1], yaw1))
+        navigator.GetInputPort("base_command").FixValue(context, AbstractValue.Make(command))
+        navigator.CalcForcedUnrestrictedUpdate(context, context.get_mutable_state())
+        motion = context.get_abstract_state(0).get_value()
+        assert motion.duration == pytest.approx(profile.motion_time(points, yaw0, yaw1),
+                                                rel=1e-12)
+        # Its status turns done settle_time after the motion ends, not before.
+        end = motion.duration + profile.settle_time
+        context.SetTime(end - 1e-6)
+        assert navigator.GetOutputPort("status").Eval(context).state is CommandState.RUNNING
+        context.SetTime(end + 1e-6)
+        assert navigator.GetOutputPort("status").Eval(context).state is CommandState.DONE
