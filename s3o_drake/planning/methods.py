@@ -370,7 +370,9 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     spec = method_of(method)
     t_start = time.monotonic()
     # λ as the execution's mode prices a pickup's failure (`failure_price.py`): every part
-    # of the plan reads the planner settings from here on.
+    # of the plan reads the planner settings from here on. The result names the world as
+    # the caller knew it.
+    asked = known
     priced = priced_planner(known.settings)
     if priced is not known.planner:
         known = dataclasses.replace(known, settings=dataclasses.replace(known.settings,
@@ -389,7 +391,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
                                actions=(), utility=0.0, predicted_time=0.0,
                                planning_time=float(feasibility_time) + time.monotonic() - t_start,
                                timing=timing)
-        return PlanningResult(known=known, method=method, seed=int(seed), plan=empty,
+        return PlanningResult(known=asked, method=method, seed=int(seed), plan=empty,
                               planning_time=empty.planning_time)
 
     def expired(stage: str, fatal: bool = True, spent: bool = False) -> bool:
@@ -463,7 +465,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         made = _assemble(method, seed, best, known, nav, timing,
                          time.monotonic() - t_start + feasibility_time, result.draws,
                          result.draws, complete)
-        return PlanningResult(known=known, scene=scene, method=method, seed=int(seed),
+        return PlanningResult(known=asked, scene=scene, method=method, seed=int(seed),
                               plan=made,
                               heatmaps=heatmap_tuple(heatmaps), navigation=nav,
                               model_heatmaps=model_heatmaps, partition=partition,
@@ -492,7 +494,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
                             f"regions or on an undrivable leg)")
     made = _assemble(method, seed, best, known, nav, timing,
                      time.monotonic() - t_start + feasibility_time, searches, samples, complete)
-    return PlanningResult(known=known, scene=scene, method=method, seed=int(seed), plan=made,
+    return PlanningResult(known=asked, scene=scene, method=method, seed=int(seed), plan=made,
                           navigation=nav,
                           heatmaps=heatmap_tuple(heatmaps), partition=partition, grid=grid,
                           model_heatmaps=model_heatmaps, abstraction=abstraction,

@@ -39,21 +39,24 @@ class PlanningSettings:
     """How far from the base centre the robot can pick a dish (m)."""
     location_samples: int = 100
     """N: positions drawn from a location to estimate its task-level feasibility."""
-    group_positions: str = "per_dish"
+    group_positions: str = "shared"
     """How Fea^t of a merged location draws its N positions (abstraction/task_feasibility.py):
-    "per_dish", for each dish by its own Fea^m (the paper's code); "shared", by the group's
-    joint value, every dish evaluated at the same positions (the one stop that serves it)."""
-    search_plain_voronoi: bool = False
+    "shared", by the group's joint value, every dish evaluated at the same positions (the
+    one stop that serves the group: what the execution does); "per_dish", for each dish by
+    its own Fea^m (the paper's code). Measured level on 240 runs (docs/abstraction.md)."""
+    search_plain_voronoi: bool = True
     """S3O-GROP* and S3O-GROP also search the unmerged state space when it is not among
-    their top K."""
+    their top K, so that S3O never searches less than the Voronoi methods."""
     location_price: str = "paper"
     """The ranking's price of a location, c in Score - c|L|: "paper", γ / λ of the fields
-    below; "search", the γ / λ of the motion search's cost profile."""
-    failure_price: str = "paper"
-    """What a pickup's chance of failing costs the utility, λ (1 - Fea^m): "paper", λ below
-    whatever the execution does; "execution", λ in open loop (a failed pickup loses the
-    dish) and the recovery's recorded time per failure with recovery
-    (models/failure_price.yaml)."""
+    below (λ as `failure_price` sets it); "search", the γ of the motion search's cost
+    profile over λ. "search" was measured 3 % slower in the dense room (docs/abstraction.md)."""
+    failure_price: str = "execution"
+    """What a pickup's chance of failing costs the utility, λ (1 - Fea^m): "execution", λ
+    below in open loop (a failed pickup loses the dish) and with recovery the recovery's
+    recorded time per expected failure (models/failure_price.yaml: `s3o failure-price`);
+    "paper", λ whatever the execution does. With recovery, "execution" was measured 4-8 %
+    faster at the same completion (docs/abstraction.md)."""
     time_budget: float = 300.0
     """Wall-clock cap on planning (s)."""
     workers: int = 2

@@ -292,7 +292,7 @@ def test_components_combined_rank_like_enumerating_the_whole_graph():
     assert len(components) == 2  # the two tables are far apart
     cost = scenario.planner.gamma / scenario.planner.reward
     task = TaskFeasibility(LocationGrid.of(abstraction.partition, heatmaps), samples=100,
-                           seed=scenario.seed)
+                           seed=scenario.seed, positions=scenario.planner.group_positions)
     brute = sorted(task.score(p) - cost * len(p)
                    for p in connected_partitions(4, abstraction.partition.adjacency))[::-1]
     assert abstraction.count == len(brute)

@@ -32,14 +32,18 @@ def test_the_price_is_recovery_time_per_expected_failure():
 def test_recovery_prices_a_failure_by_its_time_and_open_loop_by_the_dish():
     price = FailurePrice(20.0)
     scenario = Scenario()
-    execution = dataclasses.replace(scenario.planner, failure_price="execution")
+    assert scenario.planner.failure_price == "execution"  # the default
     for recovery, priced in (("none", 150.0), ("retry", 20.0), ("replan", 20.0)):
-        s = dataclasses.replace(scenario, planner=execution, execution=dataclasses.replace(
+        s = dataclasses.replace(scenario, execution=dataclasses.replace(
             scenario.execution, recovery=recovery))
-        assert failure_reward(s, price) == priced
+        assert failure_reward(s.settings, price) == priced
     # The paper's price whatever the execution does; and the planner is the same object.
-    assert failure_reward(scenario, price) == 150.0
-    assert priced_planner(scenario, price) is scenario.planner
+    paper = dataclasses.replace(scenario, planner=dataclasses.replace(
+        scenario.planner, failure_price="paper"))
+    assert failure_reward(paper.settings, price) == 150.0
+    assert priced_planner(paper.settings, price) is paper.planner
+    # The recorded price is the one the planner reads.
+    assert FailurePrice.load().seconds > 0
 
 
 def _row(recovery, pickups, recoveries):

@@ -15,6 +15,7 @@ from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.planning.failure_price import failure_reward
 from s3o_drake.planning.methods import PlanningTimeoutError, plan_task
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
 from s3o_drake.planning.task.check import check_plan
@@ -102,11 +103,12 @@ def test_valid_plan_for_every_method(scenes, plans, known_checkers, scene, metho
             here = np.array([x, y])
     # Utility as GROP* defines it, under the robot cost profile (the default): the
     # costs are the predicted execution time (without its once-per-plan start and end),
-    # the gains λ Fea^m (the paper profile: tests/planning/test_time_model.py).
-    pl = scenario.planner
-    assert pl.cost_profile == "robot"
+    # the gains λ Fea^m (the paper profile: tests/planning/test_time_model.py), λ as the
+    # execution's mode prices a failure (planning/failure_price.py).
+    assert scenario.planner.cost_profile == "robot"
     offset = TimeModel.load().overheads.plan
-    utility = -(p.predicted_time - offset) + sum(pl.reward * k.feasibility for k in p.pickups)
+    lam = failure_reward(scenario.settings)
+    utility = -(p.predicted_time - offset) + sum(lam * k.feasibility for k in p.pickups)
     assert p.utility == pytest.approx(utility, abs=1e-6)
     assert set(p.timing) >= {"feasibility", "abstraction", "task_planning", "motion_search"}
 
@@ -383,7 +385,7 @@ def test_one_location_price_ranks_with_the_search_s_gamma(scenes):
     values = {}
     for price in ("paper", "search"):
         s = dataclasses.replace(scenario, planner=dataclasses.replace(
-            scenario.planner, location_price=price))
+            scenario.planner, location_price=price, failure_price="paper"))
         result = plan_task(_known(s, chairs), method="S3O-GROP*", heatmaps=heatmaps, seed=0)
         values[price] = {sp.groups: sp.score - sp.value for sp in result.abstraction.ranked}
     gamma = TimeModel.load().overheads.gamma

@@ -21,6 +21,7 @@ from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.diagram import build_execution_diagram, navigator_params
 from s3o_drake.execution.messages import BaseCommand
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
+from s3o_drake.planning.failure_price import failure_reward
 from s3o_drake.planning.methods import plan_task
 from s3o_drake.planning.navigation import base_motion
 from s3o_drake.planning.navigation.base_motion import BaseProfile
@@ -232,7 +233,7 @@ def test_the_cost_profile_switch(heatmaps):
                            heatmaps=maps, perceived_chairs=chairs, seed=0)
              for profile in ("robot", "paper")}
     model = TimeModel.load()
-    reward = scenario.planner.reward
+    reward = failure_reward(scenario.settings)  # λ as the execution's mode prices a failure
     robot = plans["robot"]
     gain = sum(reward * k.feasibility for k in robot.pickups)
     assert robot.utility == pytest.approx(-(robot.predicted_time - model.overheads.plan) + gain,
@@ -240,7 +241,7 @@ def test_the_cost_profile_switch(heatmaps):
     paper = plans["paper"]
     pl = scenario.planner
     utility = sum(-(g.length / pl.speed + pl.gamma) for g in paper.gotos) + sum(
-        -pl.delta + pl.reward * k.feasibility for k in paper.pickups)
+        -pl.delta + reward * k.feasibility for k in paper.pickups)
     assert paper.utility == pytest.approx(utility, abs=1e-6)
     # The paper's straight estimate is well below the execution's time (pickups of ~7 s
     # against δ = 5 s, the turns, accelerations and hand-overs: 1.66x here).
