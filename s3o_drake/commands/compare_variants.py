@@ -5,7 +5,8 @@
 --study DIR holds the runs of --baseline and of --method as it is; each LABEL=DIR is a study
 of --method with some scenario fields replaced (`s3o evaluate --set ...`) on the same tasks
 and seeds. Per row: completion, predicted completion, stops, the sign test and the paired
-execution time against the baseline and against the method as it is.
+execution time against the baseline and against the method as it is. A study without the
+baseline's runs compares the variants with the method as it is only.
 """
 
 from __future__ import annotations
@@ -53,18 +54,18 @@ def main(argv: list[str] | None = None) -> int:
 
     baseline = runs_of(folders["as it is"], args.baseline)
     reference = runs_of(folders["as it is"], args.method)
-    if not baseline or not reference:
-        fail(f"--study: {folders['as it is']} needs runs of both {args.baseline} and "
-             f"{args.method}")
+    if not reference:
+        fail(f"--study: {folders['as it is']} has no runs of {args.method}")
     figures = [variant_figures(label, reference if label == "as it is" else
                                runs_of(folder, args.method), baseline,
                                None if label == "as it is" else reference,
                                baseline_name=args.baseline, reference_name="as it is")
                for label, folder in folders.items()]
-    codes = sorted({f.code for f in figures} | {f"{args.baseline}: " + variant_figures(
-        "b", baseline, baseline, None, baseline_name="", reference_name="").code})
-    table = (f"{args.method} variants against {args.baseline} (runs at: "
-             f"{'; '.join(codes)})\n\n"
+    codes = sorted({f.code for f in figures} | ({f"{args.baseline}: " + variant_figures(
+        "b", baseline, baseline, None, baseline_name="", reference_name="").code}
+        if baseline else set()))
+    against = f"against {args.baseline}" if baseline else f"(no {args.baseline} in the study)"
+    table = (f"{args.method} variants {against} (runs at: {'; '.join(codes)})\n\n"
              + variant_table(figures, baseline_name=args.baseline, reference_name="as it is"))
     print(table)
     if args.out:

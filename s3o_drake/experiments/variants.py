@@ -28,7 +28,7 @@ class VariantFigures:
     completion_high: float
     predicted_completion: float
     stops: float
-    against_baseline: Paired
+    against_baseline: Paired | None
     against_reference: Paired | None
     code: str
 
@@ -36,7 +36,8 @@ class VariantFigures:
 def variant_figures(label: str, runs: Sequence[Mapping], baseline: Sequence[Mapping],
                     reference: Sequence[Mapping] | None, *, baseline_name: str,
                     reference_name: str) -> VariantFigures:
-    """One variant's figures (module docstring); `reference` None for the reference itself."""
+    """One variant's figures (module docstring); `reference` None for the reference itself,
+    `baseline` empty when the study ran no baseline (its columns are then left empty)."""
     runs = [r for r in runs if "error" not in r]
     done = sum(bool(r["complete"]) for r in runs)
     low, high = binomtest(done, len(runs)).proportion_ci(method="wilson") if runs else \
@@ -46,7 +47,7 @@ def variant_figures(label: str, runs: Sequence[Mapping], baseline: Sequence[Mapp
         label, len(runs), done / len(runs) if runs else np.nan, float(low), float(high),
         float(np.mean([predicted_completion(r) for r in runs])) if runs else np.nan,
         float(np.mean(stops)) if stops else np.nan,
-        paired_runs(runs, baseline, baseline_name, method=label),
+        paired_runs(runs, baseline, baseline_name, method=label) if baseline else None,
         None if reference is None else paired_runs(runs, reference, reference_name,
                                                    method=label),
         code_of(runs))
@@ -66,8 +67,8 @@ def variant_table(figures: Sequence[VariantFigures], *, baseline_name: str,
         lines.append(
             f"| {f.label} | {f.runs} | {f.completion:.2f} [{f.completion_low:.2f}, "
             f"{f.completion_high:.2f}] | {f.predicted_completion:.3f} | {f.stops:.2f} | "
-            f"{b.wins} / {b.losses} / {b.p_value:.2f} | {b.timed.text()} | "
-            f"{b.complete.text()} | "
+            + ("– | – | – | " if b is None else f"{b.wins} / {b.losses} / {b.p_value:.2f} | "
+               f"{b.timed.text()} | {b.complete.text()} | ")
             + ("–" if r is None else f"{r.wins} / {r.losses} / {r.p_value:.2f}") + " | "
             + ("–" if r is None else r.complete.text()) + " |")
     return "\n".join(lines) + "\n"

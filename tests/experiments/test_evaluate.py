@@ -335,6 +335,13 @@ def test_variants_pair_with_the_baseline_and_the_method_as_it_is(tmp_path, capsy
     assert "| 2 / 0 / 0.50 | -20.0 [-20.0, -20.0] s, -20.0 %" in shared
     assert shared.endswith("| 2 / 0 / 0.50 | -10.0 [-10.0, -10.0] s, -11.1 % [-11.1, -11.1] "
                            "(8 pairs) |")
+    # A study of the method alone (with recovery, say): the variants against it only.
+    store(tmp_path / "alone", [_row(f"t{i}", "S3O-GROP*", 0, True, 90.0) for i in range(10)])
+    assert compare_variants(["--study", str(tmp_path / "alone"), f"shared={tmp_path / 'shared'}",
+                             "--out", str(out)]) == 0
+    text = out.read_text()
+    assert text.startswith("S3O-GROP* variants (no V-GROP* in the study)")
+    assert "| shared | 10 | 1.00 [" in text and "| – | – | – | 0 / 0 / 1.00 | -10.0 [" in text
     with pytest.raises(SystemExit) as e:
         compare_variants(["--study", str(tmp_path / "study"), "shared"])
     assert e.value.code == 2 and "LABEL=DIR" in capsys.readouterr().err
