@@ -6,7 +6,8 @@ A variant is a study of the same tasks and seeds with some scenario fields repla
 whose run seeds, and so noise, are the same. Per variant: completion (Wilson 95 % interval),
 the plans' predicted completion, the stops, the sign test and the paired execution time
 (`summary.paired_runs`: on pairs with two plans and on pairs where both collected every dish)
-against the baseline and against the reference.
+against the baseline and against the reference, and on the complete pairs the stops saved
+against the baseline and the seconds each saves.
 """
 
 from collections.abc import Mapping, Sequence
@@ -58,17 +59,19 @@ def variant_table(figures: Sequence[VariantFigures], *, baseline_name: str,
     """The figures as a Markdown table, a row per variant."""
     lines = [f"| variant | runs | completion (95 %) | predicted completion | stops | against "
              f"{baseline_name}: only it completes / only {baseline_name} / sign test p | time "
-             f"against {baseline_name}, both with a plan | the same, both complete | against "
+             f"against {baseline_name}, both with a plan | the same, both complete | there: "
+             f"stops fewer / pairs with as many / s per stop saved | against "
              f"{reference_name}: only it / only {reference_name} / p | time against "
              f"{reference_name}, both complete |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for f in figures:
         b, r = f.against_baseline, f.against_reference
         lines.append(
             f"| {f.label} | {f.runs} | {f.completion:.2f} [{f.completion_low:.2f}, "
             f"{f.completion_high:.2f}] | {f.predicted_completion:.3f} | {f.stops:.2f} | "
-            + ("– | – | – | " if b is None else f"{b.wins} / {b.losses} / {b.p_value:.2f} | "
-               f"{b.timed.text()} | {b.complete.text()} | ")
+            + ("– | – | – | – | " if b is None else f"{b.wins} / {b.losses} / "
+               f"{b.p_value:.2f} | {b.timed.text()} | {b.complete.text()} | "
+               f"{b.stops.text()} | ")
             + ("–" if r is None else f"{r.wins} / {r.losses} / {r.p_value:.2f}") + " | "
             + ("–" if r is None else r.complete.text()) + " |")
     return "\n".join(lines) + "\n"

@@ -311,6 +311,24 @@ def test_a_run_without_a_plan_has_no_time_counts_incomplete_and_is_listed(tmp_pa
     assert "- a S3O-Random seed 0: no plan: S3O-Random: no valid plan" in summary
 
 
+def test_the_paired_time_is_traced_to_the_stops_saved():
+    """On pairs where both complete: how many stops fewer, how often as many, and the seconds
+    a saved stop is worth (the slope of the time saved on the stops saved)."""
+    from s3o_drake.experiments.summary import paired_runs
+
+    mine, theirs = [], []
+    for i, saved in enumerate((0, 0, 1, 1, 2)):
+        mine.append({**_row(f"t{i}", "S3O-GROP*", 0, True, 100.0), "stops": 5 - saved})
+        theirs.append({**_row(f"t{i}", "V-GROP*", 0, True, 100.0 + 11.0 * saved + 1.0),
+                       "stops": 5})
+    mine.append({**_row("t9", "S3O-GROP*", 0, False, 50.0), "stops": 1})  # not complete
+    theirs.append({**_row("t9", "V-GROP*", 0, True, 100.0), "stops": 5})
+    stops = paired_runs(mine, theirs, "V-GROP*").stops
+    assert (stops.pairs, stops.same) == (5, 2)
+    assert stops.fewer == pytest.approx(0.8) and stops.seconds_per_stop == pytest.approx(11.0)
+    assert stops.text() == "+0.80 / 2 of 5 / 11.0 s"
+
+
 def test_variants_pair_with_the_baseline_and_the_method_as_it_is(tmp_path, capsys):
     from s3o_drake.commands.compare_variants import main as compare_variants
 
