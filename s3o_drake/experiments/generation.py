@@ -34,7 +34,7 @@ def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0, *,
     `chair_margin` (m): the drives are asked on a map whose unmapped chairs are grown by
     it, where perception may put them. A dish whose only way passes a chair within that
     of the drives' clearance is then named too: on the chairs perception finds, millimetres
-    off, the planner may find no way there (dense task_030 and task_045, docs/results.md).
+    off, the planner may find no way there (dense task_030 and task_045, docs/results_history.md).
 
     `best_stops` with Fea^m 1 within reach, but cheaper (the generator asks once per chair
     drawn): the collision check, the costly part, is asked only at positions that keep

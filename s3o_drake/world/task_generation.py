@@ -11,7 +11,7 @@ With `stops` (the benchmark's tasks: `s3o generate` passes
 `experiments.generation.dishes_without_stops`), every dish also keeps a candidate stop that a
 drive from the start reaches: dishes drawn where no stop reaches them are drawn again, and
 so is a chair that would close the last way to one. In a dense room the chairs of the
-protocol otherwise fill the aisles (docs/results.md); in the spacious one it redrew
+protocol otherwise fill the aisles (docs/results_history.md); in the spacious one it redrew
 chairs in 5 of the 100 tasks of seed 0. The check lives above this layer (it needs the
 navigation map), hence a function passed in.
 

@@ -191,7 +191,9 @@ def _bad_inputs(tmp_path: Path) -> list[tuple[list[str], str]]:
         ([str(text)], "not a JSON report"),
         ([str(_write_results(tmp_path / "bad" / "results.jsonl", [bad_record]))],
          "pickups[0]: predicted"),
-        ([str(REPO / "docs" / "results" / "results.jsonl")], "no per-pickup records"),
+        ([str(_write_results(tmp_path / "old" / "results.jsonl", [
+            {"key": "run/a/S3O-GROP*/0", "kind": "run", "outcomes": ["pickup d: done"]}]))],
+         "no per-pickup records"),
         ([str(results), "--bins", "0"], "--bins"),
         ([str(results), "--methods", "S3O"], "--methods"),
         ([str(results), "--methods", "V-GROP"], "no executed pickup of 'V-GROP'"),
