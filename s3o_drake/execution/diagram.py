@@ -35,7 +35,11 @@ from s3o_drake.execution.arm_controller import ArmController, ArmParams
 from s3o_drake.execution.base_navigator import BaseNavigator, NavigatorParams
 from s3o_drake.execution.escape import MotionProfile
 from s3o_drake.execution.executive import ExecutiveParams, TaskObject
-from s3o_drake.execution.executive_system import ExecutiveSystem, ExecutiveSystemParams
+from s3o_drake.execution.executive_system import (
+    ExecutiveSystem,
+    ExecutiveSystemParams,
+    PlanFrom,
+)
 from s3o_drake.execution.task_monitor import TaskMonitor
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
@@ -82,11 +86,13 @@ def make_executive_system(scenario: Scenario, *, method: str | None = None,
                           workers: int | None = None, noise: bool = True,
                           robot_labels: frozenset[int] = frozenset(),
                           progress_bar: bool = False,
-                          control_period: float = CONTROL_PERIOD) -> ExecutiveSystem:
+                          control_period: float = CONTROL_PERIOD,
+                          plan_from: PlanFrom | None = None) -> ExecutiveSystem:
     """The ExecutiveSystem of `scenario`: planning with `method` (default the scenario's),
     from `seed` (default the scenario's), perceiving the chairs with `perceive` (default
     `belief.ChairPerception`); `robot_labels`: the robot's own pixels, for the FCN's view;
-    `noise=False`: exact localisation."""
+    `noise=False`: exact localisation; `plan_from`: what makes each plan (default the
+    planning pipeline's)."""
     method = method or scenario.planner.method
     params = ExecutiveSystemParams(
         executive=executive_params(scenario, method=method), method=method,
@@ -104,7 +110,8 @@ def make_executive_system(scenario: Scenario, *, method: str | None = None,
                                     perceive=perceive, robot_labels=robot_labels, held=held)
 
     return ExecutiveSystem(params=params, perceive_world=perceive_world,
-                           control_period=control_period, progress_bar=progress_bar)
+                           control_period=control_period, progress_bar=progress_bar,
+                           **({} if plan_from is None else {"plan_from": plan_from}))
 
 
 def navigator_params(scenario: Scenario, *, seed: int | None = None,
@@ -133,7 +140,8 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
                             seed: int | None = None, meshcat: Meshcat | None = None,
                             perceive: Perceive | None = None, noise: bool = True,
                             progress_bar: bool = False, time_limit: float = TIME_LIMIT,
-                            show_collisions: bool = False) -> Diagram:
+                            show_collisions: bool = False,
+                            plan_from: PlanFrom | None = None) -> Diagram:
     """The whole system (see the module docstring), named "s3o_execution".
 
     `noise=False` turns off the simulated navigation, reaching and localisation noise (the
@@ -152,7 +160,8 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     truth = FeasibilityScene(with_place_targets(scenario).contents)
     executive = builder.AddNamedSystem("executive", make_executive_system(
         scenario, method=method, seed=seed, perceive=perceive, progress_bar=progress_bar,
-        control_period=CONTROL_PERIOD, robot_labels=robot_render_labels(world), noise=noise))
+        control_period=CONTROL_PERIOD, robot_labels=robot_render_labels(world), noise=noise,
+        plan_from=plan_from))
     navigator = builder.AddNamedSystem("base_navigator", BaseNavigator(
         params=navigator_params(scenario, seed=seed, noise=noise), scene=truth,
         control_period=CONTROL_PERIOD))

@@ -15,6 +15,7 @@ from tqdm import tqdm
 
 from s3o_drake.belief import Perceive
 from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
+from s3o_drake.execution.executive_system import PlanFrom
 from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.world.builder import overhead_images
@@ -117,14 +118,15 @@ def _simulate(simulator: Simulator, plant) -> tuple[str | None, int]:
 
 def execute(scenario: Scenario, *, method: str | None = None, seed: int | None = None,
             meshcat: Meshcat | None, realtime: bool = False, noise: bool = True,
-            progress: bool = True, perceive: Perceive | None = None) -> Execution:
+            progress: bool = True, perceive: Perceive | None = None,
+            plan_from: PlanFrom | None = None) -> Execution:
     """Builds the execution diagram, plans (at initialization) and simulates until the task
     monitor ends the run; records the playback in `meshcat` (none without one: the
     benchmark's runs). `perceive` replaces the executive's perception of the chairs (at
-    every plan and replan)."""
+    every plan and replan); `plan_from` what makes each plan (default the pipeline's)."""
     diagram = build_execution_diagram(scenario, method=method, seed=seed, meshcat=meshcat,
                                       perceive=perceive, noise=noise, progress_bar=progress,
-                                      show_collisions=realtime)
+                                      show_collisions=realtime, plan_from=plan_from)
     if meshcat is not None:
         frame_room(meshcat, scenario)
     simulator = Simulator(diagram)

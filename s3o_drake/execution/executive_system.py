@@ -44,6 +44,8 @@ from s3o_drake.world.settings import Uncertainty
 from s3o_drake.world.system_lifetime import weak_callback
 
 PerceiveWorld = Callable[..., KnownWorld]
+PlanFrom = Callable[..., PlanningResult]
+"""How a plan is made from what the robot knows: `planning.pipeline.plan_from`'s signature."""
 """(color, depth, label images), *, pose, dishes, held -> what the robot knows."""
 
 
@@ -94,13 +96,18 @@ class ExecutiveSystem(LeafSystem):
       planning_result (abstract PlanningResult, or None before planning: the latest plan
         and what it was made on, the KnownWorld, heatmaps, navigation map and state spaces);
       planning_time (1: wall time in s spent planning so far, all plans).
+
+    `plan_from` makes each plan (default the planning pipeline's): another planner, or the
+    pipeline with its Fea^m computed elsewhere, plugs in here.
     """
 
     def __init__(self, *, params: ExecutiveSystemParams, perceive_world: PerceiveWorld,
-                 control_period: float = CONTROL_PERIOD, progress_bar: bool = False):
+                 plan_from: PlanFrom = plan_from, control_period: float = CONTROL_PERIOD,
+                 progress_bar: bool = False):
         super().__init__()
         self._params = params
         self._perceive_world = perceive_world
+        self._plan_from = plan_from
         self._progress_bar = progress_bar
 
         def believe(pose: np.ndarray, command_id: int) -> np.ndarray:
@@ -233,9 +240,10 @@ class ExecutiveSystem(LeafSystem):
         if self._progress_bar:
             print(f"planning with {p.method} (Fea^m from {p.feasibility}) within a budget "
                   f"of {ask.budget:g} s", file=sys.stderr, flush=True)
-        result = plan_from(known, method=p.method, seed=p.seed, workers=p.workers,
-                           time_budget=ask.budget, progress=self._progress_bar, started=t0,
-                           drive_margin=TIGHT_DRIVE_MARGIN if ask.tight else DRIVE_MARGIN)
+        result = self._plan_from(known, method=p.method, seed=p.seed, workers=p.workers,
+                                 time_budget=ask.budget, progress=self._progress_bar,
+                                 started=t0,
+                                 drive_margin=TIGHT_DRIVE_MARGIN if ask.tight else DRIVE_MARGIN)
         if result.navigation is not None:
             result.navigation.seal()
         took = PlanTime(result.planning_time, None if result.plan is None

@@ -20,8 +20,15 @@ from s3o_drake.execution.messages import NO_COMMAND, PickupRecord, Status
 from s3o_drake.planning.plan import Goto, Pickup, Place
 from s3o_drake.world.robot import robot_desired_state, robot_positions
 from s3o_drake.world.scenario import load_scenario
+from tests.conftest import ORACLE_MAPS_ONCE
 
 SCENE = "scenarios/small/opposite_sides.yaml"
+
+
+def _executive(scenario, **kwargs):
+    """The ExecutiveSystem, planning with the oracle's Fea^m of each scene computed once
+    (tests/conftest.py: OracleMapsOnce)."""
+    return make_executive_system(scenario, plan_from=ORACLE_MAPS_ONCE, **kwargs)
 
 
 def _with_oracle(scenario, recovery="none"):
@@ -84,11 +91,32 @@ def test_plans_at_initialization(planned, scenario):
     assert result.plan is plan and result.navigation is not None and result.heatmaps
 
 
+def test_plans_with_the_plan_from_it_is_given(scenario):
+    """Another planner plugs in as `plan_from`: it is asked once, at initialization, with
+    what the robot knows (a KnownWorld: the perceived chairs, not the true ones)."""
+    from s3o_drake.belief.known_world import KnownWorld
+
+    asked = []
+
+    def plan_from(known, **kwargs):
+        asked.append(known)
+        return ORACLE_MAPS_ONCE(known, **kwargs)
+
+    system = make_executive_system(scenario, method="V-GROP*", seed=0, plan_from=plan_from,
+                                   perceive=scenario_unmapped_chairs(scenario))
+    context = _context(system, scenario)
+    system.ExecuteInitializationEvents(context)
+    (known,) = asked
+    assert isinstance(known, KnownWorld)
+    assert {d.name for d in known.dishes} == {d.name for d in scenario.dishes}
+    assert system.GetOutputPort("plan").Eval(context).method == "V-GROP*"
+
+
 def test_in_a_short_simulation_it_plans_then_sends_the_first_drive(scenario):
     """Inside a diagram whose controllers never report: the plan is made at initialization,
     the first goto's drive goes out at the first control period, and nothing more."""
     builder = DiagramBuilder()
-    system = builder.AddSystem(make_executive_system(
+    system = builder.AddSystem(_executive(
         scenario, method="V-GROP*", seed=0, perceive=scenario_unmapped_chairs(scenario)))
     state = robot_desired_state(robot_positions(*scenario.robot.start))
     inputs = {"overhead_color_image": ImageRgba8U(8, 8),
@@ -113,7 +141,7 @@ def test_in_a_short_simulation_it_plans_then_sends_the_first_drive(scenario):
 
 
 def test_walks_the_plan_on_the_controllers_reports(scenario):
-    system = make_executive_system(scenario, method="V-GROP*", seed=0,
+    system = _executive(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -152,7 +180,7 @@ def test_walks_the_plan_on_the_controllers_reports(scenario):
 
 
 def test_a_failed_goto_ends_the_execution(scenario):
-    system = make_executive_system(scenario, method="V-GROP*", seed=0,
+    system = _executive(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -175,7 +203,7 @@ def test_perception_decides_the_obstacles(scenario):
         seen.append((color.shape, depth.shape, label.shape))
         return [[1.0, 1.0, 0.0]]
 
-    system = make_executive_system(scenario, method="V-GROP*", seed=0, perceive=perceive)
+    system = _executive(scenario, method="V-GROP*", seed=0, perceive=perceive)
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
     assert seen == [((8, 8, 4), (8, 8), (8, 8))]
@@ -188,7 +216,7 @@ def test_turns_to_face_each_further_dish_before_picking_it():
     """Fea^m assumed the base faces the dish it picks: at a stop that serves two dishes,
     the second pickup is preceded by a turn in place (no navigation noise), then picked."""
     scenario = _with_oracle(load_scenario("scenarios/small/two_dishes.yaml"))
-    system = make_executive_system(scenario, method="S3O-GROP*", seed=0,
+    system = _executive(scenario, method="S3O-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -225,7 +253,7 @@ def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenari
     """Each finished pickup leaves a PickupRecord on `progress`: the plan's Fea^m and the
     stop it was predicted for, where the base really stood when the pick was sent, the
     arm's outcome and reach noise."""
-    system = make_executive_system(scenario, method="V-GROP*", seed=0,
+    system = _executive(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -268,7 +296,7 @@ def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenari
 
 def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
     scenario = _with_oracle(load_scenario("scenarios/small/two_dishes.yaml"))
-    system = make_executive_system(scenario, method="S3O-GROP*", seed=0,
+    system = _executive(scenario, method="S3O-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
@@ -307,7 +335,7 @@ def _tidy_planner():
     """An ExecutiveSystem of tidy_home (V-GROP*, open loop) that has planned: with its context
     and plan."""
     tidy = _with_oracle(load_scenario("scenarios/tidy_home.yaml"))
-    system = make_executive_system(tidy, method="V-GROP*", seed=0,
+    system = _executive(tidy, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(tidy))
     context = _context(system, tidy)
     system.GetInputPort("replan_request").FixValue(context, [0.0])

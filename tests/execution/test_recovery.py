@@ -25,9 +25,16 @@ from s3o_drake.world.obstacles import CONTACT_RADIUS
 from s3o_drake.world.robot import robot_desired_state, robot_positions
 from s3o_drake.world.scenario import load_scenario
 from s3o_drake.world.settings import Uncertainty
+from tests.conftest import ORACLE_MAPS_ONCE
 from tests.execution.test_executive_system import _context, _step, _with_oracle
 
 SCENE = "scenarios/small/opposite_sides.yaml"
+
+
+def _executive(scenario, **kwargs):
+    """The ExecutiveSystem, planning with the oracle's Fea^m of each scene computed once
+    (tests/conftest.py: OracleMapsOnce)."""
+    return make_executive_system(scenario, plan_from=ORACLE_MAPS_ONCE, **kwargs)
 
 
 @pytest.fixture(scope="module")
@@ -127,11 +134,12 @@ def test_where_the_robot_stands_is_rated_by_the_model_and_moves_go_to_free_stops
     assert kept.value_at(target) > 0.0
 
 
-def _planner(scenario, **changes):
+def _planner(scenario, plan_from=ORACLE_MAPS_ONCE, **changes):
     scenario = dataclasses.replace(scenario, execution=dataclasses.replace(
         scenario.execution, **changes))
     system = make_executive_system(scenario, method="V-GROP*", seed=0, noise=False,
-                        perceive=scenario_unmapped_chairs(scenario))
+                                   perceive=scenario_unmapped_chairs(scenario),
+                                   plan_from=plan_from)
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
     return system, context
@@ -219,18 +227,20 @@ def test_failed_pickups_are_retried_then_left_with_retry(scenario):
     assert system.GetOutputPort("base_command").Eval(context).id > third.id
 
 
-def test_a_dish_whose_replan_finds_no_plan_is_left_and_the_old_plan_goes_on(scenario,
-                                                                            monkeypatch):
+def test_a_dish_whose_replan_finds_no_plan_is_left_and_the_old_plan_goes_on(scenario):
     """A replan after a dish failed its tries that finds no plan (the dense study's runs
     ended so, other dishes still on the tables) leaves that dish, and the plan goes on."""
-    import s3o_drake.execution.executive_system as module
+    plans_found = [True]
 
-    system, context = _planner(scenario, recovery="replan", max_tries=1)
+    def plan_from(known, **kwargs):
+        result = ORACLE_MAPS_ONCE(known, **kwargs)
+        return result if plans_found[0] else dataclasses.replace(
+            result, plan=None, error="no plan: none valid (test)")
+
+    system, context = _planner(scenario, plan_from, recovery="replan", max_tries=1)
     plan = system.GetOutputPort("plan").Eval(context)
     goto, pickup, command = _first_stop(system, context)
-    real = module.plan_from
-    monkeypatch.setattr(module, "plan_from", lambda *a, **k: dataclasses.replace(
-        real(*a, **k), plan=None, error="no plan: none valid (test)"))
+    plans_found[0] = False
     _land(system, context, goto.pose)
     _finish(system, context, "base_status", command)
     _step(system, context)
@@ -274,13 +284,10 @@ def _walk(system, context, limit=60):
     raise AssertionError("the execution did not finish")
 
 
-def test_a_dish_left_out_unchecked_is_planned_for_again_at_the_plan_s_end(scenario,
-                                                                          monkeypatch):
+def test_a_dish_left_out_unchecked_is_planned_for_again_at_the_plan_s_end(scenario):
     """A first plan that left a dish out on the network's Fea^m alone (no time for the
     Drake check) is followed, at its end, by a replan for that dish."""
-    import s3o_drake.execution.executive_system as module
-
-    real = module.plan_from
+    real = ORACLE_MAPS_ONCE
     asked, margins = [], []
 
     def first_without_north(known, **kwargs):
@@ -292,8 +299,7 @@ def test_a_dish_left_out_unchecked_is_planned_for_again_at_the_plan_s_end(scenar
         plan = dataclasses.replace(result.plan, unreachable=("bowl_north",))
         return dataclasses.replace(result, plan=plan, unchecked=("bowl_north",))
 
-    monkeypatch.setattr(module, "plan_from", first_without_north)
-    system, context = _planner(scenario, recovery="replan")
+    system, context = _planner(scenario, first_without_north, recovery="replan")
     assert [a.dish for a in system.GetOutputPort("plan").Eval(context).pickups] == [
         "bowl_south"]
     progress = _walk(system, context)
@@ -359,7 +365,8 @@ def _run(path, recovery, **kwargs):
         uncertainty=uncertainty or scenario.uncertainty)
     scenario = dataclasses.replace(scenario, simulation=dataclasses.replace(
         scenario.simulation, publish_period=1.0))
-    return execute(scenario, meshcat=None, progress=False, **kwargs).report
+    return execute(scenario, meshcat=None, progress=False, plan_from=ORACLE_MAPS_ONCE,
+                   **kwargs).report
 
 
 def test_in_simulation_a_landing_out_of_reach_is_corrected():

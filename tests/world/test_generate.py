@@ -18,7 +18,7 @@ BASE = REPO / "scenarios" / "restaurant.yaml"
 @pytest.fixture(scope="module")
 def spacious_tasks(tmp_path_factory):
     out = tmp_path_factory.mktemp("spacious")
-    assert generate_main(["--count", "5", "--seed", "0", "--out", str(out), "--quiet"]) == 0
+    assert generate_main(["--count", "3", "--seed", "0", "--out", str(out), "--quiet"]) == 0
     return out
 
 
@@ -33,7 +33,7 @@ def dense_tasks(tmp_path_factory):
 def test_tasks_are_valid_and_follow_the_protocol(spacious_tasks):
     base = load_scenario(BASE)
     files = sorted(spacious_tasks.glob("task_*.yaml"))
-    assert [f.name for f in files] == [f"task_{i:03d}.yaml" for i in range(5)]
+    assert [f.name for f in files] == [f"task_{i:03d}.yaml" for i in range(3)]
     counts = set()
     for f in files:
         task = load_scenario(f)  # validates: dishes on tables, no overlaps, robot free
@@ -98,10 +98,10 @@ def test_shipped_benchmark_tasks_are_what_the_generator_makes(spacious_tasks):
 def test_mixed_tasks_put_cups_down_on_another_table(spacious_tasks, tmp_path):
     """--places 1: one cup of each task is to be put down at a free spot on another table;
     where the task had a cup, it is otherwise the collect-only task."""
-    assert generate_main(["--count", "4", "--seed", "0", "--places", "1", "--out",
+    assert generate_main(["--count", "3", "--seed", "0", "--places", "1", "--out",
                           str(tmp_path), "--quiet"]) == 0
     same = 0
-    for i in range(4):
+    for i in range(3):
         path = tmp_path / f"task_{i:03d}.yaml"
         assert "--places 1" in path.read_text().splitlines()[0]
         task = load_scenario(path)  # validates the places: on a top, clear of the objects
@@ -114,7 +114,7 @@ def test_mixed_tasks_put_cups_down_on_another_table(spacious_tasks, tmp_path):
             assert task.chairs == plain.chairs
             assert [(d.position, d.kind) for d in task.dishes] == [
                 (d.position, d.kind) for d in plain.dishes]
-    assert same >= 3
+    assert same >= 2
 
 
 def test_dense_tasks_stand_in_the_dense_restaurant_and_say_so(dense_tasks):
