@@ -57,6 +57,10 @@ def describe_plan(p: TaskMotionPlan) -> str:
             verb = "place" if isinstance(a, Place) else "pickup"
             lines.append(f"  {i:2d}. {verb} {a.dish} (Fea^m {a.feasibility:.2f})")
     t = p.timing
+    if not p.actions:
+        lines.append(f"  nothing to do: no dish can be picked from a free stop; planned in "
+                     f"{p.planning_time:.2f} s")
+        return "\n".join(lines)
     lines.append(f"  expected utility {p.utility:.1f}, predicted execution time "
                  f"{p.predicted_time:.1f} s; planned in {p.planning_time:.2f} s (feasibility "
                  f"{t.get('feasibility', 0):.2f}, navigation {t.get('navigation', 0):.2f}, "
@@ -67,6 +71,20 @@ def describe_plan(p: TaskMotionPlan) -> str:
     if p.order is not None:
         lines.append(f"  {p.order.describe()}")
     return "\n".join(lines)
+
+
+def execution_time_line(predicted: float, simulated: float, *, first: str = "",
+                        actions: int = 1) -> str:
+    """The predicted execution time against the simulated one, said so that the sign cannot
+    be misread: how much longer (or shorter) the simulation took than the plan said."""
+    if not actions:
+        return "Execution time: nothing to execute (the plan has no actions)."
+    gap = simulated - predicted
+    share = f" ({100 * abs(gap) / predicted:.1f} % of the prediction)" if predicted > 0 else ""
+    return (f"Execution time: predicted {predicted:.1f} s{first}, simulated {simulated:.1f} s: "
+            f"the simulation took {abs(gap):.1f} s{share} "
+            f"{'longer' if gap >= 0 else 'less'} than predicted (the prediction is the plan "
+            "as planned: exact landings, every action done).")
 
 
 def describe_execution(report: dict) -> str:
@@ -267,9 +285,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         # The prediction made before the execution began: the first plan's.
         predicted, simulated = run.plan.predicted_time, report["execution_time"]
         first = f" by the first of {plans} plans" if plans > 1 else ""
-        print(f"Execution time: predicted {predicted:.1f} s{first}, simulated {simulated:.1f} s "
-              f"({100 * (predicted - simulated) / max(simulated, 1e-9):+.1f} %; the prediction "
-              "is the plan as planned: exact landings, every action done).")
+        print(execution_time_line(predicted, simulated, first=first,
+                                  actions=len(run.plan.actions)))
     for path in written:
         print(f"  wrote {path}")
     if args.meshcat and sys.stdin.isatty():

@@ -313,6 +313,8 @@ def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: Navig
     """The TaskMotionPlan of the winning motion result: poses facing the next dish, paths
     from the navigation map."""
     motion = best.motion
+    if not motion.actions:  # every dish lost: nothing to search or to order
+        return _stay(method, seed, timing, planning_time, unreachable=best.unreachable)
     dish_xy = {d.name: d.position for d in known.dishes}
     pose = np.asarray(known.pose[:2], dtype=float)
     here = nav.way_out(pose)
@@ -353,6 +355,14 @@ def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: Navig
                           order=best.task.order_of(motion.actions))
 
 
+def _stay(method: str, seed: int, timing: dict[str, float], planning_time: float, *,
+          unreachable: tuple[str, ...] = ()) -> TaskMotionPlan:
+    """The plan with no actions: nothing left to collect, or nothing any stop can pick."""
+    return TaskMotionPlan(method=method, seed=int(seed), groups=(), locations=(), actions=(),
+                          utility=0.0, predicted_time=0.0, planning_time=float(planning_time),
+                          timing=dict(timing), unreachable=unreachable)
+
+
 def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
               scene: PlanningScene | None = None,
               time_budget: float | None = None, n_sequences: int = 3, workers: int = 1,
@@ -387,10 +397,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     best: _Best | None = None
     complete = True
     if not known.dishes:  # nothing to collect: the empty plan is the optimal one
-        empty = TaskMotionPlan(method=method, seed=int(seed), groups=(), locations=(),
-                               actions=(), utility=0.0, predicted_time=0.0,
-                               planning_time=float(feasibility_time) + time.monotonic() - t_start,
-                               timing=timing)
+        empty = _stay(method, seed, timing, feasibility_time + time.monotonic() - t_start)
         return PlanningResult(known=asked, method=method, seed=int(seed), plan=empty,
                               planning_time=empty.planning_time)
 
@@ -446,6 +453,14 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
             grid = LocationGrid.of(partition, fea, drivable=partial(nav.reachable, start))
     timing["abstraction"] = time.monotonic() - t
     expired("the abstraction")
+    if not set(partition.dishes) - set(partition.unreachable):
+        # No free stop picks any dish: the plan is to stay, and no search runs.
+        empty = _stay(method, seed, timing, feasibility_time + time.monotonic() - t_start,
+                      unreachable=tuple(sorted(partition.unreachable)))
+        return PlanningResult(known=asked, scene=scene, method=method, seed=int(seed),
+                              plan=empty, navigation=nav, heatmaps=heatmap_tuple(heatmaps),
+                              model_heatmaps=model_heatmaps, partition=partition,
+                              abstraction=abstraction, planning_time=empty.planning_time)
     cells = dict(zip(partition.dishes, partition.cells, strict=True))
     iterations = max(planner.top_k, 1)
 

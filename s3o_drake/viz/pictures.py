@@ -367,8 +367,9 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "Planni
     dishes += [(n, partition.p_WO[index[n]], "red", True) for n in sorted(unreachable - placed)]
     names, marks = _name_dishes(ax, dishes, marker_size=7)
     crowded = _declutter(ax, names, marks)
-    ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.08), fontsize=8, ncol=2,
-              frameon=False)
+    if ax.get_legend_handles_labels()[0]:  # the empty plan has no locations to name
+        ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.08), fontsize=8, ncol=2,
+                  frameon=False)
     count = f"{len(plan.groups)} location" + ("" if len(plan.groups) == 1 else "s")
     abstraction = result.abstraction
     if abstraction is None:

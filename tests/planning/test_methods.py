@@ -403,3 +403,34 @@ def test_the_registry_holds_every_method_the_settings_name():
     assert method_of("V-PETLON").spaces is None and method_of("S3O-GROP*").abstraction
     with pytest.raises(ValueError, match="unknown planning method 'S3O'"):
         method_of("S3O")
+
+
+@pytest.mark.parametrize("method", ["S3O-GROP*", "V-GROP*"])
+def test_when_no_stop_picks_any_dish_the_plan_is_to_stay(scenes, method):
+    """Every dish out of reach (a plate at the middle of a large table, say): a plan with
+    no actions, no predicted time, no search, and the dishes named unreachable, said so.
+    (V-PETLON reads no Fea^m: it goes and tries.)"""
+    from s3o_drake.commands.run_scenario import describe_plan, execution_time_line
+    from s3o_drake.feasibility.oracle import Heatmap
+
+    scenario, heatmaps, chairs = scenes["two_dishes"]
+    nowhere = [Heatmap(h.dish, np.zeros_like(h.values), h.x0, h.y0, h.cell) for h in heatmaps]
+    p = plan(scenario, perceived_chairs=chairs, method=method, heatmaps=nowhere, seed=0)
+    assert p.actions == () and p.predicted_time == 0.0 and p.utility == 0.0
+    assert (p.searches, p.samples, p.order) == (0, 0, None)
+    assert set(p.unreachable) == {"plate_a", "cup_b"}
+    text = describe_plan(p)
+    assert "0 stops, 0 pickups, unreachable: cup_b, plate_a" in text
+    assert "nothing to do" in text and "searches" not in text and "optimal" not in text
+    assert execution_time_line(p.predicted_time, 0.0, actions=0) == \
+        "Execution time: nothing to execute (the plan has no actions)."
+
+
+def test_the_execution_time_line_says_which_way_the_prediction_was_off():
+    from s3o_drake.commands.run_scenario import execution_time_line
+
+    assert execution_time_line(136.0, 143.8).startswith(
+        "Execution time: predicted 136.0 s, simulated 143.8 s: the simulation took 7.8 s "
+        "(5.7 % of the prediction) longer than predicted")
+    assert "took 6.0 s (5.0 % of the prediction) less than predicted" in \
+        execution_time_line(120.0, 114.0)
