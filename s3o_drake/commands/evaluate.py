@@ -24,12 +24,14 @@ from typing import TYPE_CHECKING
 from s3o_drake.commands.common import command_parser, fail, read_scenario
 from s3o_drake.commands.options import (
     add_out,
+    add_overrides,
     add_quiet,
     add_seeds,
     add_tasks,
     add_workers,
     out_folder,
     task_paths,
+    with_overrides_or_fail,
 )
 
 # Light imports only: the heavy ones come after the arguments are parsed.
@@ -59,10 +61,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--recovery", choices=RECOVERY_MODES, default=Recovery.NONE.value,
                         help="what execution does when an action fails (default none: the "
                              "paper's open loop)")
-    parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
-                        dest="overrides",
-                        help="replace a scenario field in every run, e.g. "
-                             "planner.group_positions=shared (repeatable)")
+    add_overrides(parser, "replace a scenario field in every run, e.g. "
+                          "planner.group_positions=shared (repeatable)")
     add_workers(parser, os.cpu_count() or 1, "local worker processes")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="a Dask scheduler, tcp://HOST:PORT, instead of the local pool")
@@ -112,14 +112,7 @@ def _validate(args: argparse.Namespace) -> tuple[list[Path], list[str]]:
     paths = task_paths(args)
     for path in paths:
         scenario = read_scenario(path)
-    if args.overrides:
-        from s3o_drake.world.scenario import with_overrides
-        from s3o_drake.world.scenario_checks import ScenarioError
-
-        try:
-            with_overrides(scenario, args.overrides)
-        except ScenarioError as e:
-            fail(f"--set {e}")
+    with_overrides_or_fail(scenario, args.overrides)
     if args.methods == ["all"]:
         methods = list(METHODS)
     else:

@@ -10,6 +10,7 @@ name means one thing in every command (docs/commands.md, "Shared options"):
                     such rows (appended as each is done, resumed from; --fresh starts over),
                     else the figures as one JSON document
   --method NAME     one planning method;  --quiet: no progress bars
+  --set PATH=VALUE  replace a scenario field (repeatable), validated like the file
 
 A bad value is refused while the arguments are parsed: one line naming the option, exit
 status 2, nothing written.
@@ -29,6 +30,7 @@ from s3o_drake.world.resources import REPO_DIR, TASKS_DIR
 
 if TYPE_CHECKING:
     from s3o_drake.experiments.store import ResultStore
+    from s3o_drake.world.scenario import Scenario
 
 
 def at_least(low: int) -> Callable[[str], int]:
@@ -134,6 +136,26 @@ def add_workers(parser: argparse.ArgumentParser, default: int,
 
 def add_quiet(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def add_overrides(parser: argparse.ArgumentParser, text: str) -> None:
+    """--set PATH=VALUE (repeatable), as `args.overrides`: a list of the strings."""
+    parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                        dest="overrides", help=text)
+
+
+def with_overrides_or_fail(scenario: Scenario, overrides: Sequence[str]) -> Scenario:
+    """The scenario with --set's fields replaced; a bad path or value is one line naming
+    the field, and exit 2."""
+    if not overrides:
+        return scenario
+    from s3o_drake.world.scenario import with_overrides
+    from s3o_drake.world.scenario_checks import ScenarioError
+
+    try:
+        return with_overrides(scenario, overrides)
+    except ScenarioError as e:
+        fail(str(e) if str(e).startswith("--set") else f"--set {e}")
 
 
 def add_method(parser: argparse.ArgumentParser, default: str | None = "S3O-GROP*",

@@ -24,7 +24,14 @@ from s3o_drake.commands.common import (
     read_scenario,
     start_meshcat,
 )
-from s3o_drake.commands.options import add_method, add_out, add_seed, out_folder
+from s3o_drake.commands.options import (
+    add_method,
+    add_out,
+    add_overrides,
+    add_seed,
+    out_folder,
+    with_overrides_or_fail,
+)
 from s3o_drake.execution.messages import ran_to_end
 from s3o_drake.planning.plan import Goto, Place, TaskMotionPlan
 
@@ -228,13 +235,15 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     parser.add_argument("--no-noise", action="store_true",
                         help="simulate without navigation and reaching noise (the planner "
                              "still plans with the scenario's noise model)")
+    add_overrides(parser, "replace a field of the scenario, e.g. planner.top_k=8 or "
+                          "uncertainty.nav_xy_std=0.2 (repeatable)")
     args = parser.parse_args(argv)
 
     import dataclasses
 
     from s3o_drake.world.scenario import scenario_stem
 
-    scenario = read_scenario(args.scenario)
+    scenario = with_overrides_or_fail(read_scenario(args.scenario), args.overrides)
     if not any(d.goal != "stay" for d in scenario.dishes):
         fail(f"{args.scenario}: dishes: none to collect or place (an empty file is all "
              "defaults: a room without tables or dishes)")
@@ -261,7 +270,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     report = {"scenario": str(args.scenario), "method": args.method or scenario.planner.method,
               "feasibility": scenario.planner.feasibility, "seed": seed,
-              "recovery": scenario.execution.recovery,
+              "recovery": scenario.execution.recovery, "overrides": list(args.overrides),
               "noise": not args.no_noise, **run.report}
     write_atomically(out / "report.json", json.dumps(report, indent=1) + "\n")
     written = [out / "report.json"]

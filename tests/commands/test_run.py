@@ -166,6 +166,9 @@ def test_help_explains_every_option():
     (["--method", "S3O-GROP**"], "--method"),
     (["--seed", "-1"], "--seed"),
     (["--seed", "one"], "--seed"),
+    (["--set", "planner.top_kk=3"], "planner.top_kk"),
+    (["--set", "uncertainty.nav_xy_std=-1"], "uncertainty.nav_xy_std"),
+    (["--set", "planner"], "--set"),
 ])
 def test_bad_option_is_one_line_and_status_2(tmp_path, argv, field):
     result = subprocess.run([sys.executable, "-m", "s3o_drake.run", str(SMALL), *argv],
@@ -175,13 +178,16 @@ def test_bad_option_is_one_line_and_status_2(tmp_path, argv, field):
     assert not (tmp_path / "out").exists()
 
 
-def test_the_learned_heatmaps_plan_by_the_scenario_switch(tmp_path):
-    """--feasibility fcn (planner.feasibility: fcn) plans from the network's heatmaps of the
-    overhead depth image; without noise the plan still collects both dishes."""
+def test_set_replaces_a_scenario_field_for_the_run(tmp_path):
+    """--set planner.feasibility=oracle: the run plans from the Drake oracle's Fea^m (the
+    scenario says the network's), and the report names what was replaced."""
     out = tmp_path / "run"
-    assert run_main([str(SMALL), "--out", str(out), "--no-noise", "--feasibility", "fcn"]) == 0
+    assert run_main([str(SMALL), "--out", str(out), "--no-noise",
+                     "--set", "planner.feasibility=oracle"]) == 0
     report = json.loads((out / "report.json").read_text())
-    assert report["feasibility"] == "fcn" and report["collected"] == 2
+    assert report["feasibility"] == "oracle" and report["collected"] == 2
+    assert report["overrides"] == ["planner.feasibility=oracle"]
+    assert {p["source"] for p in report["pickups"]} == {"oracle"}
 
 
 def _report(**changes) -> dict:
