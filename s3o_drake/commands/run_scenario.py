@@ -39,6 +39,7 @@ from s3o_drake.planning.plan import Goto, Place, TaskMotionPlan
 # matplotlib load (main imports them once the arguments are parsed).
 from s3o_drake.world.choices import FEASIBILITY_SOURCES, RECOVERY_MODES
 from s3o_drake.world.files import write_atomically
+from s3o_drake.world.words import counted
 
 if TYPE_CHECKING:
     from s3o_drake.execution.execute import Execution
@@ -50,8 +51,9 @@ TOP_VIEW_CELL = 0.02  # m per pixel of the pictures' top view
 def describe_plan(p: TaskMotionPlan) -> str:
     """The plan as a person reads it: one line per action, then the figures. Locations are
     named as in plan.json and state_space.png, stops numbered as in plan.png."""
-    lines = [f"{p.method} plan (seed {p.seed}): {len(p.gotos)} stops, {len(p.pickups)} pickups"
-             + (f", {len(p.places)} place{'s' if len(p.places) != 1 else ''}" if p.places else "")
+    lines = [f"{p.method} plan (seed {p.seed}): {counted(len(p.gotos), 'stop')}, "
+             f"{counted(len(p.pickups), 'pickup')}"
+             + (f", {counted(len(p.places), 'place')}" if p.places else "")
              + (f", unreachable: {', '.join(p.unreachable)}" if p.unreachable else "")]
     stops = 0
     for i, a in enumerate(p.actions, 1):
@@ -144,14 +146,12 @@ def ending(report: dict) -> str:
     failed = sorted({dish for action, dish, outcome in report["outcomes"]
                      if action in ("pickup", "place") and outcome != "done"}
                     - done - set(unreachable))
-    missed = [f"{len(failed)} pickup{'s' if len(failed) > 1 else ''} or place"
-              f"{'s' if len(failed) > 1 else ''} failed ({', '.join(failed)})"
-              if report.get("placements") else
-              f"{len(failed)} pickup{'s' if len(failed) > 1 else ''} failed "
-              f"({', '.join(failed)})"] if failed else []
+    what = ("pickup or place", "pickups or places") if report.get("placements") else \
+        ("pickup", "pickups")
+    missed = [f"{counted(len(failed), *what)} failed ({', '.join(failed)})"] if failed else []
     if unreachable:
-        missed.append(f"{len(unreachable)} dish{'es' if len(unreachable) > 1 else ''} "
-                      f"unreachable ({', '.join(unreachable)})")
+        missed.append(f"{counted(len(unreachable), 'dish', 'dishes')} unreachable "
+                      f"({', '.join(unreachable)})")
     completed = report.get("completed", report["collected"])
     if not missed and completed == report["dishes"]:
         return ("plan ended: every object collected or placed" if report.get("placements")

@@ -39,9 +39,11 @@ from s3o_drake.execution.recovery import StopCheck, localise
 from s3o_drake.planning.navigation.map import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import PlanningResult, plan_from
 from s3o_drake.world.choices import Recovery
+from s3o_drake.world.goals import placed_object
 from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS
 from s3o_drake.world.settings import Uncertainty
 from s3o_drake.world.system_lifetime import weak_callback
+from s3o_drake.world.words import counted
 
 PerceiveWorld = Callable[..., KnownWorld]
 PlanFrom = Callable[..., PlanningResult]
@@ -229,8 +231,10 @@ class ExecutiveSystem(LeafSystem):
         t0 = time.perf_counter()
         p = self._params
         if self._progress_bar:  # say what is happening as it happens (stderr, with the bars)
+            objects = [d for d in ask.dishes if placed_object(d) is None]
             print(f"perceiving the unmapped chairs in the overhead camera's images "
-                  f"({len(ask.dishes)} dishes to plan for)", file=sys.stderr, flush=True)
+                  f"({counted(len(objects), 'object')} to plan for)", file=sys.stderr,
+                  flush=True)
         # Copies: a view of an image is a view of this context's cache, and one kept in the
         # plan's results would keep the whole context (scene graph, renderer) alive.
         images = tuple(np.array(port.Eval(context).data) for port in self._images)

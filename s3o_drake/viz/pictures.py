@@ -22,8 +22,9 @@ from shapely.ops import unary_union
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.plan import Place
 from s3o_drake.world.files import write_atomically
-from s3o_drake.world.goals import place_target_name, with_place_targets
+from s3o_drake.world.goals import place_target_name, shown_name, with_place_targets
 from s3o_drake.world.scenario import Scenario
+from s3o_drake.world.words import counted
 
 if TYPE_CHECKING:
     from matplotlib.text import Text
@@ -219,7 +220,7 @@ def _name_dishes(ax, dishes: Sequence[tuple[str, Sequence[float], object, bool]]
                           color="red" if lost else colour,
                           markeredgecolor="red" if lost else "k", linestyle="none")
         marks.append(mark)
-        text = ax.text(p[0], p[1], name + (" (unreachable)" if lost else ""),
+        text = ax.text(p[0], p[1], shown_name(name) + (" (unreachable)" if lost else ""),
                        fontsize=fontsize, color="k", bbox=_NAME_BOX)
         names.append((text, _around(ax, p, mark.get_markersize())))
     return names, marks
@@ -262,7 +263,7 @@ def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Seque
                     linestyle="none")
         names, marks = _name_dishes(ax, [(heatmap.dish, where[heatmap.dish], "cyan", False)])
         _declutter(ax, names, marks)
-        ax.set_title(heatmap.dish, fontsize=11)
+        ax.set_title(shown_name(heatmap.dish), fontsize=11)
     for ax in axes.flat[len(heatmaps):]:
         ax.set_visible(False)
     if image is not None:
@@ -272,7 +273,7 @@ def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Seque
                       "the dish; 0 where a stop sent there would collide)")
     fig.suptitle(title)
     write_atomically(path, _figure_bytes(fig))
-    return Labels(title=title, panels=tuple(h.dish for h in heatmaps))
+    return Labels(title=title, panels=tuple(shown_name(h.dish) for h in heatmaps))
 
 
 def overhead_figure(scenario: Scenario, camera: "OverheadCamera", color: np.ndarray,
@@ -370,7 +371,7 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "Planni
     if ax.get_legend_handles_labels()[0]:  # the empty plan has no locations to name
         ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.08), fontsize=8, ncol=2,
                   frameon=False)
-    count = f"{len(plan.groups)} location" + ("" if len(plan.groups) == 1 else "s")
+    count = counted(len(plan.groups), "location")
     abstraction = result.abstraction
     if abstraction is None:
         where = "the plain Voronoi state space (no merging)"
@@ -480,12 +481,10 @@ def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan"
                            bbox={"boxstyle": "round,pad=0.1", "fc": "white", "alpha": 0.6})
             fea_labels.append((text, _along(ax, stop, d)))
     crowded = _declutter(ax, labels + fea_labels, marks)
-    count = len(plan.gotos)
-    title = title or (f"{plan.method}: {count} stop{'s' if count != 1 else ''} "
-                      f"(number · location), {len(plan.pickups)} pickup"
-                      f"{'s' if len(plan.pickups) != 1 else ''}"
-                      + (f", {len(plan.places)} place{'s' if len(plan.places) != 1 else ''}"
-                         if plan.places else "") + ", predicted "
+    title = title or (f"{plan.method}: {counted(len(plan.gotos), 'stop')} "
+                      f"(number · location), {counted(len(plan.pickups), 'pickup')}"
+                      + (f", {counted(len(plan.places), 'place')}" if plan.places else "")
+                      + ", predicted "
                       f"{plan.predicted_time:.0f} s, utility {plan.utility:.1f} "
                       "(on the dotted lines: Fea$^m$)")
     ax.set_title(title, fontsize=11)

@@ -41,6 +41,13 @@ def placed_object(target: str) -> str | None:
     return target[:-len(PLACE_SUFFIX)] if target.endswith(PLACE_SUFFIX) else None
 
 
+def shown_name(name: str) -> str:
+    """A name as a person reads it: a place target is its object's place ("apple's
+    place"), any other name itself."""
+    placed = placed_object(name)
+    return name if placed is None else f"{placed}'s place"
+
+
 @dataclass(frozen=True)
 class PlaceTarget:
     """Where object `name` (of `kind`) is to stand once put down: on `table`, its centre
