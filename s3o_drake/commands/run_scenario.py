@@ -45,7 +45,6 @@ if TYPE_CHECKING:
     from s3o_drake.execution.execute import Execution
     from s3o_drake.world.scenario import Scenario
 
-TOP_VIEW_CELL = 0.02  # m per pixel of the pictures' top view
 
 
 def describe_plan(p: TaskMotionPlan) -> str:
@@ -165,6 +164,7 @@ def _write_pictures(scenario: Scenario, run: Execution, plan: TaskMotionPlan | N
                     out: Path) -> list[Path]:
     """The pictures of `plan` and what it was made on (the latest planning's result), so
     that they name its locations and stops as plan.json does."""
+    from s3o_drake.viz.floor import Floor
     from s3o_drake.viz.pictures import (
         feasibility_figure,
         overhead_figure,
@@ -172,11 +172,11 @@ def _write_pictures(scenario: Scenario, run: Execution, plan: TaskMotionPlan | N
         search_figure,
         state_space_figure,
     )
-    from s3o_drake.world.camera import orthophoto, overhead_camera
+    from s3o_drake.world.camera import overhead_camera
 
     written = []
     camera = overhead_camera(scenario.room, scenario.camera)
-    color, depth = run.images
+    color, _depth = run.images
     if scenario.outputs.overhead:
         overhead_figure(scenario, camera, color, out / "overhead.png")
         written.append(out / "overhead.png")
@@ -184,23 +184,28 @@ def _write_pictures(scenario: Scenario, run: Execution, plan: TaskMotionPlan | N
     heatmaps = list(result.heatmaps) if result is not None else []
     if not heatmaps and plan is None:
         return written
-    top_view = orthophoto(camera, color, depth, scenario.room.bounds, TOP_VIEW_CELL)
+    # The floor as the plan knew it: the chairs it perceived, and (in the pictures of what
+    # it believed) the true ones dashed beside them.
+    perceived = result.known.perceived_chairs if result is not None else None
+    pose = result.known.pose if result is not None else None
+    believed = Floor.of(scenario, perceived=perceived, truth=True, robot_pose=pose)
+    floor = Floor.of(scenario, perceived=perceived, robot_pose=pose)
     if heatmaps and scenario.outputs.feasibility:
-        feasibility_figure(scenario, top_view, heatmaps, out / "feasibility.png")
+        feasibility_figure(scenario, believed, heatmaps, out / "feasibility.png")
         written.append(out / "feasibility.png")
     # The state space only of the result that holds the plan (a replan that found none
     # leaves the plan before it, whose state space is not kept).
     made_on = result is not None and result.plan is plan
     if plan is not None and made_on and result.partition is not None \
             and scenario.outputs.state_space:
-        state_space_figure(scenario, top_view, result, out / "state_space.png")
+        state_space_figure(scenario, believed, result, out / "state_space.png")
         written.append(out / "state_space.png")
     if plan is not None:
         start = result.known.pose if made_on else None
-        plan_figure(scenario, top_view, plan, out / "plan.png", start=start)
+        plan_figure(scenario, floor, plan, out / "plan.png", start=start)
         written.append(out / "plan.png")
         if plan.early_samples:
-            search_figure(scenario, top_view, heatmaps, plan, out / "search.png")
+            search_figure(scenario, floor, heatmaps, plan, out / "search.png")
             written.append(out / "search.png")
     return written
 

@@ -21,6 +21,7 @@ from shapely.ops import unary_union
 
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.plan import Place
+from s3o_drake.viz.floor import Floor
 from s3o_drake.world.files import write_atomically
 from s3o_drake.world.goals import place_target_name, shown_name, with_place_targets
 from s3o_drake.world.scenario import Scenario
@@ -39,6 +40,8 @@ if TYPE_CHECKING:
 class Labels:
     """What a picture names.
 
+    `tables`: each table's outline as drawn, (x_min, y_min, x_max, y_max) in metres, read
+    back from the picture's artists (`floor.Floor.draw`).
     `locations`: each location it shows, by name, with the dishes it gives it (plan.png:
     picked from that location's stop; state_space.png: the location's cells). `stops`:
     plan.png's stop labels in visiting order, "1 · l2" (stop number · location). `panels`:
@@ -52,6 +55,7 @@ class Labels:
     stops: tuple[str, ...] = ()
     panels: tuple[str, ...] = ()
     overlaps: int = 0
+    tables: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
     colours: tuple[tuple[float, ...], ...] = ()
     """The colour of each location (state_space.png) or stop (plan.png), in order."""
 
@@ -197,16 +201,18 @@ def _heatmap_layer(ax, scenario: Scenario, heatmaps: Sequence[Heatmap], *, alpha
                      cmap="plasma", vmin=0.0, vmax=1.0, alpha=alpha, interpolation="nearest")
 
 
-def _room_axes(scenario: Scenario, top_view: np.ndarray, ax,
-               limits: Sequence[float] | None = None) -> None:
-    """The top view in metres; `limits` (x_min, y_min, x_max, y_max) zoom in."""
-    x_min, y_min, x_max, y_max = scenario.room.bounds
-    ax.imshow(top_view, extent=(x_min, x_max, y_min, y_max), origin="upper")
-    x_min, y_min, x_max, y_max = scenario.room.bounds if limits is None else limits
+def _room_axes(floor: Floor, ax, limits: Sequence[float] | None = None
+               ) -> dict[str, tuple[float, float, float, float]]:
+    """The floor in metres; `limits` (x_min, y_min, x_max, y_max) zoom in. Returns the
+    tables' drawn outlines (`Labels.tables`)."""
+    tables = floor.draw(ax)
+    x_min, y_min, x_max, y_max = floor.bounds if limits is None else limits
     ax.set_xlim(x_min, x_max)
     ax.set_ylim(y_min, y_max)
+    ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
+    return tables
 
 
 def _name_dishes(ax, dishes: Sequence[tuple[str, Sequence[float], object, bool]],
@@ -236,24 +242,24 @@ def _scenario_dishes(scenario: Scenario, unreachable: Sequence[str] = (),
     return [(name, p, colour, name in unreachable) for name, p in _positions(scenario).items()]
 
 
-def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
+def feasibility_figure(scenario: Scenario, floor: Floor, heatmaps: Sequence[Heatmap],
                        path: Path, *, title: str = "") -> Labels:
     """Each dish's Fea^m heatmap in a panel of its own over the top view (small multiples:
     where one dish's map overlaps another's, both stay readable), zoomed to the heatmap's
     crop; the panel's dish is named, the others are small grey dots.
 
-    `top_view` is an orthophoto of the room (row 0 north) spanning `scenario.room.bounds`.
+    `floor` is what lies on the room's floor (`floor.Floor`), drawn under each panel.
     """
     x_min, y_min, x_max, y_max = scenario.room.bounds
     cols = min(3, max(1, len(heatmaps)))
     rows = max(1, -(-len(heatmaps) // cols))
     fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 4.4 * rows + 0.6), squeeze=False)
     where = _positions(scenario)
-    image = None
+    image, tables = None, {}
     for ax, heatmap in zip(axes.flat, heatmaps, strict=False):
         hx0, hx1, hy0, hy1 = heatmap.extent
         limits = (max(hx0, x_min), max(hy0, y_min), min(hx1, x_max), min(hy1, y_max))
-        _room_axes(scenario, top_view, ax, limits)
+        tables = _room_axes(floor, ax, limits)
         shown = np.ma.masked_where(heatmap.values <= 0.0, heatmap.values)
         image = ax.imshow(shown, extent=heatmap.extent, origin="lower", cmap="plasma",
                           vmin=0.0, vmax=1.0, alpha=0.75, interpolation="nearest")
@@ -273,7 +279,8 @@ def feasibility_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Seque
                       "the dish; 0 where a stop sent there would collide)")
     fig.suptitle(title)
     write_atomically(path, _figure_bytes(fig))
-    return Labels(title=title, panels=tuple(shown_name(h.dish) for h in heatmaps))
+    return Labels(title=title, panels=tuple(shown_name(h.dish) for h in heatmaps),
+                  tables=tables)
 
 
 def overhead_figure(scenario: Scenario, camera: "OverheadCamera", color: np.ndarray,
@@ -294,7 +301,9 @@ def overhead_figure(scenario: Scenario, camera: "OverheadCamera", color: np.ndar
     ax.set_ylim(y0, y1)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    title = "The overhead camera's image (axes: metres on the floor; dashed: the room)"
+    title = (f"The overhead camera's perspective image, from {scenario.camera.height:g} m "
+             "(axes: metres at floor level only;\nwhat stands above the floor looks farther "
+             "from the centre than it is; dashed: the room's walls)")
     ax.set_title(title)
     write_atomically(path, _figure_bytes(fig))
     return Labels(title=title)
@@ -323,7 +332,7 @@ def _outline(ax, geometry, **style) -> None:
             style["label"] = None
 
 
-def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "PlanningResult",
+def state_space_figure(scenario: Scenario, floor: Floor, result: "PlanningResult",
                        path: Path, *, title: str = "") -> Labels:
     """The state space the plan used, over the top view and the heatmaps (the paper's
     Fig. 3, right).
@@ -338,7 +347,7 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "Planni
     index = {d: i for i, d in enumerate(partition.dishes)}
     x_min, y_min, x_max, y_max = scenario.room.bounds
     fig, ax = plt.subplots(figsize=(10, 10 * (y_max - y_min) / (x_max - x_min)))
-    _room_axes(scenario, top_view, ax)
+    tables = _room_axes(floor, ax)
     if result.heatmaps:
         image = _heatmap_layer(ax, scenario, result.heatmaps, alpha=0.45)
         fig.colorbar(image, ax=ax, fraction=0.03, pad=0.02,
@@ -352,7 +361,7 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "Planni
         location = unary_union([partition.cells[i] for i in group])
         fea = "" if state is None else \
             " (Fea$^t$ " + ", ".join(f"{state.task_feasibility[n]:.2f}" for n in names) + ")"
-        label = f"{location_name}: {' + '.join(names)}{fea}"
+        label = f"{location_name}: {' + '.join(shown_name(n) for n in names)}{fea}"
         locations[location_name] = tuple(names)
         if location.is_empty:  # the legend still names it, with the dishes' marker
             ax.plot([], [], marker="x", color="red", linestyle="none", label=label)
@@ -387,11 +396,11 @@ def state_space_figure(scenario: Scenario, top_view: np.ndarray, result: "Planni
     title = title or f"{plan.method} searched {where}: {count}"
     ax.set_title(title)
     write_atomically(path, _figure_bytes(fig))
-    return Labels(title=title, locations=locations, overlaps=crowded,
+    return Labels(title=title, locations=locations, overlaps=crowded, tables=tables,
                   colours=tuple(colours))
 
 
-def search_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[Heatmap],
+def search_figure(scenario: Scenario, floor: Floor, heatmaps: Sequence[Heatmap],
                   plan: "TaskMotionPlan", path: Path) -> Labels:
     """The winning motion search's samples of its first and last generation over the
     heatmaps, one colour per goto (the paper's Fig. 4): CMA-ES starts spread over the
@@ -404,7 +413,7 @@ def search_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[H
     crowded = 0
     for ax, samples, name in ((axes[0], plan.early_samples, "first"),
                               (axes[1], plan.late_samples, "last")):
-        _room_axes(scenario, top_view, ax)
+        tables = _room_axes(floor, ax)
         if heatmaps:
             _heatmap_layer(ax, scenario, heatmaps, alpha=0.45)
         names, marks = _name_dishes(ax, _scenario_dishes(scenario, plan.unreachable),
@@ -424,12 +433,12 @@ def search_figure(scenario: Scenario, top_view: np.ndarray, heatmaps: Sequence[H
         if gotos and points.size:
             ax.legend(loc="upper left", fontsize=8, framealpha=0.8)
     write_atomically(path, _figure_bytes(fig))
-    return Labels(title=plan.method, stops=tuple(stop_label(k + 1, g.location)
+    return Labels(title=plan.method, tables=tables, stops=tuple(stop_label(k + 1, g.location)
                                                  for k, g in enumerate(gotos)),
                   overlaps=crowded)
 
 
-def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan",
+def plan_figure(scenario: Scenario, floor: Floor, plan: "TaskMotionPlan",
                 path: Path, *, start: Sequence[float] | None = None, title: str = "") -> Labels:
     """The plan over the top view: the driven paths, each stop with its heading and its
     label "k · l" (the k-th stop, at location l as plan.json names it), thin lines from
@@ -437,7 +446,7 @@ def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan"
     Dish names are placed first and nothing covers them."""
     x_min, y_min, x_max, y_max = scenario.room.bounds
     fig, ax = plt.subplots(figsize=(10, 10 * (y_max - y_min) / (x_max - x_min)))
-    _room_axes(scenario, top_view, ax)
+    tables = _room_axes(floor, ax)
     labels, marks = _name_dishes(ax, _scenario_dishes(scenario, plan.unreachable),
                                  fontsize=7, marker_size=5)
     fea_labels = []  # after the stops': the numbers may move furthest from their place
@@ -490,4 +499,5 @@ def plan_figure(scenario: Scenario, top_view: np.ndarray, plan: "TaskMotionPlan"
     ax.set_title(title, fontsize=11)
     write_atomically(path, _figure_bytes(fig))
     return Labels(title=title, locations=locations, stops=tuple(stops), overlaps=crowded,
+                  tables=tables,
                   colours=tuple(colours))

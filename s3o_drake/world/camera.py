@@ -82,39 +82,3 @@ def back_project(camera: OverheadCamera, depth: np.ndarray) -> np.ndarray:
                     (v - camera.height / 2 + 0.5) * depth / f, depth], axis=-1)
     R_WC = camera.X_WC.rotation().matrix()
     return p_C @ R_WC.T + camera.X_WC.translation()
-
-
-def orthophoto(camera: OverheadCamera, color: np.ndarray, depth: np.ndarray,
-               bounds: list[float], cell: float) -> np.ndarray:
-    """A true top view: the colour of the highest surface over each cell of a floor grid.
-
-    The perspective camera sees tall things displaced away from the image centre; this
-    re-projects every pixel to its world point and keeps, per grid cell, the highest one.
-    Returns an (rows, cols, 3) uint8 image, row 0 at the north edge (map orientation);
-    cells that no pixel lands in take the colour of their nearest filled neighbour.
-    """
-    x_min, y_min, x_max, y_max = bounds
-    cols = math.ceil((x_max - x_min) / cell)
-    rows = math.ceil((y_max - y_min) / cell)
-    p_W = back_project(camera, depth).reshape(-1, 3)
-    rgb = np.asarray(color)[..., :3].reshape(-1, 3)
-    ok = np.isfinite(p_W).all(axis=1)
-    j = np.floor((p_W[:, 0] - x_min) / cell)
-    i = np.floor((y_max - p_W[:, 1]) / cell)
-    ok &= (j >= 0) & (j < cols) & (i >= 0) & (i < rows)
-    index = (i[ok] * cols + j[ok]).astype(np.int64)
-    z, rgb = p_W[ok, 2], rgb[ok]
-    # The highest point of each cell wins: sort by cell, then by height, keep the last.
-    order = np.lexsort((z, index))
-    last = np.r_[index[order][1:] != index[order][:-1], True]
-    image = np.zeros((rows * cols, 3), dtype=np.uint8)
-    filled = np.zeros(rows * cols, dtype=bool)
-    image[index[order][last]] = rgb[order][last]
-    filled[index[order][last]] = True
-    image = image.reshape(rows, cols, 3)
-    holes = ~filled.reshape(rows, cols)
-    if holes.any():
-        import cv2
-
-        image = cv2.inpaint(image, holes.astype(np.uint8), 2, cv2.INPAINT_TELEA)
-    return image
