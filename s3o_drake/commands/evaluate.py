@@ -65,7 +65,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                           "planner.group_positions=shared (repeatable)")
     add_workers(parser, os.cpu_count() or 1, "local worker processes")
     parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="a Dask scheduler, tcp://HOST:PORT, instead of the local pool")
+                        help="a Dask scheduler, tcp://HOST:PORT, instead of the local pool "
+                             "(workers: dask worker ADDRESS --nthreads 1 --nworkers N)")
     add_quiet(parser)
     parser.add_argument("--open-loop", metavar="DIR",
                         help="with --recovery retry|replan: the same study open loop, for "
@@ -169,7 +170,15 @@ def main(argv: list[str] | None = None) -> int:
     _study_settings(args, sys.argv[1:] if argv is None else argv)
     paths, methods = _validate(args)
     from s3o_drake.experiments.difficulty import GROUPS, difficulty_groups
-    from s3o_drake.experiments.scheduler import run_jobs
+    from s3o_drake.experiments.scheduler import ClusterError, check_cluster, run_jobs
+
+    if args.scheduler is not None and not args.summarize:  # before anything is written
+        try:
+            check_cluster(args.scheduler)
+        except ClusterError as e:
+            fail(f"--scheduler: {e}")
+        except OSError as e:
+            fail(f"--scheduler: cannot reach {args.scheduler}: {e}")
     from s3o_drake.experiments.store import ResultStore
     from s3o_drake.experiments.summary import markdown_tables, summarize, write_outputs
 
@@ -207,6 +216,8 @@ def main(argv: list[str] | None = None) -> int:
         if not args.summarize:
             run_jobs(difficulty_jobs, difficulty_store, desc="difficulty", **options)
             run_jobs(run_job_list, store, desc="runs", **options)
+    except ClusterError as e:
+        fail(f"--scheduler: {e}")
     except KeyboardInterrupt:
         print(f"\ninterrupted: the finished runs are kept in {out / 'results.jsonl'}; "
               "run the same command to go on", file=sys.stderr)

@@ -10,6 +10,13 @@ pool: the jobs it was running go back to the end of the queue and a fresh pool t
 a job in flight at `max_attempts` breakages is recorded as an error instead of run again.
 On Dask the scheduler itself re-runs the work of a lost worker and reports `KilledWorker`
 after its own retries; that too becomes an error row.
+
+A Dask worker must run one job at a time (`dask worker ADDRESS --nthreads 1`; start more
+workers with --nworkers for more at once): OMPL seeds its samplers from one generator per
+process, so two runs as threads of one process could draw each other's seeds and a run
+would not be what its seed says. A cluster with more threads per worker is refused.
+`--lifetime 60m --lifetime-restart` renews a worker, as the local pool renews a process
+after TASKS_PER_CHILD jobs.
 """
 
 import ctypes
@@ -39,6 +46,10 @@ ABANDON_WAIT = 5.0
 """Seconds an abandoned worker has to end on SIGTERM before it is killed."""
 
 
+class ClusterError(ValueError):
+    """A Dask cluster whose workers could make runs differ from their seeds."""
+
+
 def pending_jobs(jobs: Iterable[Job], store: ResultStore) -> list[Job]:
     """The jobs that have no finished result in the store, in order."""
     return [job for job in jobs if not store.finished(job.key)]
@@ -64,6 +75,7 @@ def run_jobs(jobs: Iterable[Job], store: ResultStore, *, workers: int = 2,
             from distributed import Client
 
             client = Client(scheduler)
+            check_cluster(client)
             window = max(1, 2 * sum(client.nthreads().values()))
             _drive(client.get_executor(), todo, store, fn, window, bar)
         else:
@@ -89,6 +101,26 @@ def run_jobs(jobs: Iterable[Job], store: ResultStore, *, workers: int = 2,
         if client is not None:
             client.close()
     return total
+
+
+def check_cluster(client) -> None:
+    """Raises ClusterError when a worker of the Dask `client`'s cluster (a
+    `distributed.Client`, or its scheduler's address) runs jobs as threads (module
+    docstring)."""
+    if isinstance(client, str):
+        from distributed import Client
+
+        with Client(client) as connected:
+            return check_cluster(connected)
+    threads = client.nthreads()
+    shared = {worker: n for worker, n in threads.items() if n > 1}
+    if shared:
+        worker, n = next(iter(shared.items()))
+        raise ClusterError(
+            f"{len(shared)} of {len(threads)} Dask workers run jobs as threads ({worker}: "
+            f"{n}); runs then share OMPL's seeds and may differ from theirs: start each "
+            "worker with --nthreads 1 (more workers: --nworkers)")
+    return None
 
 
 def local_pool(workers: int) -> ProcessPoolExecutor:

@@ -203,12 +203,17 @@ def test_resume_runs_only_the_jobs_without_a_finished_result(tmp_path):
                     progress=False) == 0
 
 
-def test_the_command_runs_on_a_dask_cluster(tmp_path, capsys):
-    distributed = pytest.importorskip("distributed")
+def _two_dishes_task(tmp_path):
+    """A folder of one task, two_dishes.yaml, and the study's folder beside it."""
     tasks = tmp_path / "tasks"
     tasks.mkdir()
     shutil.copy(SMALL / "two_dishes.yaml", tasks)
-    out = tmp_path / "results"
+    return tasks, tmp_path / "results"
+
+
+def test_the_command_runs_on_a_dask_cluster(tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    tasks, out = _two_dishes_task(tmp_path)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=None) as cluster:
         status = evaluate(["--tasks", str(tasks), "--methods", "S3O-GROP*", "--seeds", "1",
@@ -229,6 +234,22 @@ def test_the_command_runs_on_a_dask_cluster(tmp_path, capsys):
     assert all(r.method == "S3O-GROP*" and 0 <= r.predicted <= 1 for r in records)
     assert set(difficulty["areas"]) == {"plate_a", "cup_b"} and difficulty["area"] > 0.5
     assert "1 tasks x 1 methods x 1 seeds" in capsys.readouterr().out
+
+
+def test_a_dask_cluster_whose_workers_run_jobs_as_threads_is_refused(tmp_path, capsys):
+    """Two jobs as threads of one worker process would share OMPL's seed generator: the
+    study says how to start the workers, and writes nothing."""
+    distributed = pytest.importorskip("distributed")
+    tasks, out = _two_dishes_task(tmp_path)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster, \
+            pytest.raises(SystemExit) as e:
+        evaluate(["--tasks", str(tasks), "--methods", "V-GROP*", "--seeds", "1", "--out",
+                  str(out), "--scheduler", cluster.scheduler_address, "--quiet"])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and err.count("\n") == 1
+    assert "--scheduler:" in err and "--nthreads 1" in err
+    assert not out.exists()
 
 
 # --- the tables ----------------------------------------------------------------------------
