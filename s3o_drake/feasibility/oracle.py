@@ -19,7 +19,8 @@ Two ways to compute it:
 - `heatmap`, `room_heatmap`: the same expectation without sampling error, for grids. Once
   the base has turned to face the dish, where it picks depends only on where it landed in
   the plane: S(x) = the pickup succeeds from the pickup pose of a landing at x (facing the
-  dish; stopped short on the line to the dish when x collides). Then
+  dish; stopped short on the line to the dish when x collides, else at the nearest free
+  pose: `landing.stop_short`). Then
   Fea^m(y) = P(caught) E_e[S(y + e)], S blurred by the landing noise's Gaussian. The reach
   noise widens the blur (a target off by ξ is, to the arm, a base off by -ξ), and
   P(caught) = 1 - exp(-tol² / 2 reach_std²) (the norm of ξ is Rayleigh); for a place
@@ -35,10 +36,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 from scipy.ndimage import gaussian_filter
 
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.landing import pickup_poses, stop_short
+from s3o_drake.feasibility.landing import FINAL_APPROACH, pickup_poses, stop_short
 from s3o_drake.feasibility.pickup_geometry import (
     goal_probability,
     grasp_tolerance,
@@ -47,7 +49,9 @@ from s3o_drake.feasibility.pickup_geometry import (
 )
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.goals import placed_object
+from s3o_drake.world.obstacles import Obstacles
 from s3o_drake.world.placing import PLACE_TOLERANCE
+from s3o_drake.world.robot import INSCRIBED_RADIUS
 from s3o_drake.world.settings import Uncertainty
 
 CROP_SIZE = 4.0
@@ -122,6 +126,25 @@ class FeasibilityOracle:
     def __init__(self, checker: FeasibilityChecker, noise: Uncertainty):
         self.checker = checker
         self.noise = noise
+        self._free_space = None  # made at the first landing that needs it (`_way_out`)
+
+    def _way_out(self, poses: np.ndarray) -> np.ndarray:
+        """For base poses (n, 3), the unit direction (n, 2) to the nearest position where
+        the base may be free (clear of every obstacle by its inscribed radius), NaN where
+        that is further than FINAL_APPROACH (`landing.WayOut`)."""
+        if self._free_space is None:
+            obstacles = Obstacles.of_contents(self.checker.scene.contents)
+            self._free_space = obstacles.free_space(INSCRIBED_RADIUS)
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        points = shapely.points(poses[:, 0], poses[:, 1])
+        lines = shapely.shortest_line(points, self._free_space)
+        ends = shapely.get_coordinates(shapely.get_point(lines, 1)).reshape(-1, 2)
+        step = ends - poses[:, :2]
+        length = np.linalg.norm(step, axis=1)
+        ways = np.full(step.shape, np.nan)
+        ok = (length > 1e-9) & (length <= FINAL_APPROACH)
+        ways[ok] = step[ok] / length[ok, None]
+        return ways
 
     # --------------------------------------------------------------------- the success test
     def success(self, bases: np.ndarray, dish: str,
@@ -138,7 +161,8 @@ class FeasibilityOracle:
         p_dish, _ = self.checker.scene.dish_p_WD(dish)
         targets = np.column_stack([landings, facing_yaw(landings, p_dish)])
         # Stepping back against a heading that faces the dish keeps it facing the dish.
-        poses, landed = stop_short(self.checker.base_free, targets)
+        poses, landed = stop_short(self.checker.base_free, targets,
+                                   way_out=self._way_out)
         ok = np.zeros(len(landings), dtype=bool)
         ok[landed] = self.success(poses[landed], dish)
         return ok
@@ -156,7 +180,7 @@ class FeasibilityOracle:
         p_dish, _ = self.checker.scene.dish_p_WD(dish)
         nominal = np.repeat(positions, samples, axis=0)
         poses, landed = pickup_poses(self.checker.base_free, nominal, p_dish,
-                                     nav.reshape(-1, 3))
+                                     nav.reshape(-1, 3), way_out=self._way_out)
         reach = reach.reshape(-1, 2)
         kind = self.checker.scene.dishes[dish].kind
         if placed_object(dish) is None:
