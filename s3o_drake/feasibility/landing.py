@@ -9,13 +9,11 @@ landing "into" a table as a failure is pessimistic next to tables):
    collision within `FINAL_APPROACH` of the end only shortens the landing, an earlier one
    blocks the drive (`stop_short`). The model's approach is straight in along the heading
    that faces the dish; where that way back is not free within `FINAL_APPROACH` (a chair
-   behind the stop), the drive came in another way, from free space, and stops at the
-   first free pose stepping from the target towards the nearest free space. The
+   behind the stop), the drive came in another way, through the stop it was sent to (free:
+   the planner commands only free stops), and stops short on the way from there. The
    BaseNavigator lands short along its path's last leg, which comes in from the aisle, and
    escapes where it is caught; stepping back along the heading alone counts landings near
-   chairs as blocked that the execution lands (docs/calibration.md). The rule depends on
-   the landing alone, so the oracle's blurred expectation models it exactly as its Monte
-   Carlo does.
+   chairs as blocked that the execution lands (docs/calibration.md).
 2. It turns in place to the noisy target yaw, stopping at the last free yaw (`turn_until`,
    sampled every `CHECK_STEP_YAW`).
 3. Before the pickup, a base that does not face the dish within `TURN_TOLERANCE` turns to
@@ -47,40 +45,39 @@ _STEPS_PER_CALL = 5
 FreeTest = Callable[[np.ndarray], np.ndarray]
 
 
-#: For base poses (n, 3), the unit direction (n, 2) towards the nearest free space, NaN where
-#: there is none within FINAL_APPROACH.
-WayOut = Callable[[np.ndarray], np.ndarray]
-
-
-def stop_short(free: FreeTest, targets: np.ndarray, *, way_out: WayOut | None = None
+def stop_short(free: FreeTest, targets: np.ndarray, sent: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray]:
     """Where a base driving straight into each target pose (x, y, yaw), heading along its
     yaw, stops: the target when it is free, else the last free pose before it (stepping
-    back against the heading by CHECK_STEP_XY, up to FINAL_APPROACH). With `way_out`, a
-    target with no free pose that way lands at the first free pose stepping towards the
-    nearest free space instead (step 1 of the module docstring). Returns the poses (n, 3)
-    and whether the drive landed (n,) (False: blocked further out).
+    back against the heading by CHECK_STEP_XY, up to FINAL_APPROACH). With `sent` (n, 2),
+    the positions the drives were sent to, a target with no free pose that way is
+    approached from there instead (step 1 of the module docstring). Returns the poses
+    (n, 3) and whether the drive landed (n,) (False: blocked further out).
     """
     targets = np.asarray(targets, dtype=float).reshape(-1, 3)
     back = -np.stack([np.cos(targets[:, 2]), np.sin(targets[:, 2])], axis=1)
     poses, landed = _step_back(free, targets, back)
-    if way_out is not None and not landed.all():
-        rows = np.flatnonzero(~landed)
-        ways = np.asarray(way_out(targets[rows]), dtype=float).reshape(-1, 2)
-        some = np.isfinite(ways).all(axis=1)
-        rows, ways = rows[some], ways[some]
-        again, made = _step_back(free, targets[rows], ways)
+    if sent is not None and not landed.all():
+        open_ = np.flatnonzero(~landed)
+        away = targets[open_, :2] - np.asarray(sent, dtype=float).reshape(-1, 2)[open_]
+        length = np.linalg.norm(away, axis=1)
+        ok = length > 1e-9
+        rows = open_[ok]
+        direction = -away[ok] / length[ok, None]
+        again, made = _step_back(free, targets[rows], direction,
+                                 limit=np.minimum(length[ok], FINAL_APPROACH))
         poses[rows[made]] = again[made]
         landed[rows[made]] = True
     return poses, landed
 
 
-def _step_back(free: FreeTest, targets: np.ndarray, back: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray]:
+def _step_back(free: FreeTest, targets: np.ndarray, back: np.ndarray,
+               limit: np.ndarray | float = FINAL_APPROACH) -> tuple[np.ndarray, np.ndarray]:
     """The target when free, else the first free pose stepping along `back` (n, 2, unit)
-    by CHECK_STEP_XY, up to FINAL_APPROACH; the yaw kept."""
+    by CHECK_STEP_XY, up to `limit` (m, per target); the yaw kept."""
     poses = targets.copy()
     landed = free(targets)
+    limit = np.broadcast_to(np.asarray(limit, dtype=float), (len(targets),))
     steps = round(FINAL_APPROACH / CHECK_STEP_XY)
     open_ = np.flatnonzero(~landed)
     # A few steps per call: the free test's cost is mostly per call, and most colliding
@@ -90,7 +87,8 @@ def _step_back(free: FreeTest, targets: np.ndarray, back: np.ndarray
             break
         k = np.arange(first, min(first + _STEPS_PER_CALL, steps + 1))
         candidates = np.repeat(targets[open_][:, None], len(k), axis=1)
-        candidates[..., :2] += (k[:, None] * CHECK_STEP_XY) * back[open_][:, None]
+        distance = np.minimum(k[None, :] * CHECK_STEP_XY, limit[open_][:, None])
+        candidates[..., :2] += distance[..., None] * back[open_][:, None]
         ok = free(candidates.reshape(-1, 3)).reshape(len(open_), len(k))
         hit = ok.any(axis=1)
         nearest = np.argmax(ok, axis=1)
@@ -123,17 +121,15 @@ def turn_until(free: FreeTest, poses: np.ndarray, target_yaw: np.ndarray) -> np.
 
 
 def pickup_poses(free: FreeTest, nominal: np.ndarray, p_WD: np.ndarray,
-                 noise: np.ndarray, way_out: WayOut | None = None
-                 ) -> tuple[np.ndarray, np.ndarray]:
+                 noise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Where the base stands when it picks the dish at p_WD, sent to `nominal` positions
     (n, 2) facing the dish and landing with navigation noise (dx, dy, dyaw) (n, 3): steps
-    1-3 of the module docstring (`way_out` as `stop_short`'s). Returns the poses (n, 3) and
-    whether the drive landed."""
+    1-3 of the module docstring. Returns the poses (n, 3) and whether the drive landed."""
     nominal = np.asarray(nominal, dtype=float).reshape(-1, 2)
     noise = np.asarray(noise, dtype=float).reshape(-1, 3)
     heading = facing_yaw(nominal, p_WD)
     target = np.column_stack([nominal + noise[:, :2], heading])
-    poses, landed = stop_short(free, target, way_out=way_out)
+    poses, landed = stop_short(free, target, sent=nominal)
     poses[:, 2] = turn_until(free, poses, heading + noise[:, 2])
     facing = facing_yaw(poses[:, :2], p_WD)
     turn = np.abs(wrap(facing - poses[:, 2])) > TURN_TOLERANCE

@@ -19,9 +19,10 @@ Two ways to compute it:
 - `heatmap`, `room_heatmap`: the same expectation without sampling error, for grids. Once
   the base has turned to face the dish, where it picks depends only on where it landed in
   the plane: S(x) = the pickup succeeds from the pickup pose of a landing at x (facing the
-  dish; stopped short on the line to the dish when x collides, else at the nearest free
-  pose: `landing.stop_short`). Then
-  Fea^m(y) = P(caught) E_e[S(y + e)], S blurred by the landing noise's Gaussian. The reach
+  dish; stopped short on the line to the dish when x collides). Then
+  Fea^m(y) = P(caught) (E_e[S(y + e)] + P(B) S(y)), S blurred by the landing noise's
+  Gaussian, B the landings with no free pose straight back, which are approached from y
+  and land between the two (counted as picking as y does). The reach
   noise widens the blur (a target off by ξ is, to the arm, a base off by -ξ), and
   P(caught) = 1 - exp(-tol² / 2 reach_std²) (the norm of ξ is Rayleigh); for a place
   target, P(placed within tolerance) takes its place (`pickup_geometry.goal_probability`).
@@ -36,11 +37,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import shapely
 from scipy.ndimage import gaussian_filter
 
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.landing import FINAL_APPROACH, pickup_poses, stop_short
+from s3o_drake.feasibility.landing import pickup_poses, stop_short
 from s3o_drake.feasibility.pickup_geometry import (
     goal_probability,
     grasp_tolerance,
@@ -49,9 +49,7 @@ from s3o_drake.feasibility.pickup_geometry import (
 )
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.goals import placed_object
-from s3o_drake.world.obstacles import Obstacles
 from s3o_drake.world.placing import PLACE_TOLERANCE
-from s3o_drake.world.robot import INSCRIBED_RADIUS
 from s3o_drake.world.settings import Uncertainty
 
 CROP_SIZE = 4.0
@@ -126,25 +124,6 @@ class FeasibilityOracle:
     def __init__(self, checker: FeasibilityChecker, noise: Uncertainty):
         self.checker = checker
         self.noise = noise
-        self._free_space = None  # made at the first landing that needs it (`_way_out`)
-
-    def _way_out(self, poses: np.ndarray) -> np.ndarray:
-        """For base poses (n, 3), the unit direction (n, 2) to the nearest position where
-        the base may be free (clear of every obstacle by its inscribed radius), NaN where
-        that is further than FINAL_APPROACH (`landing.WayOut`)."""
-        if self._free_space is None:
-            obstacles = Obstacles.of_contents(self.checker.scene.contents)
-            self._free_space = obstacles.free_space(INSCRIBED_RADIUS)
-        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
-        points = shapely.points(poses[:, 0], poses[:, 1])
-        lines = shapely.shortest_line(points, self._free_space)
-        ends = shapely.get_coordinates(shapely.get_point(lines, 1)).reshape(-1, 2)
-        step = ends - poses[:, :2]
-        length = np.linalg.norm(step, axis=1)
-        ways = np.full(step.shape, np.nan)
-        ok = (length > 1e-9) & (length <= FINAL_APPROACH)
-        ways[ok] = step[ok] / length[ok, None]
-        return ways
 
     # --------------------------------------------------------------------- the success test
     def success(self, bases: np.ndarray, dish: str,
@@ -161,8 +140,7 @@ class FeasibilityOracle:
         p_dish, _ = self.checker.scene.dish_p_WD(dish)
         targets = np.column_stack([landings, facing_yaw(landings, p_dish)])
         # Stepping back against a heading that faces the dish keeps it facing the dish.
-        poses, landed = stop_short(self.checker.base_free, targets,
-                                   way_out=self._way_out)
+        poses, landed = stop_short(self.checker.base_free, targets)
         ok = np.zeros(len(landings), dtype=bool)
         ok[landed] = self.success(poses[landed], dish)
         return ok
@@ -180,7 +158,7 @@ class FeasibilityOracle:
         p_dish, _ = self.checker.scene.dish_p_WD(dish)
         nominal = np.repeat(positions, samples, axis=0)
         poses, landed = pickup_poses(self.checker.base_free, nominal, p_dish,
-                                     nav.reshape(-1, 3), way_out=self._way_out)
+                                     nav.reshape(-1, 3))
         reach = reach.reshape(-1, 2)
         kind = self.checker.scene.dishes[dish].kind
         if placed_object(dish) is None:
@@ -216,10 +194,20 @@ class FeasibilityOracle:
         for _ in range(REFINEMENTS):
             fine_x, fine_y, S = self._refined(dish, p_dish, fine_x, fine_y, S)
             h, margin, k = h / 2, 2 * margin, 2 * k
+        at = S[margin::k, margin::k][:len(ys), :len(xs)]  # S at the centres themselves
         if sigma > 0:
+            # A landing with no free pose straight back is approached from the stop it was
+            # sent to (`landing.stop_short`) and lands between the two: it is counted as
+            # picking as the stop itself does, with the chance of such a landing.
+            cut = self._blocked_grid(p_dish, fine_x, fine_y)
             S = gaussian_filter(S, sigma / h, mode="constant", cval=0.0, truncate=TRUNCATE)
+            cut = gaussian_filter(cut, sigma / h, mode="constant", cval=0.0,
+                                  truncate=TRUNCATE)
+            values = S[margin::k, margin::k][:len(ys), :len(xs)] + \
+                cut[margin::k, margin::k][:len(ys), :len(xs)] * at
+        else:
+            values = at
         kind = self.checker.scene.dishes[dish].kind
-        values = S[margin::k, margin::k][:len(ys), :len(xs)]
         return np.clip(values, 0.0, 1.0) * goal_probability(dish, kind, self.noise.reach_std)
 
     def _success_grid(self, dish: str, p_dish: np.ndarray, xs: np.ndarray,
@@ -230,6 +218,17 @@ class FeasibilityOracle:
         S = np.zeros(P.shape[:2])
         S[near] = self.landing_success(P[near], dish)
         return S
+
+    def _blocked_grid(self, p_dish: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+        """1 at the grid points xs x ys where a landing facing the dish finds no free pose
+        straight back along its heading, else 0: (rows, cols)."""
+        P = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+        near = np.linalg.norm(P - p_dish, axis=1) <= REACH_LIMIT
+        targets = np.column_stack([P[near], facing_yaw(P[near], p_dish)])
+        _, landed = stop_short(self.checker.base_free, targets)
+        blocked = np.zeros(len(P))
+        blocked[near] = ~landed
+        return blocked.reshape(len(ys), len(xs))
 
     def _refined(self, dish: str, p_dish: np.ndarray, xs: np.ndarray, ys: np.ndarray,
                  S: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

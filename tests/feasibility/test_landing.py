@@ -74,10 +74,10 @@ def test_the_base_picks_facing_the_dish(checker):
     assert poses[1, 2] == pytest.approx(facing_yaw(nominal[1], dish) + 0.01)
 
 
-def test_a_landing_with_no_way_back_along_its_heading_stops_towards_free_space():
+def test_a_landing_with_no_way_back_along_its_heading_comes_from_the_stop_it_was_sent_to():
     """Free everywhere but in a band 0.6 m deep behind the target: straight back along the
-    heading is blocked, so the base lands at the first free pose towards the free space the
-    `way_out` names (sideways here), not nowhere."""
+    heading is blocked, so the base, sent to a free stop beside it, lands at the first free
+    pose on the way from there, not nowhere."""
     def free(poses):
         poses = np.asarray(poses).reshape(-1, 3)
         return ~((poses[:, 0] > -0.6) & (poses[:, 0] <= 0.0) & (np.abs(poses[:, 1]) < 0.05))
@@ -85,8 +85,5 @@ def test_a_landing_with_no_way_back_along_its_heading_stops_towards_free_space()
     target = np.array([[0.0, 0.0, 0.0]])  # heading +x: back is -x, all blocked to -0.6 m
     _, landed = stop_short(free, target)
     assert not landed[0]
-    poses, landed = stop_short(free, target, way_out=lambda p: np.tile([0.0, 1.0], (len(p), 1)))
+    poses, landed = stop_short(free, target, sent=np.array([[0.0, 0.2]]))
     assert landed[0] and poses[0, 0] == 0.0 and 0.05 <= poses[0, 1] <= 0.05 + 0.02 + 1e-9
-    # No free space within reach: still blocked.
-    _, landed = stop_short(free, target, way_out=lambda p: np.full((len(p), 2), np.nan))
-    assert not landed[0]

@@ -57,8 +57,8 @@ def test_facing_yaw_points_at_the_dish():
 
 
 def test_noise_lowers_the_probability_next_to_an_obstacle_not_in_the_open(rmap):
-    """A chair 5 cm beside the stop: a landing into it stops short, towards free space
-    (it is not a blocked drive), and picks from there less often."""
+    """A chair 5 cm beside the stop: a landing into it is approached from the stop and
+    lands short of it (not a blocked drive), and picks from there less often."""
     scenario = load_scenario(SMALL)
     crowded = _with_chair_beside_open_spot(scenario, gap=0.05)
     exact = dataclasses.replace(scenario.uncertainty, nav_xy_std=0.0, nav_yaw_std=0.0,
