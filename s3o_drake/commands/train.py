@@ -1,6 +1,6 @@
 """Train the feasibility FCN on oracle-labelled crops.
 
-    s3o build fcn --data out/fcn_data [--out out/fcn] [--seed 0]
+    s3o build fcn --data out/fcn_data [out/fcn_data_dense ...] [--out out/fcn] [--seed 0]
 
 Trains on the crops of `s3o build fcn-data` (scenes split at random into training and
 validation, random quarter turns, binary cross entropy against the oracle's probabilities,
@@ -24,7 +24,8 @@ DEFAULT_OUT = Path("out") / "fcn"
 
 def main(argv: list[str] | None = None) -> int:
     parser = command_parser("build fcn", __doc__)
-    parser.add_argument("--data", metavar="DIR", required=True, help="dataset folder")
+    parser.add_argument("--data", metavar="DIR", nargs="+", required=True,
+                        help="dataset folders (one per layout, say)")
     add_out(parser, file=False, default=str(DEFAULT_OUT),
             note=f"the shipped weights are replaced only when told: --out "
                  f"{FCN_WEIGHTS.parent.relative_to(REPO_DIR)}")
@@ -62,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.feasibility.learned.training import save, train
 
     try:
-        data = load_dataset(Path(args.data))
+        data = load_dataset([Path(d) for d in args.data])
     except (FileNotFoundError, OSError, KeyError, ValueError) as e:
         fail(f"--data: {e}")
     if data["inputs"].shape[1] != len(CHANNELS):
@@ -73,10 +74,11 @@ def main(argv: list[str] | None = None) -> int:
                          val_fraction=args.val_fraction)
     result = train(data["inputs"], data["labels"], data["scenes"], config,
                    progress=not args.quiet)
-    manifest = Path(args.data) / "dataset.json"
-    provenance = {"data": str(args.data), "scenes": len(np.unique(data["scenes"])),
+    manifests = {d: Path(d) / "dataset.json" for d in args.data}
+    provenance = {"data": list(args.data), "scenes": len(np.unique(data["scenes"])),
                   "crops": len(data["labels"]),
-                  "dataset": json.loads(manifest.read_text()) if manifest.exists() else {}}
+                  "dataset": {d: json.loads(m.read_text()) if m.exists() else {}
+                              for d, m in manifests.items()}}
     save(result, config, out, provenance)
     print(f"best epoch {result.best_epoch + 1} of {len(result.val_loss)}: val loss "
           f"{result.val_loss[result.best_epoch]:.4f}, val MAE {result.val_mae:.4f}, "

@@ -192,3 +192,19 @@ def test_a_place_target_is_rated_as_the_oracle_rates_it():
     ceiling = place_probability("apple", tidy.uncertainty.reach_std)
     assert oracle.values.max() > 0.85 and predicted.values.max() <= ceiling + 1e-9
     assert np.abs(predicted.values - oracle.values).mean() < 0.05
+
+
+def test_two_datasets_train_as_one_with_their_scenes_kept_apart(tmp_path):
+    """One folder per layout, both numbered from scene 0: loaded together, a scene of one
+    is never mistaken for the other's in the training split."""
+    n = CROP_CELLS
+    for name, count in (("spacious", 2), ("dense", 3)):
+        folder = tmp_path / name
+        folder.mkdir()
+        for index in range(count):
+            np.savez(dataset.scene_path(folder, index),
+                     inputs=np.zeros((1, len(CHANNELS), n, n)), labels=np.zeros((1, n, n)),
+                     index=np.array(index))
+    loaded = dataset.load_dataset([tmp_path / "spacious", tmp_path / "dense"])
+    assert len(loaded["labels"]) == 5 and len(np.unique(loaded["scenes"])) == 5
+    assert dataset.load_dataset(tmp_path / "dense")["scenes"].tolist() == [0, 1, 2]

@@ -20,6 +20,7 @@ a smaller one). The folder remembers its seed; a rerun with another seed is refu
 import io
 import logging
 import multiprocessing
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -100,16 +101,25 @@ def build_dataset(out: Path, *, count: int, seed: int, base_path: Path = DEFAULT
     return len(jobs)
 
 
-def load_dataset(folder: Path) -> dict[str, np.ndarray]:
-    """All scenes of a folder: inputs, labels and the scene index of every crop."""
-    files = sorted(Path(folder).glob("scene_*.npz"))
+SCENES_PER_FOLDER = 1_000_000
+"""Scene ids of the k-th folder of `load_dataset` start at k times this: scenes of two
+folders (two layouts, each numbered from 0) stay apart in the training split."""
+
+
+def load_dataset(folder: Path | Sequence[Path]) -> dict[str, np.ndarray]:
+    """All scenes of a folder, or of several (each its own `s3o build fcn-data`, say one per
+    layout): inputs, labels and the scene id of every crop."""
+    folders = [Path(folder)] if isinstance(folder, (str, Path)) else [Path(f) for f in folder]
     inputs, labels, scenes = [], [], []
-    for path in files:
-        with np.load(path) as data:
-            inputs.append(data["inputs"])
-            labels.append(data["labels"])
-            scenes.append(np.full(len(data["labels"]), int(data["index"])))
-    if not files:
-        raise FileNotFoundError(f"no scene_*.npz in {folder}")
+    for k, where in enumerate(folders):
+        files = sorted(where.glob("scene_*.npz"))
+        if not files:
+            raise FileNotFoundError(f"no scene_*.npz in {where}")
+        for path in files:
+            with np.load(path) as data:
+                inputs.append(data["inputs"])
+                labels.append(data["labels"])
+                scenes.append(np.full(len(data["labels"]),
+                                      k * SCENES_PER_FOLDER + int(data["index"])))
     return {"inputs": np.concatenate(inputs), "labels": np.concatenate(labels),
             "scenes": np.concatenate(scenes)}
