@@ -73,6 +73,8 @@ COMMANDS: tuple[Command, ...] = (
        "The state-space abstraction: candidates counted and time taken."),
     _c("bench oracle-pinning", "oracle_pinning",
        "Fea^m's oracle against the executed pickup and against Monte Carlo."),
+    _c("bench oracle-executed", "oracle_check",
+       "Which Fea^m model is off: the plan's or the oracle's, at executed pickups."),
     _c("bench reachability-agreement", "reachability_agreement",
        "The reachability map against exhaustive IK, on random queries."),
     _c("bench compare-feasibility", "compare_feasibility",

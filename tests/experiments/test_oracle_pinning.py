@@ -64,3 +64,24 @@ def test_the_catch_probability_is_that_of_the_rayleigh_radius():
         assert catch_probability(kind, 0.01) == pytest.approx(empirical, abs=0.003)
     assert catch_probability("cup", 0.01) == pytest.approx(1 - np.exp(-3.125))
     assert catch_probability("cup", 0.0) == 1.0
+
+
+def test_a_studys_first_pickups_are_sampled_by_the_plans_value():
+    """Every first attempt below 0.8 and a seeded draw per bin above; the table sets the
+    plan, the oracle's two values and the outcomes side by side."""
+    from s3o_drake.experiments.oracle_check import first_pickups, stratified, table
+
+    pickups = [{"attempt": 1, "dish": f"d{i}", "planned": v, "planned_pose": [0, 0, 0],
+                "outcome": "done" if i % 2 else "failed: no_ik"}
+               for i, v in enumerate((0.5, 0.75, 0.82, 0.85, 0.88, 0.95, 0.97, 0.99))]
+    retry = {"attempt": 2, "dish": "d0", "planned": 0.5, "planned_pose": [0, 0, 0],
+             "outcome": "done"}
+    rows = [{"key": "run/a", "path": "t.yaml", "pickups": [*pickups, retry]}]
+    first = first_pickups(rows)
+    assert len(first) == 8 and first[2].before == ("d1",)
+    sample = stratified(first, {(0.8, 0.9): 2, (0.9, 1.0): 1}, seed=0)
+    assert [p.planned for p in sample][:2] == [0.5, 0.75] and len(sample) == 5
+    assert sample == stratified(first, {(0.8, 0.9): 2, (0.9, 1.0): 1}, seed=0)
+    text = table([{"planned": p.planned, "done": p.done, "expectation": 0.9,
+                   "monte_carlo": 0.9} for p in sample])
+    assert "| 0.0-0.7 | 1 | 0.500 | 0.900 | 0.900 | 0.000 |" in text and "Brier" in text
