@@ -95,6 +95,10 @@ class Scenario:
 
     __hash__ = None  # mutable, as a dataclass with eq is
 
+    def __reduce__(self):
+        # Drake's config structs do not pickle: a scenario goes to a worker as its file.
+        return parse_scenario, (dump_scenario(self),)
+
     @property
     def map(self) -> Map:
         """What the robot's map holds: the room, the tables, the mapped chairs."""

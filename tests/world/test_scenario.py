@@ -361,3 +361,11 @@ def test_overrides_replace_fields_and_are_checked_like_the_file():
                          ("planner", "expected PATH=VALUE")):
         with pytest.raises(ScenarioError, match=message.replace("[", r"\[")):
             with_overrides(base, [bad])
+
+
+def test_a_scenario_pickles_for_a_worker_process():
+    import pickle
+
+    scenario = parse_scenario("plant: {time_step: 0.005}")
+    again = pickle.loads(pickle.dumps(scenario))
+    assert again == scenario and again.plant.time_step == 0.005
