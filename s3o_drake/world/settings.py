@@ -43,7 +43,8 @@ class PlanningSettings:
     """How Fea^t of a merged location draws its N positions (abstraction/task_feasibility.py):
     "shared", by the group's joint value, every dish evaluated at the same positions (the
     one stop that serves the group: what the execution does); "per_dish", for each dish by
-    its own Fea^m (the paper's code). Measured level on 240 runs (docs/abstraction.md)."""
+    its own Fea^m (the paper's code). Measured level, 20 tasks x 3 seeds per room
+    (docs/abstraction.md)."""
     search_plain_voronoi: bool = True
     """S3O-GROP* and S3O-GROP also search the unmerged state space when it is not among
     their top K, so that S3O never searches less than the Voronoi methods."""
