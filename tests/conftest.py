@@ -84,3 +84,14 @@ class OracleMapsOnce:
 
 
 ORACLE_MAPS_ONCE = OracleMapsOnce()
+
+
+def refused(main, argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    """What a command's `main` says when it refuses `argv`: it exits with status 2 and one
+    line on stderr, which is returned."""
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    return err

@@ -173,8 +173,11 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.experiments.scheduler import ClusterError, check_cluster, run_jobs
 
     if args.scheduler is not None and not args.summarize:  # before anything is written
+        from distributed import Client
+
         try:
-            check_cluster(args.scheduler)
+            with Client(args.scheduler) as client:
+                check_cluster(client)
         except ClusterError as e:
             fail(f"--scheduler: {e}")
         except OSError as e:

@@ -11,6 +11,7 @@ collected, 1 when not, 2 on bad input (one line on stderr; nothing is written).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import sys
@@ -189,7 +190,7 @@ def _write_pictures(scenario: Scenario, run: Execution, plan: TaskMotionPlan | N
     perceived = result.known.perceived_chairs if result is not None else None
     pose = result.known.pose if result is not None else None
     believed = Floor.of(scenario, perceived=perceived, truth=True, robot_pose=pose)
-    floor = Floor.of(scenario, perceived=perceived, robot_pose=pose)
+    floor = dataclasses.replace(believed, true_chairs=())
     if heatmaps and scenario.outputs.feasibility:
         feasibility_figure(scenario, believed, heatmaps, out / "feasibility.png")
         written.append(out / "feasibility.png")
@@ -243,8 +244,6 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     add_overrides(parser, "replace a field of the scenario, e.g. planner.top_k=8 or "
                           "uncertainty.nav_xy_std=0.2 (repeatable)")
     args = parser.parse_args(argv)
-
-    import dataclasses
 
     from s3o_drake.world.scenario import scenario_stem
 

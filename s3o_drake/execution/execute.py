@@ -10,7 +10,7 @@ from typing import TextIO
 
 import numpy as np
 from pydrake.geometry import Meshcat
-from pydrake.systems.analysis import InitializeParams, Simulator
+from pydrake.systems.analysis import ApplySimulatorConfig, InitializeParams, Simulator
 from tqdm import tqdm
 
 from s3o_drake.belief import Perceive
@@ -130,6 +130,7 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     if meshcat is not None:
         frame_room(meshcat, scenario)
     simulator = Simulator(diagram)
+    ApplySimulatorConfig(scenario.simulator, simulator)
     context = simulator.get_mutable_context()
     executive = diagram.GetSubsystemByName("executive")
     executive_context = executive.GetMyContextFromRoot(context)

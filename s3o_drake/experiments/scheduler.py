@@ -28,11 +28,15 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict
+from typing import TYPE_CHECKING
 
 from tqdm import tqdm
 
 from s3o_drake.experiments.jobs import Job, run_job
 from s3o_drake.experiments.store import ResultStore
+
+if TYPE_CHECKING:
+    from distributed import Client
 
 TASKS_PER_CHILD = 10
 """Local workers are replaced after this many jobs, a bound on what any leak costs a long
@@ -103,15 +107,9 @@ def run_jobs(jobs: Iterable[Job], store: ResultStore, *, workers: int = 2,
     return total
 
 
-def check_cluster(client) -> None:
-    """Raises ClusterError when a worker of the Dask `client`'s cluster (a
-    `distributed.Client`, or its scheduler's address) runs jobs as threads (module
-    docstring)."""
-    if isinstance(client, str):
-        from distributed import Client
-
-        with Client(client) as connected:
-            return check_cluster(connected)
+def check_cluster(client: "Client") -> None:
+    """Raises ClusterError when a worker of the `distributed.Client`'s cluster runs jobs as
+    threads (module docstring)."""
     threads = client.nthreads()
     shared = {worker: n for worker, n in threads.items() if n > 1}
     if shared:
@@ -120,7 +118,6 @@ def check_cluster(client) -> None:
             f"{len(shared)} of {len(threads)} Dask workers run jobs as threads ({worker}: "
             f"{n}); runs then share OMPL's seeds and may differ from theirs: start each "
             "worker with --nthreads 1 (more workers: --nworkers)")
-    return None
 
 
 def local_pool(workers: int) -> ProcessPoolExecutor:

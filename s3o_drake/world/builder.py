@@ -33,7 +33,6 @@ from pydrake.multibody.plant import (
     AddMultibodyPlant,
     CoulombFriction,
     MultibodyPlant,
-    MultibodyPlantConfig,
 )
 from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.systems.controllers import InverseDynamics
@@ -292,9 +291,7 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     watching live; it is not in a recording and costs a quarter of a step's time).
     """
     builder = DiagramBuilder()
-    config = MultibodyPlantConfig(time_step=scenario.simulation.time_step,
-                                  discrete_contact_approximation="sap")
-    plant, scene_graph = AddMultibodyPlant(config, builder)
+    plant, scene_graph = AddMultibodyPlant(scenario.plant, builder)
     plant.set_name("plant")
     models = populate_plant(plant, scene_graph, scenario.contents, dishes=not track_dishes)
     plant.Finalize()

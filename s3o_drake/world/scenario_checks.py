@@ -307,9 +307,18 @@ def _validate_settings(scenario: Scenario) -> None:
                                                        "across; at most 4096")
 
     s = scenario.simulation
-    if not 0 < s.time_step <= 0.05:
-        raise ScenarioError("simulation.time_step", f"must be in (0, 0.05] s, got "
-                                                    f"{s.time_step:g}")
+    step = scenario.plant.time_step
+    if not 0 < step <= 0.05:
+        raise ScenarioError("plant.time_step", f"must be in (0, 0.05] s (a discrete plant), "
+                                               f"got {step:g}")
+    approximations = ("tamsi", "sap", "similar", "lagged")
+    _choice(scenario.plant.discrete_contact_approximation, approximations,
+            "plant.discrete_contact_approximation", "approximation")
+    from pydrake.systems.analysis import GetIntegrationSchemes
+
+    _choice(scenario.simulator.integration_scheme, GetIntegrationSchemes(),
+            "simulator.integration_scheme", "scheme")
+    _at_least(scenario.simulator.target_realtime_rate, 0.0, "simulator.target_realtime_rate")
     _at_least(s.hold_time, 0.0, "simulation.hold_time")
     _at_least(s.publish_period, 0.0, "simulation.publish_period", strict=True)
 

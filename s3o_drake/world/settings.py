@@ -43,7 +43,8 @@ class PlanningSettings:
     """How Fea^t of a merged location draws its N positions (abstraction/task_feasibility.py):
     "shared", by the group's joint value, every dish evaluated at the same positions (the
     one stop that serves the group: what the execution does); "per_dish", for each dish by
-    its own Fea^m (the paper's code). Measured level on 240 runs (docs/abstraction.md)."""
+    its own Fea^m (the paper's code). Measured level, 20 tasks x 3 seeds per room
+    (docs/abstraction.md)."""
     search_plain_voronoi: bool = True
     """S3O-GROP* and S3O-GROP also search the unmerged state space when it is not among
     their top K, so that S3O never searches less than the Voronoi methods."""
@@ -95,11 +96,10 @@ class Camera:
 
 @dataclass
 class Simulation:
-    time_step: float = 0.01
-    """The discrete plant's step (s). SAP treats the joints' PD actuators implicitly; the arm
-    follows its trajectory one step behind (at most π rad/s x 0.01 s, nothing at the rests
-    where it grasps and releases). At 0.02 s runs were 1.5x faster but SAP failed to
-    converge in 2 of 16 runs (a robot at rest, no contact), so 0.01 s it is."""
+    time_step: float | None = None
+    """The plant's step (s), as files from before the scenario held Drake's
+    `MultibodyPlantConfig` give it: read into `plant.time_step` (Scenario), where it lives
+    now; the two may not disagree."""
     hold_time: float = 1.0
     """How long the simulation runs on after the plan has ended (s), so that the playback
     shows the robot at rest with what it collected."""

@@ -12,6 +12,7 @@ import dataclasses
 import math
 import re
 import reprlib
+import types
 import typing
 
 import yaml
@@ -145,6 +146,21 @@ def check_structure(value, schema, path: str) -> None:
                 known = ", ".join(fields)
                 raise FieldError(child, f"unknown field {quoted(key)} (known fields: {known})")
             check_structure(item, hints[key], child)
+    elif hasattr(schema, "__fields__"):  # one of Drake's config structs
+        if not isinstance(value, dict):
+            raise FieldError(path, f"expected a mapping of fields, got {quoted(value)}")
+        fields = {f.name: f.type for f in schema.__fields__}
+        for key, item in value.items():
+            child = field_path(path, key)
+            if key not in fields:
+                known = ", ".join(fields)
+                raise FieldError(child, f"unknown field {quoted(key)} (known fields: {known})")
+            if fields[key] in (bool, int, float, str):
+                check_structure(item, fields[key], child)
+    elif origin in (typing.Union, types.UnionType) and type(None) in typing.get_args(schema):
+        if value is not None:
+            (inner,) = [t for t in typing.get_args(schema) if t is not type(None)]
+            check_structure(value, inner, path)
     elif origin is list:
         (item_type,) = typing.get_args(schema)
         if not isinstance(value, list):

@@ -392,7 +392,7 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     print(f"largest arm tracking error: {error:.4f} rad")
     # The discrete plant follows one step behind: at most the arm's top speed x the step.
     speed = np.abs(desired[8:14]).max(axis=0)
-    assert error < speed.max() * start.simulation.time_step + 0.005
+    assert error < speed.max() * start.plant.time_step + 0.005
     # The arm rests while the fingers close and open; the grasp and the release happen at
     # the ends of those rests, by when the arm has settled where the path put it.
     errors = np.abs(actual[:6] - desired[:6]).max(axis=0)

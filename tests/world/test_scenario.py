@@ -1,6 +1,6 @@
 """Scenario loading and validation: good files load, bad ones name the field."""
 
-import dataclasses
+import re
 from pathlib import Path
 
 import pytest
@@ -41,7 +41,30 @@ def test_defaults_fill_what_a_file_leaves_out():
 def test_dump_round_trips():
     scenario = load_scenario(SMALL)
     again = parse_scenario(dump_scenario(scenario))
-    assert dataclasses.asdict(again) == dataclasses.asdict(scenario)
+    assert again == scenario and dump_scenario(again) == dump_scenario(scenario)
+    assert again.plant.time_step == scenario.plant.time_step == 0.01
+
+
+def test_drakes_configs_are_fields_of_the_scenario_and_older_files_still_read():
+    """`plant` (MultibodyPlantConfig) and `simulator` (SimulatorConfig) as Drake's tools
+    have them, validated like the rest; a file that gives the step as
+    `simulation.time_step` (the shipped generated tasks do) sets the plant's."""
+    scenario = parse_scenario("plant: {time_step: 0.005, contact_model: point}\n"
+                              "simulator: {integration_scheme: runge_kutta2}")
+    assert scenario.plant.time_step == 0.005 and scenario.plant.contact_model == "point"
+    assert scenario.plant.discrete_contact_approximation == "sap"  # the project's default
+    assert scenario.simulator.integration_scheme == "runge_kutta2"
+    assert parse_scenario("simulation: {time_step: 0.02}").plant.time_step == 0.02
+    assert load_scenario(REPO / "scenarios" / "generated" / "task_000.yaml").plant.time_step \
+        == 0.01
+    for text, field in (("plant: {time_step: 0.1}", "plant.time_step"),
+                        ("plant: {time_stepp: 0.1}", "plant.time_stepp"),
+                        ("simulator: {integration_scheme: rk9}",
+                         "simulator.integration_scheme"),
+                        ("simulation: {time_step: 0.005}\nplant: {time_step: 0.01}",
+                         "simulation.time_step")):
+        with pytest.raises(ScenarioError, match=re.escape(field)):
+            parse_scenario(text)
 
 
 def _mutated(mutate) -> str:
@@ -338,3 +361,11 @@ def test_overrides_replace_fields_and_are_checked_like_the_file():
                          ("planner", "expected PATH=VALUE")):
         with pytest.raises(ScenarioError, match=message.replace("[", r"\[")):
             with_overrides(base, [bad])
+
+
+def test_a_scenario_pickles_for_a_worker_process():
+    import pickle
+
+    scenario = parse_scenario("plant: {time_step: 0.005}")
+    again = pickle.loads(pickle.dumps(scenario))
+    assert again == scenario and again.plant.time_step == 0.005
