@@ -37,7 +37,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import gaussian_filter
+from scipy.ndimage import binary_dilation, gaussian_filter
 
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.landing import pickup_poses, stop_short
@@ -136,6 +136,11 @@ class FeasibilityOracle:
 
     def landing_success(self, landings: np.ndarray, dish: str) -> np.ndarray:
         """S(x) of the module docstring for landing positions (n, 2): bool (n,)."""
+        return self._landings(landings, dish)[0]
+
+    def _landings(self, landings: np.ndarray, dish: str) -> tuple[np.ndarray, np.ndarray]:
+        """S(x) for landing positions (n, 2), and whether each found a free pose straight
+        back along its heading: bool (n,) each."""
         landings = np.asarray(landings, dtype=float).reshape(-1, 2)
         p_dish, _ = self.checker.scene.dish_p_WD(dish)
         targets = np.column_stack([landings, facing_yaw(landings, p_dish)])
@@ -143,7 +148,7 @@ class FeasibilityOracle:
         poses, landed = stop_short(self.checker.base_free, targets)
         ok = np.zeros(len(landings), dtype=bool)
         ok[landed] = self.success(poses[landed], dish)
-        return ok
+        return ok, landed
 
     # ------------------------------------------------------------------------ Monte Carlo
     def probabilities(self, positions: np.ndarray, dish: str, *, rng: np.random.Generator,
@@ -190,16 +195,22 @@ class FeasibilityOracle:
         fine_x = xs[0] + h * np.arange(-margin, (len(xs) - 1) * k + margin + 1)
         fine_y = ys[0] + h * np.arange(-margin, (len(ys) - 1) * k + margin + 1)
         p_dish, _ = self.checker.scene.dish_p_WD(dish)
-        S = self._success_grid(dish, p_dish, fine_x, fine_y)
+        S, landed = self._success_grid(dish, p_dish, fine_x, fine_y)
         for _ in range(REFINEMENTS):
-            fine_x, fine_y, S = self._refined(dish, p_dish, fine_x, fine_y, S)
+            fine_x, fine_y, S, landed = self._refined(dish, p_dish, fine_x, fine_y, S, landed)
             h, margin, k = h / 2, 2 * margin, 2 * k
         at = S[margin::k, margin::k][:len(ys), :len(xs)]  # S at the centres themselves
         if sigma > 0:
             # A landing with no free pose straight back is approached from the stop it was
             # sent to (`landing.stop_short`) and lands between the two: it is counted as
             # picking as the stop itself does, with the chance of such a landing.
-            cut = self._blocked_grid(p_dish, fine_x, fine_y)
+            # Only where the blur carries it to a centre that picks (at > 0) does a blocked
+            # landing count: the kernel's reach, as scipy truncates it, around those.
+            reach = int(TRUNCATE * sigma / h + 0.5)
+            picks = np.zeros(S.shape, dtype=bool)
+            picks[margin::k, margin::k][:len(ys), :len(xs)] = at > 0
+            needed = binary_dilation(picks, np.ones((2 * reach + 1, 2 * reach + 1), bool))
+            cut = self._blocked_grid(p_dish, fine_x, fine_y, needed, landed)
             S = gaussian_filter(S, sigma / h, mode="constant", cval=0.0, truncate=TRUNCATE)
             cut = gaussian_filter(cut, sigma / h, mode="constant", cval=0.0,
                                   truncate=TRUNCATE)
@@ -211,32 +222,46 @@ class FeasibilityOracle:
         return np.clip(values, 0.0, 1.0) * goal_probability(dish, kind, self.noise.reach_std)
 
     def _success_grid(self, dish: str, p_dish: np.ndarray, xs: np.ndarray,
-                      ys: np.ndarray) -> np.ndarray:
-        """S (the landing's success, 0 or 1) at the grid points xs x ys: (rows, cols)."""
+                      ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """S (the landing's success, 0 or 1) at the grid points xs x ys: (rows, cols); and
+        whether the landing found a free pose straight back (1 or 0; NaN where too far from
+        the dish to be asked)."""
         P = np.stack(np.meshgrid(xs, ys), axis=-1)
         near = np.linalg.norm(P - p_dish, axis=-1) <= REACH_LIMIT
         S = np.zeros(P.shape[:2])
-        S[near] = self.landing_success(P[near], dish)
-        return S
+        landed = np.full(P.shape[:2], np.nan)
+        S[near], landed[near] = self._landings(P[near], dish)
+        return S, landed
 
-    def _blocked_grid(self, p_dish: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    def _blocked_grid(self, p_dish: np.ndarray, xs: np.ndarray, ys: np.ndarray,
+                      needed: np.ndarray, landed: np.ndarray) -> np.ndarray:
         """1 at the grid points xs x ys where a landing facing the dish finds no free pose
-        straight back along its heading, else 0: (rows, cols)."""
+        straight back along its heading, else 0: (rows, cols); where `needed` (rows, cols)
+        says, 0 elsewhere. `landed` holds what S's evaluation found already (NaN where it
+        did not ask): the same drives, so only the others are driven here."""
         P = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
-        near = np.linalg.norm(P - p_dish, axis=1) <= REACH_LIMIT
-        targets = np.column_stack([P[near], facing_yaw(P[near], p_dish)])
-        _, landed = stop_short(self.checker.base_free, targets)
+        known = landed.reshape(-1)
+        near = (np.linalg.norm(P - p_dish, axis=1) <= REACH_LIMIT) & needed.reshape(-1)
         blocked = np.zeros(len(P))
-        blocked[near] = ~landed
+        have = near & ~np.isnan(known)
+        blocked[have] = 1.0 - known[have]
+        ask = near & np.isnan(known)
+        targets = np.column_stack([P[ask], facing_yaw(P[ask], p_dish)])
+        _, found = stop_short(self.checker.base_free, targets)
+        blocked[ask] = ~found
         return blocked.reshape(len(ys), len(xs))
 
     def _refined(self, dish: str, p_dish: np.ndarray, xs: np.ndarray, ys: np.ndarray,
-                 S: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 S: np.ndarray, landed: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """S on the grid of half the spacing: a new point between grid points that agree
-        takes their value, one between points that differ is evaluated."""
+        takes their value, one between points that differ is evaluated; and `landed`
+        (`_success_grid`) where known."""
         rows, cols = S.shape
         fine = np.full((2 * rows - 1, 2 * cols - 1), np.nan)
         fine[::2, ::2] = S
+        fine_landed = np.full(fine.shape, np.nan)
+        fine_landed[::2, ::2] = landed
         fine_x = np.linspace(xs[0], xs[-1], 2 * cols - 1)
         fine_y = np.linspace(ys[0], ys[-1], 2 * rows - 1)
         # The parents of each new point: its 2 (on a grid line) or 4 (in a square) neighbours.
@@ -259,9 +284,11 @@ class FeasibilityOracle:
             P = np.column_stack([fine_x[ask[:, 1]], fine_y[ask[:, 0]]])
             near = np.linalg.norm(P - p_dish, axis=1) <= REACH_LIMIT
             values = np.zeros(len(P))
-            values[near] = self.landing_success(P[near], dish)
+            found = np.full(len(P), np.nan)
+            values[near], found[near] = self._landings(P[near], dish)
             fine[ask[:, 0], ask[:, 1]] = values
-        return fine_x, fine_y, fine
+            fine_landed[ask[:, 0], ask[:, 1]] = found
+        return fine_x, fine_y, fine, fine_landed
 
     def heatmap(self, dish: str, *, size: float = CROP_SIZE, cells: int = CROP_CELLS,
                 center: np.ndarray | None = None) -> Heatmap:
