@@ -19,7 +19,7 @@ from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
 from s3o_drake.execution.executive_system import PlanFrom
 from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import TaskMotionPlan
-from s3o_drake.world.builder import overhead_images
+from s3o_drake.world.builder import ILLUSTRATION, overhead_images
 from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.system_lifetime import release_diagram
 
@@ -183,7 +183,7 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     plan = executive.GetOutputPort("plan").Eval(executive_context)
     visualizer = None
     if meshcat is not None:
-        visualizer = world.GetSubsystemByName("meshcat_visualizer")
+        visualizer = world.GetSubsystemByName(ILLUSTRATION)
         visualizer.StartRecording(set_transforms_while_recording=realtime)
     if realtime:
         simulator.set_target_realtime_rate(1.0)

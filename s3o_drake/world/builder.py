@@ -6,6 +6,7 @@ and, when a Meshcat is passed in, its visualizers. Furniture and dishes are inst
 the SDFormat templates in `models/furniture/`, welded to the world.
 """
 
+import copy
 from dataclasses import dataclass, field
 from string import Template
 
@@ -20,8 +21,6 @@ from pydrake.geometry import (
     IllustrationProperties,
     MakeRenderEngineVtk,
     Meshcat,
-    MeshcatVisualizer,
-    MeshcatVisualizerParams,
     PerceptionProperties,
     RenderCameraCore,
     RenderEngineVtkParams,
@@ -37,8 +36,10 @@ from pydrake.multibody.plant import (
 from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.systems.controllers import InverseDynamics
 from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.lcm import ApplyLcmBusConfig
 from pydrake.systems.primitives import MatrixGain
 from pydrake.systems.sensors import RgbdSensor
+from pydrake.visualization import ApplyVisualizationConfig
 
 from s3o_drake.world import furniture as fu
 from s3o_drake.world.camera import overhead_camera
@@ -58,6 +59,8 @@ from s3o_drake.world.robot import (
 from s3o_drake.world.scenario import Scenario
 
 RENDERER = "vtk"
+ILLUSTRATION = "meshcat_visualizer(illustration)"
+"""The Meshcat visualizer of the illustration geometry, by the name Drake gives it."""
 FLOOR_RGBA = np.array([0.82, 0.80, 0.76, 1.0])
 WALL_RGBA = np.array([0.90, 0.90, 0.88, 1.0])
 
@@ -308,9 +311,10 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     Output ports: dish_poses (abstract DishPoses, X_WD), dish_states (abstract DishStates)
     (world/dish_messages.py).
 
-    With a Meshcat, adds an illustration visualizer ("meshcat_visualizer", which can record
-    for playback) and, with `show_collisions`, a hidden collision-geometry one (for a person
-    watching live; it is not in a recording and costs a quarter of a step's time).
+    With a Meshcat, adds Drake's visualizers as `scenario.visualization` says
+    (`ApplyVisualizationConfig`): the illustration (`ILLUSTRATION`, which records for
+    playback) and, with `show_collisions`, the proximity geometry (for a person watching
+    live; it is not in a recording and costs a quarter of a step's time).
     """
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlant(scenario.plant, builder)
@@ -333,15 +337,13 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     builder.ExportOutput(plant.get_body_poses_output_port(), "body_poses")
 
     if meshcat is not None:
-        params = MeshcatVisualizerParams(publish_period=scenario.simulation.publish_period)
-        visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
-        visualizer.set_name("meshcat_visualizer")
-        if show_collisions:
-            collision = MeshcatVisualizerParams(
-                role=Role.kProximity, prefix="collision", visible_by_default=False,
-                publish_period=scenario.simulation.publish_period)
-            MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, collision).set_name(
-                "meshcat_collision")
+        config = copy.copy(scenario.visualization)
+        config.publish_proximity = config.publish_proximity and show_collisions
+        # Drake adds its LCM visualizers with Meshcat's: their bus is one that publishes
+        # nowhere (owned by the diagram), as the project's views are Meshcat's.
+        buses = ApplyLcmBusConfig({config.lcm_bus: None}, builder)
+        ApplyVisualizationConfig(config, builder, lcm_buses=buses, plant=plant,
+                                 scene_graph=scene_graph, meshcat=meshcat)
 
     diagram = builder.Build()
     diagram.set_name("s3o_world")
