@@ -3,6 +3,7 @@ until the task monitor ends the run, and collect what happened (`execute`). The 
 command (s3o_drake/commands/run_scenario.py) is a thin main over it."""
 
 
+import math
 import sys
 import time
 from dataclasses import dataclass
@@ -18,7 +19,7 @@ from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
 from s3o_drake.execution.executive_system import PlanFrom
 from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import TaskMotionPlan
-from s3o_drake.world.builder import overhead_images
+from s3o_drake.world.builder import ILLUSTRATION, overhead_images
 from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.system_lifetime import release_diagram
 
@@ -75,13 +76,54 @@ class SimulatedSeconds:
         self.bar.close()
 
 
+#: Meshcat's camera: its vertical field of view (deg), three.js's default.
+MESHCAT_FOV = 75.0
+#: The first view: the camera this far (m) behind the robot's start, away from the room's
+#: centre, and this high, so that the robot fills more than a quarter of the view's height (its
+#: arm visible) with the room spread out behind it.
+VIEW_BACK = 2.0
+VIEW_HEIGHT = 2.0
+#: ... looking at a point this far from the robot towards the room's centre, 0.5 m up.
+VIEW_LEAD = 1.0
+#: The camera rises (up to VIEW_HIGHEST, m) to see the robot's base (SIGHT_LOW above the
+#: floor) over a wall, SIGHT_CLEARANCE (m) above the wall's top.
+SIGHT_LOW = 0.2
+SIGHT_CLEARANCE = 0.1
+VIEW_HIGHEST = 5.0
+
+
+def first_view(bounds: list[float], start: tuple[float, float, float],
+               wall_height: float) -> tuple[np.ndarray, np.ndarray]:
+    """Where the playback's camera stands and what it looks at (p_WC, p_WT) when the page
+    opens: behind the robot's start, seen from the side away from the room's centre (from
+    behind the robot, as it faces, when it starts at the centre)."""
+    x_min, y_min, x_max, y_max = bounds
+    p_WR = np.array(start[:2], dtype=float)
+    towards = np.array([(x_min + x_max) / 2, (y_min + y_max) / 2]) - p_WR
+    if np.linalg.norm(towards) < 0.5:
+        towards = np.array([np.cos(start[2]), np.sin(start[2])])
+    towards /= np.linalg.norm(towards)
+    # Where the line of sight leaves the room, a wall could hide the robot: the camera then
+    # goes up until that line passes over the wall, SIGHT_CLEARANCE above it.
+    leaving = [(bound - p) / -t for p, t, bound in zip(
+        p_WR, towards, ((x_min, x_max)[int(towards[0] < 0)], (y_min, y_max)[int(towards[1] < 0)]),
+        strict=True) if abs(t) > 1e-9]
+    inside = min(leaving, default=math.inf)
+    height = VIEW_HEIGHT
+    if inside < VIEW_BACK:
+        height = max(height, SIGHT_LOW + (wall_height + SIGHT_CLEARANCE - SIGHT_LOW)
+                     * VIEW_BACK / max(inside, 0.1))
+    camera = np.append(p_WR - VIEW_BACK * towards, min(height, VIEW_HIGHEST))
+    return camera, np.append(p_WR + VIEW_LEAD * towards, 0.5)
+
+
 def frame_room(meshcat: Meshcat, scenario: Scenario) -> None:
-    """Points Meshcat's camera at the room from above its south edge, so that the whole
-    restaurant is in view when the page opens (the default camera sits outside the walls)."""
-    x_min, y_min, x_max, y_max = scenario.room.bounds
-    center = np.array([(x_min + x_max) / 2, (y_min + y_max) / 2, 0.0])
-    span = max(x_max - x_min, y_max - y_min)
-    meshcat.SetCameraPose(center + np.array([0.0, -0.75 * span, 0.9 * span]), center)
+    """Points Meshcat's camera at the robot's start with the room behind it (`first_view`),
+    so that the page opens on the robot, large enough to see its arm, and the room it will
+    work in (Meshcat's default camera sits outside the walls, far from a robot)."""
+    camera, target = first_view(scenario.room.bounds, scenario.robot.start,
+                                scenario.room.wall_height)
+    meshcat.SetCameraPose(camera, target)
 
 
 def _simulate(simulator: Simulator, plant) -> tuple[str | None, int]:
@@ -141,7 +183,7 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     plan = executive.GetOutputPort("plan").Eval(executive_context)
     visualizer = None
     if meshcat is not None:
-        visualizer = world.GetSubsystemByName("meshcat_visualizer")
+        visualizer = world.GetSubsystemByName(ILLUSTRATION)
         visualizer.StartRecording(set_transforms_while_recording=realtime)
     if realtime:
         simulator.set_target_realtime_rate(1.0)

@@ -39,7 +39,7 @@ from s3o_drake.execution.recovery import StopCheck, localise
 from s3o_drake.planning.navigation.map import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import PlanningResult, plan_from
 from s3o_drake.world.choices import Recovery
-from s3o_drake.world.goals import placed_object
+from s3o_drake.world.goals import Goal, placed_object
 from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS
 from s3o_drake.world.settings import Uncertainty
 from s3o_drake.world.system_lifetime import weak_callback
@@ -231,7 +231,9 @@ class ExecutiveSystem(LeafSystem):
         t0 = time.perf_counter()
         p = self._params
         if self._progress_bar:  # say what is happening as it happens (stderr, with the bars)
-            objects = [d for d in ask.dishes if placed_object(d) is None]
+            # The objects to act on: not the place targets, not the objects that stay.
+            stay = {o.name for o in p.executive.objects if o.goal == Goal.STAY.value}
+            objects = [d for d in ask.dishes if placed_object(d) is None and d not in stay]
             print(f"perceiving the unmapped chairs in the overhead camera's images "
                   f"({counted(len(objects), 'object')} to plan for)", file=sys.stderr,
                   flush=True)

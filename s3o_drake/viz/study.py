@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import matplotlib
+import matplotlib.figure
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -20,8 +21,17 @@ if TYPE_CHECKING:
 
 def plot_figure_five(cells: Sequence[Cell], methods: Sequence[str], groups: Sequence[str],
                      path: Path) -> None:
+    """Writes `figure_five` to `path`."""
+    fig = figure_five(cells, methods, groups)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def figure_five(cells: Sequence[Cell], methods: Sequence[str], groups: Sequence[str]
+                ) -> matplotlib.figure.Figure:
     """The paper's Fig. 5: completion rate and execution time per difficulty group (in the
-    order given) and method, bars with the spread over seeds as error bars."""
+    order given) and method, bars with the spread over seeds as error bars. A group without
+    runs keeps its place, its bars replaced by the words "no runs"."""
     GROUPS = groups
     at = {(c.group, c.method): c for c in cells}
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
@@ -48,6 +58,7 @@ def plot_figure_five(cells: Sequence[Cell], methods: Sequence[str], groups: Sequ
                     ax.plot([offset[k] - width / 2, offset[k] + width / 2], [0, 0],
                             color=colours(i), linewidth=3)
         ax.set_xticks(x, [g.capitalize() for g in GROUPS])
+        ax.set_xlim(-0.5, len(GROUPS) - 0.5)  # every group, with bars or not
         ax.set_ylabel(label)
         ax.grid(axis="y", alpha=0.3)
     axes[0].set_ylim(0, 1.05)
@@ -59,8 +70,7 @@ def plot_figure_five(cells: Sequence[Cell], methods: Sequence[str], groups: Sequ
     fig.suptitle(f"Completion and execution time by task difficulty ({runs} runs per method; "
                  "error bars: standard deviation over seeds; times: runs with a plan)")
     fig.tight_layout(rect=(0, 0.07, 1, 1))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return fig
 
 
 def plot_table(rows: Sequence[Sequence[str]], labels: Sequence[str], title: str,

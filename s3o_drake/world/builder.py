@@ -6,6 +6,7 @@ and, when a Meshcat is passed in, its visualizers. Furniture and dishes are inst
 the SDFormat templates in `models/furniture/`, welded to the world.
 """
 
+import copy
 from dataclasses import dataclass, field
 from string import Template
 
@@ -20,8 +21,6 @@ from pydrake.geometry import (
     IllustrationProperties,
     MakeRenderEngineVtk,
     Meshcat,
-    MeshcatVisualizer,
-    MeshcatVisualizerParams,
     PerceptionProperties,
     RenderCameraCore,
     RenderEngineVtkParams,
@@ -37,8 +36,10 @@ from pydrake.multibody.plant import (
 from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.systems.controllers import InverseDynamics
 from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.lcm import ApplyLcmBusConfig
 from pydrake.systems.primitives import MatrixGain
 from pydrake.systems.sensors import RgbdSensor
+from pydrake.visualization import ApplyVisualizationConfig
 
 from s3o_drake.world import furniture as fu
 from s3o_drake.world.camera import overhead_camera
@@ -58,6 +59,8 @@ from s3o_drake.world.robot import (
 from s3o_drake.world.scenario import Scenario
 
 RENDERER = "vtk"
+ILLUSTRATION = "meshcat_visualizer(illustration)"
+"""The Meshcat visualizer of the illustration geometry, by the name Drake gives it."""
 FLOOR_RGBA = np.array([0.82, 0.80, 0.76, 1.0])
 WALL_RGBA = np.array([0.90, 0.90, 0.88, 1.0])
 
@@ -118,28 +121,34 @@ def dish_sdf(dish: Dish) -> str:
         rgba=" ".join(f"{c:g}" for c in shape.rgba))
 
 
-def _add_room(plant: MultibodyPlant, room: Room, margin: float) -> None:
-    """Floor (seen, not collided with; `margin` beyond the walls) and four walls, on the
-    world body."""
+def room_boxes(room: Room, margin: float) -> dict[str, tuple[list[float], list[float]]]:
+    """{name: (centre p_WB, size)} of the room's boxes in W: the floor ("floor", its top at
+    z = 0, reaching `margin` beyond the walls) and the four walls."""
     x_min, y_min, x_max, y_max = room.bounds
     cx, cy = (x_min + x_max) / 2, (y_min + y_max) / 2
     size_x, size_y = x_max - x_min, y_max - y_min
     t, h = room.wall_thickness, room.wall_height
-    world = plant.world_body()
     floor_margin = 2 * t + 2 * margin
-    plant.RegisterVisualGeometry(
-        world, RigidTransform([cx, cy, -0.005]),
-        Box(size_x + floor_margin, size_y + floor_margin, 0.01), "floor", FLOOR_RGBA)
-    walls = {
+    return {
+        "floor": ([cx, cy, -0.005], [size_x + floor_margin, size_y + floor_margin, 0.01]),
         "wall_south": ([cx, y_min - t / 2, h / 2], [size_x + 2 * t, t, h]),
         "wall_north": ([cx, y_max + t / 2, h / 2], [size_x + 2 * t, t, h]),
         "wall_west": ([x_min - t / 2, cy, h / 2], [t, size_y, h]),
         "wall_east": ([x_max + t / 2, cy, h / 2], [t, size_y, h]),
     }
-    for name, (p_WW, size) in walls.items():
-        X = RigidTransform(p_WW)
-        plant.RegisterVisualGeometry(world, X, Box(*size), name, WALL_RGBA)
-        plant.RegisterCollisionGeometry(world, X, Box(*size), name, CoulombFriction(0.5, 0.5))
+
+
+def _add_room(plant: MultibodyPlant, room: Room, margin: float) -> None:
+    """Floor (seen, not collided with; `margin` beyond the walls) and four walls, on the
+    world body."""
+    world = plant.world_body()
+    for name, (p_WB, size) in room_boxes(room, margin).items():
+        X = RigidTransform(p_WB)
+        rgba = FLOOR_RGBA if name == "floor" else WALL_RGBA
+        plant.RegisterVisualGeometry(world, X, Box(*size), name, rgba)
+        if name != "floor":
+            plant.RegisterCollisionGeometry(world, X, Box(*size), name,
+                                            CoulombFriction(0.5, 0.5))
 
 
 def _add_gravity_compensation(builder: DiagramBuilder, plant: MultibodyPlant) -> None:
@@ -167,6 +176,32 @@ def _add_gravity_compensation(builder: DiagramBuilder, plant: MultibodyPlant) ->
     builder.Connect(to_actuators.get_output_port(), plant.get_actuation_input_port())
 
 
+@dataclass(frozen=True)
+class FixedModel:
+    """A model welded in the room: a table, a chair or a dish."""
+
+    name: str
+    """The model instance's name (the scenario's name of the thing)."""
+    body: str
+    """Its one body's name: "table", "chair" or "dish"."""
+    sdf: str
+    X_WB: RigidTransform
+
+
+def fixed_models(contents: SceneContents, *, dishes: bool = True) -> list[FixedModel]:
+    """The tables, chairs and (with `dishes`) dishes of `contents`, as SDFormat models and
+    where their bodies are welded."""
+    fixed = [FixedModel(t.name, "table", table_sdf(t), _planar_pose(*t.center, t.yaw))
+             for t in contents.tables]
+    fixed += [FixedModel(c.name, "chair", chair_sdf(c), _planar_pose(*c.pose))
+              for c in contents.chairs]
+    if dishes:
+        fixed += [FixedModel(d.name, "dish", dish_sdf(d), _planar_pose(
+            d.position[0], d.position[1], 0.0, surface_height(contents.tables, d)))
+            for d in contents.dishes]
+    return fixed
+
+
 def populate_plant(plant: MultibodyPlant, scene_graph: SceneGraph | None,
                    contents: SceneContents, *, dishes: bool = True) -> WorldModels:
     """Adds a room, its furniture, its objects and the robot to an unfinalized plant: the
@@ -179,21 +214,11 @@ def populate_plant(plant: MultibodyPlant, scene_graph: SceneGraph | None,
     for name, q in zip(ROBOT_JOINTS, q0, strict=True):
         plant.GetJointByName(name, models.robot).set_default_positions([q])
 
-    for table in contents.tables:
-        (model,) = parser.AddModelsFromString(table_sdf(table), "sdf")
-        _weld(plant, model, "table", _planar_pose(table.center[0], table.center[1], table.yaw))
-        models.tables[table.name] = model
-    for chair in contents.chairs:
-        (model,) = parser.AddModelsFromString(chair_sdf(chair), "sdf")
-        _weld(plant, model, "chair", _planar_pose(*chair.pose))
-        models.chairs[chair.name] = model
-    if dishes:
-        for dish in contents.dishes:
-            (model,) = parser.AddModelsFromString(dish_sdf(dish), "sdf")
-            X_WD = _planar_pose(dish.position[0], dish.position[1], 0.0,
-                                surface_height(contents.tables, dish))
-            _weld(plant, model, "dish", X_WD)
-            models.dishes[dish.name] = model
+    kinds = {"table": models.tables, "chair": models.chairs, "dish": models.dishes}
+    for fixed in fixed_models(contents, dishes=dishes):
+        (model,) = parser.AddModelsFromString(fixed.sdf, "sdf")
+        _weld(plant, model, fixed.body, fixed.X_WB)
+        kinds[fixed.body][fixed.name] = model
     return models
 
 
@@ -286,9 +311,10 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     Output ports: dish_poses (abstract DishPoses, X_WD), dish_states (abstract DishStates)
     (world/dish_messages.py).
 
-    With a Meshcat, adds an illustration visualizer ("meshcat_visualizer", which can record
-    for playback) and, with `show_collisions`, a hidden collision-geometry one (for a person
-    watching live; it is not in a recording and costs a quarter of a step's time).
+    With a Meshcat, adds Drake's visualizers as `scenario.visualization` says
+    (`ApplyVisualizationConfig`): the illustration (`ILLUSTRATION`, which records for
+    playback) and, with `show_collisions`, the proximity geometry (for a person watching
+    live; it is not in a recording and costs a quarter of a step's time).
     """
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlant(scenario.plant, builder)
@@ -311,15 +337,13 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     builder.ExportOutput(plant.get_body_poses_output_port(), "body_poses")
 
     if meshcat is not None:
-        params = MeshcatVisualizerParams(publish_period=scenario.simulation.publish_period)
-        visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
-        visualizer.set_name("meshcat_visualizer")
-        if show_collisions:
-            collision = MeshcatVisualizerParams(
-                role=Role.kProximity, prefix="collision", visible_by_default=False,
-                publish_period=scenario.simulation.publish_period)
-            MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, collision).set_name(
-                "meshcat_collision")
+        config = copy.copy(scenario.visualization)
+        config.publish_proximity = config.publish_proximity and show_collisions
+        # Drake adds its LCM visualizers with Meshcat's: their bus is one that publishes
+        # nowhere (owned by the diagram), as the project's views are Meshcat's.
+        buses = ApplyLcmBusConfig({config.lcm_bus: None}, builder)
+        ApplyVisualizationConfig(config, builder, lcm_buses=buses, plant=plant,
+                                 scene_graph=scene_graph, meshcat=meshcat)
 
     diagram = builder.Build()
     diagram.set_name("s3o_world")

@@ -30,6 +30,7 @@ import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
+from pydrake.visualization import VisualizationConfig
 
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.map import Chair, Map, Room, Table
@@ -53,6 +54,17 @@ from s3o_drake.world.yaml_checks import (
 
 PLANT_TIME_STEP = 0.01
 """The plant's step (s) unless the scenario says otherwise (`Scenario.plant`)."""
+PUBLISH_PERIOD = 0.2
+"""The Meshcat recording's frame period (s) unless the scenario says otherwise
+(`Scenario.visualization`). The page interpolates between frames, so 5 frames per second
+look smooth at the robot's speeds (0.4 m/s; the arm up to π rad/s); a five-minute
+execution's playback page stays near 6.5 MB (docs/execution.md), and each frame costs
+simulation time."""
+
+
+def _visualization() -> VisualizationConfig:
+    return VisualizationConfig(publish_period=PUBLISH_PERIOD, publish_contacts=False,
+                               publish_inertia=False, enable_meshcat_creation=False)
 
 
 @dataclass
@@ -83,6 +95,13 @@ class Scenario:
     0.01 s, nothing at the rests where it grasps and releases). At a step of 0.02 s runs were
     1.5x faster but SAP failed to converge in 2 of 16 runs (a robot at rest, no contact), so
     0.01 s it is."""
+    visualization: VisualizationConfig = field(default_factory=_visualization)
+    """Drake's visualization settings (`ApplyVisualizationConfig`), for the Meshcat that
+    `run` records the playback in (and shows live with --meshcat); without a Meshcat (the
+    studies' runs) nothing is visualized. The illustration is what the playback records;
+    the proximity geometry is shown in a live view only (hidden until toggled: it costs a
+    quarter of a step's time); contact forces and inertia are off. Drake's LCM visualizers
+    publish nowhere: the project's views are Meshcat's."""
     execution: ExecutionSettings = field(default_factory=ExecutionSettings)
     outputs: Outputs = field(default_factory=Outputs)
 
@@ -127,7 +146,7 @@ def parse_scenario(text: str) -> Scenario:
         if raw is None:  # an empty or comment-only file: every field has its default
             raw, text = {}, "{}"
         check_structure(raw, Scenario, "")
-        scenario = _one_time_step(yaml_load_typed(schema=Scenario, data=text), raw)
+        scenario = _older_fields(yaml_load_typed(schema=Scenario, data=text), raw)
     except FieldError as e:
         raise ScenarioError(e.path, e.message) from None
     except (RuntimeError, ValueError) as e:  # the checks should have caught it; keep one line
@@ -136,17 +155,24 @@ def parse_scenario(text: str) -> Scenario:
     return scenario
 
 
-def _one_time_step(scenario: Scenario, raw: dict) -> Scenario:
-    """The plant's step from `simulation.time_step` where an older file gives it there;
-    both given, they must agree. Afterwards only `plant.time_step` holds it."""
-    given = (raw.get("simulation") or {}).get("time_step")
-    if given is None:
-        return scenario
-    if "time_step" in (raw.get("plant") or {}) and scenario.plant.time_step != given:
-        raise FieldError("simulation.time_step", f"{given:g} s, but plant.time_step says "
-                                                 f"{scenario.plant.time_step:g} s: set one")
-    scenario.plant.time_step = float(given)
-    scenario.simulation.time_step = None
+#: Fields that moved into Drake's configs: where older files (the shipped generated tasks)
+#: give them, and where they live now.
+_MOVED = (("simulation", "time_step", "plant"), ("simulation", "publish_period", "visualization"))
+
+
+def _older_fields(scenario: Scenario, raw: dict) -> Scenario:
+    """The fields of older files read into the Drake config that holds them now (`_MOVED`);
+    given in both places, they must agree. Afterwards only the config holds them."""
+    for section, name, config in _MOVED:
+        given = (raw.get(section) or {}).get(name)
+        if given is None:
+            continue
+        now = getattr(getattr(scenario, config), name)
+        if name in (raw.get(config) or {}) and now != given:
+            raise FieldError(f"{section}.{name}", f"{given:g} s, but {config}.{name} says "
+                                                  f"{now:g} s: set one")
+        setattr(getattr(scenario, config), name, float(given))
+        setattr(getattr(scenario, section), name, None)
     return scenario
 
 

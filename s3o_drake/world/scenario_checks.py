@@ -320,6 +320,9 @@ def _validate_settings(scenario: Scenario) -> None:
             "simulator.integration_scheme", "scheme")
     _at_least(scenario.simulator.target_realtime_rate, 0.0, "simulator.target_realtime_rate")
     _at_least(s.hold_time, 0.0, "simulation.hold_time")
-    _at_least(s.publish_period, 0.0, "simulation.publish_period", strict=True)
+    _at_least(scenario.visualization.publish_period, 0.0, "visualization.publish_period",
+              strict=True)
+    _at_least(scenario.visualization.initial_proximity_alpha, 0.0,
+              "visualization.initial_proximity_alpha")
 
 

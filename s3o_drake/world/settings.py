@@ -103,11 +103,10 @@ class Simulation:
     hold_time: float = 1.0
     """How long the simulation runs on after the plan has ended (s), so that the playback
     shows the robot at rest with what it collected."""
-    publish_period: float = 0.2
-    """Frame period of the Meshcat recording (s). The page interpolates between frames, so
-    5 frames per second look smooth at the robot's speeds (0.4 m/s; the arm up to π rad/s);
-    a five-minute execution's playback page stays near 6.5 MB (docs/execution.md), and each
-    frame costs simulation time."""
+    publish_period: float | None = None
+    """The Meshcat recording's frame period (s), as files from before the scenario held
+    Drake's `VisualizationConfig` give it: read into `visualization.publish_period`
+    (Scenario), where it lives now; the two may not disagree."""
 
 
 @dataclass

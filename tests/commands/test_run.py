@@ -298,10 +298,10 @@ def test_after_a_replan_the_outputs_show_the_latest_plan(tmp_path, monkeypatch, 
 def tidy_run(tmp_path_factory):
     """scenarios/tidy_home.yaml run as the README shows, with the simulated noise."""
     out = tmp_path_factory.mktemp("tidy") / "run"
-    printed = io.StringIO()
-    with contextlib.redirect_stdout(printed):
+    printed, said = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(said):
         status = run_main([str(REPO / "scenarios" / "tidy_home.yaml"), "--out", str(out)])
-    return status, out, printed.getvalue()
+    return status, out, printed.getvalue() + said.getvalue()
 
 
 def test_tidy_home_picks_at_one_stop_and_puts_the_apple_down_at_another(tidy_run):
@@ -325,6 +325,8 @@ def test_tidy_home_picks_at_one_stop_and_puts_the_apple_down_at_another(tidy_run
     assert placement["placed"] and placement["error"] <= 0.03 and placement["upright"]
     assert "apple stands at its place" in printed and \
         "plan ended: every object collected or placed" in printed
+    # Four objects to act on: the plate stays, and the apple's place is not an object.
+    assert "(4 objects to plan for)" in printed
 
 
 def test_the_playback_ends_with_the_apple_on_the_plate(tidy_run):

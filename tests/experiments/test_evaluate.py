@@ -19,6 +19,7 @@ from s3o_drake.commands.evaluate import main as evaluate
 from s3o_drake.execution.messages import PickupRecord
 from s3o_drake.experiments.difficulty import difficulty_groups
 from s3o_drake.experiments.jobs import RUN, Job
+from s3o_drake.experiments.run_rows import run_differences
 from s3o_drake.experiments.scheduler import run_jobs
 from s3o_drake.experiments.store import ResultStore
 from s3o_drake.experiments.summary import (
@@ -211,29 +212,76 @@ def _two_dishes_task(tmp_path):
     return tasks, tmp_path / "results"
 
 
-def test_the_command_runs_on_a_dask_cluster(tmp_path, capsys):
+def _three_tasks(folder: Path) -> Path:
+    folder.mkdir()
+    shutil.copy(SMALL / "two_dishes.yaml", folder / "a_two_dishes.yaml")
+    shutil.copy(SMALL / "opposite_sides.yaml", folder / "b_opposite_sides.yaml")
+    one = (SMALL / "two_dishes.yaml").read_text().replace(
+        "  - {name: plate_a, table: table, position: [1.85, 2.3], kind: plate}\n", "")
+    assert one.count("kind:") == 1
+    (folder / "c_one_cup.yaml").write_text(one)
+    return folder
+
+
+def _study(tasks: Path) -> list[str]:
+    return ["--tasks", str(tasks), "--methods", "S3O-GROP*", "--seeds", "1", "--quiet"]
+
+
+@pytest.fixture(scope="module")
+def local_study(tmp_path_factory) -> tuple[Path, Path]:
+    """A study on the local pool (2 processes) of four small tasks, S3O-GROP*, seed 0: its
+    tasks (the three of `_three_tasks` and two_dishes with seed 7) and its folder."""
+    root = tmp_path_factory.mktemp("local_study")
+    tasks = _three_tasks(root / "tasks")
+    two = (SMALL / "two_dishes.yaml").read_text()
+    assert two.count("seed: 1\n") == 1
+    (tasks / "d_two_dishes_seed_7.yaml").write_text(two.replace("seed: 1\n", "seed: 7\n"))
+    out = root / "local"
+    assert evaluate([*_study(tasks), "--out", str(out), "--workers", "2"]) == 0
+    return tasks, out
+
+
+def test_a_dask_cluster_started_as_documented_runs_what_the_local_pool_runs(
+        local_study, tmp_path, capsys):
+    """Four tasks on the local pool, then on Dask workers started by the command that
+    `evaluate --help` and the README give: every run's row the same, timings aside."""
     distributed = pytest.importorskip("distributed")
-    tasks, out = _two_dishes_task(tmp_path)
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=None) as cluster:
-        status = evaluate(["--tasks", str(tasks), "--methods", "S3O-GROP*", "--seeds", "1",
-                           "--out", str(out), "--scheduler", cluster.scheduler_address,
-                           "--quiet"])
-    assert status == 0
-    (run,) = ResultStore(out / "results.jsonl").rows()
-    (difficulty,) = ResultStore(out / "difficulty.jsonl").rows()
+    tasks, local = local_study
+    # The tasks' difficulty (the oracle's areas, two thirds of the local study's time) is
+    # the tasks', whoever measures it: the Dask study resumes from it and runs the runs.
+    (tmp_path / "dask").mkdir()
+    shutil.copy(local / "difficulty.jsonl", tmp_path / "dask")
+    command = _study(tasks)
+    with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp",
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        # A scheduler alone, on TCP: the workers are processes of their own.
+        workers = subprocess.Popen(
+            [str(Path(sys.executable).parent / "dask"), "worker", cluster.scheduler_address,
+             "--nthreads", "1", "--nworkers", "2", "--lifetime", "60m", "--lifetime-restart"],
+            cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            with distributed.Client(cluster) as client:
+                client.wait_for_workers(2, timeout=60)
+            capsys.readouterr()
+            assert evaluate([*command, "--out", str(tmp_path / "dask"), "--scheduler",
+                             cluster.scheduler_address]) == 0
+        finally:
+            workers.terminate()
+            workers.wait(timeout=60)
+    assert "4 tasks x 1 methods x 1 seeds" in capsys.readouterr().out
+    local, dask = (ResultStore(f / "results.jsonl", read_only=True).rows()
+                   for f in (local, tmp_path / "dask"))
+    assert run_differences(local, dask) == (4, [])
+    run = next(r for r in dask if r["task"] == "a_two_dishes")
     # The run went to its end; whether both pickups succeed depends on the plan and the seed's
     # noise draws (about 0.97 per pickup), not on the scheduler.
     assert run["dishes"] == 2 and run["collected"] >= 1 and run["finished"]
-    assert run["execution_time"] > 10.0
-    assert run["outcomes"][-1].endswith("done")
+    assert run["execution_time"] > 10.0 and run["outcomes"][-1].endswith("done")
     # A record per executed pickup, in the order of the outcomes, as plain JSON.
     records = [PickupRecord.from_dict(r) for r in run["pickups"]]
     assert [f"pickup {r.dish}: done" for r in records] == [
         o for o in run["outcomes"] if o.startswith("pickup")]
     assert all(r.method == "S3O-GROP*" and 0 <= r.predicted <= 1 for r in records)
-    assert set(difficulty["areas"]) == {"plate_a", "cup_b"} and difficulty["area"] > 0.5
-    assert "1 tasks x 1 methods x 1 seeds" in capsys.readouterr().out
 
 
 def test_a_dask_cluster_whose_workers_run_jobs_as_threads_is_refused(tmp_path, capsys):
@@ -431,25 +479,21 @@ def test_placement_table_counts_objects_at_and_off_their_places():
 
 # --- the command ----------------------------------------------------------------------------
 
-def _three_tasks(folder: Path) -> Path:
-    folder.mkdir()
-    shutil.copy(SMALL / "two_dishes.yaml", folder / "a_two_dishes.yaml")
-    shutil.copy(SMALL / "opposite_sides.yaml", folder / "b_opposite_sides.yaml")
-    one = (SMALL / "two_dishes.yaml").read_text().replace(
-        "  - {name: plate_a, table: table, position: [1.85, 2.3], kind: plate}\n", "")
-    assert one.count("kind:") == 1
-    (folder / "c_one_cup.yaml").write_text(one)
-    return folder
-
-
 def _command(tasks: Path, out: Path) -> list[str]:
     return ["--tasks", str(tasks), "--methods", *METHODS, "--seeds", "1", "--out", str(out),
             "--workers", "2", "--quiet"]
 
 
-def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(tmp_path, capsys):
+def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(local_study, tmp_path,
+                                                                     capsys):
     tasks = _three_tasks(tmp_path / "tasks")
     out = tmp_path / "results"
+    # The three tasks' difficulty as the local study measured it (that study tests the
+    # measuring): the runs are what is killed and resumed here.
+    out.mkdir()
+    measured = (local_study[1] / "difficulty.jsonl").read_text().splitlines()
+    (out / "difficulty.jsonl").write_text("".join(
+        line + "\n" for line in measured if json.loads(line)["task"] != "d_two_dishes_seed_7"))
     # Killed mid-study (the whole process group, as a crash or a lost machine would).
     process = subprocess.Popen([sys.executable, "-m", "s3o_drake.commands.evaluate",
                                 *_command(tasks, out)], cwd=REPO, start_new_session=True,

@@ -16,7 +16,12 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from s3o_drake.world.builder import build_world_diagram, populate_plant, robot_hold_state
+from s3o_drake.world.builder import (
+    ILLUSTRATION,
+    build_world_diagram,
+    populate_plant,
+    robot_hold_state,
+)
 from s3o_drake.world.camera import overhead_camera
 from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
 from s3o_drake.world.furniture import DISH_SHAPES
@@ -292,7 +297,7 @@ def test_world_with_tracked_dishes_sees_them_on_the_tables(scenario):
     world, simulator, world_context = _world_with_robot_held(scenario, GripEvent(), meshcat)
     plant = world.GetSubsystemByName("plant")
     assert not any(plant.HasModelInstanceNamed(d.name) for d in scenario.dishes)
-    visualizer = world.GetSubsystemByName("meshcat_visualizer")
+    visualizer = world.GetSubsystemByName(ILLUSTRATION)
     visualizer.StartRecording(set_transforms_while_recording=False)
     simulator.AdvanceTo(0.2)
     visualizer.StopRecording()

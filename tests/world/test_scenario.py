@@ -46,9 +46,10 @@ def test_dump_round_trips():
 
 
 def test_drakes_configs_are_fields_of_the_scenario_and_older_files_still_read():
-    """`plant` (MultibodyPlantConfig) and `simulator` (SimulatorConfig) as Drake's tools
-    have them, validated like the rest; a file that gives the step as
-    `simulation.time_step` (the shipped generated tasks do) sets the plant's."""
+    """`plant` (MultibodyPlantConfig), `simulator` (SimulatorConfig) and `visualization`
+    (VisualizationConfig) as Drake's tools have them, validated like the rest; a file that
+    gives the step as `simulation.time_step`, or the recording's period as
+    `simulation.publish_period` (the shipped generated tasks do), sets the config's."""
     scenario = parse_scenario("plant: {time_step: 0.005, contact_model: point}\n"
                               "simulator: {integration_scheme: runge_kutta2}")
     assert scenario.plant.time_step == 0.005 and scenario.plant.contact_model == "point"
@@ -57,7 +58,16 @@ def test_drakes_configs_are_fields_of_the_scenario_and_older_files_still_read():
     assert parse_scenario("simulation: {time_step: 0.02}").plant.time_step == 0.02
     assert load_scenario(REPO / "scenarios" / "generated" / "task_000.yaml").plant.time_step \
         == 0.01
+    shown = parse_scenario("visualization: {publish_period: 0.1, publish_contacts: true}")
+    assert shown.visualization.publish_period == 0.1 and shown.visualization.publish_contacts
+    assert not parse_scenario("").visualization.publish_inertia  # the project's default
+    assert parse_scenario("simulation: {publish_period: 0.5}").visualization.publish_period \
+        == 0.5
     for text, field in (("plant: {time_step: 0.1}", "plant.time_step"),
+                        ("visualization: {publish_period: 0}", "visualization.publish_period"),
+                        ("visualization: {publish_periodd: 1}", "visualization.publish_periodd"),
+                        ("simulation: {publish_period: 0.5}\nvisualization: "
+                         "{publish_period: 0.2}", "simulation.publish_period"),
                         ("plant: {time_stepp: 0.1}", "plant.time_stepp"),
                         ("simulator: {integration_scheme: rk9}",
                          "simulator.integration_scheme"),

@@ -4,7 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pydrake.geometry import Role
+from pydrake.geometry import Meshcat, Role
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.planning import RobotDiagramBuilder
@@ -12,7 +12,12 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from s3o_drake.world.builder import build_world_diagram, populate_plant, robot_hold_state
+from s3o_drake.world.builder import (
+    ILLUSTRATION,
+    build_world_diagram,
+    populate_plant,
+    robot_hold_state,
+)
 from s3o_drake.world.camera import overhead_camera
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.scenario import load_scenario
@@ -196,3 +201,24 @@ def test_gravity_acts_on_the_robot_and_its_actuators_carry_it():
     np.testing.assert_allclose(u, -tau_g, atol=1e-9)
     simulator.AdvanceTo(1.0)
     np.testing.assert_allclose(plant.GetPositions(plant_context), level[:11], atol=1e-3)
+
+
+def test_meshcat_gets_drakes_visualizers_as_the_scenarios_visualization_says():
+    """`visualization` (Drake's VisualizationConfig) decides what Meshcat shows: by default
+    the illustration (what the playback records), the proximity geometry in a live view
+    only; none at all without a Meshcat (the studies' runs)."""
+    scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
+    meshcat = Meshcat()
+
+    def visualizers(**kwargs) -> set[str]:
+        world = build_world_diagram(scenario, **kwargs)
+        return {s.get_name() for s in world.GetSystems() if "meshcat" in s.get_name()}
+
+    assert visualizers(meshcat=meshcat, show_collisions=False) == {ILLUSTRATION}
+    assert visualizers(meshcat=meshcat, show_collisions=True) == {
+        ILLUSTRATION, "meshcat_visualizer(proximity)"}
+    assert visualizers(meshcat=None) == set()
+    scenario.visualization.publish_inertia = True
+    scenario.visualization.publish_illustration = False
+    assert visualizers(meshcat=meshcat, show_collisions=False) == {
+        "meshcat_visualizer(inertia)"}

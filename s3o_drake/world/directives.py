@@ -1,0 +1,115 @@
+"""A room as Drake model directives: the scene that any Drake tool opens.
+
+`write_directives` writes a folder that is a package of its own (package.xml), with the
+robot's URDF, an SDFormat file per table, chair and dish, one for the room's floor and walls,
+and `<name>.dmd.yaml`, Drake's model directives that put them where the project's builder
+(`builder.populate_plant`) puts them: the robot at the scenario's start, the furniture and
+the dishes welded to the world. Drake's own types (`ModelDirectives`, `yaml_dump_typed`)
+write the file, so Drake reads it back as it was meant:
+
+    ROS_PACKAGE_PATH=DIR python -m pydrake.visualization.model_visualizer DIR/NAME.dmd.yaml
+"""
+
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+from pydrake.common.schema import Rotation, Transform
+from pydrake.common.yaml import yaml_dump_typed
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective, ModelDirectives
+
+from s3o_drake.world.builder import FLOOR_RGBA, WALL_RGBA, fixed_models, room_boxes
+from s3o_drake.world.contents import SceneContents
+from s3o_drake.world.resources import ROBOT_URDF
+from s3o_drake.world.robot import ROBOT_JOINTS, robot_positions
+
+ROBOT_INSTANCE = "robot"
+ROOM_INSTANCE = "room"
+
+_FOLDERS = {"table": "tables", "chair": "chairs", "dish": "dishes"}
+_PACKAGE_XML = """<?xml version="1.0"?>
+<package format="2">
+  <name>{name}</name>
+  <version>0.1.0</version>
+  <description>A scene of s3o_drake as Drake model directives ({directives}).</description>
+  <maintainer email="s3o-drake@example.com">s3o_drake developers</maintainer>
+  <license>BSD-3-Clause</license>
+</package>
+"""
+
+
+def package_name(name: str) -> str:
+    """The package a scene called `name` is written as: `s3o_` and its name, in the
+    letters a package name may hold."""
+    return "s3o_" + re.sub(r"[^a-z0-9_]", "_", name.lower())
+
+
+def room_sdf(contents: SceneContents) -> str:
+    """The room's floor (seen only) and walls (seen and collided with) as one static
+    SDFormat model, in W."""
+    parts = []
+    for name, (p, size) in room_boxes(contents.room, contents.floor_margin).items():
+        rgba = " ".join(f"{c:g}" for c in (FLOOR_RGBA if name == "floor" else WALL_RGBA))
+        pose = f"<pose>{p[0]:.6g} {p[1]:.6g} {p[2]:.6g} 0 0 0</pose>"
+        box = f"<geometry><box><size>{size[0]:.6g} {size[1]:.6g} {size[2]:.6g}</size></box>" \
+              "</geometry>"
+        parts.append(f'      <visual name="{name}">{pose}{box}'
+                     f"<material><diffuse>{rgba}</diffuse></material></visual>")
+        if name != "floor":
+            parts.append(f'      <collision name="{name}">{pose}{box}</collision>')
+    body = "\n".join(parts)
+    return (f'<?xml version="1.0"?>\n<sdf version="1.9">\n  <model name="{ROOM_INSTANCE}">\n'
+            f"    <static>true</static>\n    <link name=\"{ROOM_INSTANCE}\">\n{body}\n"
+            "    </link>\n  </model>\n</sdf>\n")
+
+
+def _transform(X: RigidTransform) -> Transform:
+    schema = Transform()
+    schema.translation = X.translation()
+    rotation = Rotation()
+    rotation.set_rpy_deg(np.rad2deg(RollPitchYaw(X.rotation()).vector()))
+    schema.rotation = rotation
+    return schema
+
+
+def scene_directives(contents: SceneContents, package: str) -> tuple[ModelDirectives,
+                                                                   dict[str, str]]:
+    """The directives of `contents` and the model files they name ({path in the package:
+    text}; the robot's URDF is not among them: it is copied)."""
+    url = f"package://{package}"
+    q0 = robot_positions(*contents.start)
+    directives = [
+        ModelDirective(add_model=AddModel(
+            name=ROBOT_INSTANCE, file=f"{url}/robot/{ROBOT_URDF.name}",
+            default_joint_positions={j: [float(q)] for j, q in zip(ROBOT_JOINTS, q0,
+                                                                     strict=True)})),
+        ModelDirective(add_model=AddModel(name=ROOM_INSTANCE, file=f"{url}/room.sdf")),
+    ]
+    files = {"room.sdf": room_sdf(contents)}
+    for fixed in fixed_models(contents):
+        path = f"{_FOLDERS[fixed.body]}/{fixed.name}.sdf"
+        files[path] = fixed.sdf
+        directives.append(ModelDirective(add_model=AddModel(name=fixed.name,
+                                                            file=f"{url}/{path}")))
+        directives.append(ModelDirective(add_weld=AddWeld(
+            parent="world", child=f"{fixed.name}::{fixed.body}", X_PC=_transform(fixed.X_WB))))
+    return ModelDirectives(directives=directives), files
+
+
+def write_directives(contents: SceneContents, out: Path, name: str) -> Path:
+    """Writes the scene of `contents` as a package in `out` (created; files of an earlier
+    export there are replaced) and returns its `<name>.dmd.yaml`."""
+    package = package_name(name)
+    directives, files = scene_directives(contents, package)
+    dmd = out / f"{name}.dmd.yaml"
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "package.xml").write_text(_PACKAGE_XML.format(name=package, directives=dmd.name))
+    (out / "robot").mkdir(exist_ok=True)
+    shutil.copyfile(ROBOT_URDF, out / "robot" / ROBOT_URDF.name)
+    for path, text in files.items():
+        (out / path).parent.mkdir(parents=True, exist_ok=True)
+        (out / path).write_text(text)
+    dmd.write_text(yaml_dump_typed(directives))
+    return dmd
