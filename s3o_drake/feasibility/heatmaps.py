@@ -16,7 +16,13 @@ from typing import Protocol
 from tqdm import tqdm
 
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE, FeasibilityOracle, Heatmap
+from s3o_drake.feasibility.oracle import (
+    CROP_CELLS,
+    CROP_SIZE,
+    FINE_CELL,
+    FeasibilityOracle,
+    Heatmap,
+)
 from s3o_drake.feasibility.reachability.map import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.contents import SceneContents
@@ -60,10 +66,10 @@ def _init_worker(contents: SceneContents, uncertainty: Uncertainty, method: str,
 
 
 def _heatmap_job(job: tuple) -> Heatmap:
-    dish, size, cells, whole_room = job
+    dish, size, cells, whole_room, fine_cell = job
     if whole_room:
         return _worker_oracle.room_heatmap(dish, cell=size)
-    return _worker_oracle.heatmap(dish, size=size, cells=cells)
+    return _worker_oracle.heatmap(dish, size=size, cells=cells, fine_cell=fine_cell)
 
 
 def oracle_heatmaps(oracle: FeasibilityOracle, dishes: Sequence[str], *,
@@ -78,18 +84,20 @@ def compute_heatmaps(source: SceneSource, dishes: Sequence[str] | None = None, *
                      workers: int = 1, size: float = CROP_SIZE,
                      cells: int = CROP_CELLS, whole_room: bool = False,
                      method: str = "map", reachability: Path | None = None,
-                     progress: bool = True, obstacles: Obstacles | None = None
-                     ) -> list[Heatmap]:
+                     progress: bool = True, obstacles: Obstacles | None = None,
+                     fine_cell: float = FINE_CELL) -> list[Heatmap]:
     """Heatmaps of the dishes (default: all), in their order.
 
     Crops of `size` metres at `cells` x `cells` around each dish, or, with
     `whole_room=True`, the whole room at a cell of `size` metres. `obstacles`: the
-    room's furniture footprints, when the caller has them (a KnownWorld's). Each worker
+    room's furniture footprints, when the caller has them (a KnownWorld's). `fine_cell`:
+    the grid the oracle evaluates crops on starts at least this fine (`expectation`; a
+    coarser one costs less, for coarse maps). Each worker
     builds its own scene; a caller that holds an oracle already uses `oracle_heatmaps`.
     """
     contents = source.contents
     names = list(dishes) if dishes is not None else [d.name for d in contents.dishes]
-    jobs = [(name, size, cells, whole_room) for name in names]
+    jobs = [(name, size, cells, whole_room, fine_cell) for name in names]
     bar = tqdm(total=len(jobs), desc="feasibility heatmaps", unit="dish", disable=not progress)
     results: list[Heatmap] = []
     if workers <= 1 or len(jobs) <= 1:

@@ -184,11 +184,13 @@ class FeasibilityOracle:
         return float(self.probabilities(position, dish, rng=rng, samples=samples)[0])
 
     # -------------------------------------------------------------------------- heatmaps
-    def expectation(self, dish: str, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    def expectation(self, dish: str, xs: np.ndarray, ys: np.ndarray, *,
+                    fine_cell: float = FINE_CELL) -> np.ndarray:
         """Fea^m at the grid of centres xs (cols,) x ys (rows,), evenly spaced by the same
-        step: (rows, cols), by the blur of the module docstring."""
+        step: (rows, cols), by the blur of the module docstring, S evaluated on a grid
+        `fine_cell` or finer (coarser costs less and is less exact)."""
         cell = float(xs[1] - xs[0]) if len(xs) > 1 else float(ys[1] - ys[0])
-        k = max(1, math.ceil(cell / FINE_CELL - 1e-9))
+        k = max(1, math.ceil(cell / fine_cell - 1e-9))
         h = cell / k
         sigma = math.hypot(self.noise.nav_xy_std, self.noise.reach_std)
         margin = math.ceil(TRUNCATE * sigma / h)
@@ -291,14 +293,16 @@ class FeasibilityOracle:
         return fine_x, fine_y, fine, fine_landed
 
     def heatmap(self, dish: str, *, size: float = CROP_SIZE, cells: int = CROP_CELLS,
-                center: np.ndarray | None = None) -> Heatmap:
-        """Fea^m on a cells x cells grid of side `size` (m), centred on the dish by default."""
+                center: np.ndarray | None = None, fine_cell: float = FINE_CELL) -> Heatmap:
+        """Fea^m on a cells x cells grid of side `size` (m), centred on the dish by default
+        (`fine_cell`: `expectation`'s)."""
         if center is None:
             center, _ = self.checker.scene.dish_p_WD(dish)
         cell = size / cells
         x0, y0 = float(center[0] - size / 2), float(center[1] - size / 2)
         centres = (np.arange(cells) + 0.5) * cell
-        return Heatmap(dish, self.expectation(dish, x0 + centres, y0 + centres), x0, y0, cell)
+        return Heatmap(dish, self.expectation(dish, x0 + centres, y0 + centres,
+                                              fine_cell=fine_cell), x0, y0, cell)
 
     def room_heatmap(self, dish: str, *, cell: float = 0.05) -> Heatmap:
         """Fea^m over the whole room at `cell` resolution (m)."""

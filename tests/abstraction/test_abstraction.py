@@ -27,6 +27,7 @@ from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.world.map import Room, Table
 from s3o_drake.world.objects import Dish
 from s3o_drake.world.scenario import Scenario, load_scenario
+from tests.conftest import COARSE_MAPS
 
 SMALL = Path(__file__).resolve().parents[2] / "scenarios" / "small"
 
@@ -43,14 +44,14 @@ def _known(scenario, perceived_chairs) -> KnownWorld:
 @pytest.fixture(scope="module")
 def two_dishes():
     scenario = load_scenario(SMALL / "two_dishes.yaml")
-    heatmaps = compute_heatmaps(scenario, cells=32, progress=False)
+    heatmaps = compute_heatmaps(scenario, **COARSE_MAPS, progress=False)
     return scenario, heatmaps
 
 
 @pytest.fixture(scope="module")
 def opposite_sides():
     scenario = load_scenario(SMALL / "opposite_sides.yaml")
-    heatmaps = compute_heatmaps(scenario, cells=32,
+    heatmaps = compute_heatmaps(scenario, **COARSE_MAPS,
                                 progress=False)
     return scenario, heatmaps
 

@@ -23,6 +23,7 @@ from s3o_drake.planning.task.planner import TaskProblem
 from s3o_drake.planning.time_model import TimeModel
 from s3o_drake.world.choices import METHODS
 from s3o_drake.world.scenario import load_scenario
+from tests.conftest import COARSE_MAPS
 
 SCENES = ("two_dishes", "opposite_sides")
 
@@ -33,7 +34,7 @@ def scenes():
     out = {}
     for name in SCENES:
         scenario = load_scenario(f"scenarios/small/{name}.yaml")
-        heatmaps = compute_heatmaps(scenario, cells=32, progress=False)
+        heatmaps = compute_heatmaps(scenario, **COARSE_MAPS, progress=False)
         chairs = [c.pose for c in scenario.chairs if not c.mapped]
         out[name] = (scenario, heatmaps, chairs)
     return out
@@ -296,7 +297,7 @@ dishes:
   - {name: near_plate, table: corner, position: [1.3, 2.75], kind: plate}
 robot: {start: [3.0, 1.0, 0.0]}
 """)
-    heatmaps = compute_heatmaps(scenario, cells=32, progress=False)
+    heatmaps = compute_heatmaps(scenario, **COARSE_MAPS, progress=False)
     assert heatmaps[0].values.max() == 0.0  # the oracle agrees: nowhere to pick it from
     for method in ("S3O-GROP*", "V-PETLON"):
         p = plan(scenario, method=method, heatmaps=heatmaps, perceived_chairs=[], seed=0)

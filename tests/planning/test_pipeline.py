@@ -12,6 +12,7 @@ from s3o_drake.planning.pipeline import heatmaps_for, plan_from
 from s3o_drake.planning.plan import Goto
 from s3o_drake.world.map import Chair
 from s3o_drake.world.obstacles import Obstacles
+from tests.conftest import COARSE_MAPS
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +23,7 @@ def known(scenario) -> KnownWorld:
 @pytest.fixture(scope="module")
 def heatmaps(known):
     """Coarse oracle heatmaps of the known world (32 x 32 cells: fast)."""
-    return compute_heatmaps(known, cells=32, progress=False,
+    return compute_heatmaps(known, **COARSE_MAPS, progress=False,
                             obstacles=known.obstacles)
 
 

@@ -37,6 +37,7 @@ from s3o_drake.planning.time_model import (
 from s3o_drake.world.angles import facing_yaw, wrap
 from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS
 from s3o_drake.world.scenario import dump_scenario, load_scenario
+from tests.conftest import COARSE_MAPS
 
 REPO = Path(__file__).resolve().parents[2]
 TWO_DISHES = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -221,7 +222,7 @@ def test_the_plan_predicts_the_simulated_execution(executed):
 @pytest.fixture(scope="module")
 def heatmaps():
     scenario = _with(load_scenario(TWO_DISHES), feasibility="oracle")
-    return scenario, compute_heatmaps(scenario, workers=1, progress=False)
+    return scenario, compute_heatmaps(scenario, workers=1, progress=False, **COARSE_MAPS)
 
 
 def test_the_cost_profile_switch(heatmaps):

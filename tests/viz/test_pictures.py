@@ -18,13 +18,14 @@ from s3o_drake.viz.pictures import (
     stop_label,
 )
 from s3o_drake.world.camera import overhead_camera
+from tests.conftest import COARSE_MAPS
 
 
 @pytest.fixture(scope="module")
 def heatmaps(scenario):
     """Coarse oracle heatmaps of the two dishes (32 x 32 cells: fast)."""
     known = KnownWorld.perfect(scenario)
-    return compute_heatmaps(known, cells=32, progress=False,
+    return compute_heatmaps(known, **COARSE_MAPS, progress=False,
                             obstacles=known.obstacles)
 
 
