@@ -6,7 +6,12 @@ and no module sees another's. A module that means something else by one of these
 (a different scenario, a RobotScene) defines its own fixture, which takes precedence.
 """
 
+import hashlib
 import math
+import os
+import pickle
+import shutil
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -68,24 +73,50 @@ def cups_along_edges(scenario: Scenario, count: int) -> list[tuple[Dish, np.ndar
 
 class OracleMapsOnce:
     """The planning pipeline (`plan_from`), with the Drake oracle's Fea^m of each known world
-    computed once per test process: the executive's tests plan the same small scenes again
+    computed once per test session: the executive's tests plan the same small scenes again
     and again, and the oracle is most of a plan's time. The maps are the ones `plan_from`
-    would compute (the oracle is deterministic); plugged in as the ExecutiveSystem's
-    `plan_from`."""
+    would compute (the oracle is deterministic), keyed by what they are made of: the known
+    world's plant contents, its contacts and its noise model. The test processes share them
+    through a folder (`MAPS_FOLDER`, set for the session by `pytest_configure`). Plugged in
+    as the ExecutiveSystem's `plan_from`; `heatmaps(known)` hands out the maps alone."""
 
     def __init__(self) -> None:
         self._maps: dict[str, Sequence[Heatmap]] = {}
 
+    def heatmaps(self, known: KnownWorld) -> Sequence[Heatmap]:
+        """The oracle's maps of `known`'s remaining dishes (`heatmaps_for`, source oracle)."""
+        key = hashlib.sha1(repr((known.contents, known.contacts, known.uncertainty))
+                           .encode()).hexdigest()
+        if key not in self._maps:
+            folder = os.environ.get(MAPS_FOLDER)
+            path = Path(folder) / f"{key}.pickle" if folder else None
+            if path is not None and path.is_file():
+                self._maps[key] = pickle.loads(path.read_bytes())
+            else:
+                self._maps[key] = heatmaps_for(known, source="oracle")
+                if path is not None:  # whole or not at all: another process may read it
+                    temporary = path.with_suffix(f".{os.getpid()}.tmp")
+                    temporary.write_bytes(pickle.dumps(self._maps[key]))
+                    temporary.replace(path)
+        return self._maps[key]
+
     def __call__(self, known: KnownWorld, **kwargs) -> PlanningResult:
         if known.planner.feasibility != "oracle" or kwargs.get("heatmaps") is not None:
             return plan_from(known, **kwargs)
-        # What the oracle's maps are made of (`heatmaps_for`): the scene and the noise model.
-        key = repr((known.map, known.settings.seed, known.settings.planner,
-                    known.settings.uncertainty, known.perceived_chairs, known.dishes,
-                    known.fixtures, known.held))
-        if key not in self._maps:
-            self._maps[key] = heatmaps_for(known)
-        return plan_from(known, heatmaps=self._maps[key], **kwargs)
+        return plan_from(known, heatmaps=self.heatmaps(known), **kwargs)
+
+
+MAPS_FOLDER = "S3O_TEST_ORACLE_MAPS"
+"""The environment variable that names the session's folder of oracle maps."""
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    # The controlling process makes the folder before the test processes start; they
+    # inherit the variable.
+    if not hasattr(config, "workerinput") and MAPS_FOLDER not in os.environ:
+        os.environ[MAPS_FOLDER] = tempfile.mkdtemp(prefix="s3o_oracle_maps_")
+        config.add_cleanup(lambda: shutil.rmtree(os.environ.pop(MAPS_FOLDER),
+                                                 ignore_errors=True))
 
 
 ORACLE_MAPS_ONCE = OracleMapsOnce()

@@ -18,7 +18,6 @@ from s3o_drake.execution.messages import Status
 from s3o_drake.execution.recovery import StopCheck, localise
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.planning.navigation.map import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
-from s3o_drake.planning.pipeline import heatmaps_for
 from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.obstacles import CONTACT_RADIUS
@@ -45,7 +44,7 @@ def scenario():
 @pytest.fixture(scope="module")
 def check(scenario):
     known = KnownWorld.perfect(scenario)
-    return StopCheck(known, tuple(heatmaps_for(known, source="oracle")))
+    return StopCheck(known, tuple(ORACLE_MAPS_ONCE.heatmaps(known)))
 
 
 def test_localisation_is_seeded_per_landing_and_exact_without_noise():
@@ -85,7 +84,7 @@ def test_a_dish_out_of_reach_across_the_table_is_reached_by_a_detour(scenario):
 
     known = KnownWorld.perfect(scenario)
     nav = NavigationMap(known.obstacles)
-    check = StopCheck(known, tuple(heatmaps_for(known, source="oracle")), nav)
+    check = StopCheck(known, tuple(ORACLE_MAPS_ONCE.heatmaps(known)), nav)
     north = np.array([2.5, 3.0, -np.pi / 2])  # 0.65 m north of bowl_north, 1.35 m of south
     near = check.correction(north, "bowl_south", radius=0.3)
     assert near is None or near[1] < 0.5
@@ -118,7 +117,7 @@ def test_where_the_robot_stands_is_rated_by_the_model_and_moves_go_to_free_stops
     from s3o_drake.feasibility.planning_scene import PlanningScene
 
     known = KnownWorld.perfect(scenario)
-    model = tuple(heatmaps_for(known, source="oracle"))
+    model = tuple(ORACLE_MAPS_ONCE.heatmaps(known))
     plan = PlanningScene(known).free_stops.restrict_all(model)
     check = StopCheck(known, plan, model_heatmaps=model)
     south = next(h for h in model if h.dish == "bowl_south")
