@@ -14,10 +14,8 @@ import re
 import shutil
 from pathlib import Path
 
-import numpy as np
-from pydrake.common.schema import Rotation, Transform
+from pydrake.common.schema import Transform
 from pydrake.common.yaml import yaml_dump_typed
-from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective, ModelDirectives
 
 from s3o_drake.world.builder import FLOOR_RGBA, WALL_RGBA, fixed_models, room_boxes
@@ -65,15 +63,6 @@ def room_sdf(contents: SceneContents) -> str:
             "    </link>\n  </model>\n</sdf>\n")
 
 
-def _transform(X: RigidTransform) -> Transform:
-    schema = Transform()
-    schema.translation = X.translation()
-    rotation = Rotation()
-    rotation.set_rpy_deg(np.rad2deg(RollPitchYaw(X.rotation()).vector()))
-    schema.rotation = rotation
-    return schema
-
-
 def scene_directives(contents: SceneContents, package: str) -> tuple[ModelDirectives,
                                                                    dict[str, str]]:
     """The directives of `contents` and the model files they name ({path in the package:
@@ -94,7 +83,7 @@ def scene_directives(contents: SceneContents, package: str) -> tuple[ModelDirect
         directives.append(ModelDirective(add_model=AddModel(name=fixed.name,
                                                             file=f"{url}/{path}")))
         directives.append(ModelDirective(add_weld=AddWeld(
-            parent="world", child=f"{fixed.name}::{fixed.body}", X_PC=_transform(fixed.X_WB))))
+            parent="world", child=f"{fixed.name}::{fixed.body}", X_PC=Transform(fixed.X_WB))))
     return ModelDirectives(directives=directives), files
 
 
