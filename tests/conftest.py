@@ -9,7 +9,6 @@ and no module sees another's. A module that means something else by one of these
 import hashlib
 import math
 import os
-import pickle
 import shutil
 import tempfile
 from collections.abc import Sequence
@@ -21,8 +20,10 @@ import pytest
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.feasibility.oracle_cache import CACHE_VARIABLE
+from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.planning.pipeline import PlanningResult, heatmaps_for, plan_from
+from s3o_drake.planning.pipeline import PlanningResult, plan_from
 from s3o_drake.world.objects import Dish
 from s3o_drake.world.scenario import Scenario, load_scenario
 
@@ -72,32 +73,25 @@ def cups_along_edges(scenario: Scenario, count: int) -> list[tuple[Dish, np.ndar
 
 
 class OracleMapsOnce:
-    """The planning pipeline (`plan_from`), with the Drake oracle's Fea^m of each known world
-    computed once per test session: the executive's tests plan the same small scenes again
-    and again, and the oracle is most of a plan's time. The maps are the ones `plan_from`
-    would compute (the oracle is deterministic), keyed by what they are made of: the known
-    world's plant contents, its contacts and its noise model. The test processes share them
-    through a folder (`MAPS_FOLDER`, set for the session by `pytest_configure`). Plugged in
-    as the ExecutiveSystem's `plan_from`; `heatmaps(known)` hands out the maps alone."""
+    """The planning pipeline (`plan_from`), with the Drake oracle's coarse Fea^m of each
+    known world (`COARSE_MAPS`): the executive's tests plan the same small scenes again and
+    again, the oracle is most of a plan's time, and they are not about the maps' accuracy.
+    Kept per process by what they are made of (the known world's plant contents, its
+    contacts and its noise model), and across the test processes by the oracle's own cache
+    (`S3O_CACHE`, set for the session by `pytest_configure`). Plugged in as the
+    ExecutiveSystem's `plan_from`; `heatmaps(known)` hands out the maps alone."""
 
     def __init__(self) -> None:
         self._maps: dict[str, Sequence[Heatmap]] = {}
 
     def heatmaps(self, known: KnownWorld) -> Sequence[Heatmap]:
-        """The oracle's maps of `known`'s remaining dishes (`heatmaps_for`, source oracle)."""
+        """The oracle's coarse maps of `known`'s remaining dishes."""
         key = hashlib.sha1(repr((known.contents, known.contacts, known.uncertainty))
                            .encode()).hexdigest()
         if key not in self._maps:
-            folder = os.environ.get(MAPS_FOLDER)
-            path = Path(folder) / f"{key}.pickle" if folder else None
-            if path is not None and path.is_file():
-                self._maps[key] = pickle.loads(path.read_bytes())
-            else:
-                self._maps[key] = heatmaps_for(known, source="oracle")
-                if path is not None:  # whole or not at all: another process may read it
-                    temporary = path.with_suffix(f".{os.getpid()}.tmp")
-                    temporary.write_bytes(pickle.dumps(self._maps[key]))
-                    temporary.replace(path)
+            oracle = PlanningScene(known).oracle
+            self._maps[key] = [oracle.heatmap(d.name, **COARSE_MAPS)
+                               for d in known.contents.dishes]
         return self._maps[key]
 
     def __call__(self, known: KnownWorld, **kwargs) -> PlanningResult:
@@ -106,16 +100,12 @@ class OracleMapsOnce:
         return plan_from(known, heatmaps=self.heatmaps(known), **kwargs)
 
 
-MAPS_FOLDER = "S3O_TEST_ORACLE_MAPS"
-"""The environment variable that names the session's folder of oracle maps."""
-
-
 def pytest_configure(config: pytest.Config) -> None:
-    # The controlling process makes the folder before the test processes start; they
-    # inherit the variable.
-    if not hasattr(config, "workerinput") and MAPS_FOLDER not in os.environ:
-        os.environ[MAPS_FOLDER] = tempfile.mkdtemp(prefix="s3o_oracle_maps_")
-        config.add_cleanup(lambda: shutil.rmtree(os.environ.pop(MAPS_FOLDER),
+    # One oracle cache for the session: the controlling process makes the folder before
+    # the test processes start, and they and every process they start inherit it.
+    if not hasattr(config, "workerinput") and CACHE_VARIABLE not in os.environ:
+        os.environ[CACHE_VARIABLE] = tempfile.mkdtemp(prefix="s3o_oracle_cache_")
+        config.add_cleanup(lambda: shutil.rmtree(os.environ.pop(CACHE_VARIABLE),
                                                  ignore_errors=True))
 
 

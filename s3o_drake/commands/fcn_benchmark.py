@@ -97,6 +97,7 @@ def main(argv: list[str] | None = None) -> int:
         crop_inputs,
         view_of,
     )
+    from s3o_drake.feasibility.oracle_cache import bypassed
     from s3o_drake.feasibility.reachability.map import ReachabilityMap
 
     try:
@@ -132,9 +133,10 @@ def main(argv: list[str] | None = None) -> int:
             predicted = fcn.heatmaps(view, scenario.dishes)
             batched.append(time.perf_counter() - start)
         task_fcn = statistics.median(batched)
-        start = time.perf_counter()
-        oracle = compute_heatmaps(scenario, progress=False)
-        task_oracle = time.perf_counter() - start
+        with bypassed():  # the oracle's time is measured, not a cached map's
+            start = time.perf_counter()
+            oracle = compute_heatmaps(scenario, progress=False)
+            task_oracle = time.perf_counter() - start
         fcn_s, oracle_s = fcn_s + task_fcn, oracle_s + task_oracle
         p = np.stack([h.values for h in predicted])
         o = np.stack([h.values for h in oracle])

@@ -52,6 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.experiments.reachability_agreement import Agreement, measure, sample_queries
     from s3o_drake.feasibility.check import FeasibilityChecker
     from s3o_drake.feasibility.oracle import FeasibilityOracle
+    from s3o_drake.feasibility.oracle_cache import bypassed
     from s3o_drake.feasibility.reachability.map import ReachabilityMap
     from s3o_drake.feasibility.scene import FeasibilityScene
     from s3o_drake.world.scenario import load_scenario
@@ -84,10 +85,11 @@ def main(argv: list[str] | None = None) -> int:
                                restaurant.uncertainty)
     oracle.heatmap(restaurant.dishes[0].name, cells=8)  # allocate the thread contexts
     heatmap_s = {}
-    for dish in restaurant.dishes:
-        start = time.perf_counter()
-        oracle.heatmap(dish.name)
-        heatmap_s[dish.name] = time.perf_counter() - start
+    with bypassed():  # the oracle's time is measured, not a cached map's
+        for dish in restaurant.dishes:
+            start = time.perf_counter()
+            oracle.heatmap(dish.name)
+            heatmap_s[dish.name] = time.perf_counter() - start
 
     n = result.total
     figures = {

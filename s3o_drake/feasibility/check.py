@@ -48,6 +48,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.grasp_targets import (
@@ -151,6 +152,17 @@ class FeasibilityChecker:
                 self._grasp_checker(dish)
                 for spec in self._specs_for(dish):
                     self.reachability.prepare(spec.kind)
+
+    def identity(self) -> tuple:
+        """What its answers depend on besides the query (the oracle cache's key): the
+        plant's contents, the obstacles' footprints (WKB), the padding, the method and its
+        settings, and the reachability map's fingerprint."""
+        obstacles = self.scene.obstacles
+        shapes = shapely.to_wkb([obstacles.room, *obstacles.footprints])
+        return (self.scene.contents, b"".join(shapes), self.scene.padding, self.method,
+                self.fallback_ik, self.fallback_seeds, self.fallback_iterations,
+                self.ik_iterations, self.random_seeds, self.exhaustive,
+                None if self.reachability is None else self.reachability.fingerprint)
 
     # ------------------------------------------------------------------------ public API
     def check(self, base: np.ndarray, dish: str,

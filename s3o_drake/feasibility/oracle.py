@@ -41,6 +41,7 @@ from scipy.ndimage import binary_dilation, gaussian_filter
 
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.landing import pickup_poses, stop_short
+from s3o_drake.feasibility.oracle_cache import cached_array
 from s3o_drake.feasibility.pickup_geometry import (
     goal_probability,
     grasp_tolerance,
@@ -188,7 +189,16 @@ class FeasibilityOracle:
                     fine_cell: float = FINE_CELL) -> np.ndarray:
         """Fea^m at the grid of centres xs (cols,) x ys (rows,), evenly spaced by the same
         step: (rows, cols), by the blur of the module docstring, S evaluated on a grid
-        `fine_cell` or finer (coarser costs less and is less exact)."""
+        `fine_cell` or finer (coarser costs less and is less exact). Kept on disk when
+        `S3O_CACHE` names a folder (`oracle_cache`)."""
+        xs, ys = np.asarray(xs, dtype=float), np.asarray(ys, dtype=float)
+        return cached_array(
+            lambda: ("expectation", *self.checker.identity(), self.noise, dish, xs, ys,
+                     fine_cell),
+            lambda: self._expectation(dish, xs, ys, fine_cell))
+
+    def _expectation(self, dish: str, xs: np.ndarray, ys: np.ndarray,
+                     fine_cell: float) -> np.ndarray:
         cell = float(xs[1] - xs[0]) if len(xs) > 1 else float(ys[1] - ys[0])
         k = max(1, math.ceil(cell / fine_cell - 1e-9))
         h = cell / k

@@ -68,9 +68,9 @@ class FeasibilityScene:
         extent = robot_plan_extent(self.plant, inspector, self.robot, context)
         self.robot_radius = robot_horizontal_radius(extent)
         """Horizontal reach (m) of the robot's collision geometry with the arm stowed."""
-        self.clearance = BaseClearance(
-            Obstacles.of_contents(contents) if obstacles is None else obstacles,
-            robot_extent=extent, padding=padding)
+        self.padding = padding
+        self.obstacles = Obstacles.of_contents(contents) if obstacles is None else obstacles
+        self.clearance = BaseClearance(self.obstacles, robot_extent=extent, padding=padding)
         self.collision = CertainCollision.of_scene(self.plant, inspector, self.robot, context)
         """Base positions that need no collision query (see `clearance`)."""
 

@@ -201,15 +201,15 @@ def _bad_inputs(tmp_path: Path) -> list[tuple[list[str], str]]:
     ]
 
 
-def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path):
+def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys):
     for argv, message in _bad_inputs(tmp_path):
         out = tmp_path / "out"
-        result = subprocess.run([sys.executable, "-m", "s3o_drake.commands.calibration", *argv,
-                                 "--out", str(out)], capture_output=True, text=True,
-                                cwd=REPO)
-        assert result.returncode == 2, (argv, result.stderr)
-        assert result.stderr.count("\n") == 1 and message in result.stderr, result.stderr
-        assert not out.exists() and result.stdout == ""
+        with pytest.raises(SystemExit) as exit_:
+            main([*argv, "--out", str(out)])
+        printed = capsys.readouterr()
+        assert exit_.value.code == 2, (argv, printed.err)
+        assert printed.err.count("\n") == 1 and message in printed.err, printed.err
+        assert not out.exists() and printed.out == ""
 
 
 def test_help_is_the_module_docstring():

@@ -10,6 +10,7 @@ import pytest
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import FeasibilityOracle
+from s3o_drake.feasibility.oracle_cache import CACHE_VARIABLE
 from s3o_drake.feasibility.pickup_geometry import (
     catch_probability,
     goal_probability,
@@ -77,7 +78,7 @@ def test_noise_lowers_the_probability_next_to_an_obstacle_not_in_the_open(rmap):
             assert p_noisy >= 0.9
 
 
-def test_heatmap_is_a_probability_map_around_the_dish(rmap):
+def test_heatmap_is_a_probability_map_around_the_dish(rmap, monkeypatch):
     scenario = load_scenario(SMALL)
     oracle = _oracle(scenario, rmap)
     heatmap = oracle.heatmap("plate_a")
@@ -90,14 +91,16 @@ def test_heatmap_is_a_probability_map_around_the_dish(rmap):
     dish = np.array(scenario.dishes[0].position)
     far = np.linalg.norm(heatmap.centers() - dish, axis=-1) > 1.35 + 3 * 0.1
     assert heatmap.values[far].max() < 2e-3
-    # An expectation, not a sample: the same every time.
+    # An expectation, not a sample: the same every time (computed again, not read back).
+    monkeypatch.delenv(CACHE_VARIABLE, raising=False)
     again = oracle.heatmap("plate_a")
     np.testing.assert_array_equal(heatmap.values, again.values)
 
 
-def test_heatmaps_do_not_depend_on_the_worker_count():
+def test_heatmaps_do_not_depend_on_the_worker_count(monkeypatch):
+    monkeypatch.delenv(CACHE_VARIABLE, raising=False)  # both computed, neither read back
     scenario = load_scenario(SMALL)
-    kwargs = {"cells": 16, "progress": False}
+    kwargs = {"cells": 16, "fine_cell": 0.125, "progress": False}
     one = compute_heatmaps(scenario, workers=1, **kwargs)
     two = compute_heatmaps(scenario, workers=2, **kwargs)
     assert [h.dish for h in one] == ["plate_a", "cup_b"]

@@ -359,3 +359,29 @@ def test_a_closed_door_is_closed_along_its_axis_too():
         assert math.isinf(nav.path_length([1.0, y], [5.0, y]))
     open_ = NavigationMap(_door(0.95))
     assert open_.path_length([1.0, 2.0], [5.0, 2.0]) == pytest.approx(4.0)
+
+
+def test_each_ray_meets_the_first_edge_in_its_way_as_the_all_pairs_test_finds_it():
+    """`_first_hits` pairs each edge only with the rays in its angular span; against every
+    pair tested (the definition), on random edges around the origin, some across angle 0,
+    with rays at random angles and at the edges' ends."""
+    from s3o_drake.planning.navigation.visibility import _first_hits, cross2
+
+    rng = np.random.default_rng(3)
+    edges = rng.uniform(-5, 5, (60, 4))
+    edges[:5] = [[2, -1, 2, 1], [3, 0.5, 3, -0.5], [-1, -2, 1, -2], [4, 0, 5, 0], [1, 1, 2, 2]]
+    v = np.zeros(2)
+    ends = np.arctan2(edges[:, [1, 3]], edges[:, [0, 2]]).ravel()
+    ang = np.unique(np.concatenate([ends - 1e-9, ends, ends + 1e-9,
+                                    rng.uniform(0, 2 * np.pi, 300)]) % (2 * np.pi))
+    d = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    e0, ed = edges[:, :2], edges[:, 2:] - edges[:, :2]
+    w = e0 - v
+    denom = cross2(d[:, None, :], ed[None, :, :])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = cross2(w[None], ed[None]) / denom
+        u = cross2(w[None], d[:, None, :]) / denom
+    valid = (np.abs(denom) > 1e-15) & (t > 0) & (u >= 0) & (u <= 1)
+    reference = np.where(valid, t, np.inf).min(axis=1)
+    np.testing.assert_array_equal(_first_hits(v, ang, d, edges), reference)
+    assert np.isfinite(reference).mean() > 0.5

@@ -26,6 +26,7 @@ with worker processes (a few minutes on two cores) and writes it atomically, wit
 settings, as a compressed .npz; `ReachabilityMap.load()` reads it.
 """
 
+import functools
 import hashlib
 import io
 import json
@@ -146,6 +147,15 @@ class ReachabilityMap:
         height = grid_axis(*settings["height_range"], settings["resolution"])
         return cls(rho=rho, height=height, configs=configs, branch_order=order,
                    settings=settings)
+
+    @functools.cached_property
+    def fingerprint(self) -> str:
+        """SHA-256 of the map's contents (settings, configurations, try orders)."""
+        digest = hashlib.sha256(json.dumps(self.settings, sort_keys=True).encode())
+        for kind in sorted(self.configs):
+            digest.update(np.ascontiguousarray(self.configs[kind]).tobytes())
+            digest.update(np.ascontiguousarray(self.branch_order[kind]).tobytes())
+        return digest.hexdigest()
 
     def to_bytes(self) -> bytes:
         """The map as a compressed .npz file's bytes."""

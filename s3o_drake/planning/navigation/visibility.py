@@ -144,6 +144,49 @@ class BlockingEdges:
         out[ki[on][inside[:half] | inside[half:]]] = True
 
 
+_ANGLE_SLACK = 1e-7
+"""rad; an edge's angular span, seen from a ray's origin, is widened by this before rays
+are paired with it: float error at its ends (the rays 1e-9 beside each end included)
+never drops a ray that hits it."""
+
+
+def _first_hits(v: np.ndarray, ang: np.ndarray, d: np.ndarray,
+                edges: np.ndarray) -> np.ndarray:
+    """The distance (m) along each ray from `v` at the sorted angles `ang` (r,) in
+    [0, 2 pi), directions `d` (r, 2), to the first of `edges` (e, 4) it hits: (r,), inf
+    for none.
+
+    A ray can hit an edge only within the angle the edge spans seen from `v` (the short
+    way round), so each edge is tested against the rays in its span alone (a contiguous
+    run of the sorted angles) rather than against all of them: the same intersection
+    test on fewer pairs, the same answers several times faster."""
+    two_pi = 2 * np.pi
+    e0, e1 = edges[:, :2], edges[:, 2:]
+    ed, w = e1 - e0, e0 - v
+    a0 = np.arctan2(w[:, 1], w[:, 0]) % two_pi
+    a1 = np.arctan2(e1[:, 1] - v[1], e1[:, 0] - v[0]) % two_pi
+    span = (a1 - a0) % two_pi
+    long_way = span > np.pi
+    lo = (np.where(long_way, a1, a0) - _ANGLE_SLACK) % two_pi
+    span = np.where(long_way, two_pi - span, span) + 2 * _ANGLE_SLACK
+    r = len(ang)
+    twice = np.concatenate([ang, ang + two_pi])  # a span may pass angle 0
+    first = np.searchsorted(twice, lo, "left")
+    count = np.minimum(np.searchsorted(twice, lo + span, "right") - first, r)
+    ei = np.repeat(np.arange(len(edges)), count)
+    within = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    ri = (np.repeat(first, count) + within) % r
+    dr, ee, we = d[ri], ed[ei], w[ei]
+    denom = cross2(dr, ee)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = cross2(we, ee) / denom
+        u = cross2(we, dr) / denom
+    valid = (np.abs(denom) > 1e-15) & (t > 0) & (u >= 0) & (u <= 1)
+    rho = np.full(r, np.inf)
+    np.minimum.at(rho, ri[valid], t[valid])
+    return rho
+
+
 class VisibilityPolygons:
     """Each graph vertex's visibility polygon, as rays sorted by angle.
 
@@ -170,19 +213,12 @@ class VisibilityPolygons:
         box_e = np.hstack([box_c, np.roll(box_c, -1, axis=0)])
         all_edges = np.vstack([edges, box_e])
         targets = np.unique(np.vstack([edges[:, :2], box_c]), axis=0)
-        e0, ed = all_edges[:, :2], all_edges[:, 2:] - all_edges[:, :2]
         keys, hits = [], []
         for i, v in enumerate(vertices):
             base = np.arctan2(targets[:, 1] - v[1], targets[:, 0] - v[0])
             ang = np.unique(np.concatenate([base - eps, base, base + eps]) % (2 * np.pi))
             d = np.stack([np.cos(ang), np.sin(ang)], axis=1)  # (r, 2)
-            w = e0[None, :, :] - v[None, None, :]  # (1, e, 2)
-            denom = cross2(d[:, None, :], ed[None, :, :])  # (r, e)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = cross2(w, ed[None]) / denom
-                u = cross2(w, d[:, None, :]) / denom
-            valid = (np.abs(denom) > 1e-15) & (t > 0) & (u >= 0) & (u <= 1)
-            rho = np.where(valid, t, np.inf).min(axis=1)
+            rho = _first_hits(v, ang, d, all_edges)
             h = v + d * rho[:, None]
             # Wrap around: the last ray before angle 0 and the first after 2 pi.
             ang = np.concatenate([[ang[-1] - 2 * np.pi], ang, [ang[0] + 2 * np.pi]])
