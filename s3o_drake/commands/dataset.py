@@ -36,6 +36,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--base", metavar="YAML", default=str(RESTAURANT),
                         help="base scenario of the generator (default "
                              f"{RESTAURANT.relative_to(REPO_DIR)})")
+    parser.add_argument("--dishes", type=at_least(1), metavar="N",
+                        help="dishes per scene (default: the protocol's 5 to 7)")
     add_quiet(parser)
     args = parser.parse_args(argv)
     read_base(args.base)
@@ -43,14 +45,17 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.feasibility.learned.dataset import MANIFEST, build_dataset
 
     manifest = {"seed": args.seed, "base": Path(args.base).resolve().name}
+    if args.dishes is not None:  # a folder made without it stays valid
+        manifest["dishes"] = args.dishes
     if (out / MANIFEST).exists():
         known = json.loads((out / MANIFEST).read_text())
         if known != manifest:
-            fail(f"--seed/--base: {out} holds scenes made with {known}, not {manifest}")
+            fail(f"--seed/--base/--dishes: {out} holds scenes made with {known}, "
+                 f"not {manifest}")
     out.mkdir(parents=True, exist_ok=True)
     write_atomically(out / MANIFEST, json.dumps(manifest) + "\n")
     done = build_dataset(out, count=args.count, seed=args.seed, base_path=Path(args.base),
-                         workers=args.workers, progress=not args.quiet)
+                         dishes=args.dishes, workers=args.workers, progress=not args.quiet)
     print(f"{done} scenes computed, {args.count - done} already on disk, in {out}")
     return 0
 

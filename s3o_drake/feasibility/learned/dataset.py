@@ -38,14 +38,16 @@ def scene_path(out: Path, index: int) -> Path:
     return Path(out) / f"scene_{index:05d}.npz"
 
 
-def make_scene(base_path: Path, seed: int, index: int) -> dict[str, np.ndarray]:
-    """Inputs and oracle labels of every dish of scene `index` (arrays for np.savez)."""
+def make_scene(base_path: Path, seed: int, index: int,
+               dishes: int | None = None) -> dict[str, np.ndarray]:
+    """Inputs and oracle labels of every dish of scene `index` (arrays for np.savez);
+    `dishes`: the generator's, that many instead of the protocol's 5 to 7."""
     from s3o_drake.feasibility.heatmaps import compute_heatmaps
     from s3o_drake.feasibility.learned.fcn import crop_inputs, overhead_view
     from s3o_drake.world.builder import render_overhead
     from s3o_drake.world.camera import overhead_camera
 
-    scenario = generate_task(load_scenario(base_path), seed, index)
+    scenario = generate_task(load_scenario(base_path), seed, index, dishes=dishes)
     _, depth, label, robot_labels = render_overhead(scenario)
     view = overhead_view(overhead_camera(scenario.room, scenario.camera), depth, label,
                          robot_labels)
@@ -65,9 +67,10 @@ def make_scene(base_path: Path, seed: int, index: int) -> dict[str, np.ndarray]:
     }
 
 
-def write_scene(out: Path, base_path: Path, seed: int, index: int) -> int:
+def write_scene(out: Path, base_path: Path, seed: int, index: int,
+                dishes: int | None = None) -> int:
     """Computes scene `index` and writes its file atomically; returns its dish count."""
-    arrays = make_scene(base_path, seed, index)
+    arrays = make_scene(base_path, seed, index, dishes)
     buffer = io.BytesIO()
     np.savez_compressed(buffer, **arrays)
     write_atomically(scene_path(out, index), buffer.getvalue())
@@ -80,12 +83,13 @@ def _job(job: tuple) -> int:
 
 
 def build_dataset(out: Path, *, count: int, seed: int, base_path: Path = DEFAULT_BASE,
-                  workers: int = 1, progress: bool = True) -> int:
-    """Writes scenes 0..count-1 that are not on disk yet; returns how many it computed."""
+                  dishes: int | None = None, workers: int = 1, progress: bool = True) -> int:
+    """Writes scenes 0..count-1 that are not on disk yet; returns how many it computed.
+    `dishes`: per scene, instead of the protocol's 5 to 7 (`make_scene`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     todo = [i for i in range(count) if not scene_path(out, i).exists()]
-    jobs = [(out, Path(base_path), seed, i) for i in todo]
+    jobs = [(out, Path(base_path), seed, i, dishes) for i in todo]
     bar = tqdm(total=count, initial=count - len(todo), desc="scenes", unit="scene",
                disable=not progress)
     if workers <= 1 or len(jobs) <= 1:
