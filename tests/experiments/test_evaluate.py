@@ -1,6 +1,8 @@
 """The benchmark study: jobs, the result store, resume, killed workers, Dask, grouping by
 difficulty, the tables and figures, and the command end to end on small tasks."""
 
+import contextlib
+import io
 import json
 import math
 import os
@@ -223,35 +225,49 @@ def _three_tasks(folder: Path) -> Path:
     return folder
 
 
-def _study(tasks: Path) -> list[str]:
-    return ["--tasks", str(tasks), "--methods", "S3O-GROP*", "--seeds", "1", "--quiet"]
+def _command(tasks: Path, out: Path) -> list[str]:
+    return ["--tasks", str(tasks), "--methods", *METHODS, "--seeds", "1", "--out", str(out),
+            "--workers", "2", "--quiet"]
 
 
 @pytest.fixture(scope="module")
-def local_study(tmp_path_factory) -> tuple[Path, Path]:
-    """A study on the local pool (2 processes) of four small tasks, S3O-GROP*, seed 0: its
-    tasks (the three of `_three_tasks` and two_dishes with seed 7) and its folder."""
+def local_study(tmp_path_factory) -> dict:
+    """Three small tasks, two methods, seed 0, on the local pool (2 processes), started in
+    a process of its own and killed (the whole process group, as a crash or a lost machine
+    would) after its first row, then resumed by the same command in this process. Its
+    tasks and folder, the rows it had when killed and what the resumed study printed."""
     root = tmp_path_factory.mktemp("local_study")
     tasks = _three_tasks(root / "tasks")
-    two = (SMALL / "two_dishes.yaml").read_text()
-    assert two.count("seed: 1\n") == 1
-    (tasks / "d_two_dishes_seed_7.yaml").write_text(two.replace("seed: 1\n", "seed: 7\n"))
-    out = root / "local"
-    assert evaluate([*_study(tasks), "--out", str(out), "--workers", "2"]) == 0
-    return tasks, out
+    out = root / "results"
+    process = subprocess.Popen([sys.executable, "-m", "s3o_drake.commands.evaluate",
+                                *_command(tasks, out)], cwd=REPO, start_new_session=True,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    results = out / "results.jsonl"
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline and process.poll() is None and not (
+            results.exists() and results.read_text().count("\n") >= 1):
+        time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    before = results.read_text().splitlines()
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        status = evaluate(_command(tasks, out))
+    return {"tasks": tasks, "out": out, "before": before, "status": status,
+            "printed": printed.getvalue()}
 
 
 def test_a_dask_cluster_started_as_documented_runs_what_the_local_pool_runs(
         local_study, tmp_path, capsys):
-    """Four tasks on the local pool, then on Dask workers started by the command that
-    `evaluate --help` and the README give: every run's row the same, timings aside."""
+    """The local study's tasks on Dask workers started by the command that `evaluate
+    --help` and the README give: every run's row the same, timings aside."""
     distributed = pytest.importorskip("distributed")
-    tasks, local = local_study
-    # The tasks' difficulty (the oracle's areas, two thirds of the local study's time) is
-    # the tasks', whoever measures it: the Dask study resumes from it and runs the runs.
+    tasks, local = local_study["tasks"], local_study["out"]
+    # The tasks' difficulty (the oracle's areas) is the tasks', whoever measures it: the
+    # Dask study resumes from it and runs the runs.
     (tmp_path / "dask").mkdir()
     shutil.copy(local / "difficulty.jsonl", tmp_path / "dask")
-    command = _study(tasks)
+    command = [*_command(tasks, tmp_path / "dask")[:-3], "--quiet"]  # no --workers
     with distributed.LocalCluster(n_workers=0, processes=False, protocol="tcp",
                                   host="127.0.0.1", dashboard_address=None) as cluster:
         # A scheduler alone, on TCP: the workers are processes of their own.
@@ -263,16 +279,15 @@ def test_a_dask_cluster_started_as_documented_runs_what_the_local_pool_runs(
             with distributed.Client(cluster) as client:
                 client.wait_for_workers(2, timeout=60)
             capsys.readouterr()
-            assert evaluate([*command, "--out", str(tmp_path / "dask"), "--scheduler",
-                             cluster.scheduler_address]) == 0
+            assert evaluate([*command, "--scheduler", cluster.scheduler_address]) == 0
         finally:
             workers.terminate()
             workers.wait(timeout=60)
-    assert "4 tasks x 1 methods x 1 seeds" in capsys.readouterr().out
+    assert "3 tasks x 2 methods x 1 seeds" in capsys.readouterr().out
     local, dask = (ResultStore(f / "results.jsonl", read_only=True).rows()
                    for f in (local, tmp_path / "dask"))
-    assert run_differences(local, dask) == (4, [])
-    run = next(r for r in dask if r["task"] == "a_two_dishes")
+    assert run_differences(local, dask) == (6, [])
+    run = next(r for r in dask if r["task"] == "a_two_dishes" and r["method"] == "S3O-GROP*")
     # The run went to its end; whether both pickups succeed depends on the plan and the seed's
     # noise draws (about 0.97 per pickup), not on the scheduler.
     assert run["dishes"] == 2 and run["collected"] >= 1 and run["finished"]
@@ -479,40 +494,16 @@ def test_placement_table_counts_objects_at_and_off_their_places():
 
 # --- the command ----------------------------------------------------------------------------
 
-def _command(tasks: Path, out: Path) -> list[str]:
-    return ["--tasks", str(tasks), "--methods", *METHODS, "--seeds", "1", "--out", str(out),
-            "--workers", "2", "--quiet"]
-
-
 def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(local_study, tmp_path,
                                                                      capsys):
-    tasks = _three_tasks(tmp_path / "tasks")
-    out = tmp_path / "results"
-    # The three tasks' difficulty as the local study measured it (that study tests the
-    # measuring): the runs are what is killed and resumed here.
-    out.mkdir()
-    measured = (local_study[1] / "difficulty.jsonl").read_text().splitlines()
-    (out / "difficulty.jsonl").write_text("".join(
-        line + "\n" for line in measured if json.loads(line)["task"] != "d_two_dishes_seed_7"))
-    # Killed mid-study (the whole process group, as a crash or a lost machine would).
-    process = subprocess.Popen([sys.executable, "-m", "s3o_drake.commands.evaluate",
-                                *_command(tasks, out)], cwd=REPO, start_new_session=True,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    tasks, out, before = local_study["tasks"], local_study["out"], local_study["before"]
     results = out / "results.jsonl"
-    deadline = time.monotonic() + 240
-    while time.monotonic() < deadline and process.poll() is None and not (
-            results.exists() and results.read_text().count("\n") >= 1):
-        time.sleep(0.2)
-    os.killpg(process.pid, signal.SIGKILL)
-    process.wait()
-    before = results.read_text().splitlines()
     assert 1 <= len(before) < 6
-
-    assert evaluate(_command(tasks, out)) == 0
-    printed = capsys.readouterr().out
-    assert f"{len(before)} already finished" in printed
+    # Resumed by the same command: the finished runs kept, not run again.
+    assert local_study["status"] == 0
+    assert f"{len(before)} already finished" in local_study["printed"]
     after = results.read_text().splitlines()
-    assert after[:len(before)] == before  # finished runs kept, not run again
+    assert after[:len(before)] == before
     rows = [json.loads(line) for line in after]
     assert len(rows) == 6 and len({r["key"] for r in rows}) == 6
     # Every run planned and went to its end (each pickup succeeds about 0.97 of the time
