@@ -21,6 +21,7 @@ from s3o_drake.commands.evaluate import main as evaluate
 from s3o_drake.execution.messages import PickupRecord
 from s3o_drake.experiments.difficulty import difficulty_groups
 from s3o_drake.experiments.jobs import RUN, Job
+from s3o_drake.experiments.limit import lower_bound
 from s3o_drake.experiments.run_rows import run_differences
 from s3o_drake.experiments.scheduler import run_jobs
 from s3o_drake.experiments.store import ResultStore
@@ -35,6 +36,7 @@ from s3o_drake.experiments.summary import (
     table_one,
     write_outputs,
 )
+from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
 SMALL = REPO / "scenarios" / "small"
@@ -509,6 +511,15 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(local_study
     # Every run planned and went to its end (each pickup succeeds about 0.97 of the time
     # with the default noise: that is the plan's and the seed's, not the study's).
     assert all(r["planned"] and r["finished"] and r["collected"] >= 1 for r in rows)
+
+    # No complete run is faster than the task's lower bound (experiments/limit.py; its
+    # oracle maps are the ones the study's difficulty measured, read back).
+    bounds = {r["task"]: lower_bound(load_scenario(r["path"])) for r in rows}
+    for r in rows:
+        bound = bounds[r["task"]]
+        assert 0.0 < bound.total < math.inf and bound.drive_time > 0.0
+        if r["complete"]:
+            assert r["execution_time"] >= bound.total, (r["task"], r["method"], bound)
 
     csv_lines = (out / "results.csv").read_text().splitlines()
     assert csv_lines[0].startswith("task,layout,group,area,method,seed,recovery,dishes,"

@@ -1,0 +1,110 @@
+"""A lower bound on the execution time of any plan of a task: no plan, however found, and no
+execution of it in the simulation, takes less.
+
+An executed pickup succeeds only where the robot stands inside the dish's pickable region,
+the support of the true world's Fea^m (the Drake oracle on every chair where the scenario
+puts it: the blur of the landing and reach noise reaches 3.5 standard deviations beyond
+every pose that picks). The base drives continuously from its start through one pose in
+each region, and its navigator never exceeds the cruise speed v. Whatever the order, that
+path is a spanning tree of the start and the poses, so it is at least as long as the
+minimum spanning tree of the start and the regions with the regions' distances (each no
+longer than the poses' distance): the tour bound is that tree's length over v.
+
+Each object is grasped and let go once: its fingers close over their whole stroke and open
+again, each stroke timed within the fingers' limits (FINGER_MAX_*; a rest-to-rest motion
+takes at least d / v + v / a). Everything else (turns, the arm's motions, settling, the
+corners of the drives) only adds time.
+
+The bound holds for complete runs: an incomplete run may stop early.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from scipy.sparse.csgraph import minimum_spanning_tree
+
+from s3o_drake.execution.arm.pickup import FINGER_MAX_ACCELERATION, FINGER_MAX_VELOCITY
+from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.world.goals import placed_object
+from s3o_drake.world.robot import GRIPPER_CLOSED, GRIPPER_OPEN
+from s3o_drake.world.scenario import Scenario
+
+
+@dataclass(frozen=True)
+class LowerBound:
+    """A lower bound on a complete execution's time (s), and its parts."""
+
+    tour_length: float
+    """m: the minimum spanning tree of the start and the pickable regions."""
+    drive_time: float
+    """s: `tour_length` at the cruise speed."""
+    hand_time: float
+    """s: the fingers' strokes, closing and opening once per object."""
+
+    @property
+    def total(self) -> float:
+        return self.drive_time + self.hand_time
+
+
+def stroke_time(distance: float, velocity: float, acceleration: float) -> float:
+    """The shortest rest-to-rest motion (s) over `distance` within the limits."""
+    if distance <= 0.0:
+        return 0.0
+    if distance >= velocity**2 / acceleration:
+        return distance / velocity + velocity / acceleration
+    return 2.0 * math.sqrt(distance / acceleration)
+
+
+def finger_stroke_time() -> float:
+    """The fingers' shortest motion (s) between open and closed (either way)."""
+    travel = float(np.max(np.abs(np.asarray(GRIPPER_OPEN) - np.asarray(GRIPPER_CLOSED))))
+    return stroke_time(travel, FINGER_MAX_VELOCITY, FINGER_MAX_ACCELERATION)
+
+
+def pickable_region(heatmap: Heatmap) -> shapely.Geometry:
+    """The union of the heatmap's cells where Fea^m > 0 (empty where it has none)."""
+    rows, cols = np.nonzero(heatmap.values > 0.0)
+    x0 = heatmap.x0 + cols * heatmap.cell
+    y0 = heatmap.y0 + rows * heatmap.cell
+    return shapely.union_all(shapely.box(x0, y0, x0 + heatmap.cell, y0 + heatmap.cell))
+
+
+def tour_length(start: Sequence[float], regions: Sequence[shapely.Geometry]) -> float:
+    """The minimum spanning tree's length (m) of the start point and the regions, each
+    edge the two's shortest distance: no path from the start through a point of every
+    region is shorter."""
+    nodes = [shapely.Point(float(start[0]), float(start[1])), *regions]
+    n = len(nodes)
+    if n <= 1:
+        return 0.0
+    i, j = np.triu_indices(n, k=1)
+    d = shapely.distance(np.array(nodes, dtype=object)[i], np.array(nodes, dtype=object)[j])
+    # Every spanning tree has n - 1 edges, so adding 1 m to each edge changes no tree's
+    # rank; it keeps regions that touch (distance 0) joined, where a 0 would mean no edge.
+    weights = np.zeros((n, n))
+    weights[i, j] = d + 1.0
+    tree = minimum_spanning_tree(weights)
+    return max(0.0, float(tree.sum()) - (n - 1))
+
+
+def lower_bound(scenario: Scenario, heatmaps: Sequence[Heatmap] | None = None) -> LowerBound:
+    """The bound for `scenario`: its objects' pickable regions from `heatmaps` (default:
+    the Drake oracle on the true world, `compute_heatmaps(scenario)`, the maps a study's
+    difficulty measures), at the planner's cruise speed. A dish with no pickable region
+    makes every complete run impossible: its bound is infinite."""
+    if heatmaps is None:
+        from s3o_drake.feasibility.heatmaps import compute_heatmaps
+
+        heatmaps = compute_heatmaps(scenario, progress=False)
+    regions = [pickable_region(h) for h in heatmaps]
+    if any(r.is_empty for r in regions):
+        return LowerBound(math.inf, math.inf, math.inf)
+    length = tour_length(scenario.contents.start, regions)
+    objects = sum(placed_object(h.dish) is None for h in heatmaps)  # not the place targets
+    return LowerBound(tour_length=length, drive_time=length / scenario.planner.speed,
+                      hand_time=2 * objects * finger_stroke_time())
