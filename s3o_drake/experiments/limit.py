@@ -21,8 +21,8 @@ The bound holds for complete runs: an incomplete run may stop early.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Collection, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 import shapely
@@ -30,6 +30,8 @@ from scipy.sparse.csgraph import minimum_spanning_tree
 
 from s3o_drake.execution.arm.pickup import FINGER_MAX_ACCELERATION, FINGER_MAX_VELOCITY
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.planning.pipeline import PlanningResult
+from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
 from s3o_drake.world.goals import placed_object
 from s3o_drake.world.robot import GRIPPER_CLOSED, GRIPPER_OPEN
 from s3o_drake.world.scenario import Scenario
@@ -108,3 +110,83 @@ def lower_bound(scenario: Scenario, heatmaps: Sequence[Heatmap] | None = None) -
     objects = sum(placed_object(h.dish) is None for h in heatmaps)  # not the place targets
     return LowerBound(tour_length=length, drive_time=length / scenario.planner.speed,
                       hand_time=2 * objects * finger_stroke_time())
+
+
+# --- the reference planner and the rations it lifts -------------------------------------
+
+RESTARTS = 3
+"""Seeds the long search plans from; the plan of highest utility is kept."""
+ALL_CANDIDATES = 1_000_000
+"""A top K no abstraction reaches: every candidate state space is searched."""
+SEARCH_FACTOR = 10
+"""The long search's CMA-ES generations, times the planner's."""
+REFERENCE_BUDGET = 600.0
+"""s: the reference planner's budget per task."""
+RATIONS = ("true_chairs", "oracle", "all_candidates", "long_search")
+"""What the real planner rations: the perceived chairs (against the true ones), the
+network's Fea^m (against the Drake oracle's, which has no sampling error: an expectation),
+the top K state spaces (against every candidate), and its motion search (against ten
+times the generations, from several seeds)."""
+
+
+def rationed_scenario(scenario: Scenario, lifted: Collection[str]) -> Scenario:
+    """`scenario` with the planner settings of the rations `lifted` lifted (the chairs
+    are the planner's input: `plan_rationed`), and the reference's budget when all are."""
+    unknown = set(lifted) - set(RATIONS)
+    if unknown:
+        raise ValueError(f"unknown ration(s) {sorted(unknown)}; known: {', '.join(RATIONS)}")
+    planner = scenario.planner
+    changes: dict[str, object] = {}
+    if "oracle" in lifted:
+        changes["feasibility"] = "oracle"
+    if "all_candidates" in lifted:
+        changes["top_k"] = ALL_CANDIDATES
+    if "long_search" in lifted:
+        changes["cma_generations"] = SEARCH_FACTOR * planner.cma_generations
+    if set(lifted) == set(RATIONS):
+        changes["time_budget"] = max(planner.time_budget, REFERENCE_BUDGET)
+    return replace(scenario, planner=replace(planner, **changes))
+
+
+def plan_rationed(scenario: Scenario, lifted: Collection[str], *, seed: int,
+                  images: tuple | None = None) -> PlanningResult:
+    """S3O-GROP*'s plan of `scenario` with the rations `lifted` (all of them: the reference
+    plan). The chairs are perceived from the overhead images (`images`: `render_overhead`'s
+    four, rendered here when not given) unless "true_chairs" is lifted; with
+    "long_search" the plan is made from RESTARTS seeds (`seed` first) and the one of
+    highest utility kept."""
+    from s3o_drake.belief.chair_perception import perceive_known_world, scenario_unmapped_chairs
+    from s3o_drake.belief.known_world import Briefing
+    from s3o_drake.planning.pipeline import plan_from
+    from s3o_drake.world.builder import render_overhead
+
+    scenario = rationed_scenario(scenario, lifted)
+    color, depth, label, robot_labels = images if images is not None else \
+        render_overhead(scenario)
+    known = perceive_known_world(
+        Briefing.of(scenario), (color, depth, label), pose=scenario.robot.start,
+        dishes=[d.name for d in scenario.dishes], robot_labels=robot_labels,
+        perceive=scenario_unmapped_chairs(scenario) if "true_chairs" in lifted else None)
+    seeds = [seed + k for k in range(RESTARTS if "long_search" in lifted else 1)]
+    results = [plan_from(known, method="S3O-GROP*", seed=s) for s in seeds]
+    planned = [r for r in results if r.plan is not None]
+    if not planned:
+        return results[0]
+    return max(planned, key=lambda r: r.plan.utility)
+
+
+def judged_completion(plan: TaskMotionPlan, truth: Sequence[Heatmap]) -> float:
+    """The plan's chance of picking every dish by the true world's Fea^m (`truth`: the
+    Drake oracle's maps of the scenario, `compute_heatmaps`) at the stops it commands:
+    every plan judged by the same model, whatever Fea^m it was made with. 0 with a dish
+    left out."""
+    if plan.unreachable:
+        return 0.0
+    maps = {h.dish: h for h in truth}
+    chance, stop = 1.0, None
+    for action in plan.actions:
+        if isinstance(action, Goto):
+            stop = np.asarray(action.pose[:2], dtype=float)
+        elif isinstance(action, Pickup):
+            chance *= maps[action.dish].value_at(stop)
+    return float(chance)

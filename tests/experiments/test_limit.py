@@ -43,3 +43,43 @@ def test_the_pickable_region_is_the_cells_with_a_chance():
     region = pickable_region(Heatmap("d", values, x0=10.0, y0=20.0, cell=0.5))
     assert region.equals(shapely.box(11.0, 20.5, 11.5, 21.5))
     assert pickable_region(Heatmap("d", np.zeros((2, 2)), 0.0, 0.0, 1.0)).is_empty
+
+
+def test_each_ration_lifts_its_own_setting_and_all_give_the_reference_budget(scenario):
+    from s3o_drake.experiments.limit import (
+        ALL_CANDIDATES,
+        RATIONS,
+        REFERENCE_BUDGET,
+        SEARCH_FACTOR,
+        rationed_scenario,
+    )
+
+    planner = scenario.planner
+    assert rationed_scenario(scenario, ()).planner == planner
+    assert rationed_scenario(scenario, ("true_chairs",)).planner == planner  # an input
+    assert rationed_scenario(scenario, ("oracle",)).planner.feasibility == "oracle"
+    assert rationed_scenario(scenario, ("all_candidates",)).planner.top_k == ALL_CANDIDATES
+    long = rationed_scenario(scenario, ("long_search",)).planner
+    assert long.cma_generations == SEARCH_FACTOR * planner.cma_generations
+    assert long.time_budget == planner.time_budget
+    assert rationed_scenario(scenario, RATIONS).planner.time_budget >= REFERENCE_BUDGET
+    with pytest.raises(ValueError, match="top_k"):
+        rationed_scenario(scenario, ("top_k",))
+
+
+def test_a_plan_is_judged_by_the_true_world_at_the_stops_it_commands(scenario):
+    """two_dishes, true chairs and every candidate: a plan, judged by the oracle's maps of
+    the scenario at its stops; a map that gives a dish nothing there makes it 0."""
+    from s3o_drake.experiments.limit import judged_completion, plan_rationed
+    from s3o_drake.feasibility.heatmaps import compute_heatmaps
+    from tests.conftest import COARSE_MAPS
+
+    result = plan_rationed(scenario, ("true_chairs", "all_candidates"), seed=0)
+    plan = result.plan
+    assert plan is not None and plan.order is not None and plan.order.optimal
+    truth = compute_heatmaps(scenario, progress=False, **COARSE_MAPS)
+    judged = judged_completion(plan, truth)
+    expected = np.prod([p.feasibility for p in plan.pickups])
+    assert 0.5 < judged <= 1.0 and judged == pytest.approx(expected, abs=0.15)
+    nothing = [Heatmap(h.dish, np.zeros_like(h.values), h.x0, h.y0, h.cell) for h in truth]
+    assert judged_completion(plan, nothing) == 0.0
