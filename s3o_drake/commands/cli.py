@@ -63,6 +63,8 @@ COMMANDS: tuple[Command, ...] = (
        "The plan's predicted execution time against the simulated one."),
     _c("bench scale", "scale_benchmark",
        "5 to 40 dishes: planning time by stage, task orders against the optimum."),
+    _c("bench limit", "limit_benchmark",
+       "How far from the best plan: a reference planner, rations lifted alone."),
     _c("bench feasibility", "feasibility_benchmark",
        "The feasibility check: map and IK speed, agreement, one heatmap's time."),
     _c("bench fcn", "fcn_benchmark",

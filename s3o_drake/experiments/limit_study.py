@@ -1,0 +1,112 @@
+"""The rows and the summary of `s3o bench limit`: each task's plans with the rations lifted
+one at a time and all together (the reference), judged on one model, and its lower bound
+(`experiments.limit`)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from s3o_drake.experiments.limit import (
+    RATIONS,
+    judged_completion,
+    lower_bound,
+    plan_rationed,
+)
+from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.world.scenario import Scenario
+
+COMPLETION_TOLERANCE = 0.005
+"""A plan's judged completion at most this below the reference's counts as equal."""
+
+
+def lifted_by(configuration: str) -> tuple[str, ...]:
+    """The rations a configuration lifts: none ("default"), one (its name), or all
+    ("reference")."""
+    if configuration == "default":
+        return ()
+    if configuration == "reference":
+        return RATIONS
+    if configuration not in RATIONS:
+        raise ValueError(f"unknown configuration {configuration!r}")
+    return (configuration,)
+
+
+def bound_row(scenario: Scenario, truth: Sequence[Heatmap]) -> dict[str, Any]:
+    """The task's lower bound on a complete execution's time, and its parts."""
+    bound = lower_bound(scenario, truth)
+    return {"bound_s": bound.total, "tour_m": bound.tour_length,
+            "drive_s": bound.drive_time, "hand_s": bound.hand_time}
+
+
+def plan_row(scenario: Scenario, configuration: str, *, seed: int,
+             truth: Sequence[Heatmap], images: tuple | None = None) -> dict[str, Any]:
+    """One plan's figures: its utility and predicted time, its completion by its own
+    Fea^m and judged by the true world's (`truth`), its stops and how long it took."""
+    result = plan_rationed(scenario, lifted_by(configuration), seed=seed, images=images)
+    plan = result.plan
+    if plan is None:
+        return {"planned": False, "error": result.error}
+    own = 0.0 if plan.unreachable else float(np.prod(
+        [a.feasibility for a in (*plan.pickups, *plan.places)]))
+    return {"planned": True, "utility": plan.utility, "predicted_time": plan.predicted_time,
+            "planned_completion": own, "judged_completion": judged_completion(plan, truth),
+            "stops": len(plan.gotos), "unreachable": list(plan.unreachable),
+            "order_optimal": None if plan.order is None else plan.order.optimal,
+            "planning_s": plan.planning_time}
+
+
+def gaps(rows: Sequence[dict[str, Any]], configuration: str) -> list[dict[str, float]]:
+    """Per task where both planned, `configuration`'s plan against the reference's:
+    the relative gap in predicted time, and the gaps in judged completion and utility;
+    `level`: whether the reference's judged completion is at least the plan's."""
+    by = {(r["task"], r["configuration"]): r for r in rows}
+    out = []
+    for (task, name), row in by.items():
+        reference = by.get((task, "reference"))
+        if name != configuration or reference is None or not (
+                row.get("planned") and reference.get("planned")):
+            continue
+        out.append({
+            "time": row["predicted_time"] / reference["predicted_time"] - 1.0,
+            "completion": row["judged_completion"] - reference["judged_completion"],
+            "utility": row["utility"] - reference["utility"],
+            "level": reference["judged_completion"] >= row["judged_completion"]
+            - COMPLETION_TOLERANCE})
+    return out
+
+
+def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """Per configuration, the median gaps to the reference, and what share of the
+    default's time gap lifting that ration alone closes; then the reference against the
+    bound."""
+    lines = ["gap to the reference plan, median over tasks (time: relative; completion "
+             "judged by the true world's Fea^m)"]
+    default = gaps(rows, "default")
+    default_time = float(np.median([g["time"] for g in default])) if default else float("nan")
+    for configuration in ("default", *RATIONS):
+        found = gaps(rows, configuration)
+        if not found:
+            continue
+        time = float(np.median([g["time"] for g in found]))
+        level = [g["time"] for g in found if g["level"]]
+        closes = ("" if configuration == "default" or not default_time > 0 else
+                  f", closes {(default_time - time) / default_time:.0%} of the default's")
+        lines.append(
+            f"  {configuration:<15} time {time:+.1%} ({len(found)} tasks; "
+            f"{float(np.median(level)) if level else float('nan'):+.1%} on the "
+            f"{len(level)} where the reference completes at least as often), completion "
+            f"{float(np.median([g['completion'] for g in found])):+.3f}, utility "
+            f"{float(np.median([g['utility'] for g in found])):+.2f}{closes}")
+    by = {(r["task"], r["configuration"]): r for r in rows}
+    ratios = [by[(t, "reference")]["predicted_time"] / r["bound_s"]
+              for (t, c), r in by.items() if c == "bound" and (t, "reference") in by
+              and by[(t, "reference")].get("planned") and r["bound_s"] > 0]
+    if ratios:
+        below = sum(x < 1.0 for x in ratios)
+        lines.append(f"reference plan's predicted time / lower bound: median "
+                     f"{float(np.median(ratios)):.2f} ({len(ratios)} tasks, {below} below "
+                     f"the bound)")
+    return lines

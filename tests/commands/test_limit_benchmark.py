@@ -1,0 +1,50 @@
+"""`s3o bench limit`: a row per plan and one for the bound, kept as they are made and
+resumed; the summary names each configuration's gap to the reference."""
+
+import json
+import shutil
+
+from s3o_drake.commands.limit_benchmark import main
+from s3o_drake.experiments.limit_study import summary_lines
+from tests.conftest import TWO_DISHES, refused
+
+
+def test_rows_for_the_bound_and_each_plan_then_a_rerun_makes_none(tmp_path, capsys):
+    tasks = tmp_path / "tasks"
+    tasks.mkdir()
+    shutil.copy(TWO_DISHES, tasks)
+    rows = tmp_path / "limit.jsonl"
+    argv = ["--tasks", str(tasks), "--configurations", "default", "all_candidates",
+            "--json", str(rows)]
+    assert main(argv) == 0
+    made = [json.loads(line) for line in rows.read_text().splitlines()]
+    assert [r["configuration"] for r in made] == ["bound", "default", "all_candidates"]
+    bound, default, _ = made
+    assert all(r["planned"] for r in made[1:])
+    assert 0.0 < bound["bound_s"] < default["predicted_time"]
+    assert 0.5 < default["judged_completion"] <= 1.0 and default["stops"] >= 1
+    written = rows.read_text()
+    capsys.readouterr()
+    assert main(argv) == 0  # resumed: every row read back, none made again
+    assert rows.read_text() == written
+    assert "predicted" in capsys.readouterr().out
+
+
+def test_the_summary_gives_each_lift_its_gap_and_the_share_it_closes():
+    def row(task, configuration, time, judged, utility):
+        return {"task": task, "configuration": configuration, "planned": True,
+                "predicted_time": time, "judged_completion": judged, "utility": utility}
+
+    rows = [row("a", "reference", 100.0, 0.9, 50.0), row("a", "default", 110.0, 0.8, 40.0),
+            row("a", "oracle", 105.0, 0.9, 45.0),
+            {"task": "a", "configuration": "bound", "bound_s": 20.0}]
+    lines = summary_lines(rows)
+    assert any("default" in s and "+10.0%" in s and "-0.100" in s for s in lines)
+    assert any("oracle" in s and "+5.0%" in s and "closes 50% of the default's" in s
+               for s in lines)
+    assert any("median 5.00 (1 tasks, 0 below the bound)" in s for s in lines)
+
+
+def test_bad_input_is_one_line(capsys, tmp_path):
+    assert "--tasks" in refused(main, ["--tasks", str(tmp_path / "none")], capsys)
+    assert "--configurations" in refused(main, ["--configurations", "best"], capsys)
