@@ -22,21 +22,21 @@ from typing import Any
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import command_parser, read_scenario
-from s3o_drake.commands.options import add_json, add_seed, add_tasks, json_store, task_paths
-from s3o_drake.world.resources import REPO_DIR
+from s3o_drake.commands.options import (
+    add_json,
+    add_seed,
+    add_tasks,
+    json_store,
+    task_name,
+    task_paths,
+)
 
 CONFIGURATIONS = ("default", "true_chairs", "oracle", "all_candidates", "long_search",
                   "reference")
 
 
-def _name(path: Path) -> str:
-    try:
-        return str(path.resolve().relative_to(REPO_DIR))
-    except ValueError:
-        return str(path)
-
-
 def row_key(row: dict[str, Any]) -> str:
+    """A plan's row is reused for the same task, configuration and seed."""
     return "|".join(str(row[k]) for k in ("task", "configuration", "seed"))
 
 
@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
         scenario = read_scenario(path)
         truth = images = None  # the true world's Fea^m and the overhead images, once a task
         for configuration in ("bound", *args.configurations):
-            key = row_key({"task": _name(path), "configuration": configuration,
+            key = row_key({"task": task_name(path), "configuration": configuration,
                            "seed": args.seed})
             row = store.get(key) if store is not None and store.finished(key) else None
             if row is None:
@@ -92,7 +92,7 @@ def main(argv: list[str] | None = None) -> int:
                 row = (bound_row(scenario, truth) if configuration == "bound" else
                        plan_row(scenario, configuration, seed=args.seed, truth=truth,
                                 images=images))
-                row.update(task=_name(path), configuration=configuration, seed=args.seed,
+                row.update(task=task_name(path), configuration=configuration, seed=args.seed,
                            wall_s=time.perf_counter() - start)
                 if store is not None:
                     row = store.append({"key": key, **row})

@@ -64,6 +64,15 @@ def method(text: str) -> str:
     return text
 
 
+def task_name(path: Path) -> str:
+    """A task's name in a benchmark's rows: its path from the repository when it lies in
+    it (the same on every checkout), else as given."""
+    try:
+        return str(Path(path).resolve().relative_to(REPO_DIR))
+    except ValueError:
+        return str(path)
+
+
 def _shown(path: Path) -> str:
     try:
         return str(path.relative_to(REPO_DIR))

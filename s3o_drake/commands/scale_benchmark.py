@@ -25,19 +25,12 @@ from s3o_drake.commands.options import (
     at_least,
     json_store,
     seconds,
+    task_name,
 )
 from s3o_drake.world.resources import REPO_DIR
 
 TASKS_DIR = REPO_DIR / "scenarios" / "generated_scale"
 SIZES = (5, 10, 15, 20, 30, 40)
-
-
-def _name(path: Path) -> str:
-    """A task's name in the rows: its path from the repository when it lies in it."""
-    try:
-        return str(path.resolve().relative_to(REPO_DIR))
-    except ValueError:
-        return str(path)
 
 
 def row_key(row: dict[str, Any]) -> str:
@@ -57,7 +50,7 @@ def plan_task_row(path: Path, *, method: str, seed: int | None, execute: bool,
 
     scenario = read_scenario(path)
     seed = scenario.seed if seed is None else seed
-    row: dict[str, Any] = {"task": _name(path), "dishes": len(scenario.dishes),
+    row: dict[str, Any] = {"task": task_name(path), "dishes": len(scenario.dishes),
                            "chairs": len(scenario.chairs), "method": method, "seed": seed,
                            "workers": scenario.planner.workers,
                            "budget": scenario.planner.time_budget, "execute": execute}
@@ -146,7 +139,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(paths)} tasks, {args.method}" + (", executed" if args.execute else ""),
           flush=True)
     for path in paths:
-        key = row_key({"task": _name(path), "method": args.method, "seed": seeds[path],
+        key = row_key({"task": task_name(path), "method": args.method, "seed": seeds[path],
                        "execute": args.execute})
         row = store.get(key) if store is not None and store.finished(key) else None
         if row is None:
