@@ -18,7 +18,7 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import command_parser, read_scenario
@@ -30,6 +30,9 @@ from s3o_drake.commands.options import (
     task_name,
     task_paths,
 )
+
+if TYPE_CHECKING:
+    from s3o_drake.world.scenario import Scenario
 
 CONFIGURATIONS = ("default", "true_chairs", "oracle", "all_candidates", "long_search",
                   "reference")
@@ -45,12 +48,46 @@ def _print_row(r: dict[str, Any]) -> None:
     if r["configuration"] == "bound":
         print(f"{name:<10} bound      {r['bound_s']:7.1f} s (tour {r['tour_m']:.2f} m)",
               flush=True)
-    elif not r["planned"]:
+    elif not r.get("planned", True):
         print(f"{name:<10} {r['configuration']:<14} no plan: {r['error']}", flush=True)
+    elif r["configuration"].startswith("executed:"):
+        print(f"{name:<10} {r['configuration']:<20} {r['collected']}/{r['dishes']} collected "
+              f"in {r['execution_time']:6.1f} s (predicted {r['predicted_time']:.1f} s)",
+              flush=True)
     else:
         print(f"{name:<10} {r['configuration']:<14} predicted {r['predicted_time']:7.1f} s  "
               f"judged completion {r['judged_completion']:.3f}  utility {r['utility']:8.2f}  "
               f"{r['stops']} stops  planned in {r['planning_s']:6.1f} s", flush=True)
+
+
+def _row(scenario: Scenario, configuration: str, plan_of: str | None, seed: int,
+         made: dict[str, Any]) -> dict[str, Any]:
+    """The row of one configuration ("bound", a plan, or "executed:PLAN:SEED"), with what
+    the task's earlier rows made in this process (`made`) and adding to it."""
+    from s3o_drake.experiments.limit import plan_rationed
+    from s3o_drake.experiments.limit_study import (
+        bound_row,
+        executed_row,
+        lifted_by,
+        plan_row,
+    )
+    from s3o_drake.feasibility.heatmaps import compute_heatmaps
+    from s3o_drake.world.builder import render_overhead
+
+    if "truth" not in made:
+        made["truth"] = compute_heatmaps(scenario, progress=False)
+        made["images"] = render_overhead(scenario)
+    if configuration == "bound":
+        return bound_row(scenario, made["truth"])
+    name = plan_of or configuration
+    if name not in made:  # a resumed run plans again: the same seed gives the same plan
+        made[name] = plan_rationed(scenario, lifted_by(name), seed=seed,
+                                   images=made["images"])
+    if plan_of is None:
+        return plan_row(made[name], made["truth"])
+    if made[name].plan is None:
+        return {"planned": False, "error": made[name].error}
+    return executed_row(scenario, made[name], study_seed=int(configuration.split(":")[2]))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -60,6 +97,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--configurations", nargs="+", default=list(CONFIGURATIONS),
                         choices=CONFIGURATIONS, metavar="NAME",
                         help=f"which plans to make (default all: {' '.join(CONFIGURATIONS)})")
+    parser.add_argument("--execute-seeds", type=int, default=3, metavar="N",
+                        help="execute the default and the reference plans with noise, study "
+                             "seeds 0..N-1, open loop (default 3; 0: none)")
     add_json(parser, "plan")
     args = parser.parse_args(argv)
     paths = task_paths(args)
@@ -69,9 +109,7 @@ def main(argv: list[str] | None = None) -> int:
 
     import logging
 
-    from s3o_drake.experiments.limit_study import bound_row, plan_row, summary_lines
-    from s3o_drake.feasibility.heatmaps import compute_heatmaps
-    from s3o_drake.world.builder import render_overhead
+    from s3o_drake.experiments.limit_study import summary_lines
 
     logging.getLogger("drake").setLevel(logging.WARNING)
     print(f"{len(paths)} tasks x {len(args.configurations)} plans, seed {args.seed}",
@@ -79,21 +117,19 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     for path in paths:
         scenario = read_scenario(path)
-        truth = images = None  # the true world's Fea^m and the overhead images, once a task
-        for configuration in ("bound", *args.configurations):
+        made: dict[str, Any] = {}  # per task: the truth, the images, the plans made here
+        wanted = [("bound", None), *((c, None) for c in args.configurations)]
+        wanted += [(f"executed:{c}:{k}", c) for c in ("default", "reference")
+                   if c in args.configurations for k in range(args.execute_seeds)]
+        for configuration, plan_of in wanted:
             key = row_key({"task": task_name(path), "configuration": configuration,
                            "seed": args.seed})
             row = store.get(key) if store is not None and store.finished(key) else None
             if row is None:
                 start = time.perf_counter()
-                if truth is None:
-                    truth = compute_heatmaps(scenario, progress=False)
-                    images = render_overhead(scenario)
-                row = (bound_row(scenario, truth) if configuration == "bound" else
-                       plan_row(scenario, configuration, seed=args.seed, truth=truth,
-                                images=images))
-                row.update(task=task_name(path), configuration=configuration, seed=args.seed,
-                           wall_s=time.perf_counter() - start)
+                row = _row(scenario, configuration, plan_of, args.seed, made)
+                row.update(task=task_name(path), configuration=configuration,
+                           seed=args.seed, wall_s=time.perf_counter() - start)
                 if store is not None:
                     row = store.append({"key": key, **row})
             rows.append(row)

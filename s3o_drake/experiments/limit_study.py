@@ -5,17 +5,14 @@ one at a time and all together (the reference), judged on one model, and its low
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
-from s3o_drake.experiments.limit import (
-    RATIONS,
-    judged_completion,
-    lower_bound,
-    plan_rationed,
-)
+from s3o_drake.experiments.limit import RATIONS, judged_completion, lower_bound
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.world.scenario import Scenario
 
 COMPLETION_TOLERANCE = 0.005
@@ -41,11 +38,10 @@ def bound_row(scenario: Scenario, truth: Sequence[Heatmap]) -> dict[str, Any]:
             "drive_s": bound.drive_time, "hand_s": bound.hand_time}
 
 
-def plan_row(scenario: Scenario, configuration: str, *, seed: int,
-             truth: Sequence[Heatmap], images: tuple | None = None) -> dict[str, Any]:
-    """One plan's figures: its utility and predicted time, its completion by its own
-    Fea^m and judged by the true world's (`truth`), its stops and how long it took."""
-    result = plan_rationed(scenario, lifted_by(configuration), seed=seed, images=images)
+def plan_row(result: PlanningResult, truth: Sequence[Heatmap]) -> dict[str, Any]:
+    """One plan's figures (`plan_rationed`'s result): its utility and predicted time, its
+    completion by its own Fea^m and judged by the true world's (`truth`), its stops and
+    how long it took."""
     plan = result.plan
     if plan is None:
         return {"planned": False, "error": result.error}
@@ -56,6 +52,32 @@ def plan_row(scenario: Scenario, configuration: str, *, seed: int,
             "stops": len(plan.gotos), "unreachable": list(plan.unreachable),
             "order_optimal": None if plan.order is None else plan.order.optimal,
             "planning_s": plan.planning_time}
+
+
+def executed_row(scenario: Scenario, result: PlanningResult, *, study_seed: int
+                 ) -> dict[str, Any]:
+    """The plan of `result` executed in the simulation, open loop, with the noise of the
+    study seed `study_seed` (each task's own draws, as `s3o evaluate` draws them): whether
+    every dish was collected, and in what simulated time."""
+    from s3o_drake.execution.execute import execute
+    from s3o_drake.experiments.jobs import run_seed
+    from s3o_drake.planning.pipeline import plan_from
+
+    given = [result]
+
+    def first_this_plan(known, **kwargs) -> PlanningResult:
+        # The plan under test at initialization; a later plan (none in open loop) as usual.
+        return given.pop() if given else plan_from(known, **kwargs)
+
+    open_loop = replace(scenario, planner=replace(scenario.planner, workers=1),
+                        execution=replace(scenario.execution, recovery="none"))
+    run = execute(open_loop, seed=run_seed(scenario.seed, study_seed), meshcat=None,
+                  progress=False, plan_from=first_this_plan)
+    report = run.report
+    return {"study_seed": study_seed, "complete": report["completed"] == report["dishes"],
+            "collected": report["collected"], "dishes": report["dishes"],
+            "execution_time": report["execution_time"],
+            "predicted_time": None if result.plan is None else result.plan.predicted_time}
 
 
 def gaps(rows: Sequence[dict[str, Any]], configuration: str) -> list[dict[str, float]]:
@@ -101,6 +123,7 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
             f"{float(np.median([g['completion'] for g in found])):+.3f}, utility "
             f"{float(np.median([g['utility'] for g in found])):+.2f}{closes}")
     by = {(r["task"], r["configuration"]): r for r in rows}
+    lines += executed_lines(rows)
     ratios = [by[(t, "reference")]["predicted_time"] / r["bound_s"]
               for (t, c), r in by.items() if c == "bound" and (t, "reference") in by
               and by[(t, "reference")].get("planned") and r["bound_s"] > 0]
@@ -109,4 +132,42 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
         lines.append(f"reference plan's predicted time / lower bound: median "
                      f"{float(np.median(ratios)):.2f} ({len(ratios)} tasks, {below} below "
                      f"the bound)")
+    return lines
+
+
+def executed_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """The default's and the reference's plans executed (rows "executed:NAME:SEED"): their
+    completion rates, and the median relative gap in mean execution time on the tasks
+    where both completed at least once; with the predicted gap on the same tasks beside
+    it, and how many complete runs fell below their task's bound (none may)."""
+    runs: dict[tuple[str, str], list[dict]] = {}
+    bounds = {r["task"]: r["bound_s"] for r in rows if r["configuration"] == "bound"}
+    for r in rows:
+        if r["configuration"].startswith("executed:"):
+            runs.setdefault((r["task"], r["configuration"].split(":")[1]), []).append(r)
+    if not runs:
+        return []
+    lines = ["executed, open loop, with noise:"]
+    for name in ("default", "reference"):
+        mine = [r for (t, n), rs in runs.items() if n == name for r in rs]
+        if mine:
+            lines.append(f"  {name:<15} completion {np.mean([r['complete'] for r in mine]):.2f} "
+                         f"({len(mine)} runs)")
+    executed, predicted = [], []
+    for (task, name), rs in runs.items():
+        other = runs.get((task, "reference"))
+        if name != "default" or other is None:
+            continue
+        mine = [r["execution_time"] for r in rs if r["complete"]]
+        theirs = [r["execution_time"] for r in other if r["complete"]]
+        if mine and theirs:
+            executed.append(np.mean(mine) / np.mean(theirs) - 1.0)
+            predicted.append(rs[0]["predicted_time"] / other[0]["predicted_time"] - 1.0)
+    if executed:
+        lines.append(f"  default against the reference: time {np.median(executed):+.1%} "
+                     f"executed, {np.median(predicted):+.1%} predicted (median of "
+                     f"{len(executed)} tasks where both completed)")
+    below = sum(r["complete"] and r["execution_time"] < bounds.get(t, 0.0)
+                for (t, _), rs in runs.items() for r in rs)
+    lines.append(f"  complete runs below their task's bound: {below}")
     return lines

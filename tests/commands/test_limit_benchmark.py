@@ -15,14 +15,20 @@ def test_rows_for_the_bound_and_each_plan_then_a_rerun_makes_none(tmp_path, caps
     shutil.copy(TWO_DISHES, tasks)
     rows = tmp_path / "limit.jsonl"
     argv = ["--tasks", str(tasks), "--configurations", "default", "all_candidates",
-            "--json", str(rows)]
+            "--execute-seeds", "1", "--json", str(rows)]
     assert main(argv) == 0
     made = [json.loads(line) for line in rows.read_text().splitlines()]
-    assert [r["configuration"] for r in made] == ["bound", "default", "all_candidates"]
-    bound, default, _ = made
-    assert all(r["planned"] for r in made[1:])
+    assert [r["configuration"] for r in made] == ["bound", "default", "all_candidates",
+                                                  "executed:default:0"]
+    bound, default, _, executed = made
+    assert all(r["planned"] for r in made[1:3])
     assert 0.0 < bound["bound_s"] < default["predicted_time"]
     assert 0.5 < default["judged_completion"] <= 1.0 and default["stops"] >= 1
+    # The default plan itself was executed (open loop, noise on): its prediction is the
+    # plan's, and a complete run is no faster than the bound.
+    assert executed["predicted_time"] == default["predicted_time"]
+    assert executed["dishes"] == 2 and executed["execution_time"] > 0.0
+    assert not executed["complete"] or executed["execution_time"] >= bound["bound_s"]
     written = rows.read_text()
     capsys.readouterr()
     assert main(argv) == 0  # resumed: every row read back, none made again
@@ -38,7 +44,13 @@ def test_the_summary_gives_each_lift_its_gap_and_the_share_it_closes():
     rows = [row("a", "reference", 100.0, 0.9, 50.0), row("a", "default", 110.0, 0.8, 40.0),
             row("a", "oracle", 105.0, 0.9, 45.0),
             {"task": "a", "configuration": "bound", "bound_s": 20.0}]
+    rows += [{"task": "a", "configuration": f"executed:{name}:{k}", "complete": True,
+              "execution_time": time + k, "predicted_time": predicted}
+             for name, time, predicted in (("default", 120.0, 110.0),
+                                           ("reference", 100.0, 100.0)) for k in (0, 2)]
     lines = summary_lines(rows)
+    assert any("+19.8% executed, +10.0% predicted" in s for s in lines)
+    assert any("complete runs below their task's bound: 0" in s for s in lines)
     assert any("default" in s and "+10.0%" in s and "-0.100" in s for s in lines)
     assert any("oracle" in s and "+5.0%" in s and "closes 50% of the default's" in s
                for s in lines)
