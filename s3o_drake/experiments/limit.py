@@ -12,8 +12,16 @@ longer than the poses' distance): the tour bound is that tree's length over v.
 
 Each object is grasped and let go once: its fingers close over their whole stroke and open
 again, each stroke timed within the fingers' limits (FINGER_MAX_*; a rest-to-rest motion
-takes at least d / v + v / a). Everything else (turns, the arm's motions, settling, the
-corners of the drives) only adds time.
+takes at least d / v + v / a, `stroke_time`). A dish collected onto the tray takes the arm
+from ARM_STOW, through its grasp, to one of the release configurations over the tray (the
+same few in the arm's frame wherever the base stands: `pickup_geometry._tray_arms`) and
+back to ARM_STOW, in rest-to-rest segments within the arm's joint limits. The time of
+such segments is at least that of one rest-to-rest stroke over their summed displacement
+(`stroke_time` is concave and 0 at 0), so each leg, there and back, takes at least the
+slowest joint's stroke between ARM_STOW and the nearest release configuration. Everything
+else (turns, the grasp's own motions, settling, the corners of the drives) only adds time.
+TOPPRA keeps the limits at its grid points only; the hand's and the arm's times are taken
+at TIMING_SLACK of the analytic figure so that this cannot make the bound too high.
 
 The bound holds for complete runs: an incomplete run may stop early.
 """
@@ -47,10 +55,16 @@ class LowerBound:
     """s: `tour_length` at the cruise speed."""
     hand_time: float
     """s: the fingers' strokes, closing and opening once per object."""
+    arm_time: float = 0.0
+    """s: the arm's legs from ARM_STOW to over the tray and back, per dish collected."""
 
     @property
     def total(self) -> float:
-        return self.drive_time + self.hand_time
+        return self.drive_time + self.hand_time + self.arm_time
+
+
+TIMING_SLACK = 0.95
+"""The share of the analytic shortest motion times the bound counts (see the module)."""
 
 
 def stroke_time(distance: float, velocity: float, acceleration: float) -> float:
@@ -66,6 +80,22 @@ def finger_stroke_time() -> float:
     """The fingers' shortest motion (s) between open and closed (either way)."""
     travel = float(np.max(np.abs(np.asarray(GRIPPER_OPEN) - np.asarray(GRIPPER_CLOSED))))
     return stroke_time(travel, FINGER_MAX_VELOCITY, FINGER_MAX_ACCELERATION)
+
+
+def tray_leg_time(plant) -> float:
+    """The arm's shortest rest-to-rest leg (s) between ARM_STOW and a release configuration
+    over the tray (the nearest of every grasp kind's), within the arm's joint limits of the
+    robot in `plant`: the slowest joint's stroke."""
+    from s3o_drake.execution.arm.pickup import segment_limits
+    from s3o_drake.feasibility.pickup_geometry import _tray_arms
+    from s3o_drake.world.robot import ARM_POSITIONS, ARM_STOW
+
+    v, a = segment_limits(plant, "stow")
+    v, a = np.asarray(v)[ARM_POSITIONS], np.asarray(a)[ARM_POSITIONS]
+    legs = [max(stroke_time(abs(float(d)), float(vj), float(aj))
+                for d, vj, aj in zip(np.asarray(arm) - np.asarray(ARM_STOW), v, a, strict=True))
+            for grasp in ("top", "side") for arm in _tray_arms(grasp)]
+    return min(legs)
 
 
 def pickable_region(heatmap: Heatmap) -> shapely.Geometry:
@@ -103,13 +133,27 @@ def lower_bound(scenario: Scenario, heatmaps: Sequence[Heatmap] | None = None) -
         from s3o_drake.feasibility.heatmaps import compute_heatmaps
 
         heatmaps = compute_heatmaps(scenario, progress=False)
-    regions = [pickable_region(h) for h in heatmaps]
+    # An object that stays is never picked; a place target is visited like a dish.
+    moved = {d.name for d in scenario.dishes if d.goal != "stay"}
+    heatmaps = [h for h in heatmaps if h.dish in moved or placed_object(h.dish) is not None]
+    return _bound(scenario, [h.dish for h in heatmaps], [pickable_region(h) for h in heatmaps])
+
+
+def _bound(scenario: Scenario, names: Sequence[str],
+           regions: Sequence[shapely.Geometry]) -> LowerBound:
+    """The bound from each object's and place target's region (`names`, `regions`)."""
     if any(r.is_empty for r in regions):
         return LowerBound(math.inf, math.inf, math.inf)
+    from s3o_drake.feasibility.scene import FeasibilityScene
+
     length = tour_length(scenario.contents.start, regions)
-    objects = sum(placed_object(h.dish) is None for h in heatmaps)  # not the place targets
+    objects = sum(placed_object(name) is None for name in names)  # not the place targets
+    placed = {d.name for d in scenario.dishes if d.goal == "place"}
+    collected = sum(placed_object(name) is None and name not in placed for name in names)
+    legs = tray_leg_time(FeasibilityScene(scenario.contents).plant) if collected else 0.0
     return LowerBound(tour_length=length, drive_time=length / scenario.planner.speed,
-                      hand_time=2 * objects * finger_stroke_time())
+                      hand_time=TIMING_SLACK * 2 * objects * finger_stroke_time(),
+                      arm_time=TIMING_SLACK * 2 * collected * legs)
 
 
 # --- the reference planner and the rations it lifts -------------------------------------

@@ -83,3 +83,21 @@ def test_a_plan_is_judged_by_the_true_world_at_the_stops_it_commands(scenario):
     assert 0.5 < judged <= 1.0 and judged == pytest.approx(expected, abs=0.15)
     nothing = [Heatmap(h.dish, np.zeros_like(h.values), h.x0, h.y0, h.cell) for h in truth]
     assert judged_completion(plan, nothing) == 0.0
+
+
+def test_no_timed_leg_from_over_the_tray_to_stow_beats_the_arms_bound(scene):
+    """Drake's TOPPRA times the stow motion from every release configuration over the
+    tray: none is faster than the bound's leg (at TIMING_SLACK of it)."""
+    from s3o_drake.execution.arm.pickup import timed_segment
+    from s3o_drake.experiments.limit import TIMING_SLACK, tray_leg_time
+    from s3o_drake.feasibility.pickup_geometry import _tray_arms
+
+    leg = tray_leg_time(scene.plant)
+    assert 0.5 < leg < 2.0
+    durations = []
+    for grasp in ("top", "side"):
+        for arm in _tray_arms(grasp)[:6]:
+            start, stow = scene.q(np.zeros(3), arm=np.asarray(arm)), scene.q(np.zeros(3))
+            path = np.stack([start, stow])
+            durations.append(timed_segment("stow", path, scene.checker).duration)
+    assert min(durations) >= TIMING_SLACK * leg
