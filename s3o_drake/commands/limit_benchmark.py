@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.commands.common import command_parser, read_scenario
+from s3o_drake.commands.common import command_parser, fail, read_scenario
 from s3o_drake.commands.options import (
     add_json,
     add_seed,
@@ -101,15 +101,28 @@ def main(argv: list[str] | None = None) -> int:
                         help="execute the default and the reference plans with noise, study "
                              "seeds 0..N-1, open loop (default 3; 0: none)")
     add_json(parser, "plan")
+    parser.add_argument("--rows", nargs="+", metavar="FILE",
+                        help="plan nothing: summarize the rows of earlier runs (--json files, "
+                             "one per room, say)")
+    parser.add_argument("--picture", metavar="FILE.png",
+                        help="draw each configuration's gap to the reference, task by task, "
+                             "one column per room")
     args = parser.parse_args(argv)
+    if args.rows:
+        missing = [f for f in args.rows if not Path(f).is_file()]
+        if missing:
+            fail(f"--rows: no such file {missing[0]}")
+        from s3o_drake.experiments.store import ResultStore
+
+        rows = [r for f in args.rows for r in ResultStore(Path(f), read_only=True).rows()]
+        _summarize(rows, args.picture)
+        return 0
     paths = task_paths(args)
     for path in paths:
         read_scenario(path)  # a bad task is one line, before any work
     store = json_store(args, key=row_key)
 
     import logging
-
-    from s3o_drake.experiments.limit_study import summary_lines
 
     logging.getLogger("drake").setLevel(logging.WARNING)
     print(f"{len(paths)} tasks x {len(args.configurations)} plans, seed {args.seed}",
@@ -134,10 +147,27 @@ def main(argv: list[str] | None = None) -> int:
                     row = store.append({"key": key, **row})
             rows.append(row)
             _print_row(row)
-    print()
-    for line in summary_lines(rows):
-        print(line)
+    _summarize(rows, args.picture)
     return 0
+
+
+def _summarize(rows: list[dict[str, Any]], picture: str | None) -> None:
+    """The summary per room, and the picture when asked for."""
+    from s3o_drake.experiments.limit_study import gaps_by_room, summary_lines
+
+    rooms: dict[str, list[dict[str, Any]]] = {}
+    for r in rows:
+        rooms.setdefault(Path(r["task"]).parent.name, []).append(r)
+    for room, mine in rooms.items():
+        print(f"\n{room}:")
+        for line in summary_lines(mine):
+            print(line)
+    if picture:
+        from s3o_drake.viz.limit import plot_gaps
+
+        Path(picture).parent.mkdir(parents=True, exist_ok=True)
+        plot_gaps(gaps_by_room(rows), Path(picture))
+        print(f"wrote {picture}")
 
 
 if __name__ == "__main__":

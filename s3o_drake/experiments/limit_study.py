@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -80,10 +81,10 @@ def executed_row(scenario: Scenario, result: PlanningResult, *, study_seed: int
             "predicted_time": None if result.plan is None else result.plan.predicted_time}
 
 
-def gaps(rows: Sequence[dict[str, Any]], configuration: str) -> list[dict[str, float]]:
-    """Per task where both planned, `configuration`'s plan against the reference's:
-    the relative gap in predicted time, and the gaps in judged completion and utility;
-    `level`: whether the reference's judged completion is at least the plan's."""
+def gaps(rows: Sequence[dict[str, Any]], configuration: str) -> list[dict[str, Any]]:
+    """Per task where both planned (`task`), `configuration`'s plan against the
+    reference's: the relative gap in predicted time, and the gaps in judged completion and
+    utility; `level`: whether the reference's judged completion is at least the plan's."""
     by = {(r["task"], r["configuration"]): r for r in rows}
     out = []
     for (task, name), row in by.items():
@@ -92,6 +93,7 @@ def gaps(rows: Sequence[dict[str, Any]], configuration: str) -> list[dict[str, f
                 row.get("planned") and reference.get("planned")):
             continue
         out.append({
+            "task": task,
             "time": row["predicted_time"] / reference["predicted_time"] - 1.0,
             "completion": row["judged_completion"] - reference["judged_completion"],
             "utility": row["utility"] - reference["utility"],
@@ -171,3 +173,13 @@ def executed_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
                 for (t, _), rs in runs.items() for r in rs)
     lines.append(f"  complete runs below their task's bound: {below}")
     return lines
+
+
+def gaps_by_room(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, list[dict]]]:
+    """`gaps` of every configuration but the reference, per room (the folder of the task's
+    file: generated, generated_dense, ...)."""
+    rooms: dict[str, list[dict[str, Any]]] = {}
+    for r in rows:
+        rooms.setdefault(Path(r["task"]).parent.name, []).append(r)
+    return {room: {c: found for c in ("default", *RATIONS) if (found := gaps(mine, c))}
+            for room, mine in rooms.items()}

@@ -60,3 +60,29 @@ def test_the_summary_gives_each_lift_its_gap_and_the_share_it_closes():
 def test_bad_input_is_one_line(capsys, tmp_path):
     assert "--tasks" in refused(main, ["--tasks", str(tmp_path / "none")], capsys)
     assert "--configurations" in refused(main, ["--configurations", "best"], capsys)
+
+
+def test_rows_of_two_rooms_are_summarized_per_room_and_drawn(tmp_path, capsys):
+    import matplotlib.image
+
+    files = []
+    for room, slower in (("generated", 1.05), ("generated_dense", 1.10)):
+        lines = []
+        for k in range(4):
+            task = f"scenarios/{room}/task_{k:03d}.yaml"
+            for name, factor, judged in (("reference", 1.0, 0.9), ("default", slower, 0.8),
+                                         ("oracle", 1.02, 0.9)):
+                lines.append({"key": f"{task}|{name}|0", "task": task, "configuration": name,
+                              "seed": 0, "planned": True, "predicted_time": 100.0 * factor,
+                              "judged_completion": judged, "utility": 50.0 / factor})
+        path = tmp_path / f"{room}.jsonl"
+        path.write_text("".join(json.dumps(line) + "\n" for line in lines))
+        files.append(str(path))
+    picture = tmp_path / "pictures" / "gap.png"
+    assert main(["--rows", *files, "--picture", str(picture)]) == 0
+    printed = capsys.readouterr().out
+    assert "generated:" in printed and "generated_dense:" in printed
+    assert "+5.0%" in printed and "+10.0%" in printed
+    image = matplotlib.image.imread(picture)
+    assert image.shape[1] > 1000 and image.std() > 0.01
+    assert "--rows" in refused(main, ["--rows", str(tmp_path / "none.jsonl")], capsys)
