@@ -14,7 +14,7 @@ Each object is grasped and let go once: its fingers close over their whole strok
 again, each stroke timed within the fingers' limits (FINGER_MAX_*; a rest-to-rest motion
 takes at least d / v + v / a, `stroke_time`). A dish collected onto the tray takes the arm
 from ARM_STOW, through its grasp, to one of the release configurations over the tray (the
-same few in the arm's frame wherever the base stands: `pickup_geometry._tray_arms`) and
+same few in the arm's frame wherever the base stands: `pickup_geometry.tray_arms`) and
 back to ARM_STOW, in rest-to-rest segments within the arm's joint limits. The time of
 such segments is at least that of one rest-to-rest stroke over their summed displacement
 (`stroke_time` is concave and 0 at 0), so each leg, there and back, takes at least the
@@ -87,14 +87,14 @@ def tray_leg_time(plant) -> float:
     over the tray (the nearest of every grasp kind's), within the arm's joint limits of the
     robot in `plant`: the slowest joint's stroke."""
     from s3o_drake.execution.arm.pickup import segment_limits
-    from s3o_drake.feasibility.pickup_geometry import _tray_arms
+    from s3o_drake.feasibility.pickup_geometry import tray_arms
     from s3o_drake.world.robot import ARM_POSITIONS, ARM_STOW
 
     v, a = segment_limits(plant, "stow")
     v, a = np.asarray(v)[ARM_POSITIONS], np.asarray(a)[ARM_POSITIONS]
     legs = [max(stroke_time(abs(float(d)), float(vj), float(aj))
                 for d, vj, aj in zip(np.asarray(arm) - np.asarray(ARM_STOW), v, a, strict=True))
-            for grasp in ("top", "side") for arm in _tray_arms(grasp)]
+            for grasp in ("top", "side") for arm in tray_arms(grasp)]
     return min(legs)
 
 
@@ -136,17 +136,13 @@ def lower_bound(scenario: Scenario, heatmaps: Sequence[Heatmap] | None = None) -
     # An object that stays is never picked; a place target is visited like a dish.
     moved = {d.name for d in scenario.dishes if d.goal != "stay"}
     heatmaps = [h for h in heatmaps if h.dish in moved or placed_object(h.dish) is not None]
-    return _bound(scenario, [h.dish for h in heatmaps], [pickable_region(h) for h in heatmaps])
-
-
-def _bound(scenario: Scenario, names: Sequence[str],
-           regions: Sequence[shapely.Geometry]) -> LowerBound:
-    """The bound from each object's and place target's region (`names`, `regions`)."""
+    regions = [pickable_region(h) for h in heatmaps]
     if any(r.is_empty for r in regions):
         return LowerBound(math.inf, math.inf, math.inf)
     from s3o_drake.feasibility.scene import FeasibilityScene
 
     length = tour_length(scenario.contents.start, regions)
+    names = [h.dish for h in heatmaps]
     objects = sum(placed_object(name) is None for name in names)  # not the place targets
     placed = {d.name for d in scenario.dishes if d.goal == "place"}
     collected = sum(placed_object(name) is None and name not in placed for name in names)

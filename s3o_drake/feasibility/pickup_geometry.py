@@ -303,7 +303,7 @@ def _arm_solutions(q_grasps: np.ndarray) -> list[tuple[list, list]]:
 
 
 @lru_cache(maxsize=4)
-def _tray_arms(grasp: str) -> tuple[np.ndarray, ...]:
+def tray_arms(grasp: str) -> tuple[np.ndarray, ...]:
     """The arm configurations at release over the tray, in the order they are tried.
 
     G is `TRAY_CLEARANCE` above the tray's centre; a top grasp keeps the gripper pointing
@@ -326,8 +326,8 @@ def _tray_arms(grasp: str) -> tuple[np.ndarray, ...]:
 def tray_configuration(base: np.ndarray, grasp: str, q_from: np.ndarray,
                        checker: SceneGraphCollisionChecker) -> np.ndarray | None:
     """The robot's 11 positions at release over the tray (fingers as in `q_from`), or None:
-    the first of `_tray_arms` that is collision-free."""
-    for arm in _tray_arms(grasp):
+    the first of `tray_arms` that is collision-free."""
+    for arm in tray_arms(grasp):
         q = q_from.copy()
         q[:3] = base
         q[ARM_POSITIONS] = arm

@@ -90,13 +90,13 @@ def test_no_timed_leg_from_over_the_tray_to_stow_beats_the_arms_bound(scene):
     tray: none is faster than the bound's leg (at TIMING_SLACK of it)."""
     from s3o_drake.execution.arm.pickup import timed_segment
     from s3o_drake.experiments.limit import TIMING_SLACK, tray_leg_time
-    from s3o_drake.feasibility.pickup_geometry import _tray_arms
+    from s3o_drake.feasibility.pickup_geometry import tray_arms
 
     leg = tray_leg_time(scene.plant)
     assert 0.5 < leg < 2.0
     durations = []
     for grasp in ("top", "side"):
-        for arm in _tray_arms(grasp)[:6]:
+        for arm in tray_arms(grasp)[:6]:
             start, stow = scene.q(np.zeros(3), arm=np.asarray(arm)), scene.q(np.zeros(3))
             path = np.stack([start, stow])
             durations.append(timed_segment("stow", path, scene.checker).duration)
