@@ -45,7 +45,7 @@ settled without a collision query, and the collision checks go in batches throug
 """
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import shapely
@@ -155,11 +155,15 @@ class FeasibilityChecker:
 
     def identity(self) -> tuple:
         """What its answers depend on besides the query (the oracle cache's key): the
-        plant's contents, the obstacles' footprints (WKB), the padding, the method and its
-        settings, and the reachability map's fingerprint."""
+        plant's contents (its chairs without their names), the obstacles' footprints (WKB),
+        the padding, the method and its settings, and the reachability map's fingerprint."""
         obstacles = self.scene.obstacles
         shapes = shapely.to_wkb([obstacles.room, *obstacles.footprints])
-        return (self.scene.contents, b"".join(shapes), self.scene.padding, self.method,
+        # A chair's name names its model instance and nothing a check depends on: a belief
+        # (perceived_0, ...) and the true world (chair_1, ...) with the same chairs agree.
+        contents = replace(self.scene.contents, chairs=tuple(
+            replace(c, name="") for c in self.scene.contents.chairs))
+        return (contents, b"".join(shapes), self.scene.padding, self.method,
                 self.fallback_ik, self.fallback_seeds, self.fallback_iterations,
                 self.ik_iterations, self.random_seeds, self.exhaustive,
                 None if self.reachability is None else self.reachability.fingerprint)

@@ -112,3 +112,17 @@ def test_a_benchmark_that_times_the_oracle_bypasses_the_cache(folder, computed, 
     assert computed == ["plate_a", "plate_a", "cup_b"]
     assert len(list(folder.glob("*.npy"))) == 1
     assert os.environ[CACHE_VARIABLE] == str(folder)
+
+
+def test_the_same_chairs_under_other_names_share_a_map(folder, computed, scenario):
+    """A belief names its chairs perceived_0, ...; the true world chair_1, ...: the same
+    chairs, the same map, computed once."""
+    def with_chair(name):
+        chair = Chair(name=name, pose=[2.0, 1.6, 0.0])
+        scene = FeasibilityScene(dataclasses.replace(scenario.contents, chairs=(chair,)))
+        return FeasibilityOracle(FeasibilityChecker(scene), Uncertainty())
+
+    true = with_chair("chair_1").heatmap("plate_a", **CHEAP)
+    believed = with_chair("perceived_0").heatmap("plate_a", **CHEAP)
+    assert computed == ["plate_a"]
+    np.testing.assert_array_equal(true.values, believed.values)
