@@ -26,6 +26,7 @@ from s3o_drake.commands.options import (
     add_json,
     add_seed,
     add_tasks,
+    at_least,
     json_store,
     task_name,
     task_paths,
@@ -97,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--configurations", nargs="+", default=list(CONFIGURATIONS),
                         choices=CONFIGURATIONS, metavar="NAME",
                         help=f"which plans to make (default all: {' '.join(CONFIGURATIONS)})")
-    parser.add_argument("--execute-seeds", type=int, default=3, metavar="N",
+    parser.add_argument("--execute-seeds", type=at_least(0), default=3, metavar="N",
                         help="execute the default and the reference plans with noise, study "
                              "seeds 0..N-1, open loop (default 3; 0: none)")
     add_json(parser, "plan")
@@ -118,8 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         _summarize(rows, args.picture)
         return 0
     paths = task_paths(args)
-    for path in paths:
-        read_scenario(path)  # a bad task is one line, before any work
+    scenarios = [read_scenario(path) for path in paths]  # a bad task: one line, no work
     store = json_store(args, key=row_key)
 
     import logging
@@ -128,8 +128,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(paths)} tasks x {len(args.configurations)} plans, seed {args.seed}",
           flush=True)
     rows = []
-    for path in paths:
-        scenario = read_scenario(path)
+    for path, scenario in zip(paths, scenarios, strict=True):
         made: dict[str, Any] = {}  # per task: the truth, the images, the plans made here
         wanted = [("bound", None), *((c, None) for c in args.configurations)]
         wanted += [(f"executed:{c}:{k}", c) for c in ("default", "reference")
@@ -153,12 +152,9 @@ def main(argv: list[str] | None = None) -> int:
 
 def _summarize(rows: list[dict[str, Any]], picture: str | None) -> None:
     """The summary per room, and the picture when asked for."""
-    from s3o_drake.experiments.limit_study import gaps_by_room, summary_lines
+    from s3o_drake.experiments.limit_study import by_room, gaps_by_room, summary_lines
 
-    rooms: dict[str, list[dict[str, Any]]] = {}
-    for r in rows:
-        rooms.setdefault(Path(r["task"]).parent.name, []).append(r)
-    for room, mine in rooms.items():
+    for room, mine in by_room(rows).items():
         print(f"\n{room}:")
         for line in summary_lines(mine):
             print(line)

@@ -93,7 +93,12 @@ def benchmark_scenario(path: str, recovery: str = "none",
     """The task as the benchmark runs it: searches in this process (the parallelism is
     across runs, and a forked search pool inside a pool worker would oversubscribe it),
     with `recovery` and the fields `overrides` replaces."""
-    scenario = with_overrides(load_scenario(Path(path)), overrides)
+    return as_benchmarked(with_overrides(load_scenario(Path(path)), overrides), recovery)
+
+
+def as_benchmarked(scenario: Scenario, recovery: str = "none") -> Scenario:
+    """`scenario` as a benchmark run runs it: its searches in the run's own process, and
+    the execution's `recovery`."""
     return dataclasses.replace(
         scenario, planner=dataclasses.replace(scenario.planner, workers=1),
         execution=dataclasses.replace(scenario.execution, recovery=recovery))

@@ -5,7 +5,6 @@ one at a time and all together (the reference), judged on one model, and its low
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +35,7 @@ def bound_row(scenario: Scenario, truth: Sequence[Heatmap]) -> dict[str, Any]:
     """The task's lower bound on a complete execution's time, and its parts."""
     bound = lower_bound(scenario, truth)
     return {"bound_s": bound.total, "tour_m": bound.tour_length,
-            "drive_s": bound.drive_time, "hand_s": bound.hand_time}
+            "drive_s": bound.drive_time, "hand_s": bound.hand_time, "arm_s": bound.arm_time}
 
 
 def plan_row(result: PlanningResult, truth: Sequence[Heatmap]) -> dict[str, Any]:
@@ -61,7 +60,7 @@ def executed_row(scenario: Scenario, result: PlanningResult, *, study_seed: int
     study seed `study_seed` (each task's own draws, as `s3o evaluate` draws them): whether
     every dish was collected, and in what simulated time."""
     from s3o_drake.execution.execute import execute
-    from s3o_drake.experiments.jobs import run_seed
+    from s3o_drake.experiments.jobs import as_benchmarked, run_seed
     from s3o_drake.planning.pipeline import plan_from
 
     given = [result]
@@ -70,10 +69,8 @@ def executed_row(scenario: Scenario, result: PlanningResult, *, study_seed: int
         # The plan under test at initialization; a later plan (none in open loop) as usual.
         return given.pop() if given else plan_from(known, **kwargs)
 
-    open_loop = replace(scenario, planner=replace(scenario.planner, workers=1),
-                        execution=replace(scenario.execution, recovery="none"))
-    run = execute(open_loop, seed=run_seed(scenario.seed, study_seed), meshcat=None,
-                  progress=False, plan_from=first_this_plan)
+    run = execute(as_benchmarked(scenario, "none"), seed=run_seed(scenario.seed, study_seed),
+                  meshcat=None, progress=False, plan_from=first_this_plan)
     report = run.report
     return {"study_seed": study_seed, "complete": report["completed"] == report["dishes"],
             "collected": report["collected"], "dishes": report["dishes"],
@@ -175,11 +172,15 @@ def executed_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     return lines
 
 
-def gaps_by_room(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, list[dict]]]:
-    """`gaps` of every configuration but the reference, per room (the folder of the task's
-    file: generated, generated_dense, ...)."""
+def by_room(rows: Sequence[dict[str, Any]]) -> dict[str, list[dict[str, Any]]]:
+    """The rows per room: the folder of the task's file (generated, generated_dense, ...)."""
     rooms: dict[str, list[dict[str, Any]]] = {}
     for r in rows:
         rooms.setdefault(Path(r["task"]).parent.name, []).append(r)
+    return rooms
+
+
+def gaps_by_room(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, list[dict]]]:
+    """`gaps` of every configuration but the reference, per room (`by_room`)."""
     return {room: {c: found for c in ("default", *RATIONS) if (found := gaps(mine, c))}
-            for room, mine in rooms.items()}
+            for room, mine in by_room(rows).items()}

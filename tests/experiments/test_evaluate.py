@@ -514,7 +514,8 @@ def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(local_study
 
     # No complete run is faster than the task's lower bound (experiments/limit.py; its
     # oracle maps are the ones the study's difficulty measured, read back).
-    bounds = {r["task"]: lower_bound(load_scenario(r["path"])) for r in rows}
+    bounds = {task: lower_bound(load_scenario(path))
+              for task, path in {(r["task"], r["path"]) for r in rows}}
     for r in rows:
         bound = bounds[r["task"]]
         assert 0.0 < bound.total < math.inf and bound.drive_time > 0.0
