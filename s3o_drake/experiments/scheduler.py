@@ -34,10 +34,14 @@ from tqdm import tqdm
 
 from s3o_drake.experiments.jobs import Job, run_job
 from s3o_drake.experiments.store import ResultStore
+from s3o_drake.world.worker_processes import process_pool
 
 if TYPE_CHECKING:
     from distributed import Client
 
+WORKER_MODULES = ("s3o_drake.experiments.jobs", "s3o_drake.execution.execute",
+                  "s3o_drake.feasibility.heatmaps")
+"""What a run or a difficulty job imports: the fork server imports it once."""
 TASKS_PER_CHILD = 10
 """Local workers are replaced after this many jobs, a bound on what any leak costs a long
 study. Until execute() freed its diagram (s3o_drake/world/system_lifetime.py) each executed run
@@ -64,7 +68,7 @@ def run_jobs(jobs: Iterable[Job], store: ResultStore, *, workers: int = 2,
              progress: bool = True, desc: str = "runs", max_attempts: int = 3) -> int:
     """Runs the jobs that the store has no finished result for; returns how many ran.
 
-    `scheduler`: None for a local pool of `workers` spawned processes, or the address of a
+    `scheduler`: None for a local pool of `workers` processes (`local_pool`), or the address of a
     Dask scheduler ("tcp://HOST:PORT"), whose workers must have s3o_drake installed.
     """
     todo = deque(pending_jobs(jobs, store))
@@ -121,13 +125,10 @@ def check_cluster(client: "Client") -> None:
 
 
 def local_pool(workers: int) -> ProcessPoolExecutor:
-    """`workers` spawned processes, each replaced after TASKS_PER_CHILD jobs, that end
-    with this process: where a command executes many runs."""
-    # Spawned, not forked: a fork would copy Drake's thread pools mid-use.
-    return ProcessPoolExecutor(max_workers=workers,
-                               mp_context=multiprocessing.get_context("spawn"),
-                               max_tasks_per_child=TASKS_PER_CHILD,
-                               initializer=_die_with_parent)
+    """`workers` worker processes (`world.worker_processes`), each replaced after
+    TASKS_PER_CHILD jobs, that end with this process: where a command executes many runs."""
+    return process_pool(workers, preload=WORKER_MODULES, initializer=_die_with_parent,
+                        max_tasks_per_child=TASKS_PER_CHILD)
 
 
 def _abandon(pool: ProcessPoolExecutor, *, keep: set) -> None:

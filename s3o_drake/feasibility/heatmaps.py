@@ -7,9 +7,7 @@ count.
 """
 
 import logging
-import multiprocessing
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Protocol
 
@@ -28,8 +26,9 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.obstacles import Obstacles
 from s3o_drake.world.settings import Uncertainty
+from s3o_drake.world.worker_processes import process_pool
 
-# Each spawned worker's oracle, made once by its initializer.
+# Each worker process's oracle, made once by its initializer.
 _worker_oracle: FeasibilityOracle | None = None
 
 
@@ -106,11 +105,10 @@ def compute_heatmaps(source: SceneSource, dishes: Sequence[str] | None = None, *
             results.append(_heatmap_job(job))
             bar.update()
     else:
-        # Spawned, not forked: a fork would copy Drake's thread pools mid-use and hang.
-        with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), initializer=_init_worker,
-                                 initargs=(contents, source.uncertainty, method, reachability,
-                                           obstacles),
-                                 mp_context=multiprocessing.get_context("spawn")) as pool:
+        with process_pool(min(workers, len(jobs)), preload=(__name__,),
+                          initializer=_init_worker,
+                          initargs=(contents, source.uncertainty, method, reachability,
+                                    obstacles)) as pool:
             for heatmap in pool.map(_heatmap_job, jobs):
                 results.append(heatmap)
                 bar.update()

@@ -42,14 +42,22 @@ def _lines(path: Path) -> list[str]:
     return path.read_text().splitlines() if path.exists() else []
 
 
-def _workers(study: subprocess.Popen) -> list[psutil.Process]:
-    """The study's pool workers (spawned processes; not multiprocessing's resource tracker)."""
+def _pool_workers(pid: int) -> list[psutil.Process]:
+    """The pool workers that process `pid` started, running or not yet reaped: spawned
+    ones, or forked by its fork server (`world.worker_processes`); not the fork server
+    itself, nor multiprocessing's resource tracker."""
     workers = []
-    for child in psutil.Process(study.pid).children():
+    for child in psutil.Process(pid).children(recursive=True):
         with contextlib.suppress(psutil.NoSuchProcess, psutil.ZombieProcess):
-            if "spawn_main" in " ".join(child.cmdline()):
+            if "spawn_main" in " ".join(child.cmdline()) or (
+                    child.ppid() != pid and "forkserver" in " ".join(child.parent().cmdline())):
                 workers.append(child)
     return workers
+
+
+def _workers(study: subprocess.Popen) -> list[psutil.Process]:
+    """The study's pool workers."""
+    return _pool_workers(study.pid)
 
 
 # --- a worker killed, the study killed, then resumed -----------------------------------------
@@ -129,6 +137,7 @@ def test_an_interrupted_study_stops_at_once_not_after_its_runs(tmp_path):
     def interrupt() -> None:
         while not started.exists():
             time.sleep(0.05)
+        sent["workers"] = len(_pool_workers(os.getpid()))  # the worker can be seen
         sent["at"] = time.monotonic()
         # To the main thread, as a terminal's Ctrl-C mostly lands (a signal to the process
         # may land on any thread; the study's wait wakes for it either way).
@@ -139,10 +148,9 @@ def test_an_interrupted_study_stops_at_once_not_after_its_runs(tmp_path):
         run_jobs([Job(RUN, "slow", str(started), "d", 0, "slow")], store, workers=1,
                  fn=slow_work, progress=False)
     assert time.monotonic() - sent["at"] < 15.0
-    assert store.rows() == []
-    assert not [p for p in psutil.Process().children() if p.is_running()
-                and p.status() != psutil.STATUS_ZOMBIE
-                and "spawn_main" in " ".join(p.cmdline())]
+    assert sent["workers"] == 1 and store.rows() == []
+    assert not [p for p in _pool_workers(os.getpid()) if p.is_running()
+                and p.status() != psutil.STATUS_ZOMBIE]
 
 
 # --- the disk full --------------------------------------------------------------------------

@@ -19,7 +19,6 @@ a smaller one). The folder remembers its seed; a rerun with another seed is refu
 
 import io
 import logging
-import multiprocessing
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -29,6 +28,7 @@ from tqdm import tqdm
 from s3o_drake.world.files import write_atomically
 from s3o_drake.world.scenario import load_scenario
 from s3o_drake.world.task_generation import DEFAULT_BASE, generate_task
+from s3o_drake.world.worker_processes import worker_pool
 
 MANIFEST = "dataset.json"
 
@@ -97,8 +97,7 @@ def build_dataset(out: Path, *, count: int, seed: int, base_path: Path = DEFAULT
             _job(job)
             bar.update()
     else:
-        # Spawned, not forked: a fork would copy Drake's thread pools mid-use and hang.
-        with multiprocessing.get_context("spawn").Pool(min(workers, len(jobs))) as pool:
+        with worker_pool(min(workers, len(jobs)), preload=(__name__,)) as pool:
             for _ in pool.imap_unordered(_job, jobs):
                 bar.update()
     bar.close()

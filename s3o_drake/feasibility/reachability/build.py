@@ -9,7 +9,6 @@ deterministically, for `s3o build reachability`.
 """
 
 import datetime
-import multiprocessing
 import time
 from collections.abc import Sequence
 
@@ -30,6 +29,7 @@ from s3o_drake.feasibility.reachability.map import (
     grid_axis,
     robot_model_sha256,
 )
+from s3o_drake.world.worker_processes import worker_pool
 
 #: Grid ranges (m): ρ from A's z axis, h above A's origin. A at 0.75 m above the floor; the
 #: heights cover grasp points on table tops from about 0.55 m to 1.20 m, the distances the
@@ -199,8 +199,8 @@ def build_map(*, resolution: float = RESOLUTION, rho_range: tuple[float, float] 
             rows.append(_solve_row(task))
             bar.update(len(height))
     else:
-        context = multiprocessing.get_context("spawn")
-        with context.Pool(workers, initializer=_init_worker, initargs=init_args) as pool:
+        with worker_pool(workers, preload=(__name__,), initializer=_init_worker,
+                         initargs=init_args) as pool:
             for row in pool.imap(_solve_row, tasks, chunksize=1):
                 rows.append(row)
                 bar.update(len(height))
