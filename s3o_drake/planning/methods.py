@@ -61,6 +61,7 @@ got depends on the machine).
 from __future__ import annotations
 
 import dataclasses
+import gc
 import multiprocessing
 import time
 from collections.abc import Callable
@@ -192,8 +193,17 @@ class _Searches:
             global _inherited
             _inherited = self._shared
             self._pending.append((key, _search_job(job)))
-        else:
+        elif self._pending:
             self._pending.append((key, self._pool.submit(_search_job, job)))
+        else:
+            # The first submission forks the workers. Frozen, the objects they inherit
+            # are left out of their garbage collection: a fork copies whatever state the
+            # parent's objects are in, and the searches allocate only their own.
+            gc.freeze()
+            try:
+                self._pending.append((key, self._pool.submit(_search_job, job)))
+            finally:
+                gc.unfreeze()
 
     def results(self) -> list[tuple[object, MotionResult]]:
         """Every submitted search's (key, result), in submission order; searches that
