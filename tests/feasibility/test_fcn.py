@@ -88,13 +88,13 @@ def test_auroc_is_the_rank_statistic():
 
 def test_dataset_writes_scenes_and_a_rerun_resumes(tmp_path, monkeypatch):
     out = tmp_path / "data"
-    # Two dishes a scene: the oracle's labels are most of a scene's time.
-    argv = ["--count", "1", "--seed", "1000", "--dishes", "2", "--out", str(out), "--quiet"]
+    # One dish a scene: the oracle's labels are most of a scene's time.
+    argv = ["--count", "1", "--seed", "1000", "--dishes", "1", "--out", str(out), "--quiet"]
     assert dataset_command.main(argv) == 0
     first = dataset.scene_path(out, 0)
     with np.load(first) as data:
         n = len(data["dishes"])
-        assert n == 2
+        assert n == 1
         assert data["inputs"].shape == (n, len(CHANNELS), CROP_CELLS, CROP_CELLS)
         assert data["labels"].shape == (n, CROP_CELLS, CROP_CELLS)
         assert data["labels"].min() >= 0 and data["labels"].max() <= 1
@@ -111,7 +111,7 @@ def test_dataset_writes_scenes_and_a_rerun_resumes(tmp_path, monkeypatch):
                 "index": np.array(index)}
 
     monkeypatch.setattr(dataset, "make_scene", fake_scene)
-    argv = ["--count", "2", "--seed", "1000", "--dishes", "2", "--out", str(out), "--quiet"]
+    argv = ["--count", "2", "--seed", "1000", "--dishes", "1", "--out", str(out), "--quiet"]
     assert dataset_command.main(argv) == 0
     assert computed == [1]
     assert first.stat().st_mtime_ns == stamp

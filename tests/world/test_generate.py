@@ -25,7 +25,7 @@ def spacious_tasks(tmp_path_factory):
 @pytest.fixture(scope="module")
 def dense_tasks(tmp_path_factory):
     out = tmp_path_factory.mktemp("dense")
-    assert generate_main(["--layout", "dense", "--count", "2", "--seed", "0", "--out",
+    assert generate_main(["--layout", "dense", "--count", "1", "--seed", "0", "--out",
                           str(out), "--quiet"]) == 0
     return out
 
@@ -98,10 +98,10 @@ def test_shipped_benchmark_tasks_are_what_the_generator_makes(spacious_tasks):
 def test_mixed_tasks_put_cups_down_on_another_table(spacious_tasks, tmp_path):
     """--places 1: one cup of each task is to be put down at a free spot on another table;
     where the task had a cup, it is otherwise the collect-only task."""
-    assert generate_main(["--count", "3", "--seed", "0", "--places", "1", "--out",
+    assert generate_main(["--count", "2", "--seed", "0", "--places", "1", "--out",
                           str(tmp_path), "--quiet"]) == 0
     same = 0
-    for i in range(3):
+    for i in range(2):
         path = tmp_path / f"task_{i:03d}.yaml"
         assert "--places 1" in path.read_text().splitlines()[0]
         task = load_scenario(path)  # validates the places: on a top, clear of the objects
@@ -139,7 +139,7 @@ def test_dense_tasks_stand_in_the_dense_restaurant_and_say_so(dense_tasks):
 def test_shipped_dense_tasks_are_what_the_generator_makes(dense_tasks):
     shipped = REPO / "scenarios" / "generated_dense"
     assert len(list(shipped.glob("task_*.yaml"))) == 100
-    for name in ("task_000.yaml", "task_001.yaml"):
+    for name in ("task_000.yaml",):
         # The same scenario, read back: settings added since (execution.detour) take their
         # defaults in the shipped files, which stay as they are, since their digests key
         # the studies' stored runs.
