@@ -18,7 +18,7 @@ BASE = REPO / "scenarios" / "restaurant.yaml"
 @pytest.fixture(scope="module")
 def spacious_tasks(tmp_path_factory):
     out = tmp_path_factory.mktemp("spacious")
-    assert generate_main(["--count", "3", "--seed", "0", "--out", str(out), "--quiet"]) == 0
+    assert generate_main(["--count", "2", "--seed", "0", "--out", str(out), "--quiet"]) == 0
     return out
 
 
@@ -33,7 +33,7 @@ def dense_tasks(tmp_path_factory):
 def test_tasks_are_valid_and_follow_the_protocol(spacious_tasks):
     base = load_scenario(BASE)
     files = sorted(spacious_tasks.glob("task_*.yaml"))
-    assert [f.name for f in files] == [f"task_{i:03d}.yaml" for i in range(3)]
+    assert [f.name for f in files] == [f"task_{i:03d}.yaml" for i in range(2)]
     counts = set()
     for f in files:
         task = load_scenario(f)  # validates: dishes on tables, no overlaps, robot free
@@ -84,7 +84,7 @@ def test_shipped_benchmark_tasks_are_what_the_generator_makes(spacious_tasks):
     """scenarios/generated holds `generate --count 100 --seed 0`; spot-check that it still is."""
     shipped = REPO / "scenarios" / "generated"
     assert len(list(shipped.glob("task_*.yaml"))) == 100
-    for name in ("task_000.yaml", "task_001.yaml", "task_002.yaml"):
+    for name in ("task_000.yaml", "task_001.yaml"):
         made, kept = (spacious_tasks / name).read_text(), (shipped / name).read_text()
         # The same scenario, read back: the shipped files predate settings added since
         # (execution, the localisation noise), which they take at their defaults, and their

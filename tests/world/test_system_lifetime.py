@@ -1,7 +1,6 @@
 """world/system_lifetime.py: a finished execution diagram and its Python systems are freed, so
 that many runs in one process (a study's worker, the soak) do not accumulate them."""
 
-import dataclasses
 import gc
 import weakref
 
@@ -76,8 +75,6 @@ def _live(kind) -> int:
 def test_an_execution_leaves_no_diagram_behind():
     """What one run leaves, every run in the process would: nothing of its diagram."""
     scenario = load_scenario("scenarios/small/two_dishes.yaml")
-    scenario = dataclasses.replace(scenario, planner=dataclasses.replace(
-        scenario.planner, feasibility="oracle"))
     before = (_live(ExecutiveSystem), _live(ObjectTracker))
     run = execute(scenario, meshcat=None, progress=False)
     assert run.report["collected"] == 2
