@@ -100,6 +100,10 @@ def build_dataset(out: Path, *, count: int, seed: int, base_path: Path = DEFAULT
         with worker_pool(min(workers, len(jobs)), preload=(__name__,)) as pool:
             for _ in pool.imap_unordered(_job, jobs):
                 bar.update()
+            # Ended, not terminated (the with's exit): a terminated worker leaves the
+            # semaphores it made to the resource tracker, which warns of them at exit.
+            pool.close()
+            pool.join()
     bar.close()
     return len(jobs)
 
