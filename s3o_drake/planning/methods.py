@@ -196,9 +196,9 @@ class _Searches:
         elif self._pending:
             self._pending.append((key, self._pool.submit(_search_job, job)))
         else:
-            # The first submission forks the workers. Frozen, the objects they inherit
-            # are left out of their garbage collection: a fork copies whatever state the
-            # parent's objects are in, and the searches allocate only their own.
+            # The first submission forks the workers. What they inherit is frozen out of
+            # their garbage collection, as CPython advises before a fork: they never free
+            # it, and collecting it crashed a child (docs/reliability.md).
             gc.freeze()
             try:
                 self._pending.append((key, self._pool.submit(_search_job, job)))

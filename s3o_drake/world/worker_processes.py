@@ -66,6 +66,8 @@ def _surroundings() -> tuple[dict[str, str], str]:
 def _start(surroundings: tuple[dict[str, str], str],
            initializer: Callable[..., object] | None, initargs: tuple) -> None:
     environment, directory = surroundings
+    # multiprocessing hands each forked child the server's keep-alive descriptor, so that
+    # the child could start processes through the same server; a worker never does.
     server = getattr(multiprocessing.forkserver, "_forkserver", None)
     alive = getattr(server, "_forkserver_alive_fd", None)
     if alive is not None:
