@@ -193,12 +193,10 @@ class _Searches:
             global _inherited
             _inherited = self._shared
             self._pending.append((key, _search_job(job)))
-        elif self._pending:
-            self._pending.append((key, self._pool.submit(_search_job, job)))
         else:
-            # The first submission forks the workers. What they inherit is frozen out of
-            # their garbage collection, as CPython advises before a fork: they never free
-            # it, and collecting it crashed a child (docs/reliability.md).
+            # A submission may fork the workers. What they inherit is frozen out of their
+            # garbage collection, as CPython advises before a fork: they never free it, and
+            # collecting it crashed a child (docs/reliability.md). Freezing is O(1).
             gc.freeze()
             try:
                 self._pending.append((key, self._pool.submit(_search_job, job)))

@@ -10,8 +10,9 @@ process took 3.3 s and each one after it 0.02 s.
 
 One server serves a process: the first pool starts it with the modules its workers run
 (`preload`); a later pool's workers import what that list lacked. A worker takes the
-environment and the working directory of the process as they are when its pool starts,
-as a spawned one would: the server keeps those of the moment it started. The server ends
+environment of the process as it is when its pool starts, as a spawned one would: the
+server keeps that of the moment it started (the working directory and sys.path come with
+multiprocessing's own preparation of every child). The server ends
 with the process that started it; a forked worker lets go of the descriptor by which it
 would keep the server alive, so that a worker asked to end with its parent (the server)
 ends with that process too, killed or not.
@@ -45,7 +46,7 @@ def process_pool(max_workers: int, *, preload: Sequence[str],
     running `initializer(*initargs)` when it starts."""
     return ProcessPoolExecutor(max_workers=max_workers, mp_context=worker_context(preload),
                                initializer=_start,
-                               initargs=(_surroundings(), initializer, initargs),
+                               initargs=(dict(os.environ), initializer, initargs),
                                max_tasks_per_child=max_tasks_per_child)
 
 
@@ -55,17 +56,11 @@ def worker_pool(processes: int, *, preload: Sequence[str],
     """A `multiprocessing.Pool` of `processes` worker processes (`worker_context`), each
     running `initializer(*initargs)` when it starts."""
     return worker_context(preload).Pool(processes, initializer=_start,
-                                        initargs=(_surroundings(), initializer, initargs))
+                                        initargs=(dict(os.environ), initializer, initargs))
 
 
-def _surroundings() -> tuple[dict[str, str], str]:
-    """What a spawned worker would inherit from this process now."""
-    return dict(os.environ), os.getcwd()
-
-
-def _start(surroundings: tuple[dict[str, str], str],
-           initializer: Callable[..., object] | None, initargs: tuple) -> None:
-    environment, directory = surroundings
+def _start(environment: dict[str, str], initializer: Callable[..., object] | None,
+           initargs: tuple) -> None:
     # multiprocessing hands each forked child the server's keep-alive descriptor, so that
     # the child could start processes through the same server; a worker never does.
     server = getattr(multiprocessing.forkserver, "_forkserver", None)
@@ -75,6 +70,5 @@ def _start(surroundings: tuple[dict[str, str], str],
         server._forkserver_alive_fd = None
     os.environ.clear()
     os.environ.update(environment)
-    os.chdir(directory)
     if initializer is not None:
         initializer(*initargs)
