@@ -57,12 +57,13 @@ def field_path(parent: str, key: object) -> str:
     return f"{parent}[{quoted(key)}]"
 
 
-class _StrictLoader(yaml.SafeLoader):
-    """PyYAML's safe loader with duplicate keys and deep nesting rejected (as FieldError
-    naming where) and YAML 1.2's exponent floats read as floats."""
+class _StrictComposer(yaml.composer.Composer):
+    """PyYAML's composer with duplicate keys and deep nesting rejected (as FieldError
+    naming where). It composes the nodes from the events of whichever parser it is
+    mixed with (`_StrictLoader`, `_FastStrictLoader`)."""
 
-    def __init__(self, stream) -> None:
-        super().__init__(stream)
+    def __init__(self) -> None:
+        super().__init__()
         self._parts: list[object] = []
 
     def _path(self, end: int | None = None) -> str:
@@ -106,12 +107,51 @@ class _StrictLoader(yaml.SafeLoader):
         return node
 
 
+class _StrictLoader(yaml.reader.Reader, yaml.scanner.Scanner, yaml.parser.Parser,
+                    _StrictComposer, yaml.constructor.SafeConstructor, yaml.resolver.Resolver):
+    """PyYAML's safe loader, strict (`_StrictComposer`), with YAML 1.2's exponent floats
+    read as floats. All in Python: its errors are the ones `load_yaml` reports."""
+
+    def __init__(self, stream) -> None:
+        yaml.reader.Reader.__init__(self, stream)
+        yaml.scanner.Scanner.__init__(self)
+        yaml.parser.Parser.__init__(self)
+        _StrictComposer.__init__(self)
+        yaml.constructor.SafeConstructor.__init__(self)
+        yaml.resolver.Resolver.__init__(self)
+
+
 _StrictLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12, list("-+0123456789"))
+
+if yaml.__with_libyaml__:
+    class _FastStrictLoader(_StrictComposer, yaml.cyaml.CParser, yaml.constructor.SafeConstructor,
+                            yaml.resolver.Resolver):
+        """`_StrictLoader` with libyaml's parser: the scanning, most of a file's time (a
+        generated task reads 4x faster). Composing stays in Python, where the checks are."""
+
+        def __init__(self, stream) -> None:
+            yaml.cyaml.CParser.__init__(self, stream)
+            _StrictComposer.__init__(self)
+            yaml.constructor.SafeConstructor.__init__(self)
+            yaml.resolver.Resolver.__init__(self)
+
+    _FastStrictLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT_12,
+                                            list("-+0123456789"))
+else:
+    _FastStrictLoader = _StrictLoader
 
 
 def load_yaml(text: str) -> object:
-    """Parses YAML text as `yaml.safe_load` does, but strictly (see _StrictLoader); a
+    """Parses YAML text as `yaml.safe_load` does, but strictly (see _StrictComposer); a
     syntax error is a FieldError at `line N`."""
+    try:
+        return yaml.load(text, Loader=_FastStrictLoader)
+    except FieldError:
+        raise
+    except yaml.YAMLError:
+        pass
+    # libyaml names a problem less exactly (no offending character, byte offsets): the
+    # Python parser says what and where.
     try:
         return yaml.load(text, Loader=_StrictLoader)
     except yaml.YAMLError as e:
