@@ -26,6 +26,7 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.pipeline import PlanningResult, plan_from
 from s3o_drake.world.objects import Dish
 from s3o_drake.world.scenario import Scenario, load_scenario
+from s3o_drake.world.worker_processes import THREADS_VARIABLE, core_count
 
 TWO_DISHES = Path(__file__).resolve().parents[1] / "scenarios" / "small" / "two_dishes.yaml"
 COARSE_MAPS = {"cells": 32, "fine_cell": 0.125}
@@ -101,6 +102,10 @@ class OracleMapsOnce:
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    # The test processes share the cores as a study's workers do (world/worker_processes).
+    workers = getattr(config, "workerinput", {}).get("workercount")
+    if workers:
+        os.environ.setdefault(THREADS_VARIABLE, str(max(1, core_count() // workers)))
     # One oracle cache for the session: the controlling process makes the folder before
     # the test processes start, and they and every process they start inherit it.
     if not hasattr(config, "workerinput") and CACHE_VARIABLE not in os.environ:

@@ -24,6 +24,7 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.navigation.base_motion import SETTLE_TIME
 from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
 from s3o_drake.world.system_lifetime import weak_callback
+from s3o_drake.world.worker_processes import drake_parallelism
 
 
 @dataclass(frozen=True)
@@ -211,7 +212,8 @@ class BaseNavigator(LeafSystem):
         if query.any():
             configs = [robot_positions(*p, arm=ARM_STOW, gripper=GRIPPER_OPEN)
                        for p in poses[query]]
-            checked = self._scene.checker.CheckConfigsCollisionFree(configs)
+            checked = self._scene.checker.CheckConfigsCollisionFree(
+                configs, parallelize=drake_parallelism())
             free[query] = np.asarray(checked, dtype=bool)
         return free
 

@@ -63,6 +63,7 @@ from s3o_drake.feasibility.grasps import Grasp, grasps_for
 from s3o_drake.feasibility.reachability.map import ReachabilityMap, place
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
+from s3o_drake.world.worker_processes import drake_parallelism
 
 REASONS = ("ok", "base_collision", "out_of_reach", "arm_collision", "no_ik")
 METHODS = ("map", "ik")
@@ -291,7 +292,8 @@ class FeasibilityChecker:
         checker = self.scene.checker if checker is None else checker
         if len(qs) == 1:
             return np.array([checker.CheckConfigCollisionFree(qs[0])])
-        free = checker.CheckConfigsCollisionFree(list(qs), parallelize=self.parallelize)
+        free = checker.CheckConfigsCollisionFree(
+            list(qs), parallelize=drake_parallelism() if self.parallelize else False)
         return np.asarray(free, dtype=bool)
 
     # ----------------------------------------------------------------------- the check

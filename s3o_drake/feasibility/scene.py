@@ -32,6 +32,7 @@ from s3o_drake.world.robot import (
     GRIPPER_OPEN,
     robot_positions,
 )
+from s3o_drake.world.worker_processes import drake_parallelism
 
 # Robot-environment clearance of a feasible configuration (m): the arm stays at least 1 cm
 # from every obstacle, and the base keeps the same small margin.
@@ -58,7 +59,8 @@ class FeasibilityScene:
         self.robot = self.models.robot
         self.checker = SceneGraphCollisionChecker(
             model=self.diagram, robot_model_instances=[self.robot],
-            edge_step_size=EDGE_STEP, env_collision_padding=padding)
+            edge_step_size=EDGE_STEP, env_collision_padding=padding,
+            implicit_context_parallelism=drake_parallelism())
         self.table_height = {t.name: t.height for t in contents.tables}
         self.dishes = {d.name: d for d in contents.dishes}
         self.grasp_frame = self.plant.GetFrameByName(GRASP_FRAME, self.robot)

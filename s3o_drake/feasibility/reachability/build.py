@@ -29,7 +29,7 @@ from s3o_drake.feasibility.reachability.map import (
     grid_axis,
     robot_model_sha256,
 )
-from s3o_drake.world.worker_processes import worker_pool
+from s3o_drake.world.worker_processes import drake_parallelism, worker_pool
 
 #: Grid ranges (m): ρ from A's z axis, h above A's origin. A at 0.75 m above the floor; the
 #: heights cover grasp points on table tops from about 0.55 m to 1.20 m, the distances the
@@ -65,7 +65,8 @@ class _NodeSolver:
         self.p_WA = self.plant.GetFrameByName(ARM_BASE_LINK, self.model).CalcPoseInWorld(
             self.plant_context).translation()
         self.checker = SceneGraphCollisionChecker(
-            model=self.diagram, robot_model_instances=[self.model], edge_step_size=0.05)
+            model=self.diagram, robot_model_instances=[self.model], edge_step_size=0.05,
+            implicit_context_parallelism=drake_parallelism())
         self.checker.SetPaddingAllRobotRobotPairs(min_distance)
         self.min_distance = min_distance
         self.InverseKinematics = InverseKinematics
