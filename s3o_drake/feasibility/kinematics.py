@@ -16,12 +16,12 @@ import math
 import numpy as np
 
 from s3o_drake.world.angles import wrap
-from s3o_drake.world.robot import GRASP_OFFSET
+from s3o_drake.world.robot import GRASP_OFFSET, ROBOT
 
-# UR5e standard DH parameters (m, rad), as in models/robot/mobile_manipulator.urdf.
-DH_A = np.array([0.0, -0.425, -0.3922, 0.0, 0.0, 0.0])
-DH_D = np.array([0.1625, 0.0, 0.0, 0.1333, 0.0997, 0.0996])
-DH_ALPHA = np.array([math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0])
+# The UR5e's standard DH parameters (m, rad), from its description, as the model is built.
+DH_A = np.array(ROBOT.arm.dh_a)
+DH_D = np.array(ROBOT.arm.dh_d)
+DH_ALPHA = np.array(ROBOT.arm.dh_alpha)
 #: The elbow's limit (rad); the other five arm joints turn ±2π, so any angle is in range.
 ELBOW_LIMIT = math.pi
 #: The grasp frame's offset from tool0 (DH frame 6) along its z axis (m).

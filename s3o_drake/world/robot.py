@@ -1,5 +1,8 @@
 """The mobile manipulator: its model file, joint layout, named configurations and footprint.
 
+The values come from the robot's description (``models/robot/ur5e.yaml``, read by
+`world/robot_description`); the names below are the package's view of it.
+
 The model (``models/robot/mobile_manipulator.urdf``) is built from primitives: an RMP-110-class
 base (footprint ``BASE_LENGTH`` x ``BASE_WIDTH``, ~100 kg) carrying a VLP-16-class lidar, a dish
 tray and a pedestal, a UR5e arm (standard DH parameters) on the pedestal, and a Robotiq
@@ -35,36 +38,32 @@ from pydrake.multibody.tree import ModelInstanceIndex
 from shapely.geometry import Polygon
 
 from s3o_drake.world.resources import PACKAGE_NAME, models_dir
+from s3o_drake.world.robot_description import DEFAULT_ROBOT, load_robot_description
 
-ROBOT_URL = "package://s3o_drake/robot/mobile_manipulator.urdf"
+ROBOT = load_robot_description(DEFAULT_ROBOT)
+"""The description of the robot the package plans and executes for."""
+ROBOT_URL = ROBOT.model
 
-BASE_JOINTS = ("base_x", "base_y", "base_yaw")
-ARM_JOINTS = (
-    "shoulder_pan_joint",
-    "shoulder_lift_joint",
-    "elbow_joint",
-    "wrist_1_joint",
-    "wrist_2_joint",
-    "wrist_3_joint",
-)
-GRIPPER_JOINTS = ("left_finger_joint", "right_finger_joint")
+BASE_JOINTS = tuple(ROBOT.base.joints)
+ARM_JOINTS = tuple(ROBOT.arm.joints)
+GRIPPER_JOINTS = tuple(ROBOT.gripper.joints)
 #: All joints, in the order of the model instance's positions, velocities and actuators.
 ROBOT_JOINTS = BASE_JOINTS + ARM_JOINTS + GRIPPER_JOINTS
 NUM_POSITIONS = len(ROBOT_JOINTS)
 #: The arm's six joints among the robot's positions (and velocities).
 ARM_POSITIONS = slice(len(BASE_JOINTS), len(BASE_JOINTS) + len(ARM_JOINTS))
 
-BASE_LINK = "base_link"
-ARM_BASE_LINK = "ur_base_link"
-TOOL_FRAME = "tool0"
-GRASP_FRAME = "grasp_frame"
-TRAY_LINK = "tray_link"
-LIDAR_LINK = "lidar_link"
+BASE_LINK = ROBOT.base.link
+ARM_BASE_LINK = ROBOT.arm.base_link
+TOOL_FRAME = ROBOT.tool.frame
+GRASP_FRAME = ROBOT.tool.grasp_frame
+TRAY_LINK = ROBOT.tray.link
+LIDAR_LINK = ROBOT.lidar_link
 
 #: Chassis footprint (m) along the base's x (forward) and y axes. Nothing of the robot in its
 #: stow configuration sticks out of it.
-BASE_LENGTH = 0.62
-BASE_WIDTH = 0.56
+BASE_LENGTH = ROBOT.base.length
+BASE_WIDTH = ROBOT.base.width
 #: Circumscribed radius of the footprint (m), for inflating obstacles.
 BASE_RADIUS = math.hypot(BASE_LENGTH / 2, BASE_WIDTH / 2)
 #: Inscribed radius (m): the largest disc inside the footprint, whatever its yaw. Closer than
@@ -72,20 +71,20 @@ BASE_RADIUS = math.hypot(BASE_LENGTH / 2, BASE_WIDTH / 2)
 INSCRIBED_RADIUS = BASE_WIDTH / 2
 
 #: Position of ur_base_link in base_link (m); see the URDF's header for the reasons.
-ARM_MOUNT_XYZ = (0.15, 0.0, 0.75)
+ARM_MOUNT_XYZ = tuple(ROBOT.arm.mount_xyz)
 #: Distance (m) from tool0 to grasp_frame along tool0's z axis.
-GRASP_OFFSET = 0.225
+GRASP_OFFSET = ROBOT.tool.grasp_offset
 #: Distance (m) from tool0 to the fingertips along tool0's z axis.
-FINGERTIP_OFFSET = 0.24
+FINGERTIP_OFFSET = ROBOT.tool.fingertip_offset
 #: Travel of each finger (m); the opening between the fingers is the sum of both positions.
-FINGER_TRAVEL = 0.07
+FINGER_TRAVEL = ROBOT.gripper.travel
 
 #: Position of tray_link (centre of the tray's inner floor) in base_link (m).
-TRAY_XYZ = (-0.14, 0.0, 0.41)
+TRAY_XYZ = tuple(ROBOT.tray.xyz)
 #: Inner floor of the tray (m): along the base's x, along its y; height of the rim above it.
-TRAY_INNER_LENGTH = 0.30
-TRAY_INNER_WIDTH = 0.48
-TRAY_RIM_HEIGHT = 0.03
+TRAY_INNER_LENGTH = ROBOT.tray.inner_length
+TRAY_INNER_WIDTH = ROBOT.tray.inner_width
+TRAY_RIM_HEIGHT = ROBOT.tray.rim_height
 
 
 def _frozen(values) -> np.ndarray:
@@ -102,7 +101,7 @@ def _frozen(values) -> np.ndarray:
 #: in base_link (fingertips 0.19 m above the tray's floor); the arm and gripper stay inside
 #: x in [-0.18, 0.21] m, y in [-0.24, 0.06] m of the footprint and below 1.39 m, at least
 #: 0.019 m from any self-collision.
-ARM_STOW = _frozen([0.0, -1.3, 2.7, -math.pi / 2 + 1.3 - 2.7, -math.pi / 2, math.pi / 2])
+ARM_STOW = _frozen(ROBOT.configurations.stow)
 #: Finger positions (m): fully open (opening 0.14 m) and closed (fingers touching).
 GRIPPER_OPEN = _frozen([FINGER_TRAVEL, FINGER_TRAVEL])
 GRIPPER_CLOSED = _frozen([0.0, 0.0])

@@ -1,0 +1,245 @@
+"""A mobile manipulator as data: its description file (models/robot/<name>.yaml) next to
+its model.
+
+The description names what the planner and the execution need to know of a robot: the
+model file, the base's joints and footprint, the arm's joints with their speed and
+acceleration limits (and where those come from), its kinematic parameters, the tool,
+grasp and tray frames, the gripper, the stow configuration and the reach the planner
+assumes. The model (URDF) holds the geometry and is what Drake simulates; `check_model`
+confirms that it has every joint and frame the description names, of the right kind, with
+the same limits, so that the two cannot drift apart unnoticed.
+
+Vectors are lists (pydrake's `yaml_load_typed` reads no tuples); SI units.
+"""
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pydrake.common.yaml import yaml_load_typed
+
+from s3o_drake.world.resources import MODELS_DIR
+from s3o_drake.world.yaml_checks import FieldError, check_structure, load_yaml
+
+ROBOTS_DIR = MODELS_DIR / "robot"
+"""Where the shipped descriptions are, one `<name>.yaml` each."""
+DEFAULT_ROBOT = "ur5e"
+
+
+@dataclass
+class BaseDescription:
+    joints: list[str] = field(default_factory=list)
+    """The base's three actuated joints: x and y (prismatic), yaw (revolute)."""
+    link: str = ""
+    length: float = 0.0
+    """The chassis footprint along the base's x (forward) (m)."""
+    width: float = 0.0
+    """... and along its y (m)."""
+
+
+@dataclass
+class ArmDescription:
+    base_link: str = ""
+    mount_xyz: list[float] = field(default_factory=list)
+    """The arm's base frame in the base link (m); its axes are the base link's."""
+    joints: list[str] = field(default_factory=list)
+    velocity_limits: list[float] = field(default_factory=list)
+    """rad/s, per joint."""
+    acceleration_limits: list[float] = field(default_factory=list)
+    """rad/s², per joint."""
+    limits_source: str = ""
+    dh_a: list[float] = field(default_factory=list)
+    """Standard DH parameters of the chain from `base_link` to the tool frame (m, m, rad)."""
+    dh_d: list[float] = field(default_factory=list)
+    dh_alpha: list[float] = field(default_factory=list)
+    kinematics_source: str = ""
+
+
+@dataclass
+class ToolDescription:
+    frame: str = ""
+    """The tool flange."""
+    grasp_frame: str = ""
+    """Between the fingertip pads; its z is the approach, the fingers open along its y."""
+    grasp_offset: float = 0.0
+    """From the tool frame to the grasp frame along the tool's z (m)."""
+    fingertip_offset: float = 0.0
+    """From the tool frame to the fingertips along the tool's z (m)."""
+
+
+@dataclass
+class GripperDescription:
+    joints: list[str] = field(default_factory=list)
+    travel: float = 0.0
+    """Travel of each finger (m); the opening is the sum of the fingers' positions."""
+
+
+@dataclass
+class TrayDescription:
+    link: str = ""
+    xyz: list[float] = field(default_factory=list)
+    """The centre of the tray's inner floor in the base link (m)."""
+    inner_length: float = 0.0
+    inner_width: float = 0.0
+    rim_height: float = 0.0
+
+
+@dataclass
+class Configurations:
+    stow: list[float] = field(default_factory=list)
+    """The arm's joint angles (rad) while the base drives."""
+
+
+@dataclass
+class RobotDescription:
+    """One robot's description file (see the module docstring)."""
+
+    name: str = ""
+    model: str = ""
+    """The model's URL (`package://s3o_drake/...`)."""
+    base: BaseDescription = field(default_factory=BaseDescription)
+    arm: ArmDescription = field(default_factory=ArmDescription)
+    tool: ToolDescription = field(default_factory=ToolDescription)
+    gripper: GripperDescription = field(default_factory=GripperDescription)
+    tray: TrayDescription = field(default_factory=TrayDescription)
+    lidar_link: str = ""
+    configurations: Configurations = field(default_factory=Configurations)
+    reach: float = 0.0
+    """How far from the base centre (m) the planner assumes a dish can be picked."""
+
+    @property
+    def joints(self) -> list[str]:
+        """All joints, in the order of the model instance's positions and actuators."""
+        return [*self.base.joints, *self.arm.joints, *self.gripper.joints]
+
+
+class RobotDescriptionError(FieldError):
+    """A description that cannot be used, located by its field path; one line."""
+
+
+def robot_description_path(name: str) -> Path:
+    """The shipped description of robot `name`."""
+    path = ROBOTS_DIR / f"{name}.yaml"
+    if not path.is_file():
+        known = ", ".join(sorted(p.stem for p in ROBOTS_DIR.glob("*.yaml")))
+        raise RobotDescriptionError("robot", f"no robot named {name!r} (known: {known})")
+    return path
+
+
+def load_robot_description(name_or_path: str | Path = DEFAULT_ROBOT) -> RobotDescription:
+    """The description of a shipped robot (by name) or in a file; checked for shape and
+    values, not yet against its model (`check_model`). Raises RobotDescriptionError."""
+    path = Path(name_or_path)
+    if path.suffix not in (".yaml", ".yml"):
+        path = robot_description_path(str(name_or_path))
+    return parse_robot_description(path.read_text())
+
+
+def parse_robot_description(text: str) -> RobotDescription:
+    """A description from YAML text (see `load_robot_description`)."""
+    try:
+        raw = load_yaml(text)
+        if not isinstance(raw, dict):
+            raise FieldError("", "expected a mapping of fields")
+        check_structure(raw, RobotDescription, "")
+    except FieldError as e:
+        raise RobotDescriptionError(e.path, e.message) from None
+    description = yaml_load_typed(schema=RobotDescription, data=text)
+    _check_values(description)
+    return description
+
+
+def _check_values(d: RobotDescription) -> None:
+    def fail(path: str, message: str) -> None:
+        raise RobotDescriptionError(path, message)
+
+    for path, value in (("name", d.name), ("model", d.model), ("base.link", d.base.link),
+                        ("arm.base_link", d.arm.base_link), ("tool.frame", d.tool.frame),
+                        ("tool.grasp_frame", d.tool.grasp_frame), ("tray.link", d.tray.link),
+                        ("arm.limits_source", d.arm.limits_source)):
+        if not value.strip():
+            fail(path, "must be given")
+    if len(d.base.joints) != 3:
+        fail("base.joints", f"expected 3 joints (x, y, yaw), got {len(d.base.joints)}")
+    n = len(d.arm.joints)
+    if n == 0:
+        fail("arm.joints", "must name the arm's joints")
+    for path, values in (("arm.velocity_limits", d.arm.velocity_limits),
+                         ("arm.acceleration_limits", d.arm.acceleration_limits),
+                         ("configurations.stow", d.configurations.stow)):
+        if len(values) != n:
+            fail(path, f"expected {n} values (one per arm joint), got {len(values)}")
+    for path, values in (("arm.dh_a", d.arm.dh_a), ("arm.dh_d", d.arm.dh_d),
+                         ("arm.dh_alpha", d.arm.dh_alpha)):
+        if values and len(values) != n:
+            fail(path, f"expected {n} values (one per arm joint) or none, got {len(values)}")
+    for path, values in (("arm.mount_xyz", d.arm.mount_xyz), ("tray.xyz", d.tray.xyz)):
+        if len(values) != 3:
+            fail(path, f"expected 3 values (x, y, z), got {len(values)}")
+    for path, values in (("arm.velocity_limits", d.arm.velocity_limits),
+                         ("arm.acceleration_limits", d.arm.acceleration_limits)):
+        for i, v in enumerate(values):
+            if not (math.isfinite(v) and v > 0):
+                fail(f"{path}[{i}]", f"must be positive, got {v}")
+    for path, v in (("base.length", d.base.length), ("base.width", d.base.width),
+                    ("gripper.travel", d.gripper.travel), ("reach", d.reach),
+                    ("tray.inner_length", d.tray.inner_length),
+                    ("tray.inner_width", d.tray.inner_width),
+                    ("tray.rim_height", d.tray.rim_height)):
+        if not (math.isfinite(v) and v > 0):
+            fail(path, f"must be positive, got {v}")
+    if d.base.width > d.base.length:
+        fail("base.width", "the base's x is its long side: width must not exceed length")
+    names = d.joints
+    for i, joint in enumerate(names):
+        if names.index(joint) != i:
+            fail("joints", f"{joint!r} is named twice")
+
+
+def check_model(description: RobotDescription) -> None:
+    """Parses the description's model and checks that it agrees with the description: every
+    joint named, in the model instance's position order, of the right kind (base x and y
+    prismatic, the rest revolute or prismatic as the model has them), with the arm's speed
+    and acceleration limits; every frame named. Raises RobotDescriptionError."""
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.multibody.tree import PrismaticJoint, RevoluteJoint
+
+    from s3o_drake.world.resources import make_parser
+
+    plant = MultibodyPlant(0.0)
+    (model,) = make_parser(plant).AddModels(url=description.model)
+    plant.Finalize()
+    for path, frame in (("base.link", description.base.link),
+                        ("arm.base_link", description.arm.base_link),
+                        ("tool.frame", description.tool.frame),
+                        ("tool.grasp_frame", description.tool.grasp_frame),
+                        ("tray.link", description.tray.link),
+                        ("lidar_link", description.lidar_link)):
+        if frame and not plant.HasFrameNamed(frame, model):
+            raise RobotDescriptionError(path, f"the model has no frame {frame!r}")
+    kinds = {description.base.joints[0]: PrismaticJoint,
+             description.base.joints[1]: PrismaticJoint,
+             description.base.joints[2]: RevoluteJoint}
+    order = []
+    for name in description.joints:
+        if not plant.HasJointNamed(name, model):
+            raise RobotDescriptionError("joints", f"the model has no joint {name!r}")
+        joint = plant.GetJointByName(name, model)
+        if name in kinds and not isinstance(joint, kinds[name]):
+            raise RobotDescriptionError("base.joints", f"{name!r} is a {joint.type_name()} "
+                                        f"joint, expected {kinds[name].__name__}")
+        order.append(joint.position_start())
+    if order != sorted(order) or len(order) != plant.num_positions(model):
+        raise RobotDescriptionError("joints", "the joints must be all of the model's, in the "
+                                    "order of its positions")
+    velocity = plant.GetVelocityUpperLimits()
+    acceleration = plant.GetAccelerationUpperLimits()
+    for i, name in enumerate(description.arm.joints):
+        index = plant.GetJointByName(name, model).velocity_start()
+        for path, given, modelled in (
+                ("arm.velocity_limits", description.arm.velocity_limits[i], velocity[index]),
+                ("arm.acceleration_limits", description.arm.acceleration_limits[i],
+                 acceleration[index])):
+            if not math.isclose(given, modelled, rel_tol=1e-12):
+                raise RobotDescriptionError(f"{path}[{i}]", f"{given} here, {modelled} in "
+                                            f"the model ({name})")

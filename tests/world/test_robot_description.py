@@ -1,0 +1,67 @@
+"""A robot's description file: the shipped UR5e's agrees with its model, and a description
+that cannot be used is refused with the field named."""
+
+import math
+
+import pytest
+
+from s3o_drake.world import robot
+from s3o_drake.world.robot_description import (
+    ROBOTS_DIR,
+    RobotDescriptionError,
+    check_model,
+    load_robot_description,
+    parse_robot_description,
+)
+
+UR5E = (ROBOTS_DIR / "ur5e.yaml").read_text()
+
+
+def test_the_ur5e_description_agrees_with_its_model_and_is_what_the_package_uses():
+    ur5e = load_robot_description("ur5e")
+    check_model(ur5e)
+    assert ur5e == robot.ROBOT
+    assert tuple(ur5e.joints) == robot.ROBOT_JOINTS and robot.NUM_POSITIONS == 11
+    # The stow configuration keeps the gripper pointing down (q2 + q3 + q4 = -pi/2).
+    assert sum(robot.ARM_STOW[1:4]) == pytest.approx(-math.pi / 2, abs=1e-12)
+    assert math.hypot(0.31, 0.28) == pytest.approx(robot.BASE_RADIUS)
+
+
+@pytest.mark.parametrize("old, new, path", [
+    ("velocity_limits: [3.141592653589793, 3.141592653589793, 3.141592653589793,",
+     "velocity_limits: [3.141592653589793, 3.141592653589793, 3.0,", "arm.velocity_limits[2]"),
+    ("acceleration_limits: [5.0, 5.0,", "acceleration_limits: [5.0, 4.0,",
+     "arm.acceleration_limits[1]"),
+    ("wrist_3_joint]", "wrist_4_joint]", "joints"),
+    ("grasp_frame: grasp_frame", "grasp_frame: gripper_tip", "tool.grasp_frame"),
+    ("joints: [base_x, base_y, base_yaw]", "joints: [base_yaw, base_y, base_x]",
+     "base.joints"),
+], ids=["speed", "acceleration", "joint", "frame", "base order"])
+def test_a_description_that_disagrees_with_its_model_is_named(old, new, path):
+    assert UR5E.count(old) == 1
+    with pytest.raises(RobotDescriptionError) as error:
+        check_model(parse_robot_description(UR5E.replace(old, new)))
+    assert error.value.path == path and "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("old, new, path", [
+    ("reach: 1.0", "reach: -1.0", "reach"),
+    ("reach: 1.0", "reach: 1.0\nspeed: 2.0", "speed"),
+    ("stow: [0.0, -1.3,", "stow: [-1.3,", "configurations.stow"),
+    ("dh_d: [0.1625, 0.0, ", "dh_d: [", "arm.dh_d"),
+    ("acceleration_limits: [5.0,", "acceleration_limits: [0.0,", "arm.acceleration_limits[0]"),
+    ("joints: [left_finger_joint, right_finger_joint]",
+     "joints: [left_finger_joint, elbow_joint]", "joints"),
+    ("width: 0.56", "width: wide", "base.width"),
+    ("name: ur5e", "name: ''", "name"),
+], ids=["negative", "unknown field", "stow", "dh", "zero limit", "twice", "type", "empty"])
+def test_a_description_that_cannot_be_used_names_the_field(old, new, path):
+    assert UR5E.count(old) == 1
+    with pytest.raises(RobotDescriptionError) as error:
+        parse_robot_description(UR5E.replace(old, new))
+    assert error.value.path == path and "\n" not in str(error.value)
+
+
+def test_an_unknown_robot_is_refused_with_the_names_of_those_there_are():
+    with pytest.raises(RobotDescriptionError, match=r"no robot named 'r2d2' \(known: .*ur5e"):
+        load_robot_description("r2d2")
