@@ -31,12 +31,12 @@ from s3o_drake.feasibility.pickup_geometry import caught
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.dish_messages import DishPoses, GripEvent
 from s3o_drake.world.goals import place_target_name
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_BASE_JOINTS, NUM_POSITIONS
 from s3o_drake.world.system_lifetime import weak_callback
 
 #: The arm's and the fingers' positions among the robot's 11.
 ARM_AND_FINGERS = slice(3, NUM_POSITIONS)
-NUM_ARM_AND_FINGERS = NUM_POSITIONS - 3
+NUM_ARM_AND_FINGERS = NUM_POSITIONS - NUM_BASE_JOINTS
 #: Stream tag of the reach noise in `numpy.random.default_rng([seed, tag, command id])`
 #: (the navigation noise has its own tag, so the two draws never share numbers).
 REACH_NOISE_STREAM = 2

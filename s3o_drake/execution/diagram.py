@@ -46,13 +46,11 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.builder import build_world_diagram, robot_render_labels
 from s3o_drake.world.choices import Recovery
 from s3o_drake.world.goals import place_target_name, place_targets, with_place_targets
-from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS
+from s3o_drake.world.robot import CONTROL_PERIOD, NUM_BASE_JOINTS, NUM_POSITIONS
 from s3o_drake.world.scenario import Scenario
 
 TIME_LIMIT = 1800.0
 """Simulated seconds after which an execution is stopped whatever its state."""
-BASE_DOFS = 3
-ARM_DOFS = NUM_POSITIONS - BASE_DOFS  # six arm joints and two fingers
 
 
 def desired_state_permutation() -> np.ndarray:
@@ -172,8 +170,9 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
         period=CONTROL_PERIOD, settle_time=scenario.simulation.hold_time,
         time_limit=time_limit, places=place_targets(scenario),
         fixtures=[d.name for d in scenario.dishes if d.goal == "stay"]))
-    mux = builder.AddNamedSystem("desired_state_mux",
-                                 Multiplexer([2 * BASE_DOFS, 2 * ARM_DOFS]))
+    mux = builder.AddNamedSystem(
+        "desired_state_mux",
+        Multiplexer([2 * NUM_BASE_JOINTS, 2 * (NUM_POSITIONS - NUM_BASE_JOINTS)]))
     permute = builder.AddNamedSystem("desired_state_order",
                                      MatrixGain(desired_state_permutation()))
 

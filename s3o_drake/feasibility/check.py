@@ -62,7 +62,7 @@ from s3o_drake.feasibility.grasp_targets import (
 from s3o_drake.feasibility.grasps import Grasp, grasps_for
 from s3o_drake.feasibility.reachability.map import ReachabilityMap, place
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_ARM_JOINTS
 from s3o_drake.world.worker_processes import drake_parallelism
 
 REASONS = ("ok", "base_collision", "out_of_reach", "arm_collision", "no_ik")
@@ -275,7 +275,8 @@ class FeasibilityChecker:
         collides = self.scene.collision.certainly_colliding(bases[rows[open_]])
         ask = open_[~collides]
         if ask.size:
-            qs = self._positions(bases[rows[ask]], np.broadcast_to(ARM_STOW, (ask.size, 6)))
+            stowed = np.broadcast_to(ARM_STOW, (ask.size, NUM_ARM_JOINTS))
+            qs = self._positions(bases[rows[ask]], stowed)
             free[ask] = self._check_configs(qs)
         return free
 
@@ -438,7 +439,7 @@ class FeasibilityChecker:
         """The map's candidates for one query (those the map method tries), if there is a
         map: IK seeded from them confirms every configuration the map finds."""
         if self.reachability is None:
-            return np.zeros((0, 6))
+            return np.zeros((0, NUM_ARM_JOINTS))
         pitches = (0.0, SIDE_PITCH) if spec.kind == "side" else (0.0,)
         parts = []
         for pitch in pitches:

@@ -29,7 +29,7 @@ from pydrake.solvers import SnoptSolver, SolverOptions
 
 from s3o_drake.feasibility.grasps import Grasp
 from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_ARM_JOINTS
 
 #: Grasp-frame tolerances of an IK solution.
 POSITION_TOLERANCE = 0.002
@@ -92,7 +92,7 @@ def _diagram_context(scene: FeasibilityScene, dish: str):
 def random_arm_seeds(count: int, seed: int = 0) -> np.ndarray:
     """`count` deterministic arm configurations spread over the joints' working ranges."""
     rng = np.random.default_rng(seed)
-    seeds = rng.uniform(-np.pi, np.pi, size=(count, 6))
+    seeds = rng.uniform(-np.pi, np.pi, size=(count, NUM_ARM_JOINTS))
     seeds[:, 2] = rng.uniform(-2.8, 2.8, size=count)  # the elbow, away from folding on itself
     return seeds
 
@@ -155,7 +155,7 @@ def solve_grasp_ik(scene: FeasibilityScene, base: np.ndarray, grasp: Grasp, *, d
     options.SetOption(solver.solver_id(), "Major iterations limit", int(max_major_iterations))
     if seeds is None:
         seeds = np.vstack([ARM_STOW, random_arm_seeds(3)])
-    for arm in np.asarray(seeds, dtype=float).reshape(-1, 6):
+    for arm in np.asarray(seeds, dtype=float).reshape(-1, NUM_ARM_JOINTS):
         guess = scene.q(base, arm)
         result = solver.Solve(prog, guess, options)
         if not result.is_success():

@@ -53,11 +53,11 @@ def _dh_all(q: np.ndarray, joints: slice = slice(None)) -> np.ndarray:
 
 
 def _frames(q: np.ndarray) -> list[np.ndarray]:
-    """X_A,i for i = 0..6 (frame 0 is A itself), each (..., 4, 4)."""
+    """X_A,i for i = 0..n (frame 0 is A itself, n the arm's joints), each (..., 4, 4)."""
     T_all = _dh_all(np.asarray(q, dtype=float))
     T = T_all[..., 0, :, :]
     frames = [np.broadcast_to(np.eye(4), T.shape), T]
-    for i in range(1, 6):
+    for i in range(1, len(DH_A)):
         T = T @ T_all[..., i, :, :]
         frames.append(T)
     return frames
@@ -79,12 +79,13 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def jacobian(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """R_AG, p_AG and the geometric Jacobian (..., 6, 6) of G in A: rows ω (3) then v (3)."""
+    """R_AG, p_AG and the geometric Jacobian (..., 6, n) of G in A: rows ω (3) then v (3),
+    a column per arm joint."""
     frames = _frames(q)
     R = frames[-1][..., :3, :3]
     p = frames[-1][..., :3, 3] + TCP_OFFSET * R[..., :, 2]
-    J = np.empty((*p.shape[:-1], 6, 6))
-    for i in range(6):
+    J = np.empty((*p.shape[:-1], 6, len(DH_A)))
+    for i in range(len(DH_A)):
         z = frames[i][..., :3, 2]
         o = frames[i][..., :3, 3]
         J[..., :3, i] = z
@@ -113,7 +114,7 @@ def refine(q: np.ndarray, R_target: np.ndarray, p_target: np.ndarray, *,
     configurations, their rotation errors (rad) and position errors (m) after the steps.
     """
     q = np.array(q, dtype=float)
-    eye = damping * np.eye(6)
+    eye = damping * np.eye(len(DH_A))
     for _ in range(iterations):
         R, p, J = jacobian(q)
         R_err = R_target @ np.swapaxes(R, -1, -2)

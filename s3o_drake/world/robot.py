@@ -50,8 +50,10 @@ GRIPPER_JOINTS = tuple(ROBOT.gripper.joints)
 #: All joints, in the order of the model instance's positions, velocities and actuators.
 ROBOT_JOINTS = BASE_JOINTS + ARM_JOINTS + GRIPPER_JOINTS
 NUM_POSITIONS = len(ROBOT_JOINTS)
-#: The arm's six joints among the robot's positions (and velocities).
-ARM_POSITIONS = slice(len(BASE_JOINTS), len(BASE_JOINTS) + len(ARM_JOINTS))
+NUM_BASE_JOINTS = len(BASE_JOINTS)
+NUM_ARM_JOINTS = len(ARM_JOINTS)
+#: The arm's joints among the robot's positions (and velocities).
+ARM_POSITIONS = slice(NUM_BASE_JOINTS, NUM_BASE_JOINTS + NUM_ARM_JOINTS)
 
 BASE_LINK = ROBOT.base.link
 ARM_BASE_LINK = ROBOT.arm.base_link

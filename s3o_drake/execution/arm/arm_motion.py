@@ -53,11 +53,10 @@ from pydrake.trajectories import (
     Trajectory,
 )
 
-from s3o_drake.world.robot import ARM_POSITIONS, NUM_POSITIONS
+from s3o_drake.world.robot import ARM_POSITIONS, NUM_ARM_JOINTS, NUM_POSITIONS
 
-#: The arm's joints among the robot's 11 positions.
+#: The arm's joints among the robot's positions.
 ARM = ARM_POSITIONS
-NUM_ARM = 6
 #: RRT-Connect's extension step (rad, joint-space distance). OMPL's default (a fifth of the
 #: box's diagonal, ~6 rad for joints that turn ±2π) makes long edges that mostly collide
 #: near tables; a 1 rad step keeps the trees growing.
@@ -169,14 +168,14 @@ def plan_arm_path(checker: SceneGraphCollisionChecker, q_start: np.ndarray, q_go
 
     def to_q(state) -> np.ndarray:
         q = template.copy()
-        q[ARM] = [state[i] for i in range(NUM_ARM)]
+        q[ARM] = [state[i] for i in range(NUM_ARM_JOINTS)]
         return q
 
     _seed_ompl(seed)
     lower, upper = arm_bounds(checker)
-    space = ob.RealVectorStateSpace(NUM_ARM)
-    bounds = ob.RealVectorBounds(NUM_ARM)
-    for i in range(NUM_ARM):
+    space = ob.RealVectorStateSpace(NUM_ARM_JOINTS)
+    bounds = ob.RealVectorBounds(NUM_ARM_JOINTS)
+    for i in range(NUM_ARM_JOINTS):
         bounds.setLow(i, float(lower[i]))
         bounds.setHigh(i, float(upper[i]))
     space.setBounds(bounds)
@@ -185,7 +184,7 @@ def plan_arm_path(checker: SceneGraphCollisionChecker, q_start: np.ndarray, q_go
     si.setMotionValidator(_EdgeValidator(si, to_q, checker))
     si.setup()
     start, goal = si.allocState(), si.allocState()
-    for i in range(NUM_ARM):
+    for i in range(NUM_ARM_JOINTS):
         start[i], goal[i] = float(q_start[ARM][i]), float(q_goal[ARM][i])
     problem = ob.ProblemDefinition(si)
     problem.setStartAndGoalStates(start, goal)
