@@ -5,7 +5,7 @@
 The inverse reachability map stores, per grasp kind, arm configurations on a grid over the
 grasp point's horizontal distance and height from the arm base; the feasibility check
 looks them up in microseconds. The build is deterministic (the same file, whatever
---workers), about 6 minutes on two cores; the shipped map, models/reachability_map.npz, is
+--workers), about 6 minutes on two cores; the shipped map, models/ur5e/reachability_map.npz, is
 replaced only when --out names it.
 """
 

@@ -1,6 +1,6 @@
 """What a pickup's chance of failing costs with recovery, from studies.
 
-    s3o failure-price DIR [DIR ...] [--out models/failure_price.yaml]
+    s3o failure-price DIR [DIR ...] [--out models/ur5e/failure_price.yaml]
 
 DIR: studies run with recovery (`s3o evaluate --recovery retry|replan`). The price is
 seconds of recovery per expected failure, c = sum of recovery time / sum of (1 - Fea^m),
@@ -24,7 +24,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("studies", nargs="+", metavar="DIR",
                         help="study folders run with recovery (their results.jsonl)")
     add_out(parser, file=True, text="where to write the price (default "
-                                    "models/failure_price.yaml)")
+                                    "models/ur5e/failure_price.yaml)")
     return parser.parse_args(argv)
 
 

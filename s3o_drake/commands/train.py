@@ -5,7 +5,7 @@
 Trains on the crops of `s3o build fcn-data` (scenes split at random into training and
 validation, random quarter turns, binary cross entropy against the oracle's probabilities,
 Adam; the epoch with the least validation loss is kept). Writes fcn.pt and metrics.json to
---out; `--out models/fcn` replaces the weights the planner reads. CPU only.
+--out; `--out models/ur5e/fcn` replaces the weights the planner reads. CPU only.
 """
 
 import json
@@ -19,7 +19,7 @@ from s3o_drake.feasibility.learned.train_config import TrainConfig
 from s3o_drake.world.resources import FCN_WEIGHTS, REPO_DIR
 
 DEFAULT_OUT = Path("out") / "fcn"
-"""Where the weights go unless --out says otherwise: not over the shipped models/fcn/."""
+"""Where the weights go unless --out says otherwise: not over the shipped models/ur5e/fcn/."""
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -33,7 +33,7 @@ RIM_INSET = 0.01
 # Half the height of a finger pad seen from the side (m), for side grasps.
 PAD_HALF_HEIGHT = 0.015
 # Radius about the approach axis of what follows the grasp point along it (m): the gripper's
-# body (0.04) and the UR5e's wrist housings (0.045, models/robot). In a side grasp they pass
+# body (0.04) and the UR5e's wrist housings (0.045, models/ur5e). In a side grasp they pass
 # over the table top, so they set the lowest grasp height.
 WRIST_RADIUS = 0.045
 

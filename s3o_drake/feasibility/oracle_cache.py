@@ -26,14 +26,13 @@ from pathlib import Path
 
 import numpy as np
 
-from s3o_drake.world.resources import MODELS_DIR
+from s3o_drake.world.resources import DEFAULT_ROBOT, MODELS_DIR, robot_dir
 
 CACHE_VARIABLE = "S3O_CACHE"
 """The environment variable that names the cache's folder."""
 
 _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 _SOURCE_SUFFIXES = (".py", ".lp", ".yaml")
-_MODEL_FOLDERS = ("robot", "furniture")
 
 
 @contextlib.contextmanager
@@ -56,10 +55,11 @@ def cache_folder() -> Path | None:
 
 @functools.lru_cache(maxsize=1)
 def code_digest() -> str:
-    """SHA-256 over the package's source files and the robot's and furniture's model files
-    (their paths and bytes): what computes a map besides its arguments."""
+    """SHA-256 over the package's source files, the furniture's model files and the robot's
+    files (its description, model and reachability map; not the network's weights in its
+    subfolder), their paths and bytes: what computes a map besides its arguments."""
     files = [p for p in _PACKAGE_DIR.rglob("*") if p.suffix in _SOURCE_SUFFIXES]
-    files += [p for folder in _MODEL_FOLDERS for p in (MODELS_DIR / folder).rglob("*")]
+    files += [*(MODELS_DIR / "furniture").rglob("*"), *robot_dir(DEFAULT_ROBOT).glob("*")]
     digest = hashlib.sha256()
     for path in sorted(p for p in files if p.is_file()):
         digest.update(path.as_posix().encode())

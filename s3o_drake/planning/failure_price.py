@@ -13,7 +13,7 @@ the recoveries the corrections and retries of that dish). It is a ratio estimato
 calibrated Fea^m the expected number of failures is Σ (1 - Fea^m), and recoveries that Fea^m
 does not foresee (a correction after a poor landing) are priced in too. `derive_price` computes
 it; `s3o failure-price` derives it from studies and records it in
-models/failure_price.yaml; `priced_planner` applies it.
+models/ur5e/failure_price.yaml; `priced_planner` applies it.
 """
 
 from __future__ import annotations
@@ -29,10 +29,10 @@ import numpy as np
 import yaml
 
 from s3o_drake.world.choices import Recovery
-from s3o_drake.world.resources import MODELS_DIR
+from s3o_drake.world.resources import FAILURE_PRICE
 from s3o_drake.world.settings import PlanningSettings, Settings
 
-PRICE_FILE = MODELS_DIR / "failure_price.yaml"
+PRICE_FILE = FAILURE_PRICE
 FORMAT = "s3o_drake.FailurePrice/1"
 RECOVERY_KINDS = ("correction", "retry")
 """The recoveries a pickup that may fail costs: moves to a better stop, and tries again."""

@@ -21,7 +21,7 @@ execution time is predicted as
   t = 0; the run ends when the planner reads the last report, without the next hand-over).
 
 γ, δ and T_0 are derived by `s3o build time-model` and recorded in
-models/time_model.yaml (`TimeModel`), which everything reads: the pickup's duration is the
+models/ur5e/time_model.yaml (`TimeModel`), which everything reads: the pickup's duration is the
 arm's, and changes with it (re-run the command after changing the arm's motion).
 
 The utility keeps the paper's form, R(goto) = -Cst(goto) with Cst = time + γ, and
@@ -143,7 +143,7 @@ class PickupModel:
 
 @dataclass(frozen=True)
 class TimeModel:
-    """The recorded time model (models/time_model.yaml): the command overheads, the pickup
+    """The recorded time model (models/ur5e/time_model.yaml): the command overheads, the pickup
     model, and how they were made (`provenance`, `fit`)."""
 
     overheads: Overheads

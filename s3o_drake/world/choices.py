@@ -17,7 +17,7 @@ class FeasibilitySource(str, Enum):
     ORACLE = "oracle"
     """The Drake check of the known world under the noise model."""
     FCN = "fcn"
-    """The network of models/fcn/, on the overhead depth image."""
+    """The network of models/ur5e/fcn/, on the overhead depth image."""
 
 
 FEASIBILITY_SOURCES = tuple(s.value for s in FeasibilitySource)

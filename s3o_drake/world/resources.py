@@ -22,10 +22,21 @@ LAYOUTS = {"spacious": (RESTAURANT, TASKS_DIR),
            "dense": (RESTAURANT_DENSE, SCENARIOS_DIR / "generated_dense")}
 """Each benchmark layout (its `room.layout`): its base scenario and its shipped tasks."""
 DIAGRAMS_DIR = REPO_DIR / "diagrams"
-ROBOT_URDF = MODELS_DIR / "robot" / "mobile_manipulator.urdf"
-FCN_WEIGHTS = MODELS_DIR / "fcn" / "fcn.pt"
-REACHABILITY_MAP = MODELS_DIR / "reachability_map.npz"
-TIME_MODEL = MODELS_DIR / "time_model.yaml"
+DEFAULT_ROBOT = "ur5e"
+"""The robot the package plans and executes for: its folder under models/."""
+
+
+def robot_dir(name: str) -> Path:
+    """A robot's folder: its description (robot.yaml), its model, and what was built for
+    it (reachability map, time model, failure price, the network's weights)."""
+    return MODELS_DIR / name
+
+
+ROBOT_URDF = robot_dir(DEFAULT_ROBOT) / "mobile_manipulator.urdf"
+FCN_WEIGHTS = robot_dir(DEFAULT_ROBOT) / "fcn" / "fcn.pt"
+REACHABILITY_MAP = robot_dir(DEFAULT_ROBOT) / "reachability_map.npz"
+TIME_MODEL = robot_dir(DEFAULT_ROBOT) / "time_model.yaml"
+FAILURE_PRICE = robot_dir(DEFAULT_ROBOT) / "failure_price.yaml"
 
 
 def models_dir() -> Path:

@@ -1,9 +1,9 @@
 """The mobile manipulator: its model file, joint layout, named configurations and footprint.
 
-The values come from the robot's description (``models/robot/ur5e.yaml``, read by
+The values come from the robot's description (``models/ur5e/robot.yaml``, read by
 `world/robot_description`); the names below are the package's view of it.
 
-The model (``models/robot/mobile_manipulator.urdf``) is built from primitives: an RMP-110-class
+The model (``models/ur5e/mobile_manipulator.urdf``) is built from primitives: an RMP-110-class
 base (footprint ``BASE_LENGTH`` x ``BASE_WIDTH``, ~100 kg) carrying a VLP-16-class lidar, a dish
 tray and a pedestal, a UR5e arm (standard DH parameters) on the pedestal, and a Robotiq
 2F-140-class parallel gripper. The base moves on three actuated joints from the world

@@ -1,4 +1,4 @@
-"""A mobile manipulator as data: its description file (models/robot/<name>.yaml) next to
+"""A mobile manipulator as data: its description file (models/<name>/robot.yaml) next to
 its model.
 
 The description names what the planner and the execution need to know of a robot: the
@@ -18,12 +18,11 @@ from pathlib import Path
 
 from pydrake.common.yaml import yaml_load_typed
 
-from s3o_drake.world.resources import MODELS_DIR
+from s3o_drake.world.resources import DEFAULT_ROBOT, MODELS_DIR, robot_dir
 from s3o_drake.world.yaml_checks import FieldError, check_structure, load_yaml
 
-ROBOTS_DIR = MODELS_DIR / "robot"
-"""Where the shipped descriptions are, one `<name>.yaml` each."""
-DEFAULT_ROBOT = "ur5e"
+DESCRIPTION_FILE = "robot.yaml"
+"""A robot's description, in its folder (`resources.robot_dir`)."""
 
 
 @dataclass
@@ -117,11 +116,16 @@ class RobotDescriptionError(FieldError):
     """A description that cannot be used, located by its field path; one line."""
 
 
+def robot_names() -> list[str]:
+    """The shipped robots: the folders of models/ with a description."""
+    return sorted(p.parent.name for p in MODELS_DIR.glob(f"*/{DESCRIPTION_FILE}"))
+
+
 def robot_description_path(name: str) -> Path:
     """The shipped description of robot `name`."""
-    path = ROBOTS_DIR / f"{name}.yaml"
+    path = robot_dir(name) / DESCRIPTION_FILE
     if not path.is_file():
-        known = ", ".join(sorted(p.stem for p in ROBOTS_DIR.glob("*.yaml")))
+        known = ", ".join(robot_names())
         raise RobotDescriptionError("robot", f"no robot named {name!r} (known: {known})")
     return path
 

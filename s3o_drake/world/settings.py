@@ -24,7 +24,7 @@ class PlanningSettings:
     cost_profile: str = "robot"
     """The utility's costs (planning/time_model.py): "robot", the execution's predicted
     time (the base navigator's motion profile along the path, turns included, and the
-    recorded pickup and command times of models/time_model.yaml); or "paper", the paper's
+    recorded pickup and command times of models/ur5e/time_model.yaml); or "paper", the paper's
     Cst(goto) = len / v + γ and δ below."""
     delta: float = 5.0
     """δ: constant cost of a pickup (the "paper" cost profile)."""
@@ -55,14 +55,14 @@ class PlanningSettings:
     failure_price: str = "execution"
     """What a pickup's chance of failing costs the utility, λ (1 - Fea^m): "execution", λ
     below in open loop (a failed pickup loses the dish) and with recovery the recovery's
-    recorded time per expected failure (models/failure_price.yaml: `s3o failure-price`);
+    recorded time per expected failure (models/ur5e/failure_price.yaml: `s3o failure-price`);
     "paper", λ whatever the execution does. With recovery, "execution" was measured 4-8 %
     faster at the same completion (docs/abstraction.md)."""
     time_budget: float = 300.0
     """Wall-clock cap on planning (s)."""
     workers: int = 2
     feasibility: str = "fcn"
-    """Source of the Fea^m heatmaps: "fcn" (the network in models/fcn/, from the overhead
+    """Source of the Fea^m heatmaps: "fcn" (the network in models/ur5e/fcn/, from the overhead
     depth image) or "oracle" (the Drake check under the noise model, on the known world).
     The default is measured: on 6 held-out tasks S3O-GROP* completed 3 with the network and
     none with the oracle, collected 85% against 64% of the dishes, and planned in 4.9 s

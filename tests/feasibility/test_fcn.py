@@ -28,7 +28,7 @@ from s3o_drake.world.goals import with_place_targets
 from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
-WEIGHTS = REPO / "models" / "fcn" / "fcn.pt"
+WEIGHTS = REPO / "models" / "ur5e" / "fcn" / "fcn.pt"
 
 
 def _synthetic(count: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

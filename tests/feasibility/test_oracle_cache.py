@@ -88,18 +88,21 @@ def test_the_code_digest_changes_with_a_source_file_or_the_robot_model(tmp_path,
                                                                         monkeypatch):
     package, models = tmp_path / "package", tmp_path / "models"
     (package / "feasibility").mkdir(parents=True)
-    (models / "robot").mkdir(parents=True)
+    (models / "ur5e" / "fcn").mkdir(parents=True)
+    (models / "furniture").mkdir()
     (package / "feasibility" / "oracle.py").write_text("A = 1\n")
-    (models / "robot" / "robot.urdf").write_text("<robot/>")
+    (models / "ur5e" / "robot.urdf").write_text("<robot/>")
     monkeypatch.setattr(oracle_cache, "_PACKAGE_DIR", package)
     monkeypatch.setattr(oracle_cache, "MODELS_DIR", models)
+    monkeypatch.setattr(oracle_cache, "robot_dir", lambda name: models / name)
     digest = oracle_cache.code_digest.__wrapped__
     before = digest()
     (package / "notes.txt").write_text("not code")
+    (models / "ur5e" / "fcn" / "fcn.pt").write_bytes(b"weights")  # the network's: no map's
     assert digest() == before
     (package / "feasibility" / "oracle.py").write_text("A = 2\n")
     edited = digest()
-    (models / "robot" / "robot.urdf").write_text("<robot name='other'/>")
+    (models / "ur5e" / "robot.urdf").write_text("<robot name='other'/>")
     assert len({before, edited, digest()}) == 3
 
 

@@ -67,7 +67,7 @@ def test_overheads_follow_the_control_period():
 
 
 def test_the_recorded_model_was_made_from_the_code_as_it_is():
-    """A stale models/time_model.yaml (the navigator's or the systems' timing changed since
+    """A stale models/ur5e/time_model.yaml (the navigator's or the systems' timing changed since
     it was derived) fails here: re-run `s3o build time-model`."""
     model = TimeModel.load()
     o = command_overheads(CONTROL_PERIOD, base_motion.SETTLE_TIME)

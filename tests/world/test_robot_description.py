@@ -7,14 +7,14 @@ import pytest
 
 from s3o_drake.world import robot
 from s3o_drake.world.robot_description import (
-    ROBOTS_DIR,
     RobotDescriptionError,
     check_model,
     load_robot_description,
     parse_robot_description,
+    robot_description_path,
 )
 
-UR5E = (ROBOTS_DIR / "ur5e.yaml").read_text()
+UR5E = robot_description_path("ur5e").read_text()
 
 
 def test_the_ur5e_description_agrees_with_its_model_and_is_what_the_package_uses():

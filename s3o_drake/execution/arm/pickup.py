@@ -108,7 +108,7 @@ class PickupPlan:
 
 def segment_limits(plant: MultibodyPlant, name: str) -> tuple[np.ndarray, np.ndarray]:
     """Speed and acceleration limits of the 11 positions in segment `name`: the arm's from
-    the robot model (the UR5e's; models/robot/mobile_manipulator.urdf), the fingers' the
+    the robot model (the UR5e's; models/ur5e/mobile_manipulator.urdf), the fingers' the
     gentler FINGER_MAX_*, all times SLOW in SLOW_SEGMENTS; the base does not move within a
     pickup (the model's limits, unused)."""
     v, a = joint_limits(plant)

@@ -57,7 +57,7 @@ from s3o_drake.world.resources import FCN_WEIGHTS
 from s3o_drake.world.scenario import Scenario
 
 DEFAULT_WEIGHTS = FCN_WEIGHTS
-"""The shipped network (see models/fcn/README.md for the commands that made it)."""
+"""The shipped network (see models/ur5e/fcn/README.md for the commands that made it)."""
 LABEL_REACH_STD = 0.01
 """The reach noise (m) of the training labels: the restaurant's (scenarios/restaurant.yaml),
 whose settings the dataset's scenes keep."""

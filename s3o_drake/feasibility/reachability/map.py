@@ -117,7 +117,7 @@ class ReachabilityMap:
 
     @classmethod
     def load(cls, path: str | Path | None = None, *, check_robot: bool = True) -> "ReachabilityMap":
-        """Reads a map file (default: the shipped models/reachability_map.npz).
+        """Reads a map file (default: the shipped models/ur5e/reachability_map.npz).
 
         Raises ReachabilityMapError naming the build command when the file is missing, or
         when it was built for a different robot model (`check_robot=False` skips that test).
