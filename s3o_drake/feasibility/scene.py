@@ -30,6 +30,7 @@ from s3o_drake.world.robot import (
     ARM_STOW,
     GRASP_FRAME,
     GRIPPER_OPEN,
+    ROBOT,
     robot_positions,
 )
 from s3o_drake.world.worker_processes import drake_parallelism
@@ -38,7 +39,7 @@ from s3o_drake.world.worker_processes import drake_parallelism
 # from every obstacle, and the base keeps the same small margin.
 ENVIRONMENT_PADDING = 0.01
 # Robot bodies that may touch the dish being grasped.
-GRIPPER_BODIES = ("gripper_base", "left_finger", "right_finger")
+GRIPPER_BODIES = tuple(ROBOT.gripper.bodies)
 # Collision checker edge step (rad or m); only used when checking motions.
 EDGE_STEP = 0.05
 

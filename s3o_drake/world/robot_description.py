@@ -69,6 +69,8 @@ class ToolDescription:
 @dataclass
 class GripperDescription:
     joints: list[str] = field(default_factory=list)
+    bodies: list[str] = field(default_factory=list)
+    """The bodies that may touch the object being grasped (palm and fingers)."""
     travel: float = 0.0
     """Travel of each finger (m); the opening is the sum of the fingers' positions."""
 
@@ -163,6 +165,8 @@ def _check_values(d: RobotDescription) -> None:
                         ("arm.limits_source", d.arm.limits_source)):
         if not value.strip():
             fail(path, "must be given")
+    if not d.gripper.bodies:
+        fail("gripper.bodies", "must name the bodies that touch a grasped object")
     if len(d.base.joints) != 3:
         fail("base.joints", f"expected 3 joints (x, y, yaw), got {len(d.base.joints)}")
     n = len(d.arm.joints)
@@ -204,7 +208,7 @@ def check_model(description: RobotDescription) -> None:
     """Parses the description's model and checks that it agrees with the description: every
     joint named, in the model instance's position order, of the right kind (base x and y
     prismatic, the rest revolute or prismatic as the model has them), with the arm's speed
-    and acceleration limits; every frame named. Raises RobotDescriptionError."""
+    and acceleration limits; every frame and body named. Raises RobotDescriptionError."""
     from pydrake.multibody.plant import MultibodyPlant
     from pydrake.multibody.tree import PrismaticJoint, RevoluteJoint
 
@@ -221,6 +225,9 @@ def check_model(description: RobotDescription) -> None:
                         ("lidar_link", description.lidar_link)):
         if frame and not plant.HasFrameNamed(frame, model):
             raise RobotDescriptionError(path, f"the model has no frame {frame!r}")
+    for body in description.gripper.bodies:
+        if not plant.HasBodyNamed(body, model):
+            raise RobotDescriptionError("gripper.bodies", f"the model has no body {body!r}")
     kinds = {description.base.joints[0]: PrismaticJoint,
              description.base.joints[1]: PrismaticJoint,
              description.base.joints[2]: RevoluteJoint}

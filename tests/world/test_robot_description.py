@@ -34,9 +34,10 @@ def test_the_ur5e_description_agrees_with_its_model_and_is_what_the_package_uses
      "arm.acceleration_limits[1]"),
     ("wrist_3_joint]", "wrist_4_joint]", "joints"),
     ("grasp_frame: grasp_frame", "grasp_frame: gripper_tip", "tool.grasp_frame"),
+    ("bodies: [gripper_base,", "bodies: [palm,", "gripper.bodies"),
     ("joints: [base_x, base_y, base_yaw]", "joints: [base_yaw, base_y, base_x]",
      "base.joints"),
-], ids=["speed", "acceleration", "joint", "frame", "base order"])
+], ids=["speed", "acceleration", "joint", "frame", "body", "base order"])
 def test_a_description_that_disagrees_with_its_model_is_named(old, new, path):
     assert UR5E.count(old) == 1
     with pytest.raises(RobotDescriptionError) as error:
