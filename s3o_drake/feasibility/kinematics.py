@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from s3o_drake.feasibility.dh_chain import DHChain
 from s3o_drake.world.angles import wrap
 from s3o_drake.world.robot import GRASP_OFFSET, ROBOT
 
@@ -34,63 +35,15 @@ def _dh(q: np.ndarray, i: int) -> np.ndarray:
     return _dh_all(np.asarray(q, dtype=float)[..., None], slice(i, i + 1))[..., 0, :, :]
 
 
-_CA, _SA = np.cos(DH_ALPHA), np.sin(DH_ALPHA)
-
-
-def _dh_all(q: np.ndarray, joints: slice = slice(None)) -> np.ndarray:
-    """DH transforms of the joints for angles q (..., j): (..., j, 4, 4), all at once.
-
-    One array operation per matrix entry for all joints and configurations, so that a
-    handful of configurations costs a few dozen numpy calls, not hundreds.
-    """
-    c, s = np.cos(q), np.sin(q)
-    ca, sa, a, d = _CA[joints], _SA[joints], DH_A[joints], DH_D[joints]
-    T = np.zeros((*q.shape, 4, 4))
-    T[..., 0, 0], T[..., 0, 1], T[..., 0, 2], T[..., 0, 3] = c, -s * ca, s * sa, a * c
-    T[..., 1, 0], T[..., 1, 1], T[..., 1, 2], T[..., 1, 3] = s, c * ca, -c * sa, a * s
-    T[..., 2, 1], T[..., 2, 2], T[..., 2, 3], T[..., 3, 3] = sa, ca, d, 1.0
-    return T
-
-
-def _frames(q: np.ndarray) -> list[np.ndarray]:
-    """X_A,i for i = 0..n (frame 0 is A itself, n the arm's joints), each (..., 4, 4)."""
-    T_all = _dh_all(np.asarray(q, dtype=float))
-    T = T_all[..., 0, :, :]
-    frames = [np.broadcast_to(np.eye(4), T.shape), T]
-    for i in range(1, len(DH_A)):
-        T = T @ T_all[..., i, :, :]
-        frames.append(T)
-    return frames
-
-
-def forward(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """X_AG of configurations q (..., 6): rotations (..., 3, 3), positions (..., 3)."""
-    T6 = _frames(q)[-1]
-    R = T6[..., :3, :3]
-    return R, T6[..., :3, 3] + TCP_OFFSET * R[..., :, 2]
-
-
-def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """u x v over the last axis: `np.cross` without its per-call axis handling, which
-    dominated Newton steps on a few configurations."""
-    return np.stack([u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1],
-                     u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2],
-                     u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]], axis=-1)
-
-
-def jacobian(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """R_AG, p_AG and the geometric Jacobian (..., 6, n) of G in A: rows ω (3) then v (3),
-    a column per arm joint."""
-    frames = _frames(q)
-    R = frames[-1][..., :3, :3]
-    p = frames[-1][..., :3, 3] + TCP_OFFSET * R[..., :, 2]
-    J = np.empty((*p.shape[:-1], 6, len(DH_A)))
-    for i in range(len(DH_A)):
-        z = frames[i][..., :3, 2]
-        o = frames[i][..., :3, 3]
-        J[..., :3, i] = z
-        J[..., 3:, i] = _cross(z, p - o)
-    return R, p, J
+CHAIN = DHChain(DH_A, DH_D, DH_ALPHA, modified=ROBOT.arm.dh_convention == "modified",
+                tool_offset=TCP_OFFSET)
+"""The arm chain from A to G."""
+_dh_all = CHAIN.transforms
+_frames = CHAIN.frames
+forward = CHAIN.forward
+"""X_AG of configurations q (..., 6): rotations (..., 3, 3), positions (..., 3)."""
+jacobian = CHAIN.jacobian
+"""R_AG, p_AG and the geometric Jacobian (..., 6, 6) of G in A: rows ω (3) then v (3)."""
 
 
 def pose_error(R: np.ndarray, p: np.ndarray, R_target: np.ndarray,

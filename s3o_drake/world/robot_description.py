@@ -21,6 +21,8 @@ from pydrake.common.yaml import yaml_load_typed
 from s3o_drake.world.resources import DEFAULT_ROBOT, MODELS_DIR, robot_dir
 from s3o_drake.world.yaml_checks import FieldError, check_structure, load_yaml
 
+DH_CONVENTIONS = ("standard", "modified")
+"""Classic DH, and Craig's (feasibility/dh_chain.py)."""
 DESCRIPTION_FILE = "robot.yaml"
 """A robot's description, in its folder (`resources.robot_dir`)."""
 
@@ -47,8 +49,10 @@ class ArmDescription:
     acceleration_limits: list[float] = field(default_factory=list)
     """rad/s², per joint."""
     limits_source: str = ""
+    dh_convention: str = "standard"
+    """Of the DH parameters below: "standard" (classic) or "modified" (Craig's)."""
     dh_a: list[float] = field(default_factory=list)
-    """Standard DH parameters of the chain from `base_link` to the tool frame (m, m, rad)."""
+    """DH parameters of the chain from `base_link` to the tool frame (m, m, rad)."""
     dh_d: list[float] = field(default_factory=list)
     dh_alpha: list[float] = field(default_factory=list)
     kinematics_source: str = ""
@@ -165,6 +169,9 @@ def _check_values(d: RobotDescription) -> None:
                         ("arm.limits_source", d.arm.limits_source)):
         if not value.strip():
             fail(path, "must be given")
+    if d.arm.dh_convention not in DH_CONVENTIONS:
+        fail("arm.dh_convention",
+             f"expected one of {', '.join(DH_CONVENTIONS)}, got {d.arm.dh_convention!r}")
     if not d.gripper.bodies:
         fail("gripper.bodies", "must name the bodies that touch a grasped object")
     if len(d.base.joints) != 3:

@@ -55,7 +55,9 @@ def test_a_description_that_disagrees_with_its_model_is_named(old, new, path):
      "joints: [left_finger_joint, elbow_joint]", "joints"),
     ("width: 0.56", "width: wide", "base.width"),
     ("name: ur5e", "name: ''", "name"),
-], ids=["negative", "unknown field", "stow", "dh", "zero limit", "twice", "type", "empty"])
+    ("dh_convention: standard", "dh_convention: craig", "arm.dh_convention"),
+], ids=["negative", "unknown field", "stow", "dh", "zero limit", "twice", "type", "empty",
+        "convention"])
 def test_a_description_that_cannot_be_used_names_the_field(old, new, path):
     assert UR5E.count(old) == 1
     with pytest.raises(RobotDescriptionError) as error:
