@@ -37,8 +37,8 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.tree import ModelInstanceIndex
 from shapely.geometry import Polygon
 
-from s3o_drake.world.resources import PACKAGE_NAME, models_dir
-from s3o_drake.world.robot_description import DEFAULT_ROBOT, load_robot_description
+from s3o_drake.world.resources import DEFAULT_ROBOT, PACKAGE_NAME, models_dir
+from s3o_drake.world.robot_description import load_robot_description
 
 ROBOT = load_robot_description(DEFAULT_ROBOT)
 """The description of the robot the package plans and executes for."""

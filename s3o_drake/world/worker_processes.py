@@ -31,8 +31,10 @@ import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing.context import BaseContext
+from typing import TYPE_CHECKING
 
-from pydrake.common import Parallelism
+if TYPE_CHECKING:  # pydrake is imported where Drake's parallelism is asked for
+    from pydrake.common import Parallelism
 
 
 def worker_context(preload: Sequence[str]) -> BaseContext:
@@ -75,6 +77,8 @@ project reads it at each use instead (`drake_parallelism`)."""
 def drake_parallelism() -> Parallelism:
     """The threads this process gives Drake's parallel work: THREADS_VARIABLE as the
     environment says now (a pool's worker: its share of the cores), else all the cores."""
+    from pydrake.common import Parallelism
+
     threads = os.environ.get(THREADS_VARIABLE, "")
     return Parallelism(int(threads)) if threads.isdigit() and int(threads) > 0 \
         else Parallelism(core_count())
