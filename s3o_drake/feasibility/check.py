@@ -62,7 +62,7 @@ from s3o_drake.feasibility.grasp_targets import (
 from s3o_drake.feasibility.grasps import Grasp, grasps_for
 from s3o_drake.feasibility.reachability.map import ReachabilityMap, place
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_ARM_JOINTS
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_ARM_JOINTS, NUM_POSITIONS
 from s3o_drake.world.worker_processes import drake_parallelism
 
 REASONS = ("ok", "base_collision", "out_of_reach", "arm_collision", "no_ik")
@@ -86,7 +86,7 @@ SIDE_PITCH = 0.9 * ik.ANGLE_TOLERANCE
 class CheckResult:
     """The answer of one check.
 
-    feasible: whether the robot can pick the dish from where it stands; q: its 11 positions
+    feasible: whether the robot can pick the dish from where it stands; q: its positions
     at the grasp (gripper open) when feasible, else None; grasp: "top" or "side" when
     feasible; reason: "ok", or why not: "base_collision" (the base itself collides),
     "out_of_reach" (no arm configuration reaches any grasp, obstacles aside),
@@ -204,12 +204,13 @@ class FeasibilityChecker:
     def first_grasps(self, bases: np.ndarray, dish: str, reach_offsets: np.ndarray | None = None
                      ) -> tuple[np.ndarray, np.ndarray, list[str | None]]:
         """`check`'s answers for base poses (n, 3) at once, as arrays: feasible (n,), the
-        configurations q (n, 11) (NaN where infeasible) and the grasp kinds (None there)."""
+        configurations q (n, NUM_POSITIONS) (NaN where infeasible) and the grasp kinds (None
+        there)."""
         bases = np.asarray(bases, dtype=float).reshape(-1, 3)
         if reach_offsets is not None:
             reach_offsets = reach_offset_rows(reach_offsets, len(bases))
         if len(bases) == 0:
-            return np.zeros(0, dtype=bool), np.zeros((0, 11)), []
+            return np.zeros(0, dtype=bool), np.zeros((0, NUM_POSITIONS)), []
         out = self._run(bases, dish, reach_offsets, details=False)
         specs = self._specs_for(dish)
         kinds = [specs[g].kind if ok else None
@@ -301,7 +302,7 @@ class FeasibilityChecker:
     def _run(self, bases: np.ndarray, dish: str, offsets: np.ndarray | None, *,
              details: bool) -> _Batch:
         n = len(bases)
-        batch = _Batch(feasible=np.zeros(n, dtype=bool), q=np.full((n, 11), np.nan),
+        batch = _Batch(feasible=np.zeros(n, dtype=bool), q=np.full((n, NUM_POSITIONS), np.nan),
                        grasp=np.full(n, -1), reason=np.full(n, REASONS.index("out_of_reach")))
         geometry = self._geometry(bases, dish, offsets)
         if self.method == "map":
@@ -314,7 +315,7 @@ class FeasibilityChecker:
                            pitch: float = 0.0, *,
                            compact: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """The map's configurations for queries `rows`, turned to their bearing and wrist
-        turn: (m, K, 6) and validity (m, K), in the map's try order (valid slots first
+        turn: (m, K, n) and validity (m, K), in the map's try order (valid slots first
         when `compact`)."""
         rho, h, bearing = (g[rows] for g in geometry[spec_index])
         q, valid = self.reachability.candidates_many(spec.kind, rho, h + MAP_LIFT, pitch=pitch)
@@ -360,7 +361,7 @@ class FeasibilityChecker:
                 if checker.CheckConfigCollisionFree(q_full):
                     yield CheckResult(True, q_full, spec.kind, "ok")
         if reachable and self.fallback_ik:
-            batch = _Batch(feasible=np.zeros(1, dtype=bool), q=np.full((1, 11), np.nan),
+            batch = _Batch(feasible=np.zeros(1, dtype=bool), q=np.full((1, NUM_POSITIONS), np.nan),
                            grasp=np.full(1, -1), reason=np.zeros(1, dtype=int))
             self._fallback(batch, 0, base, dish, None if offsets is None else offsets[0],
                            geometry)

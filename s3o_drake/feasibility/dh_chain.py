@@ -8,7 +8,8 @@ Any number of revolute joints, in either convention that manufacturers publish:
   T_{i-1,i} = Rx(alpha_i) Tx(a_i) Rz(q_i) Tz(d_i), with alpha_i and a_i from row i of the
   table (the Franka family's published table).
 
-The tool point is `tool_offset` along z of the last frame. Drake's plant stays the reference:
+The tool frame is the last frame moved `tool_offset` along its z and turned `tool_yaw` about
+it (a hand mounted at an angle to the flange). Drake's plant stays the reference:
 the chain is what lets thousands of configurations be moved per call without a context.
 """
 
@@ -27,7 +28,9 @@ class DHChain:
     modified: bool = False
     """Craig's convention (see the module docstring); standard DH otherwise."""
     tool_offset: float = 0.0
-    """The tool point along z of the last frame (m)."""
+    """The tool frame along z of the last frame (m)."""
+    tool_yaw: float = 0.0
+    """The tool frame turned about that z (rad)."""
     _ca: np.ndarray = field(init=False, repr=False)
     _sa: np.ndarray = field(init=False, repr=False)
 
@@ -74,16 +77,22 @@ class DHChain:
     def forward(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The tool's pose for configurations q (..., n): rotations (..., 3, 3), positions
         (..., 3)."""
-        last = self.frames(q)[-1]
+        return self._tool(self.frames(q)[-1])
+
+    def _tool(self, last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The tool's rotation and position from the last frame's transforms."""
         R = last[..., :3, :3]
-        return R, last[..., :3, 3] + self.tool_offset * R[..., :, 2]
+        p = last[..., :3, 3] + self.tool_offset * R[..., :, 2]
+        if self.tool_yaw:
+            c, s = np.cos(self.tool_yaw), np.sin(self.tool_yaw)
+            R = R @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return R, p
 
     def jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The tool's rotation, position and geometric Jacobian (..., 6, n) in the base
         frame: rows ω (3) then v (3), a column per joint."""
         frames = self.frames(q)
-        R = frames[-1][..., :3, :3]
-        p = frames[-1][..., :3, 3] + self.tool_offset * R[..., :, 2]
+        R, p = self._tool(frames[-1])
         J = np.empty((*p.shape[:-1], 6, self.joints))
         # Joint i turns about z of frame i-1 (standard) or of frame i (modified).
         first = 1 if self.modified else 0

@@ -101,9 +101,7 @@ def exhaustive_ik_seeds(spec: GraspSpec, rho: float, h: float, bearing: float,
     order = np.argsort(np.hypot(d_rho, d_h).ravel(), kind="stable")
     p = np.stack([rho + d_rho.ravel(), np.zeros(d_rho.size), h + d_h.ravel()], axis=1)[order]
     solutions = kin.inverse(R, p)
-    R_check, p_check = kin.forward(np.nan_to_num(solutions))
-    angle, distance = kin.pose_error(R_check, p_check, R[:, None], p[:, None])
-    exact = ~np.isnan(solutions).any(axis=-1) & (angle < 1e-6) & (distance < 1e-6)
+    exact = kin.ARM.exact(solutions, R, p)
     hits = np.flatnonzero(exact.any(axis=1))
     if hits.size == 0:
         return None

@@ -27,9 +27,16 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.inverse_kinematics import InverseKinematics
 from pydrake.solvers import SnoptSolver, SolverOptions
 
+from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.grasps import Grasp
 from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_ARM_JOINTS
+from s3o_drake.world.robot import (
+    ARM_POSITIONS,
+    ARM_STOW,
+    GRIPPER_OPEN,
+    NUM_ARM_JOINTS,
+    NUM_BASE_JOINTS,
+)
 
 #: Grasp-frame tolerances of an IK solution.
 POSITION_TOLERANCE = 0.002
@@ -91,10 +98,7 @@ def _diagram_context(scene: FeasibilityScene, dish: str):
 
 def random_arm_seeds(count: int, seed: int = 0) -> np.ndarray:
     """`count` deterministic arm configurations spread over the joints' working ranges."""
-    rng = np.random.default_rng(seed)
-    seeds = rng.uniform(-np.pi, np.pi, size=(count, NUM_ARM_JOINTS))
-    seeds[:, 2] = rng.uniform(-2.8, 2.8, size=count)  # the elbow, away from folding on itself
-    return seeds
+    return kin.ARM.random_configurations(count, seed)
 
 
 def grasp_error(scene: FeasibilityScene, q: np.ndarray,
@@ -126,10 +130,10 @@ def solve_grasp_ik(scene: FeasibilityScene, base: np.ndarray, grasp: Grasp, *, d
                    max_major_iterations: int = MAX_MAJOR_ITERATIONS,
                    position_tolerance: float = POSITION_TOLERANCE,
                    angle_tolerance: float = ANGLE_TOLERANCE) -> np.ndarray | None:
-    """The robot's 11 positions grasping `grasp` with the base at `base`, or None.
+    """The robot's positions grasping `grasp` with the base at `base`, or None.
 
     `base` is (x, y, yaw); `dish` names the dish being grasped (the gripper may touch it,
-    nothing else); `seeds` are arm configurations (n, 6) tried in order (default: ARM_STOW
+    nothing else); `seeds` are arm configurations (k, n) tried in order (default: ARM_STOW
     and a few deterministic random ones). A solution is returned only if it passes `verify`.
     """
     plant = scene.plant
@@ -139,8 +143,8 @@ def solve_grasp_ik(scene: FeasibilityScene, base: np.ndarray, grasp: Grasp, *, d
     q = ik.q()
     prog = ik.get_mutable_prog()
     base = np.asarray(base, dtype=float)
-    prog.AddBoundingBoxConstraint(base, base, q[:3])
-    prog.AddBoundingBoxConstraint(GRIPPER_OPEN, GRIPPER_OPEN, q[9:])
+    prog.AddBoundingBoxConstraint(base, base, q[:NUM_BASE_JOINTS])
+    prog.AddBoundingBoxConstraint(GRIPPER_OPEN, GRIPPER_OPEN, q[ARM_POSITIONS.stop:])
     p_WG = grasp.X_WG.translation()
     ik.AddPositionConstraint(
         frameB=scene.grasp_frame, p_BQ=np.zeros(3), frameA=plant.world_frame(),

@@ -1,49 +1,52 @@
-"""The UR5e's kinematics from its arm base A to the grasp frame G, vectorised in numpy.
+"""The arm's kinematics from its arm base A to the grasp frame G, vectorised in numpy.
 
-Drake's plant is the reference; these few lines repeat its arm chain (standard DH parameters,
-as the URDF is built from them) so that thousands of configurations can be moved and verified
+Drake's plant is the reference; `ArmKinematics` repeats the arm's chain (its DH table, as
+the model is built from it) so that thousands of configurations can be moved and verified
 per call without a plant context: forward kinematics X_AG(q), the geometric Jacobian, a few
 Newton steps that carry a stored configuration onto a nearby target (the reachability map's
-refinement), and the closed-form inverse kinematics (all eight branches), which seeds the
-map's Drake IK so that no branch is missed. Tests check all of it against the plant.
+refinement), the joint limits, and inverse kinematics by the arm's family
+(`robot_description.IK_FAMILIES`):
 
-Configurations are arrays (..., 6) of arm joint angles in ``robot.ARM_JOINTS`` order; poses
-are (R_AG (..., 3, 3), p_AG (..., 3)).
+- "ur": the closed-form solutions of all eight branches (`ur_inverse`);
+- "numeric": damped least squares from seed configurations, one solution per seed (the
+  one the seed's own branch leads to), for any serial arm, a redundant one too.
+
+Either way, inverse kinematics returns candidate slots that callers verify (`exact`);
+Drake's InverseKinematics, seeded from them, stays the reference of the feasibility checks.
+
+Configurations are arrays (..., n) of arm joint angles in ``robot.ARM_JOINTS`` order; poses
+are (R_AG (..., 3, 3), p_AG (..., 3)). The module's functions are the robot's
+(`world.robot.ROBOT`).
 """
 
+from __future__ import annotations
+
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from s3o_drake.feasibility.dh_chain import DHChain
+from s3o_drake.feasibility.ur_inverse import NUM_BRANCHES as UR_BRANCHES
+from s3o_drake.feasibility.ur_inverse import ur_inverse
 from s3o_drake.world.angles import wrap
-from s3o_drake.world.robot import GRASP_OFFSET, ROBOT
+from s3o_drake.world.robot import ROBOT
+from s3o_drake.world.robot_description import RobotDescription
 
-# The UR5e's standard DH parameters (m, rad), from its description, as the model is built.
-DH_A = np.array(ROBOT.arm.dh_a)
-DH_D = np.array(ROBOT.arm.dh_d)
-DH_ALPHA = np.array(ROBOT.arm.dh_alpha)
-#: The elbow's limit (rad); the other five arm joints turn ±2π, so any angle is in range.
-ELBOW_LIMIT = math.pi
-#: The grasp frame's offset from tool0 (DH frame 6) along its z axis (m).
-TCP_OFFSET = GRASP_OFFSET
-NUM_BRANCHES = 8
-
-
-def _dh(q: np.ndarray, i: int) -> np.ndarray:
-    """The DH transform of joint i for angles q (...,): (..., 4, 4)."""
-    return _dh_all(np.asarray(q, dtype=float)[..., None], slice(i, i + 1))[..., 0, :, :]
-
-
-CHAIN = DHChain(DH_A, DH_D, DH_ALPHA, modified=ROBOT.arm.dh_convention == "modified",
-                tool_offset=TCP_OFFSET)
-"""The arm chain from A to G."""
-_dh_all = CHAIN.transforms
-_frames = CHAIN.frames
-forward = CHAIN.forward
-"""X_AG of configurations q (..., 6): rotations (..., 3, 3), positions (..., 3)."""
-jacobian = CHAIN.jacobian
-"""R_AG, p_AG and the geometric Jacobian (..., 6, 6) of G in A: rows ω (3) then v (3)."""
+#: A verified inverse-kinematics solution is this close to its target (rad and m).
+EXACT_TOLERANCE = 1e-6
+#: Damped least squares: at most this many steps, each at most this long (rad, largest
+#: joint), with this damping (rad² of the 6 x 6 system; small: near a solution the steps
+#: are Newton's).
+NUMERIC_ITERATIONS = 60
+NUMERIC_STEP = 0.4
+NUMERIC_DAMPING = 1e-6
+#: Seeds of the numeric family when the caller gives none: the stow configuration and this
+#: many deterministic configurations within the joint limits.
+NUMERIC_RANDOM_SEEDS = 15
+#: Random seeds keep this far from a limited joint's ends and from ±π (rad): an arm folded
+#: on itself, or at a stop, starts nowhere useful.
+FOLD_LIMIT = 2.8
 
 
 def pose_error(R: np.ndarray, p: np.ndarray, R_target: np.ndarray,
@@ -54,82 +57,212 @@ def pose_error(R: np.ndarray, p: np.ndarray, R_target: np.ndarray,
     return np.arccos(cos), np.linalg.norm(p_target - p, axis=-1)
 
 
-def refine(q: np.ndarray, R_target: np.ndarray, p_target: np.ndarray, *,
-           iterations: int = 3, rotation_weight: float = 1.0,
-           damping: float = 1e-6) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Damped Newton steps carrying configurations q (m, 6) onto targets (m, 3, 3), (m, 3).
-
-    A stored map configuration solves a grid node within millimetres of the query; three
-    steps make it solve the query exactly when the query is reachable on that branch, so the
-    map's answer does not depend on the grid's resolution. A small `rotation_weight` (m/rad)
-    lets the orientation give way to the position, which is how a target just beyond the
-    exact-orientation reach is reached within the angle tolerance (as IK does). Returns the
-    configurations, their rotation errors (rad) and position errors (m) after the steps.
-    """
-    q = np.array(q, dtype=float)
-    eye = damping * np.eye(len(DH_A))
-    for _ in range(iterations):
-        R, p, J = jacobian(q)
-        R_err = R_target @ np.swapaxes(R, -1, -2)
-        w = 0.5 * np.stack([R_err[..., 2, 1] - R_err[..., 1, 2],
-                            R_err[..., 0, 2] - R_err[..., 2, 0],
-                            R_err[..., 1, 0] - R_err[..., 0, 1]], axis=-1)
-        e = np.concatenate([rotation_weight * w, p_target - p], axis=-1)
-        J = np.concatenate([rotation_weight * J[..., :3, :], J[..., 3:, :]], axis=-2)
-        Jt = np.swapaxes(J, -1, -2)
-        dq = np.linalg.solve(Jt @ J + eye, (Jt @ e[..., None]))[..., 0]
-        q += np.clip(dq, -0.5, 0.5)
-    R, p = forward(q)
-    angle, distance = pose_error(R, p, R_target, p_target)
-    return q, angle, distance
+def _rotation_error(R: np.ndarray, R_target: np.ndarray) -> np.ndarray:
+    """The small-angle rotation vector (..., 3) from R to R_target, in A."""
+    R_err = R_target @ np.swapaxes(R, -1, -2)
+    return 0.5 * np.stack([R_err[..., 2, 1] - R_err[..., 1, 2],
+                           R_err[..., 0, 2] - R_err[..., 2, 0],
+                           R_err[..., 1, 0] - R_err[..., 0, 1]], axis=-1)
 
 
-def inverse(R_AG: np.ndarray, p_AG: np.ndarray) -> np.ndarray:
-    """All closed-form IK solutions for targets (m, 3, 3), (m, 3): (m, 8, 6), NaN if none.
+@dataclass(frozen=True)
+class ArmKinematics:
+    """One arm's chain from A to G, its joint limits and its inverse kinematics family."""
 
-    Branch b = 4 s + 2 w + e picks the shoulder (s), wrist (w) and elbow (e) sign. Angles are
-    wrapped into [-π, π); a singular wrist (q5 = 0) takes q6 = 0. Solutions are not checked
-    for collisions; callers verify them with `forward` (numerical edge cases are NaN'd by
-    that check, not here).
-    """
-    R_AG = np.asarray(R_AG, dtype=float).reshape(-1, 3, 3)
-    p_AG = np.asarray(p_AG, dtype=float).reshape(-1, 3)
-    m = len(p_AG)
-    a2, a3, d4, d6 = DH_A[1], DH_A[2], DH_D[3], DH_D[5]
-    p06 = p_AG - TCP_OFFSET * R_AG[:, :, 2]  # tool0, DH frame 6
-    p05 = p06 - d6 * R_AG[:, :, 2]
-    out = np.full((m, NUM_BRANCHES, 6), np.nan)
-    r05 = np.hypot(p05[:, 0], p05[:, 1])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        phi = np.arccos(d4 / r05)
-        psi = np.arctan2(p05[:, 1], p05[:, 0])
-        for s, s_sign in enumerate((1.0, -1.0)):
-            q1 = psi + s_sign * phi + np.pi / 2
-            s1, c1 = np.sin(q1), np.cos(q1)
-            c5 = (p06[:, 0] * s1 - p06[:, 1] * c1 - d4) / d6
-            for w, w_sign in enumerate((1.0, -1.0)):
-                q5 = w_sign * np.arccos(np.clip(c5, -1.0, 1.0))
-                q5 = np.where(np.abs(c5) > 1.0 + 1e-9, np.nan, q5)
-                s5 = np.sin(q5)
-                # Rows of R_AG are the axes of A seen from frame 6.
-                X60, Y60 = R_AG[:, 0, :], R_AG[:, 1, :]
-                q6 = np.arctan2((-X60[:, 1] * s1 + Y60[:, 1] * c1) / s5,
-                                (X60[:, 0] * s1 - Y60[:, 0] * c1) / s5)
-                q6 = np.where(np.abs(s5) < 1e-9, 0.0, q6)
-                T06 = np.zeros((m, 4, 4))
-                T06[:, :3, :3], T06[:, :3, 3], T06[:, 3, 3] = R_AG, p06, 1.0
-                T01, T45, T56 = _dh(q1, 0), _dh(q5, 4), _dh(q6, 5)
-                T14 = np.linalg.inv(T01) @ T06 @ np.linalg.inv(T45 @ T56)
-                p13 = (T14 @ np.array([0.0, -d4, 0.0, 1.0]))[:, :3]
-                r13 = np.hypot(p13[:, 0], p13[:, 1])
-                c3 = (r13**2 - a2**2 - a3**2) / (2 * a2 * a3)
-                for e, e_sign in enumerate((1.0, -1.0)):
-                    q3 = e_sign * np.arccos(c3)
-                    q2 = -np.arctan2(p13[:, 1], -p13[:, 0]) + np.arcsin(a3 * np.sin(q3) / r13)
-                    T13 = _dh(q2, 1) @ _dh(q3, 2)
-                    T34 = np.linalg.inv(T13) @ T14
-                    q4 = np.arctan2(T34[:, 1, 0], T34[:, 0, 0])
-                    q = np.stack([q1, q2, q3, q4, q5, q6], axis=-1)
-                    out[:, 4 * s + 2 * w + e] = wrap(q)
-    # Elbow at exactly ±π wraps to -π: still within the limit.
-    return out
+    chain: DHChain
+    lower: np.ndarray
+    upper: np.ndarray
+    family: str = "numeric"
+    stow: np.ndarray | None = None
+    """The arm's stow configuration: the numeric family's first default seed."""
+    _seeds: np.ndarray = field(init=False, repr=False)
+
+    @classmethod
+    def of(cls, description: RobotDescription) -> ArmKinematics:
+        """The kinematics of a robot's description: its DH table with the tool frame at the
+        grasp frame (the flange, then `tool.grasp_offset` along its z)."""
+        arm = description.arm
+        chain = DHChain(arm.dh_a, arm.dh_d, arm.dh_alpha, modified=arm.dh_convention == "modified",
+                        tool_offset=arm.flange_z + description.tool.grasp_offset,
+                        tool_yaw=arm.flange_yaw)
+        return cls(chain, np.array(arm.position_lower), np.array(arm.position_upper),
+                   arm.inverse_kinematics, np.array(description.configurations.stow))
+
+    def __post_init__(self) -> None:
+        for name in ("lower", "upper"):
+            object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=float))
+        stow = [] if self.stow is None else [np.asarray(self.stow, dtype=float)]
+        seeds = np.vstack([*stow, self.random_configurations(NUMERIC_RANDOM_SEEDS)])
+        object.__setattr__(self, "_seeds", seeds)
+
+    # ------------------------------------------------------------------------ the chain
+    @property
+    def joints(self) -> int:
+        return self.chain.joints
+
+    def forward(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """X_AG of configurations q (..., n): rotations (..., 3, 3), positions (..., 3)."""
+        return self.chain.forward(q)
+
+    def jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """R_AG, p_AG and the geometric Jacobian (..., 6, n) of G in A: rows ω (3) then
+        v (3)."""
+        return self.chain.jacobian(q)
+
+    @property
+    def elbow_frame(self) -> int:
+        """The chain's frame at the elbow (the UR family's: DH frame 2); for another arm,
+        the frame halfway along the chain."""
+        return 2 if self.family == "ur" else (self.joints + 1) // 2
+
+    # ----------------------------------------------------------------------- the limits
+    @property
+    def wrapping(self) -> np.ndarray:
+        """Joints that turn two full turns (±2π): any angle may be shifted a whole turn."""
+        return self.upper - self.lower >= 4 * math.pi - 1e-9
+
+    def within_limits(self, q: np.ndarray) -> np.ndarray:
+        """Whether configurations (..., n) are within every joint's limits: (...)."""
+        q = np.asarray(q, dtype=float)
+        return np.all((q >= self.lower - 1e-9) & (q <= self.upper + 1e-9), axis=-1)
+
+    def into_limits(self, q: np.ndarray) -> np.ndarray:
+        """Angles (..., n) wrapped into [-π, π), or shifted by a whole turn where that leaves
+        a joint's limits and the shift brings it back: the same geometry. NaN angles stay
+        NaN; callers test `within_limits` (an angle no turn brings in stays out)."""
+        q = wrap(q)
+        above, below = q > self.upper + 1e-9, q < self.lower - 1e-9
+        if above.any() or below.any():
+            q = np.where(above & (q - 2 * math.pi >= self.lower), q - 2 * math.pi, q)
+            q = np.where(below & (q + 2 * math.pi <= self.upper), q + 2 * math.pi, q)
+        return q
+
+    def nearest_turn(self, q: np.ndarray, reference: np.ndarray) -> np.ndarray:
+        """Arm angles q (..., n) with their two-turn joints shifted by whole turns towards
+        `reference` (broadcast), inside their limits: the same geometry (so just as
+        collision-free), less to turn."""
+        q = np.asarray(q, dtype=float)
+        wrapping = self.wrapping
+        turns = np.where(wrapping, np.round((reference - q) / (2 * math.pi)), 0.0)
+        shifted = q + 2 * math.pi * turns
+        return np.where(wrapping & (shifted > self.upper), shifted - 2 * math.pi,
+                        np.where(wrapping & (shifted < self.lower), shifted + 2 * math.pi,
+                                 shifted))
+
+    def random_configurations(self, count: int, seed: int = 0) -> np.ndarray:
+        """`count` deterministic configurations spread over the joints' working ranges:
+        uniform in [-π, π); a joint limited to one turn or less then drawn again within
+        its limits and `FOLD_LIMIT`, away from folding on itself or a stop."""
+        rng = np.random.default_rng(seed)
+        q = rng.uniform(-np.pi, np.pi, size=(count, self.joints))
+        for j in np.flatnonzero(self.upper - self.lower <= 2 * math.pi + 1e-9):
+            q[:, j] = rng.uniform(max(self.lower[j], -FOLD_LIMIT), min(self.upper[j], FOLD_LIMIT),
+                                  size=count)
+        return q
+
+    # ------------------------------------------------------------- inverse kinematics
+    @property
+    def seeds(self) -> np.ndarray:
+        """The numeric family's default seeds (the stow configuration first)."""
+        return self._seeds
+
+    @property
+    def branches(self) -> int:
+        """Slots of `inverse` without seeds: one per closed-form branch or default seed."""
+        return UR_BRANCHES if self.family == "ur" else len(self._seeds)
+
+    def inverse(self, R_AG: np.ndarray, p_AG: np.ndarray,
+                seeds: np.ndarray | None = None) -> np.ndarray:
+        """Inverse kinematics for targets (m, 3, 3), (m, 3): candidates (m, B, n), NaN where
+        a slot has none.
+
+        The UR family: every closed-form branch (B = 8; `seeds` are not needed). The
+        numeric family: damped least squares from each seed ((S, n) or (m, S, n); default:
+        `seeds`), B = S, each a solution within the joint limits or NaN. Callers verify
+        candidates with `exact`.
+        """
+        if self.family == "ur":
+            return ur_inverse(self.chain, R_AG, p_AG)
+        return self.numeric_inverse(R_AG, p_AG, self._seeds if seeds is None else seeds)
+
+    def exact(self, candidates: np.ndarray, R_AG: np.ndarray, p_AG: np.ndarray,
+              tolerance: float = EXACT_TOLERANCE) -> np.ndarray:
+        """Which candidates (m, B, n) put G at the targets (m, 3, 3), (m, 3) within
+        `tolerance` (rad and m): (m, B)."""
+        R, p = self.forward(np.nan_to_num(candidates))
+        angle, distance = pose_error(R, p, np.asarray(R_AG)[:, None], np.asarray(p_AG)[:, None])
+        return ~np.isnan(candidates).any(axis=-1) & (angle < tolerance) & (distance < tolerance)
+
+    def numeric_inverse(self, R_AG: np.ndarray, p_AG: np.ndarray, seeds: np.ndarray, *,
+                        iterations: int = NUMERIC_ITERATIONS) -> np.ndarray:
+        """Damped least squares from every seed to every target: (m, S, n), NaN where a
+        seed's steps do not reach its target within EXACT_TOLERANCE inside the limits.
+
+        Each step is the least-norm change of the angles that removes the pose error (with
+        a little damping) and keeps to the limits, so a solution stays on its seed's side
+        of every choice the arm has (elbow, wrist, and for a redundant arm its self-motion).
+        """
+        R_AG = np.asarray(R_AG, dtype=float).reshape(-1, 3, 3)
+        p_AG = np.asarray(p_AG, dtype=float).reshape(-1, 3)
+        m, n = len(p_AG), self.joints
+        seeds = np.asarray(seeds, dtype=float)
+        seeds = np.broadcast_to(seeds if seeds.ndim == 3 else seeds[None], (m, seeds.shape[-2], n))
+        s = seeds.shape[1]
+        q = np.clip(seeds.reshape(-1, n), self.lower, self.upper)
+        R_t, p_t = np.repeat(R_AG, s, axis=0), np.repeat(p_AG, s, axis=0)
+        done = np.zeros(len(q), dtype=bool)
+        eye = NUMERIC_DAMPING * np.eye(6)
+        for _ in range(iterations):
+            rows = np.flatnonzero(~done)
+            if rows.size == 0:
+                break
+            R, p, J = self.jacobian(q[rows])
+            e = np.concatenate([_rotation_error(R, R_t[rows]), p_t[rows] - p], axis=-1)
+            small = np.abs(e).max(axis=-1) < 0.1 * EXACT_TOLERANCE
+            done[rows[small]] = True
+            rows, J, e = rows[~small], J[~small], e[~small]
+            Jt = np.swapaxes(J, -1, -2)
+            dq = (Jt @ np.linalg.solve(J @ Jt + eye, e[..., None]))[..., 0]
+            longest = np.abs(dq).max(axis=-1, keepdims=True)
+            dq *= np.minimum(1.0, NUMERIC_STEP / np.maximum(longest, 1e-12))
+            q[rows] = np.clip(q[rows] + dq, self.lower, self.upper)
+        q = q.reshape(m, s, n)
+        ok = self.exact(q, R_AG, p_AG)
+        return np.where(ok[..., None], q, np.nan)
+
+    def refine(self, q: np.ndarray, R_target: np.ndarray, p_target: np.ndarray, *,
+               iterations: int = 3, rotation_weight: float = 1.0,
+               damping: float = 1e-6) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Damped Newton steps carrying configurations q (m, n) onto targets (m, 3, 3),
+        (m, 3).
+
+        A stored map configuration solves a grid node within millimetres of the query;
+        three steps make it solve the query exactly when the query is reachable on that
+        branch, so the map's answer does not depend on the grid's resolution. A small
+        `rotation_weight` (m/rad) lets the orientation give way to the position, which is
+        how a target just beyond the exact-orientation reach is reached within the angle
+        tolerance (as IK does). Returns the configurations, their rotation errors (rad) and
+        position errors (m) after the steps.
+        """
+        q = np.array(q, dtype=float)
+        eye = damping * np.eye(self.joints)
+        for _ in range(iterations):
+            R, p, J = self.jacobian(q)
+            w = _rotation_error(R, R_target)
+            e = np.concatenate([rotation_weight * w, p_target - p], axis=-1)
+            J = np.concatenate([rotation_weight * J[..., :3, :], J[..., 3:, :]], axis=-2)
+            Jt = np.swapaxes(J, -1, -2)
+            dq = np.linalg.solve(Jt @ J + eye, (Jt @ e[..., None]))[..., 0]
+            q += np.clip(dq, -0.5, 0.5)
+        R, p = self.forward(q)
+        angle, distance = pose_error(R, p, R_target, p_target)
+        return q, angle, distance
+
+
+ARM = ArmKinematics.of(ROBOT)
+"""The robot's arm."""
+CHAIN = ARM.chain
+forward = ARM.forward
+jacobian = ARM.jacobian
+refine = ARM.refine
+inverse = ARM.inverse

@@ -62,6 +62,7 @@ from s3o_drake.world.robot import (
     FINGER_TRAVEL,
     GRIPPER_CLOSED,
     GRIPPER_OPEN,
+    GRIPPER_POSITIONS,
     TRAY_XYZ,
     robot_positions,
 )
@@ -80,8 +81,6 @@ TRAY_CLEARANCE = 0.10
 POSE_TOLERANCE = 1e-4
 #: Friction coefficient between pads and dish (the world's default contact friction).
 PAD_FRICTION = 0.5
-#: Joints that turn ±2π (all but the elbow): their angles may be shifted by 2π.
-_WRAPPING = np.array([True, True, False, True, True, True])
 _UP = np.array([0.0, 0.0, 1.0])
 
 
@@ -193,34 +192,29 @@ def X_WA(base: np.ndarray) -> RigidTransform:
 
 
 def nearest_turn(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """Arm angles q (..., 6) with their ±2π joints shifted by whole turns towards
-    `reference` (broadcast), inside ±2π: the same geometry (so just as collision-free),
-    less to turn."""
-    q = np.asarray(q, dtype=float)
-    turns = np.where(_WRAPPING, np.round((reference - q) / (2 * math.pi)), 0.0)
-    shifted = q + 2 * math.pi * turns
-    return np.where(np.abs(shifted) > 2 * math.pi,
-                    shifted - np.sign(shifted) * 2 * math.pi, shifted)
+    """Arm angles q (..., n) with their two-turn joints shifted by whole turns towards
+    `reference` (broadcast), inside their limits: the same geometry (so just as
+    collision-free), less to turn."""
+    return kin.ARM.nearest_turn(q, reference)
 
 
 def solve_arm(R_AG: np.ndarray, p_AG: np.ndarray, reference: np.ndarray) -> list[np.ndarray]:
-    """Arm configurations putting G at (R_AG, p_AG): the closed-form solutions of every
-    branch, each turned as near `reference` as allowed, the nearest first."""
+    """Arm configurations putting G at (R_AG, p_AG), each turned as near `reference` as
+    allowed, the nearest first: the closed-form solutions of every branch (UR family), or
+    the solution damped least squares reaches from `reference` (another arm)."""
     return solve_arm_many(np.asarray(R_AG)[None], np.asarray(p_AG)[None], reference)[0]
 
 
 def solve_arm_many(R_AG: np.ndarray, p_AG: np.ndarray,
                    reference: np.ndarray) -> list[list[np.ndarray]]:
-    """`solve_arm` for targets (m, 3, 3), (m, 3) and references (6,) or (m, 6) at once
+    """`solve_arm` for targets (m, 3, 3), (m, 3) and references (n,) or (m, n) at once
     (vectorised: the oracle asks for thousands of targets)."""
     m = len(p_AG)
-    references = np.broadcast_to(np.asarray(reference, dtype=float), (m, 6))
-    branches = kin.inverse(R_AG, p_AG)  # (m, 8, 6)
-    R, p = kin.forward(np.nan_to_num(branches))
-    angle, distance = kin.pose_error(R, p, R_AG[:, None], p_AG[:, None])
-    exact = ~np.isnan(branches).any(axis=-1) & (angle < POSE_TOLERANCE) & \
-        (distance < POSE_TOLERANCE)
+    references = np.broadcast_to(np.asarray(reference, dtype=float), (m, kin.ARM.joints))
+    branches = kin.inverse(R_AG, p_AG, references[:, None])  # (m, B, n)
+    exact = kin.ARM.exact(branches, R_AG, p_AG, POSE_TOLERANCE)
     turned = nearest_turn(np.nan_to_num(branches), references[:, None])
+    exact &= kin.ARM.within_limits(turned)
     gap = np.where(exact, np.linalg.norm(turned - references[:, None], axis=-1), np.inf)
     order = np.argsort(gap, axis=1, kind="stable")
     return [[turned[k, b] for b in order[k] if exact[k, b]] for k in range(m)]
@@ -288,7 +282,7 @@ def _lift_offsets(p_AG: np.ndarray) -> np.ndarray:
 
 
 def _arm_solutions(q_grasps: np.ndarray) -> list[tuple[list, list]]:
-    """For grasp configurations (n, 11): the IK solutions of every pre-grasp and every
+    """For grasp configurations (n, NUM_POSITIONS): the IK solutions of every pre-grasp and every
     lift target, in the order tried, near the grasp's arm (two vectorised solves)."""
     arms = q_grasps[:, ARM_POSITIONS]
     R, p = kin.forward(arms)
@@ -339,7 +333,7 @@ def tray_configuration(base: np.ndarray, grasp: str, q_from: np.ndarray,
 def with_gripper(q: np.ndarray, gripper: np.ndarray) -> np.ndarray:
     """q (11) with the fingers at `gripper`."""
     out = q.copy()
-    out[9:] = gripper
+    out[GRIPPER_POSITIONS] = gripper
     return out
 
 
@@ -371,10 +365,10 @@ def _complete(base: np.ndarray, grasp: str, q_grasp: np.ndarray, solutions: tupl
 
 
 def _grasp_start(q: np.ndarray, q_arm: np.ndarray) -> np.ndarray:
-    """A grasp configuration (n, 11) with the fingers open and its ±2π joints as near the
-    arm's `q_arm` as they go."""
+    """A grasp configuration (n, NUM_POSITIONS) with the fingers open and its two-turn joints
+    as near the arm's `q_arm` as they go."""
     q_grasp = np.array(q, dtype=float)
-    q_grasp[..., 9:] = GRIPPER_OPEN
+    q_grasp[..., GRIPPER_POSITIONS] = GRIPPER_OPEN
     q_grasp[..., ARM_POSITIONS] = nearest_turn(q_grasp[..., ARM_POSITIONS], q_arm)
     return q_grasp
 

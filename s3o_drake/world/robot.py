@@ -52,8 +52,9 @@ ROBOT_JOINTS = BASE_JOINTS + ARM_JOINTS + GRIPPER_JOINTS
 NUM_POSITIONS = len(ROBOT_JOINTS)
 NUM_BASE_JOINTS = len(BASE_JOINTS)
 NUM_ARM_JOINTS = len(ARM_JOINTS)
-#: The arm's joints among the robot's positions (and velocities).
+#: The arm's joints among the robot's positions (and velocities), and the gripper's.
 ARM_POSITIONS = slice(NUM_BASE_JOINTS, NUM_BASE_JOINTS + NUM_ARM_JOINTS)
+GRIPPER_POSITIONS = slice(ARM_POSITIONS.stop, NUM_POSITIONS)
 
 BASE_LINK = ROBOT.base.link
 ARM_BASE_LINK = ROBOT.arm.base_link

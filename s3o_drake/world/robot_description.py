@@ -23,6 +23,11 @@ from s3o_drake.world.yaml_checks import FieldError, check_structure, load_yaml
 
 DH_CONVENTIONS = ("standard", "modified")
 """Classic DH, and Craig's (feasibility/dh_chain.py)."""
+IK_FAMILIES = ("ur", "numeric")
+"""How the arm's inverse kinematics is solved (feasibility/kinematics.py): "ur", the
+closed-form solutions of the UR family's geometry (three parallel axes between a shoulder
+and a wrist offset; eight branches); "numeric", damped least squares from seeds, for any
+serial arm (a redundant one too)."""
 DESCRIPTION_FILE = "robot.yaml"
 """A robot's description, in its folder (`resources.robot_dir`)."""
 
@@ -44,6 +49,9 @@ class ArmDescription:
     mount_xyz: list[float] = field(default_factory=list)
     """The arm's base frame in the base link (m); its axes are the base link's."""
     joints: list[str] = field(default_factory=list)
+    position_lower: list[float] = field(default_factory=list)
+    """rad, per joint (the model's, repeated here with their source)."""
+    position_upper: list[float] = field(default_factory=list)
     velocity_limits: list[float] = field(default_factory=list)
     """rad/s, per joint."""
     acceleration_limits: list[float] = field(default_factory=list)
@@ -55,7 +63,13 @@ class ArmDescription:
     """DH parameters of the chain from `base_link` to the tool frame (m, m, rad)."""
     dh_d: list[float] = field(default_factory=list)
     dh_alpha: list[float] = field(default_factory=list)
+    flange_z: float = 0.0
+    """The tool frame from the last DH frame: along its z (m), ..."""
+    flange_yaw: float = 0.0
+    """... then turned about that z (rad); zero when the table ends at the tool flange."""
     kinematics_source: str = ""
+    inverse_kinematics: str = "numeric"
+    """One of IK_FAMILIES."""
 
 
 @dataclass
@@ -172,6 +186,11 @@ def _check_values(d: RobotDescription) -> None:
     if d.arm.dh_convention not in DH_CONVENTIONS:
         fail("arm.dh_convention",
              f"expected one of {', '.join(DH_CONVENTIONS)}, got {d.arm.dh_convention!r}")
+    if d.arm.inverse_kinematics not in IK_FAMILIES:
+        fail("arm.inverse_kinematics",
+             f"expected one of {', '.join(IK_FAMILIES)}, got {d.arm.inverse_kinematics!r}")
+    if d.arm.inverse_kinematics == "ur" and len(d.arm.joints) != 6:
+        fail("arm.inverse_kinematics", "the UR family's closed form is for 6 joints")
     if not d.gripper.bodies:
         fail("gripper.bodies", "must name the bodies that touch a grasped object")
     if len(d.base.joints) != 3:
@@ -179,15 +198,27 @@ def _check_values(d: RobotDescription) -> None:
     n = len(d.arm.joints)
     if n == 0:
         fail("arm.joints", "must name the arm's joints")
-    for path, values in (("arm.velocity_limits", d.arm.velocity_limits),
+    for path, values in (("arm.position_lower", d.arm.position_lower),
+                         ("arm.position_upper", d.arm.position_upper),
+                         ("arm.velocity_limits", d.arm.velocity_limits),
                          ("arm.acceleration_limits", d.arm.acceleration_limits),
                          ("configurations.stow", d.configurations.stow)):
         if len(values) != n:
             fail(path, f"expected {n} values (one per arm joint), got {len(values)}")
     for path, values in (("arm.dh_a", d.arm.dh_a), ("arm.dh_d", d.arm.dh_d),
                          ("arm.dh_alpha", d.arm.dh_alpha)):
-        if values and len(values) != n:
-            fail(path, f"expected {n} values (one per arm joint) or none, got {len(values)}")
+        if len(values) != n:
+            fail(path, f"expected {n} values (one per arm joint), got {len(values)}")
+    # The reachability map turns one stored configuration to every bearing with the first
+    # joint and to every wrist turn with the last: the first must turn about A's vertical z
+    # axis, the last about the approach axis of the grasp frame.
+    if d.arm.dh_convention == "modified":
+        row, why = 0, "the first joint must turn the arm about the arm base's vertical axis"
+    else:
+        row, why = n - 1, "the last joint must turn the gripper about its approach axis"
+    for name, values in (("dh_a", d.arm.dh_a), ("dh_alpha", d.arm.dh_alpha)):
+        if values[row] != 0.0:
+            fail(f"arm.{name}[{row}]", f"must be 0 ({why}), got {values[row]}")
     for path, values in (("arm.mount_xyz", d.arm.mount_xyz), ("tray.xyz", d.tray.xyz)):
         if len(values) != 3:
             fail(path, f"expected 3 values (x, y, z), got {len(values)}")
@@ -196,6 +227,15 @@ def _check_values(d: RobotDescription) -> None:
         for i, v in enumerate(values):
             if not (math.isfinite(v) and v > 0):
                 fail(f"{path}[{i}]", f"must be positive, got {v}")
+    for i, (lo, hi) in enumerate(zip(d.arm.position_lower, d.arm.position_upper,
+                                     strict=True)):
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            fail(f"arm.position_upper[{i}]", f"must be finite and above the lower limit "
+                 f"{lo}, got {hi}")
+        stow = d.configurations.stow[i]
+        if not lo <= stow <= hi:
+            fail(f"configurations.stow[{i}]", f"{stow} is outside the joint's limits "
+                 f"[{lo}, {hi}]")
     for path, v in (("base.length", d.base.length), ("base.width", d.base.width),
                     ("gripper.travel", d.gripper.travel), ("reach", d.reach),
                     ("tray.inner_length", d.tray.inner_length),
@@ -214,8 +254,9 @@ def _check_values(d: RobotDescription) -> None:
 def check_model(description: RobotDescription) -> None:
     """Parses the description's model and checks that it agrees with the description: every
     joint named, in the model instance's position order, of the right kind (base x and y
-    prismatic, the rest revolute or prismatic as the model has them), with the arm's speed
-    and acceleration limits; every frame and body named. Raises RobotDescriptionError."""
+    prismatic, the rest revolute or prismatic as the model has them), with the arm's
+    position, speed and acceleration limits; every frame and body named. Raises
+    RobotDescriptionError."""
     from pydrake.multibody.plant import MultibodyPlant
     from pydrake.multibody.tree import PrismaticJoint, RevoluteJoint
 
@@ -252,9 +293,13 @@ def check_model(description: RobotDescription) -> None:
                                     "order of its positions")
     velocity = plant.GetVelocityUpperLimits()
     acceleration = plant.GetAccelerationUpperLimits()
+    lower, upper = plant.GetPositionLowerLimits(), plant.GetPositionUpperLimits()
     for i, name in enumerate(description.arm.joints):
-        index = plant.GetJointByName(name, model).velocity_start()
+        joint = plant.GetJointByName(name, model)
+        index, position = joint.velocity_start(), joint.position_start()
         for path, given, modelled in (
+                ("arm.position_lower", description.arm.position_lower[i], lower[position]),
+                ("arm.position_upper", description.arm.position_upper[i], upper[position]),
                 ("arm.velocity_limits", description.arm.velocity_limits[i], velocity[index]),
                 ("arm.acceleration_limits", description.arm.acceleration_limits[i],
                  acceleration[index])):

@@ -7,6 +7,7 @@ import pytest
 
 from s3o_drake.feasibility import kinematics
 from s3o_drake.feasibility.dh_chain import DHChain
+from s3o_drake.world.robot import ROBOT
 
 HALF_PI = np.pi / 2
 # Franka Emika Panda, Craig's convention: frankaemika/docs, source/dh-parameters.csv (the
@@ -43,4 +44,5 @@ def test_the_jacobian_is_the_derivative_of_the_tool_pose(chain):
 
 def test_the_feasibility_chain_is_the_robots_description():
     assert not kinematics.CHAIN.modified and kinematics.CHAIN.joints == 6
-    np.testing.assert_array_equal(kinematics.CHAIN.a, kinematics.DH_A)
+    np.testing.assert_array_equal(kinematics.CHAIN.a, ROBOT.arm.dh_a)
+    assert kinematics.CHAIN.tool_offset == ROBOT.arm.flange_z + ROBOT.tool.grasp_offset

@@ -37,7 +37,9 @@ def test_the_ur5e_description_agrees_with_its_model_and_is_what_the_package_uses
     ("bodies: [gripper_base,", "bodies: [palm,", "gripper.bodies"),
     ("joints: [base_x, base_y, base_yaw]", "joints: [base_yaw, base_y, base_x]",
      "base.joints"),
-], ids=["speed", "acceleration", "joint", "frame", "body", "base order"])
+    ("position_upper: [6.283185307179586, 6.283185307179586, 3.141592653589793,",
+     "position_upper: [6.283185307179586, 6.283185307179586, 3.0,", "arm.position_upper[2]"),
+], ids=["speed", "acceleration", "joint", "frame", "body", "base order", "position"])
 def test_a_description_that_disagrees_with_its_model_is_named(old, new, path):
     assert UR5E.count(old) == 1
     with pytest.raises(RobotDescriptionError) as error:
@@ -56,8 +58,11 @@ def test_a_description_that_disagrees_with_its_model_is_named(old, new, path):
     ("width: 0.56", "width: wide", "base.width"),
     ("name: ur5e", "name: ''", "name"),
     ("dh_convention: standard", "dh_convention: craig", "arm.dh_convention"),
+    ("dh_convention: standard", "dh_convention: modified", "arm.dh_alpha[0]"),
+    ("inverse_kinematics: ur", "inverse_kinematics: analytic", "arm.inverse_kinematics"),
+    ("stow: [0.0, -1.3, 2.7,", "stow: [0.0, -1.3, 3.2,", "configurations.stow[2]"),
 ], ids=["negative", "unknown field", "stow", "dh", "zero limit", "twice", "type", "empty",
-        "convention"])
+        "convention", "first axis", "ik family", "stow limits"])
 def test_a_description_that_cannot_be_used_names_the_field(old, new, path):
     assert UR5E.count(old) == 1
     with pytest.raises(RobotDescriptionError) as error:

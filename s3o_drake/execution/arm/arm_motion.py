@@ -53,7 +53,13 @@ from pydrake.trajectories import (
     Trajectory,
 )
 
-from s3o_drake.world.robot import ARM_POSITIONS, NUM_ARM_JOINTS, NUM_POSITIONS
+from s3o_drake.world.robot import (
+    ARM_POSITIONS,
+    GRIPPER_POSITIONS,
+    NUM_ARM_JOINTS,
+    NUM_BASE_JOINTS,
+    NUM_POSITIONS,
+)
 
 #: The arm's joints among the robot's positions.
 ARM = ARM_POSITIONS
@@ -139,7 +145,7 @@ def _validate_endpoints(checker: SceneGraphCollisionChecker, q_start: np.ndarray
 
 
 def edges_free(checker: SceneGraphCollisionChecker, path: np.ndarray) -> bool:
-    """Whether every straight edge of `path` (n, 11) is collision-free by `checker`."""
+    """Whether every straight edge of `path` (n, NUM_POSITIONS) is collision-free by `checker`."""
     return all(checker.CheckEdgeCollisionFree(a, b)
                for a, b in itertools.pairwise(path))
 
@@ -147,7 +153,7 @@ def edges_free(checker: SceneGraphCollisionChecker, path: np.ndarray) -> bool:
 def plan_arm_path(checker: SceneGraphCollisionChecker, q_start: np.ndarray, q_goal: np.ndarray,
                   *, time_limit: float = 5.0, seed: int = 0,
                   max_step: float = RRT_RANGE) -> np.ndarray | None:
-    """A collision-free path (n, 11) from q_start to q_goal moving only the arm, or None.
+    """A collision-free path (n, NUM_POSITIONS) from q_start to q_goal moving only the arm, or None.
 
     q_start and q_goal are the robot's 11 positions; the path holds base and fingers at
     q_start's values (q_goal's are ignored there) and its consecutive waypoints are joined
@@ -159,7 +165,8 @@ def plan_arm_path(checker: SceneGraphCollisionChecker, q_start: np.ndarray, q_go
     q_start = np.asarray(q_start, dtype=float).reshape(-1)
     q_goal = np.asarray(q_goal, dtype=float).reshape(-1).copy()
     if q_goal.shape == q_start.shape == (NUM_POSITIONS,):
-        q_goal[:3], q_goal[9:] = q_start[:3], q_start[9:]
+        base, gripper = slice(0, NUM_BASE_JOINTS), GRIPPER_POSITIONS
+        q_goal[base], q_goal[gripper] = q_start[base], q_start[gripper]
     _validate_endpoints(checker, q_start, q_goal)
     if checker.CheckEdgeCollisionFree(q_start, q_goal):
         return np.stack([q_start, q_goal])

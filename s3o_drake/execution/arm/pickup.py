@@ -53,7 +53,7 @@ from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.pickup_geometry import PickupGeometry, pickup_geometry, with_gripper
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.world.robot import GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.world.robot import GRIPPER_OPEN, GRIPPER_POSITIONS, NUM_POSITIONS
 
 SEGMENT_NAMES = ("approach", "descend", "close", "lift", "to_tray", "release", "stow")
 #: Near the dish (SLOW_SEGMENTS) the arm keeps to this fraction of its joint limits, so that
@@ -67,11 +67,12 @@ FINGER_MAX_ACCELERATION = 0.5
 
 @dataclass(frozen=True)
 class Segment:
-    """One timed motion: `trajectory` gives the robot's 11 positions over [0, duration].
+    """One timed motion: `trajectory` gives the robot's positions over [0, duration].
 
-    `waypoints` (n, 11) is the path whose straight edges were checked; the trajectory runs
-    along them, stopping at each (`smoothed` False), or along a curve that rounds their
-    corners and was itself checked densely (`smoothed` True; see `time_parameterize`).
+    `waypoints` (k, NUM_POSITIONS) is the path whose straight edges were checked; the
+    trajectory runs along them, stopping at each (`smoothed` False), or along a curve that
+    rounds their corners and was itself checked densely (`smoothed` True; see
+    `time_parameterize`).
     """
 
     name: str
@@ -112,8 +113,8 @@ def segment_limits(plant: MultibodyPlant, name: str) -> tuple[np.ndarray, np.nda
     gentler FINGER_MAX_*, all times SLOW in SLOW_SEGMENTS; the base does not move within a
     pickup (the model's limits, unused)."""
     v, a = joint_limits(plant)
-    v[9:] = np.minimum(v[9:], FINGER_MAX_VELOCITY)
-    a[9:] = np.minimum(a[9:], FINGER_MAX_ACCELERATION)
+    v[GRIPPER_POSITIONS] = np.minimum(v[GRIPPER_POSITIONS], FINGER_MAX_VELOCITY)
+    a[GRIPPER_POSITIONS] = np.minimum(a[GRIPPER_POSITIONS], FINGER_MAX_ACCELERATION)
     if name in SLOW_SEGMENTS:
         v, a = v * SLOW, a * SLOW
     return v, a
@@ -170,7 +171,7 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
     holding = ik.grasp_checker(scene, dish)
     fail = PickupPlan(False, "no_path", grasp=c.grasp)
     q_open = with_gripper(q0, GRIPPER_OPEN)
-    opening = not np.allclose(q0[9:], GRIPPER_OPEN)
+    opening = not np.allclose(q0[GRIPPER_POSITIONS], GRIPPER_OPEN)
     # Fingers not open: they open first, where the arm stands.
     if opening and not free.CheckEdgeCollisionFree(q0, q_open):
         return fail

@@ -32,6 +32,7 @@ from s3o_drake.feasibility.grasps import GRASP_KINDS
 from s3o_drake.feasibility.landing import pickup_poses
 from s3o_drake.feasibility.pickup_geometry import pickup_geometry, with_gripper
 from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.world.robot import GRIPPER_POSITIONS
 
 PLACE_SEGMENTS = ("approach", "lower", "release", "retreat", "stow")
 
@@ -80,7 +81,7 @@ def plan_place(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.nd
     if not geometry.ok:
         return PickupPlan(False, geometry.reason, grasp=grasp)
     c = geometry.configurations
-    fingers = q0[9:]
+    fingers = q0[GRIPPER_POSITIONS]
     q_pre = with_gripper(c.q_pre, fingers)
     q_down = with_gripper(c.q_grasp, fingers)
     free = scene.checker

@@ -1,11 +1,12 @@
 """Building the arm's inverse reachability map with Drake IK (the map and its queries are in
 s3o_drake/feasibility/reachability/map.py).
 
-At each node of a (ρ, h) grid the closed-form solutions of the UR5e (all eight
-shoulder/wrist/elbow branches) seed `InverseKinematics` with the grasp-frame constraints and
-a self-collision clearance of 1 cm (SNOPT, capped iterations); each verified solution is kept
-in its branch's slot. `build_map` solves the rows of the grid in worker processes,
-deterministically, for `s3o build reachability`.
+At each node of a (ρ, h) grid the arm's inverse kinematics (`kinematics.ArmKinematics`: for
+the UR family all eight closed-form shoulder/wrist/elbow branches, for another arm damped
+least squares from its default seeds) seeds `InverseKinematics` with the grasp-frame
+constraints and a self-collision clearance of 1 cm (SNOPT, capped iterations); each
+verified solution is kept in its branch's slot. `build_map` solves the rows of the grid in
+worker processes, deterministically, for `s3o build reachability`.
 """
 
 import datetime
@@ -29,6 +30,7 @@ from s3o_drake.feasibility.reachability.map import (
     grid_axis,
     robot_model_sha256,
 )
+from s3o_drake.world.robot import ARM_BASE_LINK
 from s3o_drake.world.worker_processes import drake_parallelism, worker_pool
 
 #: Grid ranges (m): ρ from A's z axis, h above A's origin. A at 0.75 m above the floor; the
@@ -37,8 +39,8 @@ from s3o_drake.world.worker_processes import drake_parallelism, worker_pool
 RHO_RANGE = (0.0, 1.20)
 HEIGHT_RANGE = (-0.20, 0.45)
 RESOLUTION = 0.01
-#: At most this many configurations per node: one per closed-form branch.
-MAX_PER_NODE = kin.NUM_BRANCHES
+#: At most this many configurations per node: one per branch (closed form) or seed.
+MAX_PER_NODE = kin.ARM.branches
 #: SNOPT's major iteration cap of the build (the seeds are exact solutions; only those in
 #: self-collision need iterations). Clearance and tolerances are the reference IK's.
 MAX_MAJOR_ITERATIONS = 30
@@ -76,20 +78,21 @@ class _NodeSolver:
                                int(max_major_iterations))
 
     def _q(self, arm: np.ndarray) -> np.ndarray:
-        from s3o_drake.world.robot import GRIPPER_OPEN
-        return np.concatenate([np.zeros(3), arm, GRIPPER_OPEN])
+        from s3o_drake.world.robot import GRIPPER_OPEN, NUM_BASE_JOINTS
+        return np.concatenate([np.zeros(NUM_BASE_JOINTS), arm, GRIPPER_OPEN])
 
     def solve(self, R_AG: np.ndarray, p_AG: np.ndarray, seeds: np.ndarray) -> list[np.ndarray]:
         """Arm configurations found by IK from each seed (in seed order), verified."""
         from pydrake.math import RotationMatrix
 
-        from s3o_drake.world.robot import GRIPPER_OPEN
+        from s3o_drake.world.robot import ARM_POSITIONS, GRIPPER_OPEN, NUM_BASE_JOINTS
 
         ik = self.InverseKinematics(self.plant, self.plant_context, with_joint_limits=True)
         q = ik.q()
         prog = ik.get_mutable_prog()
-        prog.AddBoundingBoxConstraint(np.zeros(3), np.zeros(3), q[:3])
-        prog.AddBoundingBoxConstraint(GRIPPER_OPEN, GRIPPER_OPEN, q[9:])
+        base = np.zeros(NUM_BASE_JOINTS)
+        prog.AddBoundingBoxConstraint(base, base, q[:NUM_BASE_JOINTS])
+        prog.AddBoundingBoxConstraint(GRIPPER_OPEN, GRIPPER_OPEN, q[ARM_POSITIONS.stop:])
         p_WG = self.p_WA + p_AG
         ik.AddPositionConstraint(self.grasp_frame, np.zeros(3), self.plant.world_frame(),
                                  p_WG - POSITION_TOLERANCE, p_WG + POSITION_TOLERANCE)
@@ -102,18 +105,19 @@ class _NodeSolver:
             if not result.is_success():
                 found.append(None)
                 continue
-            arm = result.GetSolution(q)[3:9]
+            arm = result.GetSolution(q)[ARM_POSITIONS]
             R, p = kin.forward(arm)
             angle, distance = kin.pose_error(R, p, R_AG, p_AG)
             ok = (angle <= ANGLE_TOLERANCE + 1e-4 and distance <= POSITION_TOLERANCE + 1e-4
-                  and abs(arm[2]) <= kin.ELBOW_LIMIT + 1e-9
+                  and kin.ARM.within_limits(arm)
                   and self.checker.CheckConfigCollisionFree(self._q(arm)))
             found.append(arm if ok else None)
         return found
 
 
 def branch_of(arm: np.ndarray) -> int:
-    """The closed-form branch a configuration belongs to (the nearest solution at its pose)."""
+    """The branch (slot) a configuration belongs to: the nearest of the arm's inverse
+    kinematics solutions at its pose."""
     R, p = kin.forward(arm)
     solutions = kin.inverse(R[None], p[None])[0]
     gap = np.abs(kin.wrap(solutions - arm)).max(axis=1)
@@ -121,14 +125,12 @@ def branch_of(arm: np.ndarray) -> int:
 
 
 def solve_node(solver: _NodeSolver, kind: str, rho: float, h: float) -> np.ndarray:
-    """The configurations (K, 6) of one node (NaN rows for branches without one)."""
+    """The configurations (K, n) of one node (NaN rows for branches without one)."""
     R_AG = R_KIND[kind]
     p_AG = np.array([rho, 0.0, h])
-    slots = np.full((MAX_PER_NODE, 6), np.nan)
+    slots = np.full((MAX_PER_NODE, kin.ARM.joints), np.nan)
     seeds = kin.inverse(R_AG[None], p_AG[None])[0]
-    R, p = kin.forward(np.nan_to_num(seeds))
-    angle, distance = kin.pose_error(R, p, R_AG, p_AG)
-    exact = ~np.isnan(seeds).any(axis=1) & (angle < 1e-6) & (distance < 1e-6)
+    exact = kin.ARM.exact(seeds[None], R_AG[None], p_AG[None])[0]
     branches = np.flatnonzero(exact)
     if branches.size == 0:
         return slots
@@ -167,7 +169,7 @@ def branch_preference(configs: np.ndarray) -> np.ndarray:
     tried first and most queries need a single collision check.
     """
     present = ~np.isnan(configs[..., 0])  # (..., K)
-    elbow_z = kin._frames(np.nan_to_num(configs))[2][..., 2, 3]  # DH frame 2: the elbow
+    elbow_z = kin.CHAIN.frames(np.nan_to_num(configs))[kin.ARM.elbow_frame][..., 2, 3]
     total = np.where(present, elbow_z, 0.0).reshape(-1, configs.shape[-2]).sum(axis=0)
     count = present.reshape(-1, configs.shape[-2]).sum(axis=0)
     mean = np.where(count > 0, total / np.maximum(count, 1), -np.inf)
@@ -221,8 +223,10 @@ def build_map(*, resolution: float = RESOLUTION, rho_range: tuple[float, float] 
         "height_range": [float(height[0]), float(height[-1])],
         "resolution": float(resolution),
         "max_per_node": MAX_PER_NODE,
-        "seeds": "closed-form UR5e solutions of all 8 branches at the node",
-        "frame": "grasp point relative to the arm base A (ur_base_link): rho horizontal, "
+        "seeds": (f"closed-form solutions of all {MAX_PER_NODE} branches at the node"
+                  if kin.ARM.family == "ur" else
+                  f"damped least squares from {MAX_PER_NODE} seeds (stow first) at the node"),
+        "frame": f"grasp point relative to the arm base A ({ARM_BASE_LINK}): rho horizontal, "
                  "height vertical, bearing 0, wrist turn 0",
         "min_distance": min_distance,
         "distance_margin": DISTANCE_MARGIN,

@@ -92,7 +92,7 @@ _SHARED: dict[tuple, "ReachabilityMap"] = {}
 class ReachabilityMap:
     """Stored arm configurations (bearing 0, wrist turn 0) per grasp kind on a (ρ, h) grid.
 
-    `configs[kind]` is (n_rho, n_h, K, 6) float32, NaN where a branch has no solution;
+    `configs[kind]` is (n_rho, n_h, K, n) float32, NaN where a branch has no solution;
     `branch_order[kind]` lists the slots in the order in which query candidates are tried
     (most often collision-free near tables first); `settings` records how it was built.
     """
@@ -173,7 +173,7 @@ class ReachabilityMap:
         return tuple(self.configs)
 
     def candidates(self, kind: str, rho: float, h: float) -> np.ndarray:
-        """Arm configurations (k, 6) grasping (ρ, h) at bearing 0 with wrist turn 0.
+        """Arm configurations (k, n) grasping (ρ, h) at bearing 0 with wrist turn 0.
 
         In the order to try them; empty when (ρ, h) is outside the map or out of reach.
         """
@@ -182,7 +182,7 @@ class ReachabilityMap:
 
     def candidates_many(self, kind: str, rho: np.ndarray, h: np.ndarray, *,
                         pitch: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-        """Vectorised `candidates`: (n, K, 6) configurations and an (n, K) validity mask.
+        """Vectorised `candidates`: (m, K, n) configurations and an (m, K) validity mask.
 
         Slots are in the try order (`branch_order`); invalid slots hold NaN. A `pitch`
         (rad) tilts the grasp frame about the bearing frame's y axis (positive: the approach
@@ -193,7 +193,7 @@ class ReachabilityMap:
         h = np.asarray(h, dtype=float).reshape(-1)
         cells = self._cells(kind)
         n_i, n_j, k = cells.full.shape
-        out = np.full((len(rho), k, 6), np.nan)
+        out = np.full((len(rho), k, kin.ARM.joints), np.nan)
         valid = np.zeros((len(rho), k), dtype=bool)
         u = (rho - self.rho[0]) / self.settings["resolution"]
         v = (h - self.height[0]) / self.settings["resolution"]
@@ -254,9 +254,11 @@ class ReachabilityMap:
                     ok[redo] = good
             q[m_idx, b_idx] = q_c
             ok_all[m_idx, b_idx] = ok
-        # Wrapped into [-π, π): within every joint's limits (the elbow's is ±π).
+        # Wrapped into [-π, π), or a turn from there into the joint's limits.
+        q = kin.ARM.into_limits(q)
+        ok_all &= kin.ARM.within_limits(q)
         rank = self._rank[kind]
-        out[rows[:, None], rank] = np.where(ok_all[..., None], kin.wrap(q), np.nan)
+        out[rows[:, None], rank] = np.where(ok_all[..., None], q, np.nan)
         valid[rows[:, None], rank] = ok_all
         return out, valid
 
@@ -291,7 +293,7 @@ class _Cells:
     the branch (0..3 as 2 di + dj, -1 for none)."""
 
     table: np.ndarray
-    coefficients: np.ndarray  # (n_rho - 1, n_h - 1, K, 4, 6)
+    coefficients: np.ndarray  # (n_rho - 1, n_h - 1, K, 4, n)
     full: np.ndarray  # (n_rho - 1, n_h - 1, K)
     trusted: np.ndarray  # (n_rho - 1, n_h - 1, K)
     nearest: np.ndarray  # (n_rho - 1, n_h - 1, 2, 2, K)
@@ -338,12 +340,14 @@ class _Cells:
 
 
 def place(q: np.ndarray, bearing: np.ndarray | float, wrist_turn: np.ndarray | float) -> np.ndarray:
-    """Configurations (..., 6) at bearing 0, turn 0 moved to `bearing` and `wrist_turn`.
+    """Configurations (..., n) at bearing 0, turn 0 moved to `bearing` and `wrist_turn`.
 
-    The shoulder pan turns the arm about A's z axis and wrist 3 the gripper about the
-    approach axis; both joints turn ±2π, so the results are wrapped into [-π, π).
+    The first joint turns the arm about A's z axis and the last the gripper about the
+    approach axis (`robot_description.check_model` confirms both of an arm); the results are
+    wrapped into [-π, π), or a turn from there into the joints' limits. A joint that cannot
+    turn that far leaves the configuration outside its limits (`ArmKinematics.within_limits`).
     """
     q = np.array(q, dtype=float)
-    q[..., 0] = kin.wrap(q[..., 0] + bearing)
-    q[..., 5] = kin.wrap(q[..., 5] + wrist_turn)
-    return q
+    q[..., 0] = q[..., 0] + bearing
+    q[..., -1] = q[..., -1] + wrist_turn
+    return kin.ARM.into_limits(q)

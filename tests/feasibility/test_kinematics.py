@@ -1,0 +1,97 @@
+"""The arm's kinematics for any serial arm: numeric inverse kinematics for a redundant arm
+with narrow joint limits, the same answers as the closed form for the UR5e, and angles kept
+inside limits that are not two full turns."""
+
+import math
+
+import numpy as np
+import pytest
+
+from s3o_drake.feasibility import kinematics
+from s3o_drake.feasibility.dh_chain import DHChain
+from s3o_drake.feasibility.kinematics import ArmKinematics
+
+HALF_PI = math.pi / 2
+# A Franka-Panda-class arm (Craig's DH table, frankaemika/docs), with its hand: 0.107 m to
+# the flange, turned -π/4, then 0.1034 m to the point between the fingertips.
+PANDA_CHAIN = DHChain(a=[0, 0, 0, 0.0825, -0.0825, 0, 0.088], d=[0.333, 0, 0.316, 0, 0.384, 0, 0],
+                      alpha=[0, -HALF_PI, HALF_PI, HALF_PI, -HALF_PI, HALF_PI, HALF_PI],
+                      modified=True, tool_offset=0.107 + 0.1034, tool_yaw=-math.pi / 4)
+PANDA_LOWER = np.array([-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973])
+PANDA_UPPER = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
+PANDA = ArmKinematics(PANDA_CHAIN, PANDA_LOWER, PANDA_UPPER, "numeric",
+                      stow=np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, math.pi / 4]))
+
+
+def _reachable_targets(arm: ArmKinematics, count: int, seed: int = 0):
+    q = np.random.default_rng(seed).uniform(arm.lower, arm.upper, (count, arm.joints))
+    return (q, *arm.forward(q))
+
+
+def test_numeric_ik_reaches_a_redundant_arms_targets_from_its_default_seeds():
+    q, R, p = _reachable_targets(PANDA, 300)
+    solutions = PANDA.inverse(R, p)
+    assert solutions.shape == (300, PANDA.branches, 7) and PANDA.branches == 16
+    found = ~np.isnan(solutions).any(axis=-1)
+    assert np.array_equal(found, PANDA.exact(solutions, R, p))  # what it returns is exact
+    assert PANDA.within_limits(solutions[found]).all()
+    assert found.any(axis=1).mean() >= 0.95
+    # Different seeds lead to different solutions of the same target (the arm's choices).
+    spread = [np.ptp(s[f], axis=0).max() for s, f in zip(solutions, found, strict=True)
+              if f.sum() > 1]
+    assert np.median(spread) > 0.5
+
+
+def test_numeric_ik_from_a_nearby_reference_stays_on_its_branch():
+    q, R, p = _reachable_targets(PANDA, 200, seed=1)
+    inside = PANDA.within_limits(q + 0.15) & PANDA.within_limits(q - 0.15)
+    q, R, p = q[inside], R[inside], p[inside]
+    reference = q + np.random.default_rng(2).uniform(-0.05, 0.05, q.shape)
+    solutions = PANDA.inverse(R, p, reference[:, None])[:, 0]
+    found = ~np.isnan(solutions).any(axis=-1)
+    assert found.mean() >= 0.97
+    assert np.abs(solutions[found] - q[found]).max() < 0.2
+
+
+def test_numeric_ik_finds_the_ur5es_closed_form_solutions():
+    ur5e = kinematics.ARM
+    numeric = ArmKinematics(ur5e.chain, ur5e.lower, ur5e.upper, "numeric", ur5e.stow)
+    q, R, p = _reachable_targets(ur5e, 50, seed=3)
+    closed = ur5e.inverse(R, p)
+    exact = ur5e.exact(closed, R, p)
+    seeds = np.where(exact[..., None], closed, 0.0) + 0.05
+    solutions = numeric.inverse(R, p, seeds)
+    found = ~np.isnan(solutions).any(axis=-1) & exact
+    assert found.sum() >= 0.95 * exact.sum()
+    # From 0.05 rad off, all but a few (near a singular wrist, where branches meet) come back.
+    gap = np.abs(kinematics.wrap(solutions[found] - closed[found])).max(axis=-1)
+    assert (gap < 1e-5).mean() >= 0.95
+
+
+def test_angles_stay_inside_limits_narrower_than_two_turns():
+    # Joint 6 of the Panda turns from -0.0175 to 3.7525 rad: 3.5 rad is in range, although
+    # wrapping into [-π, π) would carry it out.
+    q = np.zeros(7)
+    q[3], q[5] = -1.0, 3.5
+    np.testing.assert_allclose(PANDA.into_limits(q), q)
+    assert PANDA.within_limits(PANDA.into_limits(q))
+    q[0] = 3.0  # joint 1 stops at 2.8973: no turn brings 3.0 in
+    assert not PANDA.within_limits(PANDA.into_limits(q))
+    # No joint of the Panda turns twice round: nothing is shifted towards a reference.
+    assert not PANDA.wrapping.any()
+    np.testing.assert_array_equal(PANDA.nearest_turn(q, q + 2 * math.pi), q)
+    # The UR5e's joints do, all but the elbow; they turn towards the reference and stay
+    # within ±2π.
+    assert kinematics.ARM.wrapping.tolist() == [True, True, False, True, True, True]
+    turned = kinematics.ARM.nearest_turn(np.full(6, 3.0), np.full(6, -3.0))
+    np.testing.assert_allclose(turned, [3.0 - 2 * math.pi, 3.0 - 2 * math.pi, 3.0,
+                                        3.0 - 2 * math.pi, 3.0 - 2 * math.pi,
+                                        3.0 - 2 * math.pi])
+
+
+@pytest.mark.parametrize("arm", [PANDA, kinematics.ARM], ids=["panda", "ur5e"])
+def test_random_configurations_are_deterministic_and_inside_the_limits(arm):
+    q = arm.random_configurations(500, seed=4)
+    np.testing.assert_array_equal(q, arm.random_configurations(500, seed=4))
+    assert arm.within_limits(q).all()
+    assert (np.abs(q) <= math.pi).all()
