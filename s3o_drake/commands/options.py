@@ -24,7 +24,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from s3o_drake.commands.common import fail
+from s3o_drake.commands.common import fail, use_robot
 from s3o_drake.world.choices import METHODS
 from s3o_drake.world.resources import REPO_DIR, TASKS_DIR
 
@@ -159,10 +159,12 @@ def with_overrides_or_fail(scenario: Scenario, overrides: Sequence[str]) -> Scen
     if not overrides:
         return scenario
     from s3o_drake.world.scenario import with_overrides
-    from s3o_drake.world.scenario_checks import ScenarioError
+    from s3o_drake.world.scenario_checks import OtherRobotError, ScenarioError
 
     try:
         return with_overrides(scenario, overrides)
+    except OtherRobotError as e:
+        use_robot(e.robot)
     except ScenarioError as e:
         fail(str(e) if str(e).startswith("--set") else f"--set {e}")
 

@@ -54,10 +54,10 @@ TIME_LIMIT = 1800.0
 
 
 def desired_state_permutation() -> np.ndarray:
-    """P with [q, v] (22) = P @ [base q (3), base v (3), arm q (8), arm v (8)]."""
-    n = NUM_POSITIONS
-    order = [*range(0, 3), *range(6, 14),  # positions: base, then arm and fingers
-             *range(3, 6), *range(14, 22)]  # velocities, the same way
+    """P with [q, v] (2 n) = P @ [base q, base v, arm and finger q, arm and finger v]."""
+    n, b = NUM_POSITIONS, NUM_BASE_JOINTS
+    order = [*range(0, b), *range(2 * b, b + n),  # positions: base, then arm and fingers
+             *range(b, 2 * b), *range(b + n, 2 * n)]  # velocities, the same way
     P = np.zeros((2 * n, 2 * n))
     P[np.arange(2 * n), order] = 1.0
     return P

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from s3o_drake.world.resources import DEFAULT_ROBOT, MODELS_DIR, robot_dir
+from s3o_drake.world.resources import MODELS_DIR, ROBOT_NAME, robot_dir
 
 CACHE_VARIABLE = "S3O_CACHE"
 """The environment variable that names the cache's folder."""
@@ -59,7 +59,7 @@ def code_digest() -> str:
     files (its description, model and reachability map; not the network's weights in its
     subfolder), their paths and bytes: what computes a map besides its arguments."""
     files = [p for p in _PACKAGE_DIR.rglob("*") if p.suffix in _SOURCE_SUFFIXES]
-    files += [*(MODELS_DIR / "furniture").rglob("*"), *robot_dir(DEFAULT_ROBOT).glob("*")]
+    files += [*(MODELS_DIR / "furniture").rglob("*"), *robot_dir(ROBOT_NAME).glob("*")]
     digest = hashlib.sha256()
     for path in sorted(p for p in files if p.is_file()):
         digest.update(path.as_posix().encode())

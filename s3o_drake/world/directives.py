@@ -20,8 +20,7 @@ from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective, ModelDi
 
 from s3o_drake.world.builder import FLOOR_RGBA, WALL_RGBA, fixed_models, room_boxes
 from s3o_drake.world.contents import SceneContents
-from s3o_drake.world.resources import ROBOT_URDF
-from s3o_drake.world.robot import ROBOT_JOINTS, robot_positions
+from s3o_drake.world.robot import ROBOT_JOINTS, ROBOT_URDF, robot_positions
 
 ROBOT_INSTANCE = "robot"
 ROOM_INSTANCE = "room"

@@ -1,6 +1,7 @@
 """Where the project's shipped files live (models, scenarios, the diagrams' pictures), and a
 Drake parser that finds the models. Every path to a shipped file is made here."""
 
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -23,7 +24,13 @@ LAYOUTS = {"spacious": (RESTAURANT, TASKS_DIR),
 """Each benchmark layout (its `room.layout`): its base scenario and its shipped tasks."""
 DIAGRAMS_DIR = REPO_DIR / "diagrams"
 DEFAULT_ROBOT = "ur5e"
-"""The robot the package plans and executes for: its folder under models/."""
+"""The robot a scenario names when it names none: its folder under models/."""
+ROBOT_VARIABLE = "S3O_ROBOT"
+"""The environment variable that selects the robot of a process (default: DEFAULT_ROBOT).
+A process plans and executes for one robot, whose constants every module reads at import;
+the commands set it from the scenario's `robot.name` (`commands.common.use_robot`)."""
+ROBOT_NAME = os.environ.get(ROBOT_VARIABLE) or DEFAULT_ROBOT
+"""The robot of this process: its folder under models/."""
 
 
 def robot_dir(name: str) -> Path:
@@ -32,11 +39,19 @@ def robot_dir(name: str) -> Path:
     return MODELS_DIR / name
 
 
-ROBOT_URDF = robot_dir(DEFAULT_ROBOT) / "mobile_manipulator.urdf"
-FCN_WEIGHTS = robot_dir(DEFAULT_ROBOT) / "fcn" / "fcn.pt"
-REACHABILITY_MAP = robot_dir(DEFAULT_ROBOT) / "reachability_map.npz"
-TIME_MODEL = robot_dir(DEFAULT_ROBOT) / "time_model.yaml"
-FAILURE_PRICE = robot_dir(DEFAULT_ROBOT) / "failure_price.yaml"
+# What was built for this process's robot.
+FCN_WEIGHTS = robot_dir(ROBOT_NAME) / "fcn" / "fcn.pt"
+REACHABILITY_MAP = robot_dir(ROBOT_NAME) / "reachability_map.npz"
+TIME_MODEL = robot_dir(ROBOT_NAME) / "time_model.yaml"
+FAILURE_PRICE = robot_dir(ROBOT_NAME) / "failure_price.yaml"
+
+
+def package_file(url: str) -> Path:
+    """The file of a `package://s3o_drake/...` URL."""
+    prefix = f"package://{PACKAGE_NAME}/"
+    if not url.startswith(prefix):
+        raise ValueError(f"{url!r} is not a {prefix} URL")
+    return MODELS_DIR / url[len(prefix):]
 
 
 def models_dir() -> Path:

@@ -37,12 +37,15 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.tree import ModelInstanceIndex
 from shapely.geometry import Polygon
 
-from s3o_drake.world.resources import DEFAULT_ROBOT, PACKAGE_NAME, models_dir
+from s3o_drake.world.resources import PACKAGE_NAME, ROBOT_NAME, models_dir, package_file
 from s3o_drake.world.robot_description import load_robot_description
 
-ROBOT = load_robot_description(DEFAULT_ROBOT)
-"""The description of the robot the package plans and executes for."""
+ROBOT = load_robot_description(ROBOT_NAME)
+"""The description of the robot this process plans and executes for
+(`resources.ROBOT_NAME`)."""
 ROBOT_URL = ROBOT.model
+ROBOT_URDF = package_file(ROBOT_URL)
+"""The robot's model file."""
 
 BASE_JOINTS = tuple(ROBOT.base.joints)
 ARM_JOINTS = tuple(ROBOT.arm.joints)

@@ -35,7 +35,7 @@ from pydrake.visualization import VisualizationConfig
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.map import Chair, Map, Room, Table
 from s3o_drake.world.objects import Dish
-from s3o_drake.world.scenario_checks import ScenarioError, validate_scenario
+from s3o_drake.world.scenario_checks import OtherRobotError, ScenarioError, validate_scenario
 from s3o_drake.world.settings import (
     Camera,
     ExecutionSettings,
@@ -196,6 +196,8 @@ def load_scenario(path: str | Path) -> Scenario:
                                             f"offset {e.start})", file=str(path)) from None
     try:
         return parse_scenario(text)
+    except OtherRobotError as e:
+        raise OtherRobotError(e.robot, file=str(path)) from None
     except ScenarioError as e:
         raise ScenarioError(e.path, e.message, file=str(path)) from None
 

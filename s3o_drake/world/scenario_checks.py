@@ -31,7 +31,9 @@ from s3o_drake.world.furniture import (
     dish_footprint,
     table_footprint,
 )
+from s3o_drake.world.resources import ROBOT_NAME, ROBOT_VARIABLE
 from s3o_drake.world.robot import footprint_polygon
+from s3o_drake.world.robot_description import robot_names
 from s3o_drake.world.yaml_checks import quoted
 
 if TYPE_CHECKING:
@@ -48,6 +50,18 @@ class ScenarioError(ValueError):
         self.path = path
         self.message = message
         self.file = file
+
+
+class OtherRobotError(ScenarioError):
+    """The scenario names a robot other than this process's (`resources.ROBOT_NAME`), whose
+    constants every module has read: the commands start again for it
+    (`commands.common.use_robot`); Python code sets the variable before importing."""
+
+    def __init__(self, robot: str, file: str = ""):
+        super().__init__("robot.name", f"{robot!r}, but this process plans for {ROBOT_NAME!r} "
+                                       f"(set {ROBOT_VARIABLE}={robot} before importing "
+                                       "s3o_drake; the s3o commands do)", file)
+        self.robot = robot
 
 
 
@@ -124,7 +138,14 @@ def room_polygon(scenario: Scenario) -> Polygon:
 
 
 def validate_scenario(scenario: Scenario) -> None:
-    """Raises ScenarioError for the first problem found, naming its field."""
+    """Raises ScenarioError for the first problem found, naming its field (OtherRobotError when
+    it names a robot other than this process's)."""
+    name = scenario.robot.name
+    if name not in robot_names():
+        raise ScenarioError("robot.name", f"no robot named {quoted(name)} (known: "
+                                          f"{', '.join(robot_names())})")
+    if name != ROBOT_NAME:
+        raise OtherRobotError(name)
     _validate_settings(scenario)
     room = room_polygon(scenario)
     names: dict[str, str] = {}

@@ -39,7 +39,8 @@ import numpy as np
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP
 from s3o_drake.feasibility.ik import ANGLE_TOLERANCE, POSITION_TOLERANCE
-from s3o_drake.world.resources import REACHABILITY_MAP, ROBOT_URDF
+from s3o_drake.world.resources import REACHABILITY_MAP
+from s3o_drake.world.robot import ROBOT_URDF
 
 DEFAULT_PATH = REACHABILITY_MAP
 BUILD_COMMAND = "s3o build reachability"
