@@ -35,6 +35,7 @@ from pydrake.visualization import VisualizationConfig
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.map import Chair, Map, Room, Table
 from s3o_drake.world.objects import Dish
+from s3o_drake.world.resources import ROBOT_NAME
 from s3o_drake.world.scenario_checks import OtherRobotError, ScenarioError, validate_scenario
 from s3o_drake.world.settings import (
     Camera,
@@ -147,6 +148,7 @@ def parse_scenario(text: str) -> Scenario:
             raw, text = {}, "{}"
         check_structure(raw, Scenario, "")
         scenario = _older_fields(yaml_load_typed(schema=Scenario, data=text), raw)
+        scenario.robot.name = scenario.robot.name or ROBOT_NAME
     except FieldError as e:
         raise ScenarioError(e.path, e.message) from None
     except (RuntimeError, ValueError) as e:  # the checks should have caught it; keep one line

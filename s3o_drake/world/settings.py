@@ -6,13 +6,13 @@ YAML (`world/scenario.py`); `Settings` gathers them for what the robot is given 
 
 from dataclasses import dataclass, field
 
-from s3o_drake.world.resources import DEFAULT_ROBOT
-
 
 @dataclass
 class Robot:
-    name: str = DEFAULT_ROBOT
-    """Which robot: its folder under models/ (`world/robot_description.py`)."""
+    name: str = ""
+    """Which robot: its folder under models/ (`world/robot_description.py`). A file that
+    names none is for the process's robot (`resources.ROBOT_NAME`: the UR5e unless
+    S3O_ROBOT says otherwise), whose name the loaded scenario then holds."""
     start: list[float] = field(default_factory=lambda: [1.0, 1.0, 0.0])
     """[x, y, yaw] of the base at the start."""
 
