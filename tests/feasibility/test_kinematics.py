@@ -29,7 +29,7 @@ def _reachable_targets(arm: ArmKinematics, count: int, seed: int = 0):
 
 
 def test_numeric_ik_reaches_a_redundant_arms_targets_from_its_default_seeds():
-    q, R, p = _reachable_targets(PANDA, 300)
+    _, R, p = _reachable_targets(PANDA, 300)
     solutions = PANDA.inverse(R, p)
     assert solutions.shape == (300, PANDA.branches, 7) and PANDA.branches == 16
     found = ~np.isnan(solutions).any(axis=-1)
@@ -56,7 +56,7 @@ def test_numeric_ik_from_a_nearby_reference_stays_on_its_branch():
 def test_numeric_ik_finds_the_ur5es_closed_form_solutions():
     ur5e = kinematics.ARM
     numeric = ArmKinematics(ur5e.chain, ur5e.lower, ur5e.upper, "numeric", ur5e.stow)
-    q, R, p = _reachable_targets(ur5e, 50, seed=3)
+    _, R, p = _reachable_targets(ur5e, 50, seed=3)
     closed = ur5e.inverse(R, p)
     exact = ur5e.exact(closed, R, p)
     seeds = np.where(exact[..., None], closed, 0.0) + 0.05
