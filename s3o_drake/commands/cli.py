@@ -46,6 +46,8 @@ COMMANDS: tuple[Command, ...] = (
     _c("directives", "directives",
        "Write a scenario as Drake model directives, which Drake's own tools open."),
     _c("diagrams", "diagrams", "Regenerate the Graphviz pictures of the Drake diagrams."),
+    _c("build robot", "build_robot",
+       "Build what a robot needs from its description: map, times, FCN, checks."),
     _c("build reachability", "build_reachability",
        "Build the arm's inverse reachability map with Drake IK."),
     _c("build time-model", "derive_times",

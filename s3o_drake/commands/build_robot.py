@@ -1,0 +1,187 @@
+"""Build what a robot needs from its description: map, times, FCN, checks.
+
+    s3o build robot NAME [--steps STEP ...] [--workers 2]
+
+Runs, for the robot of models/NAME/ (its robot.yaml and model), each in a process for that
+robot (S3O_ROBOT=NAME), in order:
+
+  reachability    s3o build reachability  -> models/NAME/reachability_map.npz
+  time-model      s3o build time-model    -> models/NAME/time_model.yaml
+  fcn-data        s3o build fcn-data      -> out/NAME/fcn_data, out/NAME/fcn_data_dense
+  fcn             s3o build fcn           -> models/NAME/fcn/
+  oracle-pinning  s3o bench oracle-pinning -> models/NAME/oracle_pinning.json
+
+and records each finished step in models/NAME/build.json: its command, the checksums of
+what it read and wrote, its time. Run again, it resumes: a step whose command, inputs and
+outputs are as recorded is skipped (the data step also keeps the scenes it has). Each step
+reads what the ones before it wrote where the robot's files are (models/NAME/), so the
+build replaces them as it goes.
+"""
+
+import datetime
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+# Light imports only: each step runs in its own process.
+from s3o_drake.commands.common import command_parser, fail
+from s3o_drake.commands.options import add_workers
+from s3o_drake.world.files import write_atomically
+from s3o_drake.world.resources import (
+    REPO_DIR,
+    RESTAURANT_DENSE,
+    ROBOT_VARIABLE,
+    robot_dir,
+)
+
+MANIFEST = "build.json"
+"""The record of a robot's build, in its folder (or the quick build's)."""
+DATA_SEED = 1000
+"""The training scenes' generator seed (the benchmark tasks use 0)."""
+
+
+@dataclass(frozen=True)
+class Step:
+    name: str
+    argv: tuple[str, ...]
+    """The `s3o` arguments."""
+    reads: tuple[Path, ...]
+    """Files and folders whose contents decide whether the step must run again."""
+    writes: tuple[Path, ...]
+
+
+#: The training scenes per layout, the epochs, the pinning check's tasks: the UR5e's.
+DATA_SCENES = 143
+EPOCHS = 60
+PINNING_TASKS = 5
+
+
+def plan_steps(name: str, *, workers: int) -> list[Step]:
+    """The build's steps for robot `name`: into its folder, and the training data (which
+    does not ship) into out/NAME/."""
+    folder = robot_dir(name)
+    model = (folder / "robot.yaml", *sorted(folder.glob("*.urdf")))
+    data = REPO_DIR / "out" / name
+    spacious, dense = data / "fcn_data", data / "fcn_data_dense"
+    reach_map, times = folder / "reachability_map.npz", folder / "time_model.yaml"
+    fcn, pinning = folder / "fcn", folder / "oracle_pinning.json"
+    w = str(workers)
+    scenes = ("--seed", str(DATA_SEED), "--count", str(DATA_SCENES), "--workers", w, "--quiet")
+    return [
+        Step("reachability", ("build", "reachability", "--out", str(reach_map), "--workers", w,
+                              "--quiet"), model, (reach_map,)),
+        Step("time-model", ("build", "time-model", "--out", str(times), "--seed", "0"),
+             (*model, reach_map), (times,)),
+        Step("fcn-data", ("build", "fcn-data", "--out", str(spacious), *scenes),
+             (*model, reach_map), (spacious,)),
+        Step("fcn-data-dense", ("build", "fcn-data", "--base", str(RESTAURANT_DENSE), "--out",
+                                str(dense), *scenes), (*model, reach_map), (dense,)),
+        Step("fcn", ("build", "fcn", "--data", str(spacious), str(dense), "--out", str(fcn),
+                     "--seed", "0", "--epochs", str(EPOCHS), "--quiet"), (spacious, dense),
+             (fcn,)),
+        Step("oracle-pinning", ("bench", "oracle-pinning", "--json", str(pinning), "--count",
+                                str(PINNING_TASKS)), (*model, reach_map), (pinning,)),
+    ]
+
+
+STEP_NAMES = ("reachability", "time-model", "fcn-data", "fcn", "oracle-pinning")
+"""What --steps names; fcn-data makes both layouts' scenes."""
+
+
+def checksum(path: Path) -> str:
+    """SHA-256 of a file, or of a folder's files (their paths and bytes); "" if missing."""
+    path = Path(path)
+    if path.is_file():
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    if not path.is_dir():
+        return ""
+    digest = hashlib.sha256()
+    for file in sorted(p for p in path.rglob("*") if p.is_file()):
+        digest.update(file.relative_to(path).as_posix().encode())
+        digest.update(file.read_bytes())
+    return digest.hexdigest()
+
+
+def _shown(path: Path) -> str:
+    path = Path(path)
+    return path.relative_to(REPO_DIR).as_posix() if path.is_relative_to(REPO_DIR) else str(path)
+
+
+def _record(step: Step, seconds: float | None = None) -> dict:
+    record = {"command": "s3o " + " ".join(_shown(Path(a)) if "/" in a else a
+                                           for a in step.argv),
+              "reads": {_shown(p): checksum(p) for p in step.reads},
+              "writes": {_shown(p): checksum(p) for p in step.writes}}
+    if seconds is not None:
+        record["seconds"] = round(seconds, 1)
+        record["finished"] = datetime.datetime.now().isoformat(timespec="seconds")
+    return record
+
+
+def is_done(step: Step, manifest: dict) -> bool:
+    """Whether the manifest records `step` with this command, these inputs and outputs."""
+    done = manifest.get("steps", {}).get(step.name)
+    if done is None:
+        return False
+    now = _record(step)
+    return all(done.get(k) == now[k] for k in ("command", "reads", "writes")) and all(
+        now["writes"].values())
+
+
+def run_step(name: str, step: Step) -> float:
+    """Runs one step for robot `name`; returns its seconds. A failed step is one line
+    and exit status 2."""
+    env = dict(os.environ, **{ROBOT_VARIABLE: name})
+    start = time.perf_counter()
+    status = subprocess.call([sys.executable, "-m", "s3o_drake.commands", *step.argv],
+                             env=env, cwd=REPO_DIR)
+    if status != 0:
+        fail(f"step {step.name} failed (exit status {status}): s3o {' '.join(step.argv)}")
+    return time.perf_counter() - start
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = command_parser("build robot", __doc__)
+    parser.add_argument("name", help="the robot: a folder of models/ with its robot.yaml")
+    parser.add_argument("--steps", nargs="+", choices=STEP_NAMES, metavar="STEP",
+                        help=f"only these steps (default all: {', '.join(STEP_NAMES)})")
+    add_workers(parser, 2)
+    args = parser.parse_args(argv)
+    from s3o_drake.world.robot_description import (
+        RobotDescriptionError,
+        check_model,
+        load_robot_description,
+    )
+
+    try:
+        check_model(load_robot_description(args.name))
+    except RobotDescriptionError as e:
+        fail(f"{args.name}: {e}")
+    manifest_path = robot_dir(args.name) / MANIFEST
+    manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
+    manifest.setdefault("robot", args.name)
+    manifest.setdefault("steps", {})
+    chosen = set(args.steps or STEP_NAMES)
+    steps = [s for s in plan_steps(args.name, workers=args.workers)
+             if s.name.removesuffix("-dense") in chosen]
+    for i, step in enumerate(steps, 1):
+        if is_done(step, manifest):
+            print(f"[{i}/{len(steps)}] {step.name}: done, as recorded in "
+                  f"{_shown(manifest_path)}", flush=True)
+            continue
+        print(f"[{i}/{len(steps)}] {step.name}: s3o {' '.join(step.argv)}", flush=True)
+        seconds = run_step(args.name, step)
+        manifest["steps"][step.name] = _record(step, seconds)
+        write_atomically(manifest_path, json.dumps(manifest, indent=1) + "\n")
+        print(f"[{i}/{len(steps)}] {step.name}: {seconds:.0f} s", flush=True)
+    print(f"{args.name}: every step done; the record is {_shown(manifest_path)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,83 @@
+"""`s3o build robot NAME`: every step once, in order, each recorded with the checksums of
+what it read and wrote; run again it resumes, and a changed description re-runs the steps
+that read it and no others."""
+
+import json
+import shutil
+
+import pytest
+
+from s3o_drake.commands import build_robot
+from s3o_drake.world.resources import robot_dir
+
+
+@pytest.fixture
+def robot_folder(tmp_path, monkeypatch):
+    folder = tmp_path / "ur5e"
+    folder.mkdir()
+    for name in ("robot.yaml", "mobile_manipulator.urdf"):
+        shutil.copy(robot_dir("ur5e") / name, folder / name)
+    monkeypatch.setattr(build_robot, "robot_dir", lambda name: tmp_path / name)
+    monkeypatch.setattr(build_robot, "REPO_DIR", tmp_path)
+    return folder
+
+
+@pytest.fixture
+def ran(monkeypatch):
+    """The steps run, by name; each writes its outputs (the same bytes every time)."""
+    names = []
+
+    def run_step(name, step):
+        names.append(step.name)
+        for path in step.writes:
+            if path.suffix:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_text(step.name)
+            else:
+                path.mkdir(parents=True, exist_ok=True)
+                (path / "part.npz").write_text(step.name)
+        return 1.0
+
+    monkeypatch.setattr(build_robot, "run_step", run_step)
+    return names
+
+
+def test_every_step_runs_once_in_order_and_is_recorded(robot_folder, ran, capsys):
+    assert build_robot.main(["ur5e"]) == 0
+    assert ran == ["reachability", "time-model", "fcn-data", "fcn-data-dense", "fcn",
+                   "oracle-pinning"]
+    manifest = json.loads((robot_folder / build_robot.MANIFEST).read_text())
+    assert list(manifest["steps"]) == ran
+    reach = manifest["steps"]["reachability"]
+    assert reach["command"].startswith("s3o build reachability --out ur5e/reachability_map.npz")
+    assert set(reach["reads"]) == {"ur5e/robot.yaml", "ur5e/mobile_manipulator.urdf"}
+    assert all(len(v) == 64 for v in reach["writes"].values())
+
+    # Run again: nothing to do.
+    ran.clear()
+    assert build_robot.main(["ur5e"]) == 0
+    assert ran == []
+    assert capsys.readouterr().out.count(": done, as recorded in") == 6
+
+    # A changed description runs again what reads it; the network reads only its data.
+    with (robot_folder / "robot.yaml").open("a") as f:
+        f.write("# changed\n")
+    assert build_robot.main(["ur5e"]) == 0
+    assert ran == ["reachability", "time-model", "fcn-data", "fcn-data-dense",
+                   "oracle-pinning"]
+
+
+def test_a_missing_output_runs_its_step_again_and_steps_can_be_chosen(robot_folder, ran):
+    assert build_robot.main(["ur5e", "--steps", "reachability", "time-model"]) == 0
+    assert ran == ["reachability", "time-model"]
+    (robot_folder / "time_model.yaml").unlink()
+    ran.clear()
+    assert build_robot.main(["ur5e", "--steps", "time-model"]) == 0
+    assert ran == ["time-model"]
+
+
+def test_an_unknown_robot_is_one_line_and_status_2(robot_folder, ran, capsys):
+    with pytest.raises(SystemExit) as info:
+        build_robot.main(["r2d2"])
+    assert info.value.code == 2
+    assert ran == [] and capsys.readouterr().err.count("\n") == 1
