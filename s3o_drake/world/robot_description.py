@@ -60,7 +60,8 @@ class ArmDescription:
     dh_convention: str = "standard"
     """Of the DH parameters below: "standard" (classic) or "modified" (Craig's)."""
     dh_a: list[float] = field(default_factory=list)
-    """DH parameters of the chain from `base_link` to the tool frame (m, m, rad)."""
+    """DH parameters of the chain from `base_link` to the last DH frame (m, m, rad); the
+    tool frame is `flange_z`, `flange_yaw` beyond it."""
     dh_d: list[float] = field(default_factory=list)
     dh_alpha: list[float] = field(default_factory=list)
     flange_z: float = 0.0

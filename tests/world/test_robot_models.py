@@ -1,0 +1,211 @@
+"""Every shipped robot (each folder of models/ with a robot.yaml): what a user of its
+description relies on holds in its model. The description agrees with the model
+(`check_model`); its DH table, with the flange and the grasp offset, is the model's arm
+chain; its frames and gripper are where it says; its stow configuration is within the joint
+limits, at least 1 cm from any self-collision and inside the footprint."""
+
+import math
+
+import numpy as np
+import pytest
+from pydrake.geometry import Box, Capsule, Cylinder, Role, Sphere
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.planning import RobotDiagramBuilder, SceneGraphCollisionChecker
+
+from s3o_drake.feasibility.dh_chain import DHChain
+from s3o_drake.world.resources import make_parser
+from s3o_drake.world.robot_description import (
+    RobotDescription,
+    check_model,
+    load_robot_description,
+    robot_names,
+)
+
+#: Padding (m) between any two of the robot's bodies in the stow configuration.
+SELF_CLEARANCE = 0.01
+#: Random arm configurations on which the DH chain is compared with the model.
+SAMPLES = 200
+#: The tool flange at zero joint angles in the arm's base frame (m), as its maker publishes
+#: it: Universal Robots' UR5e DH parameters; Franka's Panda DH table (frankaemika/docs,
+#: source/dh-parameters.csv: (0.088, 0, 0.926), pointing down).
+PUBLISHED_FLANGE_AT_ZERO = {
+    "ur5e": (-0.8172, -0.2329, 0.0628),
+    "panda": (0.088, 0.0, 0.926),
+}
+
+
+class RobotModel:
+    """A robot's description and its model, alone in a plant, with a collision checker."""
+
+    def __init__(self, name: str):
+        self.description: RobotDescription = load_robot_description(name)
+        builder = RobotDiagramBuilder(time_step=0.0)
+        (self.model,) = make_parser(builder.plant()).AddModels(url=self.description.model)
+        builder.plant().Finalize()
+        self.diagram = builder.Build()
+        self.plant = self.diagram.plant()
+        self.scene_graph = self.diagram.scene_graph()
+        self.context = self.diagram.CreateDefaultContext()
+        self.plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
+        self.checker = SceneGraphCollisionChecker(
+            model=self.diagram, robot_model_instances=[self.model], edge_step_size=0.05)
+        self.checker.SetPaddingAllRobotRobotPairs(SELF_CLEARANCE)
+        arm = self.description.arm
+        self.lower = np.array(arm.position_lower)
+        self.upper = np.array(arm.position_upper)
+        self.travel = self.description.gripper.travel
+
+    def frame(self, name: str):
+        return self.plant.GetFrameByName(name, self.model)
+
+    def positions(self, arm, fingers=None, base=(0.0, 0.0, 0.0)) -> np.ndarray:
+        """The robot's positions (description.joints order) at a base pose (x, y, yaw)."""
+        if fingers is None:
+            fingers = [self.travel] * len(self.description.gripper.joints)
+        return np.r_[base, arm, fingers]
+
+    def set(self, q: np.ndarray) -> None:
+        self.plant.SetPositions(self.plant_context, self.model, q)
+
+    def pose(self, frame_a: str, frame_b: str) -> RigidTransform:
+        """X_AB in the current configuration."""
+        return self.plant.CalcRelativeTransform(self.plant_context, self.frame(frame_a),
+                                                self.frame(frame_b))
+
+
+@pytest.fixture(scope="module", params=robot_names())
+def robot(request) -> RobotModel:
+    return RobotModel(request.param)
+
+
+def _chain(description: RobotDescription, offset: float) -> DHChain:
+    """The description's DH chain from the arm's base frame to a frame `offset` beyond the
+    flange along its z (the flange turned by `flange_yaw`, as the tool frame is)."""
+    arm = description.arm
+    return DHChain(arm.dh_a, arm.dh_d, arm.dh_alpha,
+                   modified=arm.dh_convention == "modified",
+                   tool_offset=arm.flange_z + offset, tool_yaw=arm.flange_yaw)
+
+
+def _support(shape, X_FG: RigidTransform, e_F: np.ndarray) -> float:
+    """max over the points p of `shape` (posed at X_FG in frame F) of e_F . p_F."""
+    R = X_FG.rotation().matrix()
+    centre = float(e_F @ X_FG.translation())
+    if isinstance(shape, Box):
+        half = np.array([shape.width(), shape.depth(), shape.height()]) / 2
+        return centre + float(np.sum(np.abs(R.T @ e_F) * half))
+    if isinstance(shape, Sphere):
+        return centre + shape.radius()
+    cos_axis = abs(float(e_F @ R[:, 2]))
+    if isinstance(shape, Capsule):
+        return centre + shape.radius() + shape.length() / 2 * cos_axis
+    if isinstance(shape, Cylinder):
+        sin_axis = math.sqrt(max(0.0, 1.0 - cos_axis**2))
+        return centre + shape.radius() * sin_axis + shape.length() / 2 * cos_axis
+    raise AssertionError(f"unexpected shape {shape}")
+
+
+def test_the_description_agrees_with_its_model(robot):
+    check_model(robot.description)
+    assert robot.plant.num_positions() == len(robot.description.joints)
+    for name in robot.description.gripper.joints:
+        joint = robot.plant.GetJointByName(name, robot.model)
+        assert joint.position_lower_limits()[0] == 0.0
+        assert joint.position_upper_limits()[0] == pytest.approx(robot.travel, abs=1e-12)
+
+
+def test_the_dh_table_is_the_models_arm_chain(robot):
+    """The DH chain with `flange_z`, `flange_yaw` and the grasp offset moves the grasp frame
+    as Drake does, in the arm's base frame, within the joint limits; without the grasp
+    offset it moves the tool frame."""
+    d = robot.description
+    grasp, tool = _chain(d, d.tool.grasp_offset), _chain(d, 0.0)
+    rng = np.random.default_rng(0)
+    arms = rng.uniform(robot.lower, robot.upper, size=(SAMPLES, len(d.arm.joints)))
+    R_AG, p_AG = grasp.forward(arms)
+    R_AT, p_AT = tool.forward(arms)
+    for i, arm in enumerate(arms):
+        robot.set(robot.positions(arm, base=(0.4, -1.3, 2.0)))
+        X_AG = robot.pose(d.arm.base_link, d.tool.grasp_frame)
+        np.testing.assert_allclose(X_AG.translation(), p_AG[i], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(X_AG.rotation().matrix(), R_AG[i], rtol=0, atol=1e-9)
+        X_AT = robot.pose(d.arm.base_link, d.tool.frame)
+        np.testing.assert_allclose(X_AT.translation(), p_AT[i], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(X_AT.rotation().matrix(), R_AT[i], rtol=0, atol=1e-9)
+
+
+def test_the_flange_at_zero_angles_is_where_its_maker_says(robot):
+    name = robot.description.name
+    if name not in PUBLISHED_FLANGE_AT_ZERO:
+        pytest.skip(f"no published flange position for {name!r}")
+    d = robot.description
+    robot.set(robot.positions(np.zeros(len(d.arm.joints))))
+    # The tool frame is the flange turned about its z: the same point.
+    X_AT = robot.pose(d.arm.base_link, d.tool.frame)
+    np.testing.assert_allclose(X_AT.translation(), PUBLISHED_FLANGE_AT_ZERO[name], atol=1e-4)
+
+
+def test_frames_and_gripper_are_where_the_description_says(robot):
+    """The arm's base and the tray at their places in the base link, the grasp frame
+    `grasp_offset` along the tool frame's z with the same axes, and centred between the
+    fingers, which open along its y."""
+    d = robot.description
+    robot.set(robot.positions(d.configurations.stow))
+    X_BA = robot.pose(d.base.link, d.arm.base_link)
+    np.testing.assert_allclose(X_BA.translation(), d.arm.mount_xyz, atol=1e-12)
+    assert X_BA.rotation().IsNearlyIdentity(1e-12)
+    X_BT = robot.pose(d.base.link, d.tray.link)
+    np.testing.assert_allclose(X_BT.translation(), d.tray.xyz, atol=1e-12)
+    X_TG = robot.pose(d.tool.frame, d.tool.grasp_frame)
+    assert X_TG.rotation().IsNearlyIdentity(1e-12)
+    np.testing.assert_allclose(X_TG.translation(), [0.0, 0.0, d.tool.grasp_offset], atol=1e-12)
+    assert d.tool.fingertip_offset > d.tool.grasp_offset
+    left, right = (robot.plant.GetJointByName(j, robot.model).child_body().name()
+                   for j in d.gripper.joints)
+    for opening in (0.0, robot.travel / 2, robot.travel):
+        robot.set(robot.positions(d.configurations.stow, fingers=[opening, opening]))
+        p_GL = robot.pose(d.tool.grasp_frame, left).translation()
+        p_GR = robot.pose(d.tool.grasp_frame, right).translation()
+        assert p_GL[1] == pytest.approx(opening, abs=1e-12)
+        assert p_GR[1] == pytest.approx(-opening, abs=1e-12)
+
+
+def test_stow_is_within_the_limits_and_clear_of_self_collision(robot):
+    d = robot.description
+    stow = np.array(d.configurations.stow)
+    assert np.all(robot.lower <= stow) and np.all(stow <= robot.upper)
+    for fingers in ([robot.travel] * 2, [0.0, 0.0]):
+        for base in ((0.0, 0.0, 0.0), (3.2, -1.5, 2.4)):
+            q = robot.positions(stow, fingers=fingers, base=base)
+            assert robot.checker.CheckConfigCollisionFree(q), (fingers, base)
+
+
+def test_stowed_robot_stays_inside_the_footprint(robot):
+    """Every geometry of the robot (collision and visual) in the stow configuration lies
+    within the footprint in the base's x and y: its extent along ±x and ±y (exact for
+    boxes, cylinders, capsules and spheres) at most half the length and width."""
+    d = robot.description
+    x, y, yaw = 1.0, -2.0, 0.8
+    robot.set(robot.positions(d.configurations.stow, base=(x, y, yaw)))
+    query = robot.scene_graph.get_query_output_port().Eval(
+        robot.scene_graph.GetMyContextFromRoot(robot.context))
+    inspector = query.inspector()
+    X_WB = RigidTransform(RotationMatrix.MakeZRotation(yaw), [x, y, 0.0])
+    assert robot.pose(d.base.link, d.base.link).IsExactlyIdentity()
+    assert robot.plant.GetFrameByName(d.base.link, robot.model).CalcPoseInWorld(
+        robot.plant_context).IsNearlyEqualTo(X_WB, 1e-12)
+    X_BW = X_WB.inverse()
+    arm_bodies = {robot.plant.GetJointByName(j, robot.model).child_body().index()
+                  for j in d.arm.joints}
+    seen_arm = False
+    for role in (Role.kProximity, Role.kIllustration):
+        for geometry_id in inspector.GetAllGeometryIds(role):
+            X_BG = X_BW @ query.GetPoseInWorld(geometry_id)
+            shape = inspector.GetShape(geometry_id)
+            body = robot.plant.GetBodyFromFrameId(inspector.GetFrameId(geometry_id))
+            seen_arm |= body.index() in arm_bodies
+            for e_B, half in (([1.0, 0, 0], d.base.length / 2), ([0, 1.0, 0], d.base.width / 2)):
+                for sign in (1.0, -1.0):
+                    extent = _support(shape, X_BG, sign * np.array(e_B))
+                    assert extent <= half + 1e-9, (body.name(), inspector.GetName(geometry_id))
+    assert seen_arm
