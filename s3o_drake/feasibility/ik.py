@@ -101,6 +101,19 @@ def random_arm_seeds(count: int, seed: int = 0) -> np.ndarray:
     return kin.ARM.random_configurations(count, seed)
 
 
+def solve_or_none(solver, prog, guess: np.ndarray, options):
+    """`solver.Solve`, or None where evaluating the program threw: a signed distance
+    between two capsules that just touch can fail in the collision library's GJK/EPA
+    ("Error with configuration"), which is a failed attempt from that seed, not an error of
+    the whole check."""
+    try:
+        return solver.Solve(prog, guess, options)
+    except RuntimeError as e:
+        if "Error with configuration" not in str(e):
+            raise
+        return None
+
+
 def grasp_error(scene: FeasibilityScene, q: np.ndarray,
                 X_WG: RigidTransform) -> tuple[float, float]:
     """(angle (rad), distance (m)) between the grasp frame at positions q and X_WG."""
@@ -161,8 +174,8 @@ def solve_grasp_ik(scene: FeasibilityScene, base: np.ndarray, grasp: Grasp, *, d
         seeds = np.vstack([ARM_STOW, random_arm_seeds(3)])
     for arm in np.asarray(seeds, dtype=float).reshape(-1, NUM_ARM_JOINTS):
         guess = scene.q(base, arm)
-        result = solver.Solve(prog, guess, options)
-        if not result.is_success():
+        result = solve_or_none(solver, prog, guess, options)
+        if result is None or not result.is_success():
             continue
         q_sol = result.GetSolution(q)
         if verify(scene, q_sol, dish, grasp.X_WG, position_tolerance=position_tolerance,

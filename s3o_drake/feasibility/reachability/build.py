@@ -22,6 +22,7 @@ from s3o_drake.feasibility.ik import (
     DISTANCE_MARGIN,
     MIN_DISTANCE,
     POSITION_TOLERANCE,
+    solve_or_none,
 )
 from s3o_drake.feasibility.reachability.map import (
     FORMAT_VERSION,
@@ -101,8 +102,8 @@ class _NodeSolver:
         ik.AddMinimumDistanceLowerBoundConstraint(self.min_distance + DISTANCE_MARGIN)
         found = []
         for seed in seeds:
-            result = self.solver.Solve(prog, self._q(seed), self.options)
-            if not result.is_success():
+            result = solve_or_none(self.solver, prog, self._q(seed), self.options)
+            if result is None or not result.is_success():
                 found.append(None)
                 continue
             arm = result.GetSolution(q)[ARM_POSITIONS]
