@@ -198,20 +198,28 @@ def nearest_turn(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return kin.ARM.nearest_turn(q, reference)
 
 
-def solve_arm(R_AG: np.ndarray, p_AG: np.ndarray, reference: np.ndarray) -> list[np.ndarray]:
+def solve_arm(R_AG: np.ndarray, p_AG: np.ndarray, reference: np.ndarray,
+              seeds: np.ndarray | None = None) -> list[np.ndarray]:
     """Arm configurations putting G at (R_AG, p_AG), each turned as near `reference` as
     allowed, the nearest first: the closed-form solutions of every branch (UR family), or
-    the solution damped least squares reaches from `reference` (another arm)."""
-    return solve_arm_many(np.asarray(R_AG)[None], np.asarray(p_AG)[None], reference)[0]
+    those damped least squares reaches from `reference` and from `seeds` (k, n) (another
+    arm; a target near the reference needs no other seed)."""
+    return solve_arm_many(np.asarray(R_AG)[None], np.asarray(p_AG)[None], reference,
+                          seeds)[0]
 
 
-def solve_arm_many(R_AG: np.ndarray, p_AG: np.ndarray,
-                   reference: np.ndarray) -> list[list[np.ndarray]]:
+def solve_arm_many(R_AG: np.ndarray, p_AG: np.ndarray, reference: np.ndarray,
+                   seeds: np.ndarray | None = None) -> list[list[np.ndarray]]:
     """`solve_arm` for targets (m, 3, 3), (m, 3) and references (n,) or (m, n) at once
     (vectorised: the oracle asks for thousands of targets)."""
-    m = len(p_AG)
-    references = np.broadcast_to(np.asarray(reference, dtype=float), (m, kin.ARM.joints))
-    branches = kin.inverse(R_AG, p_AG, references[:, None])  # (m, B, n)
+    m, n = len(p_AG), kin.ARM.joints
+    references = np.broadcast_to(np.asarray(reference, dtype=float), (m, n))
+    starts = references[:, None]
+    if seeds is not None:
+        extra = np.broadcast_to(np.asarray(seeds, dtype=float).reshape(1, -1, n),
+                                (m, len(seeds), n))
+        starts = np.concatenate([starts, extra], axis=1)
+    branches = kin.inverse(R_AG, p_AG, starts)  # (m, B, n)
     exact = kin.ARM.exact(branches, R_AG, p_AG, POSE_TOLERANCE)
     turned = nearest_turn(np.nan_to_num(branches), references[:, None])
     exact &= kin.ARM.within_limits(turned)
@@ -303,8 +311,9 @@ def tray_arms(grasp: str) -> tuple[np.ndarray, ...]:
     G is `TRAY_CLEARANCE` above the tray's centre; a top grasp keeps the gripper pointing
     down, a side grasp keeps it level (a cup stays upright). Headings of the approach axis
     go from pointing backwards round to sideways; per heading, the solutions nearest
-    ARM_STOW first. In the arm's frame they do not depend on where the base stands, so they
-    are solved once.
+    ARM_STOW first (an arm without a closed form starts from ARM_STOW and its default
+    seeds). In the arm's frame they do not depend on where the base stands, so they are
+    solved once.
     """
     p_BT = np.array(TRAY_XYZ) + np.array([0.0, 0.0, TRAY_CLEARANCE])
     p_AG = p_BT - np.array(ARM_MOUNT_XYZ)
@@ -313,7 +322,7 @@ def tray_arms(grasp: str) -> tuple[np.ndarray, ...]:
     for heading in (math.pi, 0.5 * math.pi, -0.5 * math.pi, 0.75 * math.pi, -0.75 * math.pi,
                     0.0):
         R_AG = (RotationMatrix.MakeZRotation(heading) @ R_bearing).matrix()
-        arms += solve_arm(R_AG, p_AG, np.asarray(ARM_STOW))
+        arms += solve_arm(R_AG, p_AG, np.asarray(ARM_STOW), kin.ARM.seeds)
     return tuple(arms)
 
 
