@@ -75,7 +75,7 @@ def trapezoid_duration(path: np.ndarray, max_velocity: np.ndarray,
 
 
 def trapezoid_limits(name: str) -> tuple[np.ndarray, np.ndarray]:
-    """The reference timing's limits of the robot's 11 positions in segment `name`."""
+    """The reference timing's limits of the robot's positions in segment `name`."""
     from s3o_drake.execution.arm.pickup import (
         FINGER_MAX_ACCELERATION,
         FINGER_MAX_VELOCITY,

@@ -34,7 +34,7 @@ from s3o_drake.world.goals import place_target_name
 from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_BASE_JOINTS, NUM_POSITIONS
 from s3o_drake.world.system_lifetime import weak_callback
 
-#: The arm's and the fingers' positions among the robot's 11.
+#: The arm's and the fingers' positions among the robot's.
 ARM_AND_FINGERS = slice(3, NUM_POSITIONS)
 NUM_ARM_AND_FINGERS = NUM_POSITIONS - NUM_BASE_JOINTS
 #: Stream tag of the reach noise in `numpy.random.default_rng([seed, tag, command id])`
@@ -50,7 +50,7 @@ class _Activity:
     """Everything the controller remembers (one abstract state).
 
     `hold`: the arm's and fingers' 8 positions held while no motion plays; `trajectory`: the
-    motion playing (11 positions, t from 0 at `t_start`) or None; `t_grasp`, `t_release`:
+    motion playing (the robot's positions, t from 0 at `t_start`) or None; `t_grasp`, `t_release`:
     when (since `t_start`) the gripper closes on and lets go of `dish` (inf: it keeps it);
     `putting`: the motion puts `dish` down at its place (else it lets go over the tray);
     `grasp`: the motion's grasp ("top" or "side"); `held_grasp`: the grasp the gripper
@@ -106,8 +106,8 @@ class ArmController(LeafSystem):
             `place` the putting down of the held object, or, naming the held object
             without `place`, its letting go over the tray (a command that arrives while
             another plays starts when that one ends).
-        robot_state: vector (22), the robot's 11 positions then 11 velocities (base x, y,
-            yaw; 6 arm joints; 2 fingers).
+        robot_state: vector (2 NUM_POSITIONS), the robot's positions then its velocities
+            (base x, y, yaw; the arm's joints; the fingers).
         dish_poses: abstract DishPoses, X_WD of each dish where it really is; unconnected:
             the scenario's positions.
     Output ports:

@@ -93,8 +93,8 @@ class BaseNavigator(LeafSystem):
 
     Input ports:
         base_command (abstract `BaseCommand`): a new `id` starts a command; id 0 holds still.
-        robot_state (vector 22): the robot's 11 positions then 11 velocities; the base pose
-            (x, y, yaw) is positions 0..2.
+        robot_state (vector, 2 NUM_POSITIONS): the robot's positions then its velocities;
+            the base pose (x, y, yaw) is positions 0..2.
     Output ports:
         base_desired_state (vector 6): x, y, yaw (m, rad) then their rates (m/s, rad/s).
         status (abstract `Status`): CommandState idle before any command, running while the

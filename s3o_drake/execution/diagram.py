@@ -13,8 +13,8 @@
     base_navigator (6) + arm_controller (16) ── desired_state_mux ──> world.robot_desired_state
 
 The navigator drives the base's three positions and the arm controller the six arm joints
-and the two fingers; `desired_state_mux` interleaves their [q, v] into the plant's [q(11),
-v(11)] with a permutation (a Multiplexer and a MatrixGain: no code of ours in the loop).
+and the two fingers; `desired_state_mux` interleaves their [q, v] into the plant's [q,
+v] with a permutation (a Multiplexer and a MatrixGain: no code of ours in the loop).
 
 The systems take small parameter dataclasses; the functions here make them from the
 Scenario (`executive_params`, `navigator_params`, `arm_params`, `make_executive_system`).

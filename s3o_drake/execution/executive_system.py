@@ -86,7 +86,7 @@ class ExecutiveSystem(LeafSystem):
       overhead_color_image (ImageRgba8U), overhead_depth_image (ImageDepth32F),
       overhead_label_image (ImageLabel16I): the overhead camera, read once at start (and
         at each replan) through `perceive_world`;
-      robot_state (22: the robot's 11 positions then 11 velocities);
+      robot_state (2 NUM_POSITIONS: the robot's positions then its velocities);
       base_status, arm_status (abstract Status): the controllers' reports;
       replan_request (1, optional): a change of its value asks for a new plan.
     Output ports:

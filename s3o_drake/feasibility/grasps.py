@@ -22,7 +22,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.gripper import holds_whole
-from s3o_drake.world.robot import FINGERTIP_OFFSET, GRASP_OFFSET
+from s3o_drake.world.robot import FINGERTIP_OFFSET, GRASP_OFFSET, ROBOT
 
 GRASP_KINDS = ("top", "side")
 # The fingers must stay this far above the table top (m); matches the 1 cm clearance of
@@ -32,10 +32,10 @@ TABLE_CLEARANCE = 0.012
 RIM_INSET = 0.01
 # Half the height of a finger pad seen from the side (m), for side grasps.
 PAD_HALF_HEIGHT = 0.015
-# Radius about the approach axis of what follows the grasp point along it (m): the gripper's
-# body (0.04) and the UR5e's wrist housings (0.045, models/ur5e). In a side grasp they pass
-# over the table top, so they set the lowest grasp height.
-WRIST_RADIUS = 0.045
+# Radius about the approach axis of what follows the grasp point along it (m): the robot's
+# hand and wrist. In a side grasp they pass over the table top, so they set the lowest
+# grasp height.
+WRIST_RADIUS = ROBOT.tool.wrist_radius
 
 # Rotations of G in the frame whose x axis points along the bearing (z up).
 R_BEARING_TOP = RotationMatrix(np.array([[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]]).T)

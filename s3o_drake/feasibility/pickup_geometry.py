@@ -1,7 +1,7 @@
 """The configurations of an executed pickup: the one test shared by the ArmController and Fea^m.
 
 A pickup, as the ArmController runs it (`s3o_drake.execution.arm.pickup.plan_pickup`), passes
-through these configurations of the robot's 11 positions, from where the base stands:
+through these configurations of the robot's positions, from where the base stands:
 
 - grasp: a collision-free arm configuration at one of the dish's grasps
   (`FeasibilityChecker.free_grasps`, in its order: the 1 cm clearance, joint limits);
@@ -161,7 +161,7 @@ def goal_probability(target: str, kind: str, reach_std: float) -> float:
 
 @dataclass(frozen=True)
 class PickupConfigurations:
-    """The robot's 11 positions at each stop of a pickup (see the module docstring)."""
+    """The robot's positions at each stop of a pickup (see the module docstring)."""
 
     grasp: str
     q_grasp: np.ndarray
@@ -230,7 +230,7 @@ def solve_arm_many(R_AG: np.ndarray, p_AG: np.ndarray, reference: np.ndarray,
 
 def moved(q: np.ndarray, base: np.ndarray, X_WG_target: RigidTransform,
           checker: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """q (11) with the arm moved so that G is at X_WG_target, collision-free, or None."""
+    """q (NUM_POSITIONS) with the arm moved so that G is at X_WG_target, collision-free, or None."""
     return _moved(q, X_WA(base).inverse() @ X_WG_target, checker)
 
 
@@ -243,7 +243,7 @@ def _moved(q: np.ndarray, X_AG_target: RigidTransform,
 
 def _first_free(q: np.ndarray, arms: list[np.ndarray],
                 checker: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """q (11) with the first of `arms` that is collision-free, or None."""
+    """q (NUM_POSITIONS) with the first of `arms` that is collision-free, or None."""
     for arm in arms:
         candidate = q.copy()
         candidate[ARM_POSITIONS] = arm
@@ -328,7 +328,7 @@ def tray_arms(grasp: str) -> tuple[np.ndarray, ...]:
 
 def tray_configuration(base: np.ndarray, grasp: str, q_from: np.ndarray,
                        checker: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """The robot's 11 positions at release over the tray (fingers as in `q_from`), or None:
+    """The robot's positions at release over the tray (fingers as in `q_from`), or None:
     the first of `tray_arms` that is collision-free."""
     for arm in tray_arms(grasp):
         q = q_from.copy()
@@ -340,7 +340,7 @@ def tray_configuration(base: np.ndarray, grasp: str, q_from: np.ndarray,
 
 
 def with_gripper(q: np.ndarray, gripper: np.ndarray) -> np.ndarray:
-    """q (11) with the fingers at `gripper`."""
+    """q (NUM_POSITIONS) with the fingers at `gripper`."""
     out = q.copy()
     out[GRIPPER_POSITIONS] = gripper
     return out

@@ -2,7 +2,7 @@
 
 A `FeasibilityScene` holds the robot, the tables, the dishes and the chairs of a room in a
 `RobotDiagram` (plant + scene graph, no simulation), and a `SceneGraphCollisionChecker` over
-the robot's 11 positions with a padding between robot and environment. Which room it holds
+the robot's positions with a padding between robot and environment. Which room it holds
 is the caller's choice: the true world's (`Scenario.contents`: ground truth, for labels and
 the execution's judge) or a belief's (`KnownWorld.contents`: what a planner may know; the
 planner's one scene per plan is `feasibility.planning_scene.PlanningScene`).
@@ -79,7 +79,7 @@ class FeasibilityScene:
 
     def q(self, base: np.ndarray, arm: np.ndarray = ARM_STOW,
           gripper: np.ndarray = GRIPPER_OPEN) -> np.ndarray:
-        """The plant's positions (the robot's 11) for a base pose (x, y, yaw) and arm."""
+        """The plant's positions (the robot's) for a base pose (x, y, yaw) and arm."""
         return robot_positions(*base, arm=arm, gripper=gripper)
 
     @staticmethod

@@ -154,7 +154,7 @@ def _add_room(plant: MultibodyPlant, room: Room, margin: float) -> None:
 def _add_gravity_compensation(builder: DiagramBuilder, plant: MultibodyPlant) -> None:
     """Feeds the actuators, as feed-forward to their PD control, the torques that cancel
     gravity at the current state ("gravity_compensation", Drake's InverseDynamics), as the
-    UR5e's own controller does.
+    arms' own controllers do.
 
     The PD gains were tuned without gravity, and compensated the dynamics are the same. The
     robot's gravity was at first disabled in the plant instead, but then a robot holding
@@ -299,7 +299,7 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
                         track_dishes: bool = False, show_collisions: bool = True) -> Diagram:
     """The simulated restaurant as one named Diagram ("s3o_world").
 
-    Input ports:  robot_desired_state (positions then velocities of the robot's 11 joints,
+    Input ports:  robot_desired_state (positions then velocities of the robot's joints,
                   tracked by the joints' PD actuators)
     Output ports: robot_state, overhead_color_image, overhead_depth_image,
                   overhead_label_image, query_object, body_poses

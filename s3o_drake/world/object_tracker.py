@@ -176,7 +176,7 @@ class ObjectTracker(LeafSystem):
     unrestricted update; the poses of held dishes follow the robot's state continuously.
 
     Input ports:
-        robot_state: vector (22): the robot's 11 positions then 11 velocities.
+        robot_state: vector (2 NUM_POSITIONS): the robot's positions then its velocities.
         grip: abstract GripEvent; unconnected means the gripper holds nothing.
     Output ports:
         geometry_pose: FramePoseVector, for scene_graph.get_source_pose_port(source_id).

@@ -1,33 +1,36 @@
 """The mobile manipulator: its model file, joint layout, named configurations and footprint.
 
-The values come from the robot's description (``models/ur5e/robot.yaml``, read by
-`world/robot_description`); the names below are the package's view of it.
+The values come from the description of this process's robot (``models/<name>/robot.yaml``,
+`resources.ROBOT_NAME`: the UR5e unless S3O_ROBOT names another; read and checked against
+its model by `world/robot_description`); the names below are the package's view of it, and
+no module below the commands assumes more of the robot than they say.
 
-The model (``models/ur5e/mobile_manipulator.urdf``) is built from primitives: an RMP-110-class
-base (footprint ``BASE_LENGTH`` x ``BASE_WIDTH``, ~100 kg) carrying a VLP-16-class lidar, a dish
-tray and a pedestal, a UR5e arm (standard DH parameters) on the pedestal, and a Robotiq
-2F-140-class parallel gripper. The base moves on three actuated joints from the world
-(``base_x``, ``base_y`` prismatic, ``base_yaw`` revolute about z; Drake's PlanarJoint cannot be
-actuated), so the whole robot is one model instance with 11 positions, 11 velocities and
-11 PD-controlled actuators, all in the order
+The models are built from primitives (``models/ur5e``: an RMP-110-class base with a UR5e arm
+and a Robotiq 2F-140-class gripper; ``models/panda``: a smaller base with a Franka-Panda-class
+arm and hand; each URDF's header says why everything is where it is). The base moves on
+three actuated joints from the world (``base_x``, ``base_y`` prismatic, ``base_yaw`` revolute
+about z; Drake's PlanarJoint cannot be actuated), so the whole robot is one model instance
+whose positions, velocities and PD-controlled actuators are all in the order
 
     ``BASE_JOINTS + ARM_JOINTS + GRIPPER_JOINTS``
 
-(positions, velocities, actuators and the plant's desired-state input alike). The PD gains are
-in the URDF (``<drake:controller_gains>``) and are tuned for a discrete plant (SAP, time step
-1e-3..2e-3 s) whose actuators also carry the robot's gravity as a feed-forward (the world's
-"gravity_compensation", `world/builder.py`), as the UR5e's own controller does.
+(positions, velocities, actuators and the plant's desired-state input alike; NUM_POSITIONS of
+each). The PD gains are in the URDF (``<drake:controller_gains>``) and are tuned for a
+discrete plant (SAP, time step 1e-3..2e-3 s) whose actuators also carry the robot's gravity
+as a feed-forward (the world's "gravity_compensation", `world/builder.py`), as the arms' own
+controllers do.
 
 Frames (names of bodies in the model):
 
 - ``base_link`` (B): on the floor at the centre of the footprint, x forward, z up. For base
   positions (x, y, yaw), ``X_WB = RigidTransform(RotationMatrix.MakeZRotation(yaw), [x, y, 0])``.
-- ``ur_base_link``: the UR5e's DH base frame, at ``ARM_MOUNT_XYZ`` in B (axes parallel to B's).
-- ``tool0``: the UR5e's tool flange.
-- ``grasp_frame`` (G): the centre between the fingertip pads, ``GRASP_OFFSET`` beyond ``tool0``
-  along its z axis, which is the approach direction; the fingers open along G's y axis.
-- ``tray_link``: the centre of the tray's inner floor surface (z up), at ``TRAY_XYZ`` in B.
-- ``lidar_link``: the centre of the lidar's head.
+- ``ARM_BASE_LINK`` (A): the arm's DH base frame, at ``ARM_MOUNT_XYZ`` in B (axes parallel to
+  B's).
+- ``TOOL_FRAME``: the tool flange, turned as the hand is mounted.
+- ``GRASP_FRAME`` (G): the centre between the fingertip pads, ``GRASP_OFFSET`` beyond the tool
+  frame along its z axis, which is the approach direction; the fingers open along G's y.
+- ``TRAY_LINK``: the centre of the tray's inner floor surface (z up), at ``TRAY_XYZ`` in B.
+- ``LIDAR_LINK``: the centre of the lidar's head.
 """
 
 import math
@@ -76,11 +79,11 @@ BASE_RADIUS = math.hypot(BASE_LENGTH / 2, BASE_WIDTH / 2)
 #: this to an obstacle the base collides at every yaw, so standing spots keep at least this.
 INSCRIBED_RADIUS = BASE_WIDTH / 2
 
-#: Position of ur_base_link in base_link (m); see the URDF's header for the reasons.
+#: Position of the arm's base frame in base_link (m); see the URDF's header for the reasons.
 ARM_MOUNT_XYZ = tuple(ROBOT.arm.mount_xyz)
-#: Distance (m) from tool0 to grasp_frame along tool0's z axis.
+#: Distance (m) from the tool frame to the grasp frame along the tool's z axis.
 GRASP_OFFSET = ROBOT.tool.grasp_offset
-#: Distance (m) from tool0 to the fingertips along tool0's z axis.
+#: Distance (m) from the tool frame to the fingertips along its z axis.
 FINGERTIP_OFFSET = ROBOT.tool.fingertip_offset
 #: Travel of each finger (m); the opening between the fingers is the sum of both positions.
 FINGER_TRAVEL = ROBOT.gripper.travel
@@ -138,7 +141,7 @@ def robot_positions(
     arm: np.ndarray = ARM_STOW,
     gripper: np.ndarray = GRIPPER_OPEN,
 ) -> np.ndarray:
-    """The robot's 11 positions (model instance order) with base_link at (x, y, yaw) in W.
+    """The robot's positions (model instance order) with base_link at (x, y, yaw) in W.
 
     `arm` holds the 6 arm joint angles (rad) in ``ARM_JOINTS`` order, `gripper` the 2 finger
     positions (m) in ``GRIPPER_JOINTS`` order.
@@ -153,7 +156,8 @@ def robot_positions(
 
 
 def robot_desired_state(positions: np.ndarray, velocities: np.ndarray | None = None) -> np.ndarray:
-    """The value for ``plant.get_desired_state_input_port(model)``: [q_d, v_d] (22 values).
+    """The value for ``plant.get_desired_state_input_port(model)``: [q_d, v_d]
+    (2 NUM_POSITIONS values).
 
     The actuators are in the order of the positions, so this is ``positions`` followed by
     ``velocities`` (zero if not given).

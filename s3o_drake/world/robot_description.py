@@ -83,6 +83,10 @@ class ToolDescription:
     """From the tool frame to the grasp frame along the tool's z (m)."""
     fingertip_offset: float = 0.0
     """From the tool frame to the fingertips along the tool's z (m)."""
+    wrist_radius: float = 0.0
+    """The radius (m) about the approach axis of what follows the grasp point along it (the
+    hand and the wrist): in a side grasp it passes over the table, so it sets the lowest
+    side grasp."""
 
 
 @dataclass
@@ -239,6 +243,7 @@ def _check_values(d: RobotDescription) -> None:
                  f"[{lo}, {hi}]")
     for path, v in (("base.length", d.base.length), ("base.width", d.base.width),
                     ("gripper.travel", d.gripper.travel), ("reach", d.reach),
+                    ("tool.wrist_radius", d.tool.wrist_radius),
                     ("tray.inner_length", d.tray.inner_length),
                     ("tray.inner_width", d.tray.inner_width),
                     ("tray.rim_height", d.tray.rim_height)):

@@ -1,11 +1,11 @@
 """Collision-free arm paths (OMPL's RRT-Connect on Drake's collision checker) and their timing.
 
-`plan_arm_path` moves the UR5e's six joints (positions 3..8 of the robot's 11) from one
+`plan_arm_path` moves the arm's joints (`ARM_POSITIONS` of the robot's positions) from one
 configuration to another with the base and the fingers held where they are. Drake has no
 sampling-based planner, so OMPL's RRT-Connect searches the arm's joint box (the plant's
 position limits); Drake's `SceneGraphCollisionChecker` answers its questions: a state is
-valid when `CheckConfigCollisionFree` holds for the full 11-vector, a motion when
-`CheckEdgeCollisionFree` does (straight line in the 11 positions, stepped at the checker's
+valid when `CheckConfigCollisionFree` holds for all the robot's positions, a motion when
+`CheckEdgeCollisionFree` does (straight line in the robot's positions, stepped at the checker's
 edge step, 0.05 rad here), so the planner and the final verification use the very same test.
 The found path is shortcut (OMPL's `PathSimplifier`, by step counts rather than a time budget
 so that the result does not depend on the machine's speed) and every edge of what is
@@ -121,7 +121,7 @@ def _seed_ompl(seed: int) -> None:
 
 
 class _EdgeValidator(ob.MotionValidator):
-    """OMPL motion validity = Drake's `CheckEdgeCollisionFree` on the full 11 positions."""
+    """OMPL motion validity = Drake's `CheckEdgeCollisionFree` on all the robot's positions."""
 
     def __init__(self, si: ob.SpaceInformation, to_q, checker: SceneGraphCollisionChecker):
         super().__init__(si)
@@ -155,7 +155,7 @@ def plan_arm_path(checker: SceneGraphCollisionChecker, q_start: np.ndarray, q_go
                   max_step: float = RRT_RANGE) -> np.ndarray | None:
     """A collision-free path (n, NUM_POSITIONS) from q_start to q_goal moving only the arm, or None.
 
-    q_start and q_goal are the robot's 11 positions; the path holds base and fingers at
+    q_start and q_goal are the robot's positions; the path holds base and fingers at
     q_start's values (q_goal's are ignored there) and its consecutive waypoints are joined
     by straight lines, each verified with `checker.CheckEdgeCollisionFree`. The straight
     line is returned as is when it is free (no planner). Otherwise RRT-Connect searches for

@@ -3,7 +3,7 @@
 `plan_pickup` finds the configurations of the pickup with
 `s3o_drake.feasibility.pickup_geometry.pickup_geometry` (the very test that Fea^m's oracle
 applies: grasp, pre-grasp, closed fingers, lift, tray and release, with the reach noise
-T^m already in the grasp target) and joins them into timed motions over the robot's 11
+T^m already in the grasp target) and joins them into timed motions over the robot's
 positions, in this order:
 
 - approach: RRT-Connect from the current configuration to the pre-grasp;
@@ -20,11 +20,12 @@ with "to_tray", the object held above the tray while the base drives on, and
 `manipulation.place.plan_place` later puts it down.
 
 Every motion is timed by `arm_motion.time_parameterize` (Drake's TOPPRA) within
-`segment_limits`: the UR5e's joint limits from the robot model (180 deg/s, 5 rad/s²), `SLOW`
-of them near the dish (descend, lift), the fingers at FINGER_MAX_*; the corners of a
-multi-waypoint path are rounded where the motion's own checker finds the rounded curve
-collision-free. A pickup then takes a median 7.2 s of simulated time against 13.0 s with the
-trapezoids at 1 rad/s that it replaced (docs/execution.md, `pickup_benchmark`).
+`segment_limits`: the arm's joint limits from the robot model (the UR5e's 180 deg/s,
+5 rad/s²), `SLOW` of them near the dish (descend, lift), the fingers at FINGER_MAX_*; the
+corners of a multi-waypoint path are rounded where the motion's own checker finds the
+rounded curve collision-free. A UR5e pickup then takes a median 7.2 s of simulated time
+against 13.0 s with the trapezoids at 1 rad/s that it replaced (docs/execution.md,
+`pickup_benchmark`).
 
 The three RRT-Connect paths are what the oracle leaves out; the scene's own checker (1 cm
 padding, nothing may be touched) judges approach and stow, the grasping checker
@@ -108,8 +109,8 @@ class PickupPlan:
 
 
 def segment_limits(plant: MultibodyPlant, name: str) -> tuple[np.ndarray, np.ndarray]:
-    """Speed and acceleration limits of the 11 positions in segment `name`: the arm's from
-    the robot model (the UR5e's; models/ur5e/mobile_manipulator.urdf), the fingers' the
+    """Speed and acceleration limits of the robot's positions in segment `name`: the arm's from
+    the robot model (models/<robot>/, their sources in its robot.yaml), the fingers' the
     gentler FINGER_MAX_*, all times SLOW in SLOW_SEGMENTS; the base does not move within a
     pickup (the model's limits, unused)."""
     v, a = joint_limits(plant)
@@ -133,7 +134,7 @@ def start_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: n
                    target: str, *, q_start: np.ndarray | None,
                    reach_offset: np.ndarray | None, grasp: str | None
                    ) -> tuple[np.ndarray, PickupGeometry]:
-    """Where an arm motion at `target` starts, the robot's 11 positions (`q_start`,
+    """Where an arm motion at `target` starts, the robot's positions (`q_start`,
     default the arm stowed and the gripper open, its base entries set to `base`), and the
     configurations of picking `target` from there (`pickup_geometry`); shared by a pickup
     and a place. Raises ValueError for a `q_start` of another shape."""
@@ -155,7 +156,7 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
     (with `hold`: that pick it and hold it above the tray, ending with "to_tray").
 
     `base` is where the robot really stands; `reach_offset` is the reach noise (moves the
-    grasp target, as in `FeasibilityChecker.check`); `q_start` the robot's 11 positions now
+    grasp target, as in `FeasibilityChecker.check`); `q_start` the robot's positions now
     (default: ARM_STOW, gripper open; its base entries are replaced by `base`). `seed` and
     `time_limit` (seconds per RRT-Connect query) go to `plan_arm_path`. Not ok with reason
     "base_collision" (the base stands in collision), "no_ik" (no collision-free grasp, or no

@@ -6,7 +6,7 @@ stands in the checker's scene as an object of its kind at the place (`goals.
 place_target_dishes`), and putting the object down there is the reverse of picking that
 target up: `plan_place` finds the target's pickup configurations with the same test as
 Fea^m (`pickup_geometry`, restricted to the grasp the object is held with, so that the
-hand never has to re-grasp), then joins, over the robot's 11 positions:
+hand never has to re-grasp), then joins, over the robot's positions:
 
 - approach: RRT-Connect from where the arm holds the object to the target's pre-grasp,
   the fingers kept closed on the object;
@@ -70,7 +70,7 @@ def plan_place(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.nd
     dish of `scene`) from base pose `base` (x, y, yaw), holding it with `grasp` ("top" or
     "side").
 
-    `q_start` is the robot's 11 positions now (the fingers as they hold the object; its
+    `q_start` is the robot's positions now (the fingers as they hold the object; its
     base entries are replaced by `base`); `reach_offset` the reach noise (moves where the
     object is put down); `seed` and `time_limit` go to `plan_arm_path`. Not ok with reason
     "base_collision", "no_ik" (no grasp of that kind at the target, or no pre-grasp on its

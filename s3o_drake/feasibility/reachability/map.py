@@ -8,10 +8,12 @@ every bearing and turn. The map therefore stores, for each kind, configurations 
 over the grasp point's horizontal distance ρ from A and its height h above A.
 
 Built once with Drake IK on a plant that holds the robot alone (the build is in
-s3o_drake/feasibility/reachability/build.py): at each grid node the closed-form solutions of
-the UR5e (all eight shoulder/wrist/elbow branches) seed `InverseKinematics` with the
-grasp-frame constraints and a self-collision clearance of 1 cm (SNOPT, capped iterations),
-and each verified solution is kept in its branch's slot (at most K = 8 per node). The
+s3o_drake/feasibility/reachability/build.py): at each grid node the arm's inverse kinematics
+(the UR family: all eight closed-form shoulder/wrist/elbow branches; another arm: damped
+least squares from its default seeds) seeds `InverseKinematics` with the grasp-frame
+constraints and a self-collision clearance of 1 cm (SNOPT, capped iterations), and each
+verified solution is kept in its branch's slot (at most K per node: 8 for the UR5e, 16 for
+the Panda). The
 environment is left to query time, where the configurations are moved to the query's
 bearing and checked against the scene with the collision checker
 (`s3o_drake.feasibility.check`).
