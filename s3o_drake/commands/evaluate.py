@@ -182,15 +182,18 @@ def main(argv: list[str] | None = None) -> int:
             fail(f"--scheduler: {e}")
         except OSError as e:
             fail(f"--scheduler: cannot reach {args.scheduler}: {e}")
-    from s3o_drake.experiments.store import ResultStore
+    from s3o_drake.experiments.store import OtherRobotRowsError, ResultStore
     from s3o_drake.experiments.summary import markdown_tables, summarize, write_outputs
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     difficulty_jobs, run_job_list = study_jobs(paths, methods, args.seeds, args.recovery,
                                                  tuple(args.overrides))
-    difficulty_store = ResultStore(out / "difficulty.jsonl", read_only=args.summarize)
-    store = ResultStore(out / "results.jsonl", read_only=args.summarize)
+    try:
+        difficulty_store = ResultStore(out / "difficulty.jsonl", read_only=args.summarize)
+        store = ResultStore(out / "results.jsonl", read_only=args.summarize)
+    except OtherRobotRowsError as e:
+        fail(f"--out: {e}")
     before: dict[str, dict] = {}
     known = None  # the difficulty rows of --again's study
     if args.again is not None:

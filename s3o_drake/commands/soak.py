@@ -12,7 +12,7 @@ Exit status: 0, 1 when something went wrong, 2 on bad input, 130 when interrupte
 import sys
 
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.commands.common import command_parser
+from s3o_drake.commands.common import command_parser, fail
 from s3o_drake.commands.options import (
     add_out,
     add_quiet,
@@ -55,11 +55,14 @@ def main(argv: list[str] | None = None) -> int:
         summary_table,
         tally,
     )
-    from s3o_drake.experiments.store import ResultStore
+    from s3o_drake.experiments.store import OtherRobotRowsError, ResultStore
     from s3o_drake.world.files import write_atomically
 
     out.mkdir(parents=True, exist_ok=True)
-    store = ResultStore(out / "soak.jsonl")
+    try:
+        store = ResultStore(out / "soak.jsonl")
+    except OtherRobotRowsError as e:
+        fail(f"--out: {e}")
     code = 0
     if not args.summarize:
         try:

@@ -6,6 +6,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from s3o_drake.experiments.store import robot_of
+
 
 def has_time(run: Mapping) -> bool:
     """Whether a run has an execution time: it made a plan (one without has none, not 0 s)."""
@@ -43,13 +45,15 @@ BOOKKEEPING = frozenset({"code", "schema", "job_seconds", "planning_time", "real
 """Fields of a run's row that say when, where and how fast it ran, not what it did."""
 
 
-def _what_it_did(value: object) -> object:
-    """`value` without bookkeeping and wall-clock timings, at any depth."""
+def _what_it_did(value: object, top: bool = True) -> object:
+    """`value` without bookkeeping and wall-clock timings, at any depth; a run's robot
+    always named (rows from before it was recorded ran the UR5e)."""
     if isinstance(value, Mapping):
-        return {k: _what_it_did(v) for k, v in value.items()
+        kept = {k: _what_it_did(v, False) for k, v in value.items()
                 if k not in BOOKKEEPING and "wall" not in k and k != "timing"}
+        return {**kept, "robot": robot_of(value)} if top else kept
     if isinstance(value, list | tuple):
-        return [_what_it_did(v) for v in value]
+        return [_what_it_did(v, False) for v in value]
     return value
 
 

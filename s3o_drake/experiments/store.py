@@ -5,9 +5,11 @@ that is killed loses at most the line it was writing. That cut-short line is cut
 the store is opened again (its job then runs again); every complete line is kept. A write
 that fails (a full disk) takes back what it wrote of its line before it raises.
 
-Every row written says its layout's version (`schema`) and the code that made it (`code`):
-studies and benchmarks resume across commits, and a reader must be able to tell the rows
-apart. Rows written before the schema was recorded have none and read as they are.
+Every row written says its layout's version (`schema`), the code that made it (`code`) and
+the robot it ran (`robot`): studies and benchmarks resume across commits, and a reader must
+be able to tell the rows apart. Rows written before the schema was recorded have none and
+read as they are; rows without a robot are the UR5e's, the only robot there was. A store
+opened to write refuses rows of a robot other than the process's.
 """
 
 import contextlib
@@ -19,12 +21,21 @@ import subprocess
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from s3o_drake.world.resources import PACKAGE_NAME, REPO_DIR
+from s3o_drake.world.resources import DEFAULT_ROBOT, PACKAGE_NAME, REPO_DIR, ROBOT_NAME
 
 SCHEMA = 1
 """The version of the rows' layout that `append` writes as each row's "schema". Rows
 without it (written before it was recorded) are version 0: their fields are a subset of
 version 1's, so they read alike."""
+
+
+class OtherRobotRowsError(ValueError):
+    """A store opened to write holds rows of a robot other than the process's."""
+
+
+def robot_of(row: Mapping) -> str:
+    """The robot a row ran (rows from before robots were recorded: the UR5e)."""
+    return str(row.get("robot", DEFAULT_ROBOT))
 
 
 def schema_of(row: Mapping) -> int:
@@ -87,6 +98,11 @@ class ResultStore:
                     row = {"key": key(row), **row}
             if "key" in row:
                 self._rows[row["key"]] = row
+        others = {robot_of(r) for r in self._rows.values()} - {ROBOT_NAME}
+        if others and not read_only:
+            raise OtherRobotRowsError(
+                f"{self.path}: holds runs of robot {', '.join(sorted(others))}, and this "
+                f"process runs {ROBOT_NAME!r}: write to another folder")
 
     def rows(self) -> list[dict]:
         return list(self._rows.values())
@@ -101,13 +117,13 @@ class ResultStore:
 
     def append(self, row: dict) -> dict:
         """Adds the row as one line, on disk when this returns, stamped with the layout's
-        version and the code (a row that already names its own, copied from another
-        store, keeps them); returns the row as written. A write that fails (the disk
+        version, the code and the robot (a row that already names its own, copied from
+        another store, keeps them); returns the row as written. A write that fails (the disk
         full: OSError ENOSPC) leaves no part of the line behind, so that the next row does
         not run into it and make both unreadable; the error is raised."""
         if self.read_only:
             raise PermissionError(f"{self.path} was opened read-only")
-        row = {"schema": SCHEMA, "code": code_version(), **row}
+        row = {"schema": SCHEMA, "code": code_version(), "robot": ROBOT_NAME, **row}
         data = (json.dumps(row, sort_keys=True) + "\n").encode()
         fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
         try:

@@ -106,7 +106,7 @@ def test_store_keeps_complete_lines_and_cuts_a_line_cut_short(tmp_path):
 
 
 def test_rows_say_their_schema_and_code_and_rows_from_before_still_read(tmp_path):
-    from s3o_drake.experiments.store import SCHEMA, code_version, schema_of
+    from s3o_drake.experiments.store import SCHEMA, code_version, robot_of, schema_of
 
     path = tmp_path / "results.jsonl"
     path.write_text('{"key": "old", "v": 1}\n{"task": "t", "v": 2}\n')  # before the schema
@@ -121,6 +121,17 @@ def test_rows_say_their_schema_and_code_and_rows_from_before_still_read(tmp_path
     assert (new["schema"], new["code"]) == (SCHEMA, code_version()) and schema_of(new) == 1
     assert (copied["schema"], copied["code"]) == (0, "abc")
     assert ResultStore(path).get("new") == new
+    assert new["robot"] == "ur5e" and robot_of(store.get("old")) == "ur5e"
+
+
+def test_a_folder_of_another_robots_runs_is_read_but_not_written(tmp_path):
+    from s3o_drake.experiments.store import OtherRobotRowsError, robot_of
+
+    path = tmp_path / "results.jsonl"
+    path.write_text('{"key": "a", "robot": "panda"}\n{"key": "b"}\n')
+    assert [robot_of(r) for r in ResultStore(path, read_only=True).rows()] == ["panda", "ur5e"]
+    with pytest.raises(OtherRobotRowsError, match=r"holds runs of robot panda.*'ur5e'"):
+        ResultStore(path)
 
 
 def test_a_killed_worker_is_replaced_and_no_result_is_lost_or_repeated(tmp_path):
