@@ -13,6 +13,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.planning import RobotDiagramBuilder, SceneGraphCollisionChecker
 
 from s3o_drake.feasibility.dh_chain import DHChain
+from s3o_drake.feasibility.kinematics import ArmKinematics
 from s3o_drake.world.resources import make_parser
 from s3o_drake.world.robot_description import (
     RobotDescription,
@@ -119,7 +120,10 @@ def test_the_dh_table_is_the_models_arm_chain(robot):
     as Drake does, in the arm's base frame, within the joint limits; without the grasp
     offset it moves the tool frame."""
     d = robot.description
-    grasp, tool = _chain(d, d.tool.grasp_offset), _chain(d, 0.0)
+    arm_kinematics = ArmKinematics.of(d)  # what the feasibility check moves
+    grasp, tool = arm_kinematics.chain, _chain(d, 0.0)
+    np.testing.assert_array_equal(arm_kinematics.lower, robot.lower)
+    np.testing.assert_array_equal(arm_kinematics.upper, robot.upper)
     rng = np.random.default_rng(0)
     arms = rng.uniform(robot.lower, robot.upper, size=(SAMPLES, len(d.arm.joints)))
     R_AG, p_AG = grasp.forward(arms)
