@@ -7,6 +7,13 @@ YAML (`world/scenario.py`); `Settings` gathers them for what the robot is given 
 from dataclasses import dataclass, field
 
 
+def _robot_reach() -> float:
+    """The process's robot's reach (its description's), read when a default is made."""
+    from s3o_drake.world.robot import ROBOT
+
+    return ROBOT.reach
+
+
 @dataclass
 class Robot:
     name: str = ""
@@ -39,8 +46,9 @@ class PlanningSettings:
     speed: float = 0.4
     """v: the base's cruise speed (m/s): the navigator drives at it, and both cost profiles
     cost navigation with it."""
-    reach: float = 1.0
-    """How far from the base centre the robot can pick a dish (m)."""
+    reach: float = field(default_factory=lambda: _robot_reach())
+    """How far from the base centre the robot can pick a dish (m); by default what the
+    robot's description says (the UR5e's 1.0 m, the Panda's 0.9 m)."""
     location_samples: int = 100
     """N: positions drawn from a location to estimate its task-level feasibility."""
     group_positions: str = "shared"
