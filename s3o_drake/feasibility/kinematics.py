@@ -65,9 +65,10 @@ def _rotation_error(R: np.ndarray, R_target: np.ndarray) -> np.ndarray:
                            R_err[..., 1, 0] - R_err[..., 0, 1]], axis=-1)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ArmKinematics:
-    """One arm's chain from A to G, its joint limits and its inverse kinematics family."""
+    """One arm's chain from A to G, its joint limits and its inverse kinematics family
+    (compared by identity: it holds arrays)."""
 
     chain: DHChain
     lower: np.ndarray
