@@ -12,6 +12,7 @@ and writes results.csv, results.json, figure5.png, table1.png and summary.md. Ex
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import re
@@ -113,7 +114,14 @@ def _validate(args: argparse.Namespace) -> tuple[list[Path], list[str]]:
     paths = task_paths(args)
     for path in paths:
         scenario = read_scenario(path)
-    with_overrides_or_fail(scenario, args.overrides)
+    scenario = with_overrides_or_fail(scenario, args.overrides)
+    from s3o_drake.planning.robot_files import missing_robot_files
+
+    missing = missing_robot_files(dataclasses.replace(
+        scenario, execution=dataclasses.replace(scenario.execution,
+                                                recovery=args.recovery)).settings)
+    if missing:
+        fail(missing[0])
     if args.methods == ["all"]:
         methods = list(METHODS)
     else:

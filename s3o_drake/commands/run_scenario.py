@@ -257,6 +257,11 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     if args.recovery is not None:
         scenario = dataclasses.replace(scenario, execution=dataclasses.replace(
             scenario.execution, recovery=args.recovery))
+    from s3o_drake.planning.robot_files import missing_robot_files
+
+    missing = missing_robot_files(scenario.settings)
+    if missing:
+        fail(missing[0])
     seed = scenario.seed if args.seed is None else args.seed
     out = out_folder(args.out or scenario.outputs.directory
                      or Path("out") / scenario_stem(args.scenario))

@@ -102,12 +102,18 @@ def derive_price(records: Iterable[PickupRecord], *, resamples: int = 2000,
             "recovery_time": float(data[:, 1].sum())}
 
 
+def uses_recorded_price(settings: Settings) -> bool:
+    """Whether `settings` price a failure with the recorded recovery price (PRICE_FILE):
+    `failure_price: execution` with recovery on."""
+    return (settings.planner.failure_price != "paper"
+            and settings.execution.recovery != Recovery.NONE.value)
+
+
 def failure_reward(settings: Settings, price: FailurePrice | None = None) -> float:
     """λ as the utility prices a pickup's failure under `settings`: the planner's λ, or with
     `failure_price: execution` and recovery on, the recorded recovery price."""
-    planner = settings.planner
-    if planner.failure_price == "paper" or settings.execution.recovery == Recovery.NONE.value:
-        return planner.reward
+    if not uses_recorded_price(settings):
+        return settings.planner.reward
     return (price or FailurePrice.load()).seconds
 
 

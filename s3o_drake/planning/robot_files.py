@@ -1,0 +1,40 @@
+"""What a scenario's settings need from its robot's folder, and what of it is missing.
+
+A robot's built files (models/<robot>/, `s3o build robot`) are read deep inside planning;
+a command checks first, so that a robot without its network or its failure price is told
+so in one line, with the setting that needs the file and how to make it or do without.
+"""
+
+from pathlib import Path
+
+from s3o_drake.planning.failure_price import PRICE_FILE, uses_recorded_price
+from s3o_drake.world.choices import FeasibilitySource
+from s3o_drake.world.resources import (
+    FCN_WEIGHTS,
+    REACHABILITY_MAP,
+    REPO_DIR,
+    ROBOT_NAME,
+    TIME_MODEL,
+)
+from s3o_drake.world.settings import Settings
+
+
+def _shown(path: Path) -> str:
+    return path.relative_to(REPO_DIR).as_posix() if path.is_relative_to(REPO_DIR) else str(path)
+
+
+def missing_robot_files(settings: Settings) -> list[str]:
+    """One line per file that `settings` need and the robot's folder lacks: the setting,
+    the file, and how to make it (or the setting that does without)."""
+    build = f"s3o build robot {ROBOT_NAME}"
+    needed = [("robot.name", REACHABILITY_MAP, f"`{build} --steps reachability`"),
+              ("robot.name", TIME_MODEL, f"`{build} --steps time-model`")]
+    if settings.planner.feasibility == FeasibilitySource.FCN.value:
+        needed.append(("planner.feasibility", FCN_WEIGHTS,
+                       f"`{build} --steps fcn-data fcn`, or planner.feasibility: oracle"))
+    if uses_recorded_price(settings):
+        needed.append(("planner.failure_price", PRICE_FILE,
+                       "`s3o failure-price` on the robot's recovery runs, or "
+                       "planner.failure_price: paper"))
+    return [f"{field}: {ROBOT_NAME!r} has no {_shown(path)}; make it with {how}"
+            for field, path, how in needed if not path.is_file()]

@@ -1,0 +1,33 @@
+"""A robot without a built file that the settings need is told which setting needs it and
+how to make it, before anything runs."""
+
+import dataclasses
+
+from s3o_drake.planning import robot_files
+from s3o_drake.world.resources import RESTAURANT
+from s3o_drake.world.scenario import load_scenario
+
+
+def _settings(feasibility: str, price: str, recovery: str):
+    scenario = load_scenario(RESTAURANT)
+    return dataclasses.replace(
+        scenario, planner=dataclasses.replace(scenario.planner, feasibility=feasibility,
+                                              failure_price=price),
+        execution=dataclasses.replace(scenario.execution, recovery=recovery)).settings
+
+
+def test_the_shipped_robot_has_everything_its_defaults_need():
+    assert robot_files.missing_robot_files(_settings("fcn", "execution", "replan")) == []
+
+
+def test_each_missing_file_is_named_with_its_setting_and_its_command(monkeypatch, tmp_path):
+    monkeypatch.setattr(robot_files, "FCN_WEIGHTS", tmp_path / "fcn" / "fcn.pt")
+    monkeypatch.setattr(robot_files, "PRICE_FILE", tmp_path / "failure_price.yaml")
+    missing = robot_files.missing_robot_files(_settings("fcn", "execution", "replan"))
+    assert [line.split(":")[0] for line in missing] == ["planner.feasibility",
+                                                        "planner.failure_price"]
+    assert "s3o build robot ur5e --steps fcn-data fcn" in missing[0]
+    assert "planner.failure_price: paper" in missing[1]
+    # Settings that do without them need neither: the oracle, the paper's price, open loop.
+    assert robot_files.missing_robot_files(_settings("oracle", "paper", "replan")) == []
+    assert robot_files.missing_robot_files(_settings("oracle", "execution", "none")) == []
