@@ -140,7 +140,7 @@ def room_polygon(scenario: Scenario) -> Polygon:
 def validate_scenario(scenario: Scenario) -> None:
     """Raises ScenarioError for the first problem found, naming its field (OtherRobotError when
     it names a robot other than this process's)."""
-    name = scenario.robot.name
+    name = scenario.robot.name or ROBOT_NAME  # a scenario made in code names none
     if name not in robot_names():
         raise ScenarioError("robot.name", f"no robot named {quoted(name)} (known: "
                                           f"{', '.join(robot_names())})")
