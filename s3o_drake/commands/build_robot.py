@@ -18,7 +18,9 @@ reads what the ones before it wrote where the robot's files are (models/NAME/), 
 build replaces them as it goes.
 """
 
+import contextlib
 import datetime
+import fcntl
 import hashlib
 import json
 import os
@@ -145,6 +147,21 @@ def run_step(name: str, step: Step) -> float:
     return time.perf_counter() - start
 
 
+@contextlib.contextmanager
+def only_build(name: str):
+    """Holds the robot's build lock, or fails in one line: two builds of one robot at once
+    would each replace files the other reads, and the last to write the record would drop
+    the other's steps."""
+    lock_path = REPO_DIR / "out" / name / ".build.lock"
+    lock_path.parent.mkdir(parents=True, exist_ok=True)
+    with lock_path.open("w") as lock:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fail(f"{name}: another build of this robot is running; wait for it to end")
+        yield
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = command_parser("build robot", __doc__)
     parser.add_argument("name", help="the robot: a folder of models/ with its robot.yaml")
@@ -162,6 +179,11 @@ def main(argv: list[str] | None = None) -> int:
         check_model(load_robot_description(args.name))
     except RobotDescriptionError as e:
         fail(f"{args.name}: {e}")
+    with only_build(args.name):
+        return _build(args)
+
+
+def _build(args) -> int:
     manifest_path = robot_dir(args.name) / MANIFEST
     manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
     manifest.setdefault("robot", args.name)

@@ -81,3 +81,12 @@ def test_an_unknown_robot_is_one_line_and_status_2(robot_folder, ran, capsys):
         build_robot.main(["r2d2"])
     assert info.value.code == 2
     assert ran == [] and capsys.readouterr().err.count("\n") == 1
+
+
+def test_a_second_build_of_the_same_robot_is_refused_in_one_line(robot_folder, ran, capsys):
+    with build_robot.only_build("ur5e"), pytest.raises(SystemExit) as info:
+        build_robot.main(["ur5e"])
+    assert info.value.code == 2
+    assert ran == [] and "another build of this robot is running" in capsys.readouterr().err
+    # Once the first ends, the build runs.
+    assert build_robot.main(["ur5e"]) == 0 and ran
