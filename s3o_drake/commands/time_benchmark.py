@@ -75,6 +75,7 @@ def measure(name: str, scenario: Scenario, *, method: str, seed: int, noise: boo
            "executed": len(outcomes), "failed": failed,
            "all_done": bool(plan) and len(outcomes) == len(plan.actions) and not failed,
            "reason": report["reason"], "predicted_time": predicted, "execution_time": simulated,
+           "outcome_times": report["outcome_times"],
            "planning_time": report["planning_time"], "wall_time": report["wall_time"]}
     if predicted is not None and simulated > 0:
         row["rel_error"] = (predicted - simulated) / simulated

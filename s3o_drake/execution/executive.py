@@ -688,7 +688,7 @@ class Executive:
     def _arrived(self, e: ExecutiveState, action: Goto, event: BaseFinished) -> Step:
         """A goto's drive ended: on with the plan, or (blocked) a replan or the end."""
         outcome = ActionOutcome("goto", action.location, done=event.ok,
-                                reason="" if event.ok else event.reason)
+                                reason="" if event.ok else event.reason, ended=event.t)
         e = dataclasses.replace(e, outcomes=(*e.outcomes, outcome))
         if event.ok:
             return _after(_next_step(e)), ()
@@ -707,7 +707,8 @@ class Executive:
         reason = f"turn {event.reason}" if turning else "" if done else event.reason
         name = "place" if isinstance(action, Place) else "pickup"
         e = dataclasses.replace(
-            e, outcomes=(*e.outcomes, ActionOutcome(name, action.dish, done=done, reason=reason)),
+            e, outcomes=(*e.outcomes, ActionOutcome(name, action.dish, done=done, reason=reason,
+                                               ended=event.t)),
             pickups=(*e.pickups, self._record(e, action, event)))
         if e.tries > 0:  # this attempt was a retry
             record = RecoveryRecord("retry", action.dish, e.last_failure,

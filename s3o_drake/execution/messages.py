@@ -233,14 +233,15 @@ class RecoveryRecord:
 @dataclass(frozen=True)
 class ActionOutcome:
     """How one action of the plan ended: `action` ("goto" or "pickup"), its `argument` (the
-    location or the dish), whether it was `done`, and if not, the `reason`. It unpacks as
-    (action, argument, result), result "done" or "failed: <reason>", as report.json lists
-    it."""
+    location or the dish), whether it was `done`, and if not, the `reason`; `ended`: the
+    simulated time (s) it ended, None where not known. It unpacks as (action, argument,
+    result), result "done" or "failed: <reason>", as report.json lists it."""
 
     action: str
     argument: str
     done: bool
     reason: str = ""
+    ended: float | None = None
 
     @property
     def result(self) -> str:
@@ -373,8 +374,10 @@ class RunReport:
         """Plain JSON data, as report.json holds it (execute.py adds the timings): dishes,
         collected, placed, completed, collected_dishes (a list), placements
         (`Placement.to_dict()` each), execution_time, finished, reason, outcomes
-        (a list of [action, argument, result] lists), pickups (`PickupRecord.to_dict()`
-        each), recoveries (`RecoveryRecord.to_dict()` each), unreachable (a list), plans
+        (a list of [action, argument, result] lists), outcome_times (the simulated time each
+        of them ended, s: where the execution's time went, action by action), pickups
+        (`PickupRecord.to_dict()` each), recoveries (`RecoveryRecord.to_dict()` each),
+        unreachable (a list), plans
         (`PlanTime.to_dict()` each)."""
         return {
             "dishes": self.dishes,
@@ -387,6 +390,7 @@ class RunReport:
             "finished": self.finished,
             "reason": self.reason,
             "outcomes": [list(outcome) for outcome in self.outcomes],
+            "outcome_times": [outcome.ended for outcome in self.outcomes],
             "pickups": [record.to_dict() for record in self.pickups],
             "recoveries": [record.to_dict() for record in self.recoveries],
             "unreachable": list(self.unreachable),

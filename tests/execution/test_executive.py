@@ -234,6 +234,8 @@ def test_the_open_loop_walks_the_plan_one_command_at_a_time():
     assert decisions == (Finish(PLAN_ENDED),)
     progress = run.progress
     assert progress.finished and progress.step == progress.total == 2
+    # Each action's end, in simulated time: the drive's report at 3 s, the arm's last.
+    assert [o.ended for o in progress.outcomes] == [3.0, run.t]
     (record,) = progress.pickups
     assert (record.dish, record.kind, record.method, record.source) == (
         "plate", "plate", "M", "oracle")

@@ -64,7 +64,8 @@ def test_report_counts_the_dishes_on_the_tray():
     assert report.to_dict() == {
         "dishes": 4, "collected": 2, "placed": 0, "completed": 2,
         "collected_dishes": ["bowl_c", "plate_a"], "placements": [],
-        "execution_time": 3.0, "finished": False, "reason": "", "outcomes": [], "pickups": [],
+        "execution_time": 3.0, "finished": False, "reason": "", "outcomes": [],
+        "outcome_times": [], "pickups": [],
         "recoveries": [], "unreachable": [],
         "plans": [{"planning_time": 2.5, "feasibility_time": 0.5, "budget": 5.0}]}
 
