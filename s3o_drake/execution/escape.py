@@ -13,7 +13,7 @@ way round, keeping to the planned last leg, backing out or driving straight on
 motion that lands short facing away from the stop's heading is replaced, where one fits,
 by one that turns before the stop and drives the last APPROACH_STEPS straight in. A turn in
 place (before a pickup) that would end short of its heading turns the other way round, or
-backs out or drives on a little first; if none of these faces it, it ends where it was cut.
+backs out or drives on a little first; if none of these faces it, the turn is blocked.
 
 Nothing here knows the world: "free" is a `FreeTest` (base poses (n, 3) -> bool (n,)), so
 that the search is tested on a predicate of a few lines.
@@ -209,10 +209,10 @@ def turn_another_way(cut: Cut, base: np.ndarray, target_yaw: float, *,
                      free: FreeTest | None, profile: MotionProfile) -> Cut:
     """A turn in place, `cut` short of `target_yaw` by a collision: the other way round,
     then backing out or driving on by ESCAPE_STEPS (the shortest first) before turning; the
-    first that ends facing `target_yaw` wins. If none does, the turn as cut: the arm may
-    still reach from there. Fea^m's base faces the dish; at a stop shared by several
-    dishes, a turn from one to the next cut short beside a chair failed pickups that facing
-    the dish would have made."""
+    first that ends facing `target_yaw` wins. None does: blocked. A turn left short must not
+    end done: the arm would then reach from a heading that no Fea^m was computed for (the
+    model's base faces the dish), which at a stop shared by several dishes, turning from
+    one to the next beside a chair, failed the pickup where facing it would have picked."""
     yaw = float(base[2])
     start = np.asarray(base[:2], dtype=float)
     heading = np.array([math.cos(yaw), math.sin(yaw)])
@@ -224,7 +224,7 @@ def turn_another_way(cut: Cut, base: np.ndarray, target_yaw: float, *,
         escaped = cut_at_collision(escape, free, profile)
         if not escaped.blocked and facing(escaped.segments, target_yaw):
             return escaped
-    return cut
+    return Cut(cut.segments, blocked=True, hit=cut.hit)
 
 
 def along_plan(stop: Sequence[float], waypoints: list[np.ndarray], *, turn: bool
