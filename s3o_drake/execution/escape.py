@@ -11,9 +11,7 @@ tries the escapes in turn (the first that is not blocked wins): the first turn t
 way round, keeping to the planned last leg, backing out or driving straight on
 (ESCAPE_STEPS) before turning, and going back the way the base came (its trail). A
 motion that lands short facing away from the stop's heading is replaced, where one fits,
-by one that turns before the stop and drives the last APPROACH_STEPS straight in. A turn in
-place (before a pickup) that would end short of its heading turns the other way round, or
-backs out or drives on a little first; if none of these faces it, the turn is blocked.
+by one that turns before the stop and drives the last APPROACH_STEPS straight in.
 
 Nothing here knows the world: "free" is a `FreeTest` (base poses (n, 3) -> bool (n,)), so
 that the search is tested on a predicate of a few lines.
@@ -163,8 +161,6 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
     # that micro-drive, up to π/2 out of the way and back.
     cut = cut_at_collision(profile.segments(waypoints, float(base[2]), float(target[2])),
                            free, profile)
-    if turn and cut.hit is not None and not facing(cut.segments, target[2]):
-        return turn_another_way(cut, base, float(target[2]), free=free, profile=profile)
     if cut.blocked:
         # The noisy landing left the base where the turn towards the path hits something
         # (a stop only keeps the inscribed radius): first turn the other way round,
@@ -203,28 +199,6 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
             if not approached.blocked and facing(approached.segments, target[2]):
                 return approached
     return cut
-
-
-def turn_another_way(cut: Cut, base: np.ndarray, target_yaw: float, *,
-                     free: FreeTest | None, profile: MotionProfile) -> Cut:
-    """A turn in place, `cut` short of `target_yaw` by a collision: the other way round,
-    then backing out or driving on by ESCAPE_STEPS (the shortest first) before turning; the
-    first that ends facing `target_yaw` wins. None does: blocked. A turn left short must not
-    end done: the arm would then reach from a heading that no Fea^m was computed for (the
-    model's base faces the dish), which at a stop shared by several dishes, turning from
-    one to the next beside a chair, failed the pickup where facing it would have picked."""
-    yaw = float(base[2])
-    start = np.asarray(base[:2], dtype=float)
-    heading = np.array([math.cos(yaw), math.sin(yaw)])
-    escapes = itertools.chain(
-        [profile.segments([start], yaw, target_yaw, long_way=True)],
-        (profile.segments([start, start + d * heading], yaw, target_yaw)
-         for step in ESCAPE_STEPS for d in (-step, step)))
-    for escape in escapes:
-        escaped = cut_at_collision(escape, free, profile)
-        if not escaped.blocked and facing(escaped.segments, target_yaw):
-            return escaped
-    return Cut(cut.segments, blocked=True, hit=cut.hit)
 
 
 def along_plan(stop: Sequence[float], waypoints: list[np.ndarray], *, turn: bool

@@ -197,26 +197,3 @@ def test_segments_follow_the_trapezoidal_profile():
     assert seg.at(0.2) == pytest.approx((0.02, 0.2))
     assert seg.at(seg.duration) == pytest.approx((2.0, 0.0))
     np.testing.assert_allclose(seg.pose(1.0), [1.0, 0.0, 0.0])
-
-
-def test_a_turn_in_place_that_hits_something_goes_the_other_way_round():
-    def free(poses):  # a chair on the right: clockwise from yaw 0 hits it at -0.4 rad
-        yaw = wrap(poses[:, 2])
-        return (yaw > -0.4) | (yaw < -1.0)
-
-    base = (0.0, 0.0, 0.0)
-    cut = _drive(base, (0.0, 0.0, -math.pi / 2), free, path=[base[:2], base[:2]], turn=True)
-    assert not cut.blocked and cut.hit is None
-    assert cut.segments[0].end[2] > 0.0  # anticlockwise, the long way
-    np.testing.assert_allclose(_end(cut)[:2], [0.0, 0.0], atol=1e-12)
-    assert abs(wrap(_end(cut)[2] + math.pi / 2)) < 1e-9 and _all_free(cut, free)
-
-
-def test_a_turn_in_place_that_cannot_face_its_heading_is_blocked_not_landed_short():
-    def free(poses):  # wedged: only within 0.3 rad of yaw 0, wherever the base goes
-        return np.abs(wrap(poses[:, 2])) < 0.3
-
-    base = (0.0, 0.0, 0.0)
-    cut = _drive(base, (0.0, 0.0, 1.5), free, path=[base[:2], base[:2]], turn=True)
-    assert cut.blocked and cut.hit is not None
-    assert _all_free(cut, free)  # stopped at the last free heading
