@@ -30,8 +30,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--methods", nargs="+", metavar="NAME",
                         help=f"only these methods' pickups, some of: {', '.join(METHODS)}")
     parser.add_argument("--by", choices=CALIBRATION_GROUPINGS, default="all",
-                        help="the diagram's curves: all pickups (default), per method or "
-                             "per source of Fea^m")
+                        help="the diagram's curves: all pickups (default), per method, "
+                             "source of Fea^m, action, or dishes served by the stop")
     parser.add_argument("--bins", type=at_least(1), default=10, metavar="N",
                         help="equal-width bins of the predictions (default 10)")
     return parser.parse_args(argv)
@@ -56,21 +56,22 @@ def main(argv: list[str] | None = None) -> int:
         records = read_records(args.results)
     except RecordsError as e:
         fail(str(e))
-    pickups = list(records.pickups)
+    pickups, stops = list(records.pickups), list(records.stops)
     if args.methods:
         missing = [m for m in args.methods if not any(p.method == m for p in pickups)]
         if missing:
             fail(f"--methods: no executed pickup of {missing[0]!r} in the results")
-        pickups = [p for p in pickups if p.method in args.methods]
+        kept = [i for i, p in enumerate(pickups) if p.method in args.methods]
+        pickups, stops = [pickups[i] for i in kept], [stops[i] for i in kept]
     if not pickups:
         fail(f"{' '.join(args.results)}: {records.runs} runs, but no executed pickup")
 
     figures = {"all": calibrate_records(pickups, bins=args.bins)}
     for by in CALIBRATION_GROUPINGS[1:]:
-        for name, group in grouped(pickups, by).items():
+        for name, group in grouped(pickups, by, stops=stops).items():
             figures[f"{by} {name}"] = calibrate_records(group, bins=args.bins)
     curves = {name: calibrate_records(group, bins=args.bins)
-              for name, group in grouped(pickups, args.by).items()}
+              for name, group in grouped(pickups, args.by, stops=stops).items()}
 
     out.mkdir(parents=True, exist_ok=True)
     f = figures["all"]

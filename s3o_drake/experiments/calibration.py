@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -174,6 +175,8 @@ class Records:
     pickups: tuple[PickupRecord, ...]
     runs: int
     files: tuple[Path, ...]
+    stops: tuple[int, ...] = ()
+    """For each pickup, how many dishes its stop served (`stop_sizes`)."""
 
 
 def read_records(paths: Sequence[str | Path]) -> Records:
@@ -181,18 +184,32 @@ def read_records(paths: Sequence[str | Path]) -> Records:
     (else the report.json files below them), report.json files of `run`. RecordsError
     names the first file that holds none or a bad one."""
     pickups: list[PickupRecord] = []
+    stops: list[int] = []
     runs = 0
     files: list[Path] = []
     for path in map(Path, paths):
         for file in _result_files(path):
             if any(file.resolve() == seen.resolve() for seen in files):
                 continue  # named twice (a folder and its file): its runs count once
-            found, count = (_read_results(file) if file.suffix == ".jsonl"
-                            else _read_report(file))
-            pickups += found
-            runs += count
+            runs_found = (_read_results(file) if file.suffix == ".jsonl"
+                          else [_read_report(file)])
+            for found in runs_found:
+                pickups += found
+                stops += stop_sizes(found)
+            runs += len(runs_found)
             files.append(file)
-    return Records(pickups=tuple(pickups), runs=runs, files=tuple(files))
+    return Records(pickups=tuple(pickups), runs=runs, files=tuple(files), stops=tuple(stops))
+
+
+def stop_sizes(run: Sequence[PickupRecord]) -> list[int]:
+    """For each pickup record of one run, how many dishes the stop it was made from served:
+    the run's first attempts planned at the same pose (a merged location's stop serves
+    several; a stop moved by a correction counts as its own)."""
+    def at(record: PickupRecord) -> tuple[float, ...]:
+        return tuple(round(float(v), 6) for v in record.planned_pose)
+
+    served = Counter(at(r) for r in run if r.attempt == 1)
+    return [max(1, served[at(r)]) for r in run]
 
 
 def _result_files(path: Path) -> list[Path]:
@@ -209,7 +226,7 @@ def _result_files(path: Path) -> list[Path]:
     return [path]
 
 
-def _read_results(path: Path) -> tuple[list[PickupRecord], int]:
+def _read_results(path: Path) -> list[list[PickupRecord]]:
     """A study's results (JSON lines, as ResultStore reads them: the last row of a key)."""
     rows = [r for r in ResultStore(path, read_only=True).rows()
             if r.get("kind") == "run" and "error" not in r]
@@ -220,13 +237,10 @@ def _read_results(path: Path) -> tuple[list[PickupRecord], int]:
         raise RecordsError(
             f"{path}: {len(old)} of {len(rows)} runs have no per-pickup records (written "
             "before they were recorded: their predicted Fea^m is not in the file)")
-    pickups = []
-    for row in rows:
-        pickups += _parse(row["pickups"], f"{path}: run {row['key']}")
-    return pickups, len(rows)
+    return [_parse(row["pickups"], f"{path}: run {row['key']}") for row in rows]
 
 
-def _read_report(path: Path) -> tuple[list[PickupRecord], int]:
+def _read_report(path: Path) -> list[PickupRecord]:
     try:
         report = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
@@ -236,7 +250,7 @@ def _read_report(path: Path) -> tuple[list[PickupRecord], int]:
     if "pickups" not in report:
         raise RecordsError(f"{path}: a run report without per-pickup records (written "
                            "before they were recorded)")
-    return _parse(report["pickups"], str(path)), 1
+    return _parse(report["pickups"], str(path))
 
 
 def _parse(data: object, where: str) -> list[PickupRecord]:
@@ -259,16 +273,23 @@ def action_of(record: PickupRecord) -> str:
     return "pickup" if placed_object(record.dish) is None else "place"
 
 
-def grouped(records: Sequence[PickupRecord], by: str) -> dict[str, list[PickupRecord]]:
-    """The records by "method", "source" or "action" (`action_of`; keys sorted), or all
-    under "all" (by "all")."""
+def grouped(records: Sequence[PickupRecord], by: str, *,
+            stops: Sequence[int] | None = None) -> dict[str, list[PickupRecord]]:
+    """The records by "method", "source", "action" (`action_of`) or "stop" (how many dishes
+    the record's stop served, `stops[i]` for `records[i]`: "1 dish", "2 dishes", "3+
+    dishes"), keys sorted; or all under "all" (by "all")."""
     if by == "all":
         return {"all": list(records)}
     if by not in CALIBRATION_GROUPINGS:
         raise ValueError(f"by: expected one of {', '.join(CALIBRATION_GROUPINGS)}, got {by!r}")
+    if by == "stop" and (stops is None or len(stops) != len(records)):
+        raise ValueError("by stop: needs how many dishes each record's stop served")
     groups: dict[str, list[PickupRecord]] = {}
-    for record in records:
-        key = action_of(record) if by == "action" else getattr(record, by)
+    for i, record in enumerate(records):
+        if by == "stop":
+            key = ("1 dish", "2 dishes", "3+ dishes")[min(stops[i], 3) - 1]
+        else:
+            key = action_of(record) if by == "action" else getattr(record, by)
         groups.setdefault(key, []).append(record)
     return dict(sorted(groups.items()))
 

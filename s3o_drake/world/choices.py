@@ -64,7 +64,8 @@ class Goal(str, Enum):
 
 GOALS = tuple(g.value for g in Goal)
 
-CALIBRATION_GROUPINGS = ("all", "method", "source", "action")
+CALIBRATION_GROUPINGS = ("all", "method", "source", "action", "stop")
 """How the calibration of Fea^m groups executed records: all together, by method, by the
-model's source (fcn, oracle), or by action (a pickup, or the putting down of an object at
-its place)."""
+model's source (fcn, oracle), by action (a pickup, or the putting down of an object at
+its place), or by how many dishes the stop served (a merged location's stop serves
+several)."""

@@ -218,3 +218,24 @@ def test_help_is_the_module_docstring():
     for text in ("RESULTS", "--out", "--methods", "--by", "--bins", "ECE", "Brier",
                  "reliability.png", "calibration.json", "Exit status"):
         assert text in result.stdout
+
+
+def test_pickups_are_grouped_by_how_many_dishes_their_stop_served(tmp_path, capsys):
+    def at(pose, dish, outcome="done", attempt=1):
+        r = _record(0.9, outcome, dish=dish)
+        return PickupRecord(**{**r.to_dict(), "planned_pose": tuple(pose),
+                               "attempt": attempt})
+
+    shared, alone = (1.0, 2.0, 0.0), (3.0, 1.0, 0.5)
+    run = [at(shared, "a"), at(shared, "b", "no_ik"), at(alone, "c", "missed"),
+           at(alone, "c", attempt=2), at(shared, "d")]
+    results = _write_results(tmp_path / "s" / "results.jsonl", [_row("run/t/S3O-GROP*/0", run)])
+    read = read_records([results])
+    assert read.stops == (3, 3, 1, 1, 3)  # a retry counts with its stop, not again
+    by_stop = grouped(read.pickups, "stop", stops=read.stops)
+    assert {k: [r.dish for r in v] for k, v in by_stop.items()} == {
+        "1 dish": ["c", "c"], "3+ dishes": ["a", "b", "d"]}
+    with pytest.raises(ValueError, match="stop"):
+        grouped(read.pickups, "stop")
+    assert main([str(results), "--out", str(tmp_path / "out"), "--by", "stop"]) == 0
+    assert "stop 3+ dishes" in capsys.readouterr().out
