@@ -1,6 +1,7 @@
 """Which Fea^m model is off: the plan's or the oracle's, at executed pickups.
 
     s3o bench oracle-executed STUDY [--middle 80] [--high 60] [--samples 100] [--json FILE]
+    s3o bench oracle-executed STUDY --by stop [--per-stop 100] [--methods NAME ...]
 
 STUDY is a study's folder (its results.jsonl). Every first pickup the plan valued below 0.8
 and a seeded draw of --middle from 0.8-0.9 and --high from 0.9 up are re-evaluated with
@@ -9,6 +10,11 @@ moment (true chairs, the dishes not yet collected): its blurred expectation (the
 and the network's labels) and its Monte Carlo over --samples executed landings. Prints, per
 bin of the plan's Fea^m, the three against the observed success, and their Brier scores:
 which model is off when a study's calibration is (docs/calibration.md). About 2 s a pickup.
+
+--by stop draws --per-stop pickups from each stop size (1, 2, 3+ dishes served) instead,
+tests each also where the base really landed with the reach error really drawn, and prints
+per stop size the oracle's success there against its Monte Carlo (interval over runs):
+whether the landing model is what is off.
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ from pathlib import Path
 
 from s3o_drake.commands.common import command_parser, fail
 from s3o_drake.commands.options import add_json, add_quiet, at_least, json_store
+from s3o_drake.world.choices import METHODS
 from s3o_drake.world.resources import REPO_DIR
 
 
@@ -29,6 +36,13 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         help="pickups drawn from the plans' 0.8-0.9 (default 80)")
     parser.add_argument("--high", type=at_least(0), default=60, metavar="N",
                         help="pickups drawn from 0.9 up (default 60)")
+    parser.add_argument("--by", choices=("value", "stop"), default="value",
+                        help="draw by the plan's Fea^m (default) or by the dishes the "
+                             "pickup's stop served")
+    parser.add_argument("--per-stop", type=at_least(1), default=100, metavar="N",
+                        help="with --by stop: pickups drawn per stop size (default 100)")
+    parser.add_argument("--methods", nargs="+", metavar="NAME",
+                        help=f"only these methods' pickups, some of: {', '.join(METHODS)}")
     parser.add_argument("--samples", type=at_least(1), default=100, metavar="N",
                         help="Monte-Carlo landings per pickup (default 100)")
     parser.add_argument("--seed", type=at_least(0), default=0, metavar="N",
@@ -40,6 +54,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    unknown = [m for m in args.methods or () if m not in METHODS]
+    if unknown:
+        fail(f"--methods: unknown method {unknown[0]!r} (choose from {', '.join(METHODS)})")
     results = Path(args.study) / "results.jsonl"
     if not results.is_file():
         fail(f"STUDY: no results.jsonl in {args.study}")
@@ -48,21 +65,30 @@ def main(argv: list[str] | None = None) -> int:
 
     from s3o_drake.experiments.oracle_check import (
         ALL_BELOW,
+        by_stop,
         evaluate,
         first_pickups,
         oracle_of,
+        stop_table,
         stratified,
         table,
     )
     from s3o_drake.experiments.store import ResultStore
 
-    pickups = first_pickups(ResultStore(results, read_only=True).rows())
+    pickups = first_pickups(ResultStore(results, read_only=True).rows(),
+                            methods=args.methods)
     if not pickups:
-        fail(f"STUDY: {results} records no first pickup with its planned Fea^m")
-    sample = stratified(pickups, {(0.8, 0.9): args.middle, (0.9, 1.0): args.high},
-                        seed=args.seed)
-    print(f"{len(sample)} of {len(pickups)} first pickups, every one below {ALL_BELOW}",
-          flush=True)
+        fail(f"STUDY: {results} records no first pickup with its planned Fea^m"
+             + (f" by {', '.join(args.methods)}" if args.methods else ""))
+    if args.by == "stop":
+        sample = by_stop(pickups, args.per_stop, seed=args.seed)
+        print(f"{len(sample)} of {len(pickups)} first pickups, up to {args.per_stop} per "
+              "stop size", flush=True)
+    else:
+        sample = stratified(pickups, {(0.8, 0.9): args.middle, (0.9, 1.0): args.high},
+                            seed=args.seed)
+        print(f"{len(sample)} of {len(pickups)} first pickups, every one below "
+              f"{ALL_BELOW}", flush=True)
     rows, oracles = [], {}
     for pickup in tqdm(sorted(sample, key=lambda p: (p.path, p.before)), unit="pickup",
                        disable=args.quiet):
@@ -77,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
         rows.append(row)
         if store is not None:
             store.append(row)
-    print(table(rows))
+    print(stop_table(rows, seed=args.seed) if args.by == "stop" else table(rows))
     return 0
 
 

@@ -195,21 +195,22 @@ def read_records(paths: Sequence[str | Path]) -> Records:
                           else [_read_report(file)])
             for found in runs_found:
                 pickups += found
-                stops += stop_sizes(found)
+                stops += stop_sizes([(r.attempt, r.planned_pose) for r in found])
             runs += len(runs_found)
             files.append(file)
     return Records(pickups=tuple(pickups), runs=runs, files=tuple(files), stops=tuple(stops))
 
 
-def stop_sizes(run: Sequence[PickupRecord]) -> list[int]:
-    """For each pickup record of one run, how many dishes the stop it was made from served:
-    the run's first attempts planned at the same pose (a merged location's stop serves
-    several; a stop moved by a correction counts as its own)."""
-    def at(record: PickupRecord) -> tuple[float, ...]:
-        return tuple(round(float(v), 6) for v in record.planned_pose)
+def stop_sizes(run: Sequence[tuple[int, Sequence[float]]]) -> list[int]:
+    """For each pickup of one run, given as (attempt, planned_pose) in the run's order, how
+    many dishes the stop it was made from served: the run's first attempts planned at the
+    same pose (a merged location's stop serves several; a stop moved by a correction counts
+    as its own)."""
+    def at(pose: Sequence[float]) -> tuple[float, ...]:
+        return tuple(round(float(v), 6) for v in pose)
 
-    served = Counter(at(r) for r in run if r.attempt == 1)
-    return [max(1, served[at(r)]) for r in run]
+    served = Counter(at(pose) for attempt, pose in run if attempt == 1)
+    return [max(1, served[at(pose)]) for _, pose in run]
 
 
 def _result_files(path: Path) -> list[Path]:

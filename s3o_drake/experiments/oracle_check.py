@@ -11,7 +11,11 @@ reference). Then, per bin of the plan's Fea^m, the four against the observed suc
 
 The sample is stratified by the plan's value: every pickup below `ALL_BELOW` (where a
 study's pickups are few and the disagreements large), and a seeded draw from each bin
-above.
+above. Or by the stop (`by_stop`): how many dishes the pickup's stop served, where a
+study's calibration by stop is off. Then each pickup is also tested where the base really
+landed, with the reach error the arm really drew (`landed`): the oracle's success averaged
+over the executed landings, against its Monte Carlo over the landings its noise model
+draws, says whether the landing model is what is off.
 """
 
 from __future__ import annotations
@@ -25,6 +29,8 @@ import numpy as np
 ALL_BELOW = 0.8
 """Every first pickup the plan valued below this is in the sample."""
 BINS = ((0.0, 0.7), (0.7, 0.8), (0.8, 0.9), (0.9, 1.0))
+STOP_SIZES = ("1 dish", "2 dishes", "3+ dishes")
+"""The groups of `by_stop`: how many dishes a pickup's stop served."""
 
 
 @dataclass(frozen=True)
@@ -39,22 +45,46 @@ class Pickup:
     planned_pose: tuple[float, float, float]
     done: bool
     before: tuple[str, ...]
+    stop_size: int = 1
+    """How many dishes the pickup's stop served (`calibration.stop_sizes`)."""
+    landed: tuple[float, float] | None = None
+    """Where the base really stood, (x, y), when the pickup was commanded."""
+    reach_noise: tuple[float, float] | None = None
+    """The reach error the arm really drew (m), None when none was recorded."""
+    kind: str = ""
 
 
-def first_pickups(rows: Iterable[Mapping]) -> list[Pickup]:
-    """The first attempt at each dish of every run that recorded its pickups."""
+def first_pickups(rows: Iterable[Mapping], *,
+                  methods: Sequence[str] | None = None) -> list[Pickup]:
+    """The first attempt at each dish of every run (of `methods`, default all) that recorded
+    its pickups."""
+    from s3o_drake.experiments.calibration import stop_sizes
+
     out = []
     for row in rows:
+        if methods and row.get("method") not in methods:
+            continue
+        pickups = row.get("pickups") or []
+        sizes = stop_sizes([(p.get("attempt"), p["planned_pose"]) for p in pickups])
         collected: list[str] = []
-        for i, p in enumerate(row.get("pickups") or []):
+        for i, p in enumerate(pickups):
             if p.get("attempt") == 1 and p.get("planned") is not None:
-                out.append(Pickup(f"{row['key']}#{i}", row["path"], p["dish"],
-                                  float(p["planned"]),
-                                  tuple(float(v) for v in p["planned_pose"]),
-                                  p["outcome"] == "done", tuple(collected)))
+                actual, noise = p.get("actual_pose"), p.get("reach_noise")
+                out.append(Pickup(
+                    f"{row['key']}#{i}", row["path"], p["dish"], float(p["planned"]),
+                    tuple(float(v) for v in p["planned_pose"]), p["outcome"] == "done",
+                    tuple(collected), stop_size=sizes[i],
+                    landed=None if actual is None else (float(actual[0]), float(actual[1])),
+                    reach_noise=None if noise is None else (float(noise[0]), float(noise[1])),
+                    kind=p.get("kind", "")))
             if p["outcome"] == "done":
                 collected.append(p["dish"])
     return out
+
+
+def stop_group(pickup: Pickup) -> str:
+    """The `STOP_SIZES` group of the pickup's stop."""
+    return STOP_SIZES[min(pickup.stop_size, 3) - 1]
 
 
 def stratified(pickups: Sequence[Pickup], per_bin: Mapping[tuple[float, float], int], *,
@@ -71,10 +101,25 @@ def stratified(pickups: Sequence[Pickup], per_bin: Mapping[tuple[float, float], 
     return chosen
 
 
+def by_stop(pickups: Sequence[Pickup], per_group: int, *, seed: int) -> list[Pickup]:
+    """Up to `per_group` pickups drawn without replacement from each `STOP_SIZES` group
+    (numpy's default_rng(seed)), in the order of `pickups`."""
+    rng = np.random.default_rng(seed)
+    chosen: set[int] = set()
+    for group in STOP_SIZES:
+        inside = [i for i, p in enumerate(pickups) if stop_group(p) == group]
+        picks = rng.choice(len(inside), size=min(per_group, len(inside)), replace=False)
+        chosen.update(inside[i] for i in picks)
+    return [p for i, p in enumerate(pickups) if i in chosen]
+
+
 def evaluate(pickup: Pickup, oracle, *, samples: int, seed: int) -> dict:
     """The oracle's expectation and Monte Carlo at the pickup's planned pose (`oracle`: the
-    FeasibilityOracle of the known world at the pickup)."""
+    FeasibilityOracle of the known world at the pickup), and, when the pickup recorded where
+    the base landed and the reach error, whether the oracle's test passes there ("landed",
+    else None)."""
     from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE
+    from s3o_drake.feasibility.pickup_geometry import caught
 
     x, y, _ = pickup.planned_pose
     cell = CROP_SIZE / CROP_CELLS  # the heatmaps' own cell: the same blur
@@ -82,9 +127,13 @@ def evaluate(pickup: Pickup, oracle, *, samples: int, seed: int) -> dict:
                                            np.array([y, y + cell]))[0, 0])
     monte_carlo = oracle.probability(np.array([x, y]), pickup.dish,
                                      rng=np.random.default_rng(seed), samples=samples)
+    landed = None
+    if pickup.landed is not None and pickup.reach_noise is not None:
+        landed = bool(oracle.landing_success(np.array([pickup.landed]), pickup.dish)[0]
+                      and caught(np.array(pickup.reach_noise), pickup.kind))
     return {"key": pickup.key, "path": pickup.path, "dish": pickup.dish,
             "planned": pickup.planned, "done": pickup.done, "expectation": expectation,
-            "monte_carlo": monte_carlo}
+            "monte_carlo": monte_carlo, "landed": landed, "stop": stop_group(pickup)}
 
 
 def oracle_of(pickup: Pickup, root: Path):
@@ -119,4 +168,34 @@ def table(rows: Sequence[Mapping]) -> str:
     lines += ["", "Brier score against the outcomes: " + ", ".join(
         f"{name} {briers[k]:.4f}" for name, k in
         (("plan", "planned"), ("expectation", "expectation"), ("Monte Carlo", "monte_carlo")))]
+    return "\n".join(lines) + "\n"
+
+
+def stop_table(rows: Sequence[Mapping], *, resamples: int = 2000, seed: int = 0) -> str:
+    """Per `STOP_SIZES` group: pickups, runs, the plan's mean, the oracle's expectation,
+    Monte Carlo and success at the executed landings, the observed success; and executed
+    landings less Monte Carlo with a 95 % bootstrap interval over runs (a run's pickups
+    share its noise and its world) (Markdown)."""
+    lines = ["| stop serves | pickups | runs | plan | oracle, expectation | "
+             "oracle, Monte Carlo | oracle, executed landings | observed | "
+             "executed landings - Monte Carlo (95 %) |", "|---|---|---|---|---|---|---|---|---|"]
+    rng = np.random.default_rng(seed)
+    for group in STOP_SIZES:
+        inside = [r for r in rows if r.get("stop") == group and r.get("landed") is not None]
+        if not inside:
+            continue
+        runs: dict[str, list[Mapping]] = {}
+        for r in inside:
+            runs.setdefault(r["key"].rsplit("#", 1)[0], []).append(r)
+        per_run = [(sum(float(r["landed"]) - r["monte_carlo"] for r in rs), len(rs))
+                   for rs in runs.values()]
+        sums, counts = np.array(per_run).T
+        picks = rng.integers(0, len(per_run), (resamples, len(per_run)))
+        low, high = np.percentile(sums[picks].sum(axis=1) / counts[picks].sum(axis=1),
+                                  [2.5, 97.5])
+        means = [np.mean([float(r[k]) for r in inside])
+                 for k in ("planned", "expectation", "monte_carlo", "landed", "done")]
+        lines.append(f"| {group} | {len(inside)} | {len(runs)} | "
+                     + " | ".join(f"{m:.3f}" for m in means)
+                     + f" | {means[3] - means[2]:+.3f} [{low:+.3f}, {high:+.3f}] |")
     return "\n".join(lines) + "\n"

@@ -85,3 +85,59 @@ def test_a_studys_first_pickups_are_sampled_by_the_plans_value():
     text = table([{"planned": p.planned, "done": p.done, "expectation": 0.9,
                    "monte_carlo": 0.9} for p in sample])
     assert "| 0.0-0.7 | 1 | 0.500 | 0.900 | 0.900 | 0.000 |" in text and "Brier" in text
+
+
+def test_pickups_are_drawn_by_the_dishes_their_stop_served():
+    """A run's first attempts planned at one pose share a stop; the draw takes up to N from
+    each stop size, and the table sets the executed landings against the Monte Carlo per
+    size, with an interval over runs."""
+    from s3o_drake.experiments.oracle_check import (
+        by_stop,
+        first_pickups,
+        stop_group,
+        stop_table,
+    )
+
+    def pickup(dish, pose, outcome="done", attempt=1):
+        return {"attempt": attempt, "dish": dish, "kind": "cup", "planned": 0.9,
+                "planned_pose": pose, "actual_pose": [pose[0] + 0.1, pose[1], 0.0],
+                "reach_noise": [0.0, 0.01], "outcome": outcome}
+
+    shared, alone = [1.0, 2.0, 0.5], [3.0, 1.0, 0.0]
+    rows = [{"key": f"run/{k}", "path": "t.yaml", "method": method,
+             "pickups": [pickup("a", shared), pickup("b", shared, "missed"),
+                         pickup("b", alone, attempt=2), pickup("c", shared),
+                         pickup("d", alone)]}
+            for k, method in enumerate(("S3O-GROP*", "V-GROP*"))]
+    first = first_pickups(rows, methods=["S3O-GROP*"])
+    assert [(p.dish, stop_group(p)) for p in first] == [
+        ("a", "3+ dishes"), ("b", "3+ dishes"), ("c", "3+ dishes"), ("d", "1 dish")]
+    assert first[0].landed == (1.1, 2.0) and first[0].reach_noise == (0.0, 0.01)
+    assert first[3].before == ("a", "b", "c")  # the retry collected b
+    assert len(first_pickups(rows)) == 8
+    sample = by_stop(first, 2, seed=0)
+    assert len(sample) == 3 and sample == by_stop(first, 2, seed=0)
+    assert sum(stop_group(p) == "3+ dishes" for p in sample) == 2
+
+    results = [{"key": p.key, "stop": stop_group(p), "planned": 0.9, "expectation": 0.9,
+                "monte_carlo": 0.9, "landed": p.dish != "b", "done": p.done}
+               for p in first_pickups(rows)]
+    text = stop_table(results)
+    assert "| 3+ dishes | 6 | 2 | 0.900 | 0.900 | 0.900 | 0.667 | 0.667 | -0.233" in text
+    assert "| 1 dish | 2 | 2 | 0.900 | 0.900 | 0.900 | 1.000 | 1.000 | +0.100" in text
+
+
+def test_a_pickup_is_tested_where_the_base_landed_with_the_reach_drawn(oracle):
+    """The landing's test is the oracle's S at the executed landing, and the fingers catch
+    only within the grasp tolerance: a reach error beyond it fails a landing that picks."""
+    from s3o_drake.experiments.oracle_check import Pickup, evaluate
+
+    poses = sample_poses(oracle, 10, np.random.default_rng(3))
+    dish, base = next((d, b) for d, b, _ in poses
+                      if oracle.landing_success(np.array([b[:2]]), d)[0])
+    for noise, expected in (((0.0, 0.0), True), ((2 * grasp_tolerance("plate"), 0.0), False)):
+        pickup = Pickup("run/a#0", "t.yaml", dish, 0.9, tuple(base), True, (),
+                        landed=(float(base[0]), float(base[1])), reach_noise=noise,
+                        kind=oracle.checker.scene.dishes[dish].kind)
+        row = evaluate(pickup, oracle, samples=4, seed=0)
+        assert row["landed"] is expected and row["stop"] == "1 dish"
