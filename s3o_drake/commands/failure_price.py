@@ -29,9 +29,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 
 def study_records(rows) -> tuple[list, int]:
-    """The `PickupRecord`s of a study's runs with recovery (planning/failure_price.py), and
+    """The `PricedPickup`s of a study's runs with recovery (planning/failure_price.py), and
     how many dishes had no pickup with the plan's Fea^m."""
-    from s3o_drake.planning.failure_price import RECOVERY_KINDS, PickupRecord
+    from s3o_drake.planning.failure_price import RECOVERY_KINDS, PricedPickup
 
     records, skipped = [], 0
     for r in rows:
@@ -48,7 +48,7 @@ def study_records(rows) -> tuple[list, int]:
             if pickup.get("planned") is None:
                 skipped += 1
                 continue
-            records.append(PickupRecord(float(pickup["planned"]), cost.get(dish, 0.0)))
+            records.append(PricedPickup(float(pickup["planned"]), cost.get(dish, 0.0)))
     return records, skipped
 
 

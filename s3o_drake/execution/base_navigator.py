@@ -18,7 +18,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 
-from s3o_drake.execution.escape import MotionProfile, Segment, extend_trail, plan_motion
+from s3o_drake.execution.escape import BaseSegment, MotionProfile, extend_trail, plan_motion
 from s3o_drake.execution.messages import NO_COMMAND, BaseCommand, CommandState, Status
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.navigation.base_motion import SETTLE_TIME
@@ -51,11 +51,11 @@ class _Motion:
     id: int = NO_COMMAND
     t0: float = 0.0
     hold: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    segments: tuple[Segment, ...] = ()
+    segments: tuple[BaseSegment, ...] = ()
     outcome: CommandState = CommandState.DONE
     reason: str = ""
     contact: tuple[float, float] | None = None
-    trail: tuple[Segment, ...] = ()
+    trail: tuple[BaseSegment, ...] = ()
     """The way the base came to where this motion ends: the last drive leg of the last
     motion that drove at least RETRACE_RESET, and every move since (`extend_trail`)."""
     initialized: bool = False
@@ -189,7 +189,7 @@ class BaseNavigator(LeafSystem):
         return np.asarray(command.pose, dtype=float) + noise
 
     def _plan(self, command: BaseCommand, base: np.ndarray, t: float,
-              trail: tuple[Segment, ...] = ()) -> _Motion:
+              trail: tuple[BaseSegment, ...] = ()) -> _Motion:
         cut = plan_motion(base, self._landing(command), path=command.path, stop=command.pose,
                           turn=command.turn, trail=trail,
                           free=None if self._scene is None else self._free,

@@ -1,7 +1,7 @@
 """The base's motion to a landing, checked against a collision predicate, with the escapes
 a blocked motion tries: what the BaseNavigator drives.
 
-A motion is a chain of `Segment`s, each a turn in place or a straight drive
+A motion is a chain of `BaseSegment`s, each a turn in place or a straight drive
 (`base_motion.motion_segments`), timed with a trapezoidal speed profile (`MotionProfile`).
 `cut_at_collision` samples its poses every CHECK_STEP_XY / CHECK_STEP_YAW and keeps it up
 to the last free one: a collision within FINAL_APPROACH of the end of the driving, or in
@@ -62,7 +62,7 @@ SETTLE_MARGIN = 0.05
 
 
 @dataclass(frozen=True)
-class Segment:
+class BaseSegment:
     """A straight move from pose `start` to pose `end` (x, y, yaw): a drive (xy changes) or a
     turn (yaw changes), `length` m or rad long, run with a trapezoidal speed profile."""
 
@@ -76,10 +76,10 @@ class Segment:
 
     @staticmethod
     def make(start: Sequence[float], end: Sequence[float], *, turn: bool, length: float,
-             max_speed: float, accel: float) -> "Segment":
+             max_speed: float, accel: float) -> "BaseSegment":
         # The profile's arithmetic is the planner's too (planning/navigation/base_motion.py).
         speed, duration = trapezoid(length, max_speed, accel)
-        return Segment(tuple(map(float, start)), tuple(map(float, end)), turn, float(length),
+        return BaseSegment(tuple(map(float, start)), tuple(map(float, end)), turn, float(length),
                        speed, accel, duration)
 
     def at(self, tau: float) -> tuple[float, float]:
@@ -110,15 +110,15 @@ class MotionProfile:
     yaw_acceleration: float = YAW_ACCELERATION
 
     def segment(self, start: Sequence[float], end: Sequence[float], *, turn: bool,
-                length: float) -> Segment:
+                length: float) -> BaseSegment:
         if turn:
-            return Segment.make(start, end, turn=True, length=length,
+            return BaseSegment.make(start, end, turn=True, length=length,
                                 max_speed=self.max_yaw_rate, accel=self.yaw_acceleration)
-        return Segment.make(start, end, turn=False, length=length, max_speed=self.speed,
+        return BaseSegment.make(start, end, turn=False, length=length, max_speed=self.speed,
                             accel=self.acceleration)
 
     def segments(self, waypoints: Sequence[np.ndarray], yaw: float, target_yaw: float, *,
-                 long_way: bool = False) -> list[Segment]:
+                 long_way: bool = False) -> list[BaseSegment]:
         """Turn-then-drive segments through the waypoints, then the turn to `target_yaw`
         (`base_motion.motion_segments`: the rule the planner's cost model times); with
         `long_way`, the first turn goes the other way round."""
@@ -132,18 +132,18 @@ class Cut:
     the collision `blocked` the way (rather than shortening the landing), and the first
     colliding pose `hit` (None when none collides: the segments are the motion's own)."""
 
-    segments: list[Segment]
+    segments: list[BaseSegment]
     blocked: bool = False
     hit: np.ndarray | None = None
 
 
-def facing(segments: Sequence[Segment], yaw: float) -> bool:
+def facing(segments: Sequence[BaseSegment], yaw: float) -> bool:
     """Whether the motion ends facing `yaw` (within the landing model's TURN_TOLERANCE)."""
     return bool(segments) and abs(wrap(segments[-1].end[2] - yaw)) <= TURN_TOLERANCE
 
 
 def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence[float]],
-                stop: Sequence[float], turn: bool, trail: tuple[Segment, ...],
+                stop: Sequence[float], turn: bool, trail: tuple[BaseSegment, ...],
                 free: FreeTest | None, profile: MotionProfile) -> Cut:
     """The motion from the true pose `base` (x, y, yaw) to the landing `target` (x, y, yaw)
     through the inner waypoints of `path` (its first and last stand for `base` and
@@ -219,8 +219,8 @@ def along_plan(stop: Sequence[float], waypoints: list[np.ndarray], *, turn: bool
         yield [*waypoints[:-1], stop - d * leg / length, waypoints[-1]]
 
 
-def retrace(trail: tuple[Segment, ...], base: np.ndarray, waypoints: list[np.ndarray],
-            target_yaw: float, profile: MotionProfile) -> Iterator[list[Segment]]:
+def retrace(trail: tuple[BaseSegment, ...], base: np.ndarray, waypoints: list[np.ndarray],
+            target_yaw: float, profile: MotionProfile) -> Iterator[list[BaseSegment]]:
     """The last escape: back the way the base came (`trail`, undone move by move: its
     turns turned back, its drives driven in reverse), to where the last long drive's
     last leg began, then on to the waypoints; none when the base no longer stands
@@ -239,7 +239,7 @@ def retrace(trail: tuple[Segment, ...], base: np.ndarray, waypoints: list[np.nda
     yield back + profile.segments([origin[:2], *waypoints[1:]], float(origin[2]), target_yaw)
 
 
-def cut_at_collision(segments: list[Segment], free: FreeTest | None,
+def cut_at_collision(segments: list[BaseSegment], free: FreeTest | None,
                      profile: MotionProfile) -> Cut:
     """The segments up to the last free pose, whether the collision blocks the way, and
     the first colliding pose (see `Cut`). Collisions at the very start (the base already
@@ -282,7 +282,7 @@ def nudged(free_pose: np.ndarray, colliding_pose: np.ndarray) -> np.ndarray:
     return free_pose + SETTLE_MARGIN * step
 
 
-def blocks(segments: Sequence[Segment], hit: tuple[int, float]) -> bool:
+def blocks(segments: Sequence[BaseSegment], hit: tuple[int, float]) -> bool:
     """Whether a collision `hit` = (segment index, distance along it) blocks the way,
     rather than only shortening the landing."""
     i, s = hit
@@ -296,8 +296,8 @@ def blocks(segments: Sequence[Segment], hit: tuple[int, float]) -> bool:
     return turn_first or not (final_turn or travelled >= sum(drives) - FINAL_APPROACH)
 
 
-def extend_trail(before: tuple[Segment, ...], segments: Sequence[Segment]
-                 ) -> tuple[Segment, ...]:
+def extend_trail(before: tuple[BaseSegment, ...], segments: Sequence[BaseSegment]
+                 ) -> tuple[BaseSegment, ...]:
     """The way the base came after a motion of `segments`: from its last drive leg on
     when it drove at least RETRACE_RESET, else `before` and the motion."""
     drives = [i for i, seg in enumerate(segments) if not seg.turn]

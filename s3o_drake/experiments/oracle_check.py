@@ -34,7 +34,7 @@ STOP_SIZES = ("1 dish", "2 dishes", "3+ dishes")
 
 
 @dataclass(frozen=True)
-class Pickup:
+class ExecutedPickup:
     """A first pickup attempt of a run: where the plan sent the base, what the plan valued
     it, what happened, and the dishes the run had collected before it."""
 
@@ -55,7 +55,7 @@ class Pickup:
 
 
 def first_pickups(rows: Iterable[Mapping], *,
-                  methods: Sequence[str] | None = None) -> list[Pickup]:
+                  methods: Sequence[str] | None = None) -> list[ExecutedPickup]:
     """The first attempt at each dish of every run (of `methods`, default all) that recorded
     its pickups."""
     from s3o_drake.experiments.calibration import stop_sizes
@@ -70,7 +70,7 @@ def first_pickups(rows: Iterable[Mapping], *,
         for i, p in enumerate(pickups):
             if p.get("attempt") == 1 and p.get("planned") is not None:
                 actual, noise = p.get("actual_pose"), p.get("reach_noise")
-                out.append(Pickup(
+                out.append(ExecutedPickup(
                     f"{row['key']}#{i}", row["path"], p["dish"], float(p["planned"]),
                     tuple(float(v) for v in p["planned_pose"]), p["outcome"] == "done",
                     tuple(collected), stop_size=sizes[i],
@@ -82,13 +82,13 @@ def first_pickups(rows: Iterable[Mapping], *,
     return out
 
 
-def stop_group(pickup: Pickup) -> str:
+def stop_group(pickup: ExecutedPickup) -> str:
     """The `STOP_SIZES` group of the pickup's stop."""
     return STOP_SIZES[min(pickup.stop_size, 3) - 1]
 
 
-def stratified(pickups: Sequence[Pickup], per_bin: Mapping[tuple[float, float], int], *,
-               seed: int) -> list[Pickup]:
+def stratified(pickups: Sequence[ExecutedPickup],
+               per_bin: Mapping[tuple[float, float], int], *, seed: int) -> list[ExecutedPickup]:
     """Every pickup valued below ALL_BELOW, and `per_bin[(low, high)]` drawn without
     replacement from each bin at or above it (numpy's default_rng(seed))."""
     rng = np.random.default_rng(seed)
@@ -101,7 +101,8 @@ def stratified(pickups: Sequence[Pickup], per_bin: Mapping[tuple[float, float], 
     return chosen
 
 
-def by_stop(pickups: Sequence[Pickup], per_group: int, *, seed: int) -> list[Pickup]:
+def by_stop(pickups: Sequence[ExecutedPickup], per_group: int, *,
+            seed: int) -> list[ExecutedPickup]:
     """Up to `per_group` pickups drawn without replacement from each `STOP_SIZES` group
     (numpy's default_rng(seed)), in the order of `pickups`."""
     rng = np.random.default_rng(seed)
@@ -113,7 +114,7 @@ def by_stop(pickups: Sequence[Pickup], per_group: int, *, seed: int) -> list[Pic
     return [p for i, p in enumerate(pickups) if i in chosen]
 
 
-def evaluate(pickup: Pickup, oracle, *, samples: int, seed: int) -> dict:
+def evaluate(pickup: ExecutedPickup, oracle, *, samples: int, seed: int) -> dict:
     """The oracle's expectation and Monte Carlo at the pickup's planned pose (`oracle`: the
     FeasibilityOracle of the known world at the pickup), and, when the pickup recorded where
     the base landed and the reach error, whether the oracle's test passes there ("landed",
@@ -136,7 +137,7 @@ def evaluate(pickup: Pickup, oracle, *, samples: int, seed: int) -> dict:
             "monte_carlo": monte_carlo, "landed": landed, "stop": stop_group(pickup)}
 
 
-def oracle_of(pickup: Pickup, root: Path):
+def oracle_of(pickup: ExecutedPickup, root: Path):
     """The oracle of the known world at the pickup: the task's true chairs, the dishes the
     run had not yet collected."""
     from s3o_drake.belief.known_world import KnownWorld

@@ -73,7 +73,7 @@ def _load(path: str) -> FailurePrice:
 
 
 @dataclass(frozen=True)
-class PickupRecord:
+class PricedPickup:
     """A dish's first planned pickup in a run with recovery, and what recovering it cost."""
 
     predicted: float
@@ -82,7 +82,7 @@ class PickupRecord:
     """Simulated time (s) of the corrections and retries of the dish in that plan."""
 
 
-def derive_price(records: Iterable[PickupRecord], *, resamples: int = 2000,
+def derive_price(records: Iterable[PricedPickup], *, resamples: int = 2000,
                  seed: int = 0) -> dict[str, float]:
     """c of the module docstring, with a 95 % bootstrap interval over the records, and the
     totals it is made of."""

@@ -9,7 +9,7 @@ from s3o_drake.world.map import Table
 
 
 @dataclass
-class Place:
+class PlaceSpot:
     """Where an object whose goal is `place` is put down: on `table` at `position`, or on
     top of the object named `onto` (whose goal is `stay`); the other fields stay empty.
     (Not `on`: YAML 1.1 reads that key as the boolean true.)"""
@@ -32,7 +32,7 @@ class Dish:
     """plate | bowl | cup | can | apple (furniture.DISH_SHAPES)"""
     goal: str = "collect"
     """collect (onto the tray) | place (held, then put down at `place`) | stay (choices.Goal)"""
-    place: Place = field(default_factory=Place)
+    place: PlaceSpot = field(default_factory=PlaceSpot)
     elevation: float = 0.0
     """Height (m) above the table's top of the surface the object stands on: 0, the top
     itself; for an object put onto another, that object's height (world/goals.py)."""

@@ -33,7 +33,7 @@ from s3o_drake.world.furniture import (
     table_footprint,
 )
 from s3o_drake.world.map import Chair, Table
-from s3o_drake.world.objects import Dish, Place
+from s3o_drake.world.objects import Dish, PlaceSpot
 from s3o_drake.world.resources import LAYOUTS, RESTAURANT
 from s3o_drake.world.robot import footprint_polygon
 from s3o_drake.world.scenario import Scenario, load_scenario
@@ -171,7 +171,7 @@ def _sample_places(task: Scenario, count: int, rng: np.random.Generator) -> Scen
             if any(shape.intersects(t) for t in taken):
                 continue
             taken.append(shape.buffer(DISH_GAP))
-            dishes[i] = replace(cup, goal="place", place=Place(
+            dishes[i] = replace(cup, goal="place", place=PlaceSpot(
                 table=table.name, position=[round(float(v), 4) for v in p_W]))
             break
         else:

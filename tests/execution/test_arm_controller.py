@@ -37,7 +37,7 @@ from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.dish_messages import DishPoses, DishState, GripEvent
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import with_place_targets
-from s3o_drake.world.objects import Place
+from s3o_drake.world.objects import PlaceSpot
 from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
 from s3o_drake.world.scenario import load_scenario
 
@@ -246,7 +246,7 @@ def tidy(scenario):
     plate, cup = scenario.dishes
     scenario = dataclasses.replace(scenario, dishes=[
         dataclasses.replace(plate, goal="stay"),
-        dataclasses.replace(cup, goal="place", place=Place(onto="plate_a"))])
+        dataclasses.replace(cup, goal="place", place=PlaceSpot(onto="plate_a"))])
     scene = FeasibilityScene(with_place_targets(scenario).contents)
     return scenario, scene, FeasibilityChecker(scene)
 

@@ -11,8 +11,8 @@ import pytest
 from s3o_drake.execution.escape import (
     ESCAPE_STEPS,
     FINAL_APPROACH,
+    BaseSegment,
     MotionProfile,
-    Segment,
     cut_at_collision,
     extend_trail,
     facing,
@@ -176,7 +176,7 @@ def test_a_cut_stops_a_sample_early_when_the_collision_is_a_hair_past_it():
 def test_the_trail_starts_at_the_last_long_drive_s_last_leg():
     def seg(start, end, turn=False):
         length = abs(end[2] - start[2]) if turn else math.dist(start[:2], end[:2])
-        return Segment.make(start, end, turn=turn, length=length, max_speed=1.0, accel=1.0)
+        return BaseSegment.make(start, end, turn=turn, length=length, max_speed=1.0, accel=1.0)
 
     turn = seg((0, 0, 0), (0, 0, 1.0), turn=True)
     leg_1 = seg((0, 0, 1.0), (1, 0, 1.0))

@@ -130,13 +130,13 @@ def test_pickups_are_drawn_by_the_dishes_their_stop_served():
 def test_a_pickup_is_tested_where_the_base_landed_with_the_reach_drawn(oracle):
     """The landing's test is the oracle's S at the executed landing, and the fingers catch
     only within the grasp tolerance: a reach error beyond it fails a landing that picks."""
-    from s3o_drake.experiments.oracle_check import Pickup, evaluate
+    from s3o_drake.experiments.oracle_check import ExecutedPickup, evaluate
 
     poses = sample_poses(oracle, 10, np.random.default_rng(3))
     dish, base = next((d, b) for d, b, _ in poses
                       if oracle.landing_success(np.array([b[:2]]), d)[0])
     for noise, expected in (((0.0, 0.0), True), ((2 * grasp_tolerance("plate"), 0.0), False)):
-        pickup = Pickup("run/a#0", "t.yaml", dish, 0.9, tuple(base), True, (),
+        pickup = ExecutedPickup("run/a#0", "t.yaml", dish, 0.9, tuple(base), True, (),
                         landed=(float(base[0]), float(base[1])), reach_noise=noise,
                         kind=oracle.checker.scene.dishes[dish].kind)
         row = evaluate(pickup, oracle, samples=4, seed=0)

@@ -10,7 +10,7 @@ import yaml
 from s3o_drake.commands.failure_price import main as failure_price
 from s3o_drake.planning.failure_price import (
     FailurePrice,
-    PickupRecord,
+    PricedPickup,
     derive_price,
     failure_reward,
     priced_planner,
@@ -19,7 +19,7 @@ from s3o_drake.world.scenario import Scenario
 
 
 def test_the_price_is_recovery_time_per_expected_failure():
-    records = [PickupRecord(0.9, 0.0)] * 8 + [PickupRecord(0.6, 10.0), PickupRecord(0.6, 2.0)]
+    records = [PricedPickup(0.9, 0.0)] * 8 + [PricedPickup(0.6, 10.0), PricedPickup(0.6, 2.0)]
     price = derive_price(records)
     # 12 s of recoveries against 8 x 0.1 + 2 x 0.4 = 1.6 expected failures.
     assert price["seconds"] == pytest.approx(12.0 / 1.6)

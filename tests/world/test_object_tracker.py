@@ -27,7 +27,7 @@ from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, Grip
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import surface_below
 from s3o_drake.world.object_tracker import STANDING_TILT, AddObjectTracker
-from s3o_drake.world.objects import Place
+from s3o_drake.world.objects import PlaceSpot
 from s3o_drake.world.robot import (
     ARM_STOW,
     GRASP_FRAME,
@@ -236,7 +236,7 @@ def test_an_object_put_down_stands_on_the_surface_below_where_it_was_let_go(scen
     plate, cup = scenario.dishes
     tidy = dataclasses.replace(scenario, dishes=[
         dataclasses.replace(plate, goal="stay"),
-        dataclasses.replace(cup, goal="place", place=Place(onto="plate_a"))])
+        dataclasses.replace(cup, goal="place", place=PlaceSpot(onto="plate_a"))])
     diagram, tracker, _, _ = _tracker_of(tidy)
     plate_top = 0.75 + DISH_SHAPES["plate"].height
     grasp = robot_positions(1.5, 1.8, 0.5, ARM_REACHING)
