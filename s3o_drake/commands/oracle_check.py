@@ -3,18 +3,12 @@
     s3o bench oracle-executed STUDY [--middle 80] [--high 60] [--samples 100] [--json FILE]
     s3o bench oracle-executed STUDY --by stop [--per-stop 100] [--methods NAME ...]
 
-STUDY is a study's folder (its results.jsonl). Every first pickup the plan valued below 0.8
-and a seeded draw of --middle from 0.8-0.9 and --high from 0.9 up are re-evaluated with
-the Drake oracle at the pose the plan sent the base to, on the task's known world at that
-moment (true chairs, the dishes not yet collected): its blurred expectation (the heatmaps'
-and the network's labels) and its Monte Carlo over --samples executed landings. Prints, per
-bin of the plan's Fea^m, the three against the observed success, and their Brier scores:
-which model is off when a study's calibration is (docs/calibration.md). About 2 s a pickup.
-
---by stop draws --per-stop pickups from each stop size (1, 2, 3+ dishes served) instead,
-tests each also where the base really landed with the reach error really drawn, and prints
-per stop size the oracle's success there against its Monte Carlo (interval over runs):
-whether the landing model is what is off.
+Re-evaluates a study's first pickups with the Drake oracle at the pose the plan sent the
+base to, on the task's known world at that moment: its blurred expectation (the network's
+labels) and its Monte Carlo over --samples landings, against the observed success, per bin
+of the plan's Fea^m (every pickup below 0.8, a draw of --middle and --high above). --by
+stop draws --per-stop pickups per stop size (1, 2, 3+ dishes) and also tests where the base
+really landed: whether the landing model is off. About 2 s a pickup (docs/calibration.md).
 """
 
 from __future__ import annotations
