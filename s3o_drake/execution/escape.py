@@ -53,8 +53,6 @@ RETRACE_TOLERANCE = 0.05
 #: How far (m) before a stop the base may turn to the stop's heading and drive straight in,
 #: tried in turn when the direct motion lands short.
 APPROACH_STEPS = tuple(0.1 * k for k in range(1, 9))
-#: An escape that lands further than this (m) from its target drives on (`closer_in`).
-FAR_SHORT = 0.15
 #: A drive cut short of a collision ends at its last free sample only when the pose this
 #: share of a check step beyond it (1 mm, 0.0025 rad) is free too, else a sample earlier:
 #: the plant settles within a hair of its set point (0.00008 rad past a turn's end was
@@ -185,7 +183,7 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
         for escape in escapes:
             escaped = cut_at_collision(escape, free, profile)
             if not escaped.blocked:
-                return closer_in(escaped, target, free, profile)
+                return escaped
     elif cut.hit is not None and not turn and not facing(cut.segments, target[2]):
         # Landed short, facing away from the stop's heading: the final turn towards the
         # dish hits something (a noisy landing between a chair and the bar: the pickups
@@ -201,29 +199,6 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
             if not approached.blocked and facing(approached.segments, target[2]):
                 return approached
     return cut
-
-
-def closer_in(escaped: Cut, target: np.ndarray, free: FreeTest | None,
-              profile: MotionProfile) -> Cut:
-    """An escape that lands more than FAR_SHORT short of `target`, driven on from where it
-    ended: turned APPROACH_STEPS before the target and straight in along its heading, the
-    first that is not blocked and ends facing it; the escape as it was when none does.
-    An escape's own last leg may come in from any side, and a landing cut short on it
-    faces away from the dish, half a metre off, where Fea^m's landing model
-    (`landing.stop_short`) has the base step back along the stop's heading, facing it."""
-    if escaped.hit is None or not escaped.segments:
-        return escaped
-    end = np.asarray(escaped.segments[-1].end)
-    if float(np.linalg.norm(end[:2] - target[:2])) <= FAR_SHORT:
-        return escaped
-    h = np.array([math.cos(target[2]), math.sin(target[2])])
-    for d in APPROACH_STEPS:
-        on = profile.segments([end[:2], target[:2] - d * h, target[:2]], float(end[2]),
-                              float(target[2]))
-        driven = cut_at_collision(on, free, profile)
-        if not driven.blocked and facing(driven.segments, target[2]):
-            return Cut([*escaped.segments, *driven.segments], hit=driven.hit)
-    return escaped
 
 
 def along_plan(stop: Sequence[float], waypoints: list[np.ndarray], *, turn: bool

@@ -164,27 +164,6 @@ def test_a_stop_it_cannot_turn_in_is_driven_into_along_its_heading():
     np.testing.assert_allclose(_end(cut), target, atol=1e-12)
 
 
-def test_an_escape_cut_far_short_drives_on_straight_in_along_the_stop_s_heading():
-    """The base cannot turn where it stands, so it backs out (an escape); the escape's
-    diagonal last leg towards the stop (0.5, 2), facing north, hits a table west of the
-    stop 0.28 m short. The base drives on: it turns before the stop and drives straight
-    in along the stop's heading, and ends at the stop facing it."""
-    def free(poses):
-        x, y, yaw = poses.T
-        pocket = (x > -0.2) & (np.abs(y) < 0.1) & (np.abs(wrap(yaw)) > 0.3)
-        table = (x < 0.45) & (y > 1.75)
-        return ~(pocket | table)
-
-    target = (0.5, 2.0, math.pi / 2)
-    cut = _drive((0.0, 0.0, 0.0), target, free)
-    assert not cut.blocked and _all_free(cut, free)
-    assert not cut.segments[0].turn and cut.segments[0].end[0] < -0.2  # backed out
-    assert facing(cut.segments, target[2])
-    np.testing.assert_allclose(_end(cut), target, atol=1e-9)
-    last = cut.segments[-1]
-    assert not last.turn and last.start[0] == pytest.approx(0.5)  # straight in, from the south
-
-
 def test_a_cut_stops_a_sample_early_when_the_collision_is_a_hair_past_it():
     seg = PROFILE.segment((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), turn=False, length=1.0)
     # Samples every 0.02 m: 0.5 is free, the collision starts 0.0005 m past it.
