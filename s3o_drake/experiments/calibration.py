@@ -19,6 +19,7 @@ guessed (`RecordsError`).
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from collections import Counter
@@ -34,13 +35,19 @@ from scipy.stats import beta
 
 from s3o_drake.execution.messages import PickupRecord
 from s3o_drake.experiments.store import ResultStore
+from s3o_drake.world.angles import facing_yaw, wrap
 from s3o_drake.world.choices import CALIBRATION_GROUPINGS
 from s3o_drake.world.goals import placed_object
+from s3o_drake.world.resources import REPO_DIR
 
 HIGH = 0.9
 """Pickups predicted at or above this are the ones a plan counts on."""
 LEVEL = 0.95
 """Confidence level of the binomial intervals."""
+TURNED_AWAY = 0.15
+"""Angle (rad) between the base's yaw and the bearing to its dish beyond which a pickup was
+made turned away from the dish. The execution turns to face the dish exactly (half the
+study pickups within 0.001 rad), so a larger angle is a turn in place cut short."""
 RESULTS_FILE = "results.jsonl"
 REPORT_FILE = "report.json"
 
@@ -177,6 +184,10 @@ class Records:
     files: tuple[Path, ...]
     stops: tuple[int, ...] = ()
     """For each pickup, how many dishes its stop served (`stop_sizes`)."""
+    facing: tuple[float | None, ...] = ()
+    """For each pickup, the angle (rad) between the base's yaw and the bearing to its dish
+    from where the base stood (`facing_error`); None where the dish's position is not
+    known (a run's report, a task file not found, a place target)."""
 
 
 def read_records(paths: Sequence[str | Path]) -> Records:
@@ -185,6 +196,7 @@ def read_records(paths: Sequence[str | Path]) -> Records:
     names the first file that holds none or a bad one."""
     pickups: list[PickupRecord] = []
     stops: list[int] = []
+    facing: list[float | None] = []
     runs = 0
     files: list[Path] = []
     for path in map(Path, paths):
@@ -192,13 +204,39 @@ def read_records(paths: Sequence[str | Path]) -> Records:
             if any(file.resolve() == seen.resolve() for seen in files):
                 continue  # named twice (a folder and its file): its runs count once
             runs_found = (_read_results(file) if file.suffix == ".jsonl"
-                          else [_read_report(file)])
-            for found in runs_found:
+                          else [(_read_report(file), None)])
+            for found, task in runs_found:
                 pickups += found
                 stops += stop_sizes([(r.attempt, r.planned_pose) for r in found])
+                dishes = _dish_positions(task)
+                facing += [facing_error(r.actual_pose, dishes[r.dish])
+                           if r.dish in dishes else None for r in found]
             runs += len(runs_found)
             files.append(file)
-    return Records(pickups=tuple(pickups), runs=runs, files=tuple(files), stops=tuple(stops))
+    return Records(pickups=tuple(pickups), runs=runs, files=tuple(files), stops=tuple(stops),
+                   facing=tuple(facing))
+
+
+def facing_error(X_WB: Sequence[float], p_WO: Sequence[float]) -> float:
+    """The angle (rad, in [0, π]) between the yaw of the base pose `X_WB` (x, y, yaw) and
+    the bearing from it to the dish at `p_WO` (x, y)."""
+    return abs(wrap(float(X_WB[2]) - facing_yaw(X_WB[:2], p_WO[:2])))
+
+
+@functools.cache
+def _dish_positions(task: str | None) -> dict[str, tuple[float, float]]:
+    """The dishes' positions of a study row's task file (its `path`, from the repository
+    or the working folder); none when there is no such file."""
+    if not task:
+        return {}
+    from s3o_drake.world.scenario import load_scenario
+
+    for root in (REPO_DIR, Path.cwd()):
+        if (root / task).is_file():
+            scenario = load_scenario(root / task)
+            return {d.name: (float(d.position[0]), float(d.position[1]))
+                    for d in scenario.dishes}
+    return {}
 
 
 def stop_sizes(run: Sequence[tuple[int, Sequence[float]]]) -> list[int]:
@@ -227,8 +265,9 @@ def _result_files(path: Path) -> list[Path]:
     return [path]
 
 
-def _read_results(path: Path) -> list[list[PickupRecord]]:
-    """A study's results (JSON lines, as ResultStore reads them: the last row of a key)."""
+def _read_results(path: Path) -> list[tuple[list[PickupRecord], str | None]]:
+    """A study's results (JSON lines, as ResultStore reads them: the last row of a key):
+    each run's records and its task file."""
     rows = [r for r in ResultStore(path, read_only=True).rows()
             if r.get("kind") == "run" and "error" not in r]
     if not rows:
@@ -238,7 +277,8 @@ def _read_results(path: Path) -> list[list[PickupRecord]]:
         raise RecordsError(
             f"{path}: {len(old)} of {len(rows)} runs have no per-pickup records (written "
             "before they were recorded: their predicted Fea^m is not in the file)")
-    return [_parse(row["pickups"], f"{path}: run {row['key']}") for row in rows]
+    return [(_parse(row["pickups"], f"{path}: run {row['key']}"), row.get("path"))
+            for row in rows]
 
 
 def _read_report(path: Path) -> list[PickupRecord]:
@@ -275,20 +315,28 @@ def action_of(record: PickupRecord) -> str:
 
 
 def grouped(records: Sequence[PickupRecord], by: str, *,
-            stops: Sequence[int] | None = None) -> dict[str, list[PickupRecord]]:
-    """The records by "method", "source", "action" (`action_of`) or "stop" (how many dishes
+            stops: Sequence[int] | None = None,
+            facing: Sequence[float | None] | None = None) -> dict[str, list[PickupRecord]]:
+    """The records by "method", "source", "action" (`action_of`), "stop" (how many dishes
     the record's stop served, `stops[i]` for `records[i]`: "1 dish", "2 dishes", "3+
-    dishes"), keys sorted; or all under "all" (by "all")."""
+    dishes") or "facing" (that, and whether the base faced the dish, `facing[i]` within
+    TURNED_AWAY: "1 dish, facing", "1 dish, turned away", "..., position unknown"), keys
+    sorted; or all under "all" (by "all")."""
     if by == "all":
         return {"all": list(records)}
     if by not in CALIBRATION_GROUPINGS:
         raise ValueError(f"by: expected one of {', '.join(CALIBRATION_GROUPINGS)}, got {by!r}")
-    if by == "stop" and (stops is None or len(stops) != len(records)):
-        raise ValueError("by stop: needs how many dishes each record's stop served")
+    if by in ("stop", "facing") and (stops is None or len(stops) != len(records)):
+        raise ValueError(f"by {by}: needs how many dishes each record's stop served")
+    if by == "facing" and (facing is None or len(facing) != len(records)):
+        raise ValueError("by facing: needs each record's angle to its dish")
     groups: dict[str, list[PickupRecord]] = {}
     for i, record in enumerate(records):
-        if by == "stop":
+        if by in ("stop", "facing"):
             key = ("1 dish", "2 dishes", "3+ dishes")[min(stops[i], 3) - 1]
+            if by == "facing":
+                key += (", position unknown" if facing[i] is None else
+                        ", turned away" if facing[i] > TURNED_AWAY else ", facing")
         else:
             key = action_of(record) if by == "action" else getattr(record, by)
         groups.setdefault(key, []).append(record)

@@ -64,8 +64,9 @@ class Goal(str, Enum):
 
 GOALS = tuple(g.value for g in Goal)
 
-CALIBRATION_GROUPINGS = ("all", "method", "source", "action", "stop")
+CALIBRATION_GROUPINGS = ("all", "method", "source", "action", "stop", "facing")
 """How the calibration of Fea^m groups executed records: all together, by method, by the
 model's source (fcn, oracle), by action (a pickup, or the putting down of an object at
-its place), or by how many dishes the stop served (a merged location's stop serves
-several)."""
+its place), by how many dishes the stop served (a merged location's stop serves
+several), or by that and whether the base faced its dish when the arm reached (Fea^m
+assumes it does; a turn in place that a chair cuts short leaves it turned away)."""

@@ -17,6 +17,7 @@ from s3o_drake.experiments.calibration import (
     binomial_interval,
     calibrate,
     calibrate_records,
+    facing_error,
     grouped,
     read_records,
 )
@@ -210,6 +211,37 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys):
         assert exit_.value.code == 2, (argv, printed.err)
         assert printed.err.count("\n") == 1 and message in printed.err, printed.err
         assert not out.exists() and printed.out == ""
+
+
+def test_pickups_are_grouped_by_whether_the_base_faced_its_dish(tmp_path, capsys):
+    """Fea^m assumes the base faces the dish; a turn cut short leaves it turned away. The
+    dishes' positions come from the row's task file."""
+    def at(dish, yaw, outcome="done"):
+        r = _record(0.9, outcome, dish=dish)
+        return PickupRecord(**{**r.to_dict(), "planned_pose": (2.0, 1.6, math.pi / 2),
+                               "actual_pose": (2.0, 1.6, yaw)})
+
+    # plate_a at (1.85, 2.3), cup_b at (2.15, 2.3): from (2.0, 1.6) bearings of about
+    # π/2 + 0.21 and π/2 - 0.21.
+    bearing = math.atan2(0.7, -0.15)
+    run = [at("plate_a", bearing), at("cup_b", bearing, "no_ik"), at("ghost", 0.0)]
+    task = "scenarios/small/two_dishes.yaml"
+    results = _write_results(tmp_path / "s" / "results.jsonl",
+                             [_row("run/t/S3O-GROP*/0", run, path=task)])
+    read = read_records([results])
+    assert read.facing[0] == pytest.approx(0.0, abs=1e-9)
+    assert read.facing[1] == pytest.approx(2 * math.atan2(0.15, 0.7))
+    assert read.facing[2] is None  # no such dish in the task
+    by = grouped(read.pickups, "facing", stops=read.stops, facing=read.facing)
+    assert {k: [r.dish for r in v] for k, v in by.items()} == {
+        "3+ dishes, facing": ["plate_a"], "3+ dishes, position unknown": ["ghost"],
+        "3+ dishes, turned away": ["cup_b"]}
+    with pytest.raises(ValueError, match="facing"):
+        grouped(read.pickups, "facing", stops=read.stops)
+    assert main([str(results), "--out", str(tmp_path / "out"), "--by", "facing"]) == 0
+    assert "facing 3+ dishes, turned away" in capsys.readouterr().out
+    assert facing_error((0.0, 0.0, math.pi), (-1.0, 0.0)) == pytest.approx(0.0)
+    assert facing_error((0.0, 0.0, -math.pi / 2), (1.0, 0.0)) == pytest.approx(math.pi / 2)
 
 
 def test_help_is_the_module_docstring():
