@@ -29,17 +29,14 @@ end close together.
 from __future__ import annotations
 
 import dataclasses
-import itertools
-import math
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.feasibility.landing import CHECK_STEP_YAW
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.world.angles import facing_yaw, wrap
+from s3o_drake.world.angles import facing_yaw
 
 #: A cell's centre and corners, in cells from its lower-left corner.
 _CORNERS = ((0, 0), (0, 1), (1, 0), (1, 1))
@@ -71,29 +68,6 @@ class FreeStops:
             return np.zeros(0, dtype=bool)
         targets = np.array([self._p_WD[d] for d in dishes], dtype=float).reshape(-1, 2)
         return self._checker.base_free(np.column_stack([points, facing_yaw(points, targets)]))
-
-    def free_turning(self, points: np.ndarray, stops: Sequence[Sequence[str]]) -> np.ndarray:
-        """`free`, each position of `points` (n, 2) facing each dish of its stop of `stops`
-        (n) in turn and through the turns in place between them, sampled every
-        CHECK_STEP_YAW, the short way round: a stop that serves several dishes is free only
-        if the base can turn from dish to dish there. One collision query."""
-        points = np.asarray(points, dtype=float).reshape(-1, 2)
-        poses, owner = [], []
-        for i, (p, dishes) in enumerate(zip(points, stops, strict=True)):
-            yaws = [float(facing_yaw(p, self._p_WD[d])) for d in dishes]
-            sweep = [yaws[0]]
-            for a, b in itertools.pairwise(yaws):
-                delta = wrap(b - a)
-                n = max(1, math.ceil(abs(delta) / CHECK_STEP_YAW))
-                sweep += [a + delta * k / n for k in range(1, n + 1)]
-            poses += [(p[0], p[1], yaw) for yaw in sweep]
-            owner += [i] * len(sweep)
-        if not poses:
-            return np.zeros(0, dtype=bool)
-        ok = self._checker.base_free(np.array(poses, dtype=float))
-        free = np.ones(len(points), dtype=bool)
-        np.logical_and.at(free, np.array(owner), ok)
-        return free
 
     def free_cells(self, heatmap: Heatmap) -> np.ndarray:
         """Cells (rows, cols) of `heatmap` with Fea^m > 0 whose centre and four corners are

@@ -502,7 +502,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     tasks: dict[tuple[tuple[str, ...], ...], tuple[TaskPlanResult, dict[str, BaseGeometry]]] = {}
     assert grid is not None
     searches_run = _Searches(workers, search, fea, nav, start, planner, deadline, costs, grid,
-                             stops.free_turning)
+                             stops.free_facing)
     try:
         best, searches, samples = _search_spaces(
             spaces, tasks, searches_run, cells, partition, grid, nav, start, planner,

@@ -52,7 +52,7 @@ def with_free_stops(result: MotionResult, problem: SequenceProblem,
     x = np.array(result.positions, dtype=float).reshape(problem.n, 2)
     # A stop with no pickup faces along its path: there is no dish to face, nothing to test.
     tested = [k for k, dishes in enumerate(problem.stop_dishes) if dishes]
-    first = [tuple(problem.stop_dishes[k]) for k in tested]
+    first = [problem.stop_dishes[k][0] for k in tested]
     ok = free(x[tested], first) if tested else np.zeros(0, dtype=bool)
     moved = False
     for k, dish in ((k, d) for k, d, good in zip(tested, first, ok, strict=True) if not good):
