@@ -1,6 +1,7 @@
 """Calibration of Fea^m against executed pickups: reliability, ECE, Brier.
 
-    s3o calibrate RESULTS [RESULTS ...] [--by all|method|source|action|stop|facing]
+    s3o calibrate RESULTS [RESULTS ...] [--out DIR] [--methods NAME ...]
+                  [--by all|method|source|action|stop|facing] [--bins N]
 
 Is a pickup rated p picked a share p of the time? RESULTS: a study's results.jsonl (or its
 folder), or the report.json files of `s3o run`. Prints the pickups, their observed success,
