@@ -1,7 +1,7 @@
 """Calibration of Fea^m against executed pickups: reliability, ECE, Brier.
 
     s3o calibrate RESULTS [RESULTS ...] [--out DIR] [--methods NAME ...]
-                  [--by all|method|source|action|stop|facing] [--bins N]
+                  [--by all|method|source|action|stop|facing|order] [--bins N]
 
 Is a pickup rated p picked a share p of the time? RESULTS: a study's results.jsonl (or its
 folder), or the report.json files of `s3o run`. Prints the pickups, their observed success,
@@ -32,8 +32,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         help=f"only these methods' pickups, some of: {', '.join(METHODS)}")
     parser.add_argument("--by", choices=CALIBRATION_GROUPINGS, default="all",
                         help="the diagram's curves: all pickups (default), per method, "
-                             "source of Fea^m, action, dishes served by the stop, or those "
-                             "and whether the base faced the dish")
+                             "source of Fea^m, action, dishes served by the stop, those "
+                             "and whether the base faced the dish, or the pickup's place "
+                             "at its stop")
     parser.add_argument("--bins", type=at_least(1), default=10, metavar="N",
                         help="equal-width bins of the predictions (default 10)")
     return parser.parse_args(argv)
@@ -59,23 +60,25 @@ def main(argv: list[str] | None = None) -> int:
     except RecordsError as e:
         fail(str(e))
     pickups, stops, facing = list(records.pickups), list(records.stops), list(records.facing)
+    orders = list(records.orders)
     if args.methods:
         missing = [m for m in args.methods if not any(p.method == m for p in pickups)]
         if missing:
             fail(f"--methods: no executed pickup of {missing[0]!r} in the results")
         kept = [i for i, p in enumerate(pickups) if p.method in args.methods]
         pickups, stops = [pickups[i] for i in kept], [stops[i] for i in kept]
-        facing = [facing[i] for i in kept]
+        facing, orders = [facing[i] for i in kept], [orders[i] for i in kept]
     if not pickups:
         fail(f"{' '.join(args.results)}: {records.runs} runs, but no executed pickup")
 
     figures = {"all": calibrate_records(pickups, bins=args.bins)}
     for by in CALIBRATION_GROUPINGS[1:]:
-        for name, group in grouped(pickups, by, stops=stops, facing=facing).items():
+        for name, group in grouped(pickups, by, stops=stops, orders=orders,
+                                          facing=facing).items():
             figures[f"{by} {name}"] = calibrate_records(group, bins=args.bins)
     curves = {name: calibrate_records(group, bins=args.bins)
               for name, group in grouped(pickups, args.by, stops=stops,
-                                         facing=facing).items()}
+                                         orders=orders, facing=facing).items()}
 
     out.mkdir(parents=True, exist_ok=True)
     f = figures["all"]

@@ -184,6 +184,8 @@ class Records:
     files: tuple[Path, ...]
     stops: tuple[int, ...] = ()
     """For each pickup, how many dishes its stop served (`stop_sizes`)."""
+    orders: tuple[int, ...] = ()
+    """For each pickup, its place among the pickups made from its stop (`stop_orders`)."""
     facing: tuple[float | None, ...] = ()
     """For each pickup, the angle (rad) between the base's yaw and the bearing to its dish
     from where the base stood (`facing_error`); None where the dish's position is not
@@ -196,6 +198,7 @@ def read_records(paths: Sequence[str | Path]) -> Records:
     names the first file that holds none or a bad one."""
     pickups: list[PickupRecord] = []
     stops: list[int] = []
+    orders: list[int] = []
     facing: list[float | None] = []
     runs = 0
     files: list[Path] = []
@@ -207,14 +210,16 @@ def read_records(paths: Sequence[str | Path]) -> Records:
                           else [(_read_report(file), None)])
             for found, task in runs_found:
                 pickups += found
-                stops += stop_sizes([(r.attempt, r.planned_pose) for r in found])
+                poses = [(r.attempt, r.planned_pose) for r in found]
+                stops += stop_sizes(poses)
+                orders += stop_orders(poses)
                 dishes = _dish_positions(task)
                 facing += [facing_error(r.actual_pose, dishes[r.dish])
                            if r.dish in dishes else None for r in found]
             runs += len(runs_found)
             files.append(file)
     return Records(pickups=tuple(pickups), runs=runs, files=tuple(files), stops=tuple(stops),
-                   facing=tuple(facing))
+                   orders=tuple(orders), facing=tuple(facing))
 
 
 def facing_error(X_WB: Sequence[float], p_WO: Sequence[float]) -> float:
@@ -249,6 +254,21 @@ def stop_sizes(run: Sequence[tuple[int, Sequence[float]]]) -> list[int]:
 
     served = Counter(at(pose) for attempt, pose in run if attempt == 1)
     return [max(1, served[at(pose)]) for _, pose in run]
+
+
+def stop_orders(run: Sequence[tuple[int, Sequence[float]]]) -> list[int]:
+    """For each pickup of one run, given as in `stop_sizes`, its place among the first
+    attempts planned at the same pose: 1 for the first, made as the base arrived; 2, 3, ...
+    for those made after a turn in place at the stop (a retry keeps the place of the
+    pickup it retries)."""
+    seen: Counter[tuple[float, ...]] = Counter()
+    orders = []
+    for attempt, pose in run:
+        key = tuple(round(float(v), 6) for v in pose)
+        if attempt == 1:
+            seen[key] += 1
+        orders.append(max(1, seen[key]))
+    return orders
 
 
 def _result_files(path: Path) -> list[Path]:
@@ -315,13 +335,14 @@ def action_of(record: PickupRecord) -> str:
 
 
 def grouped(records: Sequence[PickupRecord], by: str, *,
-            stops: Sequence[int] | None = None,
+            stops: Sequence[int] | None = None, orders: Sequence[int] | None = None,
             facing: Sequence[float | None] | None = None) -> dict[str, list[PickupRecord]]:
     """The records by "method", "source", "action" (`action_of`), "stop" (how many dishes
     the record's stop served, `stops[i]` for `records[i]`: "1 dish", "2 dishes", "3+
-    dishes") or "facing" (that, and whether the base faced the dish, `facing[i]` within
-    TURNED_AWAY: "1 dish, facing", "1 dish, turned away", "..., position unknown"), keys
-    sorted; or all under "all" (by "all")."""
+    dishes"), "facing" (that, and whether the base faced the dish, `facing[i]` within
+    TURNED_AWAY: "1 dish, facing", "1 dish, turned away", "..., position unknown") or
+    "order" (the record's place at its stop, `orders[i]`: "1st at its stop", "2nd at its
+    stop", "3rd+ at its stop"), keys sorted; or all under "all" (by "all")."""
     if by == "all":
         return {"all": list(records)}
     if by not in CALIBRATION_GROUPINGS:
@@ -330,6 +351,8 @@ def grouped(records: Sequence[PickupRecord], by: str, *,
         raise ValueError(f"by {by}: needs how many dishes each record's stop served")
     if by == "facing" and (facing is None or len(facing) != len(records)):
         raise ValueError("by facing: needs each record's angle to its dish")
+    if by == "order" and (orders is None or len(orders) != len(records)):
+        raise ValueError("by order: needs each record's place at its stop")
     groups: dict[str, list[PickupRecord]] = {}
     for i, record in enumerate(records):
         if by in ("stop", "facing"):
@@ -337,6 +360,8 @@ def grouped(records: Sequence[PickupRecord], by: str, *,
             if by == "facing":
                 key += (", position unknown" if facing[i] is None else
                         ", turned away" if facing[i] > TURNED_AWAY else ", facing")
+        elif by == "order":
+            key = ("1st", "2nd", "3rd+")[min(orders[i], 3) - 1] + " at its stop"
         else:
             key = action_of(record) if by == "action" else getattr(record, by)
         groups.setdefault(key, []).append(record)

@@ -271,3 +271,27 @@ def test_pickups_are_grouped_by_how_many_dishes_their_stop_served(tmp_path, caps
         grouped(read.pickups, "stop")
     assert main([str(results), "--out", str(tmp_path / "out"), "--by", "stop"]) == 0
     assert "stop 3+ dishes" in capsys.readouterr().out
+
+
+def test_pickups_are_grouped_by_their_place_at_the_stop(tmp_path, capsys):
+    """The first pickup at a stop is made as the base arrives; the others after a turn in
+    place, which a chair can cut short."""
+    def at(pose, dish, outcome="done", attempt=1):
+        r = _record(0.9, outcome, dish=dish)
+        return PickupRecord(**{**r.to_dict(), "planned_pose": tuple(pose),
+                               "attempt": attempt})
+
+    shared, alone = (1.0, 2.0, 0.0), (3.0, 1.0, 0.5)
+    run = [at(shared, "a"), at(shared, "b", "no_ik"), at(shared, "b", attempt=2),
+           at(alone, "c"), at(shared, "d")]
+    results = _write_results(tmp_path / "s" / "results.jsonl", [_row("run/t/S3O-GROP*/0", run)])
+    read = read_records([results])
+    assert read.orders == (1, 2, 2, 1, 3)  # a retry keeps its pickup's place
+    by_order = grouped(read.pickups, "order", orders=read.orders)
+    assert {k: [r.dish for r in v] for k, v in by_order.items()} == {
+        "1st at its stop": ["a", "c"], "2nd at its stop": ["b", "b"],
+        "3rd+ at its stop": ["d"]}
+    with pytest.raises(ValueError, match="order"):
+        grouped(read.pickups, "order", stops=read.stops)
+    assert main([str(results), "--out", str(tmp_path / "out"), "--by", "order"]) == 0
+    assert "order 2nd at its stop" in capsys.readouterr().out
