@@ -171,7 +171,11 @@ times the generations, from several seeds)."""
 
 def rationed_scenario(scenario: Scenario, lifted: Collection[str]) -> Scenario:
     """`scenario` with the planner settings of the rations `lifted` lifted (the chairs
-    are the planner's input: `plan_rationed`), and the reference's budget when all are."""
+    are the planner's input: `plan_rationed`), and the reference's budget when all are.
+    Every plan is made for the open loop that judges it (the product of its pickups'
+    Fea^m) and executes it: a failed pickup loses its dish, priced at the planner's λ, not
+    at the recovery's time (`failure_price.failure_reward`) that a task file asking for
+    recovery would otherwise set."""
     unknown = set(lifted) - set(RATIONS)
     if unknown:
         raise ValueError(f"unknown ration(s) {sorted(unknown)}; known: {', '.join(RATIONS)}")
@@ -185,7 +189,8 @@ def rationed_scenario(scenario: Scenario, lifted: Collection[str]) -> Scenario:
         changes["cma_generations"] = SEARCH_FACTOR * planner.cma_generations
     if set(lifted) == set(RATIONS):
         changes["time_budget"] = max(planner.time_budget, REFERENCE_BUDGET)
-    return replace(scenario, planner=replace(planner, **changes))
+    return replace(scenario, planner=replace(planner, **changes),
+                   execution=replace(scenario.execution, recovery="none"))
 
 
 def plan_rationed(scenario: Scenario, lifted: Collection[str], *, seed: int,

@@ -67,6 +67,24 @@ def test_each_ration_lifts_its_own_setting_and_all_give_the_reference_budget(sce
         rationed_scenario(scenario, ("top_k",))
 
 
+def test_every_plan_is_priced_for_the_open_loop_that_judges_and_executes_it(scenario):
+    """A task file that asks for recovery would price a failed pickup at the recovery's
+    time; the limit's plans lose the dish, as their judged completion and their open-loop
+    execution do."""
+    from dataclasses import replace
+
+    from s3o_drake.experiments.limit import RATIONS, rationed_scenario
+    from s3o_drake.planning.failure_price import failure_reward
+
+    recovering = replace(scenario, execution=replace(scenario.execution, recovery="replan"),
+                         planner=replace(scenario.planner, failure_price="execution"))
+    assert failure_reward(recovering) != recovering.planner.reward
+    for lifted in ((), RATIONS):
+        planned = rationed_scenario(recovering, lifted)
+        assert planned.execution.recovery == "none"
+        assert failure_reward(planned) == recovering.planner.reward
+
+
 def test_a_plan_is_judged_by_the_true_world_at_the_stops_it_commands(scenario):
     """two_dishes, true chairs and every candidate: a plan, judged by the oracle's maps of
     the scenario at its stops; a map that gives a dish nothing there makes it 0."""
