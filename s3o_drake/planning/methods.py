@@ -83,7 +83,6 @@ from s3o_drake.abstraction.motion_feasibility import as_motion_feasibility, heat
 from s3o_drake.abstraction.voronoi import VoronoiPartition
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.planning_scene import PlanningScene
-from s3o_drake.feasibility.stop_turns import StopTurns, sequence_pairs
 from s3o_drake.planning.failure_price import priced_planner
 from s3o_drake.planning.motion.free_positions import FreeTest, with_free_stops
 from s3o_drake.planning.motion.grop import (
@@ -155,12 +154,12 @@ _inherited: dict | None = None
 
 
 def _search_job(job: tuple) -> MotionResult:
-    actions, regions, groups, seed_key, turns = job
+    actions, regions, groups, seed_key = job
     s = _inherited
     assert s is not None, "search workers must be forked by _Searches"
     return s["search"](actions, regions, s["fea"], s["nav"], s["start"], s["planner"],
                        rng=np.random.default_rng(seed_key), deadline=s["deadline"],
-                       costs=s["costs"], grid=s["grid"], groups=groups, turns=turns)
+                       costs=s["costs"], grid=s["grid"], groups=groups)
 
 
 class _Searches:
@@ -169,10 +168,9 @@ class _Searches:
 
     def __init__(self, workers: int, search: Callable[..., MotionResult], fea, nav, start,
                  planner, deadline: float, costs: CostModel, grid: LocationGrid,
-                 free: FreeTest, turns: StopTurns | None = None):
+                 free: FreeTest):
         global _inherited
         self._free = free
-        self._turns = turns
         # Workers stop a little early: collecting their results and letting them go takes
         # time too, and the budget must hold for the whole call.
         # A daemonic process (a Dask worker) that starts a pool fails with "daemonic
@@ -189,15 +187,8 @@ class _Searches:
             self._pool = ProcessPoolExecutor(max_workers=workers,
                                              mp_context=multiprocessing.get_context("fork"))
 
-    def _turns_of(self, actions) -> dict | None:
-        """The chances of the turns at the shared stops of `actions` (computed here, in
-        the parent, and sent with the job: workers forked earlier have not seen them)."""
-        if self._turns is None:
-            return None
-        return self._turns.chances(sequence_pairs(actions))
-
     def submit(self, key: object, actions, regions, groups, seed_key: list[int]) -> None:
-        job = (actions, regions, groups, seed_key, self._turns_of(actions))
+        job = (actions, regions, groups, seed_key)
         if self._pool is None:
             global _inherited
             _inherited = self._shared
@@ -228,8 +219,7 @@ class _Searches:
         """`result` with its stops moved where they are not free (`free_positions.py`)."""
         s = self._shared
         problem = SequenceProblem(result.actions, regions, s["fea"], s["nav"], s["start"],
-                                  s["planner"], None, s["costs"],
-                                  turns=self._turns_of(result.actions))
+                                  s["planner"], None, s["costs"])
         return with_free_stops(result, problem, self._free)
 
     def close(self) -> None:
@@ -511,13 +501,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
 
     tasks: dict[tuple[tuple[str, ...], ...], tuple[TaskPlanResult, dict[str, BaseGeometry]]] = {}
     assert grid is not None
-    turns = None
-    if planner.model_stop_turns and isinstance(heatmaps, (list, tuple)):
-        turns = StopTurns(scene.checker.base_free,
-                          {d.name: d.position for d in known.dishes},
-                          known.uncertainty.nav_xy_std, {h.dish: h for h in heatmaps})
     searches_run = _Searches(workers, search, fea, nav, start, planner, deadline, costs, grid,
-                             stops.free_facing, turns)
+                             stops.free_facing)
     try:
         best, searches, samples = _search_spaces(
             spaces, tasks, searches_run, cells, partition, grid, nav, start, planner,

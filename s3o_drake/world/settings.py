@@ -70,10 +70,6 @@ class PlanningSettings:
     recorded time per expected failure (models/ur5e/failure_price.yaml: `s3o failure-price`);
     "paper", λ whatever the execution does. With recovery, "execution" was measured 4-8 %
     faster at the same completion (docs/abstraction.md)."""
-    model_stop_turns: bool = False
-    """Rate a pickup made after a turn in place at a shared stop by its Fea^m times the
-    chance, under the landing noise, that the turn gets there (feasibility/stop_turns.py);
-    off, Fea^m alone, which assumes the base faces each dish."""
     time_budget: float = 300.0
     """Wall-clock cap on planning (s)."""
     workers: int = 2

@@ -72,8 +72,6 @@ from threadpoolctl import ThreadpoolController
 
 from s3o_drake.abstraction.location_grid import GridLocation, LocationGrid, region_location
 from s3o_drake.abstraction.motion_feasibility import MotionFeasibility
-from s3o_drake.feasibility.oracle import Heatmap
-from s3o_drake.feasibility.stop_turns import Pair
 from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.planning.task.planner import Action
 from s3o_drake.planning.time_model import CostModel
@@ -176,8 +174,7 @@ class SequenceProblem:
                  start_xy: Sequence[float], planner: PlanningSettings,
                  pickup_duration: float | None,
                  costs: CostModel | None = None, *, grid: LocationGrid | None = None,
-                 groups: Mapping[str, Sequence[str]] | None = None,
-                 turns: Mapping[Pair, Heatmap] | None = None):
+                 groups: Mapping[str, Sequence[str]] | None = None):
         if grid is not None and groups is None:
             raise ValueError("a location grid needs the groups of dishes of the locations")
         self.actions = tuple((str(a), str(b)) for a, b in sequence)
@@ -209,15 +206,6 @@ class SequenceProblem:
             shapely.prepare(region)
         self._grid = grid
         self._groups = groups
-        # A pickup that follows another at the same stop is made after a turn in place:
-        # its Fea^m is scaled by the turn's chance where `turns` holds that pair.
-        self._after: list[tuple[int, Heatmap]] = []
-        if turns:
-            for j, (g, dish) in enumerate(picks):
-                before = picks[j - 1] if j > 0 else None
-                if g >= 0 and before is not None and before[0] == g \
-                        and (before[1], dish) in turns:
-                    self._after.append((j, turns[(before[1], dish)]))
 
     @cached_property
     def grids(self) -> list[GridLocation]:
@@ -289,8 +277,6 @@ class SequenceProblem:
         F = np.zeros((m, len(dishes)))
         for j, dish in enumerate(dishes):
             F[:, j] = self.feasibility.values(dish, where[:, j])
-        for j, chance in self._after:
-            F[:, j] *= chance.values_at(where[:, j])
         delta = costs.pickup_costs(dishes, where)
         pickup_time = np.zeros((m, len(dishes)))
         if timed:
@@ -393,8 +379,7 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
               population: int | None = None, pickup_duration: float | None = None,
               deadline: float | None = None, costs: CostModel | None = None,
               grid: LocationGrid | None = None,
-              groups: Mapping[str, Sequence[str]] | None = None,
-              turns: Mapping[Pair, Heatmap] | None = None) -> MotionResult:
+              groups: Mapping[str, Sequence[str]] | None = None) -> MotionResult:
     """GROP*: CMA-ES over one base position per goto of `sequence`.
 
     `regions` maps each location name to its region (shapely, e.g. the union of its dishes'
@@ -405,12 +390,11 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     of the previous one, end past it. `seed` or `rng` (rng wins) makes it deterministic.
     The starting guess and generation 0's draws come from the plan's location grid `grid`,
     where `groups` names the dishes whose cells make each location (None: each region is
-    rasterised on its own). `turns`: the chances of the turns at shared stops
-    (`SequenceProblem`). Returns the best sample seen.
+    rasterised on its own). Returns the best sample seen.
     """
     t0 = time.monotonic()
     problem = SequenceProblem(sequence, regions, feasibility, nav, start_xy, planner,
-                              pickup_duration, costs, grid=grid, groups=groups, turns=turns)
+                              pickup_duration, costs, grid=grid, groups=groups)
     generations = planner.cma_generations if generations is None else generations
     population = planner.cma_population if population is None else population
     if problem.n == 0:  # nothing to place: the sequence's utility is fixed
@@ -470,16 +454,15 @@ def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
          generations: int | None = None, population: int | None = None,
          pickup_duration: float | None = None, deadline: float | None = None,
          costs: CostModel | None = None, grid: LocationGrid | None = None,
-         groups: Mapping[str, Sequence[str]] | None = None,
-         turns: Mapping[Pair, Heatmap] | None = None) -> MotionResult:
+         groups: Mapping[str, Sequence[str]] | None = None) -> MotionResult:
     """GROP (the baseline): the same budget as `grop_star`, each sample drawing every
     goto's position from its location's Fea^m grid (∝ Fea^m, only where Fea^m > 0 unless
     it is 0 everywhere), no adaptation; the best utility is kept. Batches of `population`
     are costed together (one `path_lengths` call each) so `deadline` is checked as often
-    as in GROP*. `grid`, `groups` and `turns` as in `grop_star`."""
+    as in GROP*. `grid` and `groups` as in `grop_star`."""
     t0 = time.monotonic()
     problem = SequenceProblem(sequence, regions, feasibility, nav, start_xy, planner,
-                              pickup_duration, costs, grid=grid, groups=groups, turns=turns)
+                              pickup_duration, costs, grid=grid, groups=groups)
     generations = planner.cma_generations if generations is None else generations
     population = planner.cma_population if population is None else population
     if problem.n == 0:
