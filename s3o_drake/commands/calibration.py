@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
     figures = {"all": calibrate_records(pickups, bins=args.bins)}
     for by in CALIBRATION_GROUPINGS[1:]:
         for name, group in grouped(pickups, by, stops=stops, orders=orders,
-                                          facing=facing).items():
+                                   facing=facing).items():
             figures[f"{by} {name}"] = calibrate_records(group, bins=args.bins)
     curves = {name: calibrate_records(group, bins=args.bins)
               for name, group in grouped(pickups, args.by, stops=stops,

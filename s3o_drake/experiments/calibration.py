@@ -249,11 +249,8 @@ def stop_sizes(run: Sequence[tuple[int, Sequence[float]]]) -> list[int]:
     many dishes the stop it was made from served: the run's first attempts planned at the
     same pose (a merged location's stop serves several; a stop moved by a correction counts
     as its own)."""
-    def at(pose: Sequence[float]) -> tuple[float, ...]:
-        return tuple(round(float(v), 6) for v in pose)
-
-    served = Counter(at(pose) for attempt, pose in run if attempt == 1)
-    return [max(1, served[at(pose)]) for _, pose in run]
+    served = Counter(_stop_key(pose) for attempt, pose in run if attempt == 1)
+    return [max(1, served[_stop_key(pose)]) for _, pose in run]
 
 
 def stop_orders(run: Sequence[tuple[int, Sequence[float]]]) -> list[int]:
@@ -264,11 +261,15 @@ def stop_orders(run: Sequence[tuple[int, Sequence[float]]]) -> list[int]:
     seen: Counter[tuple[float, ...]] = Counter()
     orders = []
     for attempt, pose in run:
-        key = tuple(round(float(v), 6) for v in pose)
         if attempt == 1:
-            seen[key] += 1
-        orders.append(max(1, seen[key]))
+            seen[_stop_key(pose)] += 1
+        orders.append(max(1, seen[_stop_key(pose)]))
     return orders
+
+
+def _stop_key(pose: Sequence[float]) -> tuple[float, ...]:
+    """A planned pose as the key of its stop: the pickups planned at one stop share it."""
+    return tuple(round(float(v), 6) for v in pose)
 
 
 def _result_files(path: Path) -> list[Path]:
