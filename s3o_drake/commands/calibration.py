@@ -59,15 +59,13 @@ def main(argv: list[str] | None = None) -> int:
         records = read_records(args.results)
     except RecordsError as e:
         fail(str(e))
-    pickups, stops, facing = list(records.pickups), list(records.stops), list(records.facing)
-    orders = list(records.orders)
     if args.methods:
-        missing = [m for m in args.methods if not any(p.method == m for p in pickups)]
+        missing = [m for m in args.methods if not any(p.method == m for p in records.pickups)]
         if missing:
             fail(f"--methods: no executed pickup of {missing[0]!r} in the results")
-        kept = [i for i, p in enumerate(pickups) if p.method in args.methods]
-        pickups, stops = [pickups[i] for i in kept], [stops[i] for i in kept]
-        facing, orders = [facing[i] for i in kept], [orders[i] for i in kept]
+        records = records.of_methods(args.methods)
+    pickups, stops, orders, facing = (list(records.pickups), list(records.stops),
+                                      list(records.orders), list(records.facing))
     if not pickups:
         fail(f"{' '.join(args.results)}: {records.runs} runs, but no executed pickup")
 

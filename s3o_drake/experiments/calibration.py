@@ -23,8 +23,8 @@ import functools
 import json
 import math
 from collections import Counter
-from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Collection, Iterable, Mapping, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import matplotlib
@@ -191,6 +191,16 @@ class Records:
     from where the base stood (`facing_error`); None where the dish's position is not
     known (a run's report, a task file not found, a place target)."""
 
+    def of_methods(self, methods: Collection[str]) -> Records:
+        """These records with only the pickups planned by `methods` (runs and files kept)."""
+        kept = [i for i, p in enumerate(self.pickups) if p.method in methods]
+
+        def pick(values: tuple) -> tuple:
+            return tuple(values[i] for i in kept) if values else values
+
+        return replace(self, pickups=pick(self.pickups), stops=pick(self.stops),
+                       orders=pick(self.orders), facing=pick(self.facing))
+
 
 def read_records(paths: Sequence[str | Path]) -> Records:
     """The pickup records of `paths`: results.jsonl files of `evaluate`, folders holding one
@@ -261,9 +271,10 @@ def stop_orders(run: Sequence[tuple[int, Sequence[float]]]) -> list[int]:
     seen: Counter[tuple[float, ...]] = Counter()
     orders = []
     for attempt, pose in run:
+        key = _stop_key(pose)
         if attempt == 1:
-            seen[_stop_key(pose)] += 1
-        orders.append(max(1, seen[_stop_key(pose)]))
+            seen[key] += 1
+        orders.append(max(1, seen[key]))
     return orders
 
 
