@@ -38,6 +38,7 @@ from s3o_drake.world.resources import (
     REPO_DIR,
     RESTAURANT_DENSE,
     ROBOT_VARIABLE,
+    repo_path,
     robot_dir,
 )
 
@@ -109,16 +110,11 @@ def checksum(path: Path) -> str:
     return digest.hexdigest()
 
 
-def _shown(path: Path) -> str:
-    path = Path(path)
-    return path.relative_to(REPO_DIR).as_posix() if path.is_relative_to(REPO_DIR) else str(path)
-
-
 def _record(step: Step, seconds: float | None = None) -> dict:
-    record = {"command": "s3o " + " ".join(_shown(Path(a)) if "/" in a else a
+    record = {"command": "s3o " + " ".join(repo_path(Path(a)) if "/" in a else a
                                            for a in step.argv),
-              "reads": {_shown(p): checksum(p) for p in step.reads},
-              "writes": {_shown(p): checksum(p) for p in step.writes}}
+              "reads": {repo_path(p): checksum(p) for p in step.reads},
+              "writes": {repo_path(p): checksum(p) for p in step.writes}}
     if seconds is not None:
         record["seconds"] = round(seconds, 1)
         record["finished"] = datetime.datetime.now().isoformat(timespec="seconds")
@@ -194,14 +190,14 @@ def _build(args) -> int:
     for i, step in enumerate(steps, 1):
         if is_done(step, manifest):
             print(f"[{i}/{len(steps)}] {step.name}: done, as recorded in "
-                  f"{_shown(manifest_path)}", flush=True)
+                  f"{repo_path(manifest_path)}", flush=True)
             continue
         print(f"[{i}/{len(steps)}] {step.name}: s3o {' '.join(step.argv)}", flush=True)
         seconds = run_step(args.name, step)
         manifest["steps"][step.name] = _record(step, seconds)
         write_atomically(manifest_path, json.dumps(manifest, indent=1) + "\n")
         print(f"[{i}/{len(steps)}] {step.name}: {seconds:.0f} s", flush=True)
-    print(f"{args.name}: every step done; the record is {_shown(manifest_path)}")
+    print(f"{args.name}: every step done; the record is {repo_path(manifest_path)}")
     return 0
 
 

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 
 from s3o_drake.commands.common import fail, use_robot
 from s3o_drake.world.choices import METHODS
-from s3o_drake.world.resources import REPO_DIR, TASKS_DIR
+from s3o_drake.world.resources import TASKS_DIR, repo_path
 
 if TYPE_CHECKING:
     from s3o_drake.experiments.store import ResultStore
@@ -67,17 +67,7 @@ def method(text: str) -> str:
 def task_name(path: Path) -> str:
     """A task's name in a benchmark's rows: its path from the repository when it lies in
     it (the same on every checkout), else as given."""
-    try:
-        return str(Path(path).resolve().relative_to(REPO_DIR))
-    except ValueError:
-        return str(path)
-
-
-def _shown(path: Path) -> str:
-    try:
-        return str(path.relative_to(REPO_DIR))
-    except ValueError:
-        return str(path)
+    return repo_path(path)
 
 
 def add_tasks(parser: argparse.ArgumentParser, *, default: Sequence[Path] = (TASKS_DIR,),
@@ -85,7 +75,7 @@ def add_tasks(parser: argparse.ArgumentParser, *, default: Sequence[Path] = (TAS
     """--tasks PATH ... and --count N; `task_paths` reads them. `count`: how many of the
     tasks the command takes when --count is not given (None: all); `required`: what the
     help says of --tasks without a default."""
-    shown = f"default {' '.join(_shown(p) for p in default)}" if default else required
+    shown = f"default {' '.join(repo_path(p) for p in default)}" if default else required
     parser.add_argument("--tasks", nargs="+", metavar="PATH",
                         help=f"task files or folders of them (every *.yaml, by name; {shown})")
     parser.add_argument("--count", type=at_least(1), metavar="N",

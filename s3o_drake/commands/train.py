@@ -16,7 +16,7 @@ from pathlib import Path
 from s3o_drake.commands.common import command_parser, fail
 from s3o_drake.commands.options import add_out, add_quiet, out_folder
 from s3o_drake.feasibility.learned.train_config import TrainConfig
-from s3o_drake.world.resources import FCN_WEIGHTS, REPO_DIR
+from s3o_drake.world.resources import FCN_WEIGHTS, REPO_DIR, repo_path
 
 DEFAULT_OUT = Path("out") / "fcn"
 """Where the weights go unless --out says otherwise: not over the shipped models/ur5e/fcn/."""
@@ -74,8 +74,9 @@ def main(argv: list[str] | None = None) -> int:
                          val_fraction=args.val_fraction)
     result = train(data["inputs"], data["labels"], data["scenes"], config,
                    progress=not args.quiet)
-    manifests = {d: Path(d) / "dataset.json" for d in args.data}
-    provenance = {"data": list(args.data), "scenes": len(np.unique(data["scenes"])),
+    # Named from the repository's root: the provenance ships with the weights.
+    manifests = {repo_path(d): Path(d) / "dataset.json" for d in args.data}
+    provenance = {"data": list(manifests), "scenes": len(np.unique(data["scenes"])),
                   "crops": len(data["labels"]),
                   "dataset": {d: json.loads(m.read_text()) if m.exists() else {}
                               for d, m in manifests.items()}}

@@ -5,22 +5,17 @@ a command checks first, so that a robot without its network or its failure price
 so in one line, with the setting that needs the file and how to make it or do without.
 """
 
-from pathlib import Path
 
 from s3o_drake.planning.failure_price import PRICE_FILE, uses_recorded_price
 from s3o_drake.world.choices import FeasibilitySource
 from s3o_drake.world.resources import (
     FCN_WEIGHTS,
     REACHABILITY_MAP,
-    REPO_DIR,
     ROBOT_NAME,
     TIME_MODEL,
+    repo_path,
 )
 from s3o_drake.world.settings import Settings
-
-
-def _shown(path: Path) -> str:
-    return path.relative_to(REPO_DIR).as_posix() if path.is_relative_to(REPO_DIR) else str(path)
 
 
 def missing_robot_files(settings: Settings) -> list[str]:
@@ -36,5 +31,5 @@ def missing_robot_files(settings: Settings) -> list[str]:
         needed.append(("planner.failure_price", PRICE_FILE,
                        "`s3o failure-price` on the robot's recovery runs, or "
                        "planner.failure_price: paper"))
-    return [f"{field}: {ROBOT_NAME!r} has no {_shown(path)}; make it with {how}"
+    return [f"{field}: {ROBOT_NAME!r} has no {repo_path(path)}; make it with {how}"
             for field, path, how in needed if not path.is_file()]

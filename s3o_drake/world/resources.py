@@ -33,6 +33,15 @@ ROBOT_NAME = os.environ.get(ROBOT_VARIABLE) or DEFAULT_ROBOT
 """The robot of this process: its folder under models/."""
 
 
+def repo_path(path: str | Path) -> str:
+    """`path` as the repository names it: from its root when it lies inside (the same on
+    every checkout, so fit for rows and records that ship), else as given."""
+    resolved = Path(path).resolve()
+    if resolved.is_relative_to(REPO_DIR):
+        return resolved.relative_to(REPO_DIR).as_posix()
+    return str(path)
+
+
 def robot_dir(name: str) -> Path:
     """A robot's folder: its description (robot.yaml), its model, and what was built for
     it (reachability map, time model, failure price, the network's weights)."""

@@ -8,6 +8,7 @@ import shutil
 import pytest
 
 from s3o_drake.commands import build_robot
+from s3o_drake.world import resources
 from s3o_drake.world.resources import robot_dir
 
 
@@ -19,6 +20,8 @@ def robot_folder(tmp_path, monkeypatch):
         shutil.copy(robot_dir("ur5e") / name, folder / name)
     monkeypatch.setattr(build_robot, "robot_dir", lambda name: tmp_path / name)
     monkeypatch.setattr(build_robot, "REPO_DIR", tmp_path)
+    # The record names paths from the repository's root (`resources.repo_path`).
+    monkeypatch.setattr(resources, "REPO_DIR", tmp_path)
     return folder
 
 

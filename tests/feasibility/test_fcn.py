@@ -2,6 +2,7 @@
 weights, and the CLIs' bad-input handling."""
 
 import dataclasses
+import json
 from pathlib import Path
 
 import numpy as np
@@ -210,3 +211,26 @@ def test_two_datasets_train_as_one_with_their_scenes_kept_apart(tmp_path):
     loaded = dataset.load_dataset([tmp_path / "spacious", tmp_path / "dense"])
     assert len(loaded["labels"]) == 5 and len(np.unique(loaded["scenes"])) == 5
     assert dataset.load_dataset(tmp_path / "dense")["scenes"].tolist() == [0, 1, 2]
+
+
+def test_the_weights_record_their_data_from_the_repository_root(tmp_path, monkeypatch):
+    """The weights ship with the folders they were trained on: named as every checkout
+    names them, not by the path of the machine that trained them."""
+    from s3o_drake.world import resources
+
+    monkeypatch.setattr(resources, "REPO_DIR", tmp_path)
+    n = CROP_CELLS
+    folder = tmp_path / "out" / "robot" / "fcn_data"
+    folder.mkdir(parents=True)
+    for index in range(4):
+        labels = np.zeros((1, n, n))
+        labels[0, : n // 2] = 1.0
+        np.savez(dataset.scene_path(folder, index), inputs=np.zeros((1, len(CHANNELS), n, n)),
+                 labels=labels, index=np.array(index))
+    out = tmp_path / "weights"
+    argv = ["--data", str(folder), "--out", str(out), "--epochs", "1", "--batch", "2",
+            "--width", "4", "--threads", "1", "--quiet"]
+    assert train_command.main(argv) == 0
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert list(metrics["dataset"]) == ["out/robot/fcn_data"]
+    assert metrics["data"] == ["out/robot/fcn_data"]
