@@ -220,8 +220,11 @@ def main(argv: list[str] | None = None) -> int:
     # The runs execute in worker processes that are replaced now and then
     # (experiments/scheduler.TASKS_PER_CHILD): before execute() freed its diagram, a single
     # process grew to 21 GB over 140 runs.
+    from s3o_drake.experiments.scheduler import ordered_map
+
     with local_pool(args.workers) as pool:
-        measured = pool.map(_measure, [(run, args.method, version) for run in pending])
+        measured = ordered_map(pool, _measure, [(run, args.method, version) for run in pending],
+                               window=args.workers)
         for key, *_ in runs:
             if store is not None and store.finished(key):
                 row = store.get(key)

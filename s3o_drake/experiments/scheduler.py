@@ -20,11 +20,12 @@ after TASKS_PER_CHILD jobs.
 """
 
 import ctypes
+import itertools
 import multiprocessing
 import signal
 import sys
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict
@@ -109,6 +110,22 @@ def run_jobs(jobs: Iterable[Job], store: ResultStore, *, workers: int = 2,
         if client is not None:
             client.close()
     return total
+
+
+def ordered_map(executor: Executor, fn: Callable, items: Iterable, window: int) -> Iterator:
+    """`fn` over `items` on `executor`, the results in the items' order, with at most `window`
+    submitted and unfinished at a time. A local pool replaces its workers (TASKS_PER_CHILD),
+    and on Python 3.11-3.13 a ProcessPoolExecutor that replaces a worker while calls are
+    queued behind the busy ones can stop for good (CPython gh-115634): `Executor.map`
+    queues every call at once."""
+    pending = iter(items)
+    running: deque[Future] = deque(executor.submit(fn, item)
+                                   for item in itertools.islice(pending, window))
+    while running:
+        result = running.popleft().result()
+        for item in itertools.islice(pending, 1):
+            running.append(executor.submit(fn, item))
+        yield result
 
 
 def check_cluster(client: "Client") -> None:

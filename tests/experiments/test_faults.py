@@ -275,3 +275,23 @@ def test_a_failing_solver_ends_a_study_run_with_its_reason_not_an_error(monkeypa
     assert "error" not in row and row["planned"] and not row["finished"]
     assert row["reason"].startswith("the simulation failed at t = 8.00 s: SAP solver")
     assert row["execution_time"] == pytest.approx(FAILS_AT)
+
+
+def test_the_local_pool_keeps_going_past_its_workers_renewal():
+    """A local pool renews each worker after TASKS_PER_CHILD jobs. Fed a backlog, Python 3.11's
+    ProcessPoolExecutor stopped for good at the first renewal (CPython gh-115634): a time
+    benchmark hung after 20 runs. `ordered_map` keeps no backlog, and returns in order."""
+    from s3o_drake.experiments.scheduler import TASKS_PER_CHILD, local_pool, ordered_map
+
+    n = 2 * TASKS_PER_CHILD + 5
+    results: list[int] = []
+
+    def work():
+        with local_pool(1) as pool:
+            results.extend(ordered_map(pool, abs, range(-n, 0), window=1))
+
+    thread = threading.Thread(target=work, daemon=True)
+    thread.start()
+    thread.join(timeout=120)
+    assert not thread.is_alive(), "the pool stopped at a worker's renewal"
+    assert results == list(range(n, 0, -1))
