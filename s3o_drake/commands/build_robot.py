@@ -111,7 +111,7 @@ def checksum(path: Path) -> str:
 
 
 def _record(step: Step, seconds: float | None = None) -> dict:
-    record = {"command": "s3o " + " ".join(repo_path(Path(a)) if "/" in a else a
+    record = {"command": "s3o " + " ".join(repo_path(a) if "/" in a else a
                                            for a in step.argv),
               "reads": {repo_path(p): checksum(p) for p in step.reads},
               "writes": {repo_path(p): checksum(p) for p in step.writes}}

@@ -28,9 +28,9 @@ from s3o_drake.commands.options import (
     add_tasks,
     at_least,
     json_store,
-    task_name,
     task_paths,
 )
+from s3o_drake.world.resources import repo_path
 
 if TYPE_CHECKING:
     from s3o_drake.world.scenario import Scenario
@@ -134,13 +134,13 @@ def main(argv: list[str] | None = None) -> int:
         wanted += [(f"executed:{c}:{k}", c) for c in ("default", "reference")
                    if c in args.configurations for k in range(args.execute_seeds)]
         for configuration, plan_of in wanted:
-            key = row_key({"task": task_name(path), "configuration": configuration,
+            key = row_key({"task": repo_path(path), "configuration": configuration,
                            "seed": args.seed})
             row = store.get(key) if store is not None and store.finished(key) else None
             if row is None:
                 start = time.perf_counter()
                 row = _row(scenario, configuration, plan_of, args.seed, made)
-                row.update(task=task_name(path), configuration=configuration,
+                row.update(task=repo_path(path), configuration=configuration,
                            seed=args.seed, wall_s=time.perf_counter() - start)
                 if store is not None:
                     row = store.append({"key": key, **row})

@@ -64,12 +64,6 @@ def method(text: str) -> str:
     return text
 
 
-def task_name(path: Path) -> str:
-    """A task's name in a benchmark's rows: its path from the repository when it lies in
-    it (the same on every checkout), else as given."""
-    return repo_path(path)
-
-
 def add_tasks(parser: argparse.ArgumentParser, *, default: Sequence[Path] = (TASKS_DIR,),
               count: int | None = None, required: str = "required") -> None:
     """--tasks PATH ... and --count N; `task_paths` reads them. `count`: how many of the

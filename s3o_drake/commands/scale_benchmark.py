@@ -25,9 +25,8 @@ from s3o_drake.commands.options import (
     at_least,
     json_store,
     seconds,
-    task_name,
 )
-from s3o_drake.world.resources import REPO_DIR
+from s3o_drake.world.resources import REPO_DIR, repo_path
 
 TASKS_DIR = REPO_DIR / "scenarios" / "generated_scale"
 SIZES = (5, 10, 15, 20, 30, 40)
@@ -50,7 +49,7 @@ def plan_task_row(path: Path, *, method: str, seed: int | None, execute: bool,
 
     scenario = read_scenario(path)
     seed = scenario.seed if seed is None else seed
-    row: dict[str, Any] = {"task": task_name(path), "dishes": len(scenario.dishes),
+    row: dict[str, Any] = {"task": repo_path(path), "dishes": len(scenario.dishes),
                            "chairs": len(scenario.chairs), "method": method, "seed": seed,
                            "workers": scenario.planner.workers,
                            "budget": scenario.planner.time_budget, "execute": execute}
@@ -139,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{len(paths)} tasks, {args.method}" + (", executed" if args.execute else ""),
           flush=True)
     for path in paths:
-        key = row_key({"task": task_name(path), "method": args.method, "seed": seeds[path],
+        key = row_key({"task": repo_path(path), "method": args.method, "seed": seeds[path],
                        "execute": args.execute})
         row = store.get(key) if store is not None and store.finished(key) else None
         if row is None:

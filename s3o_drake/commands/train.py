@@ -16,7 +16,7 @@ from pathlib import Path
 from s3o_drake.commands.common import command_parser, fail
 from s3o_drake.commands.options import add_out, add_quiet, out_folder
 from s3o_drake.feasibility.learned.train_config import TrainConfig
-from s3o_drake.world.resources import FCN_WEIGHTS, REPO_DIR, repo_path
+from s3o_drake.world.resources import FCN_WEIGHTS, repo_path
 
 DEFAULT_OUT = Path("out") / "fcn"
 """Where the weights go unless --out says otherwise: not over the shipped models/ur5e/fcn/."""
@@ -28,7 +28,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="dataset folders (one per layout, say)")
     add_out(parser, file=False, default=str(DEFAULT_OUT),
             note=f"the shipped weights are replaced only when told: --out "
-                 f"{FCN_WEIGHTS.parent.relative_to(REPO_DIR)}")
+                 f"{repo_path(FCN_WEIGHTS.parent)}")
     defaults = TrainConfig()
     for name, kind, metavar, what in (
             ("seed", int, "N", "seed of the split, the turns and torch"),

@@ -5,7 +5,6 @@ a command checks first, so that a robot without its network or its failure price
 so in one line, with the setting that needs the file and how to make it or do without.
 """
 
-
 from s3o_drake.planning.failure_price import PRICE_FILE, uses_recorded_price
 from s3o_drake.world.choices import FeasibilitySource
 from s3o_drake.world.resources import (
