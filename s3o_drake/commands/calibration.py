@@ -1,7 +1,7 @@
 """Calibration of Fea^m against executed pickups: reliability, ECE, Brier.
 
     s3o calibrate RESULTS [RESULTS ...] [--out DIR] [--methods NAME ...]
-                  [--by all|method|source|action|stop|facing|order] [--bins N]
+                  [--by all|method|source|action|stop|facing|order|distance] [--bins N]
 
 Is a pickup rated p picked a share p of the time? RESULTS: a study's results.jsonl (or its
 folder), or the report.json files of `s3o run`. Prints the pickups, their observed success,
@@ -33,8 +33,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--by", choices=CALIBRATION_GROUPINGS, default="all",
                         help="the diagram's curves: all pickups (default), per method, "
                              "source of Fea^m, action, dishes served by the stop, those "
-                             "and whether the base faced the dish, or the pickup's place "
-                             "at its stop")
+                             "and whether the base faced the dish, the pickup's place "
+                             "at its stop, or the stop's distance to the dish")
     parser.add_argument("--bins", type=at_least(1), default=10, metavar="N",
                         help="equal-width bins of the predictions (default 10)")
     return parser.parse_args(argv)
@@ -64,19 +64,18 @@ def main(argv: list[str] | None = None) -> int:
         if missing:
             fail(f"--methods: no executed pickup of {missing[0]!r} in the results")
         records = records.of_methods(args.methods)
-    pickups, stops, orders, facing = (list(records.pickups), list(records.stops),
-                                      list(records.orders), list(records.facing))
+    pickups = list(records.pickups)
+    aspects = {"stops": list(records.stops), "orders": list(records.orders),
+               "facing": list(records.facing), "distances": list(records.distances)}
     if not pickups:
         fail(f"{' '.join(args.results)}: {records.runs} runs, but no executed pickup")
 
     figures = {"all": calibrate_records(pickups, bins=args.bins)}
     for by in CALIBRATION_GROUPINGS[1:]:
-        for name, group in grouped(pickups, by, stops=stops, orders=orders,
-                                   facing=facing).items():
+        for name, group in grouped(pickups, by, **aspects).items():
             figures[f"{by} {name}"] = calibrate_records(group, bins=args.bins)
     curves = {name: calibrate_records(group, bins=args.bins)
-              for name, group in grouped(pickups, args.by, stops=stops,
-                                         orders=orders, facing=facing).items()}
+              for name, group in grouped(pickups, args.by, **aspects).items()}
 
     out.mkdir(parents=True, exist_ok=True)
     f = figures["all"]

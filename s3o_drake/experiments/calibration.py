@@ -48,6 +48,10 @@ TURNED_AWAY = 0.15
 """Angle (rad) between the base's yaw and the bearing to its dish beyond which a pickup was
 made turned away from the dish. The execution turns to face the dish exactly (half the
 study pickups within 0.001 rad), so a larger angle is a turn in place cut short."""
+DISTANCE_EDGES = (0.8, 0.9, 0.95, 1.0)
+"""Edges (m) of the groups by the planned stop's distance to its dish: Fea^m falls and its
+errors grow towards the edge of the arm's reach, where an optimiser that maximises it
+tends to stop."""
 RESULTS_FILE = "results.jsonl"
 REPORT_FILE = "report.json"
 
@@ -190,6 +194,9 @@ class Records:
     """For each pickup, the angle (rad) between the base's yaw and the bearing to its dish
     from where the base stood (`facing_error`); None where the dish's position is not
     known (a run's report, a task file not found, a place target)."""
+    distances: tuple[float | None, ...] = ()
+    """For each pickup, the distance (m) from its planned stop to its dish; None where the
+    dish's position is not known (as for `facing`)."""
 
     def of_methods(self, methods: Collection[str]) -> Records:
         """These records with only the pickups planned by `methods` (runs and files kept)."""
@@ -199,7 +206,8 @@ class Records:
             return tuple(values[i] for i in kept) if values else values
 
         return replace(self, pickups=pick(self.pickups), stops=pick(self.stops),
-                       orders=pick(self.orders), facing=pick(self.facing))
+                       orders=pick(self.orders), facing=pick(self.facing),
+                       distances=pick(self.distances))
 
 
 def read_records(paths: Sequence[str | Path]) -> Records:
@@ -210,6 +218,7 @@ def read_records(paths: Sequence[str | Path]) -> Records:
     stops: list[int] = []
     orders: list[int] = []
     facing: list[float | None] = []
+    distances: list[float | None] = []
     runs = 0
     files: list[Path] = []
     for path in map(Path, paths):
@@ -226,10 +235,12 @@ def read_records(paths: Sequence[str | Path]) -> Records:
                 dishes = _dish_positions(task)
                 facing += [facing_error(r.actual_pose, dishes[r.dish])
                            if r.dish in dishes else None for r in found]
+                distances += [math.dist(r.planned_pose[:2], dishes[r.dish])
+                              if r.dish in dishes else None for r in found]
             runs += len(runs_found)
             files.append(file)
     return Records(pickups=tuple(pickups), runs=runs, files=tuple(files), stops=tuple(stops),
-                   orders=tuple(orders), facing=tuple(facing))
+                   orders=tuple(orders), facing=tuple(facing), distances=tuple(distances))
 
 
 def facing_error(X_WB: Sequence[float], p_WO: Sequence[float]) -> float:
@@ -348,13 +359,16 @@ def action_of(record: PickupRecord) -> str:
 
 def grouped(records: Sequence[PickupRecord], by: str, *,
             stops: Sequence[int] | None = None, orders: Sequence[int] | None = None,
-            facing: Sequence[float | None] | None = None) -> dict[str, list[PickupRecord]]:
+            facing: Sequence[float | None] | None = None,
+            distances: Sequence[float | None] | None = None) -> dict[str, list[PickupRecord]]:
     """The records by "method", "source", "action" (`action_of`), "stop" (how many dishes
     the record's stop served, `stops[i]` for `records[i]`: "1 dish", "2 dishes", "3+
     dishes"), "facing" (that, and whether the base faced the dish, `facing[i]` within
     TURNED_AWAY: "1 dish, facing", "1 dish, turned away", "..., position unknown") or
     "order" (the record's place at its stop, `orders[i]`: "1st at its stop", "2nd at its
-    stop", "3rd+ at its stop"), keys sorted; or all under "all" (by "all")."""
+    stop", "3rd+ at its stop") or "distance" (from the planned stop to the dish,
+    `distances[i]`, between DISTANCE_EDGES: "0.00-0.80 m", ..., "1.00 m or more", "position
+    unknown"), keys sorted; or all under "all" (by "all")."""
     if by == "all":
         return {"all": list(records)}
     if by not in CALIBRATION_GROUPINGS:
@@ -365,6 +379,8 @@ def grouped(records: Sequence[PickupRecord], by: str, *,
         raise ValueError("by facing: needs each record's angle to its dish")
     if by == "order" and (orders is None or len(orders) != len(records)):
         raise ValueError("by order: needs each record's place at its stop")
+    if by == "distance" and (distances is None or len(distances) != len(records)):
+        raise ValueError("by distance: needs each record's distance to its dish")
     groups: dict[str, list[PickupRecord]] = {}
     for i, record in enumerate(records):
         if by in ("stop", "facing"):
@@ -374,10 +390,23 @@ def grouped(records: Sequence[PickupRecord], by: str, *,
                         ", turned away" if facing[i] > TURNED_AWAY else ", facing")
         elif by == "order":
             key = ("1st", "2nd", "3rd+")[min(orders[i], 3) - 1] + " at its stop"
+        elif by == "distance":
+            key = distance_group(distances[i])
         else:
             key = action_of(record) if by == "action" else getattr(record, by)
         groups.setdefault(key, []).append(record)
     return dict(sorted(groups.items()))
+
+
+def distance_group(distance: float | None) -> str:
+    """The name of the group (by "distance") of a stop `distance` (m) from its dish."""
+    if distance is None:
+        return "position unknown"
+    edges = (0.0, *DISTANCE_EDGES)
+    k = int(np.searchsorted(DISTANCE_EDGES, distance, side="right"))
+    if k == len(DISTANCE_EDGES):
+        return f"{DISTANCE_EDGES[-1]:.2f} m or more"
+    return f"{edges[k]:.2f}-{edges[k + 1]:.2f} m"
 
 
 def figures_table(figures: Mapping[str, Calibration]) -> str:

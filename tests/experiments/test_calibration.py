@@ -17,6 +17,7 @@ from s3o_drake.experiments.calibration import (
     binomial_interval,
     calibrate,
     calibrate_records,
+    distance_group,
     facing_error,
     grouped,
     read_records,
@@ -295,3 +296,31 @@ def test_pickups_are_grouped_by_their_place_at_the_stop(tmp_path, capsys):
         grouped(read.pickups, "order", stops=read.stops)
     assert main([str(results), "--out", str(tmp_path / "out"), "--by", "order"]) == 0
     assert "order 2nd at its stop" in capsys.readouterr().out
+
+
+def test_pickups_are_grouped_by_their_stops_distance_to_the_dish(tmp_path, capsys):
+    """Fea^m's errors grow towards the edge of reach, where an optimiser tends to stop: the
+    planned stop's distance to its dish, from the row's task file, groups the pickups."""
+    def at(x, dish, outcome="done"):
+        r = _record(0.9, outcome, dish=dish)
+        return PickupRecord(**{**r.to_dict(), "planned_pose": (x, 2.3, 0.0),
+                               "actual_pose": (x + 0.05, 2.3, 0.0)})
+
+    # plate_a at (1.85, 2.3): stops 0.5, 0.85 and 1.2 m to its left, and a ghost dish.
+    run = [at(1.35, "plate_a"), at(1.0, "plate_a", "no_ik"), at(0.65, "plate_a", "no_ik"),
+           at(0.0, "ghost")]
+    task = "scenarios/small/two_dishes.yaml"
+    results = _write_results(tmp_path / "s" / "results.jsonl",
+                             [_row("run/t/S3O-GROP*/0", run, path=task)])
+    read = read_records([results])
+    assert read.distances[:3] == pytest.approx((0.5, 0.85, 1.2))
+    assert read.distances[3] is None
+    by = grouped(read.pickups, "distance", distances=read.distances)
+    assert {k: [r.outcome for r in v] for k, v in by.items()} == {
+        "0.00-0.80 m": ["done"], "0.80-0.90 m": ["no_ik"], "1.00 m or more": ["no_ik"],
+        "position unknown": ["done"]}
+    assert distance_group(0.9) == "0.90-0.95 m"  # an edge opens the group above it
+    with pytest.raises(ValueError, match="distance"):
+        grouped(read.pickups, "distance", stops=read.stops)
+    assert main([str(results), "--out", str(tmp_path / "out"), "--by", "distance"]) == 0
+    assert "distance 0.80-0.90 m" in capsys.readouterr().out
