@@ -1,14 +1,15 @@
 """Which Fea^m model is off: the plan's or the oracle's, at executed pickups.
 
     s3o bench oracle-executed STUDY [--middle 80] [--high 60] [--samples 100] [--json FILE]
-    s3o bench oracle-executed STUDY --by stop [--per-stop 100] [--methods NAME ...]
+    s3o bench oracle-executed STUDY --by stop|distance [--per-group 100] [--methods NAME ...]
 
 Re-evaluates a study's first pickups with the Drake oracle at the pose the plan sent the
 base to, on the task's known world at that moment: its blurred expectation (the network's
 labels) and its Monte Carlo over --samples landings, against the observed success, per bin
 of the plan's Fea^m (every pickup below 0.8, a draw of --middle and --high above). --by
-stop draws --per-stop pickups per stop size (1, 2, 3+ dishes) and also tests where the base
-really landed: whether the landing model is off. About 2 s a pickup (docs/calibration.md).
+stop draws --per-group pickups per stop size (1, 2, 3+ dishes), --by distance per band of
+the stop's distance to the dish, and tests each also where the base really landed: whether
+the landing model is off. About 2 s a pickup (docs/calibration.md).
 """
 
 from __future__ import annotations
@@ -30,11 +31,12 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         help="pickups drawn from the plans' 0.8-0.9 (default 80)")
     parser.add_argument("--high", type=at_least(0), default=60, metavar="N",
                         help="pickups drawn from 0.9 up (default 60)")
-    parser.add_argument("--by", choices=("value", "stop"), default="value",
-                        help="draw by the plan's Fea^m (default) or by the dishes the "
-                             "pickup's stop served")
-    parser.add_argument("--per-stop", type=at_least(1), default=100, metavar="N",
-                        help="with --by stop: pickups drawn per stop size (default 100)")
+    parser.add_argument("--by", choices=("value", "stop", "distance"), default="value",
+                        help="draw by the plan's Fea^m (default), by the dishes the "
+                             "pickup's stop served, or by the stop's distance to the dish")
+    parser.add_argument("--per-group", type=at_least(1), default=100, metavar="N",
+                        help="with --by stop or distance: pickups drawn per group "
+                             "(default 100)")
     parser.add_argument("--methods", nargs="+", metavar="NAME",
                         help=f"only these methods' pickups, some of: {', '.join(METHODS)}")
     parser.add_argument("--samples", type=at_least(1), default=100, metavar="N",
@@ -59,11 +61,11 @@ def main(argv: list[str] | None = None) -> int:
 
     from s3o_drake.experiments.oracle_check import (
         ALL_BELOW,
-        by_stop,
+        by_group,
         evaluate,
         first_pickups,
+        group_table,
         oracle_of,
-        stop_table,
         stratified,
         table,
     )
@@ -74,10 +76,10 @@ def main(argv: list[str] | None = None) -> int:
     if not pickups:
         fail(f"STUDY: {results} records no first pickup with its planned Fea^m"
              + (f" by {', '.join(args.methods)}" if args.methods else ""))
-    if args.by == "stop":
-        sample = by_stop(pickups, args.per_stop, seed=args.seed)
-        print(f"{len(sample)} of {len(pickups)} first pickups, up to {args.per_stop} per "
-              "stop size", flush=True)
+    if args.by != "value":
+        sample = by_group(pickups, args.per_group, by=args.by, seed=args.seed)
+        print(f"{len(sample)} of {len(pickups)} first pickups, up to {args.per_group} per "
+              f"group by {args.by}", flush=True)
     else:
         sample = stratified(pickups, {(0.8, 0.9): args.middle, (0.9, 1.0): args.high},
                             seed=args.seed)
@@ -97,7 +99,8 @@ def main(argv: list[str] | None = None) -> int:
         rows.append(row)
         if store is not None:
             store.append(row)
-    print(stop_table(rows, seed=args.seed) if args.by == "stop" else table(rows))
+    print(table(rows) if args.by == "value" else
+          group_table(rows, by=args.by, seed=args.seed))
     return 0
 
 

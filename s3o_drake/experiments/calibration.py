@@ -232,7 +232,7 @@ def read_records(paths: Sequence[str | Path]) -> Records:
                 poses = [(r.attempt, r.planned_pose) for r in found]
                 stops += stop_sizes(poses)
                 orders += stop_orders(poses)
-                dishes = _dish_positions(task)
+                dishes = dish_positions(task)
                 facing += [facing_error(r.actual_pose, dishes[r.dish])
                            if r.dish in dishes else None for r in found]
                 distances += [math.dist(r.planned_pose[:2], dishes[r.dish])
@@ -250,7 +250,7 @@ def facing_error(X_WB: Sequence[float], p_WO: Sequence[float]) -> float:
 
 
 @functools.cache
-def _dish_positions(task: str | None) -> dict[str, tuple[float, float]]:
+def dish_positions(task: str | None) -> dict[str, tuple[float, float]]:
     """The dishes' positions of a study row's task file (its `path`, from the repository
     or the working folder); none when there is no such file."""
     if not task:

@@ -11,15 +11,16 @@ reference). Then, per bin of the plan's Fea^m, the four against the observed suc
 
 The sample is stratified by the plan's value: every pickup below `ALL_BELOW` (where a
 study's pickups are few and the disagreements large), and a seeded draw from each bin
-above. Or by the stop (`by_stop`): how many dishes the pickup's stop served, where a
-study's calibration by stop is off. Then each pickup is also tested where the base really
-landed, with the reach error the arm really drew (`landed`): the oracle's success averaged
-over the executed landings, against its Monte Carlo over the landings its noise model
-draws, says whether the landing model is what is off.
+above. Or by a group (`by_group`) where a study's calibration is off: how many dishes the
+pickup's stop served, or the stop's distance to the dish. Then each pickup is also tested
+where the base really landed, with the reach error the arm really drew (`landed`): the
+oracle's success averaged over the executed landings, against its Monte Carlo over the
+landings its noise model draws, says whether the landing model is what is off.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,7 +31,10 @@ ALL_BELOW = 0.8
 """Every first pickup the plan valued below this is in the sample."""
 BINS = ((0.0, 0.7), (0.7, 0.8), (0.8, 0.9), (0.9, 1.0))
 STOP_SIZES = ("1 dish", "2 dishes", "3+ dishes")
-"""The groups of `by_stop`: how many dishes a pickup's stop served."""
+"""The groups by "stop": how many dishes a pickup's stop served."""
+GROUPINGS = ("stop", "distance")
+"""How `by_group` groups the pickups: by the dishes their stop served, or by the stop's
+distance to the dish (`calibration.distance_group`)."""
 
 
 @dataclass(frozen=True)
@@ -52,13 +56,15 @@ class ExecutedPickup:
     reach_noise: tuple[float, float] | None = None
     """The reach error the arm really drew (m), None when none was recorded."""
     kind: str = ""
+    distance: float | None = None
+    """The planned stop's distance (m) to the dish, None where the task file is not found."""
 
 
 def first_pickups(rows: Iterable[Mapping], *,
                   methods: Sequence[str] | None = None) -> list[ExecutedPickup]:
     """The first attempt at each dish of every run (of `methods`, default all) that recorded
     its pickups."""
-    from s3o_drake.experiments.calibration import stop_sizes
+    from s3o_drake.experiments.calibration import dish_positions, stop_sizes
 
     out = []
     for row in rows:
@@ -66,6 +72,7 @@ def first_pickups(rows: Iterable[Mapping], *,
             continue
         pickups = row.get("pickups") or []
         sizes = stop_sizes([(p.get("attempt"), p["planned_pose"]) for p in pickups])
+        dishes = dish_positions(row["path"])
         collected: list[str] = []
         for i, p in enumerate(pickups):
             if p.get("attempt") == 1 and p.get("planned") is not None:
@@ -76,7 +83,9 @@ def first_pickups(rows: Iterable[Mapping], *,
                     tuple(collected), stop_size=sizes[i],
                     landed=None if actual is None else (float(actual[0]), float(actual[1])),
                     reach_noise=None if noise is None else (float(noise[0]), float(noise[1])),
-                    kind=p.get("kind", "")))
+                    kind=p.get("kind", ""),
+                    distance=(math.dist(p["planned_pose"][:2], dishes[p["dish"]])
+                              if p["dish"] in dishes else None)))
             if p["outcome"] == "done":
                 collected.append(p["dish"])
     return out
@@ -85,6 +94,25 @@ def first_pickups(rows: Iterable[Mapping], *,
 def stop_group(pickup: ExecutedPickup) -> str:
     """The `STOP_SIZES` group of the pickup's stop."""
     return STOP_SIZES[min(pickup.stop_size, 3) - 1]
+
+
+def group_names(by: str) -> tuple[str, ...]:
+    """The groups of a grouping (`GROUPINGS`), in order."""
+    from s3o_drake.experiments.calibration import DISTANCE_EDGES, distance_group
+
+    if by not in GROUPINGS:
+        raise ValueError(f"by: expected one of {', '.join(GROUPINGS)}, got {by!r}")
+    if by == "stop":
+        return STOP_SIZES
+    return (*(distance_group(edge) for edge in (0.0, *DISTANCE_EDGES)),
+            distance_group(None))
+
+
+def group_of(pickup: ExecutedPickup, by: str) -> str:
+    """The pickup's group by "stop" (`stop_group`) or by "distance"."""
+    from s3o_drake.experiments.calibration import distance_group
+
+    return stop_group(pickup) if by == "stop" else distance_group(pickup.distance)
 
 
 def stratified(pickups: Sequence[ExecutedPickup],
@@ -101,14 +129,14 @@ def stratified(pickups: Sequence[ExecutedPickup],
     return chosen
 
 
-def by_stop(pickups: Sequence[ExecutedPickup], per_group: int, *,
-            seed: int) -> list[ExecutedPickup]:
-    """Up to `per_group` pickups drawn without replacement from each `STOP_SIZES` group
-    (numpy's default_rng(seed)), in the order of `pickups`."""
+def by_group(pickups: Sequence[ExecutedPickup], per_group: int, *, by: str,
+             seed: int) -> list[ExecutedPickup]:
+    """Up to `per_group` pickups drawn without replacement from each group of `by`
+    (`group_names`; numpy's default_rng(seed)), in the order of `pickups`."""
     rng = np.random.default_rng(seed)
     chosen: set[int] = set()
-    for group in STOP_SIZES:
-        inside = [i for i, p in enumerate(pickups) if stop_group(p) == group]
+    for group in group_names(by):
+        inside = [i for i, p in enumerate(pickups) if group_of(p, by) == group]
         picks = rng.choice(len(inside), size=min(per_group, len(inside)), replace=False)
         chosen.update(inside[i] for i in picks)
     return [p for i, p in enumerate(pickups) if i in chosen]
@@ -134,7 +162,8 @@ def evaluate(pickup: ExecutedPickup, oracle, *, samples: int, seed: int) -> dict
                       and caught(np.array(pickup.reach_noise), pickup.kind))
     return {"key": pickup.key, "path": pickup.path, "dish": pickup.dish,
             "planned": pickup.planned, "done": pickup.done, "expectation": expectation,
-            "monte_carlo": monte_carlo, "landed": landed, "stop": stop_group(pickup)}
+            "monte_carlo": monte_carlo, "landed": landed,
+            **{by: group_of(pickup, by) for by in GROUPINGS}}
 
 
 def oracle_of(pickup: ExecutedPickup, root: Path):
@@ -172,17 +201,19 @@ def table(rows: Sequence[Mapping]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def stop_table(rows: Sequence[Mapping], *, resamples: int = 2000, seed: int = 0) -> str:
-    """Per `STOP_SIZES` group: pickups, runs, the plan's mean, the oracle's expectation,
-    Monte Carlo and success at the executed landings, the observed success; and executed
-    landings less Monte Carlo with a 95 % bootstrap interval over runs (a run's pickups
-    share its noise and its world) (Markdown)."""
-    lines = ["| stop serves | pickups | runs | plan | oracle, expectation | "
+def group_table(rows: Sequence[Mapping], *, by: str, resamples: int = 2000,
+                seed: int = 0) -> str:
+    """Per group of `by` (`group_names`): pickups, runs, the plan's mean, the oracle's
+    expectation, Monte Carlo and success at the executed landings, the observed success;
+    and executed landings less Monte Carlo with a 95 % bootstrap interval over runs (a
+    run's pickups share its noise and its world) (Markdown)."""
+    title = "stop serves" if by == "stop" else "stop's distance to the dish"
+    lines = [f"| {title} | pickups | runs | plan | oracle, expectation | "
              "oracle, Monte Carlo | oracle, executed landings | observed | "
              "executed landings - Monte Carlo (95 %) |", "|---|---|---|---|---|---|---|---|---|"]
     rng = np.random.default_rng(seed)
-    for group in STOP_SIZES:
-        inside = [r for r in rows if r.get("stop") == group and r.get("landed") is not None]
+    for group in group_names(by):
+        inside = [r for r in rows if r.get(by) == group and r.get("landed") is not None]
         if not inside:
             continue
         runs: dict[str, list[Mapping]] = {}

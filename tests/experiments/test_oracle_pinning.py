@@ -92,10 +92,11 @@ def test_pickups_are_drawn_by_the_dishes_their_stop_served():
     each stop size, and the table sets the executed landings against the Monte Carlo per
     size, with an interval over runs."""
     from s3o_drake.experiments.oracle_check import (
-        by_stop,
+        by_group,
         first_pickups,
+        group_of,
+        group_table,
         stop_group,
-        stop_table,
     )
 
     def pickup(dish, pose, outcome="done", attempt=1):
@@ -115,16 +116,31 @@ def test_pickups_are_drawn_by_the_dishes_their_stop_served():
     assert first[0].landed == (1.1, 2.0) and first[0].reach_noise == (0.0, 0.01)
     assert first[3].before == ("a", "b", "c")  # the retry collected b
     assert len(first_pickups(rows)) == 8
-    sample = by_stop(first, 2, seed=0)
-    assert len(sample) == 3 and sample == by_stop(first, 2, seed=0)
+    sample = by_group(first, 2, by="stop", seed=0)
+    assert len(sample) == 3 and sample == by_group(first, 2, by="stop", seed=0)
     assert sum(stop_group(p) == "3+ dishes" for p in sample) == 2
 
     results = [{"key": p.key, "stop": stop_group(p), "planned": 0.9, "expectation": 0.9,
                 "monte_carlo": 0.9, "landed": p.dish != "b", "done": p.done}
                for p in first_pickups(rows)]
-    text = stop_table(results)
+    text = group_table(results, by="stop")
     assert "| 3+ dishes | 6 | 2 | 0.900 | 0.900 | 0.900 | 0.667 | 0.667 | -0.233" in text
     assert "| 1 dish | 2 | 2 | 0.900 | 0.900 | 0.900 | 1.000 | 1.000 | +0.100" in text
+    assert group_of(first[0], "distance") == "position unknown"  # no file t.yaml
+
+    # plate_a at (1.85, 2.3): stops 0.5 and 1.2 m away.
+    task = [{"key": "run/9", "path": "scenarios/small/two_dishes.yaml", "method": "V-GROP*",
+             "pickups": [pickup("plate_a", [1.35, 2.3, 0.0]),
+                         pickup("plate_a", [0.65, 2.3, 0.0], "no_ik")]}]
+    near, far = first_pickups(task)
+    assert (near.distance, far.distance) == pytest.approx((0.5, 1.2))
+    assert [group_of(p, "distance") for p in (near, far)] == ["0.00-0.80 m", "1.00 m or more"]
+    assert by_group([near, far], 1, by="distance", seed=0) == [near, far]
+    rows = [{"key": p.key, "distance": group_of(p, "distance"), "planned": 0.9,
+             "expectation": 0.9, "monte_carlo": 0.8, "landed": p.done, "done": p.done}
+            for p in (near, far)]
+    text = group_table(rows, by="distance")
+    assert "stop's distance to the dish" in text and "| 1.00 m or more | 1 | 1 |" in text
 
 
 def test_a_pickup_is_tested_where_the_base_landed_with_the_reach_drawn(oracle):
