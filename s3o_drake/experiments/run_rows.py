@@ -34,14 +34,20 @@ def predicted_completion(run: Mapping) -> float:
 
 def code_of(runs: Sequence[Mapping]) -> str:
     """The commit the runs were made at ("a (n), b (m)" when several)."""
-    counts = Counter(r.get("code", "not recorded") for r in runs)
+    return _recorded(runs, "code", separator=", ")
+
+
+def _recorded(runs: Sequence[Mapping], field: str, *, separator: str) -> str:
+    """The runs' value of a bookkeeping `field`, or each value with its count, the most
+    common first ("not recorded" for rows written before the field was)."""
+    counts = Counter(r.get(field, "not recorded") for r in runs)
     if len(counts) == 1:
         return next(iter(counts))
-    return ", ".join(f"{c} ({n})" for c, n in counts.most_common())
+    return separator.join(f"{c} ({n})" for c, n in counts.most_common())
 
 
-BOOKKEEPING = frozenset({"code", "schema", "job_seconds", "planning_time", "realtime_rate",
-                         "key", "path", "digest"})
+BOOKKEEPING = frozenset({"code", "packages", "schema", "job_seconds", "planning_time",
+                         "realtime_rate", "key", "path", "digest"})
 """Fields of a run's row that say when, where and how fast it ran, not what it did."""
 
 
@@ -55,6 +61,12 @@ def _what_it_did(value: object, top: bool = True) -> object:
     if isinstance(value, list | tuple):
         return [_what_it_did(v, False) for v in value]
     return value
+
+
+def packages_of(runs: Sequence[Mapping]) -> str:
+    """The packages' versions the runs were made with (`store.packages_version`), as
+    `code_of` says the commits ("a (n); b (m)" when several)."""
+    return _recorded(runs, "packages", separator="; ")
 
 
 def run_differences(before: Sequence[Mapping], after: Sequence[Mapping]

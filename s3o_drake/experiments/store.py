@@ -5,11 +5,13 @@ that is killed loses at most the line it was writing. That cut-short line is cut
 the store is opened again (its job then runs again); every complete line is kept. A write
 that fails (a full disk) takes back what it wrote of its line before it raises.
 
-Every row written says its layout's version (`schema`), the code that made it (`code`) and
-the robot it ran (`robot`): studies and benchmarks resume across commits, and a reader must
-be able to tell the rows apart. Rows written before the schema was recorded have none and
-read as they are; rows without a robot are the UR5e's, the only robot there was. A store
-opened to write refuses rows of a robot other than the process's.
+Every row written says its layout's version (`schema`), the code that made it (`code`), the
+versions of the packages that compute with it (`packages`) and the robot it ran (`robot`):
+studies and benchmarks resume across commits, and a reader must be able to tell the rows
+apart. The same code with other versions of numpy or Drake can differ in the last digits of
+a cost, and the motion search can then choose another plan. Rows written before the schema
+was recorded have none and read as they are; rows without a robot are the UR5e's, the only
+robot there was. A store opened to write refuses rows of a robot other than the process's.
 """
 
 import contextlib
@@ -67,6 +69,22 @@ def code_version() -> str:
         return f"{PACKAGE_NAME} (unknown version)"
 
 
+COMPUTING_PACKAGES = ("drake", "numpy", "scipy", "torch", "cma", "shapely", "clingo", "ompl")
+"""The installed packages whose arithmetic a run's figures depend on."""
+
+
+@functools.cache
+def packages_version() -> str:
+    """The versions of COMPUTING_PACKAGES installed here ("drake 1.51.1, numpy 2.4.6, ...";
+    "not installed" for one that is not): what `code_version` leaves out."""
+    def version(name: str) -> str:
+        try:
+            return importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            return "not installed"
+    return ", ".join(f"{name} {version(name)}" for name in COMPUTING_PACKAGES)
+
+
 class ResultStore:
     """The rows of `path` (JSON lines), by job key; the last row of a key wins."""
 
@@ -117,13 +135,15 @@ class ResultStore:
 
     def append(self, row: dict) -> dict:
         """Adds the row as one line, on disk when this returns, stamped with the layout's
-        version, the code and the robot (a row that already names its own, copied from
-        another store, keeps them); returns the row as written. A write that fails (the disk
-        full: OSError ENOSPC) leaves no part of the line behind, so that the next row does
-        not run into it and make both unreadable; the error is raised."""
+        version, the code, the packages' versions and the robot (a row that already names
+        its own, copied from another store, keeps them); returns the row as written. A write
+        that fails (the disk full: OSError ENOSPC) leaves no part of the line behind, so
+        that the next row does not run into it and make both unreadable; the error is
+        raised."""
         if self.read_only:
             raise PermissionError(f"{self.path} was opened read-only")
-        row = {"schema": SCHEMA, "code": code_version(), "robot": ROBOT_NAME, **row}
+        row = {"schema": SCHEMA, "code": code_version(), "packages": packages_version(),
+               "robot": ROBOT_NAME, **row}
         data = (json.dumps(row, sort_keys=True) + "\n").encode()
         fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
         try:

@@ -106,7 +106,13 @@ def test_store_keeps_complete_lines_and_cuts_a_line_cut_short(tmp_path):
 
 
 def test_rows_say_their_schema_and_code_and_rows_from_before_still_read(tmp_path):
-    from s3o_drake.experiments.store import SCHEMA, code_version, robot_of, schema_of
+    from s3o_drake.experiments.store import (
+        SCHEMA,
+        code_version,
+        packages_version,
+        robot_of,
+        schema_of,
+    )
 
     path = tmp_path / "results.jsonl"
     path.write_text('{"key": "old", "v": 1}\n{"task": "t", "v": 2}\n')  # before the schema
@@ -119,6 +125,7 @@ def test_rows_say_their_schema_and_code_and_rows_from_before_still_read(tmp_path
     store.append({"key": "copied", "code": "abc", "schema": 0})  # keeps what it says
     new, copied = (json.loads(line) for line in path.read_text().splitlines()[2:])
     assert (new["schema"], new["code"]) == (SCHEMA, code_version()) and schema_of(new) == 1
+    assert new["packages"] == packages_version() and "numpy " in new["packages"]
     assert (copied["schema"], copied["code"]) == (0, "abc")
     assert ResultStore(path).get("new") == new
     assert new["robot"] == "ur5e" and robot_of(store.get("old")) == "ur5e"

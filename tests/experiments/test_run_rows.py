@@ -37,7 +37,14 @@ def test_the_command_exits_1_on_a_difference_and_2_without_runs(tmp_path, capsys
             "".join(json.dumps({"key": r["task"], **r}) + "\n" for r in rows))
     assert same_runs([str(tmp_path / "a"), str(tmp_path / "a")]) == 0
     assert same_runs([str(tmp_path / "a"), str(tmp_path / "b")]) == 1
-    assert "outcomes" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "outcomes" in printed and "other packages" not in printed
+    (tmp_path / "d").mkdir()  # the same run made with another numpy: named
+    (tmp_path / "d" / "results.jsonl").write_text(json.dumps(
+        {"key": "t", **_run(outcomes=["goto l0: failed"]), "packages": "numpy 9"}) + "\n")
+    assert same_runs([str(tmp_path / "a"), str(tmp_path / "d")]) == 1
+    assert ("made with other packages: BEFORE not recorded; AFTER numpy 9"
+            in capsys.readouterr().out)
     with pytest.raises(SystemExit) as e:
         same_runs([str(tmp_path / "a"), str(tmp_path / "c")])
     assert e.value.code == 2
