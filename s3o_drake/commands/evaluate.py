@@ -255,10 +255,10 @@ def main(argv: list[str] | None = None) -> int:
                 "difficulty_seed": DIFFICULTY_SEED, "overrides": list(args.overrides),
                 "recovery": args.recovery, "count": args.count,
                 "command": "s3o evaluate " + " ".join(sys.argv[1:] if argv is None else argv)}
-    # Which code made the runs: a study that resumed across commits says so.
-    settings["code"] = dict(Counter(r.get("code", "not recorded") for r in runs).most_common())
-    settings["packages"] = dict(Counter(r.get("packages", "not recorded")
-                                        for r in runs).most_common())
+    # Which code and packages made the runs: a study that resumed across commits, or in
+    # another environment, says so.
+    for field in ("code", "packages"):
+        settings[field] = dict(Counter(r.get(field, "not recorded") for r in runs).most_common())
     dish_areas = {r["task"]: r["areas"] for r in measured
                   if r is not None and "error" not in r}
     open_loop = [] if args.open_loop is None else \

@@ -235,8 +235,7 @@ def read_records(paths: Sequence[str | Path]) -> Records:
                 dishes = dish_positions(task)
                 facing += [facing_error(r.actual_pose, dishes[r.dish])
                            if r.dish in dishes else None for r in found]
-                distances += [math.dist(r.planned_pose[:2], dishes[r.dish])
-                              if r.dish in dishes else None for r in found]
+                distances += [stop_distance(r.planned_pose, r.dish, dishes) for r in found]
             runs += len(runs_found)
             files.append(file)
     return Records(pickups=tuple(pickups), runs=runs, files=tuple(files), stops=tuple(stops),
@@ -247,6 +246,13 @@ def facing_error(X_WB: Sequence[float], p_WO: Sequence[float]) -> float:
     """The angle (rad, in [0, π]) between the yaw of the base pose `X_WB` (x, y, yaw) and
     the bearing from it to the dish at `p_WO` (x, y)."""
     return abs(wrap(float(X_WB[2]) - facing_yaw(X_WB[:2], p_WO[:2])))
+
+
+def stop_distance(planned_pose: Sequence[float], dish: str,
+                  dishes: Mapping[str, Sequence[float]]) -> float | None:
+    """The distance (m) from a pickup's planned stop to its dish, None when `dishes` (as
+    `dish_positions` gives them) does not hold it."""
+    return math.dist(planned_pose[:2], dishes[dish]) if dish in dishes else None
 
 
 @functools.cache

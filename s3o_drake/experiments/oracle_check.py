@@ -20,7 +20,6 @@ landings its noise model draws, says whether the landing model is what is off.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -64,7 +63,7 @@ def first_pickups(rows: Iterable[Mapping], *,
                   methods: Sequence[str] | None = None) -> list[ExecutedPickup]:
     """The first attempt at each dish of every run (of `methods`, default all) that recorded
     its pickups."""
-    from s3o_drake.experiments.calibration import dish_positions, stop_sizes
+    from s3o_drake.experiments.calibration import dish_positions, stop_distance, stop_sizes
 
     out = []
     for row in rows:
@@ -84,8 +83,7 @@ def first_pickups(rows: Iterable[Mapping], *,
                     landed=None if actual is None else (float(actual[0]), float(actual[1])),
                     reach_noise=None if noise is None else (float(noise[0]), float(noise[1])),
                     kind=p.get("kind", ""),
-                    distance=(math.dist(p["planned_pose"][:2], dishes[p["dish"]])
-                              if p["dish"] in dishes else None)))
+                    distance=stop_distance(p["planned_pose"], p["dish"], dishes)))
             if p["outcome"] == "done":
                 collected.append(p["dish"])
     return out

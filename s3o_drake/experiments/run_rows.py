@@ -37,6 +37,12 @@ def code_of(runs: Sequence[Mapping]) -> str:
     return _recorded(runs, "code", separator=", ")
 
 
+def packages_of(runs: Sequence[Mapping]) -> str:
+    """The packages' versions the runs were made with (`store.packages_version`), as
+    `code_of` says the commits ("a (n); b (m)" when several)."""
+    return _recorded(runs, "packages", separator="; ")
+
+
 def _recorded(runs: Sequence[Mapping], field: str, *, separator: str) -> str:
     """The runs' value of a bookkeeping `field`, or each value with its count, the most
     common first ("not recorded" for rows written before the field was)."""
@@ -61,12 +67,6 @@ def _what_it_did(value: object, top: bool = True) -> object:
     if isinstance(value, list | tuple):
         return [_what_it_did(v, False) for v in value]
     return value
-
-
-def packages_of(runs: Sequence[Mapping]) -> str:
-    """The packages' versions the runs were made with (`store.packages_version`), as
-    `code_of` says the commits ("a (n); b (m)" when several)."""
-    return _recorded(runs, "packages", separator="; ")
 
 
 def run_differences(before: Sequence[Mapping], after: Sequence[Mapping]
