@@ -48,6 +48,8 @@ TURNED_AWAY = 0.15
 """Angle (rad) between the base's yaw and the bearing to its dish beyond which a pickup was
 made turned away from the dish. The execution turns to face the dish exactly (half the
 study pickups within 0.001 rad), so a larger angle is a turn in place cut short."""
+STOP_SIZES = ("1 dish", "2 dishes", "3+ dishes")
+"""The groups by "stop": how many dishes a pickup's stop served (`stop_size_group`)."""
 DISTANCE_EDGES = (0.8, 0.9, 0.95, 1.0)
 """Edges (m) of the groups by the planned stop's distance to its dish: Fea^m falls and its
 errors grow towards the edge of the arm's reach, where an optimiser that maximises it
@@ -390,7 +392,7 @@ def grouped(records: Sequence[PickupRecord], by: str, *,
     groups: dict[str, list[PickupRecord]] = {}
     for i, record in enumerate(records):
         if by in ("stop", "facing"):
-            key = ("1 dish", "2 dishes", "3+ dishes")[min(stops[i], 3) - 1]
+            key = stop_size_group(stops[i])
             if by == "facing":
                 key += (", position unknown" if facing[i] is None else
                         ", turned away" if facing[i] > TURNED_AWAY else ", facing")
@@ -402,6 +404,11 @@ def grouped(records: Sequence[PickupRecord], by: str, *,
             key = action_of(record) if by == "action" else getattr(record, by)
         groups.setdefault(key, []).append(record)
     return dict(sorted(groups.items()))
+
+
+def stop_size_group(size: int) -> str:
+    """The name of the group (by "stop") of a stop that served `size` dishes."""
+    return STOP_SIZES[min(size, len(STOP_SIZES)) - 1]
 
 
 def distance_group(distance: float | None) -> str:

@@ -29,8 +29,6 @@ import numpy as np
 ALL_BELOW = 0.8
 """Every first pickup the plan valued below this is in the sample."""
 BINS = ((0.0, 0.7), (0.7, 0.8), (0.8, 0.9), (0.9, 1.0))
-STOP_SIZES = ("1 dish", "2 dishes", "3+ dishes")
-"""The groups by "stop": how many dishes a pickup's stop served."""
 GROUPINGS = ("stop", "distance")
 """How `by_group` groups the pickups: by the dishes their stop served, or by the stop's
 distance to the dish (`calibration.distance_group`)."""
@@ -90,13 +88,15 @@ def first_pickups(rows: Iterable[Mapping], *,
 
 
 def stop_group(pickup: ExecutedPickup) -> str:
-    """The `STOP_SIZES` group of the pickup's stop."""
-    return STOP_SIZES[min(pickup.stop_size, 3) - 1]
+    """The group (`calibration.STOP_SIZES`) of the pickup's stop."""
+    from s3o_drake.experiments.calibration import stop_size_group
+
+    return stop_size_group(pickup.stop_size)
 
 
 def group_names(by: str) -> tuple[str, ...]:
     """The groups of a grouping (`GROUPINGS`), in order."""
-    from s3o_drake.experiments.calibration import DISTANCE_EDGES, distance_group
+    from s3o_drake.experiments.calibration import DISTANCE_EDGES, STOP_SIZES, distance_group
 
     if by not in GROUPINGS:
         raise ValueError(f"by: expected one of {', '.join(GROUPINGS)}, got {by!r}")
