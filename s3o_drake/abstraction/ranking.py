@@ -10,9 +10,11 @@ planner's own utility settles it: every location costs at least one `goto`, γ =
 against λ = 150 per unit of pickup feasibility (GROP*'s utility). Candidates are therefore
 ranked by Score - c·|L| with the location cost c = γ / λ (0.133 by default; pass
 `location_cost=0` for the paper's ranking): a merge wins unless it loses more than c of
-summed Fea^t. Remaining ties (within 1e-9) go to fewer locations, then the canonical
-form, so the ranking never depends on generation order or on the machine. The top-K
-distribution normalises the ranking values of the K best (clipped at 0), so that it
+summed Fea^t. A merged group's summed Fea^t counts at the share of Fea^m that executed
+pickups at a stop of its size achieved (`shared_stop.py`), as in the motion search's
+utility. Remaining ties (within 1e-9) go to fewer locations, then the canonical form, so
+the ranking never depends on generation order or on the machine. The top-K distribution
+normalises the ranking values of the K best (clipped at 0), so that it
 follows the ranking; with `location_cost=0` it is the paper's normalised Score.
 """
 
@@ -34,6 +36,8 @@ from s3o_drake.abstraction.candidates import (
     generate_candidates,
 )
 from s3o_drake.abstraction.location_grid import GRID_CELL, LocationGrid
+from s3o_drake.abstraction.shared_stop import NONE as NO_SHARES
+from s3o_drake.abstraction.shared_stop import StopShares, stop_shares
 from s3o_drake.abstraction.task_feasibility import TaskFeasibility
 from s3o_drake.abstraction.voronoi import Drivable, VoronoiPartition, voronoi_partition
 from s3o_drake.belief.known_world import KnownWorld
@@ -143,14 +147,16 @@ def _sort_key(item: tuple[Partition, float]):
 def rank(partition: VoronoiPartition, task: TaskFeasibility, *, top_k: int,
          location_cost: float = 0.0, max_count: int = 100_000, time_limit: float = 5.0,
          keep: int = KEEP, exhaustive_max_dishes: int = EXHAUSTIVE_MAX_DISHES,
-         beam_width: int = DEFAULT_BEAM_WIDTH) -> Abstraction:
+         beam_width: int = DEFAULT_BEAM_WIDTH, shares: StopShares = NO_SHARES) -> Abstraction:
     """Generates, scores and ranks candidate state spaces of a partition.
 
     Each connected component of the adjacency graph is partitioned on its own
     (enumerated up to `exhaustive_max_dishes` dishes, beam search above; `max_count`
     and the remaining time bound each), then the components' best partitions are
     combined best-first into the `keep` best candidates overall. With every component
-    enumerated, those are exactly the `keep` best of all candidates.
+    enumerated, those are exactly the `keep` best of all candidates. A group's summed Fea^t
+    counts at the share of its stop size (`shares`, `shared_stop.py`), as the motion search
+    rates its pickups.
     """
     start = time.perf_counter()
     deadline = start + time_limit
@@ -169,7 +175,8 @@ def rank(partition: VoronoiPartition, task: TaskFeasibility, *, top_k: int,
         def value(group: tuple[int, ...], component=component, values=values) -> float:
             known = values.get(group)
             if known is None:
-                known = values[group] = (task.group_score([component[k] for k in group])
+                known = values[group] = (shares.of(len(group))
+                                         * task.group_score([component[k] for k in group])
                                          - location_cost)
             return known
 
@@ -249,4 +256,4 @@ def build_abstraction(known: KnownWorld, feasibility, *,
     return rank(partition, task, top_k=planner.top_k, location_cost=location_cost,
                 max_count=max_count,
                 time_limit=time_limit, exhaustive_max_dishes=exhaustive_max_dishes,
-                beam_width=beam_width)
+                beam_width=beam_width, shares=stop_shares(planner))

@@ -32,6 +32,9 @@ LOCATION_PRICES = ("paper", "search")
 # or what it costs in the execution's mode (open loop: the dish, λ; with recovery: the
 # recovery's recorded time).
 FAILURE_PRICES = ("paper", "execution")
+# How a pickup at a stop that serves several dishes is rated: at its Fea^m (the paper), or
+# at the share of it that executed pickups at such stops achieved.
+SHARED_STOPS = ("paper", "execution")
 
 
 class Recovery(str, Enum):

@@ -44,7 +44,8 @@ def repo_path(path: str | Path) -> str:
 
 def robot_dir(name: str) -> Path:
     """A robot's folder: its description (robot.yaml), its model, and what was built for
-    it (reachability map, time model, failure price, the network's weights)."""
+    it (reachability map, time model, failure price, shared-stop shares, the network's
+    weights)."""
     return MODELS_DIR / name
 
 
@@ -53,6 +54,7 @@ FCN_WEIGHTS = robot_dir(ROBOT_NAME) / "fcn" / "fcn.pt"
 REACHABILITY_MAP = robot_dir(ROBOT_NAME) / "reachability_map.npz"
 TIME_MODEL = robot_dir(ROBOT_NAME) / "time_model.yaml"
 FAILURE_PRICE = robot_dir(ROBOT_NAME) / "failure_price.yaml"
+SHARED_STOP = robot_dir(ROBOT_NAME) / "shared_stop.yaml"
 
 
 def package_file(url: str) -> Path:

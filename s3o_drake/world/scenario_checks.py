@@ -23,6 +23,7 @@ from s3o_drake.world.choices import (
     LOCATION_PRICES,
     METHODS,
     RECOVERY_MODES,
+    SHARED_STOPS,
 )
 from s3o_drake.world.furniture import (
     DISH_KINDS,
@@ -281,6 +282,7 @@ def _validate_settings(scenario: Scenario) -> None:
     _choice(p.group_positions, GROUP_POSITIONS, "planner.group_positions", "rule")
     _choice(p.location_price, LOCATION_PRICES, "planner.location_price", "price")
     _choice(p.failure_price, FAILURE_PRICES, "planner.failure_price", "price")
+    _choice(p.shared_stop, SHARED_STOPS, "planner.shared_stop", "rating")
     _at_least(p.top_k, 1, "planner.top_k")
     _at_least(p.cma_generations, 1, "planner.cma_generations")
     _at_least(p.cma_population, 2, "planner.cma_population")

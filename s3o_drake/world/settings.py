@@ -70,6 +70,11 @@ class PlanningSettings:
     recorded time per expected failure (models/ur5e/failure_price.yaml: `s3o failure-price`);
     "paper", λ whatever the execution does. With recovery, "execution" was measured 4-8 %
     faster at the same completion (docs/abstraction.md)."""
+    shared_stop: str = "execution"
+    """How the utility and the ranking rate a pickup at a stop that serves several dishes
+    (abstraction/shared_stop.py): "execution", Fea^m times the share of it that executed
+    pickups at such stops achieved (models/ur5e/shared_stop.yaml: `s3o shared-stop`);
+    "paper", Fea^m as it is."""
     time_budget: float = 300.0
     """Wall-clock cap on planning (s)."""
     workers: int = 2

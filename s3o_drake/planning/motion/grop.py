@@ -5,14 +5,16 @@ the motion search picks one base position (x, y) per `goto` inside that location
 and scores the whole sequence by its utility Σ R(a):
 
     R(goto)   = -Cst(goto)                  Cst = time + γ
-    R(pickup) = -δ + λ · Fea^m(y_r, y_o)    y_r: the position of the latest goto
+    R(pickup) = -δ + λ · s_k · Fea^m(y_r, y_o)    y_r: the position of the latest goto
 
 with the costs of the cost profile (`time_model.CostModel`): "robot", the base navigator's
 motion along the map's path and the turns at the stop, γ and δ our robot's recorded times;
 or "paper", Cst(goto) = len(y, y') / v + γ with len the collision-free path length
 (NavigationMap) and δ, γ, v from the planner settings.
 
-`Fea^m` is taken as it comes (`MotionFeasibility.values`): the heatmaps already include
+s_k is the share of Fea^m that executed pickups at a stop serving k dishes achieved
+(`abstraction/shared_stop.py`; 1 for a one-dish stop, and with `planner.shared_stop:
+paper`). `Fea^m` is taken as it comes (`MotionFeasibility.values`): the heatmaps already include
 the navigation and reaching noise (T^n, T^m) by Monte-Carlo, so Fea^m is the expected
 pickup success and no further sampling of T^n is done here. A pickup before any goto is
 made from the start position.
@@ -72,6 +74,7 @@ from threadpoolctl import ThreadpoolController
 
 from s3o_drake.abstraction.location_grid import GridLocation, LocationGrid, region_location
 from s3o_drake.abstraction.motion_feasibility import MotionFeasibility
+from s3o_drake.abstraction.shared_stop import stop_shares
 from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.planning.task.planner import Action
 from s3o_drake.planning.time_model import CostModel
@@ -201,6 +204,9 @@ class SequenceProblem:
         self.picks = picks
         self.stop_dishes = [[d for g, d in picks if g == k] for k in range(len(locations))]
         self.start_dishes = [d for g, d in picks if g < 0]
+        shares = stop_shares(planner)
+        self.shares = np.array([shares.of(len(self.start_dishes if g < 0 else self.stop_dishes[g]))
+                                for g, _ in picks], dtype=float)
         self.regions = [regions[loc] for loc in locations]
         for region in self.regions:
             shapely.prepare(region)
@@ -282,7 +288,8 @@ class SequenceProblem:
         if timed:
             pickup_time = delta if robot else costs.pickup_times(dishes, where)
         start_cost = start_turns if robot else 0.0
-        utility = -goto_cost.sum(axis=1) - start_cost + (-delta + p.reward * F).sum(axis=1)
+        utility = (-goto_cost.sum(axis=1) - start_cost
+                   + (-delta + p.reward * self.shares * F).sum(axis=1))
         bad = ~(ok & drivable)
         unreachable = (~np.isfinite(lengths) & ok[:, None]).sum(axis=1)
         utility[bad] = -PENALTY - outside[bad].sum(axis=1) - UNREACHABLE_STEP * unreachable[bad]
@@ -405,8 +412,10 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     # separated by zero feasibility; these draws let it start in the right basin.
     rng0 = np.random.default_rng(_seed_of(seed, rng))
     x0, previous = [], problem.start
-    for g in problem.grids:
-        previous = initial_point(g, previous, planner.reward, planner.speed)
+    shares = stop_shares(planner)
+    for g, dishes in zip(problem.grids, problem.stop_dishes, strict=True):
+        previous = initial_point(g, previous, planner.reward * shares.of(len(dishes)),
+                                 planner.speed)
         x0.append(previous)
     X = np.stack([np.stack(x0)] * population)
     if population > 1:

@@ -1,0 +1,105 @@
+"""What a pickup at a stop serving several dishes achieves of its Fea^m, from studies.
+
+    s3o shared-stop DIR [DIR ...] [--out models/ur5e/shared_stop.yaml]
+
+DIR: open-loop studies (`s3o evaluate`, recovery none). The share of a stop size is
+s_k = sum of successes / sum of Fea^m over the first attempts of the pickups at stops
+serving k dishes (2, and 3 or more); printed with a 95 % bootstrap interval per study and
+over all, beside one-dish stops as a check of Fea^m's calibration, and written to --out.
+The planner rates such pickups at s_k Fea^m with `planner.shared_stop: execution`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections import Counter
+from pathlib import Path
+
+from s3o_drake.commands.common import command_parser, fail
+from s3o_drake.commands.options import add_out, out_file
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = command_parser("shared-stop", __doc__)
+    parser.add_argument("studies", nargs="+", metavar="DIR",
+                        help="open-loop study folders (their results.jsonl)")
+    add_out(parser, file=True, text="where to write the shares (default "
+                                    "models/ur5e/shared_stop.yaml)")
+    return parser.parse_args(argv)
+
+
+def _line(key: str, found: dict[str, float]) -> str:
+    what = "1 dish" if key == "1" else f"{key} dishes"
+    return (f"  stops serving {what}: {found['share']:.3f} [{found['low']:.3f}, "
+            f"{found['high']:.3f}] ({found['pickups']} pickups, {found['successes']} picked, "
+            f"Fea^m summed {found['predicted']:.1f})")
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    folders = [Path(d) for d in args.studies]
+    for folder in folders:
+        if not (folder / "results.jsonl").is_file():
+            fail(f"DIR: no results.jsonl in {folder}")
+    import yaml
+
+    from s3o_drake.abstraction.shared_stop import (
+        SHARES_FILE,
+        SIZES,
+        StopPickup,
+        StopShares,
+        derive_shares,
+    )
+    from s3o_drake.experiments.calibration import read_records
+    from s3o_drake.experiments.store import ResultStore
+
+    out = out_file(args.out) if args.out else SHARES_FILE
+    everything, per_study, codes = [], {}, Counter()
+    for folder in folders:
+        rows = [r for r in ResultStore(folder / "results.jsonl", read_only=True).rows()
+                if "error" not in r]
+        modes = {r.get("recovery", "none") for r in rows} - {"none"}
+        if modes:
+            fail(f"DIR: {folder} ran with recovery ({', '.join(sorted(modes))}); the shares "
+                 "come from open-loop runs")
+        codes.update(r.get("code", "not recorded") for r in rows)
+        records = read_records([folder / "results.jsonl"])
+        found = [StopPickup(p.predicted, p.succeeded, size)
+                 for p, size in zip(records.pickups, records.stops, strict=True)
+                 if p.attempt == 1]
+        try:
+            per_study[str(folder)] = derive_shares(found)
+        except ValueError as e:
+            fail(f"DIR: {folder}: {e}")
+        everything += found
+        print(f"{folder}:")
+        for key, value in per_study[str(folder)].items():
+            print(_line(key, value))
+    total = derive_shares(everything)
+    shares = StopShares({k: total[k]["share"] for k in SIZES}, {
+        "command": "s3o shared-stop " + " ".join(sys.argv[1:] if argv is None else argv),
+        "intervals": {k: [round(total[k]["low"], 4), round(total[k]["high"], 4)]
+                      for k in SIZES},
+        "pickups": {k: total[k]["pickups"] for k in total},
+        "one_dish_check": round(total["1"]["share"], 4),
+        "studies": {study: {k: round(v["share"], 4) for k, v in found.items()}
+                    for study, found in per_study.items()},
+        "code": dict(codes)})
+    header = ("# What a pickup at a stop serving several dishes achieves of its Fea^m (the\n"
+              "# share s_k), abstraction/shared_stop.py. Written by the command below; do not\n"
+              "# edit.\n")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(header + yaml.safe_dump(shares.to_dict(), sort_keys=False))
+    except OSError as e:
+        fail(f"--out: cannot write {out}: {e.strerror or e}")
+    print("all:")
+    for key, value in total.items():
+        print(_line(key, value))
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
