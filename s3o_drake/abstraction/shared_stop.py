@@ -14,7 +14,8 @@ over the first attempts of the pickups at stops serving k dishes (k = 2, and 3 o
 recorded open-loop runs: a ratio estimator, 1 where Fea^m is calibrated. One-dish stops
 keep s_1 = 1. `derive_shares` computes it; `s3o shared-stop` derives it from studies and
 records it in the robot's folder (shared_stop.yaml); `stop_shares` reads it for the
-planner's utility and its ranking under `planner.shared_stop: execution`.
+planner's utility and its ranking under `planner.shared_stop: execution`, in open loop,
+where a failed pickup loses its dish (`uses_recorded_shares`).
 """
 
 from __future__ import annotations
@@ -28,8 +29,9 @@ from typing import Any
 import numpy as np
 import yaml
 
+from s3o_drake.world.choices import Recovery, SharedStop
 from s3o_drake.world.resources import SHARED_STOP
-from s3o_drake.world.settings import PlanningSettings
+from s3o_drake.world.settings import PlanningSettings, Settings
 
 SHARES_FILE = SHARED_STOP
 FORMAT = "s3o_drake.SharedStop/1"
@@ -93,15 +95,20 @@ def _load(path: str) -> StopShares:
     return StopShares.from_dict(yaml.safe_load(Path(path).read_text()))
 
 
-def uses_recorded_shares(planner: PlanningSettings) -> bool:
-    """Whether `planner` rates pickups at shared stops by the recorded shares."""
-    return planner.shared_stop != "paper"
+def uses_recorded_shares(settings: Settings) -> bool:
+    """Whether `settings` rate pickups at shared stops by the recorded shares:
+    `shared_stop: execution` in open loop. With recovery a failed pickup costs the
+    recovery's time, and its recorded price per expected failure (planning/failure_price.py)
+    comes from runs whose recoveries at shared stops it already holds."""
+    return (settings.planner.shared_stop != SharedStop.PAPER.value
+            and settings.execution.recovery == Recovery.NONE.value)
 
 
 def stop_shares(planner: PlanningSettings) -> StopShares:
     """The shares the planner's utility and ranking use: the recorded ones with
-    `shared_stop: execution`, NONE with `shared_stop: paper`."""
-    return StopShares.load() if uses_recorded_shares(planner) else NONE
+    `shared_stop: execution`, NONE with `shared_stop: paper` (which the planner's
+    settings say with recovery: `failure_price.priced_planner`)."""
+    return NONE if planner.shared_stop == SharedStop.PAPER.value else StopShares.load()
 
 
 @dataclass(frozen=True)

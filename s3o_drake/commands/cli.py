@@ -44,7 +44,7 @@ COMMANDS: tuple[Command, ...] = (
     _c("failure-price", "failure_price",
        "What a pickup's chance of failing costs with recovery, from studies."),
     _c("shared-stop", "shared_stop",
-       "What a pickup at a stop serving several dishes achieves of its Fea^m, from studies."),
+       "What a pickup at a shared stop achieves of its Fea^m, from studies."),
     _c("directives", "directives",
        "Write a scenario as Drake model directives, which Drake's own tools open."),
     _c("diagrams", "diagrams", "Regenerate the Graphviz pictures of the Drake diagrams."),

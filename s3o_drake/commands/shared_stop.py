@@ -1,4 +1,4 @@
-"""What a pickup at a stop serving several dishes achieves of its Fea^m, from studies.
+"""What a pickup at a shared stop achieves of its Fea^m, from studies.
 
     s3o shared-stop DIR [DIR ...] [--out models/ur5e/shared_stop.yaml]
 
@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
         StopShares,
         derive_shares,
     )
-    from s3o_drake.experiments.calibration import read_records
+    from s3o_drake.experiments.calibration import RecordsError, read_records
     from s3o_drake.experiments.store import ResultStore
 
     out = out_file(args.out) if args.out else SHARES_FILE
@@ -64,7 +64,10 @@ def main(argv: list[str] | None = None) -> int:
             fail(f"DIR: {folder} ran with recovery ({', '.join(sorted(modes))}); the shares "
                  "come from open-loop runs")
         codes.update(r.get("code", "not recorded") for r in rows)
-        records = read_records([folder / "results.jsonl"])
+        try:
+            records = read_records([folder / "results.jsonl"])
+        except RecordsError as e:
+            fail(f"DIR: {e}")
         found = [StopPickup(p.predicted, p.succeeded, size)
                  for p, size in zip(records.pickups, records.stops, strict=True)
                  if p.attempt == 1]

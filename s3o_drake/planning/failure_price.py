@@ -28,7 +28,8 @@ from typing import Any
 import numpy as np
 import yaml
 
-from s3o_drake.world.choices import Recovery
+from s3o_drake.abstraction.shared_stop import uses_recorded_shares
+from s3o_drake.world.choices import Recovery, SharedStop
 from s3o_drake.world.resources import FAILURE_PRICE
 from s3o_drake.world.settings import PlanningSettings, Settings
 
@@ -118,7 +119,15 @@ def failure_reward(settings: Settings, price: FailurePrice | None = None) -> flo
 
 
 def priced_planner(settings: Settings, price: FailurePrice | None = None) -> PlanningSettings:
-    """The planner settings with λ replaced by `failure_reward` (unchanged when equal)."""
-    reward = failure_reward(settings, price)
+    """The planner settings as the execution's mode prices a pickup: λ replaced by
+    `failure_reward`, and a shared stop's pickups at their Fea^m where the recorded shares
+    do not apply (`shared_stop.uses_recorded_shares`: with recovery, whose price holds
+    them). The same object when nothing changes."""
     planner = settings.planner
-    return planner if reward == planner.reward else dataclasses.replace(planner, reward=reward)
+    changes: dict[str, object] = {}
+    reward = failure_reward(settings, price)
+    if reward != planner.reward:
+        changes["reward"] = reward
+    if planner.shared_stop != SharedStop.PAPER.value and not uses_recorded_shares(settings):
+        changes["shared_stop"] = SharedStop.PAPER.value
+    return dataclasses.replace(planner, **changes) if changes else planner

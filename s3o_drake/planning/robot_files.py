@@ -1,10 +1,12 @@
 """What a scenario's settings need from its robot's folder, and what of it is missing.
 
 A robot's built files (models/<robot>/, `s3o build robot`) are read deep inside planning;
-a command checks first, so that a robot without its network or its failure price is told
-so in one line, with the setting that needs the file and how to make it or do without.
+a command checks first, so that a robot without its network, its failure price or its
+shared-stop shares is told so in one line, with the setting that needs the file and how to
+make it or do without.
 """
 
+from s3o_drake.abstraction.shared_stop import SHARES_FILE, uses_recorded_shares
 from s3o_drake.planning.failure_price import PRICE_FILE, uses_recorded_price
 from s3o_drake.world.choices import FeasibilitySource
 from s3o_drake.world.resources import (
@@ -30,5 +32,9 @@ def missing_robot_files(settings: Settings) -> list[str]:
         needed.append(("planner.failure_price", PRICE_FILE,
                        "`s3o failure-price` on the robot's recovery runs, or "
                        "planner.failure_price: paper"))
+    if uses_recorded_shares(settings):
+        needed.append(("planner.shared_stop", SHARES_FILE,
+                       "`s3o shared-stop` on the robot's open-loop runs, or "
+                       "planner.shared_stop: paper"))
     return [f"{field}: {ROBOT_NAME!r} has no {repo_path(path)}; make it with {how}"
             for field, path, how in needed if not path.is_file()]

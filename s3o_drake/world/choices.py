@@ -32,9 +32,21 @@ LOCATION_PRICES = ("paper", "search")
 # or what it costs in the execution's mode (open loop: the dish, λ; with recovery: the
 # recovery's recorded time).
 FAILURE_PRICES = ("paper", "execution")
-# How a pickup at a stop that serves several dishes is rated: at its Fea^m (the paper), or
-# at the share of it that executed pickups at such stops achieved.
-SHARED_STOPS = ("paper", "execution")
+
+
+class SharedStop(str, Enum):
+    """How a pickup at a stop that serves several dishes is rated (the field
+    `planner.shared_stop` holds the value)."""
+
+    PAPER = "paper"
+    """At its Fea^m, as every pickup."""
+    EXECUTION = "execution"
+    """In open loop, at the share of its Fea^m that executed pickups at stops of its size
+    achieved (abstraction/shared_stop.py); with recovery at its Fea^m, as the recovery's
+    price of a failure was measured."""
+
+
+SHARED_STOPS = tuple(s.value for s in SharedStop)
 
 
 class Recovery(str, Enum):

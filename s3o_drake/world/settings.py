@@ -72,9 +72,10 @@ class PlanningSettings:
     faster at the same completion (docs/abstraction.md)."""
     shared_stop: str = "execution"
     """How the utility and the ranking rate a pickup at a stop that serves several dishes
-    (abstraction/shared_stop.py): "execution", Fea^m times the share of it that executed
-    pickups at such stops achieved (models/ur5e/shared_stop.yaml: `s3o shared-stop`);
-    "paper", Fea^m as it is."""
+    (abstraction/shared_stop.py): "execution", in open loop Fea^m times the share of it
+    that executed pickups at such stops achieved (models/ur5e/shared_stop.yaml: `s3o
+    shared-stop`), and with recovery Fea^m as it is (the recovery's recorded price of a
+    failure holds the recoveries at shared stops); "paper", Fea^m as it is."""
     time_budget: float = 300.0
     """Wall-clock cap on planning (s)."""
     workers: int = 2

@@ -20,6 +20,7 @@ from s3o_drake.abstraction import (
     voronoi_partition,
 )
 from s3o_drake.abstraction.candidates import best_sums, connected_components
+from s3o_drake.abstraction.shared_stop import stop_shares
 from s3o_drake.abstraction.voronoi import ARM_REACH
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
@@ -56,14 +57,37 @@ def opposite_sides():
     return scenario, heatmaps
 
 
+def _rated(scenario: Scenario, shared_stop: str) -> Scenario:
+    return replace(scenario, planner=replace(
+        scenario.planner, shared_stop=shared_stop))
+
+
 def test_dishes_30_cm_apart_merge_in_the_top_ranked_state_space(two_dishes):
     scenario, heatmaps = two_dishes
-    abstraction = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps)
+    paper = _rated(scenario, "paper")  # every pickup at its Fea^m
+    abstraction = build_abstraction(_known(paper, _chairs(paper)), heatmaps)
     assert abstraction.partition.edges() == [(0, 1)]
     assert abstraction.best.groups == (("plate_a", "cup_b"),)
     assert all(v > 0.5 for v in abstraction.best.task_feasibility.values())
     assert abstraction.complete and abstraction.exhaustive
     assert len(abstraction.ranked) == 2  # the merge and plain Voronoi
+
+
+def test_a_merge_is_ranked_at_the_share_its_stop_size_achieves(two_dishes):
+    """The recorded shares price the merged stop's pickups as executed pickups at two-dish
+    stops went, and leave one-dish locations as they are."""
+    scenario, heatmaps = two_dishes
+    share = stop_shares(scenario.planner).of(2)
+    assert share < 1.0
+    values = {}
+    for rating in ("paper", "execution"):
+        rated = _rated(scenario, rating)
+        ranked = build_abstraction(_known(rated, _chairs(rated)), heatmaps).ranked
+        values[rating] = {len(s.groups): s for s in ranked}
+    merged, plain = values["paper"][1], values["paper"][2]
+    assert values["execution"][2].value == pytest.approx(plain.value)
+    assert values["execution"][1].value == pytest.approx(
+        merged.value - (1.0 - share) * merged.score)
 
 
 def test_dishes_on_opposite_sides_are_never_one_location(opposite_sides):
@@ -119,7 +143,8 @@ def test_sym_agrees_with_nearest_dish_on_random_points(two_dishes):
 def test_sym_of_a_state_space_maps_to_the_merged_location(two_dishes):
     scenario, heatmaps = two_dishes
     abstraction = build_abstraction(_known(scenario, _chairs(scenario)), heatmaps)
-    merged, plain = abstraction.best, abstraction.plain_voronoi
+    merged = next(s for s in abstraction.ranked if len(s.groups) == 1)
+    plain = abstraction.plain_voronoi
     for cell in abstraction.partition.cells:
         p = cell.representative_point().coords[0]
         assert abstraction.sym(merged, p) == 0
@@ -294,7 +319,8 @@ def test_components_combined_rank_like_enumerating_the_whole_graph():
     cost = scenario.planner.gamma / scenario.planner.reward
     task = TaskFeasibility(LocationGrid.of(abstraction.partition, heatmaps), samples=100,
                            seed=scenario.seed, positions=scenario.planner.group_positions)
-    brute = sorted(task.score(p) - cost * len(p)
+    shares = stop_shares(scenario.planner)  # a merged group at its stop size's share
+    brute = sorted(sum(shares.of(len(g)) * task.group_score(list(g)) for g in p) - cost * len(p)
                    for p in connected_partitions(4, abstraction.partition.adjacency))[::-1]
     assert abstraction.count == len(brute)
     assert [s.value for s in abstraction.ranked] == pytest.approx(brute)

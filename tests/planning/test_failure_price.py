@@ -39,7 +39,7 @@ def test_recovery_prices_a_failure_by_its_time_and_open_loop_by_the_dish():
         assert failure_reward(s.settings, price) == priced
     # The paper's price whatever the execution does; and the planner is the same object.
     paper = dataclasses.replace(scenario, planner=dataclasses.replace(
-        scenario.planner, failure_price="paper"))
+        scenario.planner, failure_price="paper", shared_stop="paper"))
     assert failure_reward(paper.settings, price) == 150.0
     assert priced_planner(paper.settings, price) is paper.planner
     # The recorded price is the one the planner reads.

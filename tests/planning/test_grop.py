@@ -10,6 +10,7 @@ import shapely
 from shapely.geometry import Point, box
 
 from s3o_drake.abstraction import HeatmapFeasibility, voronoi_partition
+from s3o_drake.abstraction.shared_stop import stop_shares
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.motion.grop import (
@@ -94,7 +95,7 @@ def test_positions_in_regions_and_utility_by_hand(scene, search):
 def _hand_robot_costs(result: MotionResult, scenario, nav, fea, costs: CostModel):
     """Utility and predicted time under the robot profile from single, unbatched queries:
     the navigator's segments along each path (BaseProfile.motion_time), the ExecutiveSystem's
-    turn rule at a stop, the recorded pickup times."""
+    turn rule at a stop, the recorded pickup times, the shares of shared stops."""
     model, profile = costs.model, costs.base
     gamma = model.overheads.gamma
     dish_xy = {d.name: np.asarray(d.position, float) for d in scenario.dishes}
@@ -110,6 +111,9 @@ def _hand_robot_costs(result: MotionResult, scenario, nav, fea, costs: CostModel
             arrive = facing_yaw(y, dish_xy[first])
             cost += profile.motion_time(nav.path(here, y), yaw, arrive) + gamma
             here, yaw, turned = y, arrive, first
+            served = next((j for j, (n, _) in enumerate(result.actions[i + 1:]) if n == "goto"),
+                          len(result.actions) - i - 1)
+            share = stop_shares(scenario.planner).of(served)  # s_k of a shared stop
         else:
             if arg != turned:
                 delta = float(wrap(facing_yaw(here, dish_xy[arg]) - yaw))
@@ -117,7 +121,7 @@ def _hand_robot_costs(result: MotionResult, scenario, nav, fea, costs: CostModel
                     cost += profile.turn_time(delta) + gamma
                     yaw += delta
             cost += float(model.pickup_time(kind[arg], np.linalg.norm(here - dish_xy[arg])))
-            gain += scenario.planner.reward * float(fea.values(arg, here[None])[0])
+            gain += scenario.planner.reward * share * float(fea.values(arg, here[None])[0])
     return gain - cost, cost + model.overheads.plan
 
 

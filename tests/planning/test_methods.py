@@ -10,12 +10,13 @@ import pytest
 from shapely.geometry import Point
 
 from s3o_drake.abstraction import voronoi_partition
+from s3o_drake.abstraction.shared_stop import stop_shares
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.planning.failure_price import failure_reward
+from s3o_drake.planning.failure_price import failure_reward, priced_planner
 from s3o_drake.planning.methods import PlanningTimeoutError, plan_task
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
 from s3o_drake.planning.task.check import check_plan
@@ -105,11 +106,20 @@ def test_valid_plan_for_every_method(scenes, plans, known_checkers, scene, metho
     # Utility as GROP* defines it, under the robot cost profile (the default): the
     # costs are the predicted execution time (without its once-per-plan start and end),
     # the gains λ Fea^m (the paper profile: tests/planning/test_time_model.py), λ as the
-    # execution's mode prices a failure (planning/failure_price.py).
+    # execution's mode prices a failure (planning/failure_price.py), at the share of a
+    # shared stop's size (abstraction/shared_stop.py).
     assert scenario.planner.cost_profile == "robot"
     offset = TimeModel.load().overheads.plan
     lam = failure_reward(scenario.settings)
-    utility = -(p.predicted_time - offset) + sum(lam * k.feasibility for k in p.pickups)
+    shares = stop_shares(priced_planner(scenario.settings))  # at a shared stop: s_k Fea^m
+    stops = [[]]
+    for a in p.actions:
+        if isinstance(a, Goto):
+            stops.append([])
+        elif isinstance(a, Pickup):
+            stops[-1].append(a.feasibility)
+    gains = sum(lam * shares.of(len(stop)) * f for stop in stops for f in stop)
+    utility = -(p.predicted_time - offset) + gains
     assert p.utility == pytest.approx(utility, abs=1e-6)
     assert set(p.timing) >= {"feasibility", "abstraction", "task_planning", "motion_search"}
 
@@ -386,7 +396,8 @@ def test_one_location_price_ranks_with_the_search_s_gamma(scenes):
     values = {}
     for price in ("paper", "search"):
         s = dataclasses.replace(scenario, planner=dataclasses.replace(
-            scenario.planner, location_price=price, failure_price="paper"))
+            scenario.planner, location_price=price, failure_price="paper",
+            shared_stop="paper"))
         result = plan_task(_known(s, chairs), method="S3O-GROP*", heatmaps=heatmaps, seed=0)
         values[price] = {sp.groups: sp.score - sp.value for sp in result.abstraction.ranked}
     gamma = TimeModel.load().overheads.gamma

@@ -8,11 +8,11 @@ from s3o_drake.world.resources import RESTAURANT
 from s3o_drake.world.scenario import load_scenario
 
 
-def _settings(feasibility: str, price: str, recovery: str):
+def _settings(feasibility: str, price: str, recovery: str, shared_stop: str = "execution"):
     scenario = load_scenario(RESTAURANT)
     return dataclasses.replace(
         scenario, planner=dataclasses.replace(scenario.planner, feasibility=feasibility,
-                                              failure_price=price),
+                                              failure_price=price, shared_stop=shared_stop),
         execution=dataclasses.replace(scenario.execution, recovery=recovery)).settings
 
 
@@ -23,11 +23,17 @@ def test_the_shipped_robot_has_everything_its_defaults_need():
 def test_each_missing_file_is_named_with_its_setting_and_its_command(monkeypatch, tmp_path):
     monkeypatch.setattr(robot_files, "FCN_WEIGHTS", tmp_path / "fcn" / "fcn.pt")
     monkeypatch.setattr(robot_files, "PRICE_FILE", tmp_path / "failure_price.yaml")
+    monkeypatch.setattr(robot_files, "SHARES_FILE", tmp_path / "shared_stop.yaml")
     missing = robot_files.missing_robot_files(_settings("fcn", "execution", "replan"))
     assert [line.split(":")[0] for line in missing] == ["planner.feasibility",
                                                         "planner.failure_price"]
     assert "s3o build robot ur5e --steps fcn-data fcn" in missing[0]
     assert "planner.failure_price: paper" in missing[1]
-    # Settings that do without them need neither: the oracle, the paper's price, open loop.
+    # Open loop needs the shared-stop shares instead of the recovery's price.
+    missing = robot_files.missing_robot_files(_settings("oracle", "execution", "none"))
+    assert [line.split(":")[0] for line in missing] == ["planner.shared_stop"]
+    assert "`s3o shared-stop`" in missing[0] and "planner.shared_stop: paper" in missing[0]
+    # Settings that do without them need none: the oracle, the paper's price and rating.
     assert robot_files.missing_robot_files(_settings("oracle", "paper", "replan")) == []
-    assert robot_files.missing_robot_files(_settings("oracle", "execution", "none")) == []
+    assert robot_files.missing_robot_files(_settings("oracle", "execution", "none",
+                                                     "paper")) == []
