@@ -4,8 +4,9 @@ Fea^m(y_r, y_o) models a base that drives to y_r to face o. At a stop that serve
 dishes the base arrives facing one of them and turns in place to face each next one: it
 stands where the approach to the first dish left it, a chair can cut a turn short, and the
 motion search puts the stop where every dish's Fea^m is high at once, at the edges of their
-regions, where the model's small errors add up. Executed pickups at such stops succeed less
-often than their Fea^m says, where those at one-dish stops are calibrated. The planner
+regions, where the model's small errors can add up. Measured over executed pickups, those
+at such stops succeed less often than their Fea^m says, where those at one-dish stops are
+calibrated (docs/results.md); no one of those causes accounts for it alone. The planner
 therefore rates a pickup at a stop serving k dishes at s_k Fea^m, with the share
 
     s_k = Σ success / Σ Fea^m
