@@ -13,16 +13,20 @@ from __future__ import annotations
 import argparse
 import sys
 from collections import Counter, defaultdict
-from pathlib import Path
 
 from s3o_drake.commands.common import command_parser, fail
-from s3o_drake.commands.options import add_out, out_file
+from s3o_drake.commands.options import (
+    add_out,
+    add_studies,
+    out_file,
+    study_folders,
+    write_record,
+)
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = command_parser("failure-price", __doc__)
-    parser.add_argument("studies", nargs="+", metavar="DIR",
-                        help="study folders run with recovery (their results.jsonl)")
+    add_studies(parser, "study folders run with recovery (their results.jsonl)")
     add_out(parser, file=True, text="where to write the price (default "
                                     "models/ur5e/failure_price.yaml)")
     return parser.parse_args(argv)
@@ -54,12 +58,7 @@ def study_records(rows) -> tuple[list, int]:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    folders = [Path(d) for d in args.studies]
-    for folder in folders:
-        if not (folder / "results.jsonl").is_file():
-            fail(f"DIR: no results.jsonl in {folder}")
-    import yaml
-
+    folders = study_folders(args)
     from s3o_drake.experiments.store import ResultStore
     from s3o_drake.planning.failure_price import PRICE_FILE, FailurePrice, derive_price
 
@@ -90,11 +89,7 @@ def main(argv: list[str] | None = None) -> int:
         "code": dict(codes)})
     header = ("# What a pickup's chance of failing costs with recovery (s per expected failure),\n"
               "# planning/failure_price.py. Written by the command below; do not edit.\n")
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(header + yaml.safe_dump(price.to_dict(), sort_keys=False))
-    except OSError as e:
-        fail(f"--out: cannot write {out}: {e.strerror or e}")
+    write_record(out, header, price.to_dict())
     print(f"all: {total['seconds']:.2f} s [{total['low']:.2f}, {total['high']:.2f}]; "
           f"wrote {out}")
     return 0

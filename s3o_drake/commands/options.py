@@ -228,3 +228,32 @@ def json_store(args: argparse.Namespace,
     if getattr(args, "fresh", False):
         path.unlink(missing_ok=True)
     return ResultStore(path, key=key)
+
+
+def add_studies(parser: argparse.ArgumentParser, text: str) -> None:
+    """DIR ...: study folders of `s3o evaluate`, each holding its results.jsonl."""
+    parser.add_argument("studies", nargs="+", metavar="DIR", help=text)
+
+
+def study_folders(args: argparse.Namespace) -> list[Path]:
+    """The folders of `add_studies`; one without a results.jsonl is one line and exit
+    status 2."""
+    folders = [Path(d) for d in args.studies]
+    for folder in folders:
+        if not (folder / "results.jsonl").is_file():
+            fail(f"DIR: no results.jsonl in {folder}")
+    return folders
+
+
+def write_record(out: Path, header: str, record: dict) -> None:
+    """A derived record (a price, shares) as YAML under its comment `header`, written whole
+    or not at all; a file that cannot be written is one line and exit status 2."""
+    import yaml
+
+    from s3o_drake.world.files import write_atomically
+
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_atomically(out, header + yaml.safe_dump(record, sort_keys=False))
+    except OSError as e:
+        fail(f"--out: cannot write {out}: {e.strerror or e}")

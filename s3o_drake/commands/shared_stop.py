@@ -14,16 +14,20 @@ from __future__ import annotations
 import argparse
 import sys
 from collections import Counter
-from pathlib import Path
 
 from s3o_drake.commands.common import command_parser, fail
-from s3o_drake.commands.options import add_out, out_file
+from s3o_drake.commands.options import (
+    add_out,
+    add_studies,
+    out_file,
+    study_folders,
+    write_record,
+)
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = command_parser("shared-stop", __doc__)
-    parser.add_argument("studies", nargs="+", metavar="DIR",
-                        help="open-loop study folders (their results.jsonl)")
+    add_studies(parser, "open-loop study folders (their results.jsonl)")
     add_out(parser, file=True, text="where to write the shares (default "
                                     "models/ur5e/shared_stop.yaml)")
     return parser.parse_args(argv)
@@ -38,12 +42,7 @@ def _line(key: str, found: dict[str, float]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    folders = [Path(d) for d in args.studies]
-    for folder in folders:
-        if not (folder / "results.jsonl").is_file():
-            fail(f"DIR: no results.jsonl in {folder}")
-    import yaml
-
+    folders = study_folders(args)
     from s3o_drake.abstraction.shared_stop import (
         SHARES_FILE,
         SIZES,
@@ -92,11 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     header = ("# What a pickup at a stop serving several dishes achieves of its Fea^m (the\n"
               "# share s_k), abstraction/shared_stop.py. Written by the command below; do not\n"
               "# edit.\n")
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(header + yaml.safe_dump(shares.to_dict(), sort_keys=False))
-    except OSError as e:
-        fail(f"--out: cannot write {out}: {e.strerror or e}")
+    write_record(out, header, shares.to_dict())
     print("all:")
     for key, value in total.items():
         print(_line(key, value))

@@ -205,8 +205,10 @@ class SequenceProblem:
         self.stop_dishes = [[d for g, d in picks if g == k] for k in range(len(locations))]
         self.start_dishes = [d for g, d in picks if g < 0]
         shares = stop_shares(planner)
-        self.shares = np.array([shares.of(len(self.start_dishes if g < 0 else self.stop_dishes[g]))
-                                for g, _ in picks], dtype=float)
+        # s_k (`shared_stop.py`) of each goto's stop, and of the stop each pick is made from.
+        self.stop_shares = [shares.of(len(dishes)) for dishes in self.stop_dishes]
+        self.shares = np.array([shares.of(len(self.start_dishes)) if g < 0
+                                else self.stop_shares[g] for g, _ in picks], dtype=float)
         self.regions = [regions[loc] for loc in locations]
         for region in self.regions:
             shapely.prepare(region)
@@ -412,10 +414,8 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     # separated by zero feasibility; these draws let it start in the right basin.
     rng0 = np.random.default_rng(_seed_of(seed, rng))
     x0, previous = [], problem.start
-    shares = stop_shares(planner)
-    for g, dishes in zip(problem.grids, problem.stop_dishes, strict=True):
-        previous = initial_point(g, previous, planner.reward * shares.of(len(dishes)),
-                                 planner.speed)
+    for g, share in zip(problem.grids, problem.stop_shares, strict=True):
+        previous = initial_point(g, previous, planner.reward * share, planner.speed)
         x0.append(previous)
     X = np.stack([np.stack(x0)] * population)
     if population > 1:
