@@ -6,7 +6,7 @@ stands where the approach to the first dish left it, a chair can cut a turn shor
 motion search puts the stop where every dish's Fea^m is high at once, at the edges of their
 regions, where the model's small errors can add up. Measured over executed pickups, those
 at such stops succeed less often than their Fea^m says, where those at one-dish stops are
-calibrated (docs/results.md); no one of those causes accounts for it alone. The planner
+calibrated (docs/results_7bf8489.md); no one of those causes accounts for it alone. The planner
 therefore rates a pickup at a stop serving k dishes at s_k Fea^m, with the share
 
     s_k = Σ success / Σ Fea^m
