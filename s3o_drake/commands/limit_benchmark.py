@@ -9,7 +9,11 @@ top K; long_search: ten times the CMA-ES generations from three seeds) and with 
 them (the reference plan, within 600 s). Every plan is judged by the true world's Fea^m at
 the stops it commands, and each task gets a lower bound on any complete execution's time
 (s3o_drake/experiments/limit.py). Prints a line per plan, then per configuration the
-median gap to the reference in predicted time, judged completion and utility.
+median gap to the reference in predicted time (on all tasks, and on those where the
+reference's judged completion is at least the plan's, within COMPLETION_TOLERANCE and
+strictly), judged completion and utility, and for each ration the share of the default's
+median gap it closes alone, of the time gap and of the utility gap, each
+(default - ration) / default.
 With --json the rows are kept as they are made, and a rerun resumes from them.
 """
 

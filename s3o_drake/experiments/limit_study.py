@@ -81,7 +81,9 @@ def executed_row(scenario: Scenario, result: PlanningResult, *, study_seed: int
 def gaps(rows: Sequence[dict[str, Any]], configuration: str) -> list[dict[str, Any]]:
     """Per task where both planned (`task`), `configuration`'s plan against the
     reference's: the relative gap in predicted time, and the gaps in judged completion and
-    utility; `level`: whether the reference's judged completion is at least the plan's."""
+    utility (each plan's own, by the Fea^m it was made with); `level`: whether the
+    reference's judged completion is at least the plan's less COMPLETION_TOLERANCE,
+    `strict`: at least the plan's."""
     by = {(r["task"], r["configuration"]): r for r in rows}
     out = []
     for (task, name), row in by.items():
@@ -95,32 +97,51 @@ def gaps(rows: Sequence[dict[str, Any]], configuration: str) -> list[dict[str, A
             "completion": row["judged_completion"] - reference["judged_completion"],
             "utility": row["utility"] - reference["utility"],
             "level": reference["judged_completion"] >= row["judged_completion"]
-            - COMPLETION_TOLERANCE})
+            - COMPLETION_TOLERANCE,
+            "strict": reference["judged_completion"] >= row["judged_completion"]})
     return out
 
 
+def closed_share(default_gap: float, gap: float) -> float:
+    """The share of the default's gap to the reference that a configuration closes,
+    (default_gap - gap) / default_gap, whatever the gap's sign; nan when the default has
+    none. Taken on the medians the summary prints, as a reader takes it from them."""
+    return (default_gap - gap) / default_gap if default_gap != 0 else float("nan")
+
+
+def _median(values: Sequence[float]) -> float:
+    return float(np.median(values)) if len(values) else float("nan")
+
+
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
-    """Per configuration, the median gaps to the reference, and what share of the
-    default's time gap lifting that ration alone closes; then the reference against the
-    bound."""
-    lines = ["gap to the reference plan, median over tasks (time: relative; completion "
-             "judged by the true world's Fea^m)"]
-    default = gaps(rows, "default")
-    default_time = float(np.median([g["time"] for g in default])) if default else float("nan")
-    for configuration in ("default", *RATIONS):
-        found = gaps(rows, configuration)
-        if not found:
-            continue
-        time = float(np.median([g["time"] for g in found]))
-        level = [g["time"] for g in found if g["level"]]
-        closes = ("" if configuration == "default" or not default_time > 0 else
-                  f", closes {(default_time - time) / default_time:.0%} of the default's")
+    """Per configuration, the median gaps to the reference, and what share of the default's
+    gap in time and in utility lifting that ration alone closes; then the executed plans
+    and the reference against the bound."""
+    lines = ["gap to the reference plan, median over tasks (time: predicted, relative; "
+             "completion: judged by the true world's Fea^m; utility: the plan's own, by the "
+             "Fea^m it was made with)"]
+    found = {c: g for c in ("default", *RATIONS) if (g := gaps(rows, c))}
+    medians = {c: {k: _median([x[k] for x in g]) for k in ("time", "completion", "utility")}
+               for c, g in found.items()}
+    for configuration, g in found.items():
+        level = [x["time"] for x in g if x["level"]]
+        strict = [x["time"] for x in g if x["strict"]]
+        m = medians[configuration]
         lines.append(
-            f"  {configuration:<15} time {time:+.1%} ({len(found)} tasks; "
-            f"{float(np.median(level)) if level else float('nan'):+.1%} on the "
-            f"{len(level)} where the reference completes at least as often), completion "
-            f"{float(np.median([g['completion'] for g in found])):+.3f}, utility "
-            f"{float(np.median([g['utility'] for g in found])):+.2f}{closes}")
+            f"  {configuration:<15} time {m['time']:+.1%} ({len(g)} tasks), completion "
+            f"{m['completion']:+.3f}, utility {m['utility']:+.2f}; time where the "
+            f"reference completes at least as often: {_median(level):+.1%} ({len(level)} "
+            f"tasks, within {COMPLETION_TOLERANCE}), {_median(strict):+.1%} ({len(strict)}, "
+            f"strictly)")
+    if "default" in medians and len(found) > 1:
+        lines.append("share of the default's median gap that lifting the ration alone "
+                     "closes, (default - ration) / default:")
+        for configuration in found:
+            if configuration != "default":
+                shares = {k: closed_share(medians["default"][k], medians[configuration][k])
+                          for k in ("time", "utility")}
+                lines.append(f"  {configuration:<15} of the time gap {shares['time']:.0%}, "
+                             f"of the utility gap {shares['utility']:.0%}")
     by = {(r["task"], r["configuration"]): r for r in rows}
     lines += executed_lines(rows)
     ratios = [by[(t, "reference")]["predicted_time"] / r["bound_s"]

@@ -2,10 +2,17 @@
 resumed; the summary names each configuration's gap to the reference."""
 
 import json
+import math
 import shutil
 
+import pytest
+
 from s3o_drake.commands.limit_benchmark import main
-from s3o_drake.experiments.limit_study import summary_lines
+from s3o_drake.experiments.limit_study import (
+    closed_share,
+    gaps,
+    summary_lines,
+)
 from tests.conftest import TWO_DISHES, refused
 
 
@@ -42,7 +49,7 @@ def test_the_summary_gives_each_lift_its_gap_and_the_share_it_closes():
                 "predicted_time": time, "judged_completion": judged, "utility": utility}
 
     rows = [row("a", "reference", 100.0, 0.9, 50.0), row("a", "default", 110.0, 0.8, 40.0),
-            row("a", "oracle", 105.0, 0.9, 45.0),
+            row("a", "oracle", 105.0, 0.9, 48.0),
             {"task": "a", "configuration": "bound", "bound_s": 20.0}]
     rows += [{"task": "a", "configuration": f"executed:{name}:{k}", "complete": True,
               "execution_time": time + k, "predicted_time": predicted}
@@ -52,9 +59,45 @@ def test_the_summary_gives_each_lift_its_gap_and_the_share_it_closes():
     assert any("+19.8% executed, +10.0% predicted" in s for s in lines)
     assert any("complete runs below their task's bound: 0" in s for s in lines)
     assert any("default" in s and "+10.0%" in s and "-0.100" in s for s in lines)
-    assert any("oracle" in s and "+5.0%" in s and "closes 50% of the default's" in s
+    # Each share as a reader takes it from the medians: time (10 - 5) / 10, utility
+    # (-10 - -2) / -10.
+    assert any("oracle" in s and "of the time gap 50%, of the utility gap 80%" in s
                for s in lines)
     assert any("median 5.00 (1 tasks, 0 below the bound)" in s for s in lines)
+
+
+def test_each_share_is_of_the_medians_of_its_own_gap():
+    def row(task, configuration, time, utility):
+        return {"task": task, "configuration": configuration, "planned": True,
+                "predicted_time": time, "judged_completion": 0.9, "utility": utility}
+
+    # Per task (default, long_search): time gaps +10 %, +2 % / +20 %, +2 % / +30 %, +2 %;
+    # utility gaps -40, -36 / -20, -19 / -4, -3. Medians: time +20 % and +2 %, utility
+    # -20 and -19: the search closes 90 % of the time gap and 5 % of the utility gap.
+    rows = []
+    for task, slower, lost, lost_searching in (("a", 1.1, 40.0, 36.0),
+                                               ("b", 1.2, 20.0, 19.0),
+                                               ("c", 1.3, 4.0, 3.0)):
+        rows += [row(task, "reference", 100.0, 800.0),
+                 row(task, "default", 100.0 * slower, 800.0 - lost),
+                 row(task, "long_search", 102.0, 800.0 - lost_searching)]
+    lines = summary_lines(rows)
+    assert any("long_search" in s and "of the time gap 90%, of the utility gap 5%" in s
+               for s in lines)
+    assert closed_share(0.2, 0.02) == pytest.approx(0.9)
+    assert closed_share(-20.0, -19.0) == pytest.approx(0.05)
+    assert math.isnan(closed_share(0.0, 0.1))
+
+
+def test_equal_judged_completion_is_counted_with_the_tolerance_and_strictly():
+    def row(configuration, judged):
+        return {"task": "a", "configuration": configuration, "planned": True,
+                "predicted_time": 100.0, "judged_completion": judged, "utility": 0.0}
+
+    found = gaps([row("reference", 0.900), row("default", 0.903)], "default")
+    assert found[0]["level"] and not found[0]["strict"]
+    found = gaps([row("reference", 0.900), row("default", 0.900)], "default")
+    assert found[0]["level"] and found[0]["strict"]
 
 
 def test_bad_input_is_one_line(capsys, tmp_path):
