@@ -46,6 +46,7 @@ def main(argv: list[str] | None = None) -> int:
         if not (folder / "results.jsonl").is_file():
             fail(f"{'--study' if label == 'as it is' else label}: no results.jsonl in {folder}")
     from s3o_drake.experiments.store import ResultStore
+    from s3o_drake.experiments.summary import TIME_DIFFERENCE_MEANING
     from s3o_drake.experiments.variants import variant_figures, variant_table
 
     def runs_of(folder: Path, method: str) -> list[dict]:
@@ -66,7 +67,8 @@ def main(argv: list[str] | None = None) -> int:
         if baseline else set()))
     against = f"against {args.baseline}" if baseline else f"(no {args.baseline} in the study)"
     table = (f"{args.method} variants {against} (runs at: {'; '.join(codes)})\n\n"
-             + variant_table(figures, baseline_name=args.baseline, reference_name="as it is"))
+             + variant_table(figures, baseline_name=args.baseline, reference_name="as it is")
+             + "\n" + TIME_DIFFERENCE_MEANING + "\n")
     print(table)
     if args.out:
         out_file(args.out)

@@ -168,10 +168,21 @@ class TimeDifference:
                 f"{100 * self.relative_high:+.1f}] ({self.pairs} pairs)")
 
 
+TIME_DIFFERENCE_MEANING = (
+    "A time difference is the mean, over the pairs, of one method's execution time minus "
+    "the other's (s), and that mean over the other method's mean time (%): a ratio of "
+    "means, not the mean of each pair's relative difference. Its 95 % intervals come from "
+    "a bootstrap over the pairs.")
+"""What `time_difference` computes, in words: every table that quotes it says so once."""
+
+
 def time_difference(mine: Sequence[Mapping], theirs: Sequence[Mapping],
                     rng: np.random.Generator, resamples: int = 2000) -> TimeDifference:
     """The mean of mine's execution time minus theirs over the pairs given (runs with a
-    plan), with bootstrap intervals of it and of its share of theirs."""
+    plan), with bootstrap intervals of it and of its share of theirs: the mean difference
+    over their mean time (TIME_DIFFERENCE_MEANING). A ratio of means weighs each pair by
+    its time, as the total time saved does; the mean of each pair's ratio would weigh the
+    short runs more."""
     a = np.array([r["execution_time"] for r in mine], dtype=float)
     b = np.array([r["execution_time"] for r in theirs], dtype=float)
     if len(a) == 0:
@@ -467,7 +478,8 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
                                        None: "no data"}[ok])
     if paired:
         lines += ["", f"**Paired comparison** ({METHOD} against each method on the same "
-                  "tasks and seeds, all groups)", "", paired_table(paired)]
+                  "tasks and seeds, all groups). " + TIME_DIFFERENCE_MEANING, "",
+                  paired_table(paired)]
     if dish_areas:
         lines += ["", "**Other splits of the tasks** (completion rate; does the paper's "
                   "measure separate the hard tasks?)", "",

@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 import matplotlib.image
+import numpy as np
 import pytest
 
 from s3o_drake.commands.calibration import main as calibration
@@ -404,6 +405,21 @@ def test_paired_comparison_counts_disagreements_on_the_same_tasks():
     assert row.complete.relative == pytest.approx(-10.0 / 117.0)
 
 
+def test_the_relative_time_difference_is_a_ratio_of_means_and_the_summary_says_so(tmp_path):
+    from s3o_drake.experiments.summary import TIME_DIFFERENCE_MEANING, time_difference
+
+    mine = [{"execution_time": 90.0}, {"execution_time": 190.0}]
+    theirs = [{"execution_time": 100.0}, {"execution_time": 200.0}]
+    found = time_difference(mine, theirs, np.random.default_rng(0))
+    # -10 s on a mean of 150 s: -6.7 %, not the mean of -10 % and -5 % (-7.5 %).
+    assert found.mean == pytest.approx(-10.0)
+    assert found.relative == pytest.approx(-10.0 / 150.0)
+    groups = {"a": "easy"}
+    runs = [{**_row("a", m, 0, True, 100.0), "planned": True, "code": "abc"} for m in METHODS]
+    write_outputs(tmp_path, runs, {"a": 1.0}, groups, list(METHODS), {})
+    assert TIME_DIFFERENCE_MEANING in (tmp_path / "summary.md").read_text()
+
+
 def test_a_run_without_a_plan_has_no_time_counts_incomplete_and_is_listed(tmp_path):
     groups = {"a": "easy", "b": "moderate", "c": "difficult"}
     runs = [{**_row(t, m, 0, True, 100.0), "planned": True, "code": "abc"}
@@ -443,6 +459,7 @@ def test_the_paired_time_is_traced_to_the_stops_saved():
 
 def test_variants_pair_with_the_baseline_and_the_method_as_it_is(tmp_path, capsys):
     from s3o_drake.commands.compare_variants import main as compare_variants
+    from s3o_drake.experiments.summary import TIME_DIFFERENCE_MEANING
 
     def store(folder, rows):
         folder.mkdir()
@@ -471,6 +488,7 @@ def test_variants_pair_with_the_baseline_and_the_method_as_it_is(tmp_path, capsy
                              "--out", str(out)]) == 0
     text = out.read_text()
     assert text.startswith("S3O-GROP* variants (no V-GROP* in the study)")
+    assert TIME_DIFFERENCE_MEANING in text
     assert "| shared | 10 | 1.00 [" in text and "| – | – | – | 0 / 0 / 1.00 | -10.0 [" in text
     with pytest.raises(SystemExit) as e:
         compare_variants(["--study", str(tmp_path / "study"), "shared"])
