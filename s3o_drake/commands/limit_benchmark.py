@@ -13,7 +13,11 @@ median gap to the reference in predicted time (on all tasks, and on those where 
 reference's judged completion is at least the plan's, within COMPLETION_TOLERANCE and
 strictly), judged completion and utility, and for each ration the share of the default's
 median gap it closes alone, of the time gap and of the utility gap, each
-(default - ration) / default.
+(default - ration) / default. A plan's utility is rated by the Fea^m it was made with, so
+the summary also gives how far each configuration's completion by its own Fea^m stands
+from the judged one; rows "pickups:NAME" among --rows (plans made again, with each
+pickup's own and judged Fea^m) add the gaps in utility on the judging model and, for the
+default, its pickups' Fea^m against the true world's at the stops chosen.
 With --json the rows are kept as they are made, and a rerun resumes from them.
 """
 

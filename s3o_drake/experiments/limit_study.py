@@ -1,9 +1,12 @@
 """The rows and the summary of `s3o bench limit`: each task's plans with the rations lifted
 one at a time and all together (the reference), judged on one model, and its lower bound
-(`experiments.limit`)."""
+(`experiments.limit`). A plan's utility is rated by the Fea^m it was made with; rows
+"pickups:NAME" (plans made again, each pickup's own and judged Fea^m) rate it on the judging
+model too."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -109,13 +112,78 @@ def closed_share(default_gap: float, gap: float) -> float:
     return (default_gap - gap) / default_gap if default_gap != 0 else float("nan")
 
 
+SAME_UTILITY = 0.01
+"""A plan made again within this of the study's utility, with every pickup's stop in the same
+cell of the judging maps, is the study's plan (`same_plan`): the last digits of a cost can
+differ between runs."""
+
+
+def utility_by_truth(again: dict[str, Any]) -> float:
+    """The utility of a plan made again (a "pickups:NAME" row) with each pickup's own Fea^m
+    replaced by the true world's at its stop, at the reward λ its utility gives a unit of
+    a pickup's Fea^m (`reward`): the plans of the limit study (dc6683e) count λ Fea^m per
+    pickup, where later code rates a shared stop's pickups at a share of it."""
+    return again["utility"] + again["reward"] * sum(
+        p["judged"] - p["own"] for p in again["pickups"])
+
+
+def judged_utility(row: dict[str, Any], again: dict[str, Any] | None) -> float | None:
+    """The utility on the judging model of a configuration's plan for a task, so that plans
+    made on different models compare: from its "pickups:NAME" row (`again`) when there is
+    one (`utility_by_truth`); a plan made on the oracle's Fea^m (`row`) keeps its own
+    utility: with the true chairs that is the judging model, with the perceived ones the
+    oracle's on those (`model_lines` says how close). None otherwise."""
+    if again is not None:
+        return utility_by_truth(again) if again.get("planned", True) else None
+    if "oracle" in lifted_by(row["configuration"]):
+        return row["utility"]
+    return None
+
+
+def same_plan(row: dict[str, Any], pickups: dict[str, Any]) -> bool:
+    """Whether the plan of a "pickups:NAME" row is the study's plan of `row`: its utility
+    within SAME_UTILITY and its pickups' judged Fea^m the row's judged completion. The
+    planner's limits are wall-clock, so a plan made again can be another."""
+    if not (pickups.get("planned", True) and row.get("planned")):
+        return False
+    judged = math.prod(p["judged"] for p in pickups["pickups"])
+    return (abs(pickups["utility"] - row["utility"]) <= SAME_UTILITY
+            and math.isclose(judged, row["judged_completion"], rel_tol=0.0, abs_tol=1e-9))
+
+
+def judged_utility_gaps(rows: Sequence[dict[str, Any]], configuration: str
+                        ) -> list[dict[str, Any]]:
+    """Per task where both are known (`judged_utility`), `configuration`'s plan against the
+    reference's: `utility`, the gap in utility on the judging model; `own`, the gap in the
+    compared plan's own utility; `same`, whether it is the study's plan (`same_plan`; a
+    plan not made again is)."""
+    by = {(r["task"], r["configuration"]): r for r in rows}
+    out = []
+    for (task, name), row in by.items():
+        reference = by.get((task, "reference"))
+        if name != configuration or reference is None or not (
+                row.get("planned") and reference.get("planned")):
+            continue
+        again = by.get((task, f"pickups:{name}"))
+        mine = judged_utility(row, again)
+        theirs = judged_utility(reference, by.get((task, "pickups:reference")))
+        if mine is not None and theirs is not None:
+            own = row["utility"] if again is None else again["utility"]
+            out.append({"task": task, "utility": mine - theirs,
+                        "own": own - reference["utility"],
+                        "same": again is None or same_plan(row, again)})
+    return out
+
+
 def _median(values: Sequence[float]) -> float:
     return float(np.median(values)) if len(values) else float("nan")
 
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
-    """Per configuration, the median gaps to the reference, and what share of the default's
-    gap in time and in utility lifting that ration alone closes; then the executed plans
+    """Per configuration, the median gaps to the reference; what share of the default's
+    gap in time and in utility lifting that ration alone closes; how far each plan's own
+    Fea^m stands from the judging model's at its stops; with "pickups:NAME" rows, the gaps
+    in utility on the judging model and the default's pickups; then the executed plans
     and the reference against the bound."""
     lines = ["gap to the reference plan, median over tasks (time: predicted, relative; "
              "completion: judged by the true world's Fea^m; utility: the plan's own, by the "
@@ -142,6 +210,8 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
                           for k in ("time", "utility")}
                 lines.append(f"  {configuration:<15} of the time gap {shares['time']:.0%}, "
                              f"of the utility gap {shares['utility']:.0%}")
+    lines += model_lines(rows)
+    lines += judged_utility_lines(rows, medians)
     by = {(r["task"], r["configuration"]): r for r in rows}
     lines += executed_lines(rows)
     ratios = [by[(t, "reference")]["predicted_time"] / r["bound_s"]
@@ -153,6 +223,101 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
                      f"{float(np.median(ratios)):.2f} ({len(ratios)} tasks, {below} below "
                      f"the bound)")
     return lines
+
+
+MODEL_OFF = 0.05
+"""A plan's own completion this far from its judged one counts as off (`model_lines`)."""
+
+
+def model_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """Per configuration, how far each plan's completion by its own Fea^m (the product the
+    utility was maximised with) stands from its judged completion at the same stops: the
+    utility gaps compare plans rated by different models where these differ."""
+    lines = []
+    for configuration in ("default", *RATIONS, "reference"):
+        off = [r["planned_completion"] - r["judged_completion"] for r in rows
+               if r["configuration"] == configuration and r.get("planned")
+               and "planned_completion" in r]
+        if not off:
+            continue
+        q25, q75 = np.quantile(off, [0.25, 0.75])
+        lines.append(
+            f"  {configuration:<15} {_median(off):+.3f} [{q25:+.3f}, {q75:+.3f}], "
+            f"{sum(x > MODEL_OFF for x in off)} above, {sum(x < -MODEL_OFF for x in off)} "
+            f"below, largest {max(off, key=abs):+.3f} ({len(off)} plans)")
+    if lines:
+        lines.insert(0, f"own completion minus judged, at the plan's stops: median "
+                        f"[quartiles], plans off by more than {MODEL_OFF} either way, the "
+                        f"largest")
+    return lines
+
+
+def judged_utility_lines(rows: Sequence[dict[str, Any]],
+                         medians: dict[str, dict[str, float]]) -> list[str]:
+    """With "pickups:NAME" rows (plans made again, each pickup's own and judged Fea^m): each
+    configuration's median gap in utility on the judging model (`judged_utility`) beside
+    its own, the share of the default's it closes; then the default's pickups, the
+    network's Fea^m against the true world's at the stops its plans chose, what that
+    misstates of each plan's utility, and what the oracle's ration gains per task on the
+    judging model."""
+    if not any(r["configuration"].startswith("pickups:") for r in rows):
+        return []
+    lines = ["utility on the judging model (each pickup at the true world's Fea^m at its "
+             "stop; plans made again: rows \"pickups:NAME\"), gap to the reference, median:"]
+    judged = {c: g for c in ("default", *RATIONS)
+              if (g := judged_utility_gaps(rows, c)) and len(g) == len(gaps(rows, c))}
+    median = {c: _median([x["utility"] for x in g]) for c, g in judged.items()}
+    for configuration, g in judged.items():
+        share = ("" if configuration == "default" or "default" not in judged else
+                 f", closes {closed_share(median['default'], median[configuration]):.0%} "
+                 f"of the default's")
+        made_again = any(r["configuration"] == f"pickups:{configuration}" for r in rows)
+        how = (f"by their own Fea^m {_median([x['own'] for x in g]):+.2f}, the study's "
+               f"{medians[configuration]['utility']:+.2f}; {sum(x['same'] for x in g)} of "
+               f"the {len(g)} plans made again are the study's" if made_again else
+               "its own, made on the oracle's Fea^m" + (
+                   " with the perceived chairs"
+                   if "true_chairs" not in lifted_by(configuration) else ""))
+        lines.append(f"  {configuration:<15} {median[configuration]:+.2f} ({len(g)} tasks; "
+                     f"{how}){share}")
+    again = [r for r in rows if r["configuration"] == "pickups:default"
+             and r.get("planned", True)]
+    if again:
+        off = np.array([p["own"] - p["judged"] for r in again for p in r["pickups"]])
+        misstated = [r["utility"] - utility_by_truth(r) for r in again]
+        lines.append(
+            f"the default plans' {len(off)} pickups, the network's Fea^m minus the true "
+            f"world's at the stop chosen: median {np.median(off):+.3f}, mean "
+            f"{off.mean():+.3f}, mean |.| {np.abs(off).mean():.3f}; "
+            f"{int((off > MODEL_OFF).sum())} above by more than {MODEL_OFF}, "
+            f"{int((off < -MODEL_OFF).sum())} below")
+        lines.append(
+            f"  per plan, λ x their sum, its own utility less the judged: median "
+            f"{_median(misstated):+.2f}, mean {float(np.mean(misstated)):+.2f} "
+            f"({len(misstated)} plans)")
+        by = {(r["task"], r["configuration"]): r for r in rows}
+        gained, over = [], []
+        for r in again:
+            oracle = by.get((r["task"], "oracle"))
+            theirs = None if oracle is None or not oracle.get("planned") else \
+                judged_utility(oracle, by.get((r["task"], "pickups:oracle")))
+            if theirs is not None:
+                gained.append(theirs - utility_by_truth(r))
+                over.append(any(p["own"] - p["judged"] > MODEL_OFF for p in r["pickups"]))
+        if gained:
+            gain, split = np.array(gained), np.array(over)
+            lines.append(
+                f"  per task, the oracle's plan's utility less the default's, on the judging "
+                f"model: median {_median(gained):+.2f}, mean {gain.mean():+.2f} "
+                f"({len(gained)} tasks); mean {_mean(gain[split]):+.2f} on the "
+                f"{int(split.sum())} where the network rates a pickup of the default plan "
+                f"more than {MODEL_OFF} above the true world, {_mean(gain[~split]):+.2f} on "
+                f"the others")
+    return lines
+
+
+def _mean(values: np.ndarray) -> float:
+    return float(np.mean(values)) if len(values) else float("nan")
 
 
 def executed_lines(rows: Sequence[dict[str, Any]]) -> list[str]:

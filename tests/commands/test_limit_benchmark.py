@@ -11,6 +11,8 @@ from s3o_drake.commands.limit_benchmark import main
 from s3o_drake.experiments.limit_study import (
     closed_share,
     gaps,
+    judged_utility,
+    same_plan,
     summary_lines,
 )
 from tests.conftest import TWO_DISHES, refused
@@ -98,6 +100,40 @@ def test_equal_judged_completion_is_counted_with_the_tolerance_and_strictly():
     assert found[0]["level"] and not found[0]["strict"]
     found = gaps([row("reference", 0.900), row("default", 0.900)], "default")
     assert found[0]["level"] and found[0]["strict"]
+
+
+def test_a_plan_on_the_judging_model_is_rated_pickup_by_pickup():
+    plan = {"task": "a", "configuration": "default", "planned": True, "utility": 700.0,
+            "predicted_time": 150.0, "judged_completion": 0.72,
+            "planned_completion": 0.81}
+    again = {"task": "a", "configuration": "pickups:default", "planned": True,
+             "reward": 150.0, "utility": 700.004, "predicted_time": 150.0,
+             "pickups": [{"dish": "cup_1", "own": 0.9, "judged": 0.8},
+                         {"dish": "plate_1", "own": 0.9, "judged": 0.9}]}
+    # The plan made again, each pickup at the judged Fea^m: λ (0.8 - 0.9) below its own.
+    assert judged_utility(plan, again) == pytest.approx(685.004)
+    assert same_plan(plan, again)  # within SAME_UTILITY, every stop judged as the row's
+    assert not same_plan(plan, {**again, "utility": 701.0})
+    assert not same_plan({**plan, "judged_completion": 0.75}, again)
+    assert judged_utility(plan, None) is None  # made on the network, not made again
+    # Made on the oracle: its own utility.
+    assert judged_utility({**plan, "configuration": "oracle"}, None) == 700.0
+    reference = {**plan, "configuration": "reference", "utility": 720.0,
+                 "judged_completion": 0.81}
+    oracle = {**plan, "configuration": "oracle", "utility": 710.0}
+    lines = summary_lines([plan, again, reference, oracle])
+    assert any("own completion minus judged" in s for s in lines)
+    assert any("default" in s and "+0.090" in s and "1 above" in s for s in lines)
+    # Gaps on the judging model: default 685 - 720, oracle 710 - 720: it closes 5 / 7.
+    assert any("default" in s and "-35.00 (1 tasks; by their own Fea^m -20.00" in s
+               and "1 of the 1 plans made again are the study's" in s for s in lines)
+    assert any("oracle" in s and "-10.00 (1 tasks; its own" in s
+               and "closes 71% of the default's" in s for s in lines)
+    assert any("2 pickups" in s and "median +0.050" in s for s in lines)
+    assert any("per plan, λ x their sum" in s and "median +15.00" in s for s in lines)
+    assert any("the oracle's plan's utility less the default's" in s and "median +25.00" in s
+               and "mean +25.00 on the 1 where the network rates a pickup" in s
+               for s in lines)
 
 
 def test_bad_input_is_one_line(capsys, tmp_path):
