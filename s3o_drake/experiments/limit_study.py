@@ -109,7 +109,9 @@ def closed_share(default_gap: float, gap: float) -> float:
     """The share of the default's gap to the reference that a configuration closes,
     (default_gap - gap) / default_gap, whatever the gap's sign; nan when the default has
     none. Taken on the medians the summary prints, as a reader takes it from them."""
-    return (default_gap - gap) / default_gap if default_gap != 0 else float("nan")
+    if default_gap == 0:
+        return float("nan")
+    return (default_gap - gap) / default_gap + 0.0  # equal gaps give 0, not -0
 
 
 SAME_UTILITY = 0.01

@@ -89,6 +89,7 @@ def test_each_share_is_of_the_medians_of_its_own_gap():
     assert closed_share(0.2, 0.02) == pytest.approx(0.9)
     assert closed_share(-20.0, -19.0) == pytest.approx(0.05)
     assert math.isnan(closed_share(0.0, 0.1))
+    assert f"{closed_share(-20.0, -20.0):.0%}" == "0%"
 
 
 def test_equal_judged_completion_is_counted_with_the_tolerance_and_strictly():
