@@ -18,7 +18,13 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 
-from s3o_drake.execution.escape import BaseSegment, MotionProfile, extend_trail, plan_motion
+from s3o_drake.execution.escape import (
+    BaseSegment,
+    MotionProfile,
+    Segment,
+    extend_trail,
+    plan_motion,
+)
 from s3o_drake.execution.messages import NO_COMMAND, BaseCommand, CommandState, Status
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.navigation.base_motion import SETTLE_TIME
@@ -51,7 +57,7 @@ class _Motion:
     id: int = NO_COMMAND
     t0: float = 0.0
     hold: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    segments: tuple[BaseSegment, ...] = ()
+    segments: tuple[Segment, ...] = ()
     outcome: CommandState = CommandState.DONE
     reason: str = ""
     contact: tuple[float, float] | None = None
@@ -78,12 +84,7 @@ class _Motion:
         tau = t - self.t0
         for seg in self.segments:
             if tau < seg.duration:
-                # Plain floats: evaluated at every plant step, where numpy's per-call cost
-                # on three-element arrays dominated.
-                s, rate = seg.at(tau)
-                d = [(b - a) / seg.length for a, b in zip(seg.start, seg.end, strict=True)]
-                return np.array([a + di * s for a, di in zip(seg.start, d, strict=True)]
-                                + [di * rate for di in d])
+                return np.array(seg.state(tau))
             tau -= seg.duration
         return np.concatenate([self.end, np.zeros(3)])
 

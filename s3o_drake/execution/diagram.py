@@ -46,7 +46,7 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.builder import build_world_diagram, robot_render_labels
 from s3o_drake.world.choices import Recovery
 from s3o_drake.world.goals import place_target_name, place_targets, with_place_targets
-from s3o_drake.world.robot import CONTROL_PERIOD, NUM_BASE_JOINTS, NUM_POSITIONS
+from s3o_drake.world.robot import CONTROL_PERIOD, NUM_BASE_JOINTS, NUM_POSITIONS, ROBOT
 from s3o_drake.world.scenario import Scenario
 
 TIME_LIMIT = 1800.0
@@ -118,7 +118,8 @@ def navigator_params(scenario: Scenario, *, seed: int | None = None,
     noise (none without `noise`) and `seed` (default the scenario's)."""
     u = scenario.uncertainty
     return NavigatorParams(
-        profile=MotionProfile(speed=scenario.planner.speed),
+        profile=MotionProfile(speed=scenario.planner.speed, motion=scenario.execution.motion,
+                              holonomic=ROBOT.base.holonomic),
         start=tuple(float(v) for v in scenario.robot.start),
         seed=scenario.seed if seed is None else seed,
         nav_xy_std=u.nav_xy_std if noise else 0.0, nav_yaw_std=u.nav_yaw_std if noise else 0.0)

@@ -17,6 +17,7 @@ Nothing here knows the world: "free" is a `FreeTest` (base poses (n, 3) -> bool 
 that the search is tested on a predicate of a few lines.
 """
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Iterator, Sequence
@@ -33,10 +34,17 @@ from s3o_drake.feasibility.landing import (
 )
 from s3o_drake.planning.navigation.base_motion import (
     ACCELERATION,
+    STOP_AND_GO,
     TINY,
     YAW_ACCELERATION,
     YAW_RATE,
+    BaseProfile,
+    HolonomicMotion,
+    MovingDrive,
+    MovingTurn,
+    SegmentSpec,
     motion_segments,
+    smooth_segments,
     trapezoid,
 )
 from s3o_drake.world.angles import wrap
@@ -98,6 +106,21 @@ class BaseSegment:
         a, b = np.asarray(self.start), np.asarray(self.end)
         return a + (b - a) * (s / self.length)
 
+    def state(self, tau: float) -> list[float]:
+        """[x, y, yaw, xdot, ydot, yawdot] `tau` s after the segment began."""
+        # Plain floats: evaluated at every plant step, where numpy's per-call cost on
+        # three-element arrays dominated.
+        s, rate = self.at(tau)
+        d = [(b - a) / self.length for a, b in zip(self.start, self.end, strict=True)]
+        return [a + di * s for a, di in zip(self.start, d, strict=True)] + [di * rate
+                                                                            for di in d]
+
+
+Segment = BaseSegment | MovingDrive | MovingTurn | HolonomicMotion
+"""A piece of a motion the navigator plays: a stop-and-go turn or drive (rest to rest), or
+a smooth motion's drive, moving turn, or a holonomic base's whole motion
+(`base_motion.smooth_segments`)."""
+
 
 @dataclass(frozen=True)
 class MotionProfile:
@@ -108,6 +131,26 @@ class MotionProfile:
     max_yaw_rate: float = YAW_RATE
     acceleration: float = ACCELERATION
     yaw_acceleration: float = YAW_ACCELERATION
+    motion: str = STOP_AND_GO
+    """`base_motion.STOP_AND_GO` or `SMOOTH`: how the base takes its path's corners."""
+    holonomic: bool = False
+    """The base can move sideways (smooth motion only)."""
+
+    @property
+    def base(self) -> BaseProfile:
+        """The same limits as the planner's arithmetic names them."""
+        return BaseProfile(speed=self.speed, acceleration=self.acceleration,
+                           yaw_rate=self.max_yaw_rate,
+                           yaw_acceleration=self.yaw_acceleration, motion=self.motion,
+                           holonomic=self.holonomic)
+
+    @property
+    def smooth(self) -> bool:
+        return self.motion != STOP_AND_GO
+
+    def stop_and_go(self) -> "MotionProfile":
+        """The same limits, stopping at every corner."""
+        return dataclasses.replace(self, motion=STOP_AND_GO, holonomic=False)
 
     def segment(self, start: Sequence[float], end: Sequence[float], *, turn: bool,
                 length: float) -> BaseSegment:
@@ -118,10 +161,15 @@ class MotionProfile:
                             accel=self.acceleration)
 
     def segments(self, waypoints: Sequence[np.ndarray], yaw: float, target_yaw: float, *,
-                 long_way: bool = False) -> list[BaseSegment]:
-        """Turn-then-drive segments through the waypoints, then the turn to `target_yaw`
-        (`base_motion.motion_segments`: the rule the planner's cost model times); with
-        `long_way`, the first turn goes the other way round."""
+                 long_way: bool = False) -> list[Segment]:
+        """The segments through the waypoints, then the turn to `target_yaw`: turn-then-
+        drive (`base_motion.motion_segments`), or with smooth motion
+        `base_motion.smooth_segments` (the rules the planner's cost model times); with
+        `long_way`, stop and go, the first turn the other way round."""
+        if self.smooth and not long_way:
+            return [self.segment(s.start, s.end, turn=True, length=s.length)
+                    if isinstance(s, SegmentSpec) else s
+                    for s in smooth_segments(self.base, waypoints, yaw, target_yaw)]
         return [self.segment(s.start, s.end, turn=s.turn, length=s.length)
                 for s in motion_segments(waypoints, yaw, target_yaw, long_way=long_way)]
 
@@ -132,7 +180,7 @@ class Cut:
     the collision `blocked` the way (rather than shortening the landing), and the first
     colliding pose `hit` (None when none collides: the segments are the motion's own)."""
 
-    segments: list[BaseSegment]
+    segments: list[Segment]
     blocked: bool = False
     hit: np.ndarray | None = None
 
@@ -155,6 +203,14 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
     if not turn:
         waypoints += [np.asarray(p, float) for p in path[1:-1]]
         waypoints.append(target[:2])
+    if profile.smooth:
+        cut = cut_at_collision(profile.segments(waypoints, float(base[2]), float(target[2])),
+                               free, profile)
+        if cut.hit is None or (not cut.blocked and (turn or facing(cut.segments, target[2]))):
+            return cut
+        # Caught where a smooth motion cannot stop within its limits, or landing short
+        # facing away: the stop-and-go motion and its escapes, which stop anywhere.
+        profile = profile.stop_and_go()
     # A turn turns where the base stands: its pose's x, y are where the planner saw the
     # base a control period earlier, and the base has since drifted by micrometres (the
     # arm's motion pushes it against its PD); driving there first meant turning towards
@@ -249,9 +305,7 @@ def cut_at_collision(segments: list[BaseSegment], free: FreeTest | None,
     # Samples: (segment index, distance along it, pose); index -1 is the start pose.
     samples = [(-1, 0.0, np.asarray(segments[0].start))]
     for i, seg in enumerate(segments):
-        n = max(1, math.ceil(seg.length / (CHECK_STEP_YAW if seg.turn else CHECK_STEP_XY)))
-        samples += [(i, seg.length * k / n, seg.pose(seg.length * k / n))
-                    for k in range(1, n + 1)]
+        samples += [(i, s, pose) for s, pose in _samples(seg)]
     is_free = free(np.array([pose for _, _, pose in samples]))
     first_free = int(np.argmax(is_free)) if is_free.any() else len(is_free)
     colliding = np.flatnonzero(~is_free[first_free:])
@@ -267,12 +321,45 @@ def cut_at_collision(segments: list[BaseSegment], free: FreeTest | None,
     kept = list(segments[:last_i]) if last_i >= 0 else []
     if last_i >= 0 and last_s > TINY:
         seg = segments[last_i]
-        if last_s >= seg.length - TINY:
-            kept.append(seg)
-        else:
-            kept.append(profile.segment(seg.start, seg.pose(last_s), turn=seg.turn,
-                                        length=last_s))
+        part = seg if last_s >= seg.length - TINY else _truncated(seg, last_s, profile)
+        if part is None:  # a smooth motion that cannot stop there within its limits
+            return Cut(kept, blocked=True, hit=samples[hit][2])
+        kept.append(part)
+    if kept and not _ends_at_rest(kept[-1]):
+        return Cut(kept, blocked=True, hit=samples[hit][2])
     return Cut(kept, blocked=blocks(segments, samples[hit][:2]), hit=samples[hit][2])
+
+
+def _samples(seg: Segment) -> list[tuple[float, np.ndarray]]:
+    """(distance along, pose) every CHECK_STEP_XY of travel and CHECK_STEP_YAW of turning
+    along a segment, its end included, its start not."""
+    if isinstance(seg, HolonomicMotion):
+        poses = seg.poses(CHECK_STEP_XY, CHECK_STEP_YAW)
+        n = len(poses) - 1
+        return [(seg.length * k / n, poses[k]) for k in range(1, n + 1)]
+    if isinstance(seg, MovingTurn):
+        n = max(1, math.ceil(max(seg.length / CHECK_STEP_XY, abs(seg.angle) / CHECK_STEP_YAW)))
+    else:
+        n = max(1, math.ceil(seg.length / (CHECK_STEP_YAW if seg.turn else CHECK_STEP_XY)))
+    return [(seg.length * k / n, seg.pose(seg.length * k / n)) for k in range(1, n + 1)]
+
+
+def _truncated(seg: Segment, s: float, profile: MotionProfile) -> Segment | None:
+    """The segment's first `s` (m or rad), ending at rest; None where it cannot stop
+    there within the profile's limits (a moving turn, or a drive that must brake
+    sooner)."""
+    if isinstance(seg, BaseSegment):
+        return profile.segment(seg.start, seg.pose(s), turn=seg.turn, length=s)
+    if isinstance(seg, MovingDrive) and seg.u0**2 <= 2.0 * seg.acceleration * s:
+        end = seg.pose(s)
+        return MovingDrive.make(seg.start, (end[0], end[1], seg.start[2]), u0=seg.u0, u1=0.0,
+                                profile=profile.base)
+    return None
+
+
+def _ends_at_rest(seg: Segment) -> bool:
+    return isinstance(seg, BaseSegment | HolonomicMotion) or (
+        isinstance(seg, MovingDrive) and seg.u1 == 0.0)
 
 
 def nudged(free_pose: np.ndarray, colliding_pose: np.ndarray) -> np.ndarray:
@@ -296,10 +383,15 @@ def blocks(segments: Sequence[BaseSegment], hit: tuple[int, float]) -> bool:
     return turn_first or not (final_turn or travelled >= sum(drives) - FINAL_APPROACH)
 
 
-def extend_trail(before: tuple[BaseSegment, ...], segments: Sequence[BaseSegment]
-                 ) -> tuple[BaseSegment, ...]:
+def extend_trail(before: tuple[Segment, ...], segments: Sequence[Segment]
+                 ) -> tuple[Segment, ...]:
     """The way the base came after a motion of `segments`: from its last drive leg on
     when it drove at least RETRACE_RESET, else `before` and the motion."""
+    curved = [i for i, seg in enumerate(segments)
+              if isinstance(seg, MovingTurn | HolonomicMotion)]
+    if curved:
+        # Only straight moves are retraced: the way came after the motion's last curve.
+        before, segments = (), segments[curved[-1] + 1:]
     drives = [i for i, seg in enumerate(segments) if not seg.turn]
     if drives and sum(segments[i].length for i in drives) >= RETRACE_RESET:
         return tuple(segments[drives[-1]:])

@@ -38,8 +38,8 @@ from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.execution.executive import Assessment
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.planning_scene import PlanningScene
-from s3o_drake.planning.navigation.base_motion import BaseProfile
 from s3o_drake.planning.navigation.map import NavigationMap
+from s3o_drake.planning.time_model import base_profile
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.settings import Uncertainty
 
@@ -81,7 +81,7 @@ class StopCheck:
         self._known = known
         self._scene = scene
         self._navigation = navigation
-        self._profile = BaseProfile(speed=known.planner.speed)
+        self._profile = base_profile(known.planner, known.settings.execution.motion)
         self._heatmaps = {h.dish: h for h in heatmaps}
         self._model = {h.dish: h for h in (model_heatmaps or heatmaps)}
         self._dish_xy = {d.name: np.asarray(d.position, dtype=float) for d in known.dishes}

@@ -52,10 +52,10 @@ import yaml
 
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
-from s3o_drake.planning.navigation.base_motion import SETTLE_TIME, BaseProfile
+from s3o_drake.planning.navigation.base_motion import SETTLE_TIME, STOP_AND_GO, BaseProfile
 from s3o_drake.world.angles import facing_yaw, wrap
 from s3o_drake.world.resources import TIME_MODEL
-from s3o_drake.world.robot import CONTROL_PERIOD
+from s3o_drake.world.robot import CONTROL_PERIOD, ROBOT
 from s3o_drake.world.settings import PlanningSettings
 
 if TYPE_CHECKING:  # only for hints: the systems import this module for their period
@@ -202,10 +202,11 @@ def _load(path: str) -> TimeModel:
     return TimeModel.from_dict(yaml.safe_load(Path(path).read_text()))
 
 
-def base_profile(planner: PlanningSettings) -> BaseProfile:
-    """The base's motion profile as the navigator drives it: the planner's speed v and the
-    navigator's other limits."""
-    return BaseProfile(speed=planner.speed)
+def base_profile(planner: PlanningSettings, motion: str = STOP_AND_GO) -> BaseProfile:
+    """The base's motion profile as the navigator drives it: the planner's speed v, the
+    navigator's other limits, the `motion` (`choices.Motion`) and whether the robot's base
+    is holonomic."""
+    return BaseProfile(speed=planner.speed, motion=motion, holonomic=ROBOT.base.holonomic)
 
 
 @dataclass(frozen=True)
@@ -227,7 +228,8 @@ class CostModel:
 
     def __init__(self, planner: PlanningSettings, *, profile: str | None = None,
                  dishes: Mapping[str, DishPlace] | None = None,
-                 start: Sequence[float] | None = None, time_model: TimeModel | None = None):
+                 start: Sequence[float] | None = None, time_model: TimeModel | None = None,
+                 motion: str = STOP_AND_GO):
         self.planner = planner
         self.profile = planner.cost_profile if profile is None else profile
         if self.profile not in ("robot", "paper"):
@@ -238,7 +240,7 @@ class CostModel:
         if self.profile == "robot" and not self.timed:
             raise ValueError("the robot cost profile needs the dishes and the start pose")
         self.model = (time_model or TimeModel.load()) if self.timed else None
-        self.base = base_profile(planner)
+        self.base = base_profile(planner, motion)
         self.reward = planner.reward
 
     @classmethod
@@ -254,7 +256,8 @@ class CostModel:
         dishes = {d.name: DishPlace((float(d.position[0]), float(d.position[1])), d.kind)
                   for d in known.dishes}
         pose = known.pose if start is None else (*np.asarray(start, float)[:2], known.pose[2])
-        return cls(known.planner, dishes=dishes, start=pose, time_model=time_model)
+        return cls(known.planner, dishes=dishes, start=pose, time_model=time_model,
+                   motion=known.settings.execution.motion)
 
     @property
     def gamma(self) -> float:

@@ -66,6 +66,21 @@ class Recovery(str, Enum):
 RECOVERY_MODES = tuple(r.value for r in Recovery)
 
 
+class Motion(str, Enum):
+    """How the robot moves (the field `execution.motion` holds the value;
+    planning/navigation/base_motion.py has the arithmetic)."""
+
+    SMOOTH = "smooth"
+    """The base keeps moving through its path's corners, turning as it drives, and the arm
+    leaves and returns to its stow while the base drives."""
+    STOP_AND_GO = "stop_and_go"
+    """The paper's motion: the base stops and turns in place at every corner, and the arm
+    moves only while the base stands still."""
+
+
+MOTIONS = tuple(m.value for m in Motion)
+
+
 class Goal(str, Enum):
     """What the task wants done with an object (the field `dishes[i].goal` holds the value)."""
 

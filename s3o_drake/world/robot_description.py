@@ -29,6 +29,8 @@ closed-form solutions of the UR family's geometry (three parallel axes between a
 and a wrist offset; eight branches); "numeric", damped least squares from seeds, for any
 serial arm (a redundant one too)."""
 DESCRIPTION_FILE = "robot.yaml"
+BASE_DRIVES = ("differential", "holonomic")
+"""How a base moves: where it faces only, or sideways too (`BaseDescription.drive`)."""
 """A robot's description, in its folder (`resources.robot_dir`)."""
 
 
@@ -41,6 +43,13 @@ class BaseDescription:
     """The chassis footprint along the base's x (forward) (m)."""
     width: float = 0.0
     """... and along its y (m)."""
+    drive: str = "differential"
+    """"differential": the base drives where it faces (or backs straight away), as the
+    paper's does; "holonomic": it can move sideways, and turns while it translates."""
+
+    @property
+    def holonomic(self) -> bool:
+        return self.drive == "holonomic"
 
 
 @dataclass
@@ -251,6 +260,8 @@ def _check_values(d: RobotDescription) -> None:
             fail(path, f"must be positive, got {v}")
     if d.base.width > d.base.length:
         fail("base.width", "the base's x is its long side: width must not exceed length")
+    if d.base.drive not in BASE_DRIVES:
+        fail("base.drive", f"expected one of {', '.join(BASE_DRIVES)}, got {d.base.drive!r}")
     names = d.joints
     for i, joint in enumerate(names):
         if names.index(joint) != i:

@@ -22,6 +22,7 @@ from s3o_drake.world.choices import (
     GROUP_POSITIONS,
     LOCATION_PRICES,
     METHODS,
+    MOTIONS,
     RECOVERY_MODES,
     SHARED_STOPS,
 )
@@ -303,6 +304,7 @@ def _validate_settings(scenario: Scenario) -> None:
 
     e = scenario.execution
     _choice(e.recovery, RECOVERY_MODES, "execution.recovery", "mode")
+    _choice(e.motion, MOTIONS, "execution.motion", "motion")
     if not 0.0 <= e.min_feasibility <= 1.0:
         raise ScenarioError("execution.min_feasibility",
                             f"must be a probability in [0, 1], got {e.min_feasibility:g}")

@@ -134,6 +134,11 @@ class ExecutionSettings:
     recovery: str = "replan"
     """none | retry | replan. `run` uses it as given; `evaluate` runs its own --recovery
     (default none, the paper's protocol)."""
+    motion: str = "smooth"
+    """smooth | stop_and_go (`choices.Motion`): whether the base drives through its path's
+    corners and the arm moves while the base drives, or the paper's motion, the base
+    stopping at every corner and the arm moving only with the base at rest. The planner
+    plans with the motion the execution makes."""
     min_feasibility: float = 0.5
     """A stop whose Fea^m, at the localised pose, is below this is corrected before the
     pickup."""

@@ -58,9 +58,13 @@ class _Alone:
         return self.at(1e3)
 
 
-def _navigator(scenario, scene=None, *, seed=None, noise=False, **changes) -> BaseNavigator:
-    """A navigator of `scenario` (without noise unless asked), `changes` made to its params."""
+def _navigator(scenario, scene=None, *, seed=None, noise=False, motion=None,
+               **changes) -> BaseNavigator:
+    """A navigator of `scenario` (without noise unless asked; with its motion unless
+    `motion` says), `changes` made to its params."""
     params = navigator_params(scenario, seed=seed, noise=noise)
+    if motion is not None:
+        changes["profile"] = dataclasses.replace(params.profile, motion=motion)
     return BaseNavigator(params=dataclasses.replace(params, **changes), scene=scene)
 
 
@@ -81,7 +85,7 @@ def test_without_command_holds_the_initial_base_pose(scenario):
 
 def test_drives_the_path_at_v_and_lands_on_the_pose(scenario):
     assert scenario.planner.speed == V
-    alone = _Alone(_navigator(scenario))
+    alone = _Alone(_navigator(scenario, motion="stop_and_go"))
     # An L: east 1 m, then north 1 m, then face west.
     command = BaseCommand(id=1, path=((0.6, 0.6), (1.6, 0.6), (1.6, 1.6)),
                           pose=(1.6, 1.6, math.pi))
@@ -109,6 +113,28 @@ def test_drives_the_path_at_v_and_lands_on_the_pose(scenario):
     assert not np.any(moving_xy & (np.abs(poses[:, 5]) > 0))
     assert np.all(np.abs(poses[:, 5]) <= 0.8 + 1e-12)
     assert np.all(np.hypot(poses[:, 3], poses[:, 4]) <= V + 1e-12)
+
+
+def test_drives_through_a_corner_turning_as_it_goes(scenario):
+    """Smooth motion: the same L without stopping at its corner, the base turning while it
+    drives (within v and the yaw rate), lands on the pose, facing west, at rest."""
+    alone = _Alone(_navigator(scenario, motion="smooth"))
+    command = BaseCommand(id=1, path=((0.6, 0.6), (1.6, 0.6), (1.6, 1.6)),
+                          pose=(1.6, 1.6, math.pi))
+    alone.send(command)
+    poses = np.array([alone.at(t)[0] for t in np.arange(0.0, 12.0, 0.02)])
+    speed = np.hypot(poses[:, 3], poses[:, 4])
+    assert np.any((speed > 0.1) & (np.abs(poses[:, 5]) > 0.1))  # turning on the move
+    assert np.all(speed <= V + 1e-9) and np.all(np.abs(poses[:, 5]) <= 0.8 + 1e-9)
+    final, status = alone.final()
+    np.testing.assert_allclose(final[:2], command.pose[:2], atol=1e-3)
+    assert wrap_angle(final[2] - math.pi) == pytest.approx(0.0, abs=1e-9)
+    np.testing.assert_allclose(final[3:], 0.0)
+    assert status == Status(id=1, state=CommandState.DONE)
+    stop_and_go = _Alone(_navigator(scenario, motion="stop_and_go"))
+    stop_and_go.send(command)
+    assert alone.context.get_abstract_state(0).get_value().duration < \
+        stop_and_go.context.get_abstract_state(0).get_value().duration - 1.0
 
 
 def test_status_waits_for_the_settle_time(scenario):

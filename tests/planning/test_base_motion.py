@@ -1,26 +1,34 @@
 """The base's motion profile (planning/navigation/base_motion.py): the segments and durations
 that the BaseNavigator plays and the planner's cost model times."""
 
+import itertools
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 from pydrake.common.value import AbstractValue
+from shapely.geometry import LineString, Point
 
 from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.diagram import navigator_params
 from s3o_drake.execution.messages import BaseCommand, CommandState
 from s3o_drake.planning.navigation.base_motion import (
+    CORNER_CUT,
     BaseProfile,
+    MovingTurn,
+    SegmentSpec,
     backs_away,
     chain_time,
     motion_segments,
+    smooth_chain_time,
+    smooth_segments,
     trapezoid,
 )
 from s3o_drake.world.angles import wrap
+from s3o_drake.world.choices import MOTIONS
 from s3o_drake.world.robot import NUM_POSITIONS
-from s3o_drake.world.scenario import load_scenario
+from s3o_drake.world.scenario import load_scenario, with_overrides
 
 REPO = Path(__file__).resolve().parents[2]
 PROFILE = BaseProfile(speed=0.4)
@@ -103,11 +111,14 @@ def test_chain_time_with_a_stretch_of_legs_and_no_final_yaw():
     np.testing.assert_allclose(end, last)
 
 
-def test_the_navigator_plays_the_profile_time():
-    """The navigator's motion lasts what the profile says, for constructed paths."""
-    scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
+@pytest.mark.parametrize("motion", MOTIONS)
+def test_the_navigator_plays_the_profile_time(motion):
+    """The navigator's motion lasts what the profile says, for constructed paths, stopping
+    at every corner or driving through them."""
+    scenario = with_overrides(load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml"),
+                              (f"execution.motion={motion}",))
     navigator = BaseNavigator(params=navigator_params(scenario, noise=False), scene=None)
-    profile = BaseProfile(speed=scenario.planner.speed)
+    profile = BaseProfile(speed=scenario.planner.speed, motion=motion)
     rng = np.random.default_rng(5)
     for cid in range(1, 21):
         points = rng.uniform(0.5, 3.5, (int(rng.integers(2, 6)), 2))
@@ -119,12 +130,122 @@ def test_the_navigator_plays_the_profile_time():
         command = BaseCommand(id=cid, path=tuple(map(tuple, points)), pose=(*points[-1], yaw1))
         navigator.GetInputPort("base_command").FixValue(context, AbstractValue.Make(command))
         navigator.CalcForcedUnrestrictedUpdate(context, context.get_mutable_state())
-        motion = context.get_abstract_state(0).get_value()
-        assert motion.duration == pytest.approx(profile.motion_time(points, yaw0, yaw1),
+        played = context.get_abstract_state(0).get_value()
+        assert played.duration == pytest.approx(profile.motion_time(points, yaw0, yaw1),
                                                 rel=1e-12)
         # Its status turns done settle_time after the motion ends, not before.
-        end = motion.duration + profile.settle_time
+        end = played.duration + profile.settle_time
         context.SetTime(end - 1e-6)
         assert navigator.GetOutputPort("status").Eval(context).state is CommandState.RUNNING
         context.SetTime(end + 1e-6)
         assert navigator.GetOutputPort("status").Eval(context).state is CommandState.DONE
+
+
+# --- smooth motion --------------------------------------------------------------------------
+
+SMOOTH = BaseProfile(speed=0.4, motion="smooth")
+HOLONOMIC = BaseProfile(speed=0.4, motion="smooth", holonomic=True)
+
+
+def _rounded_corner(center, radius: float = 0.447, start: float = -math.pi / 2,
+                    turn: float = math.pi / 2, pieces: int = 4) -> list[np.ndarray]:
+    """The polyline the navigation map makes round an obstacle's corner: short legs on a
+    circle."""
+    return [np.asarray(center) + radius * np.array([math.cos(start + turn * q / pieces),
+                                                    math.sin(start + turn * q / pieces)])
+            for q in range(pieces + 1)]
+
+
+def _smooth_paths(rng, m: int = 200, k: int = 6) -> tuple[np.ndarray, np.ndarray]:
+    points = rng.uniform(0, 5, (m, k + 1, 2))
+    points[::3, 2] = points[::3, 1]  # a leg of no length
+    for r in range(0, m, 4):  # a rounded corner in the middle
+        points[r, 1:6] = _rounded_corner(rng.uniform(1, 4, 2), start=rng.uniform(-3, 3),
+                                         turn=rng.choice([-1, 1]) * math.pi / 2)
+    count = np.full(m, k + 1)
+    count[::7] = 3
+    return points, count
+
+
+def _states(segments) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each segment's (first, last) [x, y, yaw, rates]; a turn in place's from its poses."""
+    out = []
+    for s in segments:
+        if isinstance(s, SegmentSpec):
+            out.append((np.array([*s.start, 0, 0, 0]), np.array([*s.end, 0, 0, 0])))
+        else:
+            out.append((np.array(s.state(0.0)), np.array(s.state(s.duration))))
+    return out
+
+
+@pytest.mark.parametrize("profile", [SMOOTH, HOLONOMIC], ids=["differential", "holonomic"])
+def test_smooth_times_are_the_segments_timed_one_by_one(profile):
+    """The planner's vectorised time (`smooth_chain_time`) is the navigator's segments'
+    (`smooth_segments`): one arithmetic. The segments join without a jump in pose or speed,
+    and end at the path's end with the landing yaw."""
+    rng = np.random.default_rng(4)
+    points, count = _smooth_paths(rng)
+    yaw0 = rng.uniform(-math.pi, math.pi, len(points))
+    yaw1 = rng.uniform(-math.pi, math.pi, len(points))
+    yaw1[::5] = np.nan
+    got, landing = smooth_chain_time(profile, points, count, yaw0, yaw1)
+    for p, n, a, b, t in zip(points, count, yaw0, landing, got, strict=True):
+        segments = smooth_segments(profile, p[:n], a, b)
+        assert profile.motion_time(p[:n], a, b) == pytest.approx(t, abs=1e-4)
+        states = _states(segments)
+        for (_, end), (start, _) in itertools.pairwise(states):
+            np.testing.assert_allclose(start, end, atol=1e-6)
+        assert states[-1][1][:2] == pytest.approx(p[n - 1], abs=1e-9)
+        assert wrap(states[-1][1][2] - b) == pytest.approx(0.0, abs=1e-9)
+        assert np.abs(states[-1][1][3:]).max() < 1e-9  # at rest
+
+
+def test_a_rounded_corner_is_one_moving_turn_within_the_limits():
+    """The map's rounded corner (four short legs round a table's corner) is driven through
+    as one turn of 90 degrees without stopping, within the base's speed, yaw rate, yaw
+    acceleration and linear acceleration, cutting no more than CORNER_CUT inside the path;
+    the drive then takes a third less time than stopping at each corner."""
+    path = [np.array([-2.0, -0.447]), *_rounded_corner((0.0, 0.0)), np.array([0.447, 2.0])]
+    segments = smooth_segments(SMOOTH, path, 0.0, math.pi / 2)
+    turns = [s for s in segments if isinstance(s, MovingTurn)]
+    assert len(turns) == 1 and turns[0].angle == pytest.approx(math.pi / 2)
+    assert not [s for s in segments if isinstance(s, SegmentSpec)]  # no turn in place
+    t = np.linspace(0.0, sum(s.duration for s in segments), 4000)
+    states = []
+    for tau in t:
+        for s in segments:
+            if tau <= s.duration:
+                states.append(s.state(tau))
+                break
+            tau -= s.duration
+    states = np.array(states)
+    speed = np.hypot(states[:, 3], states[:, 4])
+    dt = t[1] - t[0]
+    assert speed.max() <= SMOOTH.speed + 1e-9
+    assert np.abs(states[:, 5]).max() <= SMOOTH.yaw_rate + 1e-9
+    assert np.abs(np.diff(states[:, 5])).max() / dt <= SMOOTH.yaw_acceleration * 1.01
+    assert np.abs(np.diff(speed)).max() / dt <= SMOOTH.acceleration * 1.01
+    line = LineString([tuple(p) for p in path])
+    deviation = max(line.distance(Point(x, y)) for x, y in states[:, :2])
+    assert 0.02 < deviation <= CORNER_CUT + 1e-6
+    stop_and_go = PROFILE.motion_time(path, 0.0, math.pi / 2)
+    assert SMOOTH.motion_time(path, 0.0, math.pi / 2) < 0.7 * stop_and_go
+
+
+def test_a_differential_base_still_turns_in_place_to_start_and_to_land():
+    """It cannot move sideways: it turns to its first leg (or backs it) and to the landing
+    yaw at rest; a holonomic base turns while it drives and takes no longer than its
+    translation or its turn, whichever is longer."""
+    path = [(0.0, 0.0), (2.0, 0.0)]
+    kinds = [type(s).__name__ for s in smooth_segments(SMOOTH, path, math.pi / 2, math.pi)]
+    assert kinds == ["SegmentSpec", "MovingDrive", "SegmentSpec"]
+    (motion,) = smooth_segments(HOLONOMIC, path, math.pi / 2, math.pi)
+    assert motion.duration == pytest.approx(max(HOLONOMIC.drive_time(2.0),
+                                                HOLONOMIC.turn_time(math.pi / 2)))
+    halfway = motion.state(motion.yaw_duration / 2)  # turned halfway, while it drives
+    assert halfway[2] == pytest.approx(3 * math.pi / 4) and halfway[3] > 0.1
+
+
+def test_an_unknown_motion_is_refused():
+    with pytest.raises(ValueError, match="motion"):
+        BaseProfile(speed=0.4, motion="glide")

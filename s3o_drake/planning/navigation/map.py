@@ -47,7 +47,11 @@ from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
-from s3o_drake.planning.navigation.base_motion import BaseProfile, chain_time
+from s3o_drake.planning.navigation.base_motion import (
+    BaseProfile,
+    chain_time,
+    smooth_chain_time,
+)
 from s3o_drake.planning.navigation.visibility_graph import SLACK, VisibilityGraph
 from s3o_drake.world.furniture import DistanceField
 from s3o_drake.world.obstacles import Obstacles
@@ -365,6 +369,24 @@ class NavigationMap:
         first, last = first[idx], last[idx]
         graph = first >= 0
         fi, la = np.where(graph, first, 0), np.where(graph, last, 0)
+        yaw0 = np.asarray(yaw_from, float).reshape(m)[idx]
+        yaw1 = np.asarray(yaw_to, float).reshape(m)[idx]
+        if profile.smooth:
+            # The whole path, point by point: a smooth motion's corners depend on the legs
+            # on both sides of them (base_motion.path_corners). Repeated points (the
+            # padding of shorter routes, a lead of no length) drop out there.
+            if graph.any():
+                route = self.vertices[self._graph.route_vertices(keep=not self._sealed)[fi, la]]
+                inner = np.where(graph[:, None, None],
+                                 np.concatenate([self.vertices[fi][:, None], route], axis=1),
+                                 ea[:, None])
+            else:
+                inner = ea[:, None]
+            points = np.concatenate([pa[:, None], ea[:, None], inner, eb[:, None],
+                                     pb[:, None]], axis=1)
+            times[idx], landing[idx] = smooth_chain_time(
+                profile, points, np.full(len(idx), points.shape[1]), yaw0, yaw1)
+            return lengths, times, landing
         vi = np.where(graph[:, None], self.vertices[fi] if len(self.vertices) else ea, eb)
         vj = np.where(graph[:, None], self.vertices[la] if len(self.vertices) else eb, eb)
         # The legs as (from, to) point pairs; the stretch (item 2) comes from the table.
@@ -381,9 +403,7 @@ class NavigationMap:
             h_out[:, 2] = np.where(stretch, route_out[fi, la], 0.0)
             own[:, 2] = np.where(stretch, route_time[fi, la], 0.0)
             length[:, 2] = np.where(stretch, self._D[fi, la], 0.0)
-        times[idx], landing[idx] = chain_time(profile, h_in, h_out, length, own,
-                                              np.asarray(yaw_from, float).reshape(m)[idx],
-                                              np.asarray(yaw_to, float).reshape(m)[idx])
+        times[idx], landing[idx] = chain_time(profile, h_in, h_out, length, own, yaw0, yaw1)
         return lengths, times, landing
 
     def route_table(self, profile: BaseProfile) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -57,6 +57,7 @@ class VisibilityGraph:
         `interior_room`: where the base's centre may drive; `room`: the room's polygon."""
         self.edges = BlockingEdges(blocking)
         self._route_tables: dict[BaseProfile, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._route_vertices: np.ndarray | None = None
         # Convex vertices of the slightly larger polygons, inside the driveable room.
         verts, prev, nxt = [], [], []
         for ring in rings(outer):
@@ -174,6 +175,41 @@ class VisibilityGraph:
             return h_in, h_out, time_ij
         self._route_tables[profile] = (h_in, h_out, time_ij)
         return self._route_tables[profile]
+
+    def route_vertices(self, *, keep: bool = True) -> np.ndarray:
+        """For every pair (i, j) of graph vertices, the vertices of the shortest route
+        i -> j after i, in order, padded with j: (n, n, h), h the most hops of any route
+        (at least 1); an unreachable pair's row is j alone. Computed once, by hop count,
+        and kept for the next call when `keep`."""
+        if self._route_vertices is not None:
+            return self._route_vertices
+        n = len(self.vertices)
+        reachable = np.isfinite(self.distances)
+        columns: list[np.ndarray] = []
+        cols = np.arange(n)[None, :].repeat(n, axis=0)
+        rows = np.arange(n)[:, None].repeat(n, axis=1)
+        # route[i, j] ends with j; the hop before j is pred[i, j], the one before that
+        # pred[i, pred[i, j]], ...: built from the end, then turned round.
+        at = cols.copy()
+        hops = np.zeros((n, n), dtype=int)
+        while True:
+            going = reachable & (at != rows) & (hops < n)
+            if not going.any():
+                break
+            columns.append(np.where(going, at, -1))
+            at = np.where(going, self._pred[rows, np.where(going, at, 0)], at)
+            hops += going
+        width = max(1, len(columns))
+        table = np.full((n, n, width), -1, dtype=int)
+        for k, col in enumerate(columns):
+            # Column k holds the vertex k hops before the end: its place from the front.
+            place = hops - 1 - k
+            ok = col >= 0
+            table[rows[ok], cols[ok], place[ok]] = col[ok]
+        table = np.where(table >= 0, table, cols[..., None])
+        if keep:
+            self._route_vertices = table
+        return table
 
     def vertex_route(self, i: int, j: int) -> list[int]:
         """Graph vertices from i to j along the precomputed shortest paths."""
