@@ -1,16 +1,26 @@
 """Derive the planner's time model from the robot's own motions.
 
-    s3o build time-model [--samples 400] [--seed 0] [--out out/time_model.yaml]
+    s3o build time-model [--samples 400] [--seed 0] [--departure-tasks 10]
+                         [--smooth-only] [--out out/time_model.yaml]
 
 Plans --samples pickups from base positions the feasibility check accepts near the shipped
 tasks' dishes, as the ArmController runs them, fits candidate models of their duration by
 the base-dish distance, and records the one with the least held-out error, with the
-command overheads of the control period. Deterministic for a seed; re-run it whenever the
-arm's or the base's motion changes.
+command overheads of the control period. For smooth motion it fits the arm's motions that
+a smooth plan overlaps with the base's (the way from the stow to a pre-grasp, the grasp,
+the way from the tray to a pre-grasp, to the tray and letting go, and the stow) from the
+same pickups, planned again as the smooth execution runs them, and measures the base's
+wait for the arm when it leaves a stop: the median, over --departure-tasks tasks planned on
+this model and simulated without noise, of the simulated time the model leaves out, per
+departure. With --smooth-only the
+model already at --out keeps its stop-and-go terms (the recorded studies were planned on
+them) and gets the smooth ones. Deterministic for a seed; re-run it whenever the arm's or
+the base's motion changes.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import sys
@@ -20,10 +30,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+import yaml
 
 # Light imports only: --help and bad arguments answer before Drake loads; the functions
 # import the planner's and the arm's modules where they use them.
-from s3o_drake.commands.common import command_parser
+from s3o_drake.commands.common import command_parser, fail
 from s3o_drake.commands.options import add_out, add_seed, at_least, out_file
 from s3o_drake.world.resources import REPO_DIR, TIME_MODEL
 
@@ -73,13 +84,55 @@ def sample_pickups(paths: Sequence[Path], samples: int, seed: int, *,
                 continue
             plan = plan_pickup(scene, checker, base, dish.name,
                                seed=int(rng.integers(2**31 - 1)))
-            rows.append({"task": path.stem, "dish": dish.name, "kind": dish.kind,
-                         "distance": float(np.linalg.norm(base[:2] - dish.position)),
-                         "grasp": plan.grasp, "ok": plan.ok, "reason": plan.reason,
-                         "duration": plan.duration if plan.ok else None})
+            row = {"task": path.stem, "dish": dish.name, "kind": dish.kind,
+                   "distance": float(np.linalg.norm(base[:2] - dish.position)),
+                   "grasp": plan.grasp, "ok": plan.ok, "reason": plan.reason,
+                   "duration": plan.duration if plan.ok else None}
+            if plan.ok:
+                # Its own seed: the draws above stay what they were before smooth motion.
+                row.update(smooth_parts(scene, checker, base, dish.name,
+                                        seed=int(np.random.default_rng([seed, len(rows)])
+                                                 .integers(2**31 - 1))))
+            rows.append(row)
         if progress:
             print(f"  {path.stem}: {len(rows)} pickups so far", file=sys.stderr, flush=True)
     return rows
+
+
+def smooth_parts(scene, checker: FeasibilityChecker, base: np.ndarray, dish: str, *,
+                 seed: int) -> dict:
+    """The durations (s) of the arm's motions a smooth plan is timed with
+    (`time_model.SMOOTH_PARTS`), for picking `dish` from `base` as the smooth execution
+    does it (the pickup from the stow leaving the arm over the tray; from there to the
+    pre-grasp, as the next pickup at a stop goes, and to the stow): each under
+    "smooth_<part>", all None where one could not be planned."""
+    from s3o_drake.execution.arm.arm_motion import plan_arm_path
+    from s3o_drake.execution.arm.pickup import plan_pickup, timed_segment
+    from s3o_drake.feasibility.pickup_geometry import with_gripper
+    from s3o_drake.planning.time_model import SMOOTH_PARTS
+    from s3o_drake.world.robot import GRIPPER_OPEN
+
+    none = {f"smooth_{part}": None for part in SMOOTH_PARTS}
+    plan = plan_pickup(scene, checker, base, dish, seed=seed, stow=False)
+    if not plan.ok:
+        return none
+    took = {s.name: s.duration for s in plan.segments}
+    q_release = plan.segments[-1].waypoints[-1]
+    q_pre = plan.segments[1].waypoints[0]  # where "descend" starts
+    q_stow = with_gripper(scene.q(q_release[:3]), GRIPPER_OPEN)
+    out = {"smooth_grasp": took["descend"] + took["close"] + took["lift"],
+           "smooth_tail": took["to_tray"] + took["release"],
+           "smooth_prepare": took["approach"]}
+    for part, goal in (("from_tray", q_pre), ("stow", q_stow)):
+        try:
+            path = plan_arm_path(scene.checker, q_release, goal, seed=seed)
+        except ValueError:
+            path = None
+        if path is None:
+            return none
+        out[f"smooth_{part}"] = timed_segment("approach" if part == "from_tray" else "stow",
+                                              path, scene.checker).duration
+    return out
 
 
 def _feasible_base(checker: FeasibilityChecker, dish: str, p_WD: np.ndarray, radius: float,
@@ -144,14 +197,15 @@ def fit(form: str, kinds: np.ndarray, grasps: np.ndarray, d: np.ndarray,
     return PickupModel(form, coefficients, side)
 
 
-def held_out_errors(rows: list[dict], folds: int = FOLDS) -> dict[str, dict[str, float]]:
+def held_out_errors(rows: list[dict], folds: int = FOLDS, *, key: str = "duration"
+                    ) -> dict[str, dict[str, float]]:
     """Per candidate form, the mean absolute and root-mean-square error (s) of predictions
     for tasks held out of the fit (tasks split into `folds` groups in name order); the
     grasp of a held-out pickup is the predicted one, as the planner has it."""
     tasks = sorted({r["task"] for r in rows})
     fold_of = {t: i % folds for i, t in enumerate(tasks)}
     fold = np.array([fold_of[r["task"]] for r in rows])
-    kinds, grasps, d, y = _arrays(rows)
+    kinds, grasps, d, y = _arrays(rows, key)
     out = {}
     for form in FORMS:
         errors = np.full(len(rows), np.nan)
@@ -167,9 +221,23 @@ def held_out_errors(rows: list[dict], folds: int = FOLDS) -> dict[str, dict[str,
     return out
 
 
-def _arrays(rows: list[dict]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _arrays(rows: list[dict], key: str = "duration"
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     return (np.array([r["kind"] for r in rows]), np.array([r["grasp"] for r in rows]),
-            np.array([r["distance"] for r in rows]), np.array([r["duration"] for r in rows]))
+            np.array([r["distance"] for r in rows]), np.array([r[key] for r in rows]))
+
+
+def best_fit(rows: list[dict], key: str) -> tuple[PickupModel, dict]:
+    """The candidate form of least held-out RMSE for the durations `key` of `rows`, fitted
+    to all of them, and how it was chosen."""
+    errors = held_out_errors(rows, key=key)
+    best = min(FORMS, key=lambda f: errors[f]["rmse"])
+    kinds, grasps, d, y = _arrays(rows, key)
+    model = fit(best, kinds, grasps, d, y)
+    residual = y - np.array([model.duration(k, x) for k, x in zip(kinds, d, strict=True)])
+    return model, {"held_out": errors, "residual_rmse": float(np.sqrt(np.mean(residual**2))),
+                   "duration": {"min": float(y.min()), "median": float(np.median(y)),
+                                "max": float(y.max())}}
 
 
 def derive(samples: int, seed: int, command: str, *, progress: bool = True
@@ -182,7 +250,13 @@ def derive(samples: int, seed: int, command: str, *, progress: bool = True
         YAW_ACCELERATION,
         YAW_RATE,
     )
-    from s3o_drake.planning.time_model import TURN_TOLERANCE, TimeModel, command_overheads
+    from s3o_drake.planning.time_model import (
+        SMOOTH_PARTS,
+        TURN_TOLERANCE,
+        SmoothArm,
+        TimeModel,
+        command_overheads,
+    )
     from s3o_drake.world.resources import RESTAURANT, shipped_tasks
     from s3o_drake.world.robot import CONTROL_PERIOD
 
@@ -191,11 +265,9 @@ def derive(samples: int, seed: int, command: str, *, progress: bool = True
     good = [r for r in rows if r["ok"]]
     if len(good) < 2 * FOLDS:
         raise RuntimeError(f"only {len(good)} pickups could be planned; need {2 * FOLDS}")
-    errors = held_out_errors(good)
-    best = min(FORMS, key=lambda f: errors[f]["rmse"])
-    kinds, grasps, d, y = _arrays(good)
-    model = fit(best, kinds, grasps, d, y)
-    residual = y - np.array([model.duration(k, x) for k, x in zip(kinds, d, strict=True)])
+    model, chosen = best_fit(good, "duration")
+    errors = chosen["held_out"]
+    kinds, grasps, d, _ = _arrays(good)
     failed: dict[str, int] = {}
     for r in rows:
         if not r["ok"]:
@@ -215,17 +287,49 @@ def derive(samples: int, seed: int, command: str, *, progress: bool = True
         "feature": "d, the distance (m) from the base's centre to the dish",
         "chosen_by": f"least RMSE on held-out tasks ({FOLDS} folds)",
         "held_out": errors,
-        "residual_rmse": float(np.sqrt(np.mean(residual**2))),
-        "duration": {"min": float(y.min()), "median": float(np.median(y)),
-                     "max": float(y.max())},
+        "residual_rmse": chosen["residual_rmse"],
+        "duration": chosen["duration"],
         "distance": {"min": float(d.min()), "median": float(np.median(d)),
                      "max": float(d.max())},
         "kinds": {k: int((kinds == k).sum()) for k in sorted(set(kinds.tolist()))},
         "grasps": grasps, "not_planned": failed,
     }
     overheads = command_overheads(CONTROL_PERIOD, SETTLE_TIME)
+    smooth_rows = [r for r in good if r.get("smooth_grasp") is not None]
+    parts, how = {}, {}
+    for part in SMOOTH_PARTS:
+        parts[part], how[part] = best_fit(smooth_rows, f"smooth_{part}")
+    smooth = SmoothArm(parts=parts, departure=0.0,
+                       fit={"samples": len(smooth_rows), "parts": how})
     return TimeModel(overheads=overheads, pickup=model, turn_tolerance=TURN_TOLERANCE,
-                     provenance=provenance, fit=fit_info), rows
+                     provenance=provenance, fit=fit_info, smooth=smooth), rows
+
+
+def measure_departure(model_path: Path, tasks: Sequence[Path], *, seed: int,
+                      progress: bool = True) -> tuple[float, list[dict]]:
+    """The base's wait for the arm when it leaves a stop, with smooth motion: the median over
+    `tasks` (planned with S3O-GROP* on the model at `model_path`, whose departure is 0, and
+    simulated without noise) of (simulated - predicted time) per departure, and the runs."""
+    from s3o_drake.commands.time_benchmark import measure
+    from s3o_drake.experiments.jobs import as_benchmarked
+    from s3o_drake.world.scenario import load_scenario, with_overrides
+
+    runs, waits = [], []
+    for path in tasks:
+        scenario = as_benchmarked(with_overrides(load_scenario(path), (
+            "execution.motion=smooth", f"planner.time_model={model_path}")))
+        row = measure(path.stem, scenario, method="S3O-GROP*", seed=seed, noise=False)
+        n = row["departures"]
+        runs.append(row)
+        if row["all_done"] and n:
+            waits.append((row["execution_time"] - row["predicted_time"]) / n)
+        if progress:
+            print(f"  {path.stem}: simulated {row['execution_time']:.1f} s, predicted "
+                  f"{row['predicted_time']:.1f} s, {n} departures", file=sys.stderr,
+                  flush=True)
+    if not waits:
+        raise RuntimeError("no task was executed as planned: the departure wait is unknown")
+    return float(np.median(waits)), runs
 
 
 def write_model(model: TimeModel, path: Path) -> None:
@@ -258,6 +362,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = command_parser("build time-model", __doc__)
     parser.add_argument("--samples", type=at_least(2 * FOLDS), default=400, metavar="N",
                         help="pickups to plan (default 400)")
+    parser.add_argument("--departure-tasks", type=at_least(1), default=10, metavar="N",
+                        help="shipped tasks simulated to measure the smooth base's wait "
+                             "for the arm (default 10)")
+    parser.add_argument("--smooth-only", action="store_true",
+                        help="keep the stop-and-go terms of the model at --out; make only "
+                             "the smooth ones")
     add_seed(parser, 0, "seed of the draws")
     add_out(parser, file=True, default=str(DEFAULT_OUT),
             note=f"the shipped model is replaced only when told: --out "
@@ -265,10 +375,33 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     out = out_file(args.out)
     logging.getLogger("drake").setLevel(logging.WARNING)
-    command = f"s3o build time-model --samples {args.samples} --seed {args.seed}"
+    command = (f"s3o build time-model --samples {args.samples} --seed {args.seed} "
+               f"--departure-tasks {args.departure_tasks}")
+    from s3o_drake.planning.time_model import TimeModel
+
+    kept = None
+    if args.smooth_only:
+        try:
+            kept = TimeModel.from_dict(yaml.safe_load(out.read_text()))
+        except (OSError, ValueError, KeyError, TypeError, yaml.YAMLError) as e:
+            fail(f"--smooth-only: no time model to keep at {out}: {e}")
     t0 = time.perf_counter()
     model, rows = derive(args.samples, args.seed, command)
+    if kept is not None:
+        model = dataclasses.replace(kept, smooth=dataclasses.replace(
+            model.smooth, fit={**model.smooth.fit, "command": command + " --smooth-only"}))
     out.parent.mkdir(parents=True, exist_ok=True)
+    write_model(model, out)
+    from s3o_drake.world.resources import shipped_tasks
+
+    tasks = list(shipped_tasks())[:args.departure_tasks]
+    wait, runs = measure_departure(out.resolve(), tasks, seed=args.seed)
+    model = dataclasses.replace(model, smooth=dataclasses.replace(
+        model.smooth, departure=wait, fit={**model.smooth.fit, "departure_measured": {
+            "tasks": f"the first {len(tasks)} of scenarios/generated/",
+            "measured": "median over the tasks of (simulated - predicted) / departures, "
+                        "S3O-GROP*, no noise",
+            "runs": len(runs), "as_planned": sum(r["all_done"] for r in runs)}}))
     write_model(model, out)
     print(f"{len(rows)} pickups planned in {time.perf_counter() - t0:.0f} s, "
           f"{model.provenance['samples']} ok")
@@ -285,6 +418,10 @@ def main(argv: list[str] | None = None) -> int:
     o = model.overheads
     print(f"gamma {o.gamma:.3f} s per base command, pickup hand-over {o.pickup:.3f} s, "
           f"plan {o.plan:+.3f} s")
+    for part, p in model.smooth.parts.items():
+        print(f"  smooth {part}: {p.form}, median "
+              f"{model.smooth.fit['parts'][part]['duration']['median']:.2f} s")
+    print(f"  smooth departure wait {model.smooth.departure:.3f} s")
     print(f"wrote {out}")
     return 0
 

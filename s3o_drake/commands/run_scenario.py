@@ -176,6 +176,14 @@ def _write_pictures(scenario: Scenario, run: Execution, plan: TaskMotionPlan | N
     from s3o_drake.world.camera import overhead_camera
 
     written = []
+    if run.activity is not None and len(run.activity.t):
+        from s3o_drake.viz.timeline import timeline_figure
+
+        report = run.report
+        timeline_figure(run.activity, report["outcomes"], report["outcome_times"],
+                        out / "timeline.png",
+                        title=f"{scenario.execution.motion.replace('_', ' ')} motion")
+        written.append(out / "timeline.png")
     camera = overhead_camera(scenario.room, scenario.camera)
     color, _depth = run.images
     if scenario.outputs.overhead:

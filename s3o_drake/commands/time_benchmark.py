@@ -56,6 +56,7 @@ def measure(name: str, scenario: Scenario, *, method: str, seed: int, noise: boo
     The run is open loop (execution.recovery none): the prediction is of the plan as
     planned, and recoveries are the execution's own (docs/execution.md)."""
     from s3o_drake.execution.execute import execute
+    from s3o_drake.planning.time_model import departures
 
     scenario = dataclasses.replace(scenario, execution=dataclasses.replace(
         scenario.execution, recovery=Recovery.NONE.value))
@@ -76,6 +77,8 @@ def measure(name: str, scenario: Scenario, *, method: str, seed: int, noise: boo
            "all_done": bool(plan) and len(outcomes) == len(plan.actions) and not failed,
            "reason": report["reason"], "predicted_time": predicted, "execution_time": simulated,
            "outcome_times": report["outcome_times"],
+           "motion": scenario.execution.motion,
+           "departures": departures(plan.actions) if plan is not None else 0,
            "planning_time": report["planning_time"], "wall_time": report["wall_time"]}
     if predicted is not None and simulated > 0:
         row["rel_error"] = (predicted - simulated) / simulated

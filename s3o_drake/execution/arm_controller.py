@@ -13,6 +13,15 @@ the tray (`plan_pickup(..., hold=True)`), until a command with `place` puts it d
 place target (`arm.place.plan_place`: with the grasp it was picked with, the
 reach noise added to where it goes down). The scene the controller checks in must hold the
 place targets (`goals.with_place_targets`).
+
+With smooth motion (`ArmParams.motion`) the arm works while the base drives. A pickup
+onto the tray is reported done once the dish is lifted: the base may leave while the arm
+carries it to the tray, lets go and stows (the navigator checks the two motions together;
+the status's `until` says when the arm's ends). A command may bring the arm to a dish's
+pre-grasp while the base drives to its stop (`PickCommand.prepare`), timed to arrive with
+the base and started later where the arm's motion along the base's (`base_motion`) is not
+collision-free; the pickup that follows approaches from there. The grasp itself is made
+with the base at rest.
 """
 
 import math
@@ -23,12 +32,20 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem, State
 from pydrake.trajectories import Trajectory
 
-from s3o_drake.execution.arm.pickup import PickupPlan, plan_pickup, plan_release
+from s3o_drake.execution.arm.pickup import PickupPlan, plan_pickup, plan_reach, plan_release
 from s3o_drake.execution.arm.place import place_grasps, plan_place
-from s3o_drake.execution.messages import NO_COMMAND, CommandState, PickCommand, Status
+from s3o_drake.execution.messages import (
+    NO_COMMAND,
+    ArmMotion,
+    CommandState,
+    PickCommand,
+    Status,
+)
+from s3o_drake.execution.together import WAIT_STEP, free_together
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.pickup_geometry import caught
 from s3o_drake.feasibility.scene import FeasibilityScene
+from s3o_drake.world.choices import Motion
 from s3o_drake.world.dish_messages import DishPoses, GripEvent
 from s3o_drake.world.goals import place_target_name
 from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_BASE_JOINTS, NUM_POSITIONS
@@ -56,7 +73,9 @@ class _Activity:
     `grasp`: the motion's grasp ("top" or "side"); `held_grasp`: the grasp the gripper
     holds an object to place with between motions ("": it holds nothing); `missed`: the
     reach noise put the dish out of the gripper's tolerance; `reach_noise`: that noise
-    (None with the noise off), reported on every status of the command.
+    (None with the noise off), reported on every status of the command; `t_done`: when
+    (since `t_start`) the command is reported done (or failed, missed): the motion's end,
+    or with smooth motion a pickup's lift.
     """
 
     started: bool = False
@@ -74,6 +93,7 @@ class _Activity:
     held_grasp: str = ""
     missed: bool = False
     reach_noise: tuple[float, float] | None = None
+    t_done: float = math.inf
 
     def __deepcopy__(self, memo: dict) -> "_Activity":
         # Shared, not copied: every field is an immutable value, and the trajectory, the one
@@ -89,13 +109,15 @@ class ArmParams:
     T^m (`reach_std`, m; 0: none) and the navigation noise T^n (`nav_std`: x, y in m, yaw in
     rad; None: none), which the choice of an object to place's grasp rates its place's
     landings with; the objects whose goal is place (`to_place`, held after their pickup);
-    and the cap (s) on one motion plan."""
+    the cap (s) on one motion plan; and the robot's `motion`."""
 
     seed: int
     reach_std: float = 0.0
     nav_std: tuple[float, float, float] | None = None
     to_place: frozenset[str] = frozenset()
     plan_time_limit: float = 5.0
+    motion: str = Motion.STOP_AND_GO.value
+    """With "smooth", a pickup onto the tray is reported done once the dish is lifted."""
 
 
 class ArmController(LeafSystem):
@@ -110,6 +132,8 @@ class ArmController(LeafSystem):
             (base x, y, yaw; the arm's joints; the fingers).
         dish_poses: abstract DishPoses, X_WD of each dish where it really is; unconnected:
             the scenario's positions.
+        base_motion (optional): abstract, the navigator's motion (`desired(t)`, `id`,
+            `end_time`), which a prepare is timed by and checked along.
     Output ports:
         arm_desired_state: vector (16), the 6 arm and 2 finger positions, then their 8
             velocities (for the plant's desired state, with the base's entries).
@@ -122,7 +146,9 @@ class ArmController(LeafSystem):
             "missed", "unknown_dish", "hand_full" (a pickup while an object to place is
             held) or "not_held" (a place of an object the gripper does not hold); its
             `reach_noise` is the reach error drawn for the command (None with the noise
-            off).
+            off); `until`, when the command's motion ends.
+        arm_motion: abstract ArmMotion, the motion playing (or none) and where the arm
+            holds: what the navigator checks its motions with.
 
     Every `control_period` an unrestricted update takes new commands and moves the
     played motion's grip and status on; `arm_desired_state` follows the motion
@@ -150,6 +176,9 @@ class ArmController(LeafSystem):
         self._robot_state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
         self._dish_poses_port = self.DeclareAbstractInputPort(
             "dish_poses", AbstractValue.Make(DishPoses()))
+        self._base_motion_port = self.DeclareAbstractInputPort(
+            "base_motion", AbstractValue.Make(object()))
+        self._smooth = params.motion == Motion.SMOOTH.value
         self._activity_index = self.DeclareAbstractState(AbstractValue.Make(_Activity()))
         activity_ticket = {self.abstract_state_ticket(self._activity_index)}
         self.DeclareVectorOutputPort(
@@ -161,6 +190,9 @@ class ArmController(LeafSystem):
         self.DeclareAbstractOutputPort(
             "status", lambda: AbstractValue.Make(Status()), weak_callback(self._calc_status),
             prerequisites_of_calc=activity_ticket)
+        self.DeclareAbstractOutputPort(
+            "arm_motion", lambda: AbstractValue.Make(ArmMotion()),
+            weak_callback(self._calc_arm_motion), prerequisites_of_calc=activity_ticket)
         self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0,
                                                     weak_callback(self._update))
         # The same update on demand (`CalcForcedUnrestrictedUpdate`): tests and callers
@@ -188,6 +220,14 @@ class ArmController(LeafSystem):
     def _calc_status(self, context: Context, output: AbstractValue) -> None:
         output.set_value(self._activity(context).status)
 
+    def _calc_arm_motion(self, context: Context, output: AbstractValue) -> None:
+        a = self._activity(context)
+        picking = a.trajectory is not None and math.isfinite(a.t_grasp) and not a.putting
+        output.set_value(ArmMotion(a.trajectory, a.t_start, a.hold,
+                                   dish=a.dish if picking else "",
+                                   release_time=a.t_start + a.t_release if picking
+                                   else -math.inf))
+
     # ------------------------------------------------------------------------------ update
     def _update(self, context: Context, state: State) -> EventStatus:
         activity = self._activity(context)
@@ -199,7 +239,8 @@ class ArmController(LeafSystem):
             activity = self._advance(activity, context.get_time())
         command = self._command_port.Eval(context)
         if (activity.trajectory is None and command.id != NO_COMMAND
-                and command.id != activity.command):
+                and command.id != activity.command
+                and (command.prepare is None or self._base_motion(context, command) is not None)):
             activity = self._start(activity, command, context, robot_state)
         state.get_mutable_abstract_state(self._activity_index).set_value(activity)
         return EventStatus.Succeeded()
@@ -218,16 +259,21 @@ class ArmController(LeafSystem):
         trajectory = activity.trajectory
         # The periodic update falls on the end time only up to rounding: a motion counts as
         # ended within a nanosecond of it.
-        if elapsed < trajectory.end_time() - 1e-9:
+        ended = elapsed >= trajectory.end_time() - 1e-9
+        if not activity.status.finished and (ended or elapsed >= activity.t_done - 1e-9):
+            until = activity.t_start + trajectory.end_time()
+            status = (Status(activity.command, CommandState.FAILED, "missed",
+                             activity.reach_noise, until=until)
+                      if activity.missed
+                      else Status(activity.command, CommandState.DONE,
+                                  reach_noise=activity.reach_noise, until=until))
+            activity = replace(activity, status=status)
+        if not ended:
             return activity
         end = trajectory.value(trajectory.end_time()).ravel()[ARM_AND_FINGERS]
-        status = (Status(activity.command, CommandState.FAILED, "missed", activity.reach_noise)
-                  if activity.missed
-                  else Status(activity.command, CommandState.DONE,
-                              reach_noise=activity.reach_noise))
         # The object still in the gripper (a pick that holds it) is held with its grasp.
         keeps = held and math.isinf(activity.t_release)
-        return replace(activity, status=status, hold=tuple(end), trajectory=None,
+        return replace(activity, hold=tuple(end), trajectory=None,
                        held_grasp=activity.grasp if keeps else "")
 
     def _start(self, activity: _Activity, command: PickCommand, context: Context,
@@ -241,6 +287,13 @@ class ArmController(LeafSystem):
             return replace(activity, status=Status(command.id, CommandState.FAILED, reason,
                                                    activity.reach_noise))
 
+        q_now = np.asarray(robot_state[:NUM_POSITIONS], dtype=float)
+        if command.prepare is not None or command.to_stow:
+            if command.prepare is not None and command.dish not in self._scene.dishes:
+                return failed("unknown_dish")
+            seed = int(np.random.default_rng([self._seed, REACH_NOISE_STREAM, command.id])
+                       .integers(2**31 - 1))
+            return self._reach(activity, command, context, q_now, seed, failed)
         name = place_target_name(command.dish) if command.place else command.dish
         dish = self._scene.dishes.get(name)
         if dish is None:
@@ -256,7 +309,6 @@ class ArmController(LeafSystem):
         plan_seed = int(rng.integers(2**31 - 1))
         if self._reach_std > 0:  # reported, for the calibration of Fea^m against outcomes
             activity = replace(activity, reach_noise=(float(noise[0]), float(noise[1])))
-        q_now = np.asarray(robot_state[:NUM_POSITIONS], dtype=float)
         releasing = not command.place and holding == command.dish
         try:
             if releasing:  # its place failed for good: let go over the tray
@@ -277,12 +329,62 @@ class ArmController(LeafSystem):
         running = replace(activity, status=Status(command.id, CommandState.RUNNING,
                                                   reach_noise=activity.reach_noise),
                           trajectory=plan.trajectory(), t_start=context.get_time(),
-                          putting=command.place, grasp=plan.grasp or "")
+                          putting=command.place, grasp=plan.grasp or "", t_done=math.inf)
         if command.place or releasing:  # held from the start, let go at the end of "release"
             return replace(running, t_grasp=-math.inf, t_release=float(ends["release"]))
+        onto_tray = "release" in ends
         return replace(running, t_grasp=float(ends["close"]),
                        t_release=float(ends.get("release", math.inf)),
-                       missed=not caught(noise, dish.kind))
+                       missed=not caught(noise, dish.kind),
+                       t_done=float(ends["lift"]) if self._smooth and onto_tray else math.inf)
+
+    def _reach(self, activity: _Activity, command: PickCommand, context: Context,
+               q_now: np.ndarray, seed: int, failed) -> _Activity:
+        """A prepare (to `command.dish`'s pre-grasp from `command.prepare`, timed by the
+        base's motion) or a stow; the arm holds where it is when there is none."""
+        base = command.prepare if command.prepare is not None else q_now[:3]
+        target = command.dish if command.prepare is not None else None
+        plan = plan_reach(self._scene, self._checker, np.asarray(base), q_now,
+                          None if target is None else target, seed=seed,
+                          time_limit=self._plan_time_limit)
+        if not plan.ok:
+            return failed(plan.reason)
+        trajectory = plan.trajectory()
+        t_start = context.get_time()
+        if command.prepare is not None:
+            t_start = self._prepare_start(self._base_motion(context, command), trajectory,
+                                          t_start)
+            if t_start is None:
+                return failed("no_path")
+        return replace(activity, status=Status(command.id, CommandState.RUNNING),
+                       trajectory=trajectory, t_start=t_start, putting=False, grasp="",
+                       t_grasp=math.inf, t_release=math.inf, t_done=math.inf)
+
+    def _base_motion(self, context: Context, command: PickCommand):
+        """The navigator's motion of `command.base_id`, once the navigator has taken it."""
+        if not self._base_motion_port.HasValue(context):
+            return None
+        motion = self._base_motion_port.Eval(context)
+        return motion if getattr(motion, "id", NO_COMMAND) == command.base_id else None
+
+    def _prepare_start(self, motion, trajectory: Trajectory, now: float) -> float | None:
+        """When a prepare's `trajectory` starts: so that it ends as the base's `motion`
+        does, or later by WAIT_STEP steps until the two motions are collision-free
+        together; None when even after the base has stopped they are not."""
+        arrival = motion.end_time
+        duration = float(trajectory.end_time())
+        start = max(now, arrival - duration)
+        while True:
+            def arm_at(t: float, start: float = start) -> np.ndarray:
+                return trajectory.value(min(max(t - start, 0.0), duration)).ravel()[
+                    ARM_AND_FINGERS]
+
+            if free_together(lambda t: self._scene.checker, motion.desired, arm_at, start,
+                             start + duration):
+                return start
+            if start >= arrival:
+                return None
+            start = min(start + WAIT_STEP, arrival)
 
     def _pick(self, context: Context, command: PickCommand, q_now: np.ndarray,
               noise: np.ndarray, seed: int) -> PickupPlan:
@@ -299,7 +401,7 @@ class ArmController(LeafSystem):
             return plan_pickup(self._scene, self._checker, q_now[:3], name,
                                reach_offset=p_WD - p_WD_scenario + noise, q_start=q_now,
                                seed=seed, time_limit=self._plan_time_limit,
-                               hold=name in self._to_place, grasp=grasp)
+                               hold=name in self._to_place, grasp=grasp, stow=command.stow)
 
         if name in self._to_place and command.place_from is not None:
             # Where the place's landing will put the base is not known yet: its grasp is

@@ -12,7 +12,9 @@ stops short. The motion and its escapes are `escape.plan_motion`'s, over this sy
 collision test on the true world.
 """
 
+import dataclasses
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -25,10 +27,24 @@ from s3o_drake.execution.escape import (
     extend_trail,
     plan_motion,
 )
-from s3o_drake.execution.messages import NO_COMMAND, BaseCommand, CommandState, Status
+from s3o_drake.execution.messages import (
+    NO_COMMAND,
+    ArmMotion,
+    BaseCommand,
+    CommandState,
+    Status,
+)
+from s3o_drake.execution.together import WAIT_STEP, free_together
+from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.navigation.base_motion import SETTLE_TIME
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
+from s3o_drake.world.robot import (
+    ARM_STOW,
+    GRIPPER_OPEN,
+    NUM_ARM_JOINTS,
+    NUM_POSITIONS,
+    robot_positions,
+)
 from s3o_drake.world.system_lifetime import weak_callback
 from s3o_drake.world.worker_processes import drake_parallelism
 
@@ -76,6 +92,11 @@ class _Motion:
         return sum(seg.duration for seg in self.segments)
 
     @property
+    def end_time(self) -> float:
+        """When the motion ends (s, simulated)."""
+        return self.t0 + self.duration
+
+    @property
     def end(self) -> np.ndarray:
         return np.asarray(self.segments[-1].end if self.segments else self.hold)
 
@@ -96,12 +117,17 @@ class BaseNavigator(LeafSystem):
         base_command (abstract `BaseCommand`): a new `id` starts a command; id 0 holds still.
         robot_state (vector, 2 NUM_POSITIONS): the robot's positions then its velocities;
             the base pose (x, y, yaw) is positions 0..2.
+        arm_motion (abstract `ArmMotion`, optional; read with smooth motion only): what the
+            arm does; a motion is checked with the arm where its motion ends, and with the
+            two together while it plays, and waits for the arm where they collide.
     Output ports:
         base_desired_state (vector 6): x, y, yaw (m, rad) then their rates (m/s, rad/s).
         status (abstract `Status`): CommandState idle before any command, running while the
             motion plays, then done (landed, possibly short of a colliding goal) or failed
             with reason "blocked" (stopped far from the goal by a collision) and the
             `contact` where it touched, `settle_time` after the motion ended.
+        base_motion (abstract): the motion playing (`id`, `desired(t)`, `end_time`), which
+            the arm's prepare is timed by.
 
     Every `control_period` s (and at initialization, and on a forced unrestricted update)
     it compares the command's id with the one it executes; on a new id it plans the whole
@@ -133,10 +159,13 @@ class BaseNavigator(LeafSystem):
         super().__init__()
         self._params = params
         self._scene = scene
+        self._smooth = params.profile.smooth
 
         self._command_port = self.DeclareAbstractInputPort(
             "base_command", AbstractValue.Make(BaseCommand()))
         self._state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
+        self._arm_port = self.DeclareAbstractInputPort("arm_motion",
+                                                       AbstractValue.Make(ArmMotion()))
         # Until the initialization event reads robot_state, hold the scenario's start pose
         # (where the world puts the robot by default).
         start = tuple(float(v) for v in params.start)
@@ -151,6 +180,10 @@ class BaseNavigator(LeafSystem):
         self.DeclareAbstractOutputPort("status", lambda: AbstractValue.Make(Status()),
                                        weak_callback(self._calc_status),
                                        prerequisites_of_calc=prerequisites)
+        self.DeclareAbstractOutputPort(
+            "base_motion", lambda: AbstractValue.Make(_Motion()),
+            weak_callback(self._calc_base_motion),
+            prerequisites_of_calc={self.abstract_state_ticket(self._motion_index)})
         self.DeclareInitializationUnrestrictedUpdateEvent(weak_callback(self._update))
         self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0,
                                                     weak_callback(self._update))
@@ -175,7 +208,9 @@ class BaseNavigator(LeafSystem):
                           trail=motion.trail, initialized=True)
         else:
             base = self._state_port.Eval(context)[:3]
-            new = self._plan(command, base, t, motion.trail)
+            arm = (self._arm_port.Eval(context) if self._smooth
+                   and self._arm_port.HasValue(context) else None)
+            new = self._plan(command, base, t, motion.trail, arm)
         state.get_mutable_abstract_state(self._motion_index).set_value(new)
         return EventStatus.Succeeded()
 
@@ -190,33 +225,64 @@ class BaseNavigator(LeafSystem):
         return np.asarray(command.pose, dtype=float) + noise
 
     def _plan(self, command: BaseCommand, base: np.ndarray, t: float,
-              trail: tuple[BaseSegment, ...] = ()) -> _Motion:
+              trail: tuple[BaseSegment, ...] = (), arm: ArmMotion | None = None) -> _Motion:
+        """The command's motion from `base` at time `t`: checked with the arm where it
+        will be once its motion (`arm`; None: stowed) ends, and, while that plays, with
+        the two together; where those collide it starts later (`together.WAIT_STEP`),
+        at the latest as the arm's motion ends."""
+        posture = None if arm is None or not arm.hold else np.asarray(arm.final)
+        free = None if self._scene is None else partial(self._free, arm=posture)
         cut = plan_motion(base, self._landing(command), path=command.path, stop=command.pose,
-                          turn=command.turn, trail=trail,
-                          free=None if self._scene is None else self._free,
+                          turn=command.turn, trail=trail, free=free,
                           profile=self._params.profile)
         # What blocked the base, where it touched: the bumper's reading on the status.
         contact = (self._scene.clearance.contact(cut.hit)
                    if cut.blocked and cut.hit is not None else None)
-        return _Motion(id=command.id, t0=t, hold=tuple(float(v) for v in base[:3]),
-                       segments=tuple(cut.segments),
-                       outcome=CommandState.FAILED if cut.blocked else CommandState.DONE,
-                       reason="blocked" if cut.blocked else "", contact=contact,
-                       trail=extend_trail(trail, cut.segments), initialized=True)
+        motion = _Motion(id=command.id, t0=t, hold=tuple(float(v) for v in base[:3]),
+                         segments=tuple(cut.segments),
+                         outcome=CommandState.FAILED if cut.blocked else CommandState.DONE,
+                         reason="blocked" if cut.blocked else "", contact=contact,
+                         trail=extend_trail(trail, cut.segments), initialized=True)
+        if arm is None or self._scene is None:
+            return motion
+        # The earliest start, every WAIT_STEP, at which the two motions are collision-free
+        # together (once the arm's has ended, the check above holds).
+        start = t
+        while start < arm.end_time:
+            moved = dataclasses.replace(motion, t0=start)
+            if free_together(partial(self._checker, arm), moved.desired, arm.arm_at, start,
+                             min(arm.end_time, moved.end_time)):
+                return moved
+            start += WAIT_STEP
+        return dataclasses.replace(motion, t0=max(t, arm.end_time))
 
-    def _free(self, poses: np.ndarray) -> np.ndarray:
-        """bool (n,): base poses inside the room and collision-free with the arm stowed."""
+    def _checker(self, arm: ArmMotion, t: float):
+        """The world's checker at time `t`, letting the gripper touch the dish it picks."""
+        dish = arm.touching(t)
+        return ik.grasp_checker(self._scene, dish) if dish else self._scene.checker
+
+    def _free(self, poses: np.ndarray, arm: np.ndarray | None = None) -> np.ndarray:
+        """bool (n,): base poses inside the room and collision-free with the arm and the
+        fingers at `arm` (default: stowed, open)."""
         clearance = self._scene.clearance
         free = clearance.in_room(poses[:, :2])
         # Far from every obstacle needs no collision query (a sound shortcut).
         query = free & ~clearance.certainly_free(poses[:, :2])
         if query.any():
-            configs = [robot_positions(*p, arm=ARM_STOW, gripper=GRIPPER_OPEN)
-                       for p in poses[query]]
+            if arm is None:
+                configs = [robot_positions(*p, arm=ARM_STOW, gripper=GRIPPER_OPEN)
+                           for p in poses[query]]
+            else:
+                configs = [robot_positions(*p, arm=arm[:NUM_ARM_JOINTS],
+                                           gripper=arm[NUM_ARM_JOINTS:])
+                           for p in poses[query]]
             checked = self._scene.checker.CheckConfigsCollisionFree(
                 configs, parallelize=drake_parallelism())
             free[query] = np.asarray(checked, dtype=bool)
         return free
+
+    def _calc_base_motion(self, context: Context, output: AbstractValue) -> None:
+        output.set_value(self._motion(context))
 
     def _calc_desired_state(self, context: Context, output: BasicVector) -> None:
         output.SetFromVector(self._motion(context).desired(context.get_time()))

@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 from pydrake.geometry import Meshcat
 from pydrake.systems.framework import Diagram, DiagramBuilder
-from pydrake.systems.primitives import MatrixGain, Multiplexer
+from pydrake.systems.primitives import MatrixGain, Multiplexer, VectorLogSink
 
 from s3o_drake.belief import Perceive, perceive_known_world
 from s3o_drake.belief.known_world import Briefing, KnownWorld
@@ -45,6 +45,8 @@ from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.builder import build_world_diagram, robot_render_labels
 from s3o_drake.world.choices import Recovery
+from s3o_drake.world.clearance_monitor import ClearanceMonitor, proximity_geometries
+from s3o_drake.world.directives import ROBOT_INSTANCE
 from s3o_drake.world.goals import place_target_name, place_targets, with_place_targets
 from s3o_drake.world.robot import CONTROL_PERIOD, NUM_BASE_JOINTS, NUM_POSITIONS, ROBOT
 from s3o_drake.world.scenario import Scenario
@@ -76,7 +78,8 @@ def executive_params(scenario: Scenario, *, method: str) -> ExecutiveParams:
         time_budget=scenario.planner.time_budget, replan_budget=settings.replan_budget,
         min_feasibility=settings.min_feasibility, correction_radius=settings.correction_radius,
         detour=settings.detour, max_corrections=settings.max_corrections,
-        max_tries=settings.max_tries, max_replans=settings.max_replans)
+        max_tries=settings.max_tries, max_replans=settings.max_replans,
+        motion=settings.motion)
 
 
 def make_executive_system(scenario: Scenario, *, method: str | None = None,
@@ -127,12 +130,13 @@ def navigator_params(scenario: Scenario, *, seed: int | None = None,
 
 def arm_params(scenario: Scenario, *, seed: int | None = None, noise: bool = True) -> ArmParams:
     """The ArmController's params: the reach and navigation noise (none without `noise`),
-    the objects to place and `seed` (default the scenario's)."""
+    the objects to place, the motion and `seed` (default the scenario's)."""
     u = scenario.uncertainty
     return ArmParams(seed=scenario.seed if seed is None else int(seed),
                      reach_std=u.reach_std if noise else 0.0,
                      nav_std=(u.nav_xy_std, u.nav_xy_std, u.nav_yaw_std) if noise else None,
-                     to_place=frozenset(d.name for d in scenario.dishes if d.goal == "place"))
+                     to_place=frozenset(d.name for d in scenario.dishes if d.goal == "place"),
+                     motion=scenario.execution.motion)
 
 
 def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
@@ -171,6 +175,17 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
         period=CONTROL_PERIOD, settle_time=scenario.simulation.hold_time,
         time_limit=time_limit, places=place_targets(scenario),
         fixtures=[d.name for d in scenario.dishes if d.goal == "stay"]))
+    plant = world.GetSubsystemByName("plant")
+    scene_graph = world.GetSubsystemByName("scene_graph")
+    clearance = builder.AddNamedSystem("clearance_monitor", ClearanceMonitor(
+        robot=proximity_geometries(plant, scene_graph,
+                                   [plant.GetModelInstanceByName(ROBOT_INSTANCE)]),
+        world=proximity_geometries(
+            plant, scene_graph,
+            [plant.GetModelInstanceByName(f.name) for f in (*scenario.tables,
+                                                             *scenario.chairs)],
+            world_names=("wall",)),
+        period=CONTROL_PERIOD))
     mux = builder.AddNamedSystem(
         "desired_state_mux",
         Multiplexer([2 * NUM_BASE_JOINTS, 2 * (NUM_POSITIONS - NUM_BASE_JOINTS)]))
@@ -188,9 +203,19 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     builder.Connect(executive.GetOutputPort("base_command"),
                     navigator.GetInputPort("base_command"))
     builder.Connect(executive.GetOutputPort("pick_command"), arm.GetInputPort("pick_command"))
+    # What the robot did, for the run's timeline.
+    states = builder.AddNamedSystem("robot_state_log", VectorLogSink(
+        2 * NUM_POSITIONS, publish_period=CONTROL_PERIOD))
+    builder.Connect(world.GetOutputPort("robot_state"), states.get_input_port())
+    # Each controller sees what the other's motion is: they move the robot together.
+    builder.Connect(navigator.GetOutputPort("base_motion"), arm.GetInputPort("base_motion"))
+    builder.Connect(arm.GetOutputPort("arm_motion"), navigator.GetInputPort("arm_motion"))
     builder.Connect(navigator.GetOutputPort("status"), executive.GetInputPort("base_status"))
     builder.Connect(arm.GetOutputPort("status"), executive.GetInputPort("arm_status"))
     builder.Connect(executive.GetOutputPort("progress"), monitor.GetInputPort("progress"))
+    builder.Connect(world.GetOutputPort("query_object"), clearance.GetInputPort("query_object"))
+    builder.Connect(clearance.GetOutputPort("closest_approach"),
+                    monitor.GetInputPort("closest_approach"))
     builder.Connect(navigator.GetOutputPort("base_desired_state"), mux.get_input_port(0))
     builder.Connect(arm.GetOutputPort("arm_desired_state"), mux.get_input_port(1))
     builder.Connect(mux.get_output_port(), permute.get_input_port())

@@ -204,10 +204,37 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
         waypoints += [np.asarray(p, float) for p in path[1:-1]]
         waypoints.append(target[:2])
     if profile.smooth:
-        cut = cut_at_collision(profile.segments(waypoints, float(base[2]), float(target[2])),
-                               free, profile)
-        if cut.hit is None or (not cut.blocked and (turn or facing(cut.segments, target[2]))):
-            return cut
+        # The direct motion, else (a noisy landing next to a chair) one that keeps to the
+        # planned last leg, else one that drives smoothly to APPROACH_STEPS before the
+        # stop, turns there to the stop's heading and drives straight in, as below.
+        yaw, h = float(base[2]), np.array([math.cos(target[2]), math.sin(target[2])])
+        straight = profile.stop_and_go()
+        motions = itertools.chain(
+            (profile.segments(way, yaw, float(target[2]))
+             for way in [waypoints, *along_plan(stop, waypoints, turn=turn)]),
+            ([] if turn else (
+                [*profile.segments([*waypoints[:-1], target[:2] - d * h], yaw,
+                                   float(target[2])),
+                 *straight.segments([target[:2] - d * h, target[:2]], float(target[2]),
+                                    float(target[2]))]
+                for d in APPROACH_STEPS)))
+        for segments in motions:
+            cut = cut_at_collision(segments, free, profile)
+            if cut.hit is None or (not cut.blocked and (turn or facing(cut.segments,
+                                                                       target[2]))):
+                return cut
+        if not turn and len(waypoints) > 2:
+            # Smooth to the path's last corner, stopping there, and from there the
+            # stop-and-go motion and its escapes, which stop anywhere.
+            corner = waypoints[-2]
+            leg = waypoints[-1] - corner
+            prefix = profile.segments(waypoints[:-1], yaw, math.atan2(leg[1], leg[0]))
+            if prefix and cut_at_collision(prefix, free, profile).hit is None:
+                rest = plan_motion(np.asarray(prefix[-1].end, dtype=float), target,
+                                   path=[corner, target[:2]], stop=stop, turn=False,
+                                   trail=(), free=free, profile=profile.stop_and_go())
+                if not rest.blocked:
+                    return Cut([*prefix, *rest.segments], hit=rest.hit)
         # Caught where a smooth motion cannot stop within its limits, or landing short
         # facing away: the stop-and-go motion and its escapes, which stop anywhere.
         profile = profile.stop_and_go()

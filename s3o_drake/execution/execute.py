@@ -15,6 +15,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, InitializeParams, Sim
 from tqdm import tqdm
 
 from s3o_drake.belief import Perceive
+from s3o_drake.execution.activity import Activity
 from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
 from s3o_drake.execution.executive_system import PlanFrom
 from s3o_drake.planning.pipeline import PlanningResult
@@ -43,6 +44,8 @@ class Execution:
     """The latest planning's result: what the plan was made on (the KnownWorld with the
     perceived chairs, the heatmaps, the navigation map, the state spaces)."""
     html: str | None  # the playback page; None when nothing was recorded
+    activity: Activity | None = None
+    """When the base and the arm moved (None when the run has no log of it)."""
 
 
 class SimulatedSeconds:
@@ -216,6 +219,10 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
                   realtime_rate=context.get_time() / wall if wall > 0 else float("inf"),
                   simulated_time=context.get_time())
     html = None if meshcat is None else meshcat.StaticHtml()
+    log = diagram.GetSubsystemByName("robot_state_log").FindLog(context)
+    activity = Activity.of(log.sample_times().copy(), log.data().copy())
     del simulator, executive, world, monitor, visualizer, executive_context, monitor_context
+    del log
     release_diagram(diagram)
-    return Execution(plan=plan, report=report, images=images, result=result, html=html)
+    return Execution(plan=plan, report=report, images=images, result=result, html=html,
+                     activity=activity)

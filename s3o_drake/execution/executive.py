@@ -33,6 +33,15 @@ on). The dishes a plan left out (on the network's Fea^m alone, or with no stop o
 are planned for again at its end, on the tight navigation map. Every recovery is a
 `RecoveryRecord`.
 
+With smooth motion (`ExecutiveParams.motion`) the arm works while the base drives: a
+drive to a stop whose next action is a pickup also sends the arm towards that dish's
+pre-grasp (`Drive.prepare`), and a pickup leaves the arm over the tray when another
+pickup or place follows at the stop (`Pick.stow` False), else stowing as the base leaves.
+The arm controller reports a pickup done once the dish is lifted, and the walk goes on. A
+base command that is no turn to face a dish is sent with the arm stowed: a prepared arm
+that is still out (its pickup not made, or failed where it stood) is stowed first
+(`Stow`).
+
 Modes (with nothing out, the next `Tick` sends the next command):
 
     IDLE --Start--> PLANNING --PlanReady--> SEND (FINISHED: no actions)
@@ -46,6 +55,7 @@ Modes (with nothing out, the next `Tick` sends the next command):
                                       --failed--> SEND (retry) | PLANNING (replan)
                                                   | SEND (given up) | RELEASE (a place)
     RELEASE --> RELEASING --> SEND | FINISHED
+    SEND, smooth, a base command with the arm out --> STOWING --> SEND
     FINISHED (the plan ended; recovery replan) --> PLANNING (the dishes left out, once)
 """
 
@@ -72,7 +82,7 @@ from s3o_drake.execution.messages import (
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
 from s3o_drake.planning.plan import Goto, Pickup, Place, TaskMotionPlan
 from s3o_drake.world.angles import facing_yaw, wrap
-from s3o_drake.world.choices import Goal, Recovery
+from s3o_drake.world.choices import Goal, Motion, Recovery
 
 #: A dish that fails all its tries in this many plans is left (recovery replan).
 PLANS_PER_DISH = 2
@@ -98,6 +108,7 @@ class Mode(Enum):
     PICKING = "picking"  # the arm's pickup or place is out
     RELEASE = "release"  # `to_tray`, held, is let go over the tray next
     RELEASING = "releasing"  # its release is out
+    STOWING = "stowing"  # the arm's stow is out, before a base command
     FINISHED = "finished"  # nothing more to do; `reason` says why
 
 
@@ -223,6 +234,10 @@ class Drive:
     start: np.ndarray
     pose: Pose
     planned: tuple[tuple[float, float], ...] | None = None
+    prepare: str = ""
+    """With smooth motion: the dish whose pickup follows at the stop; arm command
+    `prepare_id` brings the arm to its pre-grasp as the base arrives."""
+    prepare_id: int = NO_COMMAND
 
 
 @dataclass(frozen=True)
@@ -242,6 +257,16 @@ class Pick:
     dish: str
     place: bool = False
     place_from: Pose | None = None
+    stow: bool = True
+    """After a pickup onto the tray, the arm stows (False: it stays over the tray, where
+    the next pickup at this stop starts)."""
+
+
+@dataclass(frozen=True)
+class Stow:
+    """Arm command `id`: bring the arm to its stow, before the base moves."""
+
+    id: int
 
 
 @dataclass(frozen=True)
@@ -273,7 +298,7 @@ class Finish:
     reason: str
 
 
-Decision = Drive | Turn | Pick | Release | Plan | Finish
+Decision = Drive | Turn | Pick | Stow | Release | Plan | Finish
 
 
 # ------------------------------------------------------------------------------ params
@@ -294,7 +319,7 @@ class ExecutiveParams:
     for (every object, and every place target); `place_targets`: each object to place's
     place target. `method` names the plans in the pickup records. The first plan (and one
     asked for) has `time_budget` s, a replan `replan_budget`; the rest are
-    `execution.*`'s limits (see the module docstring).
+    `execution.*`'s limits and its `motion` (see the module docstring).
     """
 
     objects: tuple[TaskObject, ...]
@@ -310,6 +335,9 @@ class ExecutiveParams:
     max_corrections: int = 2
     max_tries: int = 3
     max_replans: int = 4
+    motion: str = Motion.STOP_AND_GO.value
+    """How the robot moves (`choices.Motion`): with "smooth", the arm works while the base
+    drives (module docstring)."""
 
 
 # ------------------------------------------------------------------------------- state
@@ -349,6 +377,10 @@ class ExecutiveState:
     pick_pose: Pose = (0.0, 0.0, 0.0)  # the true base pose when the arm's command went out
     pick_started: float = 0.0  # simulated time (s) the arm's command went out
     to_tray: str = ""  # an object to place whose place failed for good, to let go
+    arm_out: bool = False  # smooth: the arm may be out at a pre-grasp, not stowed
+    deferred: tuple[Pose, tuple[str, str, float], tuple[Pose, float] | None] | None = None
+    """A corrective move decided while the arm was out: (its pose, `pending`, `stop`), sent
+    once the arm has stowed."""
     # The recovery, for the pickup at `step`:
     corrections: int = 0  # corrective moves before this attempt
     tries: int = 0  # failed attempts at this pickup, this plan
@@ -402,7 +434,7 @@ class ExecutiveState:
         nothing is out."""
         if self.mode in (Mode.DRIVING, Mode.CORRECTING, Mode.TURNING):
             return "base"
-        if self.mode in (Mode.PICKING, Mode.RELEASING):
+        if self.mode in (Mode.PICKING, Mode.RELEASING, Mode.STOWING):
             return "arm"
         return None
 
@@ -447,6 +479,7 @@ class Executive:
         self._recovery = Recovery(params.recovery)
         self._kinds = {o.name: o.kind for o in params.objects}
         self._to_place = {o.name for o in params.objects if o.goal == Goal.PLACE.value}
+        self._smooth = params.motion == Motion.SMOOTH.value
 
     @property
     def params(self) -> ExecutiveParams:
@@ -600,6 +633,9 @@ class Executive:
         if e.mode is Mode.RELEASING:  # let go, whatever came of it: on with the plan
             return _after(dataclasses.replace(e, mode=Mode.SEND, to_tray="",
                                               command_id=NO_COMMAND)), ()
+        if e.mode is Mode.STOWING:  # the base command it made way for goes out next
+            return dataclasses.replace(e, mode=Mode.SEND, command_id=NO_COMMAND,
+                                       arm_out=not event.ok), ()
         action = e.plan.actions[e.step]
         if isinstance(event, BaseFinished):
             if event.contact is not None and self._recovery == Recovery.REPLAN:
@@ -620,11 +656,27 @@ class Executive:
                                        next_id=cid + 1, pick_started=t), (Release(cid, e.to_tray),)
         action = e.plan.actions[e.step]
         if isinstance(action, Goto):
+            if e.arm_out:
+                return self._stow(e)
+            prepare = self._prepare_for(e)
+            if prepare:
+                return (_sent_base(e, Mode.DRIVING, next_id=cid + 2, arm_out=True),
+                        (Drive(cid, here[:2], action.pose, action.path, prepare=prepare,
+                               prepare_id=cid + 1),))
             return _sent_base(e, Mode.DRIVING), (Drive(cid, here[:2], action.pose, action.path),)
         target = self._target(action)
+        if e.deferred is not None:  # the correction decided before the arm stowed
+            pose, pending, stop = e.deferred
+            e = _sent_base(e, Mode.CORRECTING, corrections=e.corrections + 1,
+                           pending=pending, stop=stop, deferred=None)
+            return e, (Drive(e.command_id, here[:2], pose),)
         if e.mode is Mode.SEND and self._recovery != Recovery.NONE:
             corrected = self._check_stop(e, target, t, here)
             if corrected is not None:
+                if e.arm_out:
+                    c, (drive,) = corrected
+                    return self._stow(dataclasses.replace(
+                        e, deferred=(drive.pose, c.pending, c.stop)))
                 return corrected
         x, y, yaw = here
         if e.mode is Mode.SEND:
@@ -634,10 +686,28 @@ class Executive:
                     Turn(cid, (float(x), float(y), float(facing))),)
         placing = isinstance(action, Place)
         pick = Pick(cid, action.dish, place=placing,
-                    place_from=None if placing else _place_stop(e, action.dish, here))
+                    place_from=None if placing else _place_stop(e, action.dish, here),
+                    stow=not (self._smooth and _arm_action_follows(e)))
         return dataclasses.replace(e, mode=Mode.PICKING, command_id=cid, next_id=cid + 1,
                                    pick_pose=(float(x), float(y), float(yaw)),
                                    pick_started=t), (pick,)
+
+    def _stow(self, e: ExecutiveState) -> Step:
+        """The arm's stow out, before the base command of the action at `e.step`."""
+        cid = e.next_id
+        return dataclasses.replace(e, mode=Mode.STOWING, command_id=cid,
+                                   next_id=cid + 1), (Stow(cid),)
+
+    def _prepare_for(self, e: ExecutiveState) -> str:
+        """With smooth motion, the dish to bring the arm towards during the goto at
+        `e.step`: that of the pickup after it, when it is one onto the tray ("" else)."""
+        actions = e.plan.actions
+        if not self._smooth or e.step + 1 >= len(actions):
+            return ""
+        after = actions[e.step + 1]
+        if isinstance(after, Pickup) and after.dish not in self._to_place:
+            return after.dish
+        return ""
 
     def _target(self, action: Pickup | Place) -> str:
         """What the arm reaches for: the dish, or the place target of the object to put."""
@@ -705,6 +775,8 @@ class Executive:
         turning = e.mode is Mode.TURNING
         done = event.ok and not turning
         reason = f"turn {event.reason}" if turning else "" if done else event.reason
+        if not turning and (done or reason == "missed"):
+            e = dataclasses.replace(e, arm_out=False)  # the arm's motion played to its end
         name = "place" if isinstance(action, Place) else "pickup"
         e = dataclasses.replace(
             e, outcomes=(*e.outcomes, ActionOutcome(name, action.dish, done=done, reason=reason,
@@ -790,8 +862,15 @@ def _after(e: ExecutiveState) -> ExecutiveState:
 
 def _sent_base(e: ExecutiveState, mode: Mode, **changes: Any) -> ExecutiveState:
     """`e` with the next base command out."""
-    return dataclasses.replace(e, mode=mode, command_id=e.next_id, next_id=e.next_id + 1,
-                               **changes)
+    changes.setdefault("next_id", e.next_id + 1)
+    return dataclasses.replace(e, mode=mode, command_id=e.next_id, **changes)
+
+
+def _arm_action_follows(e: ExecutiveState) -> bool:
+    """Whether the action after the one at `e.step` is another pickup or place at this
+    stop (no goto between)."""
+    actions = e.plan.actions
+    return e.step + 1 < len(actions) and not isinstance(actions[e.step + 1], Goto)
 
 
 def _place_stop(e: ExecutiveState, dish: str, here: np.ndarray) -> Pose | None:

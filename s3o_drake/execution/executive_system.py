@@ -45,6 +45,15 @@ from s3o_drake.world.settings import Uncertainty
 from s3o_drake.world.system_lifetime import weak_callback
 from s3o_drake.world.words import counted
 
+
+def _progress(memory: _Memory) -> PlanProgress:
+    """The walk's progress; finished once the arm's motion has ended too."""
+    progress = memory.executive.progress()
+    if progress.finished and not memory.arm_done:
+        return dataclasses.replace(progress, finished=False)
+    return progress
+
+
 PerceiveWorld = Callable[..., KnownWorld]
 PlanFrom = Callable[..., PlanningResult]
 """How a plan is made from what the robot knows: `planning.pipeline.plan_from`'s signature."""
@@ -74,6 +83,9 @@ class _Memory:
     base_command: BaseCommand = field(default_factory=BaseCommand)
     pick_command: PickCommand = field(default_factory=PickCommand)
     replan_seen: float = 0.0
+    arm_done: bool = True
+    """The arm's motion has ended: the run ends once the walk has and the arm has (a
+    pickup is done before its dish is on the tray, with smooth motion)."""
 
     def __deepcopy__(self, memo: dict) -> _Memory:
         return self  # immutable (see ExecutiveState): Drake's copies may share it
@@ -137,7 +149,7 @@ class ExecutiveSystem(LeafSystem):
                 ("pick_command", PickCommand, lambda m: m.pick_command),
                 ("plan", lambda: None, lambda m: m.executive.plan),
                 ("planning_result", lambda: None, lambda m: m.executive.result),
-                ("progress", PlanProgress, lambda m: m.executive.progress())):
+                ("progress", PlanProgress, _progress)):
             self.DeclareAbstractOutputPort(
                 name, lambda make=make: AbstractValue.Make(make()),
                 weak_callback(self._calc_output, read=read), prerequisites_of_calc=state)
@@ -175,6 +187,8 @@ class ExecutiveSystem(LeafSystem):
             event = self._report(context, memory.executive)
             if event is not None:
                 memory = self._run(context, memory, event)
+        arm: Status = self._status["arm"].Eval(context)
+        memory = dataclasses.replace(memory, arm_done=context.get_time() >= arm.until)
         state.get_mutable_abstract_state(int(self._state)).set_value(memory)
 
     def _report(self, context: Context, e: ExecutiveState) -> ex.Event | None:
@@ -203,12 +217,20 @@ class ExecutiveSystem(LeafSystem):
             elif isinstance(d, ex.Drive):
                 memory = dataclasses.replace(
                     memory, base_command=self._drive(memory.executive.result, d))
+                if d.prepare:
+                    memory = dataclasses.replace(memory, pick_command=PickCommand(
+                        id=d.prepare_id, dish=d.prepare, prepare=tuple(d.pose),
+                        base_id=d.id))
             elif isinstance(d, ex.Turn):
                 memory = dataclasses.replace(memory, base_command=BaseCommand(
                     id=d.id, path=(d.pose[:2],), pose=d.pose, turn=True))
             elif isinstance(d, ex.Pick):
                 memory = dataclasses.replace(memory, pick_command=PickCommand(
-                    id=d.id, dish=d.dish, place=d.place, place_from=d.place_from))
+                    id=d.id, dish=d.dish, place=d.place, place_from=d.place_from,
+                    stow=d.stow))
+            elif isinstance(d, ex.Stow):
+                memory = dataclasses.replace(memory, pick_command=PickCommand(
+                    id=d.id, to_stow=True))
             elif isinstance(d, ex.Release):  # the held object named, without a place
                 memory = dataclasses.replace(memory, pick_command=PickCommand(d.id, d.dish))
         return memory  # a Finish needs nothing: `progress` says so

@@ -16,7 +16,7 @@ place.
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
@@ -65,6 +65,46 @@ class BaseCommand:
 
 
 @dataclass(frozen=True)
+class ArmMotion:
+    """What the arm does over time (the ArmController's `arm_motion` port): the robot's
+    positions along `trajectory` from time `t_start` (s, simulated; None: no motion), and
+    the arm's and fingers' positions `hold` before it and after it ends (where it ends);
+    during a pickup, the `dish` picked, until it is let go at `release_time`."""
+
+    trajectory: Any = None
+    t_start: float = 0.0
+    hold: tuple[float, ...] = ()
+    dish: str = ""
+    """The dish the gripper reaches for, holds or lets go of until `release_time`."""
+    release_time: float = -math.inf
+
+    def touching(self, t: float) -> str:
+        """The dish the gripper may touch at time `t` ("" for none)."""
+        return self.dish if t <= self.release_time else ""
+
+    @property
+    def end_time(self) -> float:
+        """When the motion ends (its start when there is none)."""
+        return self.t_start + (0.0 if self.trajectory is None else
+                               float(self.trajectory.end_time()))
+
+    def arm_at(self, t: float) -> tuple[float, ...]:
+        """The arm's and fingers' positions at time `t`."""
+        if self.trajectory is None or t >= self.end_time:
+            return self.final
+        tau = min(max(t - self.t_start, 0.0), float(self.trajectory.end_time()))
+        return tuple(float(v) for v in self.trajectory.value(tau).ravel()[3:])
+
+    @property
+    def final(self) -> tuple[float, ...]:
+        """Where the arm is once its motion ends."""
+        if self.trajectory is None:
+            return self.hold
+        end = float(self.trajectory.end_time())
+        return tuple(float(v) for v in self.trajectory.value(end).ravel()[3:])
+
+
+@dataclass(frozen=True)
 class PickCommand:
     """Pick `dish` from where the base stands and put it on the tray (an object whose goal
     is place: hold it above the tray); with `place`, put `dish`, held in the gripper, down
@@ -78,6 +118,20 @@ class PickCommand:
     """For the pickup of an object to place: the base pose (x, y, yaw) the plan puts it
     down from. The hand never re-grasps, so the pickup prefers a grasp that can put the
     object down there."""
+    stow: bool = True
+    """After a pickup onto the tray: the arm returns to its stow (the base drives next);
+    False: it stays over the tray, fingers open (another pickup follows at this stop, and
+    its approach starts there)."""
+    prepare: tuple[float, float, float] | None = None
+    """Instead of a pickup, bring the arm from where it is to `dish`'s pre-grasp as seen
+    from this base pose (x, y, yaw: the stop the base drives to), arriving as the base
+    command `base_id`'s motion ends, where the arm's motion along the base's is
+    collision-free (later where it is not; not at all where nothing is)."""
+    base_id: int = NO_COMMAND
+    """With `prepare`: the base command whose motion the arm's is timed and checked
+    against."""
+    to_stow: bool = False
+    """Instead of a pickup, bring the arm to its stow (the base is to move with it)."""
 
 
 @dataclass(frozen=True)
@@ -98,6 +152,11 @@ class Status:
     reason: str = ""
     reach_noise: tuple[float, float] | None = None
     contact: tuple[float, float] | None = None
+    until: float = field(default=0.0, compare=False)
+    """When the controller's motion for the command ends (s, simulated). The arm reports a
+    pickup done once the object is lifted, while its motion to the tray plays on: the
+    base may leave then, and the run ends only when the arm is done. Timing, not what the
+    report says: two reports that differ only in it are equal."""
 
     def __post_init__(self) -> None:
         # A state given as its word ("done") is stored as the CommandState, so that the
@@ -340,12 +399,15 @@ class RunReport:
     `execution_time` (s): the simulated time at which the plan finished, else the time of
     the report; `finished`: the plan is over; `reason`: why (`PlanProgress.reason`, or
     "time limit"); `outcomes`, `pickups`, `recoveries`, `unreachable` and `plans`:
-    `PlanProgress`'s.
+    `PlanProgress`'s; `closest_approach` (m): the smallest distance between the robot and
+    the true world's walls, tables and chairs over the run, measured in the simulation
+    (`world.clearance_monitor`; NaN where nothing measured it; below zero: in collision).
     """
 
     dishes: int = 0
     collected_dishes: tuple[str, ...] = ()
     execution_time: float = 0.0
+    closest_approach: float = math.nan
     finished: bool = False
     reason: str = ""
     outcomes: tuple[ActionOutcome, ...] = ()
@@ -378,7 +440,7 @@ class RunReport:
         of them ended, s: where the execution's time went, action by action), pickups
         (`PickupRecord.to_dict()` each), recoveries (`RecoveryRecord.to_dict()` each),
         unreachable (a list), plans
-        (`PlanTime.to_dict()` each)."""
+        (`PlanTime.to_dict()` each), closest_approach."""
         return {
             "dishes": self.dishes,
             "collected": self.collected,
@@ -395,4 +457,5 @@ class RunReport:
             "recoveries": [record.to_dict() for record in self.recoveries],
             "unreachable": list(self.unreachable),
             "plans": [plan.to_dict() for plan in self.plans],
+            "closest_approach": self.closest_approach,
         }

@@ -36,12 +36,14 @@ class TaskMonitor(LeafSystem):
             ObjectTracker).
         dish_poses: abstract DishPoses, X_WD of each dish (from the ObjectTracker; read
             for the objects to place only).
+        closest_approach (vector 1, optional): the robot's closest approach to the world so
+            far (m, from a ClearanceMonitor).
     Output ports:
         report: abstract RunReport: the dishes, those on the tray, the placements, the
             execution time (the
             simulated time the plan finished, else the current time), whether and why the
             plan finished, and progress's outcomes, pickup and recovery records and
-            unreachable dishes (`to_dict()` gives
+            unreachable dishes, and the closest approach (`to_dict()` gives
             the plain JSON data that report.json holds).
     """
 
@@ -62,6 +64,7 @@ class TaskMonitor(LeafSystem):
             "dish_states", AbstractValue.Make(DishStates()))
         self._dish_poses_port = self.DeclareAbstractInputPort(
             "dish_poses", AbstractValue.Make(DishPoses()))
+        self._closest_port = self.DeclareVectorInputPort("closest_approach", 1)
         # The simulated time at which progress first said finished; NaN while it has not.
         self._finished_at_index = self.DeclareDiscreteState([math.nan])
         self.DeclareAbstractOutputPort("report", lambda: AbstractValue.Make(RunReport()),
@@ -111,7 +114,9 @@ class TaskMonitor(LeafSystem):
             execution_time=t if math.isnan(finished_at) else finished_at,
             finished=bool(progress.finished), reason=reason, outcomes=progress.outcomes,
             pickups=_judged(progress.pickups, placements), recoveries=progress.recoveries,
-            unreachable=progress.unreachable, plans=progress.plans))
+            unreachable=progress.unreachable, plans=progress.plans,
+            closest_approach=(float(self._closest_port.Eval(context)[0])
+                              if self._closest_port.HasValue(context) else math.nan)))
 
     def _placements(self, context: Context, dish_states: DishStates) -> tuple[Placement, ...]:
         if not self._places:

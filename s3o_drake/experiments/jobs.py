@@ -125,7 +125,8 @@ def _run(job: Job) -> dict:
             "reason": r.get("reason", ""), "realtime_rate": r["realtime_rate"],
             "outcomes": [f"{action} {arg}: {outcome}" for action, arg, outcome in r["outcomes"]],
             "pickups": r["pickups"], "recoveries": r["recoveries"],
-            "unreachable": r["unreachable"]}
+            "unreachable": r["unreachable"], "motion": scenario.execution.motion,
+            "closest_approach": r["closest_approach"]}
 
 
 def _predicted_completion(plan) -> float:

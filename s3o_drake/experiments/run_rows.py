@@ -7,6 +7,10 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from s3o_drake.experiments.store import robot_of
+from s3o_drake.world.choices import Motion
+
+MOTION_FIELD = "execution.motion"
+"""The scenario field of the motion, as `--set` names it."""
 
 
 def has_time(run: Mapping) -> bool:
@@ -57,13 +61,25 @@ BOOKKEEPING = frozenset({"code", "packages", "schema", "job_seconds", "planning_
 """Fields of a run's row that say when, where and how fast it ran, not what it did."""
 
 
+def motion_of(run: Mapping) -> str:
+    """The motion a run ran with (`execution.motion`): rows from before it was recorded
+    stopped and went."""
+    return str(run.get("motion", Motion.STOP_AND_GO.value))
+
+
 def _what_it_did(value: object, top: bool = True) -> object:
-    """`value` without bookkeeping and wall-clock timings, at any depth; a run's robot
-    always named (rows from before it was recorded ran the UR5e)."""
+    """`value` without bookkeeping and wall-clock timings, at any depth; a run's robot and
+    motion always named (rows from before they were recorded ran the UR5e, stopping and
+    going), the motion not among the fields a study replaced."""
     if isinstance(value, Mapping):
         kept = {k: _what_it_did(v, False) for k, v in value.items()
                 if k not in BOOKKEEPING and "wall" not in k and k != "timing"}
-        return {**kept, "robot": robot_of(value)} if top else kept
+        if not top:
+            return kept
+        if "overrides" in kept:
+            kept["overrides"] = [o for o in kept["overrides"]
+                                 if not str(o).startswith(f"{MOTION_FIELD}=")]
+        return {**kept, "robot": robot_of(value), "motion": motion_of(value)}
     if isinstance(value, list | tuple):
         return [_what_it_did(v, False) for v in value]
     return value

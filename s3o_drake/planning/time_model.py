@@ -32,6 +32,26 @@ R(pickup) = -δ + λ Fea^m, under one of two cost profiles (`PlanningSettings.co
 - "paper": the paper's values: Cst(goto) = len / v + γ, δ constant (the scenario's
   planner.delta, gamma, speed: 5, 20, 0.4 by default), len the path length on the map.
 
+With smooth motion (`execution.motion: smooth`) the drives are smooth
+(`base_motion.smooth_chain_time`), and the arm's motions overlap the base's
+(execution/arm_controller.py): the arm reaches the first dish's pre-grasp while the base
+drives in (its motion is hidden in the drive), a pickup is done once its dish is lifted,
+and the arm takes the dish to the tray while the base turns to the next dish or leaves.
+The terms (`SmoothArm`, recorded with the model) are then
+
+- a stop's first pickup onto the tray: δ = grasp(kind, d) (the descent, the fingers
+  closing and the lift) plus the hand-over, and the arm's lateness where the drive was too
+  short to hide its way there: the previous dish's tail and the stow, and prepare(kind, d)
+  (from the stow to the pre-grasp), less the goto's time;
+- a further one at the stop: the previous dish's tail(kind, d) (to the tray and letting go)
+  or the turn to this dish with its γ, whichever is longer, then from_tray(kind, d) (the
+  arm from the tray to this dish's pre-grasp) and grasp(kind, d) and the hand-over;
+- a goto after a stop's pickups: drive + γ + `departure`, the base's wait for the arm to
+  rise clear of the table (measured in simulations, with whatever else the terms leave
+  out), and at the plan's end the last dish's tail and the arm's stow(kind, d);
+- objects to place, their places, and a pickup at the start (no drive to hide the arm's
+  approach in) keep the stop-and-go terms.
+
 Either way the plan's `predicted_time` is T above (for the paper profile too, since it is a
 prediction of the execution, not a cost), as planned: every landing exact, every action
 done. With the navigation noise on, the landings differ (the turn before the first pickup
@@ -53,6 +73,7 @@ import yaml
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.landing import TURN_TOLERANCE
 from s3o_drake.planning.navigation.base_motion import SETTLE_TIME, STOP_AND_GO, BaseProfile
+from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.world.angles import facing_yaw, wrap
 from s3o_drake.world.resources import TIME_MODEL
 from s3o_drake.world.robot import CONTROL_PERIOD, ROBOT
@@ -141,52 +162,97 @@ class PickupModel:
         return out
 
 
+SMOOTH_PARTS = ("grasp", "from_tray", "tail", "stow", "prepare")
+"""The arm's motions a smooth plan is timed with (`SmoothArm`)."""
+
+
+@dataclass(frozen=True)
+class SmoothArm:
+    """The arm's motions as a smooth plan overlaps them with the base's (module docstring):
+    durations (s) by dish kind and distance d, each a `PickupModel` (`parts`: `grasp`,
+    `from_tray`, `tail`, `stow`, `prepare`: from the stow to the pre-grasp), and the base's
+    `departure` wait (s); `fit`: how they were made."""
+
+    parts: Mapping[str, PickupModel]
+    departure: float
+    fit: Mapping[str, Any] = field(default_factory=dict)
+
+    def duration(self, part: str, kind: str, distance) -> np.ndarray:
+        return self.parts[part].duration(kind, distance)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**dict(self.fit), "departure": float(self.departure),
+                **{name: _pickup_dict(self.parts[name]) for name in SMOOTH_PARTS}}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> SmoothArm:
+        data = dict(data)
+        parts = {name: _pickup_model(data.pop(name), f"smooth.{name}")
+                 for name in SMOOTH_PARTS}
+        return cls(parts=parts, departure=float(data.pop("departure")), fit=data)
+
+
+def _pickup_dict(model: PickupModel) -> dict[str, Any]:
+    return {"model": model.form,
+            "coefficients": {k: [float(c) for c in v]
+                             for k, v in sorted(model.coefficients.items())},
+            "side_beyond": {k: float(v) for k, v in sorted(model.side_beyond.items())}}
+
+
+def _pickup_model(data: Mapping[str, Any], path: str) -> PickupModel:
+    """A `PickupModel` from its record; the record's other keys are left out."""
+    form = data["model"]
+    if form not in PICKUP_FORMS:
+        raise ValueError(f"{path}.model: unknown form {form!r}")
+    coefficients = {str(k): tuple(float(c) for c in v)
+                    for k, v in data["coefficients"].items()}
+    side_beyond = {str(k): float(v) for k, v in data.get("side_beyond", {}).items()}
+    return PickupModel(form, coefficients, side_beyond)
+
+
 @dataclass(frozen=True)
 class TimeModel:
     """The recorded time model (models/ur5e/time_model.yaml): the command overheads, the pickup
-    model, and how they were made (`provenance`, `fit`)."""
+    model, the arm's motions of a smooth plan (`smooth`; None in models made before it),
+    and how they were made (`provenance`, `fit`)."""
 
     overheads: Overheads
     pickup: PickupModel
     turn_tolerance: float = TURN_TOLERANCE
     provenance: Mapping[str, Any] = field(default_factory=dict)
     fit: Mapping[str, Any] = field(default_factory=dict)
+    smooth: SmoothArm | None = None
 
     def pickup_time(self, kind: str, distance) -> np.ndarray:
         """δ: a pickup command's time (s), the arm's motion and its hand-over."""
         return self.pickup.duration(kind, distance) + self.overheads.pickup
 
     def to_dict(self) -> dict[str, Any]:
-        return {"format": FORMAT, **dict(self.provenance),
-                "gamma": self.overheads.gamma, "pickup_overhead": self.overheads.pickup,
-                "plan_offset": self.overheads.plan, "turn_tolerance": self.turn_tolerance,
-                "pickup": {"model": self.pickup.form,
-                           "coefficients": {k: [float(c) for c in v] for k, v
-                                            in sorted(self.pickup.coefficients.items())},
-                           "side_beyond": {k: float(v) for k, v
-                                           in sorted(self.pickup.side_beyond.items())},
-                           **dict(self.fit)}}
+        out = {"format": FORMAT, **dict(self.provenance),
+               "gamma": self.overheads.gamma, "pickup_overhead": self.overheads.pickup,
+               "plan_offset": self.overheads.plan, "turn_tolerance": self.turn_tolerance,
+               "pickup": {**_pickup_dict(self.pickup), **dict(self.fit)}}
+        if self.smooth is not None:
+            out["smooth"] = self.smooth.to_dict()
+        return out
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> TimeModel:
         if data.get("format") != FORMAT:
             raise ValueError(f"not a time model (format {data.get('format')!r}, expected "
                              f"{FORMAT!r})")
-        pickup = dict(data["pickup"])
-        form = pickup.pop("model")
-        if form not in PICKUP_FORMS:
-            raise ValueError(f"pickup.model: unknown form {form!r}")
-        coefficients = {str(k): tuple(float(c) for c in v)
-                        for k, v in pickup.pop("coefficients").items()}
-        side_beyond = {str(k): float(v) for k, v in pickup.pop("side_beyond", {}).items()}
+        pickup = _pickup_model(data["pickup"], "pickup")
+        fit = {k: v for k, v in data["pickup"].items()
+               if k not in ("model", "coefficients", "side_beyond")}
         known = {"format", "gamma", "pickup_overhead", "plan_offset", "turn_tolerance",
-                 "pickup"}
+                 "pickup", "smooth"}
         return cls(overheads=Overheads(gamma=float(data["gamma"]),
                                        pickup=float(data["pickup_overhead"]),
                                        plan=float(data["plan_offset"])),
-                   pickup=PickupModel(form, coefficients, side_beyond),
-                   turn_tolerance=float(data["turn_tolerance"]),
-                   provenance={k: v for k, v in data.items() if k not in known}, fit=pickup)
+                   pickup=pickup, turn_tolerance=float(data["turn_tolerance"]),
+                   provenance={k: v for k, v in data.items() if k not in known}, fit=fit,
+                   smooth=(SmoothArm.from_dict(data["smooth"]) if "smooth" in data
+                           else None))
 
     @classmethod
     def load(cls, path: str | Path = MODEL_FILE) -> TimeModel:
@@ -215,6 +281,8 @@ class DishPlace:
 
     xy: tuple[float, float]
     kind: str
+    collect: bool = True
+    """Picked onto the tray (not an object to place, nor a place target)."""
 
 
 class CostModel:
@@ -242,6 +310,10 @@ class CostModel:
         self.model = (time_model or TimeModel.load()) if self.timed else None
         self.base = base_profile(planner, motion)
         self.reward = planner.reward
+        self.arm = None if self.model is None or not self.base.smooth else self.model.smooth
+        if self.model is not None and self.base.smooth and self.arm is None:
+            raise ValueError("the time model has no smooth section: make it again with "
+                             "`s3o build time-model`")
 
     @classmethod
     def paper(cls, planner: PlanningSettings) -> CostModel:
@@ -253,9 +325,13 @@ class CostModel:
                   start: Sequence[float] | None = None) -> CostModel:
         """The planner's cost profile, with the dishes that remain and where the robot
         stands (or `start`, (x, y[, yaw]): where its plan starts) for the time prediction."""
-        dishes = {d.name: DishPlace((float(d.position[0]), float(d.position[1])), d.kind)
+        placing = set(known.places) | set(known.places.values())
+        dishes = {d.name: DishPlace((float(d.position[0]), float(d.position[1])), d.kind,
+                                    collect=d.name not in placing)
                   for d in known.dishes}
         pose = known.pose if start is None else (*np.asarray(start, float)[:2], known.pose[2])
+        if time_model is None and known.planner.time_model:
+            time_model = TimeModel.load(known.planner.time_model)
         return cls(known.planner, dishes=dishes, start=pose, time_model=time_model,
                    motion=known.settings.execution.motion)
 
@@ -265,9 +341,15 @@ class CostModel:
         return self.planner.gamma if self.profile == "paper" else self.model.overheads.gamma
 
     # ----------------------------------------------------------------------- the parts
-    def pickup_times(self, dishes: Sequence[str], where: np.ndarray) -> np.ndarray:
+    def pickup_times(self, dishes: Sequence[str], where: np.ndarray,
+                     stops: Sequence[int] | None = None,
+                     gotos: np.ndarray | None = None) -> np.ndarray:
         """δ (s) of picking each of `dishes` (k) from its base positions `where` (m, k, 2):
-        (m, k). The dishes of a kind share one pickup model, so they go in one batch."""
+        (m, k). The dishes of a kind share one pickup model, so they go in one batch. With
+        smooth motion, `stops` (k: the goto each pickup follows, -1 at the start, in the
+        plan's order) and the gotos' times (m, n: `goto_times`') give the smooth terms
+        (module docstring); the last pickup's then holds the arm's last motions, to the
+        tray and to its stow."""
         where = np.asarray(where, float)
         where = where.reshape(len(where), len(dishes), 2)
         xy = np.array([self.dishes[d].xy for d in dishes], dtype=float).reshape(1, -1, 2)
@@ -277,13 +359,55 @@ class CostModel:
         for kind in sorted(set(kinds)):
             cols = [j for j, k in enumerate(kinds) if k == kind]
             out[:, cols] = self.model.pickup_time(kind, distance[:, cols])
+        if self.arm is None or stops is None:
+            return out
+        return self._smooth_pickup_times(dishes, where, distance, out, stops, gotos)
+
+    def _smooth_pickup_times(self, dishes: Sequence[str], where: np.ndarray,
+                             distance: np.ndarray, plain: np.ndarray,
+                             stops: Sequence[int], gotos: np.ndarray | None) -> np.ndarray:
+        arm, o = self.arm, self.model.overheads
+        out = plain.copy()
+
+        def part(name: str, j: int) -> np.ndarray:
+            return arm.duration(name, self.dishes[dishes[j]].kind, distance[:, j])
+
+        smooth = [False] * len(dishes)
+        for j, dish in enumerate(dishes):
+            first = j == 0 or stops[j] != stops[j - 1]
+            if not self.dishes[dish].collect or (first and stops[j] < 0):
+                continue  # the stop-and-go term: no drive hides the arm's approach
+            if first:
+                # The arm's way to the pre-grasp (from the last dish to the tray and the
+                # stow) against the goto's: a short drive does not hide it all.
+                way = part("prepare", j)
+                if j > 0 and smooth[j - 1]:
+                    way = way + part("tail", j - 1) + part("stow", j - 1)
+                drive = 0.0 if gotos is None else np.asarray(gotos)[:, stops[j]]
+                out[:, j] = part("grasp", j) + o.pickup + np.maximum(0.0, way - drive)
+            elif smooth[j - 1]:
+                # The base turns to this dish while the arm takes the last one to the tray.
+                delta = wrap(self.facing(where[:, j], dish)
+                             - self.facing(where[:, j - 1], dishes[j - 1]))
+                turn = np.where(np.abs(delta) > self.model.turn_tolerance,
+                                self.base.turn_time(delta) + o.gamma, 0.0)
+                out[:, j] = (np.maximum(part("tail", j - 1), turn) + part("from_tray", j)
+                             + part("grasp", j) + o.pickup)
+            else:
+                continue
+            smooth[j] = True
+        if dishes and smooth[-1]:
+            out[:, -1] += part("tail", len(dishes) - 1) + part("stow", len(dishes) - 1)
         return out
 
-    def pickup_costs(self, dishes: Sequence[str], where: np.ndarray) -> np.ndarray:
-        """δ of the utility for picking each of `dishes` (k) from `where` (m, k, 2): (m, k)."""
+    def pickup_costs(self, dishes: Sequence[str], where: np.ndarray,
+                     stops: Sequence[int] | None = None,
+                     gotos: np.ndarray | None = None) -> np.ndarray:
+        """δ of the utility for picking each of `dishes` (k) from `where` (m, k, 2): (m, k)
+        (`pickup_times`' `stops` and `gotos`)."""
         if self.profile == "paper":
             return np.full((len(where), len(dishes)), self.planner.delta)
-        return self.pickup_times(dishes, where)
+        return self.pickup_times(dishes, where, stops, gotos)
 
     def facing(self, where: np.ndarray, dish: str) -> np.ndarray:
         """Yaw (m,) of base positions `where` (m, 2) facing `dish`."""
@@ -293,14 +417,19 @@ class CostModel:
                    dishes: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
         """The turns in place at a stop: base positions `where` (m, 2) arriving at `yaw`
         (m,) pick `dishes` in order, turning first to face each one that is more than the
-        tolerance off. Returns their time Σ (t_turn + γ) (m,) and the yaw the base leaves
-        with (m,)."""
+        tolerance off. Returns their time Σ (t_turn + γ) (m,; with smooth motion the first
+        turn's, the others being in the pickups' terms) and the yaw the base leaves with
+        (m,)."""
         yaw = np.asarray(yaw, dtype=float).copy()
         total = np.zeros(len(yaw))
-        for dish in dishes:
+        for k, dish in enumerate(dishes):
             delta = wrap(self.facing(where, dish) - yaw)
             turn = np.abs(delta) > self.model.turn_tolerance
-            total += np.where(turn, self.base.turn_time(delta) + self.model.overheads.gamma, 0.0)
+            # With smooth motion the turns after the first overlap the arm's motion: their
+            # time is in the pickup's term.
+            if k == 0 or self.arm is None or not self.dishes[dish].collect:
+                total += np.where(turn, self.base.turn_time(delta)
+                                  + self.model.overheads.gamma, 0.0)
             yaw = np.where(turn, yaw + delta, yaw)
         return total, yaw
 
@@ -342,6 +471,12 @@ class CostModel:
             _, drive[fix], _ = nav.path_times(prev[fix], flat[fix], previous_landing[fix],
                                               arrive.ravel()[fix], self.base)
         goto = drive.reshape(m, n) + self.model.overheads.gamma + turns
+        if self.arm is not None:
+            # A goto that leaves a stop with pickups onto the tray waits for the arm.
+            before = [start_dishes, *stop_dishes[:-1]]
+            leaving = np.array([any(self.dishes[d].collect for d in dishes)
+                                for dishes in before], dtype=float)
+            goto = goto + self.arm.departure * leaving[None, :]
         return lengths.reshape(m, n), goto, start_turns
 
     def predicted_time(self, goto_times: np.ndarray, start_turns: np.ndarray,
@@ -349,3 +484,17 @@ class CostModel:
         """T (module docstring) from the parts (m, n), (m,), (m, pickups)."""
         return (goto_times.sum(axis=1) + start_turns + pickup_times.sum(axis=1)
                 + self.model.overheads.plan)
+
+
+def departures(actions: Sequence[Any]) -> int:
+    """How many gotos of a plan's `actions` leave a stop (or the start) after pickups: those
+    the smooth model's `departure` is charged to (`CostModel.goto_times`; for a plan of
+    collecting, where every pickup goes onto the tray)."""
+    count, picked = 0, False
+    for action in actions:
+        if isinstance(action, Goto):
+            count += picked
+            picked = False
+        elif isinstance(action, Pickup):
+            picked = True
+    return count

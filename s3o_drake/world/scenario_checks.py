@@ -10,6 +10,7 @@ dataclasses, is `world/scenario.py`, which calls this after loading a file.
 from __future__ import annotations
 
 import re
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from shapely.geometry import Polygon, box
@@ -284,6 +285,8 @@ def _validate_settings(scenario: Scenario) -> None:
     _choice(p.location_price, LOCATION_PRICES, "planner.location_price", "price")
     _choice(p.failure_price, FAILURE_PRICES, "planner.failure_price", "price")
     _choice(p.shared_stop, SHARED_STOPS, "planner.shared_stop", "rating")
+    if p.time_model and not Path(p.time_model).is_file():
+        raise ScenarioError("planner.time_model", f"no such file: {quoted(p.time_model)}")
     _at_least(p.top_k, 1, "planner.top_k")
     _at_least(p.cma_generations, 1, "planner.cma_generations")
     _at_least(p.cma_population, 2, "planner.cma_population")

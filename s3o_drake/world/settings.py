@@ -78,6 +78,10 @@ class PlanningSettings:
     failure holds the recoveries at shared stops); "paper", Fea^m as it is."""
     time_budget: float = 300.0
     """Wall-clock cap on planning (s)."""
+    time_model: str = ""
+    """The time model file the "robot" cost profile reads (planning/time_model.py); empty:
+    the robot's (models/<robot>/time_model.yaml). `s3o build time-model` plans with the
+    model it is making."""
     workers: int = 2
     feasibility: str = "fcn"
     """Source of the Fea^m heatmaps: "fcn" (the network in models/ur5e/fcn/, from the overhead

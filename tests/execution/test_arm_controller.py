@@ -47,9 +47,11 @@ STOWED = np.concatenate([ARM_STOW, GRIPPER_OPEN])
 PLANNING_REASONS = ("no_ik", "no_path", "base_collision")
 
 
-def _controller(scenario, scene, checker, *, seed=None, noise=True):
-    arm = ArmController(params=arm_params(scenario, seed=seed, noise=noise), scene=scene,
-                        checker=checker)
+def _controller(scenario, scene, checker, *, seed=None, noise=True, motion="stop_and_go"):
+    """The scenario's controller; stopping and going unless `motion` says (the pickup then
+    is done at its end)."""
+    params = dataclasses.replace(arm_params(scenario, seed=seed, noise=noise), motion=motion)
+    arm = ArmController(params=params, scene=scene, checker=checker)
     return arm, arm.CreateDefaultContext()
 
 
@@ -342,7 +344,8 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     world = builder.AddNamedSystem(
         "world", build_world_diagram(start, **({"track_dishes": True} if tracked else {})))
     arm = builder.AddNamedSystem("arm_controller", ArmController(
-        params=arm_params(start, noise=False), scene=scene, checker=checker))
+        params=dataclasses.replace(arm_params(start, noise=False), motion="stop_and_go"),
+        scene=scene, checker=checker))
     command = builder.AddSystem(ConstantValueSource(
         AbstractValue.Make(PickCommand(id=1, dish="plate_a"))))
     base = builder.AddSystem(ConstantVectorSource(np.concatenate([FRONT_OF_PLATE, np.zeros(3)])))
@@ -452,3 +455,90 @@ def test_a_place_grasp_is_rated_by_the_landings_at_the_place():
                         landing_noise=landings) == ["side", "top"]
     assert place_grasps(scene, checker, stop, "apple__place",
                         landing_noise=landings[:1]) == ["top"]
+
+
+# ------------------------------------------------------------------------- smooth motion
+@dataclasses.dataclass(frozen=True)
+class _BaseMotion:
+    """A base motion as the navigator's `base_motion` port gives it: command `id`, standing
+    at `pose` until `end_time` (its approach does not matter here)."""
+
+    id: int
+    end_time: float
+    pose: tuple[float, float, float] = tuple(FRONT_OF_PLATE)
+
+    def desired(self, t):
+        return np.array([*self.pose, 0.0, 0.0, 0.0])
+
+
+def test_smooth_a_pickup_is_done_once_lifted_and_its_motion_plays_on(scenario, scene, checker):
+    """The base may leave once the plate is lifted: the status says done then, and when the
+    arm's motion (to the tray, letting go, the stow) ends; `arm_motion` says the same."""
+    arm, context = _controller(scenario, scene, checker, noise=False, motion="smooth")
+    _fix_robot(arm, context)
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="plate_a"))
+    t_done, _, grip, status = _play(arm, context, 0.5)[-1]
+    assert status.state is CommandState.DONE and grip.dish == "plate_a"  # held, lifted
+    assert status.until > t_done + 1.0
+    motion = arm.GetOutputPort("arm_motion").Eval(context)
+    assert motion.end_time == pytest.approx(status.until) and motion.dish == "plate_a"
+    assert motion.touching(t_done) == "plate_a" and motion.touching(status.until) == ""
+    _step(arm, context, status.until + 0.05)
+    desired, grip, after = _outputs(arm, context)
+    assert grip == GripEvent("", ("plate_a",)) and after == status
+    np.testing.assert_allclose(desired[:8], STOWED, atol=1e-9)
+
+
+def test_smooth_a_pickup_another_follows_leaves_the_arm_over_the_tray(scenario, scene,
+                                                                       checker):
+    """Without the stow the arm ends over the tray, fingers open, and the next pickup
+    starts from there."""
+    arm, context = _controller(scenario, scene, checker, noise=False, motion="smooth")
+    _fix_robot(arm, context)
+    arm.GetInputPort("pick_command").FixValue(
+        context, PickCommand(id=1, dish="plate_a", stow=False))
+    status = _play(arm, context, 0.0)[-1][3]
+    _step(arm, context, status.until + 0.05)
+    over_tray = _outputs(arm, context)[0][:8].copy()
+    assert np.abs(over_tray[:6] - ARM_STOW).max() > 0.1
+    np.testing.assert_allclose(over_tray[6:], GRIPPER_OPEN, atol=1e-6)
+    _fix_robot(arm, context, arm_q=over_tray)  # where the plant's arm then is
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=2, dish="cup_b"))
+    _step(arm, context, status.until + 0.1)
+    np.testing.assert_allclose(_outputs(arm, context)[0][:8], over_tray, atol=1e-9)
+    assert _outputs(arm, context)[2].state is CommandState.RUNNING
+
+
+def test_smooth_a_prepare_reaches_the_pre_grasp_as_the_base_arrives(scenario, scene, checker):
+    """A prepare waits for the navigator to take its base command, then starts so that the
+    arm reaches the plate's pre-grasp (the hand above the plate) as the base's motion ends,
+    and holds there."""
+    arm, context = _controller(scenario, scene, checker, noise=False, motion="smooth")
+    _fix_robot(arm, context)
+    command = PickCommand(id=3, dish="plate_a", prepare=tuple(FRONT_OF_PLATE), base_id=2)
+    arm.GetInputPort("pick_command").FixValue(context, command)
+    port = arm.GetInputPort("base_motion")
+    port.FixValue(context, AbstractValue.Make(_BaseMotion(id=1, end_time=0.0)))
+    _step(arm, context, 0.0)
+    assert _outputs(arm, context)[2] == Status()  # not the base motion it is timed by
+    port.FixValue(context, AbstractValue.Make(_BaseMotion(id=2, end_time=10.0)))
+    _step(arm, context, 0.05)
+    motion = arm.GetOutputPort("arm_motion").Eval(context)
+    assert motion.end_time == pytest.approx(10.0)
+    assert 0.05 < motion.t_start < 9.5
+    np.testing.assert_allclose(_outputs(arm, context)[0][:8], STOWED, atol=1e-9)
+    _step(arm, context, 10.0)
+    desired, _, status = _outputs(arm, context)
+    assert status.state is CommandState.DONE and status.id == 3
+    hand = scene.grasp_pose(np.concatenate([FRONT_OF_PLATE, desired[:8]])).translation()
+    assert np.linalg.norm(hand[:2] - [1.85, 2.3]) < 0.15 and hand[2] > 0.78  # at its rim
+
+
+def test_smooth_a_stow_command_stows(scenario, scene, checker):
+    arm, context = _controller(scenario, scene, checker, noise=False, motion="smooth")
+    bent = STOWED + np.array([0.3, -0.2, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
+    _fix_robot(arm, context, arm_q=bent)
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=4, to_stow=True))
+    t_end, desired, _, status = _play(arm, context, 0.0)[-1]
+    assert status == Status(4, CommandState.DONE) and status.until == pytest.approx(t_end, abs=0.06)
+    np.testing.assert_allclose(desired[:8], STOWED, atol=1e-9)

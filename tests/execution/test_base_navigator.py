@@ -16,15 +16,17 @@ from pydrake.systems.primitives import (
     MatrixGain,
     Multiplexer,
 )
+from pydrake.trajectories import PiecewisePolynomial
 
 from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.diagram import navigator_params
-from s3o_drake.execution.messages import BaseCommand, CommandState, Status
+from s3o_drake.execution.messages import ArmMotion, BaseCommand, CommandState, Status
 from s3o_drake.world.angles import wrap as wrap_angle
 from s3o_drake.world.builder import build_world_diagram
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
 
 V = 0.4  # the scenario's planner speed (default)
+STOWED = np.concatenate([ARM_STOW, GRIPPER_OPEN])
 
 
 def _robot_state(x: float, y: float, yaw: float) -> np.ndarray:
@@ -444,3 +446,41 @@ def test_a_base_that_cannot_leave_a_tight_spot_goes_back_the_way_it_came(dense):
     stranger.send(leave, t=1.0)
     _, status = stranger.final()
     assert (status.state, status.reason) == (CommandState.FAILED, "blocked")
+
+
+# --------------------------------------------------------- smooth: the arm moves as well
+def _arm_out_of_the_table(base) -> ArmMotion:
+    """An arm motion that starts with the hand inside the table in front of `base` and
+    reaches the stow, in a straight joint line over 2 s: clear of the table about halfway."""
+    reaching = np.array(ARM_STOW, dtype=float)
+    reaching[:3] = [math.pi, -0.3, 1.0]
+    q0 = robot_positions(*base, arm=reaching, gripper=GRIPPER_OPEN)
+    q1 = robot_positions(*base, arm=ARM_STOW, gripper=GRIPPER_OPEN)
+    trajectory = PiecewisePolynomial.FirstOrderHold([0.0, 2.0], np.column_stack([q0, q1]))
+    return ArmMotion(trajectory, 0.0, tuple(q0[3:]))
+
+
+@pytest.mark.parametrize("motion", ["smooth", "stop_and_go"])
+def test_smooth_the_base_waits_where_the_arm_s_motion_and_its_own_collide(scenario, scene,
+                                                                          motion):
+    """A turn commanded while the arm is still in the table waits until the two motions
+    are collision-free together, and no longer than the arm's motion; with the arm stowed
+    it starts at once. Stopping and going, the arm is stowed whenever the base moves: the
+    navigator does not look at it."""
+    base = (1.85, 1.55, math.pi / 2)
+    turn = BaseCommand(id=1, path=(base[:2],), pose=(*base[:2], base[2] - 1.0), turn=True)
+    starts = []
+    for arm in (_arm_out_of_the_table(base), ArmMotion(hold=tuple(STOWED))):
+        navigator = _navigator(scenario, scene, motion=motion)
+        context = navigator.CreateDefaultContext()
+        navigator.GetInputPort("robot_state").FixValue(context, _robot_state(*base))
+        navigator.GetInputPort("arm_motion").FixValue(context, AbstractValue.Make(arm))
+        navigator.GetInputPort("base_command").FixValue(context, AbstractValue.Make(turn))
+        navigator.CalcForcedUnrestrictedUpdate(context, context.get_mutable_state())
+        played = navigator.GetOutputPort("base_motion").Eval(context)
+        assert played.id == 1 and played.end_time == pytest.approx(played.t0 + played.duration)
+        starts.append(played.t0)
+    if motion == "smooth":
+        assert 0.5 <= starts[0] <= 2.0 and starts[1] == 0.0
+    else:
+        assert starts == [0.0, 0.0]

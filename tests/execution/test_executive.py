@@ -27,6 +27,7 @@ from s3o_drake.execution.executive import (
     Release,
     ReplanRequested,
     Start,
+    Stow,
     TaskObject,
     Tick,
     Turn,
@@ -687,3 +688,56 @@ def test_only_replan_rechecks(recovery):
     run.to_stop()
     run.pick()
     assert run.arm() == (Finish(PLAN_ENDED),)
+
+
+# ------------------------------------------------------------------------- smooth motion
+def test_smooth_a_drive_brings_the_arm_to_its_first_dish_and_a_shared_stop_keeps_it_out():
+    """With smooth motion the drive to a stop sends the arm towards its first dish's
+    pre-grasp (a command of its own, not waited for); the first pickup leaves the arm over
+    the tray for the next, the last one stows it for the base to leave."""
+    run = Run(Recovery.NONE, motion="smooth")
+    run.start(_ready(PLATE_CUP))
+    (drive,) = run.tick()
+    assert drive.prepare == "plate" and drive.prepare_id == drive.id + 1
+    assert run.state.arm_out and run.state.next_id == drive.id + 2
+    run.base(land=L1)
+    first = run.pick()
+    assert first.dish == "plate" and not first.stow and first.id == drive.id + 2
+    run.arm()
+    assert not run.state.arm_out
+    (turn,) = run.tick()  # the cup is 45 degrees off: the base turns to it
+    assert isinstance(turn, Turn)
+    run.base(land=(1.0, 1.0, math.pi / 4))
+    second = run.pick()
+    assert second.dish == "cup" and second.stow
+
+
+def test_smooth_no_prepare_before_a_place_or_an_object_to_place():
+    run = Run(Recovery.NONE, motion="smooth")
+    run.start(_ready(APPLE))
+    (drive,) = run.tick()
+    assert drive.prepare == ""  # the apple is to be placed: picked as in stop and go
+
+
+def test_smooth_a_correction_stows_a_prepared_arm_first():
+    """A stop check that asks for a corrective move while the arm waits at the pre-grasp:
+    the arm stows first, then the base moves."""
+    check = FakeCheck(verdicts=[Assessment(False, 0.2)],
+                      corrections=[(np.array([1.2, 1.0]), 0.9)])
+    run = Run(Recovery.RETRY, motion="smooth")
+    run.start(_ready(PLATE, check=check))
+    run.to_stop()
+    (stow,) = run.tick()
+    assert isinstance(stow, Stow) and run.state.mode is Mode.STOWING
+    assert run.arm() == ()
+    assert not run.state.arm_out and run.state.mode is Mode.SEND
+    (correction,) = run.tick()
+    assert isinstance(correction, Drive) and run.state.mode is Mode.CORRECTING
+
+
+def test_stop_and_go_sends_no_prepare_and_always_stows():
+    run = Run(Recovery.NONE)
+    run.start(_ready(PLATE_CUP))
+    drive = run.to_stop()
+    assert drive.prepare == "" and not run.state.arm_out
+    assert run.pick().stow

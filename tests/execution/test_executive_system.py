@@ -31,13 +31,14 @@ def _executive(scenario, **kwargs):
     return make_executive_system(scenario, plan_from=ORACLE_MAPS_ONCE, **kwargs)
 
 
-def _with_oracle(scenario, recovery="none"):
+def _with_oracle(scenario, recovery="none", motion="stop_and_go"):
     """These tests feed blank images: the heatmaps come from the Drake oracle (the FCN reads
-    the images; tests/commands/test_run.py runs it end to end). They walk the paper's open loop
-    unless they say otherwise (tests/execution/test_recovery.py has the recoveries)."""
+    the images; tests/commands/test_run.py runs it end to end). They walk the paper's open
+    loop, stopping and going, unless they say otherwise (tests/execution/test_recovery.py has
+    the recoveries, tests/execution/test_executive.py the smooth walk)."""
     return dataclasses.replace(
         scenario, planner=dataclasses.replace(scenario.planner, feasibility="oracle"),
-        execution=dataclasses.replace(scenario.execution, recovery=recovery))
+        execution=dataclasses.replace(scenario.execution, recovery=recovery, motion=motion))
 
 
 def _one_stop_for_both(scenario):
@@ -119,9 +120,14 @@ def test_plans_with_the_plan_from_it_is_given(scenario):
     assert system.GetOutputPort("plan").Eval(context).method == "V-GROP*"
 
 
-def test_in_a_short_simulation_it_plans_then_sends_the_first_drive(scenario):
+@pytest.mark.parametrize("motion", ["stop_and_go", "smooth"])
+def test_in_a_short_simulation_it_plans_then_sends_the_first_drive(scenario, motion):
     """Inside a diagram whose controllers never report: the plan is made at initialization,
-    the first goto's drive goes out at the first control period, and nothing more."""
+    the first goto's drive goes out at the first control period, and nothing more; with
+    smooth motion, with it the arm's command to the first dish's pre-grasp, timed by that
+    drive."""
+    scenario = dataclasses.replace(scenario, execution=dataclasses.replace(
+        scenario.execution, motion=motion))
     builder = DiagramBuilder()
     system = builder.AddSystem(_executive(
         scenario, method="V-GROP*", seed=0, perceive=scenario_unmapped_chairs(scenario)))
@@ -144,7 +150,12 @@ def test_in_a_short_simulation_it_plans_then_sends_the_first_drive(scenario):
     assert command.pose == pytest.approx(plan.actions[0].pose)
     progress = system.GetOutputPort("progress").Eval(context)
     assert progress.step == 1 and not progress.finished and not progress.outcomes
-    assert system.GetOutputPort("pick_command").Eval(context).id == NO_COMMAND
+    pick = system.GetOutputPort("pick_command").Eval(context)
+    if motion == "stop_and_go":
+        assert pick.id == NO_COMMAND
+    else:
+        assert pick.id == 2 and pick.base_id == 1 and pick.prepare == pytest.approx(
+            plan.actions[0].pose) and pick.dish == plan.actions[1].dish
 
 
 def test_walks_the_plan_on_the_controllers_reports(scenario):

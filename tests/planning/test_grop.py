@@ -23,7 +23,7 @@ from s3o_drake.planning.motion.grop import (
 from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.planning.time_model import CostModel
 from s3o_drake.world.angles import facing_yaw, wrap
-from s3o_drake.world.scenario import load_scenario
+from s3o_drake.world.scenario import load_scenario, with_overrides
 
 CELL = 0.05
 SEQUENCE = [("goto", "l0"), ("pickup", "plate_a"), ("goto", "l1"), ("pickup", "cup_b")]
@@ -128,8 +128,10 @@ def _hand_robot_costs(result: MotionResult, scenario, nav, fea, costs: CostModel
 @pytest.mark.parametrize("sequence", [SEQUENCE, MERGED])
 def test_robot_profile_costs_by_hand(scene, sequence):
     """The robot cost profile's vectorised costs (one path batch per generation) are the
-    time of the navigator's motions, the stop's turns and the pickups, query by query."""
+    time of the navigator's motions, the stop's turns and the pickups, query by query
+    (stopping and going; tests/planning/test_time_model.py holds the smooth terms)."""
     scenario, nav, regions, fea = scene
+    scenario = with_overrides(scenario, ("execution.motion=stop_and_go",))
     regions = {**regions, "l01": regions["l0"].union(regions["l1"])}
     costs = CostModel.for_known(KnownWorld.perfect(scenario))
     result = grop_star(sequence, regions, fea, nav, scenario.robot.start, scenario.planner,

@@ -19,6 +19,7 @@ from s3o_drake.belief import scenario_unmapped_chairs
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.diagram import build_execution_diagram, navigator_params
+from s3o_drake.execution.execute import execute
 from s3o_drake.execution.messages import BaseCommand
 from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.planning.failure_price import failure_reward
@@ -138,10 +139,14 @@ def test_goto_times_are_the_navigators_motion(motion):
     assert detours >= 5  # the routes round the tables are exercised
 
 
+def _stop_and_go(scenario):
+    return with_overrides(scenario, ("execution.motion=stop_and_go",))
+
+
 def test_turns_at_a_merged_stop():
     """The ExecutiveSystem's rule: before each further pickup, a turn in place if the dish is
     more than TURN_TOLERANCE off; the base leaves facing the last dish it turned to."""
-    scenario = load_scenario(TWO_DISHES)
+    scenario = _stop_and_go(load_scenario(TWO_DISHES))
     costs = CostModel.for_known(KnownWorld.perfect(scenario))
     stop = np.array([[2.0, 1.5]])
     a = math.atan2(2.3 - 1.5, 1.85 - 2.0)  # plate_a
@@ -158,8 +163,9 @@ def test_turns_at_a_merged_stop():
 @pytest.fixture(scope="module")
 def executed():
     """two_dishes (S3O-GROP*, merged stop: drive, pickup, turn, pickup) planned with the
-    oracle and executed without noise; every navigator motion and arm motion recorded."""
-    scenario = _with(load_scenario(TWO_DISHES), feasibility="oracle", workers=1)
+    oracle and executed without noise, stopping and going; every navigator motion and arm
+    motion recorded."""
+    scenario = _with(_stop_and_go(load_scenario(TWO_DISHES)), feasibility="oracle", workers=1)
     diagram = build_execution_diagram(scenario, noise=False,
                                       perceive=scenario_unmapped_chairs(scenario))
     simulator = Simulator(diagram)
@@ -277,3 +283,44 @@ def test_the_command_fits_every_form_of_the_model_in_its_order():
     from s3o_drake.commands.derive_times import FORMS
 
     assert tuple(FORMS) == PICKUP_FORMS
+
+
+# ------------------------------------------------------------------------- smooth motion
+def test_smooth_terms_of_a_merged_stop():
+    """With smooth motion a stop's first pickup is the grasp alone (the arm came to the
+    pre-grasp while the base drove); the next waits for the first dish to reach the tray or
+    for the turn to it, whichever is longer, then comes from the tray; the plan's last
+    pickup holds the arm's last motions. The turn is in that term, not in the stop's."""
+    scenario = load_scenario(TWO_DISHES)
+    costs = CostModel.for_known(KnownWorld.perfect(scenario))
+    arm, o = costs.model.smooth, costs.model.overheads
+    stop = np.array([[2.0, 1.5]])
+    a = math.atan2(2.3 - 1.5, 1.85 - 2.0)  # plate_a
+    b = math.atan2(2.3 - 1.5, 2.15 - 2.0)  # cup_b
+    where = np.stack([stop, stop], axis=1)
+    d = np.linalg.norm(stop[0] - np.array([[1.85, 2.3], [2.15, 2.3]]), axis=1)
+    got = costs.pickup_times(["plate_a", "cup_b"], where, stops=[0, 0])[0]
+    part = {name: [float(arm.duration(name, kind, x)) for kind, x in
+                   zip(("plate", "cup"), d, strict=True)] for name in arm.parts}
+    turn = costs.base.turn_time(b - a) + o.gamma
+    assert got[0] == pytest.approx(part["grasp"][0] + o.pickup)
+    assert got[1] == pytest.approx(max(part["tail"][0], turn) + part["from_tray"][1]
+                                   + part["grasp"][1] + o.pickup
+                                   + part["tail"][1] + part["stow"][1])
+    time_s, leave = costs.stop_turns(stop, np.array([a]), ["plate_a", "cup_b"])
+    assert time_s[0] == 0.0 and leave[0] == pytest.approx(b)
+    # Stopping and going, the same pickups are the recorded whole motions.
+    plain = CostModel.for_known(KnownWorld.perfect(_stop_and_go(scenario)))
+    np.testing.assert_allclose(plain.pickup_times(["plate_a", "cup_b"], where, stops=[0, 0]),
+                               plain.pickup_times(["plate_a", "cup_b"], where))
+
+
+def test_smooth_the_plan_predicts_the_simulated_execution():
+    """two_dishes planned for smooth motion and executed without noise: the prediction is
+    the simulated execution time within 3 % (the benchmark's target over 20 tasks)."""
+    scenario = _with(load_scenario(TWO_DISHES), feasibility="oracle", workers=1)
+    run = execute(scenario, meshcat=None, noise=False, progress=False,
+                  perceive=scenario_unmapped_chairs(scenario))
+    assert run.report["collected"] == 2
+    assert run.plan.predicted_time == pytest.approx(run.report["execution_time"], rel=0.03)
+    assert run.activity.together() > 1.0  # the arm moved while the base did

@@ -151,9 +151,11 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
                 dish: str, *, reach_offset: np.ndarray | None = None,
                 q_start: np.ndarray | None = None, seed: int = 0,
                 time_limit: float = 5.0, hold: bool = False,
-                grasp: str | None = None) -> PickupPlan:
+                grasp: str | None = None, stow: bool = True) -> PickupPlan:
     """The timed arm motions that pick `dish` onto the tray from base pose `base` (x, y, yaw)
-    (with `hold`: that pick it and hold it above the tray, ending with "to_tray").
+    (with `hold`: that pick it and hold it above the tray, ending with "to_tray"; without
+    `stow`: that leave the arm over the tray after "release", where the next pickup's
+    approach starts).
 
     `base` is where the robot really stands; `reach_offset` is the reach noise (moves the
     grasp target, as in `FeasibilityChecker.check`); `q_start` the robot's positions now
@@ -189,7 +191,7 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
     rest = (("to_tray", c.q_lift, c.q_tray, holding),
             ("release", c.q_tray, c.q_release, free),
             ("stow", c.q_release, c.q_stow, free))
-    for name, a, b, path_checker in rest[:1] if hold else rest:
+    for name, a, b, path_checker in rest[:1] if hold else rest if stow else rest[:2]:
         if name == "release":
             path = np.stack([a, b])
         else:
@@ -198,6 +200,32 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
             return fail
         segments.append(timed_segment(name, path, path_checker))
     return PickupPlan(True, "ok", segments, grasp=c.grasp)
+
+
+def plan_reach(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
+               q_start: np.ndarray, target: str | None, *, seed: int = 0,
+               time_limit: float = 5.0) -> PickupPlan:
+    """The timed arm motion ("reach", RRT-Connect) from the robot's positions `q_start` to
+    `target`'s pre-grasp as seen from base pose `base` (x, y, yaw), or with no `target` to
+    ARM_STOW; checked with the base standing at `base`. Not ok with the pickup's reasons
+    (`plan_pickup`)."""
+    q0 = np.asarray(q_start, dtype=float).copy()
+    q0[:3] = np.asarray(base, dtype=float).reshape(3)
+    free = scene.checker
+    if target is None:
+        goal = with_gripper(scene.q(q0[:3]), q0[GRIPPER_POSITIONS])
+    else:
+        geometry = pickup_geometry(scene, checker, q0[:3], target, q_arm=q0[ARM])
+        if not geometry.ok:
+            return PickupPlan(False, geometry.reason, grasp=geometry.grasp)
+        goal = geometry.configurations.q_pre
+    try:
+        path = plan_arm_path(free, q0, goal, time_limit=time_limit, seed=seed)
+    except ValueError:
+        return PickupPlan(False, "no_path")  # the arm stands in collision, within the padding
+    if path is None:
+        return PickupPlan(False, "no_path")
+    return PickupPlan(True, "ok", [timed_segment("reach", path, free)])
 
 
 def plan_release(scene: FeasibilityScene, base: np.ndarray, q_start: np.ndarray, *,

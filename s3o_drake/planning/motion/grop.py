@@ -285,10 +285,12 @@ class SequenceProblem:
         F = np.zeros((m, len(dishes)))
         for j, dish in enumerate(dishes):
             F[:, j] = self.feasibility.values(dish, where[:, j])
-        delta = costs.pickup_costs(dishes, where)
+        stops = [g for g, _ in self.picks]
+        gotos = goto_time if timed else None
+        delta = costs.pickup_costs(dishes, where, stops, gotos)
         pickup_time = np.zeros((m, len(dishes)))
         if timed:
-            pickup_time = delta if robot else costs.pickup_times(dishes, where)
+            pickup_time = delta if robot else costs.pickup_times(dishes, where, stops, gotos)
         start_cost = start_turns if robot else 0.0
         utility = (-goto_cost.sum(axis=1) - start_cost
                    + (-delta + p.reward * self.shares * F).sum(axis=1))

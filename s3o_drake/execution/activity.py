@@ -1,0 +1,49 @@
+"""What the robot did over time: when its base and its arm moved, from the simulated
+robot's own state (its joints' velocities), for the run's timeline (viz/timeline.py)."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from s3o_drake.world.robot import ARM_POSITIONS, GRIPPER_POSITIONS, NUM_POSITIONS
+
+BASE_MOVING = 0.02
+"""The base moves when its speed exceeds this (m/s)..."""
+BASE_TURNING = 0.05
+"""...or its yaw rate this (rad/s): the arm's motions push the PD-held base by less."""
+ARM_MOVING = 0.02
+"""The arm moves when one of its joints or fingers does, faster than this (rad/s, m/s)."""
+
+
+@dataclass(frozen=True)
+class Activity:
+    """The robot's motion sampled over a run: times `t` (s, simulated), the base's speed
+    (m/s) and yaw rate (rad/s), and the arm's fastest joint or finger (rad/s or m/s)."""
+
+    t: np.ndarray
+    base_speed: np.ndarray
+    yaw_rate: np.ndarray
+    arm_speed: np.ndarray
+
+    @classmethod
+    def of(cls, times: np.ndarray, states: np.ndarray) -> "Activity":
+        """From logged robot states (2 NUM_POSITIONS, n): positions then velocities."""
+        v = np.asarray(states, dtype=float)[NUM_POSITIONS:]
+        arm = np.vstack([v[ARM_POSITIONS], v[GRIPPER_POSITIONS]])
+        return cls(np.asarray(times, dtype=float), np.hypot(v[0], v[1]), np.abs(v[2]),
+                   np.abs(arm).max(axis=0) if arm.size else np.zeros(len(times)))
+
+    @property
+    def base_moving(self) -> np.ndarray:
+        return (self.base_speed > BASE_MOVING) | (self.yaw_rate > BASE_TURNING)
+
+    @property
+    def arm_moving(self) -> np.ndarray:
+        return self.arm_speed > ARM_MOVING
+
+    def together(self) -> float:
+        """Seconds in which the base and the arm moved at once."""
+        if len(self.t) < 2:
+            return 0.0
+        dt = np.diff(self.t)
+        return float((dt * (self.base_moving & self.arm_moving)[:-1]).sum())

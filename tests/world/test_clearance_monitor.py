@@ -1,0 +1,84 @@
+"""ClearanceMonitor: the robot's closest approach to the true world, from the simulation's
+SceneGraph; alone (a forced update on a world at rest) and in a short simulation."""
+
+import math
+
+import pytest
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from shapely import affinity
+from shapely.geometry import box
+
+from s3o_drake.world.builder import build_world_diagram
+from s3o_drake.world.clearance_monitor import REACH, ClearanceMonitor, proximity_geometries
+from s3o_drake.world.directives import ROBOT_INSTANCE
+from s3o_drake.world.robot import BASE_LENGTH, BASE_WIDTH
+from s3o_drake.world.scenario import with_overrides
+
+
+def _world_and_monitor(scenario, start):
+    scenario = with_overrides(scenario, (f"robot.start={list(start)}",))
+    builder = DiagramBuilder()
+    world = builder.AddNamedSystem("world", build_world_diagram(scenario))
+    plant = world.GetSubsystemByName("plant")
+    scene_graph = world.GetSubsystemByName("scene_graph")
+    furniture = [plant.GetModelInstanceByName(f.name)
+                 for f in (*scenario.tables, *scenario.chairs)]
+    monitor = builder.AddNamedSystem("clearance", ClearanceMonitor(
+        robot=proximity_geometries(plant, scene_graph,
+                                   [plant.GetModelInstanceByName(ROBOT_INSTANCE)]),
+        world=proximity_geometries(plant, scene_graph, furniture, world_names=("wall",)),
+        period=0.05))
+    builder.Connect(world.GetOutputPort("query_object"), monitor.GetInputPort("query_object"))
+    return builder.Build(), monitor
+
+
+def _reading(diagram, monitor, context) -> float:
+    return float(monitor.GetOutputPort("closest_approach").Eval(
+        monitor.GetMyContextFromRoot(context))[0])
+
+
+def _measured(scenario, start) -> float:
+    diagram, monitor = _world_and_monitor(scenario, start)
+    context = diagram.CreateDefaultContext()
+    assert _reading(diagram, monitor, context) == REACH  # nothing measured yet
+    mine = monitor.GetMyMutableContextFromRoot(context)
+    monitor.CalcForcedDiscreteVariableUpdate(mine, mine.get_mutable_discrete_state())
+    return _reading(diagram, monitor, context)
+
+
+def _plan_view_gap(scenario, start) -> float:
+    footprint = affinity.rotate(box(-BASE_LENGTH / 2, -BASE_WIDTH / 2, BASE_LENGTH / 2,
+                                    BASE_WIDTH / 2), start[2], use_radians=True)
+    footprint = affinity.translate(footprint, *start[:2])
+    (table,) = scenario.tables
+    x, y = table.center
+    w, d = table.size[:2]
+    return footprint.distance(box(x - w / 2, y - d / 2, x + w / 2, y + d / 2))
+
+
+def test_measures_the_gap_between_the_robot_and_the_table(scenario):
+    """The base before the table, its arm stowed over its footprint: the reading is the gap
+    in 3D, at least the plan view's (the base's top is below the table's), and it shrinks
+    as the base comes closer; the dishes on the table, which the gripper may touch, and the
+    floor under the wheels are not measured."""
+    near, nearer = (1.85, 1.55, math.pi / 2), (1.85, 1.60, math.pi / 2)
+    gap = _plan_view_gap(scenario, near)
+    assert gap == pytest.approx(0.24, abs=0.005)
+    reading = _measured(scenario, near)
+    assert gap - 1e-3 <= reading <= gap + 0.05
+    closer = _measured(scenario, nearer)
+    assert reading - closer == pytest.approx(0.05, abs=0.01)
+
+
+def test_keeps_the_smallest_distance_of_a_simulation(scenario):
+    """Simulated for a second, the robot holding its pose (its PD actuators settle it by
+    millimetres), the reading is the least of the measurements: at most that of the pose
+    it started in, and within a centimetre of it."""
+    start = (1.85, 1.55, math.pi / 2)
+    diagram, monitor = _world_and_monitor(scenario, start)
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo(1.0)
+    reading = _reading(diagram, monitor, simulator.get_context())
+    initial = _measured(scenario, start)
+    assert initial - 0.01 < reading <= initial
