@@ -154,10 +154,15 @@ class _Best:
 _inherited: dict | None = None
 
 
-def _search_job(job: tuple) -> MotionResult:
-    actions, regions, groups, seed_key = job
+def _search_job(job: tuple) -> MotionResult | None:
+    """One motion search; None when the deadline passed before it started, unless it is
+    the plan's first (there is no plan without one): a search handed to a worker waits in
+    the pool's queue, and would spend its first generation past the deadline."""
+    actions, regions, groups, seed_key, first = job
     s = _inherited
     assert s is not None, "search workers must be forked by _Searches"
+    if not first and s["deadline"].passed():
+        return None
     return s["search"](actions, regions, s["fea"], s["nav"], s["start"], s["planner"],
                        rng=np.random.default_rng(seed_key), deadline=s["deadline"],
                        costs=s["costs"], grid=s["grid"], groups=groups)
@@ -182,14 +187,16 @@ class _Searches:
         self._shared = dict(search=search, fea=fea, nav=nav, start=start, planner=planner,
                             deadline=deadline.sooner(slack), costs=costs, grid=grid)
         self._pool: ProcessPoolExecutor | None = None
-        self._pending: list[tuple[object, Future | MotionResult]] = []
+        self._pending: list[tuple[object, Future | MotionResult | None]] = []
         if parallel:
             _inherited = self._shared
             self._pool = ProcessPoolExecutor(max_workers=workers,
                                              mp_context=multiprocessing.get_context("fork"))
 
-    def submit(self, key: object, actions, regions, groups, seed_key: list[int]) -> None:
-        job = (actions, regions, groups, seed_key)
+    def submit(self, key: object, actions, regions, groups, seed_key: list[int],
+               first: bool) -> None:
+        """Starts the search of `actions` (`_search_job`; `first`: the plan's first)."""
+        job = (actions, regions, groups, seed_key, first)
         if self._pool is None:
             global _inherited
             _inherited = self._shared
@@ -213,8 +220,14 @@ class _Searches:
                 if self._shared["deadline"].passed() and item.cancel():
                     continue
                 item = item.result()
-            out.append((key, item))
+            if item is not None:
+                out.append((key, item))
         return out
+
+    def cut(self) -> bool:
+        """Whether the searches' deadline (the workers' is a little early) has passed: a
+        search may then have been cut short, or dropped."""
+        return self._shared["deadline"].passed()
 
     def with_free_stops(self, result: MotionResult, regions) -> MotionResult:
         """`result` with its stops moved where they are not free (`free_positions.py`)."""
@@ -511,8 +524,8 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
             n_sequences, seed, deadline, timing, expired, known.places)
     finally:
         searches_run.close()
-    if deadline.passed():
-        complete = False  # a search may have been cut at the deadline (in a worker)
+    if searches_run.cut():
+        complete = False
     if best is None:
         expired("the motion search")
         raise PlanningError(f"{method}: no valid plan (every motion search ended outside its "
@@ -565,12 +578,12 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, gri
         timing["task_planning"] += deadline.now() - t
         unreachable = tuple(sorted(set(task.unreachable) | set(partition.unreachable)))
         for j, sequence in enumerate(task.plans):
-            if j and expired("the motion search", False):
+            if (j or submitted) and expired("the motion search", False):
                 break
             t = deadline.now()
             searches_run.submit((groups, regions, unreachable, score), sequence.actions,
                                 regions, dict(zip(names, groups, strict=True)),
-                                [seed, _SEARCH, it, j])
+                                [seed, _SEARCH, it, j], first=not submitted)
             submitted = True
             timing["motion_search"] += deadline.now() - t
     t = deadline.now()
