@@ -54,6 +54,12 @@ class StepClock:
         with self._now.get_lock():
             self._now.value += seconds
 
+
+def still_clock() -> float:
+    """A clock that stands still: a budget on it never runs out, so that a test's plan is
+    the one that no budget cuts, on any machine."""
+    return 0.0
+
 @pytest.fixture(scope="module")
 def scenario() -> Scenario:
     """scenarios/small/two_dishes.yaml: a table (x 1.4..2.6, y 2.1..2.9, top at 0.75 m)
