@@ -196,8 +196,8 @@ def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
     MotionFeasibility, a mapping dish -> Heatmap or a list of Heatmaps), a dish that its own
     cell serves poorly claims the positions that serve it better (module docstring); only
     positions where `drivable` (points (m, 2) -> bool (m,); None: all) holds count. No
-    claim starts after `deadline` (None: none): a planner out of time plans
-    on the cells as they are.
+    claim starts after `deadline` (None: none): a planner out of time plans on the cells
+    as they are.
     """
     reach = known.planner.reach if reach is None else reach
     by_name = {d.name: d for d in known.dishes}
