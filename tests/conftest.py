@@ -8,6 +8,7 @@ and no module sees another's. A module that means something else by one of these
 
 import hashlib
 import math
+import multiprocessing
 import os
 import shutil
 import tempfile
@@ -35,6 +36,39 @@ COARSE_MAPS = {"cells": 32, "fine_cell": 0.125}
 changes). On two_dishes 3.4x cheaper than the fine evaluation, values within 0.07 of it
 (0.003 on average)."""
 
+
+
+class StepClock:
+    """A stand-in clock for budget tests (`world.deadline`): it stands still until the test
+    moves it on (`advance`), so what a budget cuts does not depend on the machine's speed.
+    Held in shared memory: the search workers that planning forks read and move the same
+    clock."""
+
+    def __init__(self) -> None:
+        self._now = multiprocessing.get_context("fork").Value("d", 0.0)
+
+    def __call__(self) -> float:
+        return self._now.value
+
+    def advance(self, seconds: float) -> None:
+        with self._now.get_lock():
+            self._now.value += seconds
+
+
+def clingo_proves(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Below 12 locations clingo stops once 0.3 s of wall time pass without a cheaper order
+    (`planner.STALL`); its proof of an 8-location order takes 0.04 s idle, and a busy
+    machine can stretch that past the wait. For tests that assert the proof: clingo waits
+    for it."""
+    from s3o_drake.planning.task import planner
+
+    monkeypatch.setattr(planner, "STALL", 60.0)
+
+
+def still_clock() -> float:
+    """A clock that stands still: a budget on it never runs out, so that a test's plan is
+    the one that no budget cuts, on any machine."""
+    return 0.0
 
 @pytest.fixture(scope="module")
 def scenario() -> Scenario:

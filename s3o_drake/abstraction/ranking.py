@@ -41,6 +41,7 @@ from s3o_drake.abstraction.shared_stop import StopShares, stop_shares
 from s3o_drake.abstraction.task_feasibility import TaskFeasibility
 from s3o_drake.abstraction.voronoi import Drivable, VoronoiPartition, voronoi_partition
 from s3o_drake.belief.known_world import KnownWorld
+from s3o_drake.world.deadline import Deadline
 from s3o_drake.world.robot import INSCRIBED_RADIUS
 
 KEEP = 1000
@@ -247,7 +248,7 @@ def build_abstraction(known: KnownWorld, feasibility, *,
         location_cost = planner.gamma / planner.reward if planner.reward > 0 else 0.0
     partition = voronoi_partition(known, dishes=dishes, clearance=clearance,
                                   feasibility=feasibility, drivable=drivable,
-                                  deadline=time.monotonic() + time_limit)
+                                  deadline=Deadline.after(time_limit))
     grid = LocationGrid.of(partition, feasibility, threshold=joint_threshold, cell=grid_cell,
                            drivable=drivable)
     task = TaskFeasibility(grid, samples=planner.location_samples,

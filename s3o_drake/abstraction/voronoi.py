@@ -46,7 +46,6 @@ are among those claimed, they stay the neighbour's (S3O can still merge the two)
 whose cell is still empty is kept, with an empty cell, and listed in `unreachable`.
 """
 
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -59,6 +58,7 @@ from shapely.ops import unary_union
 from s3o_drake.abstraction.motion_feasibility import MotionFeasibility, as_motion_feasibility
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import REACH_LIMIT
+from s3o_drake.world.deadline import Deadline
 from s3o_drake.world.robot import INSCRIBED_RADIUS
 
 ARM_REACH = REACH_LIMIT
@@ -189,15 +189,15 @@ def _adjacency(cells: list[BaseGeometry]) -> list[set[int]]:
 def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
                       clearance: float = INSCRIBED_RADIUS, reach: float | None = None,
                       feasibility=None, drivable: Drivable | None = None,
-                      deadline: float | None = None) -> VoronoiPartition:
+                      deadline: Deadline | None = None) -> VoronoiPartition:
     """The Voronoi cells of the known world's dishes (default: all) over the free space.
 
     `reach` defaults to the planner's `reach`. With `feasibility` (Fea^m: a
     MotionFeasibility, a mapping dish -> Heatmap or a list of Heatmaps), a dish that its own
     cell serves poorly claims the positions that serve it better (module docstring); only
     positions where `drivable` (points (m, 2) -> bool (m,); None: all) holds count. No
-    claim starts after `deadline` (time.monotonic; None: none): a planner out of time plans
-    on the cells as they are.
+    claim starts after `deadline` (None: none): a planner out of time plans on the cells
+    as they are.
     """
     reach = known.planner.reach if reach is None else reach
     by_name = {d.name: d for d in known.dishes}
@@ -249,7 +249,7 @@ def _area(geometry: BaseGeometry) -> BaseGeometry:
 
 def _claim(names: list[str], p_WO: np.ndarray, cells: list[BaseGeometry],
            within: list[BaseGeometry], free: BaseGeometry, fea: MotionFeasibility,
-           drivable: Drivable | None, deadline: float | None = None
+           drivable: Drivable | None, deadline: Deadline | None = None
            ) -> list[tuple[int, BaseGeometry]]:
     """Lets each dish that its cell serves poorly claim the positions that serve it better
     (module docstring); changes `cells` and `within` in place and returns the claims."""
@@ -283,7 +283,7 @@ def _claim(names: list[str], p_WO: np.ndarray, cells: list[BaseGeometry],
 
     claims = []
     for i, name in enumerate(names):
-        if deadline is not None and time.monotonic() >= deadline:
+        if deadline is not None and deadline.passed():
             break
         if serves(name, cells[i]):
             continue

@@ -35,13 +35,13 @@ the representative points and the motion searches read its locations, cached per
 dishes); the result carries it.
 
 Budget. `time_budget` (default `scenario.planner.time_budget`) is a cap, not a target:
-planning stops when every iteration is searched. One deadline is checked between stages,
-before every state space, sequence and PETLON draw, and inside GROP*/GROP between
-generations; clingo gets the remaining time as its limit. When it expires the best plan
-so far is returned with `complete=False`. If it expires before any plan exists a
-`PlanningTimeoutError` says in which stage. Stages that cannot be interrupted (building the
-navigation map, the Voronoi partition and Fea^t, clingo's grounding) may overrun a tiny
-budget by their own duration.
+planning stops when every iteration is searched. One deadline (`world.deadline`, on the
+planner's clock) is checked between stages, before every state space, sequence and PETLON
+draw, and inside GROP*/GROP between generations; clingo gets the remaining time as its
+limit. When it expires the best plan so far is returned with `complete=False`. If it
+expires before any plan exists a `PlanningTimeoutError` says in which stage. Stages that
+cannot be interrupted (building the navigation map, the Voronoi partition and Fea^t,
+clingo's grounding) may overrun a tiny budget by their own duration.
 
 Workers. With `workers > 1` the motion searches (one per task-level sequence) run in that
 many worker processes while this process goes on with the next state space's task
@@ -112,6 +112,7 @@ from s3o_drake.planning.task.planner import (
 from s3o_drake.planning.time_model import CostModel
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.choices import METHODS
+from s3o_drake.world.deadline import Clock, Deadline
 from s3o_drake.world.goals import place_target_name
 from s3o_drake.world.settings import PlanningSettings
 
@@ -153,10 +154,15 @@ class _Best:
 _inherited: dict | None = None
 
 
-def _search_job(job: tuple) -> MotionResult:
-    actions, regions, groups, seed_key = job
+def _search_job(job: tuple) -> MotionResult | None:
+    """One motion search; None when the deadline passed before it started, unless it is
+    the plan's first (there is no plan without one): a search handed to a worker waits in
+    the pool's queue, and would spend its first generation past the deadline."""
+    actions, regions, groups, seed_key, first = job
     s = _inherited
     assert s is not None, "search workers must be forked by _Searches"
+    if not first and s["deadline"].passed():
+        return None
     return s["search"](actions, regions, s["fea"], s["nav"], s["start"], s["planner"],
                        rng=np.random.default_rng(seed_key), deadline=s["deadline"],
                        costs=s["costs"], grid=s["grid"], groups=groups)
@@ -167,7 +173,7 @@ class _Searches:
     come back in submission order."""
 
     def __init__(self, workers: int, search: Callable[..., MotionResult], fea, nav, start,
-                 planner, deadline: float, costs: CostModel, grid: LocationGrid,
+                 planner, deadline: Deadline, costs: CostModel, grid: LocationGrid,
                  free: FreeTest):
         global _inherited
         self._free = free
@@ -177,18 +183,20 @@ class _Searches:
         # processes are not allowed to have children": it searches here, to the same plan.
         parallel = workers > 1 and "fork" in multiprocessing.get_all_start_methods() \
             and not multiprocessing.current_process().daemon
-        slack = WORKER_SLACK * max(0.0, deadline - time.monotonic()) if parallel else 0.0
+        slack = WORKER_SLACK * max(0.0, deadline.remaining()) if parallel else 0.0
         self._shared = dict(search=search, fea=fea, nav=nav, start=start, planner=planner,
-                            deadline=deadline - slack, costs=costs, grid=grid)
+                            deadline=deadline.sooner(slack), costs=costs, grid=grid)
         self._pool: ProcessPoolExecutor | None = None
-        self._pending: list[tuple[object, Future | MotionResult]] = []
+        self._pending: list[tuple[object, Future | MotionResult | None]] = []
         if parallel:
             _inherited = self._shared
             self._pool = ProcessPoolExecutor(max_workers=workers,
                                              mp_context=multiprocessing.get_context("fork"))
 
-    def submit(self, key: object, actions, regions, groups, seed_key: list[int]) -> None:
-        job = (actions, regions, groups, seed_key)
+    def submit(self, key: object, actions, regions, groups, seed_key: list[int],
+               first: bool) -> None:
+        """Starts the search of `actions` (`_search_job`; `first`: the plan's first)."""
+        job = (actions, regions, groups, seed_key, first)
         if self._pool is None:
             global _inherited
             _inherited = self._shared
@@ -209,11 +217,17 @@ class _Searches:
         out = []
         for key, item in self._pending:
             if isinstance(item, Future):
-                if time.monotonic() >= self._shared["deadline"] and item.cancel():
+                if self._shared["deadline"].passed() and item.cancel():
                     continue
                 item = item.result()
-            out.append((key, item))
+            if item is not None:
+                out.append((key, item))
         return out
+
+    def cut(self) -> bool:
+        """Whether the searches' deadline (the workers' is a little early) has passed: a
+        search may then have been cut short, or dropped."""
+        return self._shared["deadline"].passed()
 
     def with_free_stops(self, result: MotionResult, regions) -> MotionResult:
         """`result` with its stops moved where they are not free (`free_positions.py`)."""
@@ -374,19 +388,20 @@ def _stay(method: str, seed: int, timing: dict[str, float], planning_time: float
 def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
               scene: PlanningScene | None = None,
               time_budget: float | None = None, n_sequences: int = 3, workers: int = 1,
-              feasibility_time: float = 0.0, drive_margin: float = DRIVE_MARGIN
-              ) -> PlanningResult:
+              feasibility_time: float = 0.0, drive_margin: float = DRIVE_MARGIN,
+              clock: Clock = time.monotonic) -> PlanningResult:
     """Plans the collection of the known world's dishes from its pose with the named
     method (see the module docstring).
 
     `heatmaps`: Fea^m (a `MotionFeasibility`, a mapping dish -> Heatmap or a list of
     Heatmaps); `feasibility_time` is how long computing them took (s), added to the
-    breakdown and the planning time; `drive_margin` is the navigation map's. Raises
+    breakdown and the planning time; `drive_margin` is the navigation map's. `clock`
+    measures the budget and the times reported (`world.deadline`). Raises
     ValueError for an unknown method, `PlanningTimeoutError` when the budget expires before
     any plan, `PlanningError` (or `TaskPlanningError`) when no dish can be planned.
     """
     spec = method_of(method)
-    t_start = time.monotonic()
+    t_start = clock()
     # λ as the execution's mode prices a pickup's failure (`failure_price.py`): every part
     # of the plan reads the planner settings from here on. The result names the world as
     # the caller knew it.
@@ -396,7 +411,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         known = dataclasses.replace(known, settings=dataclasses.replace(known.settings,
                                                                         planner=priced))
     budget = known.planner.time_budget if time_budget is None else float(time_budget)
-    deadline = t_start + budget
+    deadline = Deadline(t_start + budget, clock)
     planner = known.planner
     start = np.asarray(known.pose[:2], dtype=float)
     timing = {"feasibility": float(feasibility_time), "navigation": 0.0, "abstraction": 0.0,
@@ -405,7 +420,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     best: _Best | None = None
     complete = True
     if not known.dishes:  # nothing to collect: the empty plan is the optimal one
-        empty = _stay(method, seed, timing, feasibility_time + time.monotonic() - t_start)
+        empty = _stay(method, seed, timing, feasibility_time + clock() - t_start)
         return PlanningResult(known=asked, method=method, seed=int(seed), plan=empty,
                               planning_time=empty.planning_time)
 
@@ -413,7 +428,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         """Whether the deadline passed, or the stage `spent` its share of the budget (the
         plan is then incomplete); raises when it did and `fatal` and no plan exists."""
         nonlocal complete
-        if not spent and time.monotonic() < deadline:
+        if not spent and not deadline.passed():
             return False
         complete = False
         if fatal and best is None:
@@ -421,16 +436,16 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
                                   f"{stage}, before any plan was found")
         return True
 
-    t = time.monotonic()  # only stops free as planned are commanded (feasibility/stops.py)
+    t = clock()  # only stops free as planned are commanded (feasibility/stops.py)
     scene = PlanningScene(known) if scene is None else scene
     stops = scene.free_stops
     model_heatmaps = heatmap_tuple(heatmaps)
     fea = as_motion_feasibility(heatmaps := stops.restrict_source(
         heatmaps, lambda: expired("the free stops")))
-    timing["feasibility"] += time.monotonic() - t
+    timing["feasibility"] += clock() - t
     expired("the free stops")
 
-    t = time.monotonic()
+    t = clock()
     nav = NavigationMap(known.obstacles, drive_margin=drive_margin)
     # Where the robot stands may be no base position of the known map (after a blocked
     # drive it stands against a chair the map knows only roughly): planning starts from
@@ -439,10 +454,10 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     costs = CostModel.for_known(known, start=start)
     # The graph routes' motion times, once, before search workers fork and inherit them.
     nav.route_table(costs.base)
-    timing["navigation"] = time.monotonic() - t
+    timing["navigation"] = clock() - t
     expired("the navigation map")
 
-    t = time.monotonic()
+    t = clock()
     abstraction: Abstraction | None = None
     grid: LocationGrid | None = None
     if spec.abstraction:
@@ -450,7 +465,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         location_cost = costs.gamma / costs.reward \
             if planner.location_price == "search" and costs.reward > 0 else None
         abstraction = build_abstraction(
-            known, fea, seed=seed, time_limit=max(0.0, min(5.0, deadline - time.monotonic())),
+            known, fea, seed=seed, time_limit=max(0.0, min(5.0, deadline.remaining())),
             drivable=partial(nav.reachable, start), location_cost=location_cost)
         partition: VoronoiPartition = abstraction.partition
         grid = abstraction.grid
@@ -459,11 +474,11 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
                                       drivable=partial(nav.reachable, start))
         if spec.spaces is not None:  # PETLON draws its goals uniformly: it reads no grid
             grid = LocationGrid.of(partition, fea, drivable=partial(nav.reachable, start))
-    timing["abstraction"] = time.monotonic() - t
+    timing["abstraction"] = clock() - t
     expired("the abstraction")
     if not set(partition.dishes) - set(partition.unreachable):
         # No free stop picks any dish: the plan is to stay, and no search runs.
-        empty = _stay(method, seed, timing, feasibility_time + time.monotonic() - t_start,
+        empty = _stay(method, seed, timing, feasibility_time + clock() - t_start,
                       unreachable=tuple(sorted(partition.unreachable)))
         return PlanningResult(known=asked, scene=scene, method=method, seed=int(seed),
                               plan=empty, navigation=nav, heatmaps=heatmap_tuple(heatmaps),
@@ -486,7 +501,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         unreachable = tuple(sorted(set(result.task.unreachable) | set(partition.unreachable)))
         best = _Best(result.motion, groups, regions, unreachable, None, result.task)
         made = _assemble(method, seed, best, known, nav, timing,
-                         time.monotonic() - t_start + feasibility_time, result.draws,
+                         clock() - t_start + feasibility_time, result.draws,
                          result.draws, complete)
         return PlanningResult(known=asked, scene=scene, method=method, seed=int(seed),
                               plan=made,
@@ -509,14 +524,14 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
             n_sequences, seed, deadline, timing, expired, known.places)
     finally:
         searches_run.close()
-    if time.monotonic() >= deadline:
-        complete = False  # a search may have been cut at the deadline (in a worker)
+    if searches_run.cut():
+        complete = False
     if best is None:
         expired("the motion search")
         raise PlanningError(f"{method}: no valid plan (every motion search ended outside its "
                             f"regions or on an undrivable leg)")
     made = _assemble(method, seed, best, known, nav, timing,
-                     time.monotonic() - t_start + feasibility_time, searches, samples, complete)
+                     clock() - t_start + feasibility_time, searches, samples, complete)
     return PlanningResult(known=asked, scene=scene, method=method, seed=int(seed), plan=made,
                           navigation=nav,
                           heatmaps=heatmap_tuple(heatmaps), partition=partition, grid=grid,
@@ -534,7 +549,7 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, gri
     for it, (groups, score) in enumerate(spaces):
         if expired("the motion search", not submitted):
             break
-        t = time.monotonic()
+        t = deadline.now()
         names = [f"l{k}" for k in range(len(groups))]
         if groups not in tasks:
             regions = location_regions(groups, cells)
@@ -543,7 +558,7 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, gri
             lost = sorted(set(partition.unreachable) | dead_dishes(groups, grid)
                           | {d for n, g in zip(names, groups, strict=True)
                              if points[n] is None for d in g})
-            remaining = deadline - time.monotonic()
+            remaining = deadline.remaining()
             if remaining <= 0:
                 expired("task planning", not submitted)
                 break
@@ -560,18 +575,18 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, gri
                 expired("task planning", not submitted, spent=True)
                 break
         task, regions = tasks[groups]
-        timing["task_planning"] += time.monotonic() - t
+        timing["task_planning"] += deadline.now() - t
         unreachable = tuple(sorted(set(task.unreachable) | set(partition.unreachable)))
         for j, sequence in enumerate(task.plans):
-            if j and expired("the motion search", False):
+            if (j or submitted) and expired("the motion search", False):
                 break
-            t = time.monotonic()
+            t = deadline.now()
             searches_run.submit((groups, regions, unreachable, score), sequence.actions,
                                 regions, dict(zip(names, groups, strict=True)),
-                                [seed, _SEARCH, it, j])
+                                [seed, _SEARCH, it, j], first=not submitted)
             submitted = True
-            timing["motion_search"] += time.monotonic() - t
-    t = time.monotonic()
+            timing["motion_search"] += deadline.now() - t
+    t = deadline.now()
     best = None
     searches = samples = 0
     found = []
@@ -591,5 +606,5 @@ def _search_spaces(spaces, tasks, searches_run: _Searches, cells, partition, gri
         result = searches_run.with_free_stops(result, regions)
         if result.valid and (best is None or result.utility > best.motion.utility):
             best = _Best(result, groups, regions, unreachable, score, tasks[groups][0])
-    timing["motion_search"] += time.monotonic() - t
+    timing["motion_search"] += deadline.now() - t
     return best, searches, samples

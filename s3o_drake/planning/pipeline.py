@@ -29,6 +29,7 @@ from s3o_drake.planning.task.costs import first_reachable
 from s3o_drake.planning.task.planner import TaskPlanningError
 from s3o_drake.world.camera import overhead_camera
 from s3o_drake.world.choices import FEASIBILITY_SOURCES, FeasibilitySource
+from s3o_drake.world.deadline import Clock
 
 __all__ = ["PlanningResult", "best_stops", "heatmaps_for", "plan_from"]  # the pipeline's API
 
@@ -86,7 +87,8 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
               n_sequences: int = 3, heatmaps: Sequence[Heatmap] | None = None,
               feasibility: str | None = None, progress: bool = False,
               started: float | None = None, drive_margin: float = DRIVE_MARGIN,
-              scene: PlanningScene | None = None) -> PlanningResult:
+              scene: PlanningScene | None = None,
+              clock: Clock = time.perf_counter) -> PlanningResult:
     """Plans from `known` (see the module docstring).
 
     Method, seed, workers, budget and the Fea^m source (`feasibility`) default to the
@@ -95,19 +97,20 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
     leave out as unreachable get the Drake oracle's heatmap instead, and the plan is made
     again with them (within what remains of the budget); those it could not check so, or
     not plan again for, are the result's `unchecked`.
-    `started` is the `time.perf_counter()` at which the caller began (before perceiving),
-    so that the planning time counts perception too. `drive_margin` is the navigation
+    `clock` measures the budget and the times reported (`world.deadline`); `started` is
+    its reading when the caller began (before perceiving), so that the planning time
+    counts perception too. `drive_margin` is the navigation
     map's (`navigation.TIGHT_DRIVE_MARGIN` for a squeeze). A plan that cannot be made is a
     result with `plan` None and `error` saying why; an unknown method raises ValueError.
     `scene`: the Drake scene of `known`, when the caller plans the same belief several
     times (built here otherwise, within the budget).
     """
-    t0 = time.perf_counter() if started is None else started
+    t0 = clock() if started is None else started
     # One Drake scene of the belief serves the heatmaps, the free stops and the stop checks;
     # building it is part of the budget.
-    t_scene = time.perf_counter()
+    t_scene = clock()
     scene = PlanningScene(known) if scene is None else scene
-    building = time.perf_counter() - t_scene
+    building = clock() - t_scene
     method = known.planner.method if method is None else method
     seed = known.settings.seed if seed is None else int(seed)
     workers = known.planner.workers if workers is None else workers
@@ -116,7 +119,7 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
     maps = tuple(heatmaps) if isinstance(heatmaps, (list, tuple)) else ()
     budget = known.planner.time_budget if time_budget is None else time_budget
     result = _plan(known, scene, method, heatmaps, seed, max(0.0, budget - building),
-                   n_sequences, workers, t0, drive_margin)
+                   n_sequences, workers, t0, drive_margin, clock)
     source = known.planner.feasibility if feasibility is None else feasibility
     lost = () if result.plan is None else result.plan.unreachable
     exact: dict[str, Heatmap] = {}
@@ -127,14 +130,14 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
         # time is left for it (the random-scene soak of issue 19 found the rescue running
         # several times over a small budget).
         for dish in lost:
-            if time.perf_counter() - t0 >= budget:
+            if clock() - t0 >= budget:
                 break
             exact[dish] = oracle_heatmaps(scene.oracle, [dish])[0]
         maps = tuple(exact.get(h.dish, h) for h in maps)
-        left = budget - (time.perf_counter() - t0)
+        left = budget - (clock() - t0)
         if any(h.values.max() > 0.0 for h in exact.values()) and left > 0:
             result = _plan(known, scene, method, maps, seed, left, n_sequences, workers, t0,
-                           drive_margin)
+                           drive_margin, clock)
     unchecked = ()
     if source == FeasibilitySource.FCN and result.plan is not None:
         unchecked = tuple(d for d in result.plan.unreachable
@@ -147,15 +150,16 @@ def plan_from(known: KnownWorld, *, method: str | None = None, seed: int | None 
 
 def _plan(known: KnownWorld, scene: PlanningScene, method: str, heatmaps, seed: int,
           time_budget: float | None, n_sequences: int, workers: int, t0: float,
-          drive_margin: float) -> PlanningResult:
-    """`plan_task`, a PlanningError becoming a result that says why there is no plan."""
+          drive_margin: float, clock: Clock) -> PlanningResult:
+    """`plan_task`, a PlanningError becoming a result that says why there is no plan;
+    `t0` is when planning began, on `clock`."""
     maps = tuple(heatmaps) if isinstance(heatmaps, (list, tuple)) else ()
     try:
         return plan_task(known, scene=scene, method=method, heatmaps=heatmaps, seed=seed,
                          time_budget=time_budget, n_sequences=n_sequences, workers=workers,
-                         feasibility_time=time.perf_counter() - t0,
-                         drive_margin=drive_margin)
+                         feasibility_time=clock() - t0,
+                         drive_margin=drive_margin, clock=clock)
     except (PlanningError, TaskPlanningError) as e:
         return PlanningResult(known=known, scene=scene, method=method, seed=seed, plan=None,
                               error=f"no plan: {e}", heatmaps=maps,
-                              planning_time=time.perf_counter() - t0)
+                              planning_time=clock() - t0)

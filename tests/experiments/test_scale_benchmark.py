@@ -24,7 +24,9 @@ def random_problem(m: int, seed: int) -> TaskProblem:
 
 def test_a_state_space_is_measured_against_the_exact_optimum():
     problem = random_problem(20, seed=3)
-    task = plan_tasks(problem, n_plans=2, time_limit=0.3)
+    # clingo's search ends when it stalls (what it reaches is not the point here): a limit
+    # far from that, so that an order exists whatever the machine's speed.
+    task = plan_tasks(problem, n_plans=2, time_limit=60.0)
     groups = [(f"d{i}",) for i in range(20)]
     row = state_space_row(groups, task, reference_limit=60)
     _, optimum = exact_order(visit_matrix(problem)[1])

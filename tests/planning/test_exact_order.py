@@ -11,6 +11,7 @@ from s3o_drake.planning.task.exact_order import assignment_bound, exact_order
 from s3o_drake.planning.task.first_order import path_cost
 from s3o_drake.planning.task.planner import TaskProblem, plan_tasks
 from s3o_drake.planning.task.visit_order import visit_matrix
+from tests.conftest import clingo_proves
 
 
 def random_costs(n: int, seed: int) -> np.ndarray:
@@ -42,8 +43,9 @@ def test_missing_drives_are_kept_out_and_no_path_raises():
         exact_order(costs)
 
 
-def test_clingo_proves_the_same_optimum_on_eight_locations():
+def test_clingo_proves_the_same_optimum_on_eight_locations(monkeypatch):
     """The reference and clingo agree where clingo proves its order."""
+    clingo_proves(monkeypatch)
     rng = np.random.default_rng(7)
     points = rng.uniform(0, 10, (9, 2))
     locations = tuple(f"l{i}" for i in range(8))

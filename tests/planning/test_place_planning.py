@@ -13,6 +13,7 @@ from s3o_drake.planning.methods import plan_task
 from s3o_drake.planning.plan import Goto, Pickup, Place, TaskMotionPlan
 from s3o_drake.world.choices import METHODS
 from s3o_drake.world.scenario import load_scenario
+from tests.conftest import still_clock
 
 TIDY = Path(__file__).resolve().parents[2] / "scenarios" / "tidy_home.yaml"
 
@@ -37,7 +38,7 @@ def test_the_known_world_plans_for_objects_and_place_targets(known):
 @pytest.mark.parametrize("method", METHODS)
 def test_every_method_picks_the_apple_then_puts_it_down_on_the_plate(known, method):
     plan = plan_task(known, method=method, heatmaps=ring_heatmaps(known), seed=0,
-                     time_budget=10.0).plan
+                     time_budget=10.0, clock=still_clock).plan
     checker = FeasibilityChecker(FeasibilityScene(known.contents))
     assert plan_faults(known, plan, checker.base_free) == []
     (place,) = plan.places
@@ -60,7 +61,7 @@ def test_s3o_plans_the_demonstrations_stops():
     down at the second, the last can at the third."""
     known = KnownWorld.perfect(load_scenario(TIDY))
     plan = plan_task(known, method="S3O-GROP*", heatmaps=ring_heatmaps(known), seed=0,
-                     time_budget=10.0).plan
+                     time_budget=10.0, clock=still_clock).plan
     kinds = [(type(a).__name__, getattr(a, "dish", "")) for a in plan.actions]
     assert kinds == [("Goto", ""), ("Pickup", "can_1"), ("Pickup", "can_2"),
                      ("Pickup", "apple"), ("Goto", ""), ("Place", "apple"), ("Goto", ""),

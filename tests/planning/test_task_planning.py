@@ -2,6 +2,7 @@
 
 import dataclasses
 import itertools
+import math
 import time
 
 import numpy as np
@@ -15,6 +16,7 @@ from s3o_drake.planning.task.planner import (
     plan_problem,
     plan_tasks,
 )
+from tests.conftest import clingo_proves
 
 
 def random_problem(m: int, seed: int = 0, dishes_per_location: float = 1.3) -> TaskProblem:
@@ -122,9 +124,16 @@ def test_capacity_with_depot_makes_trips():
     assert sum(1 for name, _ in plan.actions if name == "unload") == 2
 
 
-def test_time_limit_returns_quickly_on_a_large_problem():
+def test_time_limit_returns_quickly_on_a_large_problem(monkeypatch):
+    """A limit far below what 12 locations take to prove cuts the search: valid plans, or
+    a timeout that says so, after little work. Only the limit ends it: no stall rule."""
+    from s3o_drake.planning.task import planner as task_planner
+
+    monkeypatch.setattr(task_planner, "LARGE_STALL", math.inf)
     problem = random_problem(12, seed=1)
-    start = time.perf_counter()
+    # The work done, this process's CPU time, which the machine's other work does not
+    # inflate (clingo solves in a thread of this process).
+    start = time.process_time()
     try:
         result = plan_tasks(problem, n_plans=5, time_limit=0.05)
     except TaskPlanningError as error:
@@ -134,7 +143,7 @@ def test_time_limit_returns_quickly_on_a_large_problem():
         for plan in result.plans:
             check_plan(problem, plan.actions)
         assert not result.complete
-    assert time.perf_counter() - start < 0.5  # generous: shared machines
+    assert time.process_time() - start < 0.5
 
 
 def test_deterministic():
@@ -166,17 +175,15 @@ def test_the_lower_bound_is_below_every_order_and_tight_once_proven(seed):
 
 
 def test_a_cut_search_says_what_it_found_and_its_bound():
-    """On 20 locations 0.2 s proves nothing: the plans found (local search's, as clingo's
-    models) say they are not optimal, and the bound lies below the optimum (solved
-    exactly), and above the cheapest drive into each location."""
+    """On 20 locations clingo proves nothing before its search stalls (the limit is far):
+    the plans found (local search's, as clingo's models) say they are not optimal, and the
+    bound lies below the optimum (solved exactly), and above the cheapest drive into each
+    location."""
     from s3o_drake.planning.task.exact_order import exact_order
     from s3o_drake.planning.task.visit_order import visit_matrix
 
     problem = random_problem(20, seed=1)
-    try:
-        result = plan_tasks(problem, n_plans=3, time_limit=0.2)
-    except TaskPlanningError:
-        pytest.skip("no order at all within 0.2 s on this machine")
+    result = plan_tasks(problem, n_plans=3, time_limit=60.0)
     assert result.asked == 3 and not result.complete
     assert not any(p.optimal for p in result.plans)
     for plan in result.plans:
@@ -205,14 +212,15 @@ def test_the_visit_order_encoding_gives_the_time_step_encodings_answers(seed, mo
         assert check_plan(problem, plan.actions) == plan.cost
 
 
-def test_thirty_dishes_in_eight_locations_are_ordered_and_proven_at_once():
+def test_thirty_dishes_in_eight_locations_are_ordered_and_proven_at_once(monkeypatch):
     """The visit-order encoding: 30 dishes in 8 locations, 3 orders, each proven, in well
-    under a second (the time-step encoding proved none in 10 s)."""
+    under a second of work (the time-step encoding proved none in 10 s)."""
+    clingo_proves(monkeypatch)
     problem = random_problem(8, seed=2, dishes_per_location=30 / 8)
     assert len(problem.dishes) == 30
-    start = time.perf_counter()
+    start = time.process_time()  # the work, whatever else the machine runs
     result = plan_tasks(problem, n_plans=3, time_limit=5)
-    assert time.perf_counter() - start < 1.0
+    assert time.process_time() - start < 1.0
     assert result.complete and [p.optimal for p in result.plans] == [True] * 3
     assert result.best.cost == brute_force(problem)
 
@@ -339,20 +347,25 @@ def test_plan_problem_reads_the_held_object_off_its_place_target():
     assert ("pickup", "apple") not in best.actions
 
 
-def test_a_large_order_starts_from_local_search_and_is_near_the_optimum():
-    """30 locations, 2 s: clingo proves nothing, but its first model is local search's
-    best order, and it looks only for cheaper ones. The best order is within 2 % of the
-    exact optimum, three distinct valid orders come back, and clingo stops once its
-    search stalls, before the limit."""
+def test_a_large_order_starts_from_local_search_and_is_near_the_optimum(monkeypatch):
+    """30 locations: clingo proves nothing, but its first model is local search's best
+    order, and it looks only for cheaper ones. The best order is within 2 % of the exact
+    optimum, three distinct valid orders come back, and clingo stops once its search
+    stalls, long before the limit."""
+    from s3o_drake.planning.task import visit_order
     from s3o_drake.planning.task.exact_order import exact_order
     from s3o_drake.planning.task.visit_order import visit_matrix
 
+    # Local search ends by its own count of kicks, not by the time a busy machine leaves
+    # it: how near the optimum it gets is the claim (its time is the scale benchmark's).
+    limit = 60.0
+    monkeypatch.setattr(visit_order, "HINT_LIMIT", limit)
     problem = random_problem(30, seed=1)
-    result = plan_tasks(problem, n_plans=3, time_limit=2.0)
+    result = plan_tasks(problem, n_plans=3, time_limit=limit)
     _, optimum = exact_order(visit_matrix(problem)[1])
     assert optimum <= result.best.cost <= 1.02 * optimum
     assert len(result.plans) == 3 and len({p.gotos for p in result.plans}) == 3
     assert [p.cost for p in result.plans] == sorted(p.cost for p in result.plans)
     for plan in result.plans:
         assert check_plan(problem, plan.actions) == plan.cost
-    assert result.elapsed < 2.0 and not result.complete
+    assert result.elapsed < limit / 2 and not result.complete

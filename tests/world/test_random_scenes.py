@@ -1,6 +1,7 @@
 """Random valid scenes planned by every method (issue 19, item 1): no crash, a plan or a
 "no plan" that says why, every plan through the plan checker with its goto poses free in
-the known world, and no budget overrun by more than 5 %.
+the known world, and no budget overrun by more than 5 %. The budgets are this process's
+CPU time (`plan_and_check`'s clock): the machine's other work does not eat them.
 
 Bounded: the suite stays fast (a few small scenes, a cheap Fea^m, tiny budgets).
 S3O_PROPERTY_EXAMPLES=200 tries many more, S3O_PROPERTY_DISHES=30 larger scenes,
@@ -9,6 +10,7 @@ S3O_PROPERTY_LARGE=1 adds a 28-dish scene; the soak
 """
 
 import os
+import time
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -40,7 +42,7 @@ def _check(scene, budget: float = BUDGET) -> dict[str, dict]:
     known = KnownWorld.perfect(scene)
     checker = FeasibilityChecker(FeasibilityScene(known.contents))
     rows = plan_and_check(known, heatmaps=ring_heatmaps(known), budget=budget,
-                          base_free=checker.base_free)
+                          base_free=checker.base_free, clock=time.process_time)
     for method, row in rows.items():
         assert not row["crash"], (method, row["crash"], row.get("traceback"))
         assert row["planned"] or row["error"].startswith("no plan: "), (method, row)
@@ -61,8 +63,9 @@ def test_random_scenes_plan_or_say_why(seed):
 
 
 @pytest.mark.skipif(not os.environ.get("S3O_PROPERTY_LARGE"),
-                    reason="S3O_PROPERTY_LARGE=1: a 28-dish scene; its S3O abstraction can "
-                           "still overrun 2 s on a loaded machine (docs/reliability.md)")
+                    reason="S3O_PROPERTY_LARGE=1: a 28-dish scene, 12 s; S3O-GROP* takes 2.0 s "
+                           "of CPU of its 2 s budget, so its uninterruptible stages can "
+                           "overrun it on a slower machine (docs/reliability.md)")
 @pytest.mark.parametrize("seed, index", [(0, 0)])
 def test_a_large_random_scene(seed, index):
     """One scene near the top of the range (28 dishes, 4 tables): the budget holds."""
@@ -80,12 +83,12 @@ def test_petlon_keeps_a_small_budget_in_a_crowded_scene():
     known = KnownWorld.perfect(scene)
     checker = FeasibilityChecker(FeasibilityScene(known.contents))
     heatmaps = ring_heatmaps(known)
+    # Warm: the free-stop checker is built once.
     plan_and_check(known, heatmaps=heatmaps, budget=1.0, base_free=checker.base_free,
-                   methods=["V-PETLON"])  # warm: the free-stop checker is built once
+                   methods=["V-PETLON"], clock=time.process_time)
     row = plan_and_check(known, heatmaps=heatmaps, budget=0.5, base_free=checker.base_free,
-                         methods=["V-PETLON"])["V-PETLON"]
-    # Under twice the budget: the regression took 7 times it, and a test beside other
-    # work on 2 cores must not fail for the machine's load (the soak measures overruns).
+                         methods=["V-PETLON"], clock=time.process_time)["V-PETLON"]
+    # Under twice the budget: the regression took 7 times it.
     assert row["seconds"] < 2 * 0.5, row
     assert row["planned"] or "time budget" in row["error"]
 
@@ -99,6 +102,6 @@ def test_a_dish_with_no_feasible_free_stop_is_left_out_not_driven_to():
 
     known = KnownWorld.perfect(scene)
     result = plan_from(known, method="V-GROP*", heatmaps=ring_heatmaps(known), workers=1,
-                       feasibility="oracle", time_budget=5.0)
+                       feasibility="oracle", time_budget=5.0, clock=time.process_time)
     assert "dish_5" in result.plan.unreachable
     assert all(r["planned"] for r in rows.values())

@@ -78,6 +78,7 @@ from s3o_drake.abstraction.shared_stop import stop_shares
 from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.planning.task.planner import Action
 from s3o_drake.planning.time_model import CostModel
+from s3o_drake.world.deadline import Deadline
 from s3o_drake.world.goals import place_target_name
 from s3o_drake.world.settings import PlanningSettings
 
@@ -388,7 +389,7 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
               planner: PlanningSettings, *, seed: int | None = None,
               rng: np.random.Generator | None = None, generations: int | None = None,
               population: int | None = None, pickup_duration: float | None = None,
-              deadline: float | None = None, costs: CostModel | None = None,
+              deadline: Deadline | None = None, costs: CostModel | None = None,
               grid: LocationGrid | None = None,
               groups: Mapping[str, Sequence[str]] | None = None) -> MotionResult:
     """GROP*: CMA-ES over one base position per goto of `sequence`.
@@ -396,9 +397,9 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     `regions` maps each location name to its region (shapely, e.g. the union of its dishes'
     Voronoi cells). Budget: `generations` (default planner.cma_generations) x `population`
     (default planner.cma_population) samples, each generation costed with one path query
-    batch; `costs` is the cost profile (None: the paper's, from `planner`). `deadline` (a
-    `time.monotonic()` value) ends the search before a generation that would, at the pace
-    of the previous one, end past it. `seed` or `rng` (rng wins) makes it deterministic.
+    batch; `costs` is the cost profile (None: the paper's, from `planner`). `deadline` ends
+    the search before a generation that would, at the pace of the previous one, end past
+    it. `seed` or `rng` (rng wins) makes it deterministic.
     The starting guess and generation 0's draws come from the plan's location grid `grid`,
     where `groups` names the dishes whose cells make each location (None: each region is
     rasterised on its own). Returns the best sample seen.
@@ -440,22 +441,23 @@ def grop_star(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
 
 
 def _evolve(es: cma.CMAEvolutionStrategy, problem: SequenceProblem, tally: _Tally,
-            population: int, generations: int, deadline: float | None) -> None:
+            population: int, generations: int, deadline: Deadline | None) -> None:
     """Up to `generations` generations of `es`, each told its utilities and added to
     `tally`, ending before a generation that would end past `deadline`."""
+    clock = time.monotonic if deadline is None else deadline.now
     last = 0.0  # duration of the latest generation
     for _ in range(generations):
         # Stop when the next generation would end past the deadline, not only once it has
         # passed: a generation of a long sequence takes tens of milliseconds.
-        if deadline is not None and time.monotonic() + last >= deadline:
+        if deadline is not None and deadline.remaining() <= last:
             break
-        t_generation = time.monotonic()
+        t_generation = clock()
         asked = _ask_inside(es, problem, population)
         X = np.array(asked).reshape(len(asked), problem.n, 2)
         u = problem.evaluate(X)[0]
         tally.add(X, u)
         es.tell(asked, list(-u))  # cma minimises
-        last = time.monotonic() - t_generation
+        last = clock() - t_generation
 
 
 def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
@@ -463,7 +465,7 @@ def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
          planner: PlanningSettings, *, seed: int | None = None,
          rng: np.random.Generator | None = None,
          generations: int | None = None, population: int | None = None,
-         pickup_duration: float | None = None, deadline: float | None = None,
+         pickup_duration: float | None = None, deadline: Deadline | None = None,
          costs: CostModel | None = None, grid: LocationGrid | None = None,
          groups: Mapping[str, Sequence[str]] | None = None) -> MotionResult:
     """GROP (the baseline): the same budget as `grop_star`, each sample drawing every
@@ -479,13 +481,14 @@ def grop(sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
     if problem.n == 0:
         return problem.result("GROP", np.zeros((0, 2)), 1, time.monotonic() - t0, [], [])
     rng = rng if rng is not None else np.random.default_rng(seed)
+    clock = time.monotonic if deadline is None else deadline.now
     tally = _Tally()
     for _ in range(generations):
-        t_batch = time.monotonic()
+        t_batch = clock()
         X = np.stack([draw(g, rng, population) for g in problem.grids], axis=1)
         tally.add(X, problem.evaluate(X)[0])
         # As in GROP*: no batch that would end past the deadline.
-        if deadline is not None and 2 * time.monotonic() - t_batch >= deadline:
+        if deadline is not None and deadline.remaining() <= clock() - t_batch:
             break
     return tally.result(problem, "GROP", t0)
 

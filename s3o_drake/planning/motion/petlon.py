@@ -38,6 +38,7 @@ from s3o_drake.planning.task.planner import (
     plan_problem,
 )
 from s3o_drake.planning.time_model import CostModel
+from s3o_drake.world.deadline import Deadline
 from s3o_drake.world.settings import PlanningSettings
 
 DRAWS_PER_POSITION = 100
@@ -71,7 +72,7 @@ class _ExpiredError(Exception):
 def random_position(region: BaseGeometry, nav: NavigationMap, start: np.ndarray,
                     rng: np.random.Generator,
                     free: Callable[[np.ndarray], np.ndarray] | None = None,
-                    deadline: float | None = None) -> np.ndarray | None:
+                    deadline: Deadline | None = None) -> np.ndarray | None:
     """A uniform point of `region` that the base can drive to from `start`, and where
     `free` (points (n, 2) -> bool (n,); None: any) holds, or None.
 
@@ -84,14 +85,14 @@ def random_position(region: BaseGeometry, nav: NavigationMap, start: np.ndarray,
     5 s budget on them in 30 of 54 scenes); else the rounds go on, and if they all miss (a
     sliver of free space in a large box, task_017's bowl_2: one lattice point in sixteen,
     in a box 50 times the cell's area) the point is drawn among the passing lattice points.
-    Raises `_ExpiredError` when `deadline` (time.monotonic) passes first.
+    Raises `_ExpiredError` when `deadline` passes first.
     """
     if region.is_empty or region.area <= 0:
         return None
     x0, y0, x1, y1 = region.bounds
     passing: np.ndarray | None = None
     for k in range(DRAWS_PER_POSITION):
-        if deadline is not None and time.monotonic() >= deadline:
+        if deadline is not None and deadline.passed():
             raise _ExpiredError
         if k == LATTICE_AFTER:
             passing = _passing_lattice(region, nav, start, free)
@@ -125,12 +126,12 @@ def _passing_lattice(region: BaseGeometry, nav: NavigationMap, start: np.ndarray
 def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
            feasibility: MotionFeasibility, nav: NavigationMap, start_xy: Sequence[float],
            planner: PlanningSettings, *, rng: np.random.Generator, draws: int = 1,
-           unreachable: Sequence[str] = (), deadline: float | None = None,
+           unreachable: Sequence[str] = (), deadline: Deadline | None = None,
            costs: CostModel | None = None, free: FreeTest | None = None,
            places: Mapping[str, str] | None = None) -> PetlonResult:
     """V-PETLON over the state space `groups` (location k named "l{k}", its region in
     `regions`): `draws` random position sets, each ordered optimally for navigation, the
-    cheapest kept. At least one draw is made; `deadline` (time.monotonic) stops further
+    cheapest kept. At least one draw is made; `deadline` stops further
     draws; `costs` scores the kept plan (None: the paper's costs); `free` keeps the draws
     to positions where the base facing the location's dish is free (None: any); `places`
     as `plan_problem`'s. Raises `TaskPlanningError` if no dish can be planned."""
@@ -140,7 +141,7 @@ def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
     task_time = motion_time = 0.0
     done = 0
     for i in range(max(draws, 1)):
-        if i and deadline is not None and time.monotonic() >= deadline:
+        if i and deadline is not None and deadline.passed():
             break
         t0 = time.monotonic()
         try:
@@ -166,7 +167,7 @@ def petlon(groups: Sequence[Sequence[str]], regions: Mapping[str, BaseGeometry],
                                    if points[n] is None for d in g}
         # The first draw's order gets a moment past the deadline (there is no plan
         # without it); later draws only what remains, and are dropped if it runs out.
-        remaining = None if deadline is None else max(deadline - time.monotonic(),
+        remaining = None if deadline is None else max(deadline.remaining(),
                                                       0.05 if best is not None else 0.5)
         try:
             task = plan_problem(groups, task_costs, unreachable=sorted(lost), places=places,

@@ -20,6 +20,9 @@ from s3o_drake.planning.task.problem import Action, TaskProblem, sym_str
 
 ORDER = "order.lp"  # the visit-order encoding, for problems that only collect
 LOCATIONS = "locations.lp"  # what both encodings share: nodes, reachability, dishes
+HINT_LIMIT = 1.0
+"""Seconds local search may take at most (`visit_hints`): idle it takes 0.1 s at 15-20
+locations, but it shares the cores with the motion searches."""
 
 
 def visits_only(problem: TaskProblem) -> bool:
@@ -51,11 +54,10 @@ def visit_hints(nodes: Sequence[str], costs: np.ndarray, count: int,
     """Up to `count` distinct good visiting orders (location names) of the ordering
     problem `visit_matrix` gives (`nodes`, `costs`), the cheapest first, from
     `good_orders`' local search; none below 3 locations to visit (clingo proves those at
-    once). The search gets half the time left, at most 1 s: idle it takes 0.1 s
-    at 15-20 locations, but it shares the cores with the motion searches."""
+    once). The search gets half the time left, at most HINT_LIMIT."""
     if len(nodes) < 4:
         return []
-    limit = min(1.0, 0.5 * max(deadline - time.perf_counter(), 0.0))
+    limit = min(HINT_LIMIT, 0.5 * max(deadline - time.perf_counter(), 0.0))
     return [[nodes[i] for i in order] for order in good_orders(costs, count, limit)]
 
 
