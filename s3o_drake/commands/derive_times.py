@@ -1,7 +1,7 @@
 """Derive the planner's time model from the robot's own motions.
 
     s3o build time-model [--samples 400] [--seed 0] [--departure-tasks 10]
-                         [--smooth-only] [--out out/time_model.yaml]
+                         [--smooth-only | --departure-only] [--out out/time_model.yaml]
 
 Plans --samples pickups from base positions the feasibility check accepts near the shipped
 tasks' dishes, as the ArmController runs them, fits candidate models of their duration by
@@ -14,8 +14,9 @@ wait for the arm when it leaves a stop: the median, over --departure-tasks tasks
 this model and simulated without noise, of the simulated time the model leaves out, per
 departure. With --smooth-only the
 model already at --out keeps its stop-and-go terms (the recorded studies were planned on
-them) and gets the smooth ones. Deterministic for a seed; re-run it whenever the arm's or
-the base's motion changes.
+them) and gets the smooth ones; with --departure-only it keeps every term but the
+departure wait, which it measures again. Deterministic for a seed; re-run it whenever the
+arm's or the base's motion changes.
 """
 
 from __future__ import annotations
@@ -365,9 +366,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--departure-tasks", type=at_least(1), default=10, metavar="N",
                         help="shipped tasks simulated to measure the smooth base's wait "
                              "for the arm (default 10)")
-    parser.add_argument("--smooth-only", action="store_true",
-                        help="keep the stop-and-go terms of the model at --out; make only "
-                             "the smooth ones")
+    only = parser.add_mutually_exclusive_group()
+    only.add_argument("--smooth-only", action="store_true",
+                      help="keep the stop-and-go terms of the model at --out; make only "
+                           "the smooth ones")
+    only.add_argument("--departure-only", action="store_true",
+                      help="keep every term of the model at --out but the departure wait; "
+                           "measure it again")
     add_seed(parser, 0, "seed of the draws")
     add_out(parser, file=True, default=str(DEFAULT_OUT),
             note=f"the shipped model is replaced only when told: --out "
@@ -380,14 +385,21 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.planning.time_model import TimeModel
 
     kept = None
-    if args.smooth_only:
+    if args.smooth_only or args.departure_only:
+        flag = "--smooth-only" if args.smooth_only else "--departure-only"
         try:
             kept = TimeModel.from_dict(yaml.safe_load(out.read_text()))
         except (OSError, ValueError, KeyError, TypeError, yaml.YAMLError) as e:
-            fail(f"--smooth-only: no time model to keep at {out}: {e}")
+            fail(f"{flag}: no time model to keep at {out}: {e}")
+        if args.departure_only and kept.smooth is None:
+            fail(f"--departure-only: the time model at {out} has no smooth terms")
     t0 = time.perf_counter()
-    model, rows = derive(args.samples, args.seed, command)
-    if kept is not None:
+    if args.departure_only:  # measured against the model without it
+        model, rows = dataclasses.replace(kept, smooth=dataclasses.replace(
+            kept.smooth, departure=0.0)), []
+    else:
+        model, rows = derive(args.samples, args.seed, command)
+    if kept is not None and args.smooth_only:
         model = dataclasses.replace(kept, smooth=dataclasses.replace(
             model.smooth, fit={**model.smooth.fit, "command": command + " --smooth-only"}))
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -398,13 +410,14 @@ def main(argv: list[str] | None = None) -> int:
     wait, runs = measure_departure(out.resolve(), tasks, seed=args.seed)
     model = dataclasses.replace(model, smooth=dataclasses.replace(
         model.smooth, departure=wait, fit={**model.smooth.fit, "departure_measured": {
+            "command": command + (" --departure-only" if args.departure_only else ""),
             "tasks": f"the first {len(tasks)} of scenarios/generated/",
             "measured": "median over the tasks of (simulated - predicted) / departures, "
                         "S3O-GROP*, no noise",
             "runs": len(runs), "as_planned": sum(r["all_done"] for r in runs)}}))
     write_model(model, out)
     print(f"{len(rows)} pickups planned in {time.perf_counter() - t0:.0f} s, "
-          f"{model.provenance['samples']} ok")
+          f"{model.provenance['samples']} ok in the stop-and-go terms")
     print(f"{'model':<26} {'held-out MAE':>13} {'RMSE':>7}")
     for form, e in model.fit["held_out"].items():
         mark = "  <- chosen" if form == model.pickup.form else ""

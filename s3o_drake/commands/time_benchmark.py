@@ -1,6 +1,7 @@
 """The plan's predicted execution time against the simulated one.
 
-    s3o bench time [--tasks PATH ...] [--count N] [--noise on off] [--json FILE]
+    s3o bench time [--tasks PATH ...] [--count N] [--noise on off] [--set PATH=VALUE]
+                   [--json FILE]
 
 Plans and executes each task as `s3o run` does (no playback, open loop), once with the
 simulated noise off and once on, and compares the plan's predicted_time with the report's
@@ -28,11 +29,13 @@ from s3o_drake.commands.common import command_parser, read_scenario
 from s3o_drake.commands.options import (
     add_json,
     add_method,
+    add_overrides,
     add_seed,
     add_tasks,
     add_workers,
     json_store,
     task_paths,
+    with_overrides_or_fail,
 )
 from s3o_drake.world.choices import COST_PROFILES, Recovery
 from s3o_drake.world.resources import TIME_MODEL
@@ -186,6 +189,8 @@ def main(argv: list[str] | None = None) -> int:
     add_seed(parser, None, "seed of every run")
     parser.add_argument("--cost-profile", choices=COST_PROFILES,
                         help="plan with this cost profile (default: each scenario's own)")
+    add_overrides(parser, "replace a scenario field in every run, e.g. "
+                          "execution.motion=stop_and_go (repeatable)")
     add_json(parser, "run")
     add_workers(parser, 1, "runs at once, each in a worker process")
     parser.add_argument("--evaluation", action="store_true",
@@ -195,6 +200,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.cost_profile is not None:
         tasks = [(name, dataclasses.replace(scenario, planner=dataclasses.replace(
             scenario.planner, cost_profile=args.cost_profile))) for name, scenario in tasks]
+    tasks = [(name, with_overrides_or_fail(scenario, args.overrides)) for name, scenario in tasks]
     store = None if args.evaluation else json_store(args)
     logging.getLogger("drake").setLevel(logging.WARNING)
 
@@ -211,8 +217,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
     version = model_version()
-    runs = [(f"{name}|{args.method}|{seed}|{noise}|{scenario.planner.cost_profile}|{version}",
-             name, scenario, seed, noise)
+    changed = "".join(f"|set:{item}" for item in args.overrides)
+    runs = [(f"{name}|{args.method}|{seed}|{noise}|{scenario.planner.cost_profile}|{version}"
+             f"{changed}", name, scenario, seed, noise)
             for name, scenario in tasks
             for seed in [scenario.seed if args.seed is None else args.seed]
             for noise in args.noise]

@@ -38,6 +38,7 @@ from s3o_drake.execution.together import WAIT_STEP, free_together
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.navigation.base_motion import SETTLE_TIME
+from s3o_drake.world.angles import facing_yaw, wrap
 from s3o_drake.world.robot import (
     ARM_STOW,
     GRIPPER_OPEN,
@@ -216,13 +217,18 @@ class BaseNavigator(LeafSystem):
 
     def _landing(self, command: BaseCommand) -> np.ndarray:
         """The pose (x, y, yaw) the command aims for: its pose plus the seeded noise T^n
-        (none for a turn in place)."""
+        (none for a turn in place); with `face`, its yaw that facing the point from the
+        noisy x, y, plus the yaw's noise."""
         if command.turn:
             return np.asarray(command.pose, dtype=float)
         p = self._params
         rng = np.random.default_rng([p.seed, 1, command.id])
         noise = rng.normal(0.0, 1.0, 3) * [p.nav_xy_std, p.nav_xy_std, p.nav_yaw_std]
-        return np.asarray(command.pose, dtype=float) + noise
+        landing = np.asarray(command.pose, dtype=float) + noise
+        if command.face is not None:
+            landing[2] = float(command.pose[2] + wrap(
+                facing_yaw(landing[:2], command.face) - command.pose[2])) + noise[2]
+        return landing
 
     def _plan(self, command: BaseCommand, base: np.ndarray, t: float,
               trail: tuple[BaseSegment, ...] = (), arm: ArmMotion | None = None) -> _Motion:

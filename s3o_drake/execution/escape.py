@@ -61,6 +61,9 @@ RETRACE_TOLERANCE = 0.05
 #: How far (m) before a stop the base may turn to the stop's heading and drive straight in,
 #: tried in turn when the direct motion lands short.
 APPROACH_STEPS = tuple(0.1 * k for k in range(1, 9))
+#: The waypoints this close (m) to a stop are its lead in, moved with a smooth motion's
+#: noisy landing (`shifted_lead`): two and a half standard deviations of the default noise.
+LEAD = 0.25
 #: A drive cut short of a collision ends at its last free sample only when the pose this
 #: share of a check step beyond it (1 mm, 0.0025 rad) is free too, else a sample earlier:
 #: the plant settles within a hair of its set point (0.00008 rad past a turn's end was
@@ -203,6 +206,8 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
     if not turn:
         waypoints += [np.asarray(p, float) for p in path[1:-1]]
         waypoints.append(target[:2])
+    if profile.smooth and not turn:
+        waypoints = shifted_lead(waypoints, stop, target)
     if profile.smooth:
         # The direct motion, else (a noisy landing next to a chair) one that keeps to the
         # planned last leg, else one that drives smoothly to APPROACH_STEPS before the
@@ -223,6 +228,10 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
             if cut.hit is None or (not cut.blocked and (turn or facing(cut.segments,
                                                                        target[2]))):
                 return cut
+        # The escapes of a blocked or short landing below, with the smooth motion.
+        cut = _escaped(base, target, waypoints, stop, turn, trail, free, profile)
+        if not cut.blocked and (turn or cut.hit is None or facing(cut.segments, target[2])):
+            return cut
         if not turn and len(waypoints) > 2:
             # Smooth to the path's last corner, stopping there, and from there the
             # stop-and-go motion and its escapes, which stop anywhere.
@@ -238,6 +247,15 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
         # Caught where a smooth motion cannot stop within its limits, or landing short
         # facing away: the stop-and-go motion and its escapes, which stop anywhere.
         profile = profile.stop_and_go()
+    return _escaped(base, target, waypoints, stop, turn, trail, free, profile)
+
+
+def _escaped(base: np.ndarray, target: np.ndarray, waypoints: list[np.ndarray],
+             stop: Sequence[float], turn: bool, trail: tuple[BaseSegment, ...],
+             free: FreeTest | None, profile: MotionProfile) -> Cut:
+    """The direct motion through `waypoints` with `profile`, or when it is blocked the first
+    escape that is not, or when it lands short facing away a straight approach that faces
+    (`plan_motion`'s docstring)."""
     # A turn turns where the base stands: its pose's x, y are where the planner saw the
     # base a control period earlier, and the base has since drifted by micrometres (the
     # arm's motion pushes it against its PD); driving there first meant turning towards
@@ -282,6 +300,23 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
             if not approached.blocked and facing(approached.segments, target[2]):
                 return approached
     return cut
+
+
+def shifted_lead(waypoints: list[np.ndarray], stop: Sequence[float],
+                 target: np.ndarray) -> list[np.ndarray]:
+    """The waypoints with the inner ones within LEAD of the commanded `stop` moved as the
+    landing `target` is off it: the path's last leg joins the stop to the map's driveable
+    region, a few centimetres long as planned, and the landing noise would otherwise turn
+    it any way (the base turned round for a 4 cm leg). A smooth motion comes in along it
+    as planned, only beside it."""
+    way = [np.asarray(w, dtype=float) for w in waypoints]
+    stop = np.asarray(stop[:2], dtype=float)
+    offset = np.asarray(target[:2], dtype=float) - stop
+    for k in range(len(way) - 2, 0, -1):
+        if np.linalg.norm(way[k] - stop) >= LEAD:
+            break
+        way[k] = way[k] + offset
+    return way
 
 
 def along_plan(stop: Sequence[float], waypoints: list[np.ndarray], *, turn: bool

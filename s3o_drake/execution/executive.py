@@ -238,6 +238,9 @@ class Drive:
     """With smooth motion: the dish whose pickup follows at the stop; arm command
     `prepare_id` brings the arm to its pre-grasp as the base arrives."""
     prepare_id: int = NO_COMMAND
+    face: tuple[float, float] | None = None
+    """With smooth motion: the point the base lands facing (what the arm reaches for
+    first at the stop), from where it really lands."""
 
 
 @dataclass(frozen=True)
@@ -658,12 +661,13 @@ class Executive:
         if isinstance(action, Goto):
             if e.arm_out:
                 return self._stow(e)
-            prepare = self._prepare_for(e)
+            prepare, face = self._prepare_for(e), self._faced(e)
             if prepare:
                 return (_sent_base(e, Mode.DRIVING, next_id=cid + 2, arm_out=True),
                         (Drive(cid, here[:2], action.pose, action.path, prepare=prepare,
-                               prepare_id=cid + 1),))
-            return _sent_base(e, Mode.DRIVING), (Drive(cid, here[:2], action.pose, action.path),)
+                               prepare_id=cid + 1, face=face),))
+            return _sent_base(e, Mode.DRIVING), (
+                Drive(cid, here[:2], action.pose, action.path, face=face),)
         target = self._target(action)
         if e.deferred is not None:  # the correction decided before the arm stowed
             pose, pending, stop = e.deferred
@@ -708,6 +712,18 @@ class Executive:
         if isinstance(after, Pickup) and after.dish not in self._to_place:
             return after.dish
         return ""
+
+    def _faced(self, e: ExecutiveState) -> tuple[float, float] | None:
+        """With smooth motion, where the goto at `e.step` lands facing: what the arm
+        reaches for next, when a pickup or place follows at the stop (None else)."""
+        actions = e.plan.actions
+        if not self._smooth or e.step + 1 >= len(actions):
+            return None
+        after = actions[e.step + 1]
+        if isinstance(after, Goto):
+            return None
+        x, y = self._params.targets[self._target(after)][:2]
+        return float(x), float(y)
 
     def _target(self, action: Pickup | Place) -> str:
         """What the arm reaches for: the dish, or the place target of the object to put."""

@@ -246,7 +246,7 @@ class ExecutiveSystem(LeafSystem):
                     else np.asarray([pose[:2]]))
             path = np.vstack([here[:2], rest])
         return BaseCommand(id=drive.id, path=tuple((float(x), float(y)) for x, y in path),
-                           pose=tuple(float(v) for v in pose))
+                           pose=tuple(float(v) for v in pose), face=drive.face)
 
     def _plan(self, context: Context, ask: ex.Plan) -> ex.PlanReady | ex.PlanFailed:
         """The answer to `ask`: a plan from the images and the robot's pose, or why not."""

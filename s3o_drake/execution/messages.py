@@ -62,6 +62,10 @@ class BaseCommand:
     path: tuple[tuple[float, float], ...] = ()
     pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     turn: bool = False
+    face: tuple[float, float] | None = None
+    """Land facing this point (x, y) from where the base really lands, instead of at the
+    pose's yaw (which faces it from the pose): the heading error of the landing noise
+    stays, its drift in x, y no longer turns the base away."""
 
 
 @dataclass(frozen=True)

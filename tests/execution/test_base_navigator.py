@@ -199,6 +199,23 @@ def test_landing_noise_is_seeded_per_command(scenario):
     assert np.linalg.norm(other.final()[0][:2] - landings[0][:2]) > 1e-3
 
 
+def test_a_landing_that_faces_a_point_keeps_only_the_heading_error(scenario):
+    """With `face`, the same noisy landing's x, y, and its yaw that facing the point from
+    there plus the yaw's noise: off the facing by the heading error alone, not by the drift
+    in x, y as well."""
+    dish = (2.4, 1.5)
+    pose = (1.5, 1.5, 0.0)  # faces the dish from the commanded stop
+    rng = np.random.default_rng([7, 1, 2])
+    std = scenario.uncertainty
+    noise = rng.normal(0.0, 1.0, 3) * [std.nav_xy_std, std.nav_xy_std, std.nav_yaw_std]
+    alone = _Alone(_navigator(scenario, seed=7, noise=True))
+    alone.send(BaseCommand(id=2, path=((0.6, 0.6), (1.5, 1.5)), pose=pose, face=dish))
+    final, _ = alone.final()
+    np.testing.assert_allclose(final[:2], np.array(pose[:2]) + noise[:2], atol=1e-9)
+    facing = math.atan2(dish[1] - final[1], dish[0] - final[0])
+    assert wrap_angle(final[2] - facing) == pytest.approx(noise[2], abs=1e-9)
+
+
 def test_a_path_through_the_table_fails_blocked_before_it(scenario, scene):
     # The table spans x 1.4..2.6, y 2.1..2.9; drive straight across it along y = 2.5.
     alone = _Alone(_navigator(scenario, scene), base=(0.6, 2.5, 0.0))
@@ -300,7 +317,8 @@ def test_a_noisy_landing_is_reached_along_the_planned_leg(scenario, scene):
     south-east corner (2.6, 2.1); the noise puts the landing 0.28 m north. The straight
     drive to the landing swings the leg and clips the corner 1 m before the stop (blocked,
     as dense task_033 was); the base keeps to the planned leg and turns off it to the
-    landing just before the stop."""
+    landing just before the stop (stopping and going; a smooth motion tries the same way,
+    driving through its corners)."""
 
     class Landing(BaseNavigator):
         def _landing(self, command):
@@ -314,8 +332,10 @@ def test_a_noisy_landing_is_reached_along_the_planned_leg(scenario, scene):
     assert not all(free(p) for p in swung if p[0] < 3.4 - 0.6)  # far from the stop
     # The path's last leg starts at a waypoint, where backing out or driving on first
     # (the escapes from a tight start) changes nothing.
-    alone = _Alone(Landing(params=navigator_params(scenario, noise=False), scene=scene),
-                   base=(0.8, 1.72, 0.0))
+    params = navigator_params(scenario, noise=False)
+    stop_and_go = dataclasses.replace(params, profile=dataclasses.replace(
+        params.profile, motion="stop_and_go"))
+    alone = _Alone(Landing(params=stop_and_go, scene=scene), base=(0.8, 1.72, 0.0))
     alone.send(BaseCommand(id=3, path=((0.8, 1.72), (1.6, 1.72), (3.4, 1.72)),
                            pose=(3.4, 1.72, 0.0)))
     final, status = alone.final()

@@ -699,6 +699,7 @@ def test_smooth_a_drive_brings_the_arm_to_its_first_dish_and_a_shared_stop_keeps
     run.start(_ready(PLATE_CUP))
     (drive,) = run.tick()
     assert drive.prepare == "plate" and drive.prepare_id == drive.id + 1
+    assert drive.face == TARGETS["plate"]  # lands facing it from where it lands
     assert run.state.arm_out and run.state.next_id == drive.id + 2
     run.base(land=L1)
     first = run.pick()
@@ -739,5 +740,5 @@ def test_stop_and_go_sends_no_prepare_and_always_stows():
     run = Run(Recovery.NONE)
     run.start(_ready(PLATE_CUP))
     drive = run.to_stop()
-    assert drive.prepare == "" and not run.state.arm_out
+    assert drive.prepare == "" and drive.face is None and not run.state.arm_out
     assert run.pick().stow

@@ -288,8 +288,9 @@ def test_the_command_fits_every_form_of_the_model_in_its_order():
 # ------------------------------------------------------------------------- smooth motion
 def test_smooth_terms_of_a_merged_stop():
     """With smooth motion a stop's first pickup is the grasp alone (the arm came to the
-    pre-grasp while the base drove); the next waits for the first dish to reach the tray or
-    for the turn to it, whichever is longer, then comes from the tray; the plan's last
+    pre-grasp while the base drove), or after a drive too short to hide the arm's way there
+    what that way outlasts it by; the next pickup waits for the first dish to reach the tray
+    or for the turn to it, whichever is longer, then comes from the tray; the plan's last
     pickup holds the arm's last motions. The turn is in that term, not in the stop's."""
     scenario = load_scenario(TWO_DISHES)
     costs = CostModel.for_known(KnownWorld.perfect(scenario))
@@ -299,7 +300,8 @@ def test_smooth_terms_of_a_merged_stop():
     b = math.atan2(2.3 - 1.5, 2.15 - 2.0)  # cup_b
     where = np.stack([stop, stop], axis=1)
     d = np.linalg.norm(stop[0] - np.array([[1.85, 2.3], [2.15, 2.3]]), axis=1)
-    got = costs.pickup_times(["plate_a", "cup_b"], where, stops=[0, 0])[0]
+    got = costs.pickup_times(["plate_a", "cup_b"], where, stops=[0, 0],
+                             gotos=np.array([[10.0]]))[0]
     part = {name: [float(arm.duration(name, kind, x)) for kind, x in
                    zip(("plate", "cup"), d, strict=True)] for name in arm.parts}
     turn = costs.base.turn_time(b - a) + o.gamma
@@ -307,6 +309,9 @@ def test_smooth_terms_of_a_merged_stop():
     assert got[1] == pytest.approx(max(part["tail"][0], turn) + part["from_tray"][1]
                                    + part["grasp"][1] + o.pickup
                                    + part["tail"][1] + part["stow"][1])
+    short = costs.pickup_times(["plate_a", "cup_b"], where, stops=[0, 0],
+                               gotos=np.array([[0.5]]))[0]
+    assert short[0] == pytest.approx(got[0] + part["prepare"][0] - 0.5)
     time_s, leave = costs.stop_turns(stop, np.array([a]), ["plate_a", "cup_b"])
     assert time_s[0] == 0.0 and leave[0] == pytest.approx(b)
     # Stopping and going, the same pickups are the recorded whole motions.
