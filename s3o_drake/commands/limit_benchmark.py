@@ -2,22 +2,12 @@
 
     s3o bench limit [--tasks DIR ...] [--count 30] [--seed 0] [--json FILE]
 
-For each task, S3O-GROP* plans as it does by default, with each of its rations lifted
-alone (true_chairs: the scenario's chairs instead of the perceived ones; oracle: the Drake
-oracle's Fea^m instead of the network's; all_candidates: every state space instead of the
-top K; long_search: ten times the CMA-ES generations from three seeds) and with all of
-them (the reference plan, within 600 s). Every plan is judged by the true world's Fea^m at
-the stops it commands, and each task gets a lower bound on any complete execution's time
-(s3o_drake/experiments/limit.py). Prints a line per plan, then per configuration the
-median gap to the reference in predicted time (on all tasks, and on those where the
-reference's judged completion is at least the plan's, within COMPLETION_TOLERANCE and
-strictly), judged completion and utility, and for each ration the share of the default's
-median gap it closes alone, of the time gap and of the utility gap, each
-(default - ration) / default. A plan's utility is rated by the Fea^m it was made with, so
-the summary also gives how far each configuration's completion by its own Fea^m stands
-from the judged one; rows "pickups:NAME" among --rows (plans made again, with each
-pickup's own and judged Fea^m) add the gaps in utility on the judging model and, for the
-default, its pickups' Fea^m against the true world's at the stops chosen.
+For each task, S3O-GROP* plans by default, with each ration lifted alone (true_chairs,
+oracle, all_candidates, long_search) and with all of them (the reference plan); each plan
+is judged by the true world's Fea^m at its stops. Prints a line per plan, then per
+configuration the median gap to the reference (time, judged completion, utility) and, per
+ration, the share of the default's gap it closes, of the time gap and of the utility gap,
+each (default - ration) / default.
 With --json the rows are kept as they are made, and a rerun resumes from them.
 """
 

@@ -444,7 +444,7 @@ class RunReport:
         of them ended, s: where the execution's time went, action by action), pickups
         (`PickupRecord.to_dict()` each), recoveries (`RecoveryRecord.to_dict()` each),
         unreachable (a list), plans
-        (`PlanTime.to_dict()` each), closest_approach."""
+        (`PlanTime.to_dict()` each), closest_approach (None where nothing measured it)."""
         return {
             "dishes": self.dishes,
             "collected": self.collected,
@@ -461,5 +461,6 @@ class RunReport:
             "recoveries": [record.to_dict() for record in self.recoveries],
             "unreachable": list(self.unreachable),
             "plans": [plan.to_dict() for plan in self.plans],
-            "closest_approach": self.closest_approach,
+            "closest_approach": (None if math.isnan(self.closest_approach)
+                                 else self.closest_approach),
         }

@@ -67,7 +67,18 @@ def test_report_counts_the_dishes_on_the_tray():
         "execution_time": 3.0, "finished": False, "reason": "", "outcomes": [],
         "outcome_times": [], "pickups": [],
         "recoveries": [], "unreachable": [],
-        "plans": [{"planning_time": 2.5, "feasibility_time": 0.5, "budget": 5.0}]}
+        "plans": [{"planning_time": 2.5, "feasibility_time": 0.5, "budget": 5.0}],
+        "closest_approach": None}  # no clearance monitor connected: nothing measured it
+
+
+def test_report_carries_the_closest_approach_measured():
+    monitor = TaskMonitor()
+    context = monitor.CreateDefaultContext()
+    _fixed(monitor, context, PlanProgress(step=0, total=2))
+    monitor.GetInputPort("closest_approach").FixValue(context, [0.034])
+    report = monitor.GetOutputPort("report").Eval(context)
+    assert report.closest_approach == pytest.approx(0.034)
+    assert report.to_dict()["closest_approach"] == pytest.approx(0.034)
 
 
 def test_each_object_to_place_is_judged_against_its_target():
