@@ -25,6 +25,7 @@ import numpy as np
 from scipy.stats import binomtest
 
 from s3o_drake.experiments.difficulty import GROUPS, difficulty_groups
+from s3o_drake.experiments.motion_summary import motion_table
 from s3o_drake.experiments.recovery_summary import recovery_figures, recovery_table
 from s3o_drake.experiments.run_rows import code_of, has_time, predicted_completion
 from s3o_drake.viz.study import plot_figure_five, plot_table
@@ -492,6 +493,11 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
         lines += ["", "**Objects to place** (where each stands at the end of its run; "
                   "completion counts an object at its place as done)", "",
                   placement_table(runs, methods)]
+    lines += ["", "**How the robot moved** (per method and motion: the closest approach to "
+              "the true world, measured in the simulation; the plan's predicted time against "
+              "the simulated one on the runs that collected every dish; each stop's landing "
+              "against the stop as planned, at its first pickup)", "",
+              motion_table(runs, methods)]
     lines += ["", "**Why dishes were not collected** (failed actions by reason; dishes that "
               "no pickup was planned for or that a failed goto left behind)", "",
               failure_table(runs, methods)]
