@@ -21,6 +21,7 @@ from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.world.angles import facing_yaw, wrap
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.scenario import load_scenario
+from tests.conftest import ORACLE_MAPS_ONCE
 
 REPO = Path(__file__).resolve().parents[2]
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -120,13 +121,17 @@ NO_PICTURES = [item for field in ("playback", "overhead", "feasibility", "state_
 
 def test_set_replaces_a_field_and_large_reaching_noise_fails_some_pickups(tmp_path):
     """--set uncertainty.reach_std=0.08 (the scenario says 0.01): the run reaches with that
-    noise, its report names what was replaced, and some pickups fail, without a crash."""
+    noise, its report names what was replaced, and some pickups fail, without a crash.
+    Open loop (a second --set): with the scenario's recovery every miss is tried again and
+    replanned, five times the simulated time, which tests/execution/test_recovery.py covers."""
     assert load_scenario(SMALL).uncertainty.reach_std == 0.01
     out = tmp_path / "run"
     assert run_main([str(SMALL), "--out", str(out), "--seed", "3",
-                     "--set", "uncertainty.reach_std=0.08", *NO_PICTURES]) == 1
+                     "--set", "uncertainty.reach_std=0.08", "--set", "execution.recovery=none",
+                     *NO_PICTURES]) == 1
     report = json.loads((out / "report.json").read_text())
-    assert report["overrides"][0] == "uncertainty.reach_std=0.08"
+    assert report["overrides"][:2] == ["uncertainty.reach_std=0.08", "execution.recovery=none"]
+    assert report["recoveries"] == []
     failed = [o for a, _, o in report["outcomes"] if a == "pickup" and o != "done"]
     assert failed and all(o.startswith("failed: ") for o in failed)
     # The records say the same, with the reach error drawn for each pickup.
@@ -266,7 +271,9 @@ def test_after_a_replan_the_outputs_show_the_latest_plan(tmp_path, monkeypatch, 
     firsts = []
 
     def with_late_chairs(*args, **kwargs):
-        run = plain(*args, perceive=perceive, **kwargs)
+        # The test is about the outputs, not the maps' accuracy: each plan's Fea^m is the
+        # oracle's coarse map (tests/conftest.py), as the recovery tests plan this scene.
+        run = plain(*args, perceive=perceive, plan_from=ORACLE_MAPS_ONCE, **kwargs)
         firsts.append(run.plan)
         return run
 
