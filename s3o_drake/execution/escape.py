@@ -18,6 +18,7 @@ that the search is tested on a predicate of a few lines.
 """
 
 import dataclasses
+import functools
 import itertools
 import math
 from collections.abc import Iterator, Sequence
@@ -206,6 +207,7 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
     if not turn:
         waypoints += [np.asarray(p, float) for p in path[1:-1]]
         waypoints.append(target[:2])
+    planned = waypoints
     if profile.smooth and not turn:
         waypoints = shifted_lead(waypoints, stop, target)
     if profile.smooth:
@@ -223,15 +225,33 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
                  *straight.segments([target[:2] - d * h, target[:2]], float(target[2]),
                                     float(target[2]))]
                 for d in APPROACH_STEPS)))
+        # A smooth motion that lands short (its curve, or its lead in moved with the noise,
+        # meets the collision sooner than the planned leg, or an escape turned it round)
+        # gives way to the stop-and-go motion, as that motion drives it, where that lands
+        # nearer: Fea^m's landing model stops short along the planned approach
+        # (`landing.stop_short`), and a base 0.4 m short reaches nothing.
+        stop_and_go = functools.cache(
+            lambda: _escaped(base, target, planned, stop, turn, trail, free, straight))
+
+        def nearest(cut: Cut) -> Cut:
+            if turn or cut.hit is None:
+                return cut
+            other = stop_and_go()
+            if (not other.blocked and (other.hit is None or facing(other.segments, target[2]))
+                    and shortfall(other, base, target) < shortfall(cut, base, target)
+                    - CHECK_STEP_XY):
+                return other
+            return cut
+
         for segments in motions:
             cut = cut_at_collision(segments, free, profile)
             if cut.hit is None or (not cut.blocked and (turn or facing(cut.segments,
                                                                        target[2]))):
-                return cut
+                return nearest(cut)
         # The escapes of a blocked or short landing below, with the smooth motion.
         cut = _escaped(base, target, waypoints, stop, turn, trail, free, profile)
         if not cut.blocked and (turn or cut.hit is None or facing(cut.segments, target[2])):
-            return cut
+            return nearest(cut)
         if not turn and len(waypoints) > 2:
             # Smooth to the path's last corner, stopping there, and from there the
             # stop-and-go motion and its escapes, which stop anywhere.
@@ -241,13 +261,20 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
             if prefix and cut_at_collision(prefix, free, profile).hit is None:
                 rest = plan_motion(np.asarray(prefix[-1].end, dtype=float), target,
                                    path=[corner, target[:2]], stop=stop, turn=False,
-                                   trail=(), free=free, profile=profile.stop_and_go())
+                                   trail=(), free=free, profile=straight)
                 if not rest.blocked:
-                    return Cut([*prefix, *rest.segments], hit=rest.hit)
+                    return nearest(Cut([*prefix, *rest.segments], hit=rest.hit))
         # Caught where a smooth motion cannot stop within its limits, or landing short
         # facing away: the stop-and-go motion and its escapes, which stop anywhere.
-        profile = profile.stop_and_go()
+        return stop_and_go()
     return _escaped(base, target, waypoints, stop, turn, trail, free, profile)
+
+
+def shortfall(cut: Cut, base: np.ndarray, target: np.ndarray) -> float:
+    """How far (m) from the landing `target` the motion `cut` ends (from `base`, it has no
+    segments)."""
+    end = np.asarray(cut.segments[-1].end if cut.segments else base, dtype=float)
+    return float(np.hypot(*(end[:2] - np.asarray(target[:2], dtype=float))))
 
 
 def _escaped(base: np.ndarray, target: np.ndarray, waypoints: list[np.ndarray],

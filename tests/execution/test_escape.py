@@ -197,3 +197,20 @@ def test_segments_follow_the_trapezoidal_profile():
     assert seg.at(0.2) == pytest.approx((0.02, 0.2))
     assert seg.at(seg.duration) == pytest.approx((2.0, 0.0))
     np.testing.assert_allclose(seg.pose(1.0), [1.0, 0.0, 0.0])
+
+
+def test_a_smooth_motion_whose_moved_lead_in_is_blocked_keeps_to_the_planned_leg():
+    """The smooth motion moves the lead in to the stop (1.9, 0) by the landing's 0.2 m of
+    noise; that leg clips a table the planned one clears. The base drives the planned leg,
+    stopping and going, and lands where it was sent, not short and not blocked."""
+    def free(poses):
+        x, y, _ = poses.T
+        return ~((x > 1.0) & (x < 1.8) & (y > 0.08))
+
+    smooth = MotionProfile(speed=0.4, motion="smooth")
+    target = np.array([2.0, 0.2, 0.0])
+    cut = plan_motion(np.array([0.0, 0.0, 0.0]), target,
+                      path=((0.0, 0.0), (1.9, 0.0), (2.0, 0.0)), stop=(2.0, 0.0), turn=False,
+                      trail=(), free=free, profile=smooth)
+    assert not cut.blocked and cut.hit is None and _all_free(cut, free)
+    np.testing.assert_allclose(_end(cut), target, atol=1e-9)
