@@ -1,22 +1,21 @@
 """Derive the planner's time model from the robot's own motions.
 
     s3o build time-model [--samples 400] [--seed 0] [--departure-tasks 10]
-                         [--smooth-only | --departure-only] [--out out/time_model.yaml]
+                         [--noise-tasks 20] [--workers 1]
+                         [--smooth-only | --departure-only | --noise-only]
+                         [--out out/time_model.yaml]
 
-Plans --samples pickups from base positions the feasibility check accepts near the shipped
-tasks' dishes, as the ArmController runs them, fits candidate models of their duration by
-the base-dish distance, and records the one with the least held-out error, with the
-command overheads of the control period. For smooth motion it fits the arm's motions that
-a smooth plan overlaps with the base's (the way from the stow to a pre-grasp, the grasp,
-the way from the tray to a pre-grasp, to the tray and letting go, and the stow) from the
-same pickups, planned again as the smooth execution runs them, and measures the base's
-wait for the arm when it leaves a stop: the median, over --departure-tasks tasks planned on
-this model and simulated without noise, of the simulated time the model leaves out, per
-departure. With --smooth-only the
-model already at --out keeps its stop-and-go terms (the recorded studies were planned on
-them) and gets the smooth ones; with --departure-only it keeps every term but the
-departure wait, which it measures again. Deterministic for a seed; re-run it whenever the
-arm's or the base's motion changes.
+Plans --samples pickups as the ArmController runs them, from base positions the feasibility
+check accepts near the shipped tasks' dishes; fits candidate models of their duration by the
+base-dish distance and records the one with the least held-out error, with the command
+overheads of the control period. For smooth motion it fits the arm's motions that a smooth
+plan overlaps with the base's from the same pickups, and measures the base's wait for the
+arm when it leaves a stop on --departure-tasks tasks simulated without noise. Last, for each
+motion, what the noise adds on average to a goto and to a pickup: the last --noise-tasks
+shipped tasks executed open loop with the noise off and on, the same plan both ways. The
+--*-only flags keep the model at --out and make again only the smooth terms, the departure
+wait or the noise's terms. Deterministic for a seed; re-run it whenever the arm's or the
+base's motion changes.
 """
 
 from __future__ import annotations
@@ -41,7 +40,7 @@ from s3o_drake.world.resources import REPO_DIR, TIME_MODEL
 
 if TYPE_CHECKING:
     from s3o_drake.feasibility.check import FeasibilityChecker
-    from s3o_drake.planning.time_model import PickupModel, TimeModel
+    from s3o_drake.planning.time_model import NoiseTerms, PickupModel, TimeModel
 
 DEFAULT_OUT = Path("out") / TIME_MODEL.name
 """Where the model goes unless --out says otherwise: not over the shipped one."""
@@ -333,6 +332,69 @@ def measure_departure(model_path: Path, tasks: Sequence[Path], *, seed: int,
     return float(np.median(waits)), runs
 
 
+def noise_terms(pairs: Sequence[tuple[dict, dict]]) -> tuple[float, float, dict]:
+    """What the noise adds on average (s) to a goto and to a pickup, from `pairs` of
+    `time_benchmark.measure` rows of one plan executed with the noise off and on: each
+    action's time (between its report and the one before) with the noise less without, over
+    the pairs that did every action in both, in the same order. Returns the two means and
+    the counts they rest on."""
+    extra: dict[str, list[float]] = {"goto": [], "pickup": []}
+    used = 0
+    for off, on in pairs:
+        if not (off["all_done"] and on["all_done"]
+                and off["outcome_actions"] == on["outcome_actions"]):
+            continue
+        used += 1
+        before = np.diff([0.0, *off["outcome_times"]])
+        after = np.diff([0.0, *on["outcome_times"]])
+        for action, a, b in zip(off["outcome_actions"], before, after, strict=True):
+            if action in extra:
+                extra[action].append(float(b - a))
+    if not extra["goto"] or not extra["pickup"]:
+        raise RuntimeError("no plan was executed as planned both with and without the noise: "
+                           "what the noise adds is unknown")
+    return (float(np.mean(extra["goto"])), float(np.mean(extra["pickup"])),
+            {"pairs": len(pairs), "as_planned": used, "gotos": len(extra["goto"]),
+             "pickups": len(extra["pickup"])})
+
+
+def measure_noise(model_path: Path, tasks: Sequence[Path], motion: str, *, seed: int,
+                  workers: int = 1, progress: bool = True) -> NoiseTerms:
+    """`NoiseTerms` of `motion`: `tasks` planned with S3O-GROP* on the model at `model_path`
+    and executed with the noise off and on (`noise_terms`), at the scenarios' noise."""
+    from s3o_drake.commands.time_benchmark import _measure, local_pool
+    from s3o_drake.experiments.jobs import as_benchmarked
+    from s3o_drake.experiments.scheduler import ordered_map
+    from s3o_drake.planning.time_model import NOISE_FIELDS, NoiseTerms
+    from s3o_drake.world.scenario import load_scenario, with_overrides
+
+    jobs, noise = [], None
+    for path in tasks:
+        scenario = as_benchmarked(with_overrides(load_scenario(path), (
+            f"execution.motion={motion}", f"planner.time_model={model_path}")))
+        at = {name: float(getattr(scenario.uncertainty, name)) for name in NOISE_FIELDS}
+        if noise is not None and at != noise:
+            raise ValueError(f"{path}: its noise {at} is not the other tasks' {noise}")
+        noise = at
+        jobs += [((path.stem, path.stem, scenario, seed, setting), "S3O-GROP*", "")
+                 for setting in ("off", "on")]
+    rows: dict[tuple[str, bool], dict] = {}
+    with local_pool(workers) as pool:
+        for row in ordered_map(pool, _measure, jobs, window=workers):
+            rows[row["task"], row["noise"]] = row
+            if progress:
+                print(f"  {motion} {row['task']} noise {'on' if row['noise'] else 'off'}: "
+                      f"simulated {row['execution_time']:.1f} s, predicted "
+                      f"{row['predicted_time'] or float('nan'):.1f} s", file=sys.stderr,
+                      flush=True)
+    pairs = [(rows[path.stem, False], rows[path.stem, True]) for path in tasks]
+    goto, pickup, counts = noise_terms(pairs)
+    return NoiseTerms(goto=goto, pickup=pickup, uncertainty=noise, fit={
+        "tasks": f"the last {len(tasks)} of scenarios/generated/",
+        "measured": "mean over the actions of (time with the noise - time without), "
+                    "S3O-GROP*, open loop, runs that did every action in both", **counts})
+
+
 def write_model(model: TimeModel, path: Path) -> None:
     """The model as YAML, written whole or not at all."""
     import yaml
@@ -366,6 +428,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--departure-tasks", type=at_least(1), default=10, metavar="N",
                         help="shipped tasks simulated to measure the smooth base's wait "
                              "for the arm (default 10)")
+    parser.add_argument("--noise-tasks", type=at_least(1), default=20, metavar="N",
+                        help="shipped tasks (the last N) simulated with the noise off and on "
+                             "to measure what it adds, per motion (default 20)")
+    parser.add_argument("--workers", type=at_least(1), default=1, metavar="N",
+                        help="simulations at once, for the noise's terms (default 1)")
     only = parser.add_mutually_exclusive_group()
     only.add_argument("--smooth-only", action="store_true",
                       help="keep the stop-and-go terms of the model at --out; make only "
@@ -373,6 +440,9 @@ def main(argv: list[str] | None = None) -> int:
     only.add_argument("--departure-only", action="store_true",
                       help="keep every term of the model at --out but the departure wait; "
                            "measure it again")
+    only.add_argument("--noise-only", action="store_true",
+                      help="keep every term of the model at --out but the noise's; measure "
+                           "them again")
     add_seed(parser, 0, "seed of the draws")
     add_out(parser, file=True, default=str(DEFAULT_OUT),
             note=f"the shipped model is replaced only when told: --out "
@@ -381,40 +451,58 @@ def main(argv: list[str] | None = None) -> int:
     out = out_file(args.out)
     logging.getLogger("drake").setLevel(logging.WARNING)
     command = (f"s3o build time-model --samples {args.samples} --seed {args.seed} "
-               f"--departure-tasks {args.departure_tasks}")
+               f"--departure-tasks {args.departure_tasks} --noise-tasks {args.noise_tasks}")
     from s3o_drake.planning.time_model import TimeModel
 
     kept = None
-    if args.smooth_only or args.departure_only:
-        flag = "--smooth-only" if args.smooth_only else "--departure-only"
+    if args.smooth_only or args.departure_only or args.noise_only:
+        flag = ("--smooth-only" if args.smooth_only else "--departure-only"
+                if args.departure_only else "--noise-only")
         try:
             kept = TimeModel.from_dict(yaml.safe_load(out.read_text()))
         except (OSError, ValueError, KeyError, TypeError, yaml.YAMLError) as e:
             fail(f"{flag}: no time model to keep at {out}: {e}")
-        if args.departure_only and kept.smooth is None:
-            fail(f"--departure-only: the time model at {out} has no smooth terms")
+        if (args.departure_only or args.noise_only) and kept.smooth is None:
+            fail(f"{flag}: the time model at {out} has no smooth terms")
     t0 = time.perf_counter()
     if args.departure_only:  # measured against the model without it
         model, rows = dataclasses.replace(kept, smooth=dataclasses.replace(
             kept.smooth, departure=0.0)), []
+    elif args.noise_only:
+        model, rows = kept, []
     else:
         model, rows = derive(args.samples, args.seed, command)
     if kept is not None and args.smooth_only:
         model = dataclasses.replace(kept, smooth=dataclasses.replace(
             model.smooth, fit={**model.smooth.fit, "command": command + " --smooth-only"}))
     out.parent.mkdir(parents=True, exist_ok=True)
-    write_model(model, out)
     from s3o_drake.world.resources import shipped_tasks
 
-    tasks = list(shipped_tasks())[:args.departure_tasks]
-    wait, runs = measure_departure(out.resolve(), tasks, seed=args.seed)
-    model = dataclasses.replace(model, smooth=dataclasses.replace(
-        model.smooth, departure=wait, fit={**model.smooth.fit, "departure_measured": {
-            "command": command + (" --departure-only" if args.departure_only else ""),
-            "tasks": f"the first {len(tasks)} of scenarios/generated/",
-            "measured": "median over the tasks of (simulated - predicted) / departures, "
-                        "S3O-GROP*, no noise",
-            "runs": len(runs), "as_planned": sum(r["all_done"] for r in runs)}}))
+    if not args.noise_only:
+        write_model(model, out)
+        tasks = list(shipped_tasks())[:args.departure_tasks]
+        wait, runs = measure_departure(out.resolve(), tasks, seed=args.seed)
+        model = dataclasses.replace(model, smooth=dataclasses.replace(
+            model.smooth, departure=wait, fit={**model.smooth.fit, "departure_measured": {
+                "command": command + (" --departure-only" if args.departure_only else ""),
+                "tasks": f"the first {len(tasks)} of scenarios/generated/",
+                "measured": "median over the tasks of (simulated - predicted) / departures, "
+                            "S3O-GROP*, no noise",
+                "runs": len(runs), "as_planned": sum(r["all_done"] for r in runs)}}))
+    # The plans do not depend on the noise's terms (the utility leaves them out); they are
+    # measured against the model without them all the same.
+    model = dataclasses.replace(model, noise={})
+    write_model(model, out)
+    from s3o_drake.world.choices import Motion
+
+    tasks = list(shipped_tasks())[-args.noise_tasks:]
+    noise = {}
+    for motion in Motion:
+        terms = measure_noise(out.resolve(), tasks, motion.value, seed=args.seed,
+                              workers=args.workers)
+        noise[motion.value] = dataclasses.replace(terms, fit={
+            "command": command + (" --noise-only" if args.noise_only else ""), **terms.fit})
+    model = dataclasses.replace(model, noise=noise)
     write_model(model, out)
     print(f"{len(rows)} pickups planned in {time.perf_counter() - t0:.0f} s, "
           f"{model.provenance['samples']} ok in the stop-and-go terms")
@@ -435,6 +523,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  smooth {part}: {p.form}, median "
               f"{model.smooth.fit['parts'][part]['duration']['median']:.2f} s")
     print(f"  smooth departure wait {model.smooth.departure:.3f} s")
+    for motion, terms in model.noise.items():
+        print(f"  the noise adds, {motion}: {terms.goto:.2f} s per goto, {terms.pickup:.2f} s "
+              f"per pickup ({terms.fit['as_planned']} of {terms.fit['pairs']} tasks as "
+              f"planned both ways)")
     print(f"wrote {out}")
     return 0
 

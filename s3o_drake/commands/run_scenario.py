@@ -70,12 +70,13 @@ def describe_plan(p: TaskMotionPlan) -> str:
         lines.append(f"  nothing to do: no dish can be picked from a free stop; planned in "
                      f"{p.planning_time:.2f} s")
         return "\n".join(lines)
+    expected = ("" if p.expected_time is None
+                else f" ({p.expected_time:.1f} s expected with the noise)")
+    parts = ", ".join(f"{name.replace('_', ' ')} {t.get(name, 0):.2f}" for name in (
+        "feasibility", "navigation", "abstraction", "task_planning", "motion_search"))
     lines.append(f"  expected utility {p.utility:.1f}, predicted execution time "
-                 f"{p.predicted_time:.1f} s; planned in {p.planning_time:.2f} s (feasibility "
-                 f"{t.get('feasibility', 0):.2f}, navigation {t.get('navigation', 0):.2f}, "
-                 f"abstraction {t.get('abstraction', 0):.2f}, task planning "
-                 f"{t.get('task_planning', 0):.2f}, motion search "
-                 f"{t.get('motion_search', 0):.2f}); {p.searches} searches, {p.samples} samples"
+                 f"{p.predicted_time:.1f} s{expected}; planned in {p.planning_time:.2f} s "
+                 f"({parts}); {p.searches} searches, {p.samples} samples"
                  + ("" if p.complete else "; the time budget cut the search short"))
     if p.order is not None:
         lines.append(f"  {p.order.describe()}")
@@ -83,17 +84,23 @@ def describe_plan(p: TaskMotionPlan) -> str:
 
 
 def execution_time_line(predicted: float, simulated: float, *, first: str = "",
-                        actions: int = 1) -> str:
+                        actions: int = 1, expected: float | None = None) -> str:
     """The predicted execution time against the simulated one, said so that the sign cannot
-    be misread: how much longer (or shorter) the simulation took than the plan said."""
+    be misread: how much longer (or shorter) the simulation took than the plan said; with
+    `expected` (the plan's expected time with the noise, for a run with the noise on),
+    against that."""
     if not actions:
         return "Execution time: nothing to execute (the plan has no actions)."
+    if expected is not None:
+        predicted, what = expected, ("the prediction is the plan with what the noise adds "
+                                     "on average, every action done")
+    else:
+        what = "the prediction is the plan as planned: exact landings, every action done"
     gap = simulated - predicted
     share = f" ({100 * abs(gap) / predicted:.1f} % of the prediction)" if predicted > 0 else ""
     return (f"Execution time: predicted {predicted:.1f} s{first}, simulated {simulated:.1f} s: "
             f"the simulation took {abs(gap):.1f} s{share} "
-            f"{'longer' if gap >= 0 else 'less'} than predicted (the prediction is the plan "
-            "as planned: exact landings, every action done).")
+            f"{'longer' if gap >= 0 else 'less'} than predicted ({what}).")
 
 
 def describe_execution(report: dict) -> str:
@@ -312,7 +319,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         predicted, simulated = run.plan.predicted_time, report["execution_time"]
         first = f" by the first of {plans} plans" if plans > 1 else ""
         print(execution_time_line(predicted, simulated, first=first,
-                                  actions=len(run.plan.actions)))
+                                  actions=len(run.plan.actions),
+                                  expected=run.plan.expected_time if report["noise"] else None))
     for path in written:
         print(f"  wrote {path}")
     if args.meshcat and sys.stdin.isatty():

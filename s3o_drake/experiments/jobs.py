@@ -120,6 +120,7 @@ def _run(job: Job) -> dict:
             "execution_time": r["execution_time"], "planning_time": r["planning_time"],
             "stops": None if run.plan is None else len(run.plan.gotos),
             "predicted_time": None if run.plan is None else run.plan.predicted_time,
+            "expected_time": None if run.plan is None else run.plan.expected_time,
             "predicted_completion": _predicted_completion(run.plan),
             "planned": run.plan is not None, "finished": bool(r.get("finished", True)),
             "reason": r.get("reason", ""), "realtime_rate": r["realtime_rate"],

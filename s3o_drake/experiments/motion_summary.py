@@ -8,7 +8,9 @@ Per method and motion (`execution.motion`, recorded in every row):
   percentile and median over the runs (below zero: a collision);
 - the plan's predicted execution time against the simulated one, |predicted - simulated| /
   simulated, its median and the mean signed error, on the runs that collected every dish
-  (a run that lost a dish did less than the plan);
+  (a run that lost a dish did less than the plan); the same for the time the plan expected
+  with the noise (`run_rows.expected_time`: recorded, or for older rows computed from the
+  robot's shipped time model), where it has one;
 - the landings: for each stop's first executed pickup, the distance between the base's
   position when the pickup was commanded and the stop as planned (the landing noise, and
   whatever the navigator made of it), its median and 90th percentile.
@@ -18,11 +20,14 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from s3o_drake.experiments.run_rows import has_time, motion_of
+from s3o_drake.experiments.run_rows import expected_time, has_time, motion_of
+from s3o_drake.experiments.store import robot_of
 
 MOTION_HEADER = ("| method | motion | runs | closest approach (m): min | 5th percentile | median "
                   "| complete runs | \\|predicted - simulated\\| / simulated: median | mean "
-                  "signed | landings | landing offset (m): median | 90th percentile |")
+                  "signed | with an expected time | \\|expected - simulated\\| / simulated: "
+                  "median | mean signed | landings | landing offset (m): median "
+                  "| 90th percentile |")
 
 
 def closest_approaches(runs: Sequence[Mapping]) -> np.ndarray:
@@ -36,6 +41,22 @@ def time_errors(runs: Sequence[Mapping]) -> np.ndarray:
     return np.asarray([(r["predicted_time"] - r["execution_time"]) / r["execution_time"]
                        for r in runs if r.get("complete") and has_time(r)
                        and r.get("predicted_time") and r["execution_time"] > 0], dtype=float)
+
+
+def expected_errors(runs: Sequence[Mapping]) -> np.ndarray:
+    """(expected - simulated) / simulated of the runs that collected every dish and have an
+    expected time (`run_rows.expected_time`, older rows on their robot's shipped model)."""
+    from s3o_drake.planning.time_model import TimeModel
+    from s3o_drake.world.resources import robot_dir
+
+    out = []
+    for r in runs:
+        if not (r.get("complete") and has_time(r) and r["execution_time"] > 0):
+            continue
+        expected = expected_time(r, TimeModel.load(robot_dir(robot_of(r)) / "time_model.yaml"))
+        if expected:
+            out.append((expected - r["execution_time"]) / r["execution_time"])
+    return np.asarray(out, dtype=float)
 
 
 def landing_offsets(runs: Sequence[Mapping]) -> np.ndarray:
@@ -56,19 +77,22 @@ def landing_offsets(runs: Sequence[Mapping]) -> np.ndarray:
 
 def motion_table(runs: Sequence[Mapping], methods: Sequence[str]) -> str:
     """The Markdown table of the module docstring, a row per method and motion present."""
-    lines = [MOTION_HEADER, "|---" * 12 + "|"]
+    lines = [MOTION_HEADER, "|---" * 15 + "|"]
     for method in methods:
         mine = [r for r in runs if r["method"] == method and "error" not in r]
         for motion in sorted({motion_of(r) for r in mine}):
             these = [r for r in mine if motion_of(r) == motion]
             near, errors = closest_approaches(these), time_errors(these)
-            offsets = landing_offsets(these)
+            offsets, expected = landing_offsets(these), expected_errors(these)
             cells = [method, motion, str(len(these))]
             cells += ([f"{near.min():.3f}", f"{np.percentile(near, 5):.3f}",
                        f"{np.median(near):.3f}"] if near.size else ["–"] * 3)
             cells += [str(errors.size)] + ([f"{np.median(np.abs(errors)):.1%}",
                                             f"{errors.mean():+.1%}"] if errors.size
                                            else ["–"] * 2)
+            cells += [str(expected.size)] + ([f"{np.median(np.abs(expected)):.1%}",
+                                              f"{expected.mean():+.1%}"] if expected.size
+                                             else ["–"] * 2)
             cells += [str(offsets.size)] + ([f"{np.median(offsets):.3f}",
                                              f"{np.percentile(offsets, 90):.3f}"]
                                             if offsets.size else ["–"] * 2)

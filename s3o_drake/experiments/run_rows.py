@@ -3,11 +3,15 @@ the completion its plan predicted, and the commit the rows were made at."""
 
 from collections import Counter
 from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from s3o_drake.experiments.store import robot_of
 from s3o_drake.world.choices import Motion
+
+if TYPE_CHECKING:
+    from s3o_drake.planning.time_model import TimeModel
 
 MOTION_FIELD = "execution.motion"
 """The scenario field of the motion, as `--set` names it."""
@@ -34,6 +38,30 @@ def predicted_completion(run: Mapping) -> float:
     if len(first) < run.get("dishes", len(first)):
         return 0.0
     return float(np.prod(list(first.values()))) if first else 1.0
+
+
+def expected_time(run: Mapping, model: "TimeModel") -> float | None:
+    """The execution time the run's plan expected with the noise (s): its `expected_time`,
+    or for rows made before that was recorded, its predicted time plus what `model`'s noise
+    terms add to its gotos and pickups, counted from its outcomes, where those are its plan's
+    (no recovery) and the noise was the default one; None otherwise."""
+    if "expected_time" in run:
+        return run["expected_time"]
+    if (not run.get("predicted_time") or run.get("recoveries")
+            or any(o.startswith("uncertainty.") for o in run.get("overrides") or ())):
+        return None
+    outcomes = run.get("outcomes") or ()
+    return _expected(model, motion_of(run), float(run["predicted_time"]),
+                     gotos=sum(o.startswith("goto ") for o in outcomes),
+                     pickups=sum(o.startswith("pickup ") for o in outcomes))
+
+
+def _expected(model: "TimeModel", motion: str, predicted: float, *, gotos: int,
+              pickups: int) -> float | None:
+    from s3o_drake.world.settings import Uncertainty
+
+    extra = model.noise_time(motion, Uncertainty(), gotos=gotos, pickups=pickups)
+    return None if extra is None else predicted + extra
 
 
 def code_of(runs: Sequence[Mapping]) -> str:

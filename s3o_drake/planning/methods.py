@@ -330,8 +330,8 @@ def _order(abstraction: Abstraction, rng: np.random.Generator) -> list[StateSpac
 
 
 def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: NavigationMap,
-              timing: dict[str, float], planning_time: float, searches: int, samples: int,
-              complete: bool) -> TaskMotionPlan:
+              costs: CostModel, timing: dict[str, float], planning_time: float,
+              searches: int, samples: int, complete: bool) -> TaskMotionPlan:
     """The TaskMotionPlan of the winning motion result: poses facing the next dish, paths
     from the navigation map."""
     motion = best.motion
@@ -374,7 +374,8 @@ def _assemble(method: str, seed: int, best: _Best, known: KnownWorld, nav: Navig
                           samples=samples, complete=complete,
                           early_samples=samples_tuple(motion.early),
                           late_samples=samples_tuple(motion.late),
-                          order=best.task.order_of(motion.actions))
+                          order=best.task.order_of(motion.actions),
+                          expected_time=costs.expected_time(motion.predicted_time, actions))
 
 
 def _stay(method: str, seed: int, timing: dict[str, float], planning_time: float, *,
@@ -500,7 +501,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         complete = result.draws == iterations
         unreachable = tuple(sorted(set(result.task.unreachable) | set(partition.unreachable)))
         best = _Best(result.motion, groups, regions, unreachable, None, result.task)
-        made = _assemble(method, seed, best, known, nav, timing,
+        made = _assemble(method, seed, best, known, nav, costs, timing,
                          clock() - t_start + feasibility_time, result.draws,
                          result.draws, complete)
         return PlanningResult(known=asked, scene=scene, method=method, seed=int(seed),
@@ -530,7 +531,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
         expired("the motion search")
         raise PlanningError(f"{method}: no valid plan (every motion search ended outside its "
                             f"regions or on an undrivable leg)")
-    made = _assemble(method, seed, best, known, nav, timing,
+    made = _assemble(method, seed, best, known, nav, costs, timing,
                      clock() - t_start + feasibility_time, searches, samples, complete)
     return PlanningResult(known=asked, scene=scene, method=method, seed=int(seed), plan=made,
                           navigation=nav,

@@ -134,6 +134,10 @@ class TaskMotionPlan:
     """Its last generation (Fig. 4, right)."""
     order: TaskOrder | None = None
     """What clingo proved of the order (None: no task planning, or an older plan file)."""
+    expected_time: float | None = None
+    """The execution time to expect with the scenario's noise (s): `predicted_time` plus what
+    the noise adds on average per goto and pickup (planning/time_model.py); None where the
+    time model has no such terms for this noise and motion."""
 
     @property
     def gotos(self) -> tuple[Goto, ...]:
@@ -177,7 +181,8 @@ class TaskMotionPlan:
             "format": FORMAT, "method": self.method, "seed": self.seed,
             "groups": [list(g) for g in self.groups], "locations": list(self.locations),
             "actions": actions, "utility": self.utility,
-            "predicted_time": self.predicted_time, "planning_time": self.planning_time,
+            "predicted_time": self.predicted_time, "expected_time": self.expected_time,
+            "planning_time": self.planning_time,
             "timing": dict(self.timing), "unreachable": list(self.unreachable),
             "score": self.score, "searches": self.searches, "samples": self.samples,
             "complete": self.complete,
@@ -225,7 +230,8 @@ class TaskMotionPlan:
                    complete=bool(data["complete"]),
                    early_samples=samples_tuple(data.get("early_samples", [])),
                    late_samples=samples_tuple(data.get("late_samples", [])),
-                   order=order)
+                   order=order, expected_time=(None if data.get("expected_time") is None
+                                               else float(data["expected_time"])))
 
     def to_json(self, indent: int | None = 1) -> str:
         """Strict JSON (no NaN or Infinity: a plan's numbers are all finite)."""

@@ -54,8 +54,13 @@ The terms (`SmoothArm`, recorded with the model) are then
 
 Either way the plan's `predicted_time` is T above (for the paper profile too, since it is a
 prediction of the execution, not a cost), as planned: every landing exact, every action
-done. With the navigation noise on, the landings differ (the turn before the first pickup
-at a stop then often happens too) and failed pickups take other times: see docs/planning.md.
+done. With the navigation and reaching noise on, the landings differ: the base turns to
+face the dish when its heading is off by more than the tolerance, the arm's approach starts
+from a pre-grasp made for the planned stop, and the last leg of a drive bends to where the
+base lands. The plan's `expected_time` is T plus what the noise adds on average per goto and
+per pickup (`NoiseTerms`, one pair per motion), measured in paired simulations with the noise
+off and on by `s3o build time-model` at the scenario noise it records; a scenario with other
+noise has no expected time. The utility's costs are T alone (see docs/planning.md).
 """
 
 from __future__ import annotations
@@ -211,10 +216,46 @@ def _pickup_model(data: Mapping[str, Any], path: str) -> PickupModel:
 
 
 @dataclass(frozen=True)
+class NoiseTerms:
+    """What the simulated noise adds on average (s) to each goto and each pickup of a plan
+    executed as planned, with one motion (`TimeModel.noise`), at the noise in `uncertainty`
+    (`Uncertainty`'s nav_xy_std, nav_yaw_std, reach_std); `fit`: how they were measured."""
+
+    goto: float
+    pickup: float
+    uncertainty: Mapping[str, float]
+    fit: Mapping[str, Any] = field(default_factory=dict)
+
+    def applies(self, uncertainty: Any) -> bool:
+        """Whether `uncertainty` (an `Uncertainty`) is the noise these terms were measured
+        at."""
+        return all(math.isclose(float(getattr(uncertainty, name)), float(value),
+                                rel_tol=1e-9, abs_tol=1e-12)
+                   for name, value in self.uncertainty.items())
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"goto": float(self.goto), "pickup": float(self.pickup),
+                "uncertainty": {k: float(v) for k, v in self.uncertainty.items()},
+                **dict(self.fit)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> NoiseTerms:
+        data = dict(data)
+        return cls(goto=float(data.pop("goto")), pickup=float(data.pop("pickup")),
+                   uncertainty={str(k): float(v) for k, v in data.pop("uncertainty").items()},
+                   fit=data)
+
+
+NOISE_FIELDS = ("nav_xy_std", "nav_yaw_std", "reach_std")
+"""The simulated noise that `NoiseTerms` are measured at: the landing's and the reach's."""
+
+
+@dataclass(frozen=True)
 class TimeModel:
     """The recorded time model (models/ur5e/time_model.yaml): the command overheads, the pickup
     model, the arm's motions of a smooth plan (`smooth`; None in models made before it),
-    and how they were made (`provenance`, `fit`)."""
+    what the noise adds per motion (`noise`, by `choices.Motion` value) and how they were
+    made (`provenance`, `fit`)."""
 
     overheads: Overheads
     pickup: PickupModel
@@ -222,6 +263,16 @@ class TimeModel:
     provenance: Mapping[str, Any] = field(default_factory=dict)
     fit: Mapping[str, Any] = field(default_factory=dict)
     smooth: SmoothArm | None = None
+    noise: Mapping[str, NoiseTerms] = field(default_factory=dict)
+
+    def noise_time(self, motion: str, uncertainty: Any, *, gotos: int,
+                   pickups: int) -> float | None:
+        """What the noise adds on average (s) to a plan of `gotos` and `pickups` executed
+        with `motion` at `uncertainty`; None where the model has no terms measured there."""
+        terms = self.noise.get(motion)
+        if terms is None or not terms.applies(uncertainty):
+            return None
+        return gotos * terms.goto + pickups * terms.pickup
 
     def pickup_time(self, kind: str, distance) -> np.ndarray:
         """δ: a pickup command's time (s), the arm's motion and its hand-over."""
@@ -234,6 +285,8 @@ class TimeModel:
                "pickup": {**_pickup_dict(self.pickup), **dict(self.fit)}}
         if self.smooth is not None:
             out["smooth"] = self.smooth.to_dict()
+        if self.noise:
+            out["noise"] = {m: terms.to_dict() for m, terms in sorted(self.noise.items())}
         return out
 
     @classmethod
@@ -245,14 +298,16 @@ class TimeModel:
         fit = {k: v for k, v in data["pickup"].items()
                if k not in ("model", "coefficients", "side_beyond")}
         known = {"format", "gamma", "pickup_overhead", "plan_offset", "turn_tolerance",
-                 "pickup", "smooth"}
+                 "pickup", "smooth", "noise"}
         return cls(overheads=Overheads(gamma=float(data["gamma"]),
                                        pickup=float(data["pickup_overhead"]),
                                        plan=float(data["plan_offset"])),
                    pickup=pickup, turn_tolerance=float(data["turn_tolerance"]),
                    provenance={k: v for k, v in data.items() if k not in known}, fit=fit,
                    smooth=(SmoothArm.from_dict(data["smooth"]) if "smooth" in data
-                           else None))
+                           else None),
+                   noise={str(m): NoiseTerms.from_dict(t)
+                          for m, t in (data.get("noise") or {}).items()})
 
     @classmethod
     def load(cls, path: str | Path = MODEL_FILE) -> TimeModel:
@@ -297,8 +352,9 @@ class CostModel:
     def __init__(self, planner: PlanningSettings, *, profile: str | None = None,
                  dishes: Mapping[str, DishPlace] | None = None,
                  start: Sequence[float] | None = None, time_model: TimeModel | None = None,
-                 motion: str = STOP_AND_GO):
+                 motion: str = STOP_AND_GO, uncertainty: Any = None):
         self.planner = planner
+        self.uncertainty = uncertainty
         self.profile = planner.cost_profile if profile is None else profile
         if self.profile not in ("robot", "paper"):
             raise ValueError(f"unknown cost profile {self.profile!r}")
@@ -333,7 +389,7 @@ class CostModel:
         if time_model is None and known.planner.time_model:
             time_model = TimeModel.load(known.planner.time_model)
         return cls(known.planner, dishes=dishes, start=pose, time_model=time_model,
-                   motion=known.settings.execution.motion)
+                   motion=known.settings.execution.motion, uncertainty=known.uncertainty)
 
     @property
     def gamma(self) -> float:
@@ -478,6 +534,19 @@ class CostModel:
                                 for dishes in before], dtype=float)
             goto = goto + self.arm.departure * leaving[None, :]
         return lengths.reshape(m, n), goto, start_turns
+
+    def expected_time(self, predicted_time: float, actions: Sequence[Any]) -> float | None:
+        """A plan's expected execution time (s) with the scenario's noise: its
+        `predicted_time` plus what the noise adds to its `actions`' gotos and pickups
+        (`TimeModel.noise_time`); None without a time model, or without terms measured at
+        this noise and motion."""
+        if self.model is None or self.uncertainty is None:
+            return None
+        extra = self.model.noise_time(
+            self.base.motion, self.uncertainty,
+            gotos=sum(isinstance(a, Goto) for a in actions),
+            pickups=sum(isinstance(a, Pickup) for a in actions))
+        return None if extra is None else float(predicted_time) + extra
 
     def predicted_time(self, goto_times: np.ndarray, start_turns: np.ndarray,
                        pickup_times: np.ndarray) -> np.ndarray:

@@ -5,6 +5,7 @@ import pytest
 
 from s3o_drake.experiments.motion_summary import (
     closest_approaches,
+    expected_errors,
     landing_offsets,
     motion_table,
     time_errors,
@@ -15,10 +16,11 @@ def _pickup(planned, actual, attempt=1):
     return {"planned_pose": list(planned), "actual_pose": list(actual), "attempt": attempt}
 
 
-def _run(motion, closest, predicted, executed, complete=True, pickups=(), method="S3O-GROP*"):
+def _run(motion, closest, predicted, executed, complete=True, pickups=(), method="S3O-GROP*",
+         expected=None):
     row = {"method": method, "closest_approach": closest, "predicted_time": predicted,
-           "execution_time": executed, "complete": complete, "planned": True,
-           "pickups": list(pickups)}
+           "expected_time": expected, "execution_time": executed, "complete": complete,
+           "planned": True, "pickups": list(pickups)}
     if motion is not None:
         row["motion"] = motion
     return row
@@ -29,7 +31,7 @@ RUNS = [
         _pickup((1, 1, 0), (1.3, 1.4, 0.1)),
         _pickup((1, 1, 0), (1.3, 1.4, 0.1)),  # the same stop's second dish: not a landing
         _pickup((1, 1, 0), (1.0, 1.1, 0.0), attempt=2),  # a retry: not a landing
-        _pickup((3, 1, 0), (3.0, 1.1, 0.0))]),
+        _pickup((3, 1, 0), (3.0, 1.1, 0.0))], expected=95.0),
     _run("smooth", -0.01, 100.0, 80.0),
     _run("smooth", 0.05, 50.0, 60.0, complete=False),  # did less than the plan
     _run(None, 0.04, 100.0, 100.0),  # a row from before the motion was recorded
@@ -43,6 +45,8 @@ def test_each_measure_is_taken_from_the_rows_it_names():
     assert closest_approaches(RUNS[4:]).size == 0
     # Only the runs that collected every dish: (90 - 100) / 100 and (100 - 80) / 80.
     assert time_errors(smooth) == pytest.approx([-0.1, 0.25])
+    # The expected time where the plan had one: (95 - 100) / 100.
+    assert expected_errors(smooth) == pytest.approx([-0.05])
     # A landing per stop, the plan's own attempt: 0.5 m and 0.1 m off the planned stop.
     assert landing_offsets(smooth) == pytest.approx([0.5, 0.1])
 
@@ -54,7 +58,8 @@ def test_the_table_has_a_row_per_method_and_motion():
     assert smooth[:3] == ["| S3O-GROP*", "smooth", "3"]
     assert smooth[3:6] == ["-0.010", f"{np.percentile([0.02, -0.01, 0.05], 5):.3f}", "0.020"]
     assert smooth[6:9] == ["2", "17.5%", "+7.5%"]
-    assert smooth[9:] == ["2", "0.300", f"{np.percentile([0.5, 0.1], 90):.3f} |"]
+    assert smooth[9:12] == ["1", "5.0%", "-5.0%"]
+    assert smooth[12:] == ["2", "0.300", f"{np.percentile([0.5, 0.1], 90):.3f} |"]
     # Rows from before the motion was recorded ran stop-and-go.
     assert stop_and_go[:3] == ["| S3O-GROP*", "stop_and_go", "1"]
     assert other[:6] == ["| V-GROP*", "smooth", "1", "–", "–", "–"]

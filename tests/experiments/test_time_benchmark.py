@@ -63,3 +63,21 @@ def test_bad_input_is_one_line_and_status_2(tmp_path, argv, field):
                             capture_output=True, text=True, cwd=REPO)
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and field in result.stderr
+
+
+def test_what_the_noise_adds_is_averaged_per_action_over_plans_done_both_ways():
+    from s3o_drake.commands.derive_times import noise_terms
+
+    def row(times, actions=("goto", "pickup", "goto", "pickup"), done=True):
+        return {"all_done": done, "outcome_actions": list(actions), "outcome_times": times}
+
+    pairs = [(row([10.0, 12.0, 20.0, 22.0]), row([11.0, 14.0, 23.0, 25.0])),
+             # executed otherwise with the noise: not comparable action by action
+             (row([10.0, 12.0, 20.0, 22.0]), row([9.0, 30.0], ("goto", "pickup"))),
+             (row([10.0, 12.0]), row([50.0, 60.0], done=False))]
+    goto, pickup, counts = noise_terms(pairs)
+    # gotos 10 -> 11 and 8 -> 9 s, pickups 2 -> 3 and 2 -> 2 s
+    assert (goto, pickup) == pytest.approx((1.0, 0.5))
+    assert counts == {"pairs": 3, "as_planned": 1, "gotos": 2, "pickups": 2}
+    with pytest.raises(RuntimeError, match="unknown"):
+        noise_terms(pairs[1:])

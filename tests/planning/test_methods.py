@@ -523,3 +523,7 @@ def test_the_execution_time_line_says_which_way_the_prediction_was_off():
         "(5.7 % of the prediction) longer than predicted")
     assert "took 6.0 s (5.0 % of the prediction) less than predicted" in \
         execution_time_line(120.0, 114.0)
+    # With the noise on, against the time the plan expected with it, and said so.
+    line = execution_time_line(120.0, 130.0, expected=128.0)
+    assert line.startswith("Execution time: predicted 128.0 s, simulated 130.0 s: the "
+                           "simulation took 2.0 s") and "what the noise adds" in line

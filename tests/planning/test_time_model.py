@@ -329,3 +329,40 @@ def test_smooth_the_plan_predicts_the_simulated_execution():
     assert run.report["collected"] == 2
     assert run.plan.predicted_time == pytest.approx(run.report["execution_time"], rel=0.03)
     assert run.activity.together() > 1.0  # the arm moved while the base did
+
+
+# -------------------------------------------------------------------------------- noise
+def test_the_noise_terms_apply_only_at_the_noise_they_were_measured_at():
+    """A plan's expected time adds what the noise adds per goto and pickup, for its motion,
+    at the scenario noise the terms were measured at, and nothing is made up elsewhere."""
+    from s3o_drake.planning.plan import Goto, Pickup
+    from s3o_drake.planning.time_model import NoiseTerms
+    from s3o_drake.world.settings import Uncertainty
+
+    at = {"nav_xy_std": 0.1, "nav_yaw_std": 0.05, "reach_std": 0.01}
+    model = dataclasses.replace(TimeModel.load(), noise={
+        "smooth": NoiseTerms(goto=1.5, pickup=0.5, uncertainty=at, fit={"pairs": 3})})
+    assert TimeModel.from_dict(model.to_dict()) == model
+    assert model.noise_time("smooth", Uncertainty(), gotos=2, pickups=3) == pytest.approx(4.5)
+    assert model.noise_time("stop_and_go", Uncertainty(), gotos=2, pickups=3) is None
+    assert model.noise_time("smooth", Uncertainty(nav_xy_std=0.2), gotos=2, pickups=3) is None
+
+    scenario = with_overrides(load_scenario(TWO_DISHES), ("execution.motion=smooth",))
+    costs = CostModel.for_known(KnownWorld.perfect(scenario), time_model=model)
+    actions = (Goto("l0", (1.0, 1.0, 0.0), ((0.0, 0.0), (1.0, 1.0)), 1.4),
+               Pickup("a", "l0", 0.9), Pickup("b", "l0", 0.9))
+    assert costs.expected_time(100.0, actions) == pytest.approx(100.0 + 1.5 + 2 * 0.5)
+    stop_and_go = CostModel.for_known(KnownWorld.perfect(with_overrides(
+        scenario, ("execution.motion=stop_and_go",))), time_model=model)
+    assert stop_and_go.expected_time(100.0, actions) is None
+
+
+def test_the_shipped_model_knows_what_the_default_noise_adds_in_each_motion():
+    from s3o_drake.world.settings import Uncertainty
+
+    model = TimeModel.load()
+    for motion in MOTIONS:
+        terms = model.noise[motion]
+        assert terms.applies(Uncertainty())
+        # Measured on plans executed as planned both ways, and the noise costs time.
+        assert terms.fit["as_planned"] >= 10 and terms.goto > 0 and terms.pickup > 0
