@@ -12,12 +12,14 @@ test processes. Unset (the default), nothing is kept.
 The digest covers every source file of the package and the robot's and furniture's model
 files, so a map made by other code is never read: editing the oracle, the kinematics or the
 robot's URDF starts an empty cache in effect. Files are written whole or not at all; a
-folder may be shared by processes running at once, and deleted at any time.
+folder may be shared by processes running at once (a map that several ask for at once is
+computed by one of them while the others wait), and deleted at any time.
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import functools
 import hashlib
 import os
@@ -91,17 +93,47 @@ def cached_array(parts: Callable[[], Iterable[object]],
     if folder is None:
         return compute()
     path = folder / f"{key_digest(parts())}.npy"
+    stored = _read(path)
+    if stored is not None:
+        return stored
+    with _computing(path):
+        # Another process may have stored it while this one waited for the lock.
+        stored = _read(path)
+        if stored is not None:
+            return stored
+        values = compute()
+        try:
+            temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+            with open(temporary, "wb") as f:
+                np.save(f, values, allow_pickle=False)
+            temporary.replace(path)
+        except OSError:  # a cache that cannot be written costs time, never a result
+            pass
+    return values
+
+
+def _read(path: Path) -> np.ndarray | None:
     try:
         return np.load(path, allow_pickle=False)
     except (OSError, ValueError):  # absent, or cut short by a full disk: computed again
-        pass
-    values = compute()
+        return None
+
+
+@contextlib.contextmanager
+def _computing(path: Path) -> Iterator[None]:
+    """Holds a lock on the map `path` while it is computed: processes that ask for the same
+    map at once (a study's difficulty beside a check of the same tasks, two test processes)
+    compute it once, the others wait and read it. A POSIX record lock: released when its
+    process ends however it ends, and not inherited by the processes it forks (a search's
+    workers outliving the computation would otherwise keep it). Without one (a folder that
+    cannot be written, a file system without locks) each process computes its own."""
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        with open(temporary, "wb") as f:
-            np.save(f, values, allow_pickle=False)
-        temporary.replace(path)
-    except OSError:  # a cache that cannot be written costs time, never a result
-        pass
-    return values
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lock = open(path.with_name(f".{path.stem}.lock"), "a")  # noqa: SIM115
+    except OSError:
+        yield
+        return
+    with lock:
+        with contextlib.suppress(OSError):
+            fcntl.lockf(lock, fcntl.LOCK_EX)
+        yield  # closing the file releases the lock

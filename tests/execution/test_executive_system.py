@@ -79,7 +79,10 @@ def _step(system, context):
 
 @pytest.fixture(scope="module")
 def planned(scenario):
-    system = make_executive_system(scenario, method="V-GROP*", seed=0,
+    # The coarse maps that tests/execution/test_recovery.py plans this scene on too: the
+    # test is about planning at initialization, not the maps' accuracy, and the full maps
+    # were most of this file's time.
+    system = _executive(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)

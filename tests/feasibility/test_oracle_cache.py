@@ -47,6 +47,33 @@ def test_a_map_is_computed_once_and_read_back_the_same(folder, computed, checker
     assert (first.x0, first.y0, first.cell) == (again.x0, again.y0, again.cell)
 
 
+def _slow_square(log: str) -> np.ndarray:
+    """A stand-in for a map's computation: logs that it ran, and takes long enough that a
+    second process asks while it runs."""
+    import time
+
+    with open(log, "a") as f:
+        f.write(f"{os.getpid()}\n")
+    time.sleep(1.0)
+    return np.arange(4.0) ** 2
+
+
+def _ask(log: str) -> list[float]:
+    return oracle_cache.cached_array(lambda: ("square",), lambda: _slow_square(log)).tolist()
+
+
+def test_a_map_asked_for_by_processes_at_once_is_computed_once(folder, tmp_path):
+    """Two test processes, or a study beside a check of its tasks, asking for one map at
+    the same time: one computes it, the other waits and reads it."""
+    import multiprocessing
+
+    log = str(tmp_path / "computed.log")
+    with multiprocessing.get_context("fork").Pool(3) as pool:
+        maps = pool.map(_ask, [log] * 3)
+    assert maps == [[0.0, 1.0, 4.0, 9.0]] * 3
+    assert len((tmp_path / "computed.log").read_text().splitlines()) == 1
+
+
 def test_what_a_map_is_made_of_decides_whether_it_is_read(folder, computed, scenario,
                                                           checker, monkeypatch):
     oracle = FeasibilityOracle(checker, Uncertainty())
