@@ -13,6 +13,8 @@ collision test on the true world.
 """
 
 import dataclasses
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import partial
 
@@ -82,6 +84,9 @@ class _Motion:
     """The way the base came to where this motion ends: the last drive leg of the last
     motion that drove at least RETRACE_RESET, and every move since (`extend_trail`)."""
     initialized: bool = False
+    turns: tuple[float, ...] = ()
+    """Per segment, the whole turns (rad, multiples of 2π) added to its yaw (`yaw_turns`);
+    empty: none."""
 
     def __deepcopy__(self, memo: dict) -> "_Motion":
         # Immutable all the way down: Drake clones abstract state on every update, and a
@@ -99,16 +104,37 @@ class _Motion:
 
     @property
     def end(self) -> np.ndarray:
-        return np.asarray(self.segments[-1].end if self.segments else self.hold)
+        if not self.segments:
+            return np.asarray(self.hold)
+        end = np.array(self.segments[-1].end, dtype=float)
+        end[2] += self.turns[-1] if self.turns else 0.0
+        return end
 
     def desired(self, t: float) -> np.ndarray:
         """[x, y, yaw, xdot, ydot, yawdot] at time t."""
         tau = t - self.t0
-        for seg in self.segments:
+        for i, seg in enumerate(self.segments):
             if tau < seg.duration:
-                return np.array(seg.state(tau))
+                state = np.array(seg.state(tau))
+                state[2] += self.turns[i] if self.turns else 0.0
+                return state
             tau -= seg.duration
         return np.concatenate([self.end, np.zeros(3)])
+
+
+def yaw_turns(yaw: float, segments: Sequence[Segment]) -> tuple[float, ...]:
+    """For each of `segments`, played from a base at `yaw` (rad, as the plant's yaw joint
+    counts it: whole turns included), the whole turns to add to its yaws so that each starts
+    where the one before ended. A segment may write a heading one turn round from the
+    joint's (a smooth drive starts at its leg's heading, in (-π, π]); the yaw joint's PD
+    would unwind that turn on the spot, the robot spinning at its stop."""
+    turns, before = [], float(yaw)
+    for seg in segments:
+        start = float(seg.start[2])
+        turn = 2.0 * math.pi * round((before - start) / (2.0 * math.pi))
+        turns.append(turn)
+        before = float(seg.end[2]) + turn
+    return tuple(turns)
 
 
 class BaseNavigator(LeafSystem):
@@ -246,6 +272,7 @@ class BaseNavigator(LeafSystem):
                    if cut.blocked and cut.hit is not None else None)
         motion = _Motion(id=command.id, t0=t, hold=tuple(float(v) for v in base[:3]),
                          segments=tuple(cut.segments),
+                         turns=yaw_turns(float(base[2]), cut.segments),
                          outcome=CommandState.FAILED if cut.blocked else CommandState.DONE,
                          reason="blocked" if cut.blocked else "", contact=contact,
                          trail=extend_trail(trail, cut.segments), initialized=True)

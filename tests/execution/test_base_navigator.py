@@ -504,3 +504,29 @@ def test_smooth_the_base_waits_where_the_arm_s_motion_and_its_own_collide(scenar
         assert 0.5 <= starts[0] <= 2.0 and starts[1] == 0.0
     else:
         assert starts == [0.0, 0.0]
+
+
+def test_a_motion_that_writes_its_heading_a_turn_round_is_played_from_the_joint_s_yaw():
+    """The yaw joint counts whole turns (4.98 rad after a few stops); a smooth drive starts at
+    its leg's heading in (-π, π] (4.98 - 2π). Played as written, the set point jumps a turn
+    and the PD spins the robot round at its stop, into the table beside it."""
+    from s3o_drake.execution.base_navigator import _Motion, yaw_turns
+    from s3o_drake.execution.escape import MotionProfile
+
+    profile = MotionProfile(speed=0.4)
+    yaw = 4.98
+    written = yaw - 2 * math.pi
+    drive = profile.segment((2.0, 3.0, written), (2.0, 2.5, written), turn=False, length=0.5)
+    turn = profile.segment((2.0, 2.5, written), (2.0, 2.5, written + 0.3), turn=True,
+                           length=0.3)
+    turns = yaw_turns(yaw, [drive, turn])
+    assert turns == pytest.approx((2 * math.pi, 2 * math.pi))
+    motion = _Motion(id=1, t0=0.0, hold=(2.0, 3.0, yaw), segments=(drive, turn), turns=turns,
+                     initialized=True)
+    times = np.linspace(0.0, motion.duration + 1.0, 200)
+    yaws = np.array([motion.desired(t)[2] for t in times])
+    assert yaws[0] == pytest.approx(yaw) and np.abs(np.diff(yaws)).max() < 0.05
+    assert motion.end[2] == pytest.approx(yaw + 0.3)
+    # A motion written from the joint's own yaw, as a stop-and-go one is, is played as is.
+    assert yaw_turns(yaw, [profile.segment((0, 0, yaw), (1, 0, yaw), turn=False,
+                                           length=1.0)]) == (0.0,)
