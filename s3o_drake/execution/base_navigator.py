@@ -279,12 +279,14 @@ class BaseNavigator(LeafSystem):
         if arm is None or self._scene is None:
             return motion
         # The earliest start, every WAIT_STEP, at which the two motions are collision-free
-        # together (once the arm's has ended, the check above holds).
+        # together until the arm's ends (from there the check above holds). A base that
+        # stops first stands where the arm's motion was not planned for: a turn at a stop
+        # swings the rest of the arm's way round with it.
         start = t
         while start < arm.end_time:
             moved = dataclasses.replace(motion, t0=start)
             if free_together(partial(self._checker, arm), moved.desired, arm.arm_at, start,
-                             min(arm.end_time, moved.end_time)):
+                             arm.end_time):
                 return moved
             start += WAIT_STEP
         return dataclasses.replace(motion, t0=max(t, arm.end_time))

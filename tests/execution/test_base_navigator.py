@@ -506,6 +506,36 @@ def test_smooth_the_base_waits_where_the_arm_s_motion_and_its_own_collide(scenar
         assert starts == [0.0, 0.0]
 
 
+def test_smooth_a_turn_that_ends_before_the_arm_s_motion_is_checked_until_that_ends(
+        scenario, scene):
+    """A turn at a stop ends in 2 s; the arm, planned for the base where it stood, reaches
+    out after that and back to its stow. At the turned yaw the reach is in the table: the
+    turn may not start where the base would stand turned while the arm is out."""
+    from s3o_drake.execution.together import free_together
+
+    base = (1.85, 1.55, math.pi / 2)
+    out = np.array(ARM_STOW, dtype=float)
+    out[:3] = [4.2, -0.3, 1.0]  # clear of the table at yaw π/2, in it at π/2 - 1
+    q = [robot_positions(*base, arm=arm, gripper=GRIPPER_OPEN)
+         for arm in (ARM_STOW, ARM_STOW, out, ARM_STOW)]
+    arm = ArmMotion(PiecewisePolynomial.FirstOrderHold([0.0, 2.5, 4.0, 5.5], np.column_stack(q)),
+                    0.0, tuple(q[0][3:]))
+    turn = BaseCommand(id=1, path=(base[:2],), pose=(*base[:2], base[2] - 1.0), turn=True)
+    navigator = _navigator(scenario, scene, motion="smooth")
+    context = navigator.CreateDefaultContext()
+    navigator.GetInputPort("robot_state").FixValue(context, _robot_state(*base))
+    navigator.GetInputPort("arm_motion").FixValue(context, AbstractValue.Make(arm))
+    navigator.GetInputPort("base_command").FixValue(context, AbstractValue.Make(turn))
+    navigator.CalcForcedUnrestrictedUpdate(context, context.get_mutable_state())
+    played = navigator.GetOutputPort("base_motion").Eval(context)
+    assert played.id == 1 and played.duration < arm.end_time
+    assert not free_together(lambda t: scene.checker, dataclasses.replace(played, t0=0.0).desired,
+                             arm.arm_at, 0.0, arm.end_time)  # at once, the reach hits the table
+    assert played.t0 > 0.0
+    assert free_together(lambda t: scene.checker, played.desired, arm.arm_at, played.t0,
+                         arm.end_time)
+
+
 def test_a_motion_that_writes_its_heading_a_turn_round_is_played_from_the_joint_s_yaw():
     """The yaw joint counts whole turns (4.98 rad after a few stops); a smooth drive starts at
     its leg's heading in (-π, π] (4.98 - 2π). Played as written, the set point jumps a turn
