@@ -480,6 +480,16 @@ def _arm_out_of_the_table(base) -> ArmMotion:
     return ArmMotion(trajectory, 0.0, tuple(q0[3:]))
 
 
+def _played(navigator: BaseNavigator, base, arm: ArmMotion, command: BaseCommand):
+    """The motion `navigator` plays for `command` from `base`, the arm doing `arm`."""
+    context = navigator.CreateDefaultContext()
+    navigator.GetInputPort("robot_state").FixValue(context, _robot_state(*base))
+    navigator.GetInputPort("arm_motion").FixValue(context, AbstractValue.Make(arm))
+    navigator.GetInputPort("base_command").FixValue(context, AbstractValue.Make(command))
+    navigator.CalcForcedUnrestrictedUpdate(context, context.get_mutable_state())
+    return navigator.GetOutputPort("base_motion").Eval(context)
+
+
 @pytest.mark.parametrize("motion", ["smooth", "stop_and_go"])
 def test_smooth_the_base_waits_where_the_arm_s_motion_and_its_own_collide(scenario, scene,
                                                                           motion):
@@ -491,13 +501,7 @@ def test_smooth_the_base_waits_where_the_arm_s_motion_and_its_own_collide(scenar
     turn = BaseCommand(id=1, path=(base[:2],), pose=(*base[:2], base[2] - 1.0), turn=True)
     starts = []
     for arm in (_arm_out_of_the_table(base), ArmMotion(hold=tuple(STOWED))):
-        navigator = _navigator(scenario, scene, motion=motion)
-        context = navigator.CreateDefaultContext()
-        navigator.GetInputPort("robot_state").FixValue(context, _robot_state(*base))
-        navigator.GetInputPort("arm_motion").FixValue(context, AbstractValue.Make(arm))
-        navigator.GetInputPort("base_command").FixValue(context, AbstractValue.Make(turn))
-        navigator.CalcForcedUnrestrictedUpdate(context, context.get_mutable_state())
-        played = navigator.GetOutputPort("base_motion").Eval(context)
+        played = _played(_navigator(scenario, scene, motion=motion), base, arm, turn)
         assert played.id == 1 and played.end_time == pytest.approx(played.t0 + played.duration)
         starts.append(played.t0)
     if motion == "smooth":
@@ -521,13 +525,7 @@ def test_smooth_a_turn_that_ends_before_the_arm_s_motion_is_checked_until_that_e
     arm = ArmMotion(PiecewisePolynomial.FirstOrderHold([0.0, 2.5, 4.0, 5.5], np.column_stack(q)),
                     0.0, tuple(q[0][3:]))
     turn = BaseCommand(id=1, path=(base[:2],), pose=(*base[:2], base[2] - 1.0), turn=True)
-    navigator = _navigator(scenario, scene, motion="smooth")
-    context = navigator.CreateDefaultContext()
-    navigator.GetInputPort("robot_state").FixValue(context, _robot_state(*base))
-    navigator.GetInputPort("arm_motion").FixValue(context, AbstractValue.Make(arm))
-    navigator.GetInputPort("base_command").FixValue(context, AbstractValue.Make(turn))
-    navigator.CalcForcedUnrestrictedUpdate(context, context.get_mutable_state())
-    played = navigator.GetOutputPort("base_motion").Eval(context)
+    played = _played(_navigator(scenario, scene, motion="smooth"), base, arm, turn)
     assert played.id == 1 and played.duration < arm.end_time
     assert not free_together(lambda t: scene.checker, dataclasses.replace(played, t0=0.0).desired,
                              arm.arm_at, 0.0, arm.end_time)  # at once, the reach hits the table
