@@ -1,9 +1,9 @@
-"""The mobile manipulator: its model file, joint layout, named configurations and footprint.
-
-The values come from the description of this process's robot (``models/<name>/robot.yaml``,
-`resources.ROBOT_NAME`: the UR5e unless S3O_ROBOT names another; read and checked against
-its model by `world/robot_description`); the names below are the package's view of it, and
-no module below the commands assumes more of the robot than they say.
+"""The mobile manipulator as a value: `load_robot(name)` gives the `Robot` of a shipped
+description (``models/<name>/robot.yaml``, read and checked against its model by
+`world/robot_description`): its joint layout, frames, sizes, named configurations, footprint
+and built files. Code that needs a robot is given one, as Drake code is given a plant; the
+module's upper-case names are the values of this process's robot (`resources.ROBOT_NAME`),
+for the code that is not yet given one.
 
 The models are built from primitives (``models/ur5e``: an RMP-110-class base with a UR5e arm
 and a Robotiq 2F-140-class gripper; ``models/panda``: a smaller base with a Franka-Panda-class
@@ -12,10 +12,10 @@ three actuated joints from the world (``base_x``, ``base_y`` prismatic, ``base_y
 about z; Drake's PlanarJoint cannot be actuated), so the whole robot is one model instance
 whose positions, velocities and PD-controlled actuators are all in the order
 
-    ``BASE_JOINTS + ARM_JOINTS + GRIPPER_JOINTS``
+    ``Robot.joints`` (base, arm, gripper)
 
-(positions, velocities, actuators and the plant's desired-state input alike; NUM_POSITIONS of
-each). The PD gains are in the URDF (``<drake:controller_gains>``) and are tuned for a
+(positions, velocities, actuators and the plant's desired-state input alike). The PD gains
+are in the URDF (``<drake:controller_gains>``) and are tuned for a
 discrete plant (SAP, time step 1e-3..2e-3 s) whose actuators also carry the robot's gravity
 as a feed-forward (the world's "gravity_compensation", `world/builder.py`), as the arms' own
 controllers do.
@@ -24,76 +24,38 @@ Frames (names of bodies in the model):
 
 - ``base_link`` (B): on the floor at the centre of the footprint, x forward, z up. For base
   positions (x, y, yaw), ``X_WB = RigidTransform(RotationMatrix.MakeZRotation(yaw), [x, y, 0])``.
-- ``ARM_BASE_LINK`` (A): the arm's DH base frame, at ``ARM_MOUNT_XYZ`` in B (axes parallel to
+- ``arm_base_link`` (A): the arm's base frame, at ``arm_mount_xyz`` in B (axes parallel to
   B's).
-- ``TOOL_FRAME``: the tool flange, turned as the hand is mounted.
-- ``GRASP_FRAME`` (G): the centre between the fingertip pads, ``GRASP_OFFSET`` beyond the tool
+- ``tool_frame``: the tool flange, turned as the hand is mounted.
+- ``grasp_frame`` (G): the centre between the fingertip pads, ``grasp_offset`` beyond the tool
   frame along its z axis, which is the approach direction; the fingers open along G's y.
-- ``TRAY_LINK``: the centre of the tray's inner floor surface (z up), at ``TRAY_XYZ`` in B.
-- ``LIDAR_LINK``: the centre of the lidar's head.
+- ``tray_link``: the centre of the tray's inner floor surface (z up), at ``tray_xyz`` in B.
+- ``lidar_link``: the centre of the lidar's head.
 """
 
+import functools
 import math
+from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.tree import ModelInstanceIndex
 from shapely.geometry import Polygon
 
-from s3o_drake.world.resources import PACKAGE_NAME, ROBOT_NAME, models_dir, package_file
-from s3o_drake.world.robot_description import load_robot_description
-
-ROBOT = load_robot_description(ROBOT_NAME)
-"""The description of the robot this process plans and executes for
-(`resources.ROBOT_NAME`)."""
-ROBOT_URL = ROBOT.model
-ROBOT_URDF = package_file(ROBOT_URL)
-"""The robot's model file."""
-
-BASE_JOINTS = tuple(ROBOT.base.joints)
-ARM_JOINTS = tuple(ROBOT.arm.joints)
-GRIPPER_JOINTS = tuple(ROBOT.gripper.joints)
-#: All joints, in the order of the model instance's positions, velocities and actuators.
-ROBOT_JOINTS = BASE_JOINTS + ARM_JOINTS + GRIPPER_JOINTS
-NUM_POSITIONS = len(ROBOT_JOINTS)
-NUM_BASE_JOINTS = len(BASE_JOINTS)
-NUM_ARM_JOINTS = len(ARM_JOINTS)
-#: The arm's joints among the robot's positions (and velocities), and the gripper's.
-ARM_POSITIONS = slice(NUM_BASE_JOINTS, NUM_BASE_JOINTS + NUM_ARM_JOINTS)
-GRIPPER_POSITIONS = slice(ARM_POSITIONS.stop, NUM_POSITIONS)
-
-BASE_LINK = ROBOT.base.link
-ARM_BASE_LINK = ROBOT.arm.base_link
-TOOL_FRAME = ROBOT.tool.frame
-GRASP_FRAME = ROBOT.tool.grasp_frame
-TRAY_LINK = ROBOT.tray.link
-LIDAR_LINK = ROBOT.lidar_link
-
-#: Chassis footprint (m) along the base's x (forward) and y axes. Nothing of the robot in its
-#: stow configuration sticks out of it.
-BASE_LENGTH = ROBOT.base.length
-BASE_WIDTH = ROBOT.base.width
-#: Circumscribed radius of the footprint (m), for inflating obstacles.
-BASE_RADIUS = math.hypot(BASE_LENGTH / 2, BASE_WIDTH / 2)
-#: Inscribed radius (m): the largest disc inside the footprint, whatever its yaw. Closer than
-#: this to an obstacle the base collides at every yaw, so standing spots keep at least this.
-INSCRIBED_RADIUS = BASE_WIDTH / 2
-
-#: Position of the arm's base frame in base_link (m); see the URDF's header for the reasons.
-ARM_MOUNT_XYZ = tuple(ROBOT.arm.mount_xyz)
-#: Distance (m) from the tool frame to the grasp frame along the tool's z axis.
-GRASP_OFFSET = ROBOT.tool.grasp_offset
-#: Distance (m) from the tool frame to the fingertips along its z axis.
-FINGERTIP_OFFSET = ROBOT.tool.fingertip_offset
-#: Travel of each finger (m); the opening between the fingers is the sum of both positions.
-FINGER_TRAVEL = ROBOT.gripper.travel
-
-#: Position of tray_link (centre of the tray's inner floor) in base_link (m).
-TRAY_XYZ = tuple(ROBOT.tray.xyz)
-#: Inner floor of the tray (m): along the base's x, along its y; height of the rim above it.
-TRAY_INNER_LENGTH = ROBOT.tray.inner_length
-TRAY_INNER_WIDTH = ROBOT.tray.inner_width
-TRAY_RIM_HEIGHT = ROBOT.tray.rim_height
+from s3o_drake.world.resources import (
+    DEFAULT_ROBOT,
+    PACKAGE_NAME,
+    ROBOT_NAME,
+    models_dir,
+    package_file,
+    robot_dir,
+)
+from s3o_drake.world.robot_description import (
+    RobotDescription,
+    check_model,
+    load_robot_description,
+)
 
 
 def _frozen(values) -> np.ndarray:
@@ -102,85 +64,294 @@ def _frozen(values) -> np.ndarray:
     return array
 
 
-#: The arm's stow configuration (rad), in ARM_JOINTS order: the arm folded in the base's x-z
-#: plane, upper arm leaning slightly back from vertical (shoulder lift -1.3), elbow folded
-#: (2.7), wrist 1 chosen so that the gripper points straight down (q2 + q3 + q4 = -pi/2),
-#: wrist 2 at -pi/2, wrist 3 turning the gripper so that its fingers open across the robot.
-#: The grasp frame is then above the right half of the tray, at about (-0.13, -0.13, 0.61) m
-#: in base_link (fingertips 0.19 m above the tray's floor); the arm and gripper stay inside
-#: x in [-0.18, 0.21] m, y in [-0.24, 0.06] m of the footprint and below 1.39 m, at least
-#: 0.019 m from any self-collision.
-ARM_STOW = _frozen(ROBOT.configurations.stow)
-#: Finger positions (m): fully open (opening 0.14 m) and closed (fingers touching).
-GRIPPER_OPEN = _frozen([FINGER_TRAVEL, FINGER_TRAVEL])
-GRIPPER_CLOSED = _frozen([0.0, 0.0])
+@dataclass(frozen=True)
+class RobotFiles:
+    """What was built for a robot, in its folder (models/<name>/): each file may be missing
+    until `s3o build robot` (or its study) makes it."""
+
+    folder: Path
+
+    @property
+    def reachability_map(self) -> Path:
+        return self.folder / "reachability_map.npz"
+
+    @property
+    def time_model(self) -> Path:
+        return self.folder / "time_model.yaml"
+
+    @property
+    def fcn_weights(self) -> Path:
+        return self.folder / "fcn" / "fcn.pt"
+
+    @property
+    def failure_price(self) -> Path:
+        return self.folder / "failure_price.yaml"
+
+    @property
+    def shared_stop(self) -> Path:
+        return self.folder / "shared_stop.yaml"
 
 
-def add_robot(parser: Parser, *, name: str = "robot") -> ModelInstanceIndex:
-    """Parses the robot into `parser`'s (not yet finalized) plant as model instance `name`.
+@dataclass(frozen=True, eq=False)
+class Robot:
+    """A mobile manipulator as the planner and the execution see it: its description
+    (checked against its model), the joint layout, frames and sizes read from it, and the
+    files built for it. Made by `load_robot`; passed where it is needed, as a plant is.
 
-    The ``s3o_drake`` package is registered with `parser`'s package map if it is not already
-    (as ``resources.make_parser`` does). Returns the new model instance; its positions are
-    in ``ROBOT_JOINTS`` order (see ``robot_positions``).
-    """
-    packages = parser.package_map()
-    if not packages.Contains(PACKAGE_NAME):
-        packages.Add(PACKAGE_NAME, str(models_dir()))
-    plant = parser.plant()
-    if plant.HasModelInstanceNamed(name):
-        raise ValueError(f"the plant already has a model instance named {name!r}")
-    (model,) = parser.AddModels(url=ROBOT_URL)
-    plant.RenameModelInstance(model, name)
-    return model
+    Positions, velocities and actuators are in the order ``base_joints + arm_joints +
+    gripper_joints`` (`joints`). Compared by identity: `load_robot` returns the same value
+    for the same name."""
+
+    description: RobotDescription
+    files: RobotFiles
+    joints: tuple[str, ...] = field(init=False)
+    arm_stow: np.ndarray = field(init=False)
+    gripper_open: np.ndarray = field(init=False)
+    gripper_closed: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        d = self.description
+        set_ = functools.partial(object.__setattr__, self)
+        set_("joints", (*d.base.joints, *d.arm.joints, *d.gripper.joints))
+        set_("arm_stow", _frozen(d.configurations.stow))
+        set_("gripper_open", _frozen([d.gripper.travel] * len(d.gripper.joints)))
+        set_("gripper_closed", _frozen([0.0] * len(d.gripper.joints)))
+
+    # --- names -------------------------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return self.description.name
+
+    @property
+    def model_url(self) -> str:
+        """The model's URL (`package://s3o_drake/...`)."""
+        return self.description.model
+
+    @property
+    def model_file(self) -> Path:
+        return package_file(self.description.model)
+
+    # --- joints ------------------------------------------------------------------------
+    @property
+    def base_joints(self) -> tuple[str, ...]:
+        return tuple(self.description.base.joints)
+
+    @property
+    def arm_joints(self) -> tuple[str, ...]:
+        return tuple(self.description.arm.joints)
+
+    @property
+    def gripper_joints(self) -> tuple[str, ...]:
+        return tuple(self.description.gripper.joints)
+
+    @property
+    def num_positions(self) -> int:
+        return len(self.joints)
+
+    @property
+    def num_base_joints(self) -> int:
+        return len(self.description.base.joints)
+
+    @property
+    def num_arm_joints(self) -> int:
+        return len(self.description.arm.joints)
+
+    @property
+    def arm_positions(self) -> slice:
+        """The arm's joints among the robot's positions (and velocities)."""
+        return slice(self.num_base_joints, self.num_base_joints + self.num_arm_joints)
+
+    @property
+    def gripper_positions(self) -> slice:
+        """The fingers' joints among the robot's positions (and velocities)."""
+        return slice(self.arm_positions.stop, self.num_positions)
+
+    # --- frames and sizes --------------------------------------------------------------
+    @property
+    def base_link(self) -> str:
+        return self.description.base.link
+
+    @property
+    def arm_base_link(self) -> str:
+        return self.description.arm.base_link
+
+    @property
+    def tool_frame(self) -> str:
+        return self.description.tool.frame
+
+    @property
+    def grasp_frame(self) -> str:
+        return self.description.tool.grasp_frame
+
+    @property
+    def tray_link(self) -> str:
+        return self.description.tray.link
+
+    @property
+    def lidar_link(self) -> str:
+        return self.description.lidar_link
+
+    @property
+    def base_length(self) -> float:
+        """The chassis footprint along the base's x (m): nothing of the robot in its stow
+        configuration sticks out of it."""
+        return self.description.base.length
+
+    @property
+    def base_width(self) -> float:
+        """... and along its y (m)."""
+        return self.description.base.width
+
+    @property
+    def base_radius(self) -> float:
+        """The footprint's circumscribed radius (m), for inflating obstacles."""
+        return math.hypot(self.base_length / 2, self.base_width / 2)
+
+    @property
+    def inscribed_radius(self) -> float:
+        """The largest disc inside the footprint, whatever its yaw (m): closer than this to
+        an obstacle the base collides at every yaw."""
+        return self.base_width / 2
+
+    @property
+    def arm_mount_xyz(self) -> tuple[float, float, float]:
+        """The arm's base frame in the base link (m)."""
+        return tuple(self.description.arm.mount_xyz)
+
+    @property
+    def grasp_offset(self) -> float:
+        """From the tool frame to the grasp frame along the tool's z (m)."""
+        return self.description.tool.grasp_offset
+
+    @property
+    def fingertip_offset(self) -> float:
+        """From the tool frame to the fingertips along the tool's z (m)."""
+        return self.description.tool.fingertip_offset
+
+    @property
+    def finger_travel(self) -> float:
+        """Each finger's travel (m); the opening is the sum of the fingers' positions."""
+        return self.description.gripper.travel
+
+    @property
+    def tray_xyz(self) -> tuple[float, float, float]:
+        """The centre of the tray's inner floor in the base link (m)."""
+        return tuple(self.description.tray.xyz)
+
+    @property
+    def reach(self) -> float:
+        """How far from the base centre (m) the planner assumes a dish can be picked."""
+        return self.description.reach
+
+    # --- values ------------------------------------------------------------------------
+    def positions(self, x: float, y: float, yaw: float, arm: np.ndarray | None = None,
+                  gripper: np.ndarray | None = None) -> np.ndarray:
+        """The robot's positions with its base link at (x, y, yaw) in W: `arm` the arm's
+        joint angles (rad; default stowed), `gripper` the fingers' positions (m; default
+        open)."""
+        arm = self.arm_stow if arm is None else np.asarray(arm, dtype=float).reshape(-1)
+        gripper = (self.gripper_open if gripper is None
+                   else np.asarray(gripper, dtype=float).reshape(-1))
+        if arm.shape != (self.num_arm_joints,):
+            raise ValueError(f"arm: expected {self.num_arm_joints} joint angles, "
+                             f"got {arm.size}")
+        if gripper.shape != (len(self.gripper_joints),):
+            raise ValueError(f"gripper: expected {len(self.gripper_joints)} positions, "
+                             f"got {gripper.size}")
+        return np.concatenate([[x, y, yaw], arm, gripper])
+
+    def desired_state(self, positions: np.ndarray,
+                      velocities: np.ndarray | None = None) -> np.ndarray:
+        """The value of the plant's desired-state input for this robot: [q_d, v_d]
+        (the actuators are in the order of the positions; velocities zero if not given)."""
+        n = self.num_positions
+        positions = np.asarray(positions, dtype=float).reshape(-1)
+        if positions.shape != (n,):
+            raise ValueError(f"positions: expected {n} values, got {positions.size}")
+        velocities = (np.zeros(n) if velocities is None
+                      else np.asarray(velocities, dtype=float).reshape(-1))
+        if velocities.shape != (n,):
+            raise ValueError(f"velocities: expected {n} values, got {velocities.size}")
+        return np.concatenate([positions, velocities])
+
+    def footprint(self, x: float, y: float, yaw: float) -> Polygon:
+        """The base's footprint (base_length x base_width) in the world's x-y plane."""
+        half_l, half_w = self.base_length / 2, self.base_width / 2
+        p_BC = np.array([[half_l, half_w], [-half_l, half_w], [-half_l, -half_w],
+                         [half_l, -half_w]])
+        c, s = math.cos(yaw), math.sin(yaw)
+        p_WC = p_BC @ np.array([[c, -s], [s, c]]).T + np.array([x, y])
+        return Polygon(p_WC)
+
+    def add_to(self, parser: Parser, *, name: str = "robot") -> ModelInstanceIndex:
+        """Parses the robot into `parser`'s (not yet finalized) plant as model instance
+        `name`, registering the ``s3o_drake`` package with its package map if need be.
+        Its positions are in `joints` order."""
+        packages = parser.package_map()
+        if not packages.Contains(PACKAGE_NAME):
+            packages.Add(PACKAGE_NAME, str(models_dir()))
+        plant = parser.plant()
+        if plant.HasModelInstanceNamed(name):
+            raise ValueError(f"the plant already has a model instance named {name!r}")
+        (model,) = parser.AddModels(url=self.model_url)
+        plant.RenameModelInstance(model, name)
+        return model
 
 
-def robot_positions(
-    x: float,
-    y: float,
-    yaw: float,
-    arm: np.ndarray = ARM_STOW,
-    gripper: np.ndarray = GRIPPER_OPEN,
-) -> np.ndarray:
-    """The robot's positions (model instance order) with base_link at (x, y, yaw) in W.
-
-    `arm` holds the 6 arm joint angles (rad) in ``ARM_JOINTS`` order, `gripper` the 2 finger
-    positions (m) in ``GRIPPER_JOINTS`` order.
-    """
-    arm = np.asarray(arm, dtype=float).reshape(-1)
-    gripper = np.asarray(gripper, dtype=float).reshape(-1)
-    if arm.shape != (len(ARM_JOINTS),):
-        raise ValueError(f"arm: expected {len(ARM_JOINTS)} joint angles, got {arm.size}")
-    if gripper.shape != (len(GRIPPER_JOINTS),):
-        raise ValueError(f"gripper: expected {len(GRIPPER_JOINTS)} positions, got {gripper.size}")
-    return np.concatenate([[x, y, yaw], arm, gripper])
+def load_robot(name: str = DEFAULT_ROBOT) -> Robot:
+    """The shipped robot `name` (its folder under models/), its description checked for
+    shape and values and against its model, once: loading it again returns the same value.
+    Raises `RobotDescriptionError` (its field named) for a description that cannot be used."""
+    return _load_robot(str(name))
 
 
-def robot_desired_state(positions: np.ndarray, velocities: np.ndarray | None = None) -> np.ndarray:
-    """The value for ``plant.get_desired_state_input_port(model)``: [q_d, v_d]
-    (2 NUM_POSITIONS values).
-
-    The actuators are in the order of the positions, so this is ``positions`` followed by
-    ``velocities`` (zero if not given).
-    """
-    positions = np.asarray(positions, dtype=float).reshape(-1)
-    if positions.shape != (NUM_POSITIONS,):
-        raise ValueError(f"positions: expected {NUM_POSITIONS} values, got {positions.size}")
-    if velocities is None:
-        velocities = np.zeros(NUM_POSITIONS)
-    velocities = np.asarray(velocities, dtype=float).reshape(-1)
-    if velocities.shape != (NUM_POSITIONS,):
-        raise ValueError(f"velocities: expected {NUM_POSITIONS} values, got {velocities.size}")
-    return np.concatenate([positions, velocities])
+@functools.cache
+def _load_robot(name: str) -> Robot:
+    description = load_robot_description(name)
+    check_model(description)
+    return Robot(description, RobotFiles(robot_dir(description.name)))
 
 
-def footprint_polygon(x: float, y: float, yaw: float) -> Polygon:
-    """The base's footprint (BASE_LENGTH x BASE_WIDTH rectangle) in the world's x-y plane."""
-    half_l, half_w = BASE_LENGTH / 2, BASE_WIDTH / 2
-    p_BC = np.array([[half_l, half_w], [-half_l, half_w], [-half_l, -half_w], [half_l, -half_w]])
-    c, s = math.cos(yaw), math.sin(yaw)
-    R_WB = np.array([[c, -s], [s, c]])
-    p_WC = p_BC @ R_WB.T + np.array([x, y])
-    return Polygon(p_WC)
+# The robot of this process (`resources.ROBOT_NAME`), for the modules that are not yet given
+# a `Robot`: the names below are its values.
+_PROCESS_ROBOT = load_robot(ROBOT_NAME)
+ROBOT: RobotDescription = _PROCESS_ROBOT.description
+ROBOT_URL = _PROCESS_ROBOT.model_url
+ROBOT_URDF = _PROCESS_ROBOT.model_file
+BASE_JOINTS = _PROCESS_ROBOT.base_joints
+ARM_JOINTS = _PROCESS_ROBOT.arm_joints
+GRIPPER_JOINTS = _PROCESS_ROBOT.gripper_joints
+ROBOT_JOINTS = _PROCESS_ROBOT.joints
+NUM_POSITIONS = _PROCESS_ROBOT.num_positions
+NUM_BASE_JOINTS = _PROCESS_ROBOT.num_base_joints
+NUM_ARM_JOINTS = _PROCESS_ROBOT.num_arm_joints
+ARM_POSITIONS = _PROCESS_ROBOT.arm_positions
+GRIPPER_POSITIONS = _PROCESS_ROBOT.gripper_positions
+BASE_LINK = _PROCESS_ROBOT.base_link
+ARM_BASE_LINK = _PROCESS_ROBOT.arm_base_link
+TOOL_FRAME = _PROCESS_ROBOT.tool_frame
+GRASP_FRAME = _PROCESS_ROBOT.grasp_frame
+TRAY_LINK = _PROCESS_ROBOT.tray_link
+LIDAR_LINK = _PROCESS_ROBOT.lidar_link
+BASE_LENGTH = _PROCESS_ROBOT.base_length
+BASE_WIDTH = _PROCESS_ROBOT.base_width
+BASE_RADIUS = _PROCESS_ROBOT.base_radius
+INSCRIBED_RADIUS = _PROCESS_ROBOT.inscribed_radius
+ARM_MOUNT_XYZ = _PROCESS_ROBOT.arm_mount_xyz
+GRASP_OFFSET = _PROCESS_ROBOT.grasp_offset
+FINGERTIP_OFFSET = _PROCESS_ROBOT.fingertip_offset
+FINGER_TRAVEL = _PROCESS_ROBOT.finger_travel
+TRAY_XYZ = _PROCESS_ROBOT.tray_xyz
+TRAY_INNER_LENGTH = ROBOT.tray.inner_length
+TRAY_INNER_WIDTH = ROBOT.tray.inner_width
+TRAY_RIM_HEIGHT = ROBOT.tray.rim_height
+ARM_STOW = _PROCESS_ROBOT.arm_stow
+GRIPPER_OPEN = _PROCESS_ROBOT.gripper_open
+GRIPPER_CLOSED = _PROCESS_ROBOT.gripper_closed
+add_robot = _PROCESS_ROBOT.add_to
+robot_positions = _PROCESS_ROBOT.positions
+robot_desired_state = _PROCESS_ROBOT.desired_state
+footprint_polygon = _PROCESS_ROBOT.footprint
 
 
 #: How often (s) the execution systems of the full diagram look at their inputs: commands,
