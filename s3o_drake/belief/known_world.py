@@ -28,6 +28,7 @@ from s3o_drake.world.goals import place_target_dishes, placed_object
 from s3o_drake.world.map import Chair, Map, Table
 from s3o_drake.world.objects import Dish
 from s3o_drake.world.obstacles import Obstacles, Pose2
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.settings import PlanningSettings, Settings, Uncertainty
 
 if TYPE_CHECKING:  # the truth is read once, to make the first belief
@@ -59,11 +60,14 @@ class Briefing:
     settings: Settings
     objects: tuple[Dish, ...]
     start: Pose2
+    robot: Robot
+    """The robot itself: what it is, it knows."""
 
     @classmethod
     def of(cls, scenario: Scenario) -> Briefing:
         return cls(map=scenario.map, settings=scenario.settings,
-                   objects=tuple(scenario.dishes), start=_pose(scenario.robot.start))
+                   objects=tuple(scenario.dishes), start=_pose(scenario.robot.start),
+                   robot=scenario.robot_value)
 
     @property
     def tables(self) -> tuple[Table, ...]:
@@ -81,8 +85,8 @@ class KnownWorld:
 
     `map` is what it was given of the room: the room, the tables, the mapped chairs only
     (never the unmapped ones: the robot knows those only by perceiving them); `settings` are
-    the run's parameters. The rest is what changes between plans: the perceived chairs, the
-    objects that remain, and the robot's pose.
+    the run's parameters; `robot`, the robot itself. The rest is what changes between plans:
+    the perceived chairs, the objects that remain, and the robot's pose.
     """
 
     map: Map
@@ -93,6 +97,7 @@ class KnownWorld:
     of each object to place (an object of its kind standing at its place, named
     `goals.place_target_name`; `places`)."""
     pose: Pose2
+    robot: Robot
     overhead: OverheadImages | None = field(default=None, compare=False)
     fixtures: tuple[Dish, ...] = ()
     """The objects that stay where they are (a plate something goes onto): obstacles only."""
@@ -124,7 +129,7 @@ class KnownWorld:
         here = given.start if pose is None else _pose(pose)
         return cls(map=given.map, settings=given.settings,
                    perceived_chairs=tuple(_pose(p) for p in perceived_chairs),
-                   dishes=tuple(kept), pose=here, overhead=overhead,
+                   dishes=tuple(kept), pose=here, robot=given.robot, overhead=overhead,
                    fixtures=tuple(d for d in given.objects if d.goal == Goal.STAY.value),
                    held=held)
 
@@ -200,4 +205,4 @@ class KnownWorld:
         return SceneContents(room=self.map.room, tables=self.map.tables,
                              chairs=(*self.map.chairs, *seen),
                              dishes=(*self.dishes, *self.fixtures), start=self.pose,
-                             floor_margin=self.settings.camera.margin)
+                             robot=self.robot, floor_margin=self.settings.camera.margin)

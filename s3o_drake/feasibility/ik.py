@@ -29,7 +29,7 @@ from pydrake.solvers import SnoptSolver, SolverOptions
 
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.grasps import Grasp
-from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
+from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.robot import (
     ARM_POSITIONS,
     ARM_STOW,
@@ -70,8 +70,8 @@ def grasp_checker(scene: FeasibilityScene, dish: str):
         checker = scene.checker.Clone()
         filtered = np.array(checker.GetFilteredCollisionMatrix())
         d = int(scene.dish_body(dish).index())
-        for name in GRIPPER_BODIES:
-            g = int(scene.plant.GetBodyByName(name, scene.robot).index())
+        for name in scene.robot.gripper_bodies:
+            g = int(scene.plant.GetBodyByName(name, scene.robot_instance).index())
             filtered[g, d] = filtered[d, g] = 1
         checker.SetCollisionFilterMatrix(filtered)
         per_scene[dish] = checker
@@ -85,8 +85,8 @@ def _diagram_context(scene: FeasibilityScene, dish: str):
         context = scene.diagram.CreateDefaultContext()
         plant, scene_graph = scene.plant, scene.diagram.scene_graph()
         gripper = GeometrySet()
-        for name in GRIPPER_BODIES:
-            body = plant.GetBodyByName(name, scene.robot)
+        for name in scene.robot.gripper_bodies:
+            body = plant.GetBodyByName(name, scene.robot_instance)
             gripper.Add(plant.GetCollisionGeometriesForBody(body))
         dish_geometries = GeometrySet(plant.GetCollisionGeometriesForBody(scene.dish_body(dish)))
         sg_context = scene_graph.GetMyMutableContextFromRoot(context)

@@ -24,22 +24,11 @@ from s3o_drake.feasibility.clearance import (
 from s3o_drake.world.builder import populate_plant
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.obstacles import Obstacles
-from s3o_drake.world.robot import (
-    ARM_BASE_LINK,
-    ARM_MOUNT_XYZ,
-    ARM_STOW,
-    GRASP_FRAME,
-    GRIPPER_OPEN,
-    ROBOT,
-    robot_positions,
-)
 from s3o_drake.world.worker_processes import drake_parallelism
 
 # Robot-environment clearance of a feasible configuration (m): the arm stays at least 1 cm
 # from every obstacle, and the base keeps the same small margin.
 ENVIRONMENT_PADDING = 0.01
-# Robot bodies that may touch the dish being grasped.
-GRIPPER_BODIES = tuple(ROBOT.gripper.bodies)
 # Collision checker edge step (rad or m); only used when checking motions.
 EDGE_STEP = 0.05
 
@@ -57,37 +46,41 @@ class FeasibilityScene:
         builder.plant().Finalize()
         self.diagram = builder.Build()
         self.plant = self.diagram.plant()
-        self.robot = self.models.robot
+        self.robot = contents.robot
+        self.robot_instance = self.models.robot
         self.checker = SceneGraphCollisionChecker(
-            model=self.diagram, robot_model_instances=[self.robot],
+            model=self.diagram, robot_model_instances=[self.robot_instance],
             edge_step_size=EDGE_STEP, env_collision_padding=padding,
             implicit_context_parallelism=drake_parallelism())
         self.table_height = {t.name: t.height for t in contents.tables}
         self.dishes = {d.name: d for d in contents.dishes}
-        self.grasp_frame = self.plant.GetFrameByName(GRASP_FRAME, self.robot)
-        self.arm_base_frame = self.plant.GetFrameByName(ARM_BASE_LINK, self.robot)
+        self.grasp_frame = self.plant.GetFrameByName(self.robot.grasp_frame,
+                                                     self.robot_instance)
+        self.arm_base_frame = self.plant.GetFrameByName(self.robot.arm_base_link,
+                                                        self.robot_instance)
         context = self.plant.CreateDefaultContext()
         inspector = self.diagram.scene_graph().model_inspector()
-        extent = robot_plan_extent(self.plant, inspector, self.robot, context)
+        extent = robot_plan_extent(self.plant, inspector, self.robot_instance, context)
         self.robot_radius = robot_horizontal_radius(extent)
         """Horizontal reach (m) of the robot's collision geometry with the arm stowed."""
         self.padding = padding
         self.obstacles = Obstacles.of_contents(contents) if obstacles is None else obstacles
         self.clearance = BaseClearance(self.obstacles, robot_extent=extent, padding=padding)
-        self.collision = CertainCollision.of_scene(self.plant, inspector, self.robot, context)
+        self.collision = CertainCollision.of_scene(self.plant, inspector, self.robot_instance,
+                                                   context)
         """Base positions that need no collision query (see `clearance`)."""
 
-    def q(self, base: np.ndarray, arm: np.ndarray = ARM_STOW,
-          gripper: np.ndarray = GRIPPER_OPEN) -> np.ndarray:
-        """The plant's positions (the robot's) for a base pose (x, y, yaw) and arm."""
-        return robot_positions(*base, arm=arm, gripper=gripper)
+    def q(self, base: np.ndarray, arm: np.ndarray | None = None,
+          gripper: np.ndarray | None = None) -> np.ndarray:
+        """The plant's positions (the robot's) for a base pose (x, y, yaw) and arm (default
+        stowed, the gripper open)."""
+        return self.robot.positions(*base, arm=arm, gripper=gripper)
 
-    @staticmethod
-    def p_WA(base: np.ndarray) -> np.ndarray:
+    def p_WA(self, base: np.ndarray) -> np.ndarray:
         """Where the arm's base frame A is, for a base pose (x, y, yaw)."""
         x, y, yaw = base
         c, s = np.cos(yaw), np.sin(yaw)
-        mx, my, mz = ARM_MOUNT_XYZ
+        mx, my, mz = self.robot.arm_mount_xyz
         return np.array([x + c * mx - s * my, y + s * mx + c * my, mz])
 
     def dish_p_WD(self, name: str) -> tuple[np.ndarray, float]:
@@ -103,7 +96,8 @@ class FeasibilityScene:
     def grasping(self, name: str) -> Iterator[None]:
         """Within it, the gripper may touch the dish `name` (the one it grasps)."""
         dish = self.dish_body(name)
-        bodies = [self.plant.GetBodyByName(b, self.robot) for b in GRIPPER_BODIES]
+        bodies = [self.plant.GetBodyByName(b, self.robot_instance)
+                  for b in self.robot.gripper_bodies]
         for body in bodies:
             self.checker.SetCollisionFilteredBetween(body, dish, True)
         try:
@@ -115,5 +109,5 @@ class FeasibilityScene:
     def grasp_pose(self, q: np.ndarray) -> RigidTransform:
         """X_WG of the grasp frame at the robot positions q."""
         context = self.plant.CreateDefaultContext()
-        self.plant.SetPositions(context, self.robot, q)
+        self.plant.SetPositions(context, self.robot_instance, q)
         return self.grasp_frame.CalcPoseInWorld(context)

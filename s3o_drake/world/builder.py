@@ -49,13 +49,7 @@ from s3o_drake.world.map import Chair, Room, Table
 from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
 from s3o_drake.world.objects import Dish, surface_height
 from s3o_drake.world.resources import make_parser, models_dir
-from s3o_drake.world.robot import (
-    CONTROL_PERIOD,
-    ROBOT_JOINTS,
-    add_robot,
-    robot_desired_state,
-    robot_positions,
-)
+from s3o_drake.world.robot import CONTROL_PERIOD
 from s3o_drake.world.scenario import Scenario
 
 RENDERER = "vtk"
@@ -209,9 +203,10 @@ def populate_plant(plant: MultibodyPlant, scene_graph: SceneGraph | None,
     `dishes=False` leaves out the objects (for systems that own them)."""
     parser = make_parser(plant, scene_graph)
     _add_room(plant, contents.room, contents.floor_margin)
-    models = WorldModels(robot=add_robot(parser))
-    q0 = robot_positions(*contents.start)
-    for name, q in zip(ROBOT_JOINTS, q0, strict=True):
+    robot = contents.robot
+    models = WorldModels(robot=robot.add_to(parser))
+    q0 = robot.positions(*contents.start)
+    for name, q in zip(robot.joints, q0, strict=True):
         plant.GetJointByName(name, models.robot).set_default_positions([q])
 
     kinds = {"table": models.tables, "chair": models.chairs, "dish": models.dishes}
@@ -383,4 +378,5 @@ def render_overhead(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 def robot_hold_state(scenario: Scenario) -> np.ndarray:
     """The robot's desired state that holds its start pose (positions, zero velocities)."""
-    return robot_desired_state(robot_positions(*scenario.robot.start))
+    robot = scenario.robot_value
+    return robot.desired_state(robot.positions(*scenario.robot.start))

@@ -20,7 +20,6 @@ from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective, ModelDi
 
 from s3o_drake.world.builder import FLOOR_RGBA, WALL_RGBA, fixed_models, room_boxes
 from s3o_drake.world.contents import SceneContents
-from s3o_drake.world.robot import ROBOT_JOINTS, ROBOT_URDF, robot_positions
 
 ROBOT_INSTANCE = "robot"
 ROOM_INSTANCE = "room"
@@ -67,11 +66,12 @@ def scene_directives(contents: SceneContents, package: str) -> tuple[ModelDirect
     """The directives of `contents` and the model files they name ({path in the package:
     text}; the robot's URDF is not among them: it is copied)."""
     url = f"package://{package}"
-    q0 = robot_positions(*contents.start)
+    robot = contents.robot
+    q0 = robot.positions(*contents.start)
     directives = [
         ModelDirective(add_model=AddModel(
-            name=ROBOT_INSTANCE, file=f"{url}/robot/{ROBOT_URDF.name}",
-            default_joint_positions={j: [float(q)] for j, q in zip(ROBOT_JOINTS, q0,
+            name=ROBOT_INSTANCE, file=f"{url}/robot/{robot.model_file.name}",
+            default_joint_positions={j: [float(q)] for j, q in zip(robot.joints, q0,
                                                                      strict=True)})),
         ModelDirective(add_model=AddModel(name=ROOM_INSTANCE, file=f"{url}/room.sdf")),
     ]
@@ -95,7 +95,8 @@ def write_directives(contents: SceneContents, out: Path, name: str) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     (out / "package.xml").write_text(_PACKAGE_XML.format(name=package, directives=dmd.name))
     (out / "robot").mkdir(exist_ok=True)
-    shutil.copyfile(ROBOT_URDF, out / "robot" / ROBOT_URDF.name)
+    model = contents.robot.model_file
+    shutil.copyfile(model, out / "robot" / model.name)
     for path, text in files.items():
         (out / path).parent.mkdir(parents=True, exist_ok=True)
         (out / path).write_text(text)

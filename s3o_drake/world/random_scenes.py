@@ -28,7 +28,7 @@ from s3o_drake.world.objects import Dish
 from s3o_drake.world.robot import BASE_RADIUS, footprint_polygon
 from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.scenario_checks import START_CLEARANCE, ScenarioError, validate_scenario
-from s3o_drake.world.settings import PlanningSettings, Robot
+from s3o_drake.world.settings import PlanningSettings, RobotSection
 
 TRIES = 200  # draws per table, dish or chair before it is left out
 GAP = 0.03  # free space kept between pieces of furniture (m)
@@ -141,7 +141,7 @@ def random_scene(seed: int, index: int = 0, shape: SceneShape = SceneShape(),
             chair_near(*rng.uniform(room[:2], room[2:]), (0.0, 0.1))
 
     scene = Scenario(seed=int(rng.integers(2**31)), room=Room(bounds=room), tables=tables,
-                     chairs=chairs, dishes=dishes, robot=Robot(start=start))
+                     chairs=chairs, dishes=dishes, robot=RobotSection(start=start))
     if planner is not None:
         scene = replace(scene, planner=planner)
     try:

@@ -92,7 +92,7 @@ class RobotFiles:
         return self.folder / "shared_stop.yaml"
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class Robot:
     """A mobile manipulator as the planner and the execution see it: its description
     (checked against its model), the joint layout, frames and sizes read from it, and the
@@ -108,6 +108,14 @@ class Robot:
     arm_stow: np.ndarray = field(init=False)
     gripper_open: np.ndarray = field(init=False)
     gripper_closed: np.ndarray = field(init=False)
+
+    def __repr__(self) -> str:
+        # Short and stable (cache keys repr what they hold): a name gives one value.
+        return f"load_robot({self.name!r})"
+
+    def __reduce__(self):
+        # By name: another process (a search or study worker) gets its own loaded value.
+        return load_robot, (self.name,)
 
     def __post_init__(self) -> None:
         d = self.description
@@ -143,6 +151,11 @@ class Robot:
     @property
     def gripper_joints(self) -> tuple[str, ...]:
         return tuple(self.description.gripper.joints)
+
+    @property
+    def gripper_bodies(self) -> tuple[str, ...]:
+        """The bodies that may touch the object being grasped (palm and fingers)."""
+        return tuple(self.description.gripper.bodies)
 
     @property
     def num_positions(self) -> int:

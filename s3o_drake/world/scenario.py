@@ -35,14 +35,15 @@ from pydrake.visualization import VisualizationConfig
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.map import Chair, Map, Room, Table
 from s3o_drake.world.objects import Dish
-from s3o_drake.world.resources import ROBOT_NAME
+from s3o_drake.world.resources import DEFAULT_ROBOT, ROBOT_NAME
+from s3o_drake.world.robot import Robot, load_robot
 from s3o_drake.world.scenario_checks import OtherRobotError, ScenarioError, validate_scenario
 from s3o_drake.world.settings import (
     Camera,
     ExecutionSettings,
     Outputs,
     PlanningSettings,
-    Robot,
+    RobotSection,
     Settings,
     Simulation,
     Uncertainty,
@@ -80,7 +81,7 @@ class Scenario:
     tables: list[Table] = field(default_factory=list)
     chairs: list[Chair] = field(default_factory=list)
     dishes: list[Dish] = field(default_factory=list)
-    robot: Robot = field(default_factory=Robot)
+    robot: RobotSection = field(default_factory=RobotSection)
     planner: PlanningSettings = field(default_factory=PlanningSettings)
     uncertainty: Uncertainty = field(default_factory=Uncertainty)
     camera: Camera = field(default_factory=Camera)
@@ -126,12 +127,17 @@ class Scenario:
                    chairs=tuple(c for c in self.chairs if c.mapped))
 
     @property
+    def robot_value(self) -> Robot:
+        """The robot that `robot.name` names (`world.robot.load_robot`)."""
+        return load_robot(self.robot.name or DEFAULT_ROBOT)
+
+    @property
     def contents(self) -> SceneContents:
         """The true world as a plant holds it: every chair, every object."""
         return SceneContents(room=self.room, tables=tuple(self.tables),
                              chairs=tuple(self.chairs), dishes=tuple(self.dishes),
                              start=tuple(float(v) for v in self.robot.start),
-                             floor_margin=self.camera.margin)
+                             robot=self.robot_value, floor_margin=self.camera.margin)
 
     @property
     def settings(self) -> Settings:

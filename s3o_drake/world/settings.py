@@ -15,7 +15,9 @@ def _robot_reach() -> float:
 
 
 @dataclass
-class Robot:
+class RobotSection:
+    """The scenario's `robot`: which robot, and where it starts."""
+
     name: str = ""
     """Which robot: its folder under models/ (`world/robot_description.py`). A file that
     names none is for the process's robot (`resources.ROBOT_NAME`: the UR5e unless

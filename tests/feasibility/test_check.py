@@ -23,7 +23,7 @@ from s3o_drake.feasibility.grasps import grasps_for
 from s3o_drake.feasibility.ik import grasp_error, solve_grasp_ik, verify
 from s3o_drake.feasibility.reachability import map as reach
 from s3o_drake.feasibility.reachability.build import build_map
-from s3o_drake.feasibility.scene import GRIPPER_BODIES, FeasibilityScene
+from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.furniture import DISH_KINDS
 from s3o_drake.world.map import Chair
@@ -100,7 +100,7 @@ def _min_robot_environment_distance(contents, q, dish) -> float:
     world = FeasibilityScene(contents)
     plant = world.plant
     context = world.diagram.CreateDefaultContext()
-    plant.SetPositions(plant.GetMyMutableContextFromRoot(context), world.robot, q)
+    plant.SetPositions(plant.GetMyMutableContextFromRoot(context), world.robot_instance, q)
     scene_graph = world.diagram.scene_graph()
     query = scene_graph.get_query_output_port().Eval(scene_graph.GetMyContextFromRoot(context))
     inspector = query.inspector()
@@ -109,12 +109,13 @@ def _min_robot_environment_distance(contents, q, dish) -> float:
         return plant.GetBodyFromFrameId(inspector.GetFrameId(geometry_id))
 
     dish_body = world.dish_body(dish)
-    gripper = {plant.GetBodyByName(name, world.robot).index() for name in GRIPPER_BODIES}
+    gripper = {plant.GetBodyByName(name, world.robot_instance).index()
+               for name in world.robot.gripper_bodies}
     smallest = np.inf
     for pair in query.ComputeSignedDistancePairwiseClosestPoints(max_distance=0.05):
         a, b = body(pair.id_A), body(pair.id_B)
-        robot_a = a.model_instance() == world.robot
-        robot_b = b.model_instance() == world.robot
+        robot_a = a.model_instance() == world.robot_instance
+        robot_b = b.model_instance() == world.robot_instance
         if robot_a == robot_b:
             continue  # robot-robot (self) or environment-environment
         other = b if robot_a else a
