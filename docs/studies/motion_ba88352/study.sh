@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# The smooth motion's studies at one commit (docs/results.md, "The smooth motion's studies").
+# Run from the repository's main checkout:  bash docs/studies/motion_COMMIT/study.sh
+# It makes the worktree ../study64-COMMIT at COMMIT, restores the rows already committed
+# under docs/studies/motion_COMMIT/ into its out/ folders, and resumes: `s3o evaluate` skips
+# the runs that have a row. Every hour it copies the rows back and commits them as `data:`.
+set -euo pipefail
+main="$(git rev-parse --show-toplevel)"
+here="$(cd "$(dirname "$0")" && pwd)"
+commit="${here##*/motion_}"
+tree="$main/../study64-$commit"
+[ -d "$tree" ] || git -C "$main" worktree add --detach "$tree" "$commit"
+cd "$tree"
+export PYTHONPATH="$tree"  # this commit's package, not the editable install's
+difficulty() { case "$1" in dense_*) echo dense ;; *) echo spacious ;; esac; }
+studies=(same_runs_028cb79 same_runs_stop_and_go
+         dense_open_loop dense_open_loop_stop_and_go spacious_open_loop spacious_open_loop_stop_and_go
+         dense_recovery dense_recovery_stop_and_go spacious_recovery spacious_recovery_stop_and_go)
+for name in "${studies[@]}"; do
+    mkdir -p "out/$name"
+    rows="$here/$name/results.jsonl"
+    [ -f "out/$name/results.jsonl" ] || { [ -f "$rows" ] && cp "$rows" "out/$name/"; } || true
+    case "$name" in same_runs_*) ;; *)
+        [ -f "out/$name/difficulty.jsonl" ] ||
+            tar -xJOf "$main/docs/studies/$(difficulty "$name")_open_loop_494b2e6.tar.xz" \
+                "$(difficulty "$name")_open_loop/difficulty.jsonl" > "out/$name/difficulty.jsonl" ;;
+    esac
+done
+# Hourly: the rows back into the main checkout, as one data: commit.
+(while sleep 3600; do
+    for name in "${studies[@]}"; do
+        [ -s "out/$name/results.jsonl" ] || continue
+        mkdir -p "$here/$name" && cp "out/$name/results.jsonl" "$here/$name/"
+    done
+    counts=$(for name in "${studies[@]}"; do
+        [ -s "out/$name/results.jsonl" ] && printf '%s %s, ' "$name" "$(wc -l < "out/$name/results.jsonl")"
+    done)
+    git -C "$main" add "$here" && git -C "$main" commit -q -m "data: the motion studies at $commit: ${counts%, } rows" \
+        -- "$here" || true
+done) &
+SG="--set execution.motion=stop_and_go"
+# Exit status 1: some run ended in an error, which its row records; go on.
+ev() { s3o evaluate --quiet --workers 2 "$@" || [ $? -eq 1 ]; }
+[ -s out/same_runs_028cb79/results.jsonl ] || echo "out/same_runs_028cb79: the 40 rows of 028cb79 are missing" >&2
+ev --tasks scenarios/generated --count 20 --methods "S3O-GROP*" V-GROP* --seeds 1 $SG --out out/same_runs_stop_and_go
+s3o bench same-runs out/same_runs_028cb79 out/same_runs_stop_and_go > out/same_runs.txt || true
+for mode in open_loop recovery; do
+    for room in dense spacious; do
+        tasks=scenarios/generated_dense; [ "$room" = spacious ] && tasks=scenarios/generated
+        rec=""; [ "$mode" = recovery ] && rec="--recovery replan --open-loop out/${room}_open_loop"
+        ev --tasks $tasks --methods "S3O-GROP*" --seeds 3 $rec --out out/${room}_$mode
+        [ "$mode" = recovery ] && rec="--recovery replan --open-loop out/${room}_open_loop_stop_and_go"
+        ev --tasks $tasks --methods "S3O-GROP*" --seeds 3 $rec $SG --out out/${room}_${mode}_stop_and_go
+    done
+done
+for mode in open_loop recovery; do
+    for room in dense spacious; do
+        tasks=scenarios/generated_dense; [ "$room" = spacious ] && tasks=scenarios/generated
+        rec=""; [ "$mode" = recovery ] && rec="--recovery replan --open-loop out/${room}_open_loop"
+        ev --tasks $tasks --methods "S3O-GROP*" V-GROP* V-GROP --seeds 3 $rec --out out/${room}_$mode
+    done
+done
+echo "the motion studies at $commit: done"
