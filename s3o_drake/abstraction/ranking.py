@@ -42,7 +42,6 @@ from s3o_drake.abstraction.task_feasibility import TaskFeasibility
 from s3o_drake.abstraction.voronoi import Drivable, VoronoiPartition, voronoi_partition
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.world.deadline import Deadline
-from s3o_drake.world.robot import INSCRIBED_RADIUS
 
 KEEP = 1000
 """How many of the best candidates are kept, scored and ranked in full."""
@@ -224,7 +223,7 @@ def rank(partition: VoronoiPartition, task: TaskFeasibility, *, top_k: int,
 
 def build_abstraction(known: KnownWorld, feasibility, *,
                       dishes: Sequence[str] | None = None, seed: int | None = None,
-                      clearance: float = INSCRIBED_RADIUS, joint_threshold: float = 0.0,
+                      clearance: float | None = None, joint_threshold: float = 0.0,
                       grid_cell: float = GRID_CELL,
                       location_cost: float | None = None, max_count: int = 100_000,
                       time_limit: float = 5.0,
@@ -236,7 +235,8 @@ def build_abstraction(known: KnownWorld, feasibility, *,
 
     `feasibility` is Fea^m: a `MotionFeasibility`, a mapping dish -> Heatmap or a list of
     Heatmaps, evaluated once on the location grid (`location_grid.py`; cell `grid_cell`,
-    joint rule at `joint_threshold`), which the result carries. Reach, N, K and the seed
+    joint rule at `joint_threshold`), which the result carries. The clearance defaults to the
+    robot's inscribed radius (`voronoi.py`); reach, N, K and the seed
     default to the planner's settings and the scenario's seed; `location_cost` to the
     planner's γ / λ (the planner passes the motion search's own with
     `planner.location_price: search`); Fea^t draws as `planner.group_positions` says.

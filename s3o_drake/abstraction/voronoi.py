@@ -4,19 +4,20 @@ Free space. A base position y is a candidate if the base standing there can be f
 the room's walls, the tables and the chairs the planner knows (the mapped chairs and the
 ones it perceived: the KnownWorld's obstacles), and if some dish lies within `reach` of it.
 Obstacles and walls are inflated by `clearance`, by default the base's *inscribed*
-radius BASE_WIDTH / 2 = 0.28 m, not its circumscribed radius BASE_RADIUS = 0.418 m:
+radius (`Robot.inscribed_radius`, half its width: the UR5e's 0.28 m), not its circumscribed
+radius (`Robot.base_radius`, 0.418 m):
 
 - closer than the inscribed radius, every yaw of the rectangular footprint collides, so
   nothing Fea^m could count is lost;
-- the base faces the dish, so at a table its front (BASE_LENGTH / 2 = 0.31 m ahead)
+- the base faces the dish, so at a table its front (half its length: 0.31 m ahead)
   points at the edge; positions 0.31-0.42 m from the table are free and are among the
   best ones for reaching (the oracle tests stand 0.5 m from the edge with 0.1 m to
-  spare). Inflating by BASE_RADIUS would cut that band away from every cell.
+  spare). Inflating by the circumscribed radius would cut that band away from every cell.
 
 Fea^m itself checks the real, rotated footprint, so positions in the 0.28-0.42 m band
 that do collide get probability 0 there and weigh nothing in Fea^t. Pass
-`clearance=BASE_RADIUS` for the conservative, yaw-independent reading of "inflated by
-the base radius".
+`clearance=robot.base_radius` for the conservative, yaw-independent reading of "inflated
+by the base radius".
 
 Cells. Dish o's cell is the free positions within `reach` of o that are closer to o than
 to any other dish. (A position closer to o than to a dish d within reach of it is also
@@ -59,7 +60,6 @@ from s3o_drake.abstraction.motion_feasibility import MotionFeasibility, as_motio
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import REACH_LIMIT
 from s3o_drake.world.deadline import Deadline
-from s3o_drake.world.robot import INSCRIBED_RADIUS
 
 ARM_REACH = REACH_LIMIT
 """How far (m) from a dish a base can stand and still pick it: the arm's full reach with a
@@ -83,10 +83,12 @@ noise could tell apart is merged."""
 _EMPTY_AREA = 1e-9  # m^2; cells smaller than this are empty
 
 
-def free_space(known: KnownWorld, *, clearance: float = INSCRIBED_RADIUS) -> BaseGeometry:
+def free_space(known: KnownWorld, *, clearance: float | None = None) -> BaseGeometry:
     """Base positions clear of the walls, the tables and the chairs the robot knows
-    (mapped and perceived; never the true unmapped ones) by `clearance`."""
-    return known.obstacles.free_space(clearance)
+    (mapped and perceived; never the true unmapped ones) by `clearance` (default the
+    robot's inscribed radius)."""
+    return known.obstacles.free_space(known.robot.inscribed_radius if clearance is None
+                                      else clearance)
 
 
 @dataclass
@@ -187,12 +189,13 @@ def _adjacency(cells: list[BaseGeometry]) -> list[set[int]]:
 
 
 def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
-                      clearance: float = INSCRIBED_RADIUS, reach: float | None = None,
+                      clearance: float | None = None, reach: float | None = None,
                       feasibility=None, drivable: Drivable | None = None,
                       deadline: Deadline | None = None) -> VoronoiPartition:
     """The Voronoi cells of the known world's dishes (default: all) over the free space.
 
-    `reach` defaults to the planner's `reach`. With `feasibility` (Fea^m: a
+    `clearance` defaults to the robot's inscribed radius (module docstring), `reach` to the
+    planner's `reach`. With `feasibility` (Fea^m: a
     MotionFeasibility, a mapping dish -> Heatmap or a list of Heatmaps), a dish that its own
     cell serves poorly claims the positions that serve it better (module docstring); only
     positions where `drivable` (points (m, 2) -> bool (m,); None: all) holds count. No

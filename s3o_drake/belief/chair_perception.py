@@ -55,7 +55,7 @@ from s3o_drake.world import furniture as fu
 from s3o_drake.world.angles import wrap
 from s3o_drake.world.camera import OverheadCamera, back_project, overhead_camera
 from s3o_drake.world.map import Map
-from s3o_drake.world.robot import footprint_polygon
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.settings import Camera
 
 if TYPE_CHECKING:  # the truth, read only by perfect perception (tests, benchmarks)
@@ -240,9 +240,9 @@ class ChairPerception:
     numbering.
     """
 
-    def __init__(self, map: Map, camera: Camera, *, pose: Sequence[float],
+    def __init__(self, map: Map, camera: Camera, *, pose: Sequence[float], robot: Robot,
                  cell: float | None = None):
-        """`pose`: where the robot stands, (x, y, yaw); its own pixels are explained by it.
+        """`pose`: where `robot` stands, (x, y, yaw); its own pixels are explained by it.
         `cell`: the top-view grid's cell (m); default one camera pixel on the floor."""
         self._camera = overhead_camera(map.room, camera)
         if cell is None:
@@ -256,7 +256,7 @@ class ChairPerception:
         shapes = [fu.table_footprint(t.center, t.yaw, t.size).buffer(MAP_MARGIN)
                   for t in map.tables]
         shapes += [fu.chair_footprint(c.pose).buffer(MAP_MARGIN) for c in map.chairs]
-        shapes.append(footprint_polygon(*pose).buffer(ROBOT_MARGIN))
+        shapes.append(robot.footprint(*pose).buffer(ROBOT_MARGIN))
         self._map_shapes = shapes
         self._explained: np.ndarray | None = None
 
@@ -379,7 +379,8 @@ def perceived_chairs(given: Briefing, images: tuple[np.ndarray, np.ndarray, np.n
     """The unmapped chairs found in (color, depth, label) overhead images, by a robot
     `given` its map and settings, standing at its start."""
     color, depth, label = images
-    return ChairPerception(given.map, given.settings.camera, pose=given.start)(color, depth,
+    return ChairPerception(given.map, given.settings.camera, pose=given.start,
+                           robot=given.robot)(color, depth,
                                                                                label)
 
 
@@ -403,7 +404,8 @@ def perceive_known_world(given: Briefing, images: tuple[np.ndarray, np.ndarray, 
     color, depth, label = images
     depth = np.asarray(depth)[..., 0] if np.ndim(depth) == 3 else np.asarray(depth)
     label = np.asarray(label)[..., 0] if np.ndim(label) == 3 else np.asarray(label)
-    find = perceive or ChairPerception(given.map, given.settings.camera, pose=pose)
+    find = perceive or ChairPerception(given.map, given.settings.camera, pose=pose,
+                                       robot=given.robot)
     chairs = find(color, depth, label)
     return KnownWorld.of(given, perceived_chairs=chairs, pose=pose, dishes=dishes,
                          held=held, overhead=OverheadImages(depth=depth, label=label,

@@ -44,7 +44,7 @@ def benchmark(known: KnownWorld, *, queries: int = 2000, seed: int = 0) -> dict[
 
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
-    nav = NavigationMap(known.obstacles)
+    nav = NavigationMap(known.obstacles, robot=known.robot)
     build = time.perf_counter() - t0
     free = free_space(known)
     dishes = np.array([d.position for d in known.dishes], float).reshape(-1, 2)
@@ -116,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
         known = KnownWorld.perfect(scenario)
         print(f"{name}:")
         if not args.benchmark:
-            nav = NavigationMap(known.obstacles)
+            nav = NavigationMap(known.obstacles, robot=known.robot)
             print(f"  {len(nav.vertices)} graph vertices, grid {nav.occupancy.shape}, "
                   f"{len(nav._blocking_edges.edges)} blocking edges")
             continue

@@ -65,7 +65,8 @@ def benchmark_task(name: str, scenario: Scenario, pictures: Path | None) -> dict
     from s3o_drake.world.camera import overhead_camera
 
     images = render_overhead(scenario)[:3]
-    perception = ChairPerception(scenario.map, scenario.camera, pose=scenario.robot.start)
+    perception = ChairPerception(scenario.map, scenario.camera, pose=scenario.robot.start,
+                                 robot=scenario.robot_value)
     start = time.perf_counter()
     found = perception(*images)
     elapsed = time.perf_counter() - start

@@ -143,7 +143,7 @@ def evaluation_cost(scenario: Scenario, *, generations: int = 20, population: in
     from s3o_drake.planning.time_model import CostModel
 
     known = KnownWorld.perfect(scenario)
-    nav = NavigationMap(known.obstacles)
+    nav = NavigationMap(known.obstacles, robot=known.robot)
     partition = voronoi_partition(known)
     groups = [(d,) for d, cell in zip(partition.dishes, partition.cells, strict=True)
               if not cell.is_empty]

@@ -81,7 +81,8 @@ class StopCheck:
         self._known = known
         self._scene = scene
         self._navigation = navigation
-        self._profile = base_profile(known.planner, known.settings.execution.motion)
+        self._profile = base_profile(known.planner, known.settings.execution.motion,
+                                     robot=known.robot)
         self._heatmaps = {h.dish: h for h in heatmaps}
         self._model = {h.dish: h for h in (model_heatmaps or heatmaps)}
         self._dish_xy = {d.name: np.asarray(d.position, dtype=float) for d in known.dishes}

@@ -16,7 +16,6 @@ from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.planning.navigation.map import NavigationMap
-from s3o_drake.world.robot import INSCRIBED_RADIUS
 from s3o_drake.world.scenario import Scenario
 
 STOP_CELL = 0.05
@@ -47,9 +46,9 @@ def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0, *,
     collision checker."""
     known = KnownWorld.perfect(scenario)
     reach = known.planner.reach
-    nav = NavigationMap(known.obstacles_grown(chair_margin))
+    nav = NavigationMap(known.obstacles_grown(chair_margin), robot=known.robot)
     start = nav.way_out(known.pose[:2])
-    clear = known.obstacles.free_space(INSCRIBED_RADIUS)
+    clear = known.obstacles.free_space(known.robot.inscribed_radius)
     cells = int(np.ceil(2 * reach / STOP_CELL))
     missing, asked = [], []
     for dish in known.dishes:

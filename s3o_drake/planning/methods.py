@@ -447,7 +447,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     expired("the free stops")
 
     t = clock()
-    nav = NavigationMap(known.obstacles, drive_margin=drive_margin)
+    nav = NavigationMap(known.obstacles, robot=known.robot, drive_margin=drive_margin)
     # Where the robot stands may be no base position of the known map (after a blocked
     # drive it stands against a chair the map knows only roughly): planning starts from
     # the nearest driveable point, and the first drive backs out to it.

@@ -69,7 +69,7 @@ def best_stops(known: KnownWorld, heatmaps: Sequence[Heatmap] | None = None,
     expect: no plan does better in expectation, whatever it trades for time."""
     scene = PlanningScene(known) if scene is None else scene
     heatmaps = heatmaps_for(known, scene=scene) if heatmaps is None else heatmaps
-    nav = NavigationMap(known.obstacles)
+    nav = NavigationMap(known.obstacles, robot=known.robot)
     start = nav.way_out(known.pose[:2])
     best = {}
     for heatmap in scene.free_stops.restrict_all(heatmaps):

@@ -20,9 +20,9 @@ execution time is predicted as
 - T_0: the start and the end of the run (the first command starts a control period after
   t = 0; the run ends when the planner reads the last report, without the next hand-over).
 
-γ, δ and T_0 are derived by `s3o build time-model` and recorded in
-models/ur5e/time_model.yaml (`TimeModel`), which everything reads: the pickup's duration is the
-arm's, and changes with it (re-run the command after changing the arm's motion).
+γ, δ and T_0 are derived by `s3o build time-model` and recorded in the robot's
+models/<robot>/time_model.yaml (`TimeModel`), which everything reads: the pickup's duration
+is the arm's, and changes with it (re-run the command after changing the arm's motion).
 
 The utility keeps the paper's form, R(goto) = -Cst(goto) with Cst = time + γ, and
 R(pickup) = -δ + λ Fea^m, under one of two cost profiles (`PlanningSettings.cost_profile`):
@@ -80,14 +80,12 @@ from s3o_drake.feasibility.landing import TURN_TOLERANCE
 from s3o_drake.planning.navigation.base_motion import SETTLE_TIME, STOP_AND_GO, BaseProfile
 from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.world.angles import facing_yaw, wrap
-from s3o_drake.world.resources import TIME_MODEL
-from s3o_drake.world.robot import CONTROL_PERIOD, ROBOT
+from s3o_drake.world.robot import CONTROL_PERIOD, Robot
 from s3o_drake.world.settings import PlanningSettings
 
 if TYPE_CHECKING:  # only for hints: the systems import this module for their period
     from s3o_drake.planning.navigation.map import NavigationMap
 
-MODEL_FILE = TIME_MODEL
 FORMAT = "s3o_drake.TimeModel/1"
 PICKUP_FORMS = ("constant", "per_kind", "linear", "per_kind_linear", "per_kind_grasp",
                 "per_kind_grasp_linear", "per_kind_grasp_quadratic")
@@ -252,10 +250,10 @@ NOISE_FIELDS = ("nav_xy_std", "nav_yaw_std", "reach_std")
 
 @dataclass(frozen=True)
 class TimeModel:
-    """The recorded time model (models/ur5e/time_model.yaml): the command overheads, the pickup
-    model, the arm's motions of a smooth plan (`smooth`; None in models made before it),
-    what the noise adds per motion (`noise`, by `choices.Motion` value) and how they were
-    made (`provenance`, `fit`)."""
+    """The recorded time model (a robot's models/<robot>/time_model.yaml): the command
+    overheads, the pickup model, the arm's motions of a smooth plan (`smooth`; None in
+    models made before it), what the noise adds per motion (`noise`, by `choices.Motion`
+    value) and how they were made (`provenance`, `fit`)."""
 
     overheads: Overheads
     pickup: PickupModel
@@ -310,8 +308,9 @@ class TimeModel:
                           for m, t in (data.get("noise") or {}).items()})
 
     @classmethod
-    def load(cls, path: str | Path = MODEL_FILE) -> TimeModel:
-        """The recorded model (cached per path)."""
+    def load(cls, path: str | Path) -> TimeModel:
+        """The recorded model at `path` (a robot's: `Robot.files.time_model`; cached per
+        path)."""
         return _load(str(Path(path).resolve()))
 
 
@@ -323,11 +322,13 @@ def _load(path: str) -> TimeModel:
     return TimeModel.from_dict(yaml.safe_load(Path(path).read_text()))
 
 
-def base_profile(planner: PlanningSettings, motion: str = STOP_AND_GO) -> BaseProfile:
+def base_profile(planner: PlanningSettings, motion: str = STOP_AND_GO, *,
+                 robot: Robot | None) -> BaseProfile:
     """The base's motion profile as the navigator drives it: the planner's speed v, the
-    navigator's other limits, the `motion` (`choices.Motion`) and whether the robot's base
-    is holonomic."""
-    return BaseProfile(speed=planner.speed, motion=motion, holonomic=ROBOT.base.holonomic)
+    navigator's other limits, the `motion` (`choices.Motion`) and whether `robot`'s base is
+    holonomic (None: a differential base, as the paper's costs assume)."""
+    holonomic = robot is not None and robot.description.base.holonomic
+    return BaseProfile(speed=planner.speed, motion=motion, holonomic=holonomic)
 
 
 @dataclass(frozen=True)
@@ -349,8 +350,8 @@ class CostModel:
     estimate Σ len / v + δ per pickup.
     """
 
-    def __init__(self, planner: PlanningSettings, *, profile: str | None = None,
-                 dishes: Mapping[str, DishPlace] | None = None,
+    def __init__(self, planner: PlanningSettings, *, robot: Robot | None,
+                 profile: str | None = None, dishes: Mapping[str, DishPlace] | None = None,
                  start: Sequence[float] | None = None, time_model: TimeModel | None = None,
                  motion: str = STOP_AND_GO, uncertainty: Any = None):
         self.planner = planner
@@ -361,10 +362,14 @@ class CostModel:
         self.dishes = dict(dishes or {})
         self.start = None if start is None else np.asarray(start, dtype=float)[:3]
         self.timed = bool(self.dishes) and self.start is not None
-        if self.profile == "robot" and not self.timed:
-            raise ValueError("the robot cost profile needs the dishes and the start pose")
-        self.model = (time_model or TimeModel.load()) if self.timed else None
-        self.base = base_profile(planner, motion)
+        if self.profile == "robot" and (not self.timed or robot is None):
+            raise ValueError("the robot cost profile needs the robot, the dishes and the "
+                             "start pose")
+        if self.timed and time_model is None and robot is None:
+            raise ValueError("a time prediction needs the robot or its time model")
+        self.model = ((time_model or TimeModel.load(robot.files.time_model)) if self.timed
+                      else None)
+        self.base = base_profile(planner, motion, robot=robot)
         self.reward = planner.reward
         self.arm = None if self.model is None or not self.base.smooth else self.model.smooth
         if self.model is not None and self.base.smooth and self.arm is None:
@@ -374,7 +379,7 @@ class CostModel:
     @classmethod
     def paper(cls, planner: PlanningSettings) -> CostModel:
         """The paper's costs from the planner settings alone (no time prediction)."""
-        return cls(planner, profile="paper")
+        return cls(planner, robot=None, profile="paper")
 
     @classmethod
     def for_known(cls, known: KnownWorld, time_model: TimeModel | None = None, *,
@@ -388,7 +393,8 @@ class CostModel:
         pose = known.pose if start is None else (*np.asarray(start, float)[:2], known.pose[2])
         if time_model is None and known.planner.time_model:
             time_model = TimeModel.load(known.planner.time_model)
-        return cls(known.planner, dishes=dishes, start=pose, time_model=time_model,
+        return cls(known.planner, robot=known.robot, dishes=dishes, start=pose,
+                   time_model=time_model,
                    motion=known.settings.execution.motion, uncertainty=known.uncertainty)
 
     @property

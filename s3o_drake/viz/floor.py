@@ -18,7 +18,6 @@ from matplotlib.patches import Polygon as PolygonPatch
 from shapely.geometry import Polygon, box
 
 from s3o_drake.world.furniture import chair_footprint, table_footprint
-from s3o_drake.world.robot import footprint_polygon
 from s3o_drake.world.scenario import Scenario
 
 _FLOOR = "#f4f1ea"
@@ -59,7 +58,8 @@ class Floor:
             perceived_chairs=tuple(chair_footprint(list(p)) for p in
                                    (unmapped if perceived is None else perceived)),
             true_chairs=tuple(chair_footprint(p) for p in unmapped) if truth else (),
-            robot=footprint_polygon(float(pose[0]), float(pose[1]), float(pose[2])))
+            robot=scenario.robot_value.footprint(float(pose[0]), float(pose[1]),
+                                                 float(pose[2])))
 
     def draw(self, ax) -> dict[str, tuple[float, float, float, float]]:
         """Draws the floor on `ax`, under the data (negative z-order) but for the outlines

@@ -25,7 +25,7 @@ from s3o_drake.world.furniture import (
 )
 from s3o_drake.world.map import Chair, Room, Table
 from s3o_drake.world.objects import Dish
-from s3o_drake.world.robot import BASE_RADIUS, footprint_polygon
+from s3o_drake.world.robot import Robot, load_robot
 from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.scenario_checks import START_CLEARANCE, ScenarioError, validate_scenario
 from s3o_drake.world.settings import PlanningSettings, RobotSection
@@ -71,18 +71,21 @@ def _dish_on(table: Table, kind: str, rng: np.random.Generator) -> list[float] |
 
 
 def random_scene(seed: int, index: int = 0, shape: SceneShape = SceneShape(),
-                 planner: PlanningSettings | None = None) -> Scenario:
-    """Scene `index` of the set drawn with `seed` (see the module docstring); `planner`
-    replaces the default planner settings."""
+                 planner: PlanningSettings | None = None, *,
+                 robot: Robot | None = None) -> Scenario:
+    """Scene `index` of the set drawn with `seed` (see the module docstring) for `robot`
+    (None: the robot a scenario that names none has); `planner` replaces the default planner
+    settings."""
+    robot_ = load_robot() if robot is None else robot
     rng = np.random.default_rng([int(seed), int(index)])
     room = [0.0, 0.0, round(float(rng.uniform(3.0, 10.0)), 3),
             round(float(rng.uniform(3.0, 8.0)), 3)]
     start = [round(float(rng.uniform(room[0] + 0.6, room[2] - 0.6)), 4),
              round(float(rng.uniform(room[1] + 0.6, room[3] - 0.6)), 4),
              round(float(rng.uniform(-math.pi, math.pi)), 4)]
-    robot = footprint_polygon(*start).buffer(START_CLEARANCE + GAP)
+    at_start = robot_.footprint(*start).buffer(START_CLEARANCE + GAP)
     room_box = box(*room)
-    taken = [robot]
+    taken = [at_start]
 
     def fits(shape_) -> bool:
         return shape_.within(room_box) and not any(shape_.intersects(t) for t in taken)
@@ -129,10 +132,10 @@ def random_scene(seed: int, index: int = 0, shape: SceneShape = SceneShape(),
                 return
 
     if rng.random() < shape.boxed_in:  # a ring of chairs around the start
-        taken.remove(robot)
-        taken.append(footprint_polygon(*start).buffer(START_CLEARANCE + 0.01))
+        taken.remove(at_start)
+        taken.append(robot_.footprint(*start).buffer(START_CLEARANCE + 0.01))
         for _ in range(8):
-            chair_near(start[0], start[1], (BASE_RADIUS + 0.3, BASE_RADIUS + 0.5))
+            chair_near(start[0], start[1], (robot_.base_radius + 0.3, robot_.base_radius + 0.5))
     for _ in range(int(rng.integers(0, shape.max_chairs + 1))):
         if dishes:
             dish = dishes[int(rng.integers(len(dishes)))]
@@ -140,8 +143,9 @@ def random_scene(seed: int, index: int = 0, shape: SceneShape = SceneShape(),
         else:
             chair_near(*rng.uniform(room[:2], room[2:]), (0.0, 0.1))
 
+    section = RobotSection(name="" if robot is None else robot.name, start=start)
     scene = Scenario(seed=int(rng.integers(2**31)), room=Room(bounds=room), tables=tables,
-                     chairs=chairs, dishes=dishes, robot=RobotSection(start=start))
+                     chairs=chairs, dishes=dishes, robot=section)
     if planner is not None:
         scene = replace(scene, planner=planner)
     try:

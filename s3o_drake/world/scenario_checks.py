@@ -35,7 +35,7 @@ from s3o_drake.world.furniture import (
     table_footprint,
 )
 from s3o_drake.world.resources import ROBOT_NAME, ROBOT_VARIABLE
-from s3o_drake.world.robot import footprint_polygon
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.robot_description import robot_names
 from s3o_drake.world.yaml_checks import quoted
 
@@ -207,7 +207,7 @@ def validate_scenario(scenario: Scenario) -> None:
 
     start = scenario.robot.start
     _numbers(start, "robot.start", 3, what="numbers [x, y, yaw]")
-    robot = footprint_polygon(*start).buffer(START_CLEARANCE, join_style="mitre")
+    robot = load_robot(name).footprint(*start).buffer(START_CLEARANCE, join_style="mitre")
     _inside_room(robot, room, "robot.start", f"the robot at {_fmt(start)}")
     _overlap(robot, tables + chairs, "robot.start", f"the robot at {_fmt(start)}")
 

@@ -35,7 +35,6 @@ from s3o_drake.world.furniture import (
 from s3o_drake.world.map import Chair, Table
 from s3o_drake.world.objects import Dish, PlaceSpot
 from s3o_drake.world.resources import LAYOUTS, RESTAURANT
-from s3o_drake.world.robot import footprint_polygon
 from s3o_drake.world.scenario import Scenario, load_scenario
 from s3o_drake.world.scenario_checks import (
     START_CLEARANCE,
@@ -123,7 +122,8 @@ def _sample_chairs(base: Scenario, dishes: list[Dish], rng: np.random.Generator,
     room = room_polygon(base).buffer(-CHAIR_GAP)
     obstacles = [table_footprint(t.center, t.yaw, t.size).buffer(CHAIR_GAP)
                  for t in base.tables]
-    robot = footprint_polygon(*base.robot.start).buffer(START_CLEARANCE + ROBOT_START_GAP)
+    robot = base.robot_value.footprint(*base.robot.start).buffer(START_CLEARANCE +
+                                                                 ROBOT_START_GAP)
     chairs: list[Chair] = []
     for i, dish in enumerate(near):
         for _ in range(MAX_TRIES):

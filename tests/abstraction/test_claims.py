@@ -15,7 +15,10 @@ from s3o_drake.planning.task.check import check_plan
 from s3o_drake.planning.task.planner import TaskProblem
 from s3o_drake.world.choices import METHODS
 from s3o_drake.world.deadline import Deadline
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import parse_scenario
+
+UR5E = load_robot("ur5e")
 
 # A cup on the left of a table and a plate on its right: the line x = 3 splits their cells.
 SCENE = """
@@ -123,7 +126,7 @@ def test_petlon_finds_the_one_free_spot_of_a_sliver_cell():
     from s3o_drake.planning.navigation.map import NavigationMap
     from s3o_drake.world.obstacles import Obstacles
 
-    nav = NavigationMap(Obstacles(room=box(0.0, 0.0, 6.0, 4.0), footprints=()))
+    nav = NavigationMap(Obstacles(room=box(0.0, 0.0, 6.0, 4.0), footprints=()), robot=UR5E)
     # An L of two thin strips; free only within 5 mm of one lattice point of it.
     region = box(0.5, 0.5, 5.5, 0.55).union(box(0.5, 0.5, 0.55, 3.5))
     spot = np.array([3.025, 0.525])
@@ -165,7 +168,7 @@ def test_petlon_gives_up_a_cell_without_a_free_spot_early():
     from s3o_drake.planning.navigation.map import NavigationMap
     from s3o_drake.world.obstacles import Obstacles
 
-    nav = NavigationMap(Obstacles(room=box(0.0, 0.0, 6.0, 4.0), footprints=()))
+    nav = NavigationMap(Obstacles(room=box(0.0, 0.0, 6.0, 4.0), footprints=()), robot=UR5E)
     calls = []
 
     def nowhere(points: np.ndarray) -> np.ndarray:

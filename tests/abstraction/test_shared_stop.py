@@ -124,7 +124,7 @@ def test_the_search_rates_a_shared_stops_pickups_at_its_share():
     regions = location_regions([["plate_a", "cup_b"]],
                                dict(zip(partition.dishes, partition.cells, strict=True)))
     fea = HeatmapFeasibility(ring_heatmaps(known))
-    nav = NavigationMap(known.obstacles)
+    nav = NavigationMap(known.obstacles, robot=known.robot)
     sequence = [("goto", "l0"), ("pickup", "plate_a"), ("pickup", "cup_b")]
     X = np.array([[[2.0, 1.55]], [[1.9, 1.6]]])
     found = {}

@@ -105,7 +105,8 @@ def test_takes_the_images_as_the_world_diagram_produces_them(two_dishes):
     color, depth, label = (diagram.GetOutputPort(f"overhead_{name}_image").Eval(context).data
                            for name in ("color", "depth", "label"))
     assert color.shape[2] == 4 and depth.shape[2] == 1 and label.shape[2] == 1
-    perception = ChairPerception(scenario.map, scenario.camera, pose=scenario.robot.start)
+    perception = ChairPerception(scenario.map, scenario.camera, pose=scenario.robot.start,
+                                 robot=scenario.robot_value)
     found = perception(color, depth[:, :, 0], label[:, :, 0])
     _assert_found(scenario, found)
     assert all(isinstance(v, float) for pose in found for v in pose)
@@ -115,7 +116,8 @@ def test_takes_the_images_as_the_world_diagram_produces_them(two_dishes):
 def test_rejects_an_image_of_the_wrong_size(two_dishes):
     scenario, (color, depth, label) = two_dishes
     with pytest.raises(ValueError, match="depth"):
-        perception = ChairPerception(scenario.map, scenario.camera, pose=scenario.robot.start)
+        perception = ChairPerception(scenario.map, scenario.camera,
+                                     pose=scenario.robot.start, robot=scenario.robot_value)
         perception(color, depth[:-1], label)
 
 

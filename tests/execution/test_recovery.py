@@ -83,7 +83,7 @@ def test_a_dish_out_of_reach_across_the_table_is_reached_by_a_detour(scenario):
     from s3o_drake.planning.navigation.map import NavigationMap
 
     known = KnownWorld.perfect(scenario)
-    nav = NavigationMap(known.obstacles)
+    nav = NavigationMap(known.obstacles, robot=known.robot)
     check = StopCheck(known, tuple(ORACLE_MAPS_ONCE.heatmaps(known)), nav)
     north = np.array([2.5, 3.0, -np.pi / 2])  # 0.65 m north of bowl_north, 1.35 m of south
     near = check.correction(north, "bowl_south", radius=0.3)

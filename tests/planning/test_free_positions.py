@@ -29,7 +29,7 @@ def searched():
     """A GROP* result on two_dishes, with its problem."""
     scenario = load_scenario("scenarios/small/two_dishes.yaml")
     known = KnownWorld.perfect(scenario)
-    nav = NavigationMap(known.obstacles)
+    nav = NavigationMap(known.obstacles, robot=known.robot)
     partition = voronoi_partition(known)
     regions = location_regions([["plate_a"], ["cup_b"]],
                                dict(zip(partition.dishes, partition.cells, strict=True)))

@@ -23,7 +23,10 @@ from s3o_drake.planning.motion.grop import (
 from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.planning.time_model import CostModel
 from s3o_drake.world.angles import facing_yaw, wrap
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario, with_overrides
+
+UR5E = load_robot("ur5e")
 
 CELL = 0.05
 SEQUENCE = [("goto", "l0"), ("pickup", "plate_a"), ("goto", "l1"), ("pickup", "cup_b")]
@@ -51,7 +54,7 @@ def _ring(center, radius: float = 0.6, width: float = 0.3) -> np.ndarray:
 def scene():
     scenario = load_scenario("scenarios/small/two_dishes.yaml")
     chairs = [c.pose for c in scenario.chairs if not c.mapped]
-    nav = NavigationMap(_known(scenario, chairs).obstacles)
+    nav = NavigationMap(_known(scenario, chairs).obstacles, robot=UR5E)
     partition = voronoi_partition(_known(scenario, chairs))
     regions = location_regions([["plate_a"], ["cup_b"]],
                                dict(zip(partition.dishes, partition.cells, strict=True)))
@@ -232,7 +235,7 @@ def test_prefers_the_near_spot():
     """One location with two equally feasible spots: the one near the start wins (the far
     spot is larger so that the initial point starts in it)."""
     scenario = load_scenario("scenarios/small/two_dishes.yaml")
-    nav = NavigationMap(_known(scenario, []).obstacles)
+    nav = NavigationMap(_known(scenario, []).obstacles, robot=UR5E)
     X, Y = _grid()
     near, far = (0.9, 1.2), (3.1, 1.2)
     values = ((np.hypot(X - near[0], Y - near[1]) < 0.2)

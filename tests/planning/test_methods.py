@@ -22,8 +22,11 @@ from s3o_drake.planning.task.check import check_plan
 from s3o_drake.planning.task.planner import TaskProblem
 from s3o_drake.planning.time_model import TimeModel
 from s3o_drake.world.choices import METHODS
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario
 from tests.conftest import COARSE_MAPS, StepClock, clingo_proves
+
+UR5E = load_robot("ur5e")
 
 SCENES = ("two_dishes", "opposite_sides")
 
@@ -108,7 +111,7 @@ def test_valid_plan_for_every_method(scenes, plans, known_checkers, scene, metho
     # execution's mode prices a failure (planning/failure_price.py), at the share of a
     # shared stop's size (abstraction/shared_stop.py).
     assert scenario.planner.cost_profile == "robot"
-    offset = TimeModel.load().overheads.plan
+    offset = TimeModel.load(UR5E.files.time_model).overheads.plan
     lam = failure_reward(scenario.settings)
     shares = stop_shares(priced_planner(scenario.settings))  # at a shared stop: s_k Fea^m
     stops = [[]]
@@ -415,7 +418,7 @@ def test_a_location_whose_best_spots_are_boxed_in_is_driven_to_elsewhere():
     # A pocket 1.5 m x 1 m in the room's lower-right corner, closed by two walls of boxes.
     obstacles = Obstacles(room=box(0.0, 0.0, 6.0, 4.0),
                           footprints=(box(4.0, 0.0, 4.2, 1.2), box(4.0, 1.0, 6.0, 1.2)))
-    nav = NavigationMap(obstacles)
+    nav = NavigationMap(obstacles, robot=UR5E)
     xs, ys = np.meshgrid(np.linspace(4.5, 5.7, 8), np.linspace(0.3, 0.8, 4))
     pocket = np.column_stack([xs.ravel(), ys.ravel()])
     outside = np.array([[3.0, 2.0], [3.5, 2.5], [2.0, 3.0]])
@@ -477,7 +480,7 @@ def test_one_location_price_ranks_with_the_search_s_gamma(scenes):
             shared_stop="paper"))
         result = plan_task(_known(s, chairs), method="S3O-GROP*", heatmaps=heatmaps, seed=0)
         values[price] = {sp.groups: sp.score - sp.value for sp in result.abstraction.ranked}
-    gamma = TimeModel.load().overheads.gamma
+    gamma = TimeModel.load(UR5E.files.time_model).overheads.gamma
     for groups, cost in values["paper"].items():
         assert cost == pytest.approx(len(groups) * 20.0 / 150.0)
         assert values["search"][groups] == pytest.approx(len(groups) * gamma / 150.0)

@@ -12,12 +12,15 @@ from s3o_drake.abstraction.voronoi import free_space
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.commands.navigation_benchmark import benchmark, main
 from s3o_drake.feasibility.scene import ENVIRONMENT_PADDING
-from s3o_drake.planning.navigation.map import DRIVE_RADIUS, INSCRIBED_TOLERANCE, NavigationMap
+from s3o_drake.planning.navigation.map import DRIVE_MARGIN, INSCRIBED_TOLERANCE, NavigationMap
 from s3o_drake.world.map import Room, Table
-from s3o_drake.world.robot import BASE_RADIUS, INSCRIBED_RADIUS
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import Scenario, load_scenario
 
 RESTAURANT = "scenarios/restaurant.yaml"
+UR5E = load_robot("ur5e")
+BASE_RADIUS, INSCRIBED_RADIUS = UR5E.base_radius, UR5E.inscribed_radius
+DRIVE_RADIUS = BASE_RADIUS + DRIVE_MARGIN
 
 
 def _room(tables=()) -> Scenario:
@@ -37,7 +40,7 @@ def _one_table() -> Scenario:
 def restaurant():
     scenario = load_scenario(RESTAURANT)
     perceived = [list(c.pose) for c in scenario.chairs if not c.mapped]
-    return scenario, perceived, NavigationMap(_known(scenario, perceived).obstacles)
+    return scenario, perceived, NavigationMap(_known(scenario, perceived).obstacles, robot=UR5E)
 
 
 def _free_points(scenario, perceived, n, seed=0) -> np.ndarray:
@@ -59,7 +62,7 @@ def test_radii():
 
 
 def test_empty_room_is_straight_line():
-    nav = NavigationMap(_known(_room(), []).obstacles)
+    nav = NavigationMap(_known(_room(), []).obstacles, robot=UR5E)
     p, q = [1.0, 1.0], [5.0, 3.2]
     assert nav.path_length(p, q) == pytest.approx(math.dist(p, q), abs=1e-9)
     path = nav.path(p, q)
@@ -67,7 +70,7 @@ def test_empty_room_is_straight_line():
 
 
 def test_around_a_table_matches_the_analytic_shortest_path():
-    nav = NavigationMap(_known(_one_table(), []).obstacles)
+    nav = NavigationMap(_known(_one_table(), []).obstacles, robot=UR5E)
     p, q = np.array([1.5, 2.0]), np.array([4.5, 2.0])
     r = DRIVE_RADIUS
     # Around the rounded rectangle (table offset by r): tangent, arc, top, arc, tangent.
@@ -120,7 +123,7 @@ def test_paths_keep_their_clearances(restaurant):
 
 
 def test_band_point_next_to_a_table_is_reachable():
-    nav = NavigationMap(_known(_one_table(), []).obstacles)
+    nav = NavigationMap(_known(_one_table(), []).obstacles, robot=UR5E)
     spot = [3.0, 2.3 + 0.33]  # 0.33 m from the table's edge: free, not driveable
     assert not nav.driveable.contains(shapely.Point(spot))
     length = nav.path_length([1.0, 3.5], spot)
@@ -139,19 +142,19 @@ def test_enclosed_goal_is_unreachable():
         angle = k * math.pi / 2
         chairs.append([*(centre + 0.8 * np.array([math.cos(angle), math.sin(angle)])),
                        angle + math.pi])
-    nav = NavigationMap(_known(scenario, chairs).obstacles)
+    nav = NavigationMap(_known(scenario, chairs).obstacles, robot=UR5E)
     assert nav.exact_clearance(centre)[0] >= INSCRIBED_RADIUS
     assert nav.path_length([0.8, 0.8], centre) == math.inf
     assert nav.path([0.8, 0.8], centre) is None
     # The same chairs, not perceived: free.
-    free = NavigationMap(_known(scenario, []).obstacles)
+    free = NavigationMap(_known(scenario, []).obstacles, robot=UR5E)
     assert math.isfinite(free.path_length([0.8, 0.8], centre))
 
 
 def test_perceived_chairs_change_the_path():
     p, q = [1.0, 2.0], [5.0, 2.0]
-    without = NavigationMap(_known(_room(), []).obstacles)
-    with_chair = NavigationMap(_known(_room(), [[3.0, 2.0, 0.3]]).obstacles)
+    without = NavigationMap(_known(_room(), []).obstacles, robot=UR5E)
+    with_chair = NavigationMap(_known(_room(), [[3.0, 2.0, 0.3]]).obstacles, robot=UR5E)
     assert without.path_length(p, q) == pytest.approx(4.0)
     assert with_chair.path_length(p, q) > 4.0 + 0.05
     assert len(with_chair.path(p, q)) > 2
@@ -166,7 +169,7 @@ def test_symmetric_deterministic_and_batched(restaurant):
     np.testing.assert_allclose(forward, backward, rtol=1e-9, atol=1e-9)
     single = np.array([nav.path_length(p, q) for p, q in zip(P, Q, strict=True)])
     np.testing.assert_array_equal(forward, single)
-    again = NavigationMap(_known(scenario, perceived).obstacles).path_lengths(P, Q)
+    again = NavigationMap(_known(scenario, perceived).obstacles, robot=UR5E).path_lengths(P, Q)
     np.testing.assert_array_equal(forward, again)
     straight = np.linalg.norm(P - Q, axis=1)
     finite = np.isfinite(forward)
@@ -208,7 +211,7 @@ def test_cli(capsys):
 
 def test_fast_visibility_agrees_with_the_exact_segment_test(restaurant):
     scenario, perceived, fast = restaurant
-    exact = NavigationMap(_known(scenario, perceived).obstacles, fast_visibility=False)
+    exact = NavigationMap(_known(scenario, perceived).obstacles, robot=UR5E, fast_visibility=False)
     points = _free_points(scenario, perceived, 400, seed=4)
     V = fast.vertices
     mi, vi = np.nonzero(np.ones((len(points), len(V)), dtype=bool))
@@ -224,7 +227,7 @@ def test_lengths_match_an_independent_visibility_graph():
     from scipy.sparse.csgraph import shortest_path
 
     scenario = _one_table()
-    nav = NavigationMap(_known(scenario, [[1.6, 2.9, 0.4], [4.4, 1.2, 2.0]]).obstacles)
+    nav = NavigationMap(_known(scenario, [[1.6, 2.9, 0.4], [4.4, 1.2, 2.0]]).obstacles, robot=UR5E)
     region = nav.driveable.buffer(1e-7)
     rng = np.random.default_rng(6)
     points = rng.uniform([0.4, 0.4], [5.6, 3.6], (200, 2))
@@ -274,7 +277,7 @@ def test_a_full_endpoint_cache_starts_afresh_without_losing_the_batch(monkeypatc
     from s3o_drake.planning.navigation import map as navigation
 
     monkeypatch.setattr(navigation, "_ENDPOINT_CACHE_SIZE", 4)
-    nav = NavigationMap(_known(_room(), []).obstacles)
+    nav = NavigationMap(_known(_room(), []).obstacles, robot=UR5E)
     P = np.array([[1.0, 1.0], [1.2, 1.0], [1.4, 1.0]])
     Q = np.array([[2.0, 2.0], [2.0, 1.8], [2.0, 1.6]])
     first = nav.path_lengths(P, Q)
@@ -288,7 +291,7 @@ def test_furniture_in_a_row_does_not_open_a_way_through_the_middle():
     vertices at the tables' edge line are collinear, and a chord along that line crosses
     no edge properly. The benchmark's robot drove into small_2 on such a path."""
     scenario = load_scenario("scenarios/generated/task_010.yaml")
-    nav = NavigationMap(KnownWorld.perfect(scenario).obstacles)
+    nav = NavigationMap(KnownWorld.perfect(scenario).obstacles, robot=UR5E)
     path = nav.path([3.349, 1.567], [8.969, 2.589])
     assert path is not None
     # Interior segments keep the driving clearance (the first and the last join stops).
@@ -316,8 +319,8 @@ def test_a_tight_map_passes_a_door_the_usual_margin_closes_by_millimetres():
     rounding = 1.0 / math.cos(math.pi / 16)
     assert 2 * (BASE_RADIUS + TIGHT_DRIVE_MARGIN) * rounding < 0.88 < \
         2 * DRIVE_RADIUS * rounding
-    usual = NavigationMap(_door(0.88))
-    tight = NavigationMap(_door(0.88), drive_margin=TIGHT_DRIVE_MARGIN)
+    usual = NavigationMap(_door(0.88), robot=UR5E)
+    tight = NavigationMap(_door(0.88), robot=UR5E, drive_margin=TIGHT_DRIVE_MARGIN)
     assert usual.drive_radius == DRIVE_RADIUS
     assert tight.drive_radius == pytest.approx(BASE_RADIUS + ENVIRONMENT_PADDING)
     a, b = [1.0, 1.2], [5.0, 3.1]  # through the door, not along its axis
@@ -327,7 +330,7 @@ def test_a_tight_map_passes_a_door_the_usual_margin_closes_by_millimetres():
     assert shapely.distance(LineString(path), shapely.box(2.9, 0, 3.1, 1.56)) >= \
         BASE_RADIUS + ENVIRONMENT_PADDING - 1e-3
     with pytest.raises(ValueError, match="drive_margin"):
-        NavigationMap(_door(0.88), drive_margin=ENVIRONMENT_PADDING / 2)
+        NavigationMap(_door(0.88), robot=UR5E, drive_margin=ENVIRONMENT_PADDING / 2)
 
 
 def test_the_way_out_leaves_a_pocket_that_leads_nowhere_aside():
@@ -339,7 +342,8 @@ def test_the_way_out_leaves_a_pocket_that_leads_nowhere_aside():
     from s3o_drake.planning.navigation.map import WAY_OUT_MIN_AREA
     from s3o_drake.world.obstacles import Obstacles
 
-    nav = NavigationMap(Obstacles(room=box(0, 0, 6, 4), footprints=(box(0, 0.89, 6, 1.2),)))
+    nav = NavigationMap(Obstacles(room=box(0, 0, 6, 4), footprints=(box(0, 0.89, 6, 1.2),)),
+                        robot=UR5E)
     parts = sorted(g.area for g in shapely.get_parts(nav.driveable))
     assert len(parts) == 2 and parts[0] < WAY_OUT_MIN_AREA < parts[1]
     here = np.array([3.0, 0.25])  # 0.25 m from the wall: no base position of the map
@@ -353,11 +357,11 @@ def test_a_closed_door_is_closed_along_its_axis_too():
     """Door 0.855 m: the inflated jambs overlap, and their union has vertices on the door's
     axis. The straight segment along the axis passes through them, crossing no edge
     properly; it used to go through the closed door."""
-    nav = NavigationMap(_door(0.855))
+    nav = NavigationMap(_door(0.855), robot=UR5E)
     assert not nav.driveable.intersects(shapely.box(2.95, 1.9, 3.05, 2.1))
     for y in (2.0, 2.0001, 1.9999):
         assert math.isinf(nav.path_length([1.0, y], [5.0, y]))
-    open_ = NavigationMap(_door(0.95))
+    open_ = NavigationMap(_door(0.95), robot=UR5E)
     assert open_.path_length([1.0, 2.0], [5.0, 2.0]) == pytest.approx(4.0)
 
 

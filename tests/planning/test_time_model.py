@@ -38,9 +38,11 @@ from s3o_drake.planning.time_model import (
 )
 from s3o_drake.world.angles import facing_yaw, wrap
 from s3o_drake.world.choices import MOTIONS
-from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS
+from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS, load_robot
 from s3o_drake.world.scenario import dump_scenario, load_scenario, with_overrides
 from tests.conftest import COARSE_MAPS
+
+UR5E = load_robot("ur5e")
 
 REPO = Path(__file__).resolve().parents[2]
 TWO_DISHES = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -72,7 +74,7 @@ def test_overheads_follow_the_control_period():
 def test_the_recorded_model_was_made_from_the_code_as_it_is():
     """A stale models/ur5e/time_model.yaml (the navigator's or the systems' timing changed since
     it was derived) fails here: re-run `s3o build time-model`."""
-    model = TimeModel.load()
+    model = TimeModel.load(UR5E.files.time_model)
     o = command_overheads(CONTROL_PERIOD, base_motion.SETTLE_TIME)
     assert model.overheads.gamma == pytest.approx(o.gamma, abs=1e-6)
     assert model.overheads.pickup == pytest.approx(o.pickup, abs=1e-6)
@@ -108,8 +110,8 @@ def test_goto_times_are_the_navigators_motion(motion):
     scenario = with_overrides(load_scenario(REPO / "scenarios" / "restaurant.yaml"),
                               (f"execution.motion={motion}",))
     chairs = [c.pose for c in scenario.chairs if not c.mapped]
-    nav = NavigationMap(_known(scenario, chairs).obstacles)
-    profile = base_profile(scenario.planner, motion)
+    nav = NavigationMap(_known(scenario, chairs).obstacles, robot=UR5E)
+    profile = base_profile(scenario.planner, motion, robot=scenario.robot_value)
     navigator = BaseNavigator(params=navigator_params(scenario, noise=False), scene=None)
     rng = np.random.default_rng(0)
     free = [p for p in rng.uniform([0.5, 0.5], [9.5, 7.5], (400, 2))
@@ -205,7 +207,7 @@ def test_the_plan_predicts_the_simulated_execution(executed):
     first, second = (a.dish for a in p.pickups)
     # Commands: the drive (id 1), the first pickup (2), the turn (3), the second pickup (4).
     assert sorted(drives) == [1, 3] and set(arms) <= {2, 4}
-    nav = NavigationMap(KnownWorld.perfect(scenario).obstacles)
+    nav = NavigationMap(KnownWorld.perfect(scenario).obstacles, robot=UR5E)
     start = np.asarray(scenario.robot.start, float)
     _, drive, _ = nav.path_times(start[None, :2], np.array([goto.pose[:2]]), start[2:],
                                  np.array([goto.pose[2]]), costs.base)
@@ -246,7 +248,7 @@ def test_the_cost_profile_switch(heatmaps):
     plans = {profile: plan(_with(scenario, cost_profile=profile), method="S3O-GROP*",
                            heatmaps=maps, perceived_chairs=chairs, seed=0)
              for profile in ("robot", "paper")}
-    model = TimeModel.load()
+    model = TimeModel.load(UR5E.files.time_model)
     reward = failure_reward(scenario.settings)  # λ as the execution's mode prices a failure
     robot = plans["robot"]
     gain = sum(reward * k.feasibility for k in robot.pickups)
@@ -340,7 +342,7 @@ def test_the_noise_terms_apply_only_at_the_noise_they_were_measured_at():
     from s3o_drake.world.settings import Uncertainty
 
     at = {"nav_xy_std": 0.1, "nav_yaw_std": 0.05, "reach_std": 0.01}
-    model = dataclasses.replace(TimeModel.load(), noise={
+    model = dataclasses.replace(TimeModel.load(UR5E.files.time_model), noise={
         "smooth": NoiseTerms(goto=1.5, pickup=0.5, uncertainty=at, fit={"pairs": 3})})
     assert TimeModel.from_dict(model.to_dict()) == model
     assert model.noise_time("smooth", Uncertainty(), gotos=2, pickups=3) == pytest.approx(4.5)
@@ -360,7 +362,7 @@ def test_the_noise_terms_apply_only_at_the_noise_they_were_measured_at():
 def test_the_shipped_model_knows_what_the_default_noise_adds_in_each_motion():
     from s3o_drake.world.settings import Uncertainty
 
-    model = TimeModel.load()
+    model = TimeModel.load(UR5E.files.time_model)
     for motion in MOTIONS:
         terms = model.noise[motion]
         assert terms.applies(Uncertainty())

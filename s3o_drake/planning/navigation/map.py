@@ -9,23 +9,24 @@ plan at continuous, clustered points, so it must be exact enough to rank samples
 Obstacles: what the robot knows (`KnownWorld.obstacles`): the room's walls, the tables, the
 mapped chairs and the chairs it perceived (the true unmapped chairs are never read here).
 
-Two radii (the base is a 0.62 x 0.56 m rectangle):
+Two radii of the robot's base (the UR5e's is a 0.62 x 0.56 m rectangle):
 
-- `DRIVE_RADIUS` = BASE_RADIUS + DRIVE_MARGIN = 0.438 m, the circumscribed radius and a
-  margin for the collision check's padding. Along a path the base turns freely, so every
-  interior point of a path keeps at least this much from every footprint: the *driveable*
-  region.
-- `INSCRIBED_RADIUS` = BASE_WIDTH / 2 = 0.28 m. The abstraction calls a position free if
+- the drive radius = `Robot.base_radius` + DRIVE_MARGIN = 0.438 m, the circumscribed
+  radius and a margin for the collision check's padding. Along a path the base turns
+  freely, so every interior point of a path keeps at least this much from every footprint:
+  the *driveable* region.
+- the inscribed radius = `Robot.inscribed_radius`, half the base's width = 0.28 m. The
+  abstraction calls a position free if
   it keeps this much (`s3o_drake.abstraction.voronoi.free_space`), so standing spots next
   to tables may lie in the 0.28-0.438 m band, outside the driveable region.
 
-Endpoint rule. An endpoint with clearance >= DRIVE_RADIUS is used as it is. One in the
+Endpoint rule. An endpoint with clearance >= the drive radius is used as it is. One in the
 band is joined to the driveable region by the straight segment to its nearest point in
 that region (0.2 mm inside it, so that a wedge between a table and a wall works; the
 base backs straight away from the obstacle, facing it, as it came in); that segment
-must keep >= INSCRIBED_RADIUS from every footprint and wall, else the endpoint counts as
+must keep >= the inscribed radius from every footprint and wall, else the endpoint counts as
 unreachable (both up to INSCRIBED_TOLERANCE = 1 mm, the abstraction's polygonisation
-error). An endpoint with clearance < INSCRIBED_RADIUS (inside
+error). An endpoint with clearance < the inscribed radius (inside
 or touching an obstacle, or outside the room) is not a position of the base at all:
 `path_length` returns inf and `path` returns None for it (no exception, so that CMA-ES
 can score such samples with its penalty).
@@ -55,22 +56,19 @@ from s3o_drake.planning.navigation.base_motion import (
 from s3o_drake.planning.navigation.visibility_graph import SLACK, VisibilityGraph
 from s3o_drake.world.furniture import DistanceField
 from s3o_drake.world.obstacles import Obstacles
-from s3o_drake.world.robot import BASE_RADIUS, INSCRIBED_RADIUS
+from s3o_drake.world.robot import Robot
 
 DRIVE_MARGIN = 0.02
 """Added to the circumscribed radius along paths (m): the execution's collision check keeps
 1 cm of padding (feasibility.scene.ENVIRONMENT_PADDING), and a path that hugs an inflated
 obstacle at exactly the base's radius left the base no room to turn there (the benchmark
 found runs of every method blocked so, e.g. task_010 next to a wall)."""
-DRIVE_RADIUS = BASE_RADIUS + DRIVE_MARGIN
-"""Clearance kept along a path: the base's circumscribed radius plus DRIVE_MARGIN, safe at
-any yaw (m)."""
 TIGHT_DRIVE_MARGIN = 0.01
 """The least margin a map may keep (m): the execution's collision check's own padding
 (feasibility.scene.ENVIRONMENT_PADDING). A map built with it finds ways that DRIVE_MARGIN
 closes by millimetres; it is asked only for dishes that the usual map leaves no stop."""
 INSCRIBED_TOLERANCE = 1e-3
-"""An endpoint's clearance may fall this short of INSCRIBED_RADIUS (m): the abstraction's
+"""An endpoint's clearance may fall this short of the inscribed radius (m): the abstraction's
 free space is a polygon (`buffer(..., quad_segs=16)`) whose boundary comes ~0.3 mm closer."""
 WAY_OUT_MIN_AREA = 0.05
 """A part of the driveable region smaller than this (m²) is no way out (`way_out`): in a
@@ -103,12 +101,14 @@ class NavigationMap:
     `path` are the queries. Deterministic: no randomness, ties broken by index.
     """
 
-    def __init__(self, obstacles: Obstacles, *, resolution: float = 0.05, quad_segs: int = 4,
-                 fast_visibility: bool = True, drive_margin: float = DRIVE_MARGIN):
+    def __init__(self, obstacles: Obstacles, *, robot: Robot, resolution: float = 0.05,
+                 quad_segs: int = 4, fast_visibility: bool = True,
+                 drive_margin: float = DRIVE_MARGIN):
         """`obstacles`: what the robot knows (`KnownWorld.obstacles`: the walls, the tables,
-        the mapped and the perceived chairs). `resolution` (m) is the occupancy grid's cell
-        size. `fast_visibility=False` tests what an endpoint sees with the exact segment test
-        instead of the precomputed visibility polygons (a reference for tests).
+        the mapped and the perceived chairs); `robot`: whose base drives. `resolution` (m)
+        is the occupancy grid's cell size. `fast_visibility=False` tests what an endpoint
+        sees with the exact segment test instead of the precomputed visibility polygons (a
+        reference for tests).
         `drive_margin` (m, at least TIGHT_DRIVE_MARGIN) is added to the base's circumscribed
         radius along paths."""
         self.fast_visibility = fast_visibility
@@ -117,8 +117,11 @@ class NavigationMap:
         if drive_margin < TIGHT_DRIVE_MARGIN:
             raise ValueError(f"drive_margin must be at least {TIGHT_DRIVE_MARGIN} m (the "
                              f"collision check's padding), got {drive_margin}")
-        self.drive_radius = BASE_RADIUS + drive_margin
-        """The clearance this map keeps along paths (DRIVE_RADIUS by default)."""
+        self.drive_radius = robot.base_radius + drive_margin
+        """The clearance this map keeps along paths (m): the base's circumscribed radius
+        and the margin, safe at any yaw."""
+        self.inscribed_radius = robot.inscribed_radius
+        """The least clearance of a base position (m): nearer, every yaw collides."""
         self.resolution = float(resolution)
         self.room = obstacles.room
         self.footprints: list[Polygon] = list(obstacles.footprints)
@@ -249,7 +252,7 @@ class NavigationMap:
         approx = self.clearance(P)
         slack = 1.5 * self.resolution
         clear = approx - slack > self._r_block + SLACK  # surely driveable, no geometry
-        bad = approx + slack < INSCRIBED_RADIUS  # surely not a base position
+        bad = approx + slack < self.inscribed_radius  # surely not a base position
         unsure = ~clear & ~bad
         entry = P.copy()
         ok = ~bad
@@ -258,7 +261,7 @@ class NavigationMap:
             Q = P[idx]
             exact = self.exact_clearance(Q)
             in_drive = shapely.contains_xy(self.driveable, Q[:, 0], Q[:, 1])
-            ok[idx] = exact >= INSCRIBED_RADIUS - INSCRIBED_TOLERANCE
+            ok[idx] = exact >= self.inscribed_radius - INSCRIBED_TOLERANCE
             band = idx[~in_drive & ok[idx]]
             if len(band):
                 # Nearest point of the driveable region shrunk by 2 * SLACK: strictly
@@ -266,10 +269,10 @@ class NavigationMap:
                 lines = shapely.shortest_line(shapely.points(P[band]), self._driveable_inner)
                 target = shapely.get_coordinates(lines).reshape(-1, 2, 2)[:, 1]
                 seg = shapely.linestrings(np.stack([P[band], target], axis=1))
-                # p keeps >= INSCRIBED_RADIUS, so a segment that keeps it from every
+                # p keeps >= the inscribed radius, so a segment that keeps it from every
                 # boundary never enters an obstacle.
                 seg_ok = shapely.distance(seg, self._solid) >= \
-                    INSCRIBED_RADIUS - INSCRIBED_TOLERANCE
+                    self.inscribed_radius - INSCRIBED_TOLERANCE
                 seg_ok &= shapely.contains_xy(self.driveable, target[:, 0], target[:, 1])
                 entry[band] = target
                 ok[band] = seg_ok
@@ -414,8 +417,8 @@ class NavigationMap:
     def path(self, p: Sequence[float], q: Sequence[float]) -> np.ndarray | None:
         """Waypoints (k, 2) from p to q, or None when q is unreachable from p.
 
-        Interior segments keep >= DRIVE_RADIUS from every footprint and the walls; the
-        first and last segments (the endpoint rule) keep >= INSCRIBED_RADIUS.
+        Interior segments keep >= the drive radius from every footprint and the walls; the
+        first and last segments (the endpoint rule) keep >= the inscribed radius.
         """
         p = np.asarray(p, float)
         q = np.asarray(q, float)
