@@ -47,13 +47,13 @@ def expected_errors(runs: Sequence[Mapping]) -> np.ndarray:
     """(expected - simulated) / simulated of the runs that collected every dish and have an
     expected time (`run_rows.expected_time`, older rows on their robot's shipped model)."""
     from s3o_drake.planning.time_model import TimeModel
-    from s3o_drake.world.resources import robot_dir
+    from s3o_drake.world.robot import load_robot
 
     out = []
     for r in runs:
         if not (r.get("complete") and has_time(r) and r["execution_time"] > 0):
             continue
-        expected = expected_time(r, TimeModel.load(robot_dir(robot_of(r)) / "time_model.yaml"))
+        expected = expected_time(r, TimeModel.load(load_robot(robot_of(r)).files.time_model))
         if expected:
             out.append((expected - r["execution_time"]) / r["execution_time"])
     return np.asarray(out, dtype=float)
