@@ -203,71 +203,78 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
     module docstring when it is blocked. `stop`: the commanded stop (x, y), which the
     planned last leg runs to; `turn`: a turn in place where the base stands; `trail`: the
     way the base came (`extend_trail`)."""
-    waypoints = [np.asarray(base[:2], float)]
+    planned = [np.asarray(base[:2], float)]
     if not turn:
-        waypoints += [np.asarray(p, float) for p in path[1:-1]]
-        waypoints.append(target[:2])
-    planned = waypoints
-    if profile.smooth and not turn:
-        waypoints = shifted_lead(waypoints, stop, target)
-    if profile.smooth:
-        # The direct motion, else (a noisy landing next to a chair) one that keeps to the
-        # planned last leg, else one that drives smoothly to APPROACH_STEPS before the
-        # stop, turns there to the stop's heading and drives straight in, as below.
-        yaw, h = float(base[2]), np.array([math.cos(target[2]), math.sin(target[2])])
-        straight = profile.stop_and_go()
-        motions = itertools.chain(
-            (profile.segments(way, yaw, float(target[2]))
-             for way in [waypoints, *along_plan(stop, waypoints, turn=turn)]),
-            ([] if turn else (
-                [*profile.segments([*waypoints[:-1], target[:2] - d * h], yaw,
-                                   float(target[2])),
-                 *straight.segments([target[:2] - d * h, target[:2]], float(target[2]),
-                                    float(target[2]))]
-                for d in APPROACH_STEPS)))
-        # A smooth motion that lands short (its curve, or its lead in moved with the noise,
-        # meets the collision sooner than the planned leg, or an escape turned it round)
-        # gives way to the stop-and-go motion, as that motion drives it, where that lands
-        # nearer: Fea^m's landing model stops short along the planned approach
-        # (`landing.stop_short`), and a base 0.4 m short reaches nothing.
-        stop_and_go = functools.cache(
-            lambda: _escaped(base, target, planned, stop, turn, trail, free, straight))
-
-        def nearest(cut: Cut) -> Cut:
-            if turn or cut.hit is None:
-                return cut
-            other = stop_and_go()
-            if (not other.blocked and (other.hit is None or facing(other.segments, target[2]))
-                    and shortfall(other, base, target) < shortfall(cut, base, target)
-                    - CHECK_STEP_XY):
-                return other
-            return cut
-
-        for segments in motions:
-            cut = cut_at_collision(segments, free, profile)
-            if cut.hit is None or (not cut.blocked and (turn or facing(cut.segments,
-                                                                       target[2]))):
-                return nearest(cut)
-        # The escapes of a blocked or short landing below, with the smooth motion.
-        cut = _escaped(base, target, waypoints, stop, turn, trail, free, profile)
-        if not cut.blocked and (turn or cut.hit is None or facing(cut.segments, target[2])):
-            return nearest(cut)
-        if not turn and len(waypoints) > 2:
-            # Smooth to the path's last corner, stopping there, and from there the
-            # stop-and-go motion and its escapes, which stop anywhere.
-            corner = waypoints[-2]
-            leg = waypoints[-1] - corner
-            prefix = profile.segments(waypoints[:-1], yaw, math.atan2(leg[1], leg[0]))
-            if prefix and cut_at_collision(prefix, free, profile).hit is None:
-                rest = plan_motion(np.asarray(prefix[-1].end, dtype=float), target,
-                                   path=[corner, target[:2]], stop=stop, turn=False,
-                                   trail=(), free=free, profile=straight)
-                if not rest.blocked:
-                    return nearest(Cut([*prefix, *rest.segments], hit=rest.hit))
-        # Caught where a smooth motion cannot stop within its limits, or landing short
-        # facing away: the stop-and-go motion and its escapes, which stop anywhere.
+        planned += [np.asarray(p, float) for p in path[1:-1]]
+        planned.append(target[:2])
+    if not profile.smooth:
+        return _escaped(base, target, planned, stop, turn, trail, free, profile)
+    straight = profile.stop_and_go()
+    # Caught where a smooth motion cannot stop within its limits, or landing short facing
+    # away: the stop-and-go motion along the planned waypoints, and its escapes, which stop
+    # anywhere.
+    stop_and_go = functools.cache(
+        lambda: _escaped(base, target, planned, stop, turn, trail, free, straight))
+    cut = next(_smooth_landings(base, target, planned, stop=stop, turn=turn, trail=trail,
+                                free=free, profile=profile), None)
+    if cut is None:
         return stop_and_go()
-    return _escaped(base, target, waypoints, stop, turn, trail, free, profile)
+    if turn or cut.hit is None:
+        return cut
+    # A smooth motion that lands short (its curve, or its lead in moved with the noise,
+    # meets the collision sooner than the planned leg, or an escape turned it round) gives
+    # way to the stop-and-go motion where that lands nearer: Fea^m's landing model stops
+    # short along the planned approach (`landing.stop_short`), and a base 0.4 m short
+    # reaches nothing.
+    other = stop_and_go()
+    if (not other.blocked and (other.hit is None or facing(other.segments, target[2]))
+            and shortfall(other, base, target) < shortfall(cut, base, target) - CHECK_STEP_XY):
+        return other
+    return cut
+
+
+def _smooth_landings(base: np.ndarray, target: np.ndarray, planned: list[np.ndarray], *,
+                     stop: Sequence[float], turn: bool, trail: tuple[BaseSegment, ...],
+                     free: FreeTest | None, profile: MotionProfile) -> Iterator[Cut]:
+    """The smooth motions that land (free, or short but facing the target), in the order
+    they are tried: the direct motion, one that keeps to the planned last leg, one that
+    drives smoothly to APPROACH_STEPS before the stop, turns there to the stop's heading and
+    drives straight in; the escapes with the smooth motion; smooth to the path's last
+    corner, stopping there, and the stop-and-go motion from there."""
+    waypoints = planned if turn else shifted_lead(planned, stop, target)
+    yaw, h = float(base[2]), np.array([math.cos(target[2]), math.sin(target[2])])
+    straight = profile.stop_and_go()
+
+    def lands(cut: Cut) -> bool:
+        return not cut.blocked and (turn or cut.hit is None or facing(cut.segments, target[2]))
+
+    motions = itertools.chain(
+        (profile.segments(way, yaw, float(target[2]))
+         for way in [waypoints, *along_plan(stop, waypoints, turn=turn)]),
+        ([] if turn else (
+            [*profile.segments([*waypoints[:-1], target[:2] - d * h], yaw, float(target[2])),
+             *straight.segments([target[:2] - d * h, target[:2]], float(target[2]),
+                                float(target[2]))]
+            for d in APPROACH_STEPS)))
+    for segments in motions:
+        cut = cut_at_collision(segments, free, profile)
+        if cut.hit is None or lands(cut):
+            yield cut
+            return
+    cut = _escaped(base, target, waypoints, stop, turn, trail, free, profile)
+    if lands(cut):
+        yield cut
+        return
+    if not turn and len(waypoints) > 2:
+        corner = waypoints[-2]
+        leg = waypoints[-1] - corner
+        prefix = profile.segments(waypoints[:-1], yaw, math.atan2(leg[1], leg[0]))
+        if prefix and cut_at_collision(prefix, free, profile).hit is None:
+            rest = plan_motion(np.asarray(prefix[-1].end, dtype=float), target,
+                               path=[corner, target[:2]], stop=stop, turn=False,
+                               trail=(), free=free, profile=straight)
+            if not rest.blocked:
+                yield Cut([*prefix, *rest.segments], hit=rest.hit)
 
 
 def shortfall(cut: Cut, base: np.ndarray, target: np.ndarray) -> float:
