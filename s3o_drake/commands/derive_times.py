@@ -362,7 +362,7 @@ def measure_noise(model_path: Path, tasks: Sequence[Path], motion: str, *, seed:
                   workers: int = 1, progress: bool = True) -> NoiseTerms:
     """`NoiseTerms` of `motion`: `tasks` planned with S3O-GROP* on the model at `model_path`
     and executed with the noise off and on (`noise_terms`), at the scenarios' noise."""
-    from s3o_drake.commands.time_benchmark import _measure, local_pool
+    from s3o_drake.commands.time_benchmark import local_pool, measure_job
     from s3o_drake.experiments.jobs import as_benchmarked
     from s3o_drake.experiments.scheduler import ordered_map
     from s3o_drake.planning.time_model import NOISE_FIELDS, NoiseTerms
@@ -380,7 +380,7 @@ def measure_noise(model_path: Path, tasks: Sequence[Path], motion: str, *, seed:
                  for setting in ("off", "on")]
     rows: dict[tuple[str, bool], dict] = {}
     with local_pool(workers) as pool:
-        for row in ordered_map(pool, _measure, jobs, window=workers):
+        for row in ordered_map(pool, measure_job, jobs, window=workers):
             rows[row["task"], row["noise"]] = row
             if progress:
                 print(f"  {motion} {row['task']} noise {'on' if row['noise'] else 'off'}: "

@@ -94,7 +94,7 @@ def measure(name: str, scenario: Scenario, *, method: str, seed: int, noise: boo
     return row
 
 
-def _measure(job: tuple) -> dict:
+def measure_job(job: tuple) -> dict:
     """A worker's run of `measure`: ((key, name, scenario, seed, noise), method, version)."""
     (key, name, scenario, seed, noise), method, version = job
     logging.getLogger("drake").setLevel(logging.WARNING)
@@ -242,7 +242,7 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.experiments.scheduler import ordered_map
 
     with local_pool(args.workers) as pool:
-        measured = ordered_map(pool, _measure, [(run, args.method, version) for run in pending],
+        measured = ordered_map(pool, measure_job, [(run, args.method, version) for run in pending],
                                window=args.workers)
         for key, *_ in runs:
             if store is not None and store.finished(key):
