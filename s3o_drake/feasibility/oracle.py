@@ -196,7 +196,7 @@ class FeasibilityOracle:
         return cached_array(
             lambda: ("expectation", *self.checker.identity(), self.noise, dish, xs, ys,
                      fine_cell),
-            lambda: self._expectation(dish, xs, ys, fine_cell))
+            lambda: self._expectation(dish, xs, ys, fine_cell), robot=self.checker.scene.robot)
 
     def _expectation(self, dish: str, xs: np.ndarray, ys: np.ndarray,
                      fine_cell: float) -> np.ndarray:
