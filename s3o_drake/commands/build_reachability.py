@@ -51,14 +51,16 @@ def main(argv: list[str] | None = None) -> int:
         argv = argv[1:]
     args = parser.parse_args(argv)
     from s3o_drake.feasibility.reachability.build import RESOLUTION, build_map
+    from s3o_drake.world.resources import ROBOT_NAME
+    from s3o_drake.world.robot import load_robot
 
     if args.resolution is None:
         args.resolution = RESOLUTION
     if not 0.002 <= args.resolution <= 0.1:
         fail(f"--resolution: must be between 0.002 and 0.1 m, got {args.resolution}")
     out = out_file(args.out)
-    reach_map = build_map(resolution=args.resolution, workers=args.workers,
-                          progress=not args.quiet)
+    reach_map = build_map(robot=load_robot(ROBOT_NAME), resolution=args.resolution,
+                          workers=args.workers, progress=not args.quiet)
     data = reach_map.to_bytes()
     out.parent.mkdir(parents=True, exist_ok=True)
     write_atomically(out, data)

@@ -119,7 +119,7 @@ def smooth_parts(scene, checker: FeasibilityChecker, base: np.ndarray, dish: str
     took = {s.name: s.duration for s in plan.segments}
     q_release = plan.segments[-1].waypoints[-1]
     q_pre = plan.segments[1].waypoints[0]  # where "descend" starts
-    q_stow = with_gripper(scene.q(q_release[:3]), GRIPPER_OPEN)
+    q_stow = with_gripper(scene.q(q_release[:3]), GRIPPER_OPEN, robot=scene.robot)
     out = {"smooth_grasp": took["descend"] + took["close"] + took["lift"],
            "smooth_tail": took["to_tray"] + took["release"],
            "smooth_prepare": took["approach"]}

@@ -99,16 +99,19 @@ def main(argv: list[str] | None = None) -> int:
     )
     from s3o_drake.feasibility.oracle_cache import bypassed
     from s3o_drake.feasibility.reachability.map import ReachabilityMap
+    from s3o_drake.world.resources import ROBOT_NAME
+    from s3o_drake.world.robot import load_robot
 
+    robot = load_robot(ROBOT_NAME)  # the scenarios' (`read_scenario`)
     try:
-        fcn = FcnFeasibility.load(Path(args.weights))
+        fcn = FcnFeasibility.load(Path(args.weights), robot=robot)
     except Exception as e:  # a corrupt or foreign file: say so in one line
         fail(f"--weights: cannot load {args.weights}: {e}")
     scenarios = [(path.stem, read_scenario(path)) for path in tasks]
 
     logging.getLogger("drake").setLevel(logging.WARNING)
     torch.set_num_threads(args.threads)
-    ReachabilityMap.shared()  # the one-time start-up, out of the timings
+    ReachabilityMap.shared(robot=robot)  # the one-time start-up, out of the timings
     fcn.predict(np.zeros((1, len(CHANNELS), 64, 64), np.float32))  # torch's first call
     if pictures is not None:
         pictures.mkdir(parents=True, exist_ok=True)

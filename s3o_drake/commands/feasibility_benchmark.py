@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     restaurant = load_scenario(RESTAURANT)
     scenarios = [restaurant] + [generate_task(restaurant, args.seed, i)
                                 for i in range(args.generated)]
-    rmap = ReachabilityMap.load()
+    rmap = ReachabilityMap.load(robot=restaurant.contents.robot)
     result = Agreement()
     seconds = {"batched": 0.0, "full_ik": 0.0}
     for k, scenario in enumerate(scenarios):

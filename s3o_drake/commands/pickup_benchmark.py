@@ -147,12 +147,14 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.feasibility.pickup_geometry import REASONS
     from s3o_drake.feasibility.reachability.map import ReachabilityMap
     from s3o_drake.feasibility.scene import FeasibilityScene
+    from s3o_drake.world.resources import ROBOT_NAME
+    from s3o_drake.world.robot import load_robot
     from s3o_drake.world.scenario import load_scenario
 
     logging.getLogger("drake").setLevel(logging.WARNING)
 
     rng = np.random.default_rng(args.seed)
-    rmap = ReachabilityMap.load()
+    rmap = ReachabilityMap.load(robot=load_robot(ROBOT_NAME))
     records = []
     with tqdm(total=args.poses, desc="pickups", unit="pose", file=sys.stderr) as bar:
         for k, path in enumerate(paths):

@@ -153,9 +153,11 @@ def main(argv: list[str] | None = None) -> int:
             if store is not None and store.finished(row_key({"task": name, **settings}))}
 
     from s3o_drake.feasibility.reachability.map import ReachabilityMap
+    from s3o_drake.world.resources import ROBOT_NAME
+    from s3o_drake.world.robot import load_robot
 
     start = time.perf_counter()
-    ReachabilityMap.shared().prepare_all()
+    ReachabilityMap.shared(robot=load_robot(ROBOT_NAME)).prepare_all()
     startup = time.perf_counter() - start
     print(f"{args.method}, seed {args.seed}, {args.workers} workers, long run x{args.factor}; "
           f"times in s; one-time start-up (reachability map) {startup:.2f} s"

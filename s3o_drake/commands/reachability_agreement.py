@@ -39,9 +39,12 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.experiments.reachability_agreement import Agreement, measure, sample_queries
     from s3o_drake.feasibility.reachability.map import ReachabilityMap, ReachabilityMapError
     from s3o_drake.feasibility.scene import FeasibilityScene
+    from s3o_drake.world.resources import ROBOT_NAME
+    from s3o_drake.world.robot import load_robot
 
     try:
-        reachability = ReachabilityMap.load(args.map)
+        # The scenarios' robot (`read_scenario` runs the command again for another).
+        reachability = ReachabilityMap.load(args.map, robot=load_robot(ROBOT_NAME))
     except (ReachabilityMapError, OSError) as e:
         fail(f"--map: {e}")
     rng = np.random.default_rng(args.seed)

@@ -335,7 +335,7 @@ class ArmController(LeafSystem):
         onto_tray = "release" in ends
         return replace(running, t_grasp=float(ends["close"]),
                        t_release=float(ends.get("release", math.inf)),
-                       missed=not caught(noise, dish.kind),
+                       missed=not caught(noise, dish.kind, robot=self._scene.robot),
                        t_done=float(ends["lift"]) if self._smooth and onto_tray else math.inf)
 
     def _reach(self, activity: _Activity, command: PickCommand, context: Context,

@@ -41,7 +41,7 @@ from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
 from s3o_drake.world.goals import placed_object
-from s3o_drake.world.robot import GRIPPER_CLOSED, GRIPPER_OPEN
+from s3o_drake.world.robot import GRIPPER_CLOSED, GRIPPER_OPEN, Robot
 from s3o_drake.world.scenario import Scenario
 
 
@@ -82,19 +82,18 @@ def finger_stroke_time() -> float:
     return stroke_time(travel, FINGER_MAX_VELOCITY, FINGER_MAX_ACCELERATION)
 
 
-def tray_leg_time(plant) -> float:
-    """The arm's shortest rest-to-rest leg (s) between ARM_STOW and a release configuration
-    over the tray (the nearest of every grasp kind's), within the arm's joint limits of the
-    robot in `plant`: the slowest joint's stroke."""
+def tray_leg_time(plant, *, robot: Robot) -> float:
+    """The arm's shortest rest-to-rest leg (s) between its stow configuration and a release
+    configuration over the tray (the nearest of every grasp kind's), within the arm's joint
+    limits of `robot` in `plant`: the slowest joint's stroke."""
     from s3o_drake.execution.arm.pickup import segment_limits
     from s3o_drake.feasibility.pickup_geometry import tray_arms
-    from s3o_drake.world.robot import ARM_POSITIONS, ARM_STOW
 
     v, a = segment_limits(plant, "stow")
-    v, a = np.asarray(v)[ARM_POSITIONS], np.asarray(a)[ARM_POSITIONS]
+    v, a = np.asarray(v)[robot.arm_positions], np.asarray(a)[robot.arm_positions]
     legs = [max(stroke_time(abs(float(d)), float(vj), float(aj))
-                for d, vj, aj in zip(np.asarray(arm) - np.asarray(ARM_STOW), v, a, strict=True))
-            for grasp in ("top", "side") for arm in tray_arms(grasp)]
+                for d, vj, aj in zip(np.asarray(arm) - robot.arm_stow, v, a, strict=True))
+            for grasp in ("top", "side") for arm in tray_arms(grasp, robot=robot)]
     return min(legs)
 
 
@@ -146,7 +145,8 @@ def lower_bound(scenario: Scenario, heatmaps: Sequence[Heatmap] | None = None) -
     objects = sum(placed_object(name) is None for name in names)  # not the place targets
     placed = {d.name for d in scenario.dishes if d.goal == "place"}
     collected = sum(placed_object(name) is None and name not in placed for name in names)
-    legs = tray_leg_time(FeasibilityScene(scenario.contents).plant) if collected else 0.0
+    legs = (tray_leg_time(FeasibilityScene(scenario.contents).plant, robot=scenario.contents.robot)
+            if collected else 0.0)
     return LowerBound(tour_length=length, drive_time=length / scenario.planner.speed,
                       hand_time=TIMING_SLACK * 2 * objects * finger_stroke_time(),
                       arm_time=TIMING_SLACK * 2 * collected * legs)

@@ -157,7 +157,8 @@ def evaluate(pickup: ExecutedPickup, oracle, *, samples: int, seed: int) -> dict
     landed = None
     if pickup.landed is not None and pickup.reach_noise is not None:
         landed = bool(oracle.landing_success(np.array([pickup.landed]), pickup.dish)[0]
-                      and caught(np.array(pickup.reach_noise), pickup.kind))
+                      and caught(np.array(pickup.reach_noise), pickup.kind,
+                                 robot=oracle.checker.scene.robot))
     return {"key": pickup.key, "path": pickup.path, "dish": pickup.dish,
             "planned": pickup.planned, "done": pickup.done, "expectation": expectation,
             "monte_carlo": monte_carlo, "landed": landed,

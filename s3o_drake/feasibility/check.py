@@ -62,7 +62,6 @@ from s3o_drake.feasibility.grasp_targets import (
 from s3o_drake.feasibility.grasps import Grasp, grasps_for
 from s3o_drake.feasibility.reachability.map import ReachabilityMap, place
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_ARM_JOINTS, NUM_POSITIONS
 from s3o_drake.world.worker_processes import drake_parallelism
 
 REASONS = ("ok", "base_collision", "out_of_reach", "arm_collision", "no_ik")
@@ -113,13 +112,13 @@ class _Batch:
 class FeasibilityChecker:
     """Motion-level feasibility checks in one scene (see the module docstring).
 
-    `reachability` defaults to the shipped map for method "map"; method "ik" needs none and
-    takes its candidates as extra seeds when given one. `fallback_ik` adds the map method's
-    bounded IK for queries whose candidates all collide; it is off by default because it
-    rarely changes an answer and costs tens of milliseconds per such query (see the module
-    docstring). `exhaustive=False` makes method "ik" plain bounded IK from ARM_STOW alone (a
-    speed reference, not ground truth). `parallelize` lets the collision checker spread
-    batches over its contexts.
+    `reachability` defaults to the scene's robot's shipped map for method "map"; method "ik"
+    needs none and takes its candidates as extra seeds when given one. `fallback_ik` adds
+    the map method's bounded IK for queries whose candidates all collide; it is off by
+    default because it rarely changes an answer and costs tens of milliseconds per such
+    query (see the module docstring). `exhaustive=False` makes method "ik" plain bounded IK
+    from the stow configuration alone (a speed reference, not ground truth). `parallelize`
+    lets the collision checker spread batches over its contexts.
     """
 
     def __init__(self, scene: FeasibilityScene, reachability: ReachabilityMap | None = None, *,
@@ -133,7 +132,7 @@ class FeasibilityChecker:
         self.scene = scene
         self.method = method
         if reachability is None and method == "map":
-            reachability = ReachabilityMap.shared()
+            reachability = ReachabilityMap.shared(robot=scene.robot)
         self.reachability = reachability
         self.fallback_ik = fallback_ik
         self.fallback_seeds = fallback_seeds
@@ -199,18 +198,18 @@ class FeasibilityChecker:
         """The dish's grasps (with their world poses) from a base pose."""
         p_WD, table_height = self._target(dish, reach_offset)
         return grasps_for(self.scene.dishes[dish].kind, p_WD, table_height,
-                          self.scene.p_WA(np.asarray(base, dtype=float)))
+                          self.scene.p_WA(np.asarray(base, dtype=float)), robot=self.scene.robot)
 
     def first_grasps(self, bases: np.ndarray, dish: str, reach_offsets: np.ndarray | None = None
                      ) -> tuple[np.ndarray, np.ndarray, list[str | None]]:
         """`check`'s answers for base poses (n, 3) at once, as arrays: feasible (n,), the
-        configurations q (n, NUM_POSITIONS) (NaN where infeasible) and the grasp kinds (None
-        there)."""
+        configurations q (n, the robot's positions) (NaN where infeasible) and the grasp kinds
+        (None there)."""
         bases = np.asarray(bases, dtype=float).reshape(-1, 3)
         if reach_offsets is not None:
             reach_offsets = reach_offset_rows(reach_offsets, len(bases))
         if len(bases) == 0:
-            return np.zeros(0, dtype=bool), np.zeros((0, NUM_POSITIONS)), []
+            return np.zeros(0, dtype=bool), np.zeros((0, self.scene.robot.num_positions)), []
         out = self._run(bases, dish, reach_offsets, details=False)
         specs = self._specs_for(dish)
         kinds = [specs[g].kind if ok else None
@@ -240,7 +239,7 @@ class FeasibilityChecker:
 
     def _specs_for_kind(self, kind: str) -> list[GraspSpec]:
         if kind not in self._specs:
-            self._specs[kind] = grasp_specs(kind)
+            self._specs[kind] = grasp_specs(kind, robot=self.scene.robot)
         return self._specs[kind]
 
     def _target(self, dish: str, reach_offset: np.ndarray | None) -> tuple[np.ndarray, float]:
@@ -254,7 +253,8 @@ class FeasibilityChecker:
         """Per spec: (ρ, h, bearing relative to A's x axis) arrays, each (n,)
         (`grasp_targets.target_geometry`)."""
         p_WD, table_height = self.scene.dish_p_WD(dish)
-        return target_geometry(self._specs_for(dish), p_WD, table_height, bases, offsets)
+        return target_geometry(self._specs_for(dish), p_WD, table_height, bases, offsets,
+                               robot=self.scene.robot)
 
     def base_free(self, bases: np.ndarray) -> np.ndarray:
         """Whether base poses (n, 3) are inside the room and collision-free with the arm
@@ -276,14 +276,15 @@ class FeasibilityChecker:
         collides = self.scene.collision.certainly_colliding(bases[rows[open_]])
         ask = open_[~collides]
         if ask.size:
-            stowed = np.broadcast_to(ARM_STOW, (ask.size, NUM_ARM_JOINTS))
+            robot = self.scene.robot
+            stowed = np.broadcast_to(robot.arm_stow, (ask.size, robot.num_arm_joints))
             qs = self._positions(bases[rows[ask]], stowed)
             free[ask] = self._check_configs(qs)
         return free
 
-    @staticmethod
-    def _positions(bases: np.ndarray, arms: np.ndarray) -> np.ndarray:
-        gripper = np.broadcast_to(GRIPPER_OPEN, (len(bases), 2))
+    def _positions(self, bases: np.ndarray, arms: np.ndarray) -> np.ndarray:
+        gripper_open = self.scene.robot.gripper_open
+        gripper = np.broadcast_to(gripper_open, (len(bases), len(gripper_open)))
         return np.concatenate([bases, arms, gripper], axis=1)
 
     def _grasp_checker(self, dish: str):
@@ -302,7 +303,8 @@ class FeasibilityChecker:
     def _run(self, bases: np.ndarray, dish: str, offsets: np.ndarray | None, *,
              details: bool) -> _Batch:
         n = len(bases)
-        batch = _Batch(feasible=np.zeros(n, dtype=bool), q=np.full((n, NUM_POSITIONS), np.nan),
+        batch = _Batch(feasible=np.zeros(n, dtype=bool),
+                       q=np.full((n, self.scene.robot.num_positions), np.nan),
                        grasp=np.full(n, -1), reason=np.full(n, REASONS.index("out_of_reach")))
         geometry = self._geometry(bases, dish, offsets)
         if self.method == "map":
@@ -319,7 +321,7 @@ class FeasibilityChecker:
         when `compact`)."""
         rho, h, bearing = (g[rows] for g in geometry[spec_index])
         q, valid = self.reachability.candidates_many(spec.kind, rho, h + MAP_LIFT, pitch=pitch)
-        q = place(q, bearing[:, None], spec.wrist_turn)
+        q = place(q, bearing[:, None], spec.wrist_turn, robot=self.scene.robot)
         if compact and not valid.all(axis=1).all():
             order = np.argsort(~valid, axis=1, kind="stable")
             q = np.take_along_axis(q, order[..., None], axis=1)
@@ -344,10 +346,11 @@ class FeasibilityChecker:
                     offsets: np.ndarray | None) -> Iterator[CheckResult]:
         """The map method's collision-free grasp configurations for one query, in the order
         `check` tries them, then one infeasible result that says why there are no more."""
+        robot = self.scene.robot
         geometry = self._geometry(base[None], dish, offsets)
         if not self.scene.clearance.in_room(base[:2])[0] or \
                 not self.scene.checker.CheckConfigCollisionFree(
-                    np.concatenate([base, ARM_STOW, GRIPPER_OPEN])):
+                    np.concatenate([base, robot.arm_stow, robot.gripper_open])):
             yield CheckResult(False, None, None, "base_collision")
             return
         checker = self._grasp_checker(dish)
@@ -357,11 +360,12 @@ class FeasibilityChecker:
             q, valid = self._placed_candidates(i, spec, geometry, row, pitch, compact=False)
             reachable |= bool(valid[0].any())
             for arm in q[0][valid[0]]:
-                q_full = np.concatenate([base, arm, GRIPPER_OPEN])
+                q_full = np.concatenate([base, arm, robot.gripper_open])
                 if checker.CheckConfigCollisionFree(q_full):
                     yield CheckResult(True, q_full, spec.kind, "ok")
         if reachable and self.fallback_ik:
-            batch = _Batch(feasible=np.zeros(1, dtype=bool), q=np.full((1, NUM_POSITIONS), np.nan),
+            batch = _Batch(feasible=np.zeros(1, dtype=bool),
+                           q=np.full((1, robot.num_positions), np.nan),
                            grasp=np.full(1, -1), reason=np.zeros(1, dtype=int))
             self._fallback(batch, 0, base, dish, None if offsets is None else offsets[0],
                            geometry)
@@ -440,7 +444,7 @@ class FeasibilityChecker:
         """The map's candidates for one query (those the map method tries), if there is a
         map: IK seeded from them confirms every configuration the map finds."""
         if self.reachability is None:
-            return np.zeros((0, NUM_ARM_JOINTS))
+            return np.zeros((0, self.scene.robot.num_arm_joints))
         pitches = (0.0, SIDE_PITCH) if spec.kind == "side" else (0.0,)
         parts = []
         for pitch in pitches:
@@ -461,13 +465,14 @@ class FeasibilityChecker:
             for i, (spec, grasp) in enumerate(zip(specs, grasps, strict=True)):
                 if self.exhaustive:
                     rho, h, bearing = (g[row] for g in geometry[i])
-                    seeds = exhaustive_ik_seeds(spec, rho, h, bearing, self.random_seeds)
+                    seeds = exhaustive_ik_seeds(spec, rho, h, bearing, self.random_seeds,
+                                                robot=self.scene.robot)
                     stored = self._stored_seeds(i, spec, geometry, row)
                     if seeds is None and len(stored) == 0:
                         continue
                     seeds = np.vstack([stored] + ([] if seeds is None else [seeds]))
                 else:
-                    seeds = ARM_STOW[None, :]
+                    seeds = self.scene.robot.arm_stow[None, :]
                 tried = True
                 q = ik.solve_grasp_ik(self.scene, bases[row], grasp, dish=dish, seeds=seeds,
                                       max_major_iterations=self.ik_iterations)

@@ -28,7 +28,7 @@ from pydrake.geometry import Box, Capsule, Cylinder, Role, Sphere
 
 from s3o_drake.world.furniture import DistanceField
 from s3o_drake.world.obstacles import Obstacles
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, robot_positions
+from s3o_drake.world.robot import Robot
 
 #: Raster cell (m): fine enough that the one-cell-diagonal allowance costs little.
 FIELD_RESOLUTION = 0.02
@@ -49,14 +49,16 @@ def _shape_half_extents(shape) -> np.ndarray:
     raise TypeError(f"no bounding box for a {type(shape).__name__} collision shape")
 
 
-def robot_plan_extent(plant, scene_graph_inspector, robot, context) -> np.ndarray:
-    """[x_lo, x_hi, y_lo, y_hi] (m) of the robot's collision geometry in base_link's frame,
-    with the arm stowed: bounding-box corners of every proximity shape."""
-    plant.SetPositions(context, robot, robot_positions(0.0, 0.0, 0.0, arm=ARM_STOW,
-                                                        gripper=GRIPPER_OPEN))
+def robot_plan_extent(plant, scene_graph_inspector, robot_instance, context, *,
+                      robot: Robot) -> np.ndarray:
+    """[x_lo, x_hi, y_lo, y_hi] (m) of the collision geometry of `robot` (model instance
+    `robot_instance`) in base_link's frame, with the arm stowed: bounding-box corners of
+    every proximity shape."""
+    plant.SetPositions(context, robot_instance, robot.positions(
+        0.0, 0.0, 0.0, arm=robot.arm_stow, gripper=robot.gripper_open))
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     corners = []
-    for body_index in plant.GetBodyIndices(robot):
+    for body_index in plant.GetBodyIndices(robot_instance):
         body = plant.get_body(body_index)
         X_WB = plant.EvalBodyPoseInWorld(context, body)
         frame_id = plant.GetBodyFrameIdOrThrow(body_index)
@@ -230,11 +232,13 @@ class CertainCollision:
         self._reach = max((float(np.hypot(*r.center)) + r.reach for r in robot), default=0.0)
 
     @classmethod
-    def of_scene(cls, plant, inspector, robot_instance, context) -> "CertainCollision":
-        """The vertical prisms of a plant's proximity geometry: the robot's with the arm
-        stowed, in base_link's frame (the base at the origin), the rest in the world."""
-        plant.SetPositions(context, robot_instance, robot_positions(
-            0.0, 0.0, 0.0, arm=ARM_STOW, gripper=GRIPPER_OPEN))
+    def of_scene(cls, plant, inspector, robot_instance, context, *,
+                 robot: Robot) -> "CertainCollision":
+        """The vertical prisms of a plant's proximity geometry: those of `robot` (model
+        instance `robot_instance`) with the arm stowed, in base_link's frame (the base at
+        the origin), the rest in the world."""
+        plant.SetPositions(context, robot_instance, robot.positions(
+            0.0, 0.0, 0.0, arm=robot.arm_stow, gripper=robot.gripper_open))
         robot_prisms, env_prisms = [], []
         for geometry in inspector.GetAllGeometryIds(Role.kProximity):
             body = plant.GetBodyFromFrameId(inspector.GetFrameId(geometry))

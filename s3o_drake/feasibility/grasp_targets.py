@@ -18,9 +18,9 @@ from s3o_drake.feasibility import ik
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.grasps import grasps_for
 from s3o_drake.feasibility.reachability.map import R_KIND, place
-from s3o_drake.world.robot import ARM_MOUNT_XYZ, ARM_STOW
+from s3o_drake.world.robot import Robot
 
-#: Exhaustive IK: random seeds after the closed-form ones and ARM_STOW.
+#: Exhaustive IK: random seeds after the closed-form ones and the stow configuration.
 RANDOM_SEEDS = 2
 #: Reach probe of exhaustive IK (m): a target with no closed-form solution gets IK only if
 #: some target this close (in ρ and h) has one; tilting within the angle tolerance moves the
@@ -42,9 +42,10 @@ class GraspSpec:
     z_offset: float
 
 
-def grasp_specs(dish_kind: str) -> list[GraspSpec]:
-    """The grasps of a dish kind, read off `grasps_for` (so both stay one definition)."""
-    grasps = grasps_for(dish_kind, np.zeros(2), 0.0, np.array([-1.0, 0.0, 0.0]))
+def grasp_specs(dish_kind: str, *, robot: Robot) -> list[GraspSpec]:
+    """`robot`'s grasps of a dish kind, read off `grasps_for` (so both stay one
+    definition)."""
+    grasps = grasps_for(dish_kind, np.zeros(2), 0.0, np.array([-1.0, 0.0, 0.0]), robot=robot)
     return [GraspSpec(g.kind, g.wrist_turn, 1.0 - g.rho, g.height) for g in grasps]
 
 
@@ -61,24 +62,24 @@ def reach_offset_rows(offsets: np.ndarray, n: int) -> np.ndarray:
     return offsets
 
 
-def arm_base_positions(bases: np.ndarray) -> np.ndarray:
-    """p_WA (n, 3) for base poses (n, 3): `FeasibilityScene.p_WA`, vectorised (as in
-    `target_geometry`)."""
+def arm_base_positions(bases: np.ndarray, *, robot: Robot) -> np.ndarray:
+    """p_WA (n, 3) of `robot` for base poses (n, 3): `FeasibilityScene.p_WA`, vectorised (as
+    in `target_geometry`)."""
     x, y, yaw = bases[:, 0], bases[:, 1], bases[:, 2]
     c, s = np.cos(yaw), np.sin(yaw)
-    mx, my, mz = ARM_MOUNT_XYZ
+    mx, my, mz = robot.arm_mount_xyz
     return np.stack([x + c * mx - s * my, y + s * mx + c * my, np.full_like(x, mz)], axis=1)
 
 
 def target_geometry(specs: Sequence[GraspSpec], p_WD: np.ndarray, table_height: float,
-                    bases: np.ndarray, offsets: np.ndarray | None
+                    bases: np.ndarray, offsets: np.ndarray | None, *, robot: Robot
                     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Per grasp of `specs`: (ρ, h, bearing relative to A's x axis) arrays, each (n,), for
-    base poses (n, 3), a dish at p_WD on a table top at `table_height` and reach offsets
-    (n, 3) or None: `grasps_for`'s geometry for many base poses at once."""
+    `robot`'s base poses (n, 3), a dish at p_WD on a table top at `table_height` and reach
+    offsets (n, 3) or None: `grasps_for`'s geometry for many base poses at once."""
     x, y, yaw = bases[:, 0], bases[:, 1], bases[:, 2]
     c, s = np.cos(yaw), np.sin(yaw)
-    mx, my, mz = ARM_MOUNT_XYZ
+    mx, my, mz = robot.arm_mount_xyz
     dx = p_WD[0] - (x + c * mx - s * my)
     dy = p_WD[1] - (y + s * mx + c * my)
     h = np.full_like(dx, table_height - mz)
@@ -90,20 +91,25 @@ def target_geometry(specs: Sequence[GraspSpec], p_WD: np.ndarray, table_height: 
 
 
 def exhaustive_ik_seeds(spec: GraspSpec, rho: float, h: float, bearing: float,
-                        random_seeds: int = RANDOM_SEEDS) -> np.ndarray | None:
-    """Seeds of exhaustive IK for one grasp, or None when the target is surely out of reach.
+                        random_seeds: int = RANDOM_SEEDS, *, robot: Robot) -> np.ndarray | None:
+    """Seeds of exhaustive IK for one grasp of `robot`, or None when the target is surely
+    out of reach.
 
     The arm's closed-form solutions at the target (every branch), or, when it has none, at
-    the nearest probe target within 3 cm that has some; then ARM_STOW and random seeds.
+    the nearest probe target within 3 cm that has some; then its stow configuration and
+    random seeds.
     """
+    arm = kin.arm_kinematics(robot)
     R = np.broadcast_to(R_KIND[spec.kind], (len(PROBE_OFFSETS) ** 2, 3, 3))
     d_rho, d_h = np.meshgrid(PROBE_OFFSETS, PROBE_OFFSETS, indexing="ij")
     order = np.argsort(np.hypot(d_rho, d_h).ravel(), kind="stable")
     p = np.stack([rho + d_rho.ravel(), np.zeros(d_rho.size), h + d_h.ravel()], axis=1)[order]
-    solutions = kin.inverse(R, p)
-    exact = kin.ARM.exact(solutions, R, p)
+    solutions = arm.inverse(R, p)
+    exact = arm.exact(solutions, R, p)
     hits = np.flatnonzero(exact.any(axis=1))
     if hits.size == 0:
         return None
-    closed_form = place(solutions[hits[0]][exact[hits[0]]], bearing, spec.wrist_turn)
-    return np.vstack([closed_form, ARM_STOW, ik.random_arm_seeds(random_seeds)])
+    closed_form = place(solutions[hits[0]][exact[hits[0]]], bearing, spec.wrist_turn,
+                        robot=robot)
+    return np.vstack([closed_form, robot.arm_stow,
+                      ik.random_arm_seeds(random_seeds, robot=robot)])

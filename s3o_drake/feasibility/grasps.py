@@ -1,6 +1,6 @@
 """Grasp poses of a dish for the 2F-140-class gripper: a top grasp and a side grasp.
 
-The grasp frame G (robot.GRASP_FRAME) has z along the approach and y along the fingers'
+The grasp frame G (`Robot.grasp_frame`) has z along the approach and y along the fingers'
 opening. Grasps are defined relative to the bearing ψ from the arm's base A to the dish,
 so that rotating the shoulder-pan joint by Δψ carries a grasp at one bearing to another:
 the reachability map uses that symmetry and is indexed only by the horizontal distance ρ
@@ -22,7 +22,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.gripper import holds_whole
-from s3o_drake.world.robot import FINGERTIP_OFFSET, GRASP_OFFSET, ROBOT
+from s3o_drake.world.robot import Robot
 
 GRASP_KINDS = ("top", "side")
 # The fingers must stay this far above the table top (m); matches the 1 cm clearance of
@@ -32,10 +32,6 @@ TABLE_CLEARANCE = 0.012
 RIM_INSET = 0.01
 # Half the height of a finger pad seen from the side (m), for side grasps.
 PAD_HALF_HEIGHT = 0.015
-# Radius about the approach axis of what follows the grasp point along it (m): the robot's
-# hand and wrist. In a side grasp they pass over the table top, so they set the lowest
-# grasp height.
-WRIST_RADIUS = ROBOT.tool.wrist_radius
 
 # Rotations of G in the frame whose x axis points along the bearing (z up).
 R_BEARING_TOP = RotationMatrix(np.array([[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]]).T)
@@ -60,14 +56,18 @@ class Grasp:
     X_WG: RigidTransform
 
 
-def grasp_point_height(kind: str, table_height: float, grasp: str) -> float:
-    """World z of the grasp point for a dish of `kind` on a table top at `table_height`."""
+def grasp_point_height(kind: str, table_height: float, grasp: str, *, robot: Robot) -> float:
+    """World z of `robot`'s grasp point for a dish of `kind` on a table top at
+    `table_height`."""
     shape = DISH_SHAPES[kind]
     if grasp == "top":
-        fingertip_below_g = FINGERTIP_OFFSET - GRASP_OFFSET
+        fingertip_below_g = robot.fingertip_offset - robot.grasp_offset
         return table_height + max(0.6 * shape.height, fingertip_below_g + TABLE_CLEARANCE)
+    # The hand and wrist follow the grasp point along the approach axis within this radius:
+    # in a side grasp they pass over the table top, so they set the lowest grasp height.
+    wrist_radius = robot.description.tool.wrist_radius
     return table_height + max(0.5 * shape.height, PAD_HALF_HEIGHT + TABLE_CLEARANCE,
-                              WRIST_RADIUS + TABLE_CLEARANCE)
+                              wrist_radius + TABLE_CLEARANCE)
 
 
 def rotation_for(grasp: str, bearing: float) -> RotationMatrix:
@@ -77,8 +77,8 @@ def rotation_for(grasp: str, bearing: float) -> RotationMatrix:
 
 
 def grasps_for(dish_kind: str, p_WD: np.ndarray, table_height: float,
-               p_WA: np.ndarray) -> list[Grasp]:
-    """The grasps of a dish at p_WD (xy of its centre) from an arm base at p_WA (3D).
+               p_WA: np.ndarray, *, robot: Robot) -> list[Grasp]:
+    """`robot`'s grasps of a dish at p_WD (xy of its centre) from its arm base at p_WA (3D).
 
     In order of preference: top first, side second (when the dish allows one).
     """
@@ -94,13 +94,13 @@ def grasps_for(dish_kind: str, p_WD: np.ndarray, table_height: float,
     # Top: whole dish at its centre, or the near rim.
     inset = 0.0 if whole else DISH_SHAPES[dish_kind].radius - RIM_INSET
     p_xy = p_WD - inset * u
-    z = grasp_point_height(dish_kind, table_height, "top")
+    z = grasp_point_height(dish_kind, table_height, "top", robot=robot)
     turn = 0.0 if whole else math.pi / 2
     R = rotation_for("top", bearing) @ RotationMatrix.MakeZRotation(turn)
     grasps.append(Grasp("top", turn, distance - inset, z - p_WA[2], bearing,
                         RigidTransform(R, [p_xy[0], p_xy[1], z])))
     if whole and DISH_SHAPES[dish_kind].height >= 2 * (PAD_HALF_HEIGHT + TABLE_CLEARANCE):
-        z = grasp_point_height(dish_kind, table_height, "side")
+        z = grasp_point_height(dish_kind, table_height, "side", robot=robot)
         grasps.append(Grasp("side", 0.0, distance, z - p_WA[2], bearing,
                             RigidTransform(rotation_for("side", bearing), [*p_WD, z])))
     return grasps

@@ -49,7 +49,7 @@ def make_oracle(source: SceneSource, *, method: str = "map",
     """Scene, checker and oracle for a room (its chairs: those it lists); `obstacles` are
     its furniture's footprints when the caller has them already."""
     scene = FeasibilityScene(source.contents, obstacles=obstacles)
-    rmap = ReachabilityMap.shared(reachability) if method == "map" else None
+    rmap = ReachabilityMap.shared(reachability, robot=scene.robot) if method == "map" else None
     return FeasibilityOracle(FeasibilityChecker(scene, rmap, method=method),
                              source.uncertainty)
 
@@ -59,7 +59,7 @@ def _init_worker(contents: SceneContents, uncertainty: Uncertainty, method: str,
     global _worker_oracle
     logging.getLogger("drake").setLevel(logging.WARNING)  # one line per worker is noise
     scene = FeasibilityScene(contents, obstacles=obstacles)
-    rmap = ReachabilityMap.shared(reachability) if method == "map" else None
+    rmap = ReachabilityMap.shared(reachability, robot=scene.robot) if method == "map" else None
     _worker_oracle = FeasibilityOracle(FeasibilityChecker(scene, rmap, method=method),
                                        uncertainty)
 

@@ -30,13 +30,7 @@ from pydrake.solvers import SnoptSolver, SolverOptions
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.grasps import Grasp
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.world.robot import (
-    ARM_POSITIONS,
-    ARM_STOW,
-    GRIPPER_OPEN,
-    NUM_ARM_JOINTS,
-    NUM_BASE_JOINTS,
-)
+from s3o_drake.world.robot import Robot
 
 #: Grasp-frame tolerances of an IK solution.
 POSITION_TOLERANCE = 0.002
@@ -96,9 +90,10 @@ def _diagram_context(scene: FeasibilityScene, dish: str):
     return per_scene[dish]
 
 
-def random_arm_seeds(count: int, seed: int = 0) -> np.ndarray:
-    """`count` deterministic arm configurations spread over the joints' working ranges."""
-    return kin.ARM.random_configurations(count, seed)
+def random_arm_seeds(count: int, seed: int = 0, *, robot: Robot) -> np.ndarray:
+    """`count` deterministic configurations of `robot`'s arm spread over the joints' working
+    ranges."""
+    return kin.arm_kinematics(robot).random_configurations(count, seed)
 
 
 def solve_or_none(solver, prog, guess: np.ndarray, options):
@@ -146,18 +141,20 @@ def solve_grasp_ik(scene: FeasibilityScene, base: np.ndarray, grasp: Grasp, *, d
     """The robot's positions grasping `grasp` with the base at `base`, or None.
 
     `base` is (x, y, yaw); `dish` names the dish being grasped (the gripper may touch it,
-    nothing else); `seeds` are arm configurations (k, n) tried in order (default: ARM_STOW
-    and a few deterministic random ones). A solution is returned only if it passes `verify`.
+    nothing else); `seeds` are arm configurations (k, n) tried in order (default: the stow
+    configuration and a few deterministic random ones). A solution is returned only if it
+    passes `verify`.
     """
-    plant = scene.plant
+    plant, robot = scene.plant, scene.robot
     context = _diagram_context(scene, dish)
     plant_context = plant.GetMyMutableContextFromRoot(context)
     ik = InverseKinematics(plant, plant_context, with_joint_limits=True)
     q = ik.q()
     prog = ik.get_mutable_prog()
     base = np.asarray(base, dtype=float)
-    prog.AddBoundingBoxConstraint(base, base, q[:NUM_BASE_JOINTS])
-    prog.AddBoundingBoxConstraint(GRIPPER_OPEN, GRIPPER_OPEN, q[ARM_POSITIONS.stop:])
+    prog.AddBoundingBoxConstraint(base, base, q[:robot.num_base_joints])
+    prog.AddBoundingBoxConstraint(robot.gripper_open, robot.gripper_open,
+                                  q[robot.arm_positions.stop:])
     p_WG = grasp.X_WG.translation()
     ik.AddPositionConstraint(
         frameB=scene.grasp_frame, p_BQ=np.zeros(3), frameA=plant.world_frame(),
@@ -171,8 +168,8 @@ def solve_grasp_ik(scene: FeasibilityScene, base: np.ndarray, grasp: Grasp, *, d
     options = SolverOptions()
     options.SetOption(solver.solver_id(), "Major iterations limit", int(max_major_iterations))
     if seeds is None:
-        seeds = np.vstack([ARM_STOW, random_arm_seeds(3)])
-    for arm in np.asarray(seeds, dtype=float).reshape(-1, NUM_ARM_JOINTS):
+        seeds = np.vstack([robot.arm_stow, random_arm_seeds(3, robot=robot)])
+    for arm in np.asarray(seeds, dtype=float).reshape(-1, robot.num_arm_joints):
         guess = scene.q(base, arm)
         result = solve_or_none(solver, prog, guess, options)
         if result is None or not result.is_success():

@@ -14,13 +14,14 @@ refinement), the joint limits, and inverse kinematics by the arm's family
 Either way, inverse kinematics returns candidate slots that callers verify (`exact`);
 Drake's InverseKinematics, seeded from them, stays the reference of the feasibility checks.
 
-Configurations are arrays (..., n) of arm joint angles in ``robot.ARM_JOINTS`` order; poses
-are (R_AG (..., 3, 3), p_AG (..., 3)). The module's functions are the robot's
-(`world.robot.ROBOT`).
+Configurations are arrays (..., n) of arm joint angles in ``Robot.arm_joints`` order; poses
+are (R_AG (..., 3, 3), p_AG (..., 3)). `arm_kinematics(robot)` gives a robot's arm, made
+once per robot.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -30,7 +31,7 @@ from s3o_drake.feasibility.dh_chain import DHChain
 from s3o_drake.feasibility.ur_inverse import NUM_BRANCHES as UR_BRANCHES
 from s3o_drake.feasibility.ur_inverse import ur_inverse
 from s3o_drake.world.angles import wrap
-from s3o_drake.world.robot import ROBOT
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.robot_description import RobotDescription
 
 #: A verified inverse-kinematics solution is this close to its target (rad and m).
@@ -260,10 +261,8 @@ class ArmKinematics:
         return q, angle, distance
 
 
-ARM = ArmKinematics.of(ROBOT)
-"""The robot's arm."""
-CHAIN = ARM.chain
-forward = ARM.forward
-jacobian = ARM.jacobian
-refine = ARM.refine
-inverse = ARM.inverse
+@functools.cache
+def arm_kinematics(robot: Robot) -> ArmKinematics:
+    """The kinematics of `robot`'s arm, made once per robot (its seeds cost a little, and a
+    robot's arm never changes)."""
+    return ArmKinematics.of(robot.description)

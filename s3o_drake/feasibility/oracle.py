@@ -168,7 +168,8 @@ class FeasibilityOracle:
         reach = reach.reshape(-1, 2)
         kind = self.checker.scene.dishes[dish].kind
         if placed_object(dish) is None:
-            ok = landed & (np.linalg.norm(reach, axis=1) <= grasp_tolerance(kind))
+            tolerance = grasp_tolerance(kind, robot=self.checker.scene.robot)
+            ok = landed & (np.linalg.norm(reach, axis=1) <= tolerance)
         else:  # put down where the reach aims, off by the object's offset in the hand too
             # The in-hand offset along the axes of `place_error_stds` (the disc is round:
             # which horizontal axes they are does not matter).
@@ -195,7 +196,7 @@ class FeasibilityOracle:
         return cached_array(
             lambda: ("expectation", *self.checker.identity(), self.noise, dish, xs, ys,
                      fine_cell),
-            lambda: self._expectation(dish, xs, ys, fine_cell))
+            lambda: self._expectation(dish, xs, ys, fine_cell), robot=self.checker.scene.robot)
 
     def _expectation(self, dish: str, xs: np.ndarray, ys: np.ndarray,
                      fine_cell: float) -> np.ndarray:
@@ -231,7 +232,8 @@ class FeasibilityOracle:
         else:
             values = at
         kind = self.checker.scene.dishes[dish].kind
-        return np.clip(values, 0.0, 1.0) * goal_probability(dish, kind, self.noise.reach_std)
+        return np.clip(values, 0.0, 1.0) * goal_probability(
+            dish, kind, self.noise.reach_std, robot=self.checker.scene.robot)
 
     def _success_grid(self, dish: str, p_dish: np.ndarray, xs: np.ndarray,
                       ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -9,11 +9,12 @@ any process that asks for the same map again reads it: a study's difficulty and 
 the same tasks, a benchmark run again, the planners of `s3o bench limit` on one task, the
 test processes. Unset (the default), nothing is kept.
 
-The digest covers every source file of the package and the robot's and furniture's model
-files, so a map made by other code is never read: editing the oracle, the kinematics or the
-robot's URDF starts an empty cache in effect. Files are written whole or not at all; a
-folder may be shared by processes running at once (a map that several ask for at once is
-computed by one of them while the others wait), and deleted at any time.
+The digest covers every source file of the package and the furniture's and the map's
+robot's model files (`code_digest(robot)`), so a map made by other code is never read:
+editing the oracle, the kinematics or the robot's URDF starts an empty cache in effect.
+Files are written whole or not at all; a folder may be shared by processes running at once
+(a map that several ask for at once is computed by one of them while the others wait), and
+deleted at any time.
 """
 
 from __future__ import annotations
@@ -28,7 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from s3o_drake.world.resources import MODELS_DIR, ROBOT_NAME, robot_dir
+from s3o_drake.world.resources import MODELS_DIR
+from s3o_drake.world.robot import Robot
 
 CACHE_VARIABLE = "S3O_CACHE"
 """The environment variable that names the cache's folder."""
@@ -55,13 +57,14 @@ def cache_folder() -> Path | None:
     return Path(folder) if folder else None
 
 
-@functools.lru_cache(maxsize=1)
-def code_digest() -> str:
-    """SHA-256 over the package's source files, the furniture's model files and the robot's
-    files (its description, model and reachability map; not the network's weights in its
-    subfolder), their paths and bytes: what computes a map besides its arguments."""
+@functools.cache
+def code_digest(robot: Robot) -> str:
+    """SHA-256 over the package's source files, the furniture's model files and `robot`'s
+    files (its description, model and reachability map, in its folder; not the network's
+    weights in its subfolder), their paths and bytes: what computes a map besides its
+    arguments. Once per robot and process."""
     files = [p for p in _PACKAGE_DIR.rglob("*") if p.suffix in _SOURCE_SUFFIXES]
-    files += [*(MODELS_DIR / "furniture").rglob("*"), *robot_dir(ROBOT_NAME).glob("*")]
+    files += [*(MODELS_DIR / "furniture").rglob("*"), *robot.files.folder.glob("*")]
     digest = hashlib.sha256()
     for path in sorted(p for p in files if p.is_file()):
         digest.update(path.as_posix().encode())
@@ -69,10 +72,11 @@ def code_digest() -> str:
     return digest.hexdigest()
 
 
-def key_digest(parts: Iterable[object]) -> str:
-    """A digest of `parts` and the code: arrays by dtype, shape and bytes, bytes as they
-    are, anything else by its repr (dataclasses of numbers repr exactly)."""
-    digest = hashlib.sha256(code_digest().encode())
+def key_digest(parts: Iterable[object], *, robot: Robot) -> str:
+    """A digest of `parts` and the code (with `robot`'s files): arrays by dtype, shape and
+    bytes, bytes as they are, anything else by its repr (dataclasses of numbers repr
+    exactly)."""
+    digest = hashlib.sha256(code_digest(robot).encode())
     for part in parts:
         if isinstance(part, np.ndarray):
             digest.update(f"{part.dtype.str}{part.shape}".encode())
@@ -86,13 +90,14 @@ def key_digest(parts: Iterable[object]) -> str:
 
 
 def cached_array(parts: Callable[[], Iterable[object]],
-                 compute: Callable[[], np.ndarray]) -> np.ndarray:
-    """`compute()`, read from the cache folder when a process stored it under the same
-    `parts()` (called only when a folder is set) and stored there otherwise."""
+                 compute: Callable[[], np.ndarray], *, robot: Robot) -> np.ndarray:
+    """`compute()` for `robot`, read from the cache folder when a process stored it under
+    the same `parts()` (called only when a folder is set) and code and stored there
+    otherwise."""
     folder = cache_folder()
     if folder is None:
         return compute()
-    path = folder / f"{key_digest(parts())}.npy"
+    path = folder / f"{key_digest(parts(), robot=robot)}.npy"
     stored = _read(path)
     if stored is not None:
         return stored

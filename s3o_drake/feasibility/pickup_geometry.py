@@ -14,7 +14,7 @@ through these configurations of the robot's positions, from where the base stand
   the arm by `LIFT_INWARD`, or raised less; the straight line to it must be free;
 - tray: the grasp frame `TRAY_CLEARANCE` above the tray's centre (`tray_configuration`),
   and release: the same with the fingers open, free by the scene's own checker;
-- stow: ARM_STOW.
+- stow: the arm stowed.
 
 `pickup_geometry` finds them, trying the grasp configurations in order until one has a
 pre-grasp and a lift, and says why not when none has: "base_collision" (the base stands in
@@ -55,17 +55,7 @@ from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import placed_object
 from s3o_drake.world.gripper import holds_whole
 from s3o_drake.world.placing import PLACE_TOLERANCE
-from s3o_drake.world.robot import (
-    ARM_MOUNT_XYZ,
-    ARM_POSITIONS,
-    ARM_STOW,
-    FINGER_TRAVEL,
-    GRIPPER_CLOSED,
-    GRIPPER_OPEN,
-    GRIPPER_POSITIONS,
-    TRAY_XYZ,
-    robot_positions,
-)
+from s3o_drake.world.robot import Robot
 
 REASONS = ("ok", "no_ik", "no_path", "base_collision")
 #: Pre-grasp distance from the grasp pose against the approach axis (m).
@@ -84,42 +74,44 @@ PAD_FRICTION = 0.5
 _UP = np.array([0.0, 0.0, 1.0])
 
 
-def grasp_tolerance(kind: str) -> float:
-    """How far (m, horizontally) the real dish may be from where the gripper aims and still
-    be held, for a dish of `kind`.
+def grasp_tolerance(kind: str, *, robot: Robot) -> float:
+    """How far (m, horizontally) the real dish may be from where `robot`'s gripper aims and
+    still be held, for a dish of `kind`.
 
-    Held whole (a cup): the fingers open `2 FINGER_TRAVEL` wide and close on the dish's
-    sides, so the dish's centre may be off by the half-clearance FINGER_TRAVEL - radius
+    Held whole (a cup): the fingers open twice the finger travel wide and close on the dish's
+    sides, so the dish's centre may be off by the half-clearance travel - radius
     (0.025 m for a cup) before a finger comes down on it instead of beside it; the same
     number is used along the pads' width, where a dish further off is pushed aside by the
     pads' edges rather than centred.
 
     Pinched at the rim (plate, bowl): the fingers open along the bearing with the near rim
-    RIM_INSET beyond the grasp point; the dish coming nearer by FINGER_TRAVEL - RIM_INSET
+    RIM_INSET beyond the grasp point; the dish coming nearer by travel - RIM_INSET
     puts the rim under the outer pad (going away leaves more room). Sideways, the flat pads
     meet the round rim at an angle asin(e / radius); past the friction angle atan(μ) the
     squeezed rim slips out, so e <= radius μ / sqrt(1 + μ²) (0.054 m for a plate, 0.036 m for
     a bowl, μ = 0.5). The smaller of the two applies in every direction.
     """
     radius = DISH_SHAPES[kind].radius
+    travel = robot.finger_travel
     if holds_whole(kind):
-        return FINGER_TRAVEL - radius
+        return travel - radius
     sideways = radius * PAD_FRICTION / math.hypot(1.0, PAD_FRICTION)
-    return min(FINGER_TRAVEL - RIM_INSET, sideways)
+    return min(travel - RIM_INSET, sideways)
 
 
-def caught(reach_noise: np.ndarray, kind: str) -> bool:
-    """Whether the fingers catch a dish of `kind` when the reach misses it by `reach_noise`
-    (m, horizontal)."""
-    return bool(np.linalg.norm(np.asarray(reach_noise, dtype=float)[:2]) <= grasp_tolerance(kind))
+def caught(reach_noise: np.ndarray, kind: str, *, robot: Robot) -> bool:
+    """Whether `robot`'s fingers catch a dish of `kind` when the reach misses it by
+    `reach_noise` (m, horizontal)."""
+    miss = np.linalg.norm(np.asarray(reach_noise, dtype=float)[:2])
+    return bool(miss <= grasp_tolerance(kind, robot=robot))
 
 
-def catch_probability(kind: str, reach_std: float) -> float:
-    """P(caught) under isotropic Gaussian reach noise of `reach_std` per axis: the norm of
-    the noise is Rayleigh distributed."""
+def catch_probability(kind: str, reach_std: float, *, robot: Robot) -> float:
+    """P(caught) by `robot` under isotropic Gaussian reach noise of `reach_std` per axis:
+    the norm of the noise is Rayleigh distributed."""
     if reach_std <= 0:
         return 1.0
-    return 1.0 - math.exp(-0.5 * (grasp_tolerance(kind) / reach_std) ** 2)
+    return 1.0 - math.exp(-0.5 * (grasp_tolerance(kind, robot=robot) / reach_std) ** 2)
 
 
 def place_error_stds(kind: str, reach_std: float) -> tuple[float, float]:
@@ -149,14 +141,14 @@ def place_probability(kind: str, reach_std: float) -> float:
     return float(np.trapezoid(density * erf(half_chord / (b * math.sqrt(2.0))), x))
 
 
-def goal_probability(target: str, kind: str, reach_std: float) -> float:
-    """The factor of the reach noise in Fea^m of `target` (of `kind`): a pick's catch
-    (`catch_probability`), or for a place target (`goals.placed_object`) the object standing
-    within tolerance of its place (`place_probability`; the held object is not caught
-    again)."""
+def goal_probability(target: str, kind: str, reach_std: float, *, robot: Robot) -> float:
+    """The factor of the reach noise in Fea^m of `target` (of `kind`) for `robot`: a pick's
+    catch (`catch_probability`), or for a place target (`goals.placed_object`) the object
+    standing within tolerance of its place (`place_probability`; the held object is not
+    caught again)."""
     if placed_object(target) is not None:
         return place_probability(kind, reach_std)
-    return catch_probability(kind, reach_std)
+    return catch_probability(kind, reach_std, robot=robot)
 
 
 @dataclass(frozen=True)
@@ -184,69 +176,68 @@ class PickupGeometry:
     grasp: str | None = None
 
 
-def X_WA(base: np.ndarray) -> RigidTransform:
-    """Pose of the arm's base frame A (axes parallel to base_link's) for a base (x, y, yaw)."""
+def X_WA(base: np.ndarray, *, robot: Robot) -> RigidTransform:
+    """Pose of `robot`'s arm base frame A (axes parallel to base_link's) for a base
+    (x, y, yaw)."""
     x, y, yaw = base
     R = RotationMatrix.MakeZRotation(yaw)
-    return RigidTransform(R, np.array([x, y, 0.0]) + R @ np.array(ARM_MOUNT_XYZ))
+    return RigidTransform(R, np.array([x, y, 0.0]) + R @ np.array(robot.arm_mount_xyz))
 
 
-def nearest_turn(q: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """Arm angles q (..., n) with their two-turn joints shifted by whole turns towards
-    `reference` (broadcast), inside their limits: the same geometry (so just as
+def nearest_turn(q: np.ndarray, reference: np.ndarray, *, robot: Robot) -> np.ndarray:
+    """Angles q (..., n) of `robot`'s arm with their two-turn joints shifted by whole turns
+    towards `reference` (broadcast), inside their limits: the same geometry (so just as
     collision-free), less to turn."""
-    return kin.ARM.nearest_turn(q, reference)
+    return kin.arm_kinematics(robot).nearest_turn(q, reference)
 
 
 def solve_arm(R_AG: np.ndarray, p_AG: np.ndarray, reference: np.ndarray,
-              seeds: np.ndarray | None = None) -> list[np.ndarray]:
-    """Arm configurations putting G at (R_AG, p_AG), each turned as near `reference` as
-    allowed, the nearest first: the closed-form solutions of every branch (UR family), or
-    those damped least squares reaches from `reference` and from `seeds` (k, n) (another
-    arm; a target near the reference needs no other seed)."""
+              seeds: np.ndarray | None = None, *, robot: Robot) -> list[np.ndarray]:
+    """Configurations of `robot`'s arm putting G at (R_AG, p_AG), each turned as near
+    `reference` as allowed, the nearest first: the closed-form solutions of every branch
+    (UR family), or those damped least squares reaches from `reference` and from `seeds`
+    (k, n) (another arm; a target near the reference needs no other seed)."""
     return solve_arm_many(np.asarray(R_AG)[None], np.asarray(p_AG)[None], reference,
-                          seeds)[0]
+                          seeds, robot=robot)[0]
 
 
 def solve_arm_many(R_AG: np.ndarray, p_AG: np.ndarray, reference: np.ndarray,
-                   seeds: np.ndarray | None = None) -> list[list[np.ndarray]]:
+                   seeds: np.ndarray | None = None, *, robot: Robot) -> list[list[np.ndarray]]:
     """`solve_arm` for targets (m, 3, 3), (m, 3) and references (n,) or (m, n) at once
     (vectorised: the oracle asks for thousands of targets)."""
-    m, n = len(p_AG), kin.ARM.joints
+    arm = kin.arm_kinematics(robot)
+    m, n = len(p_AG), arm.joints
     references = np.broadcast_to(np.asarray(reference, dtype=float), (m, n))
     starts = references[:, None]
     if seeds is not None:
         extra = np.broadcast_to(np.asarray(seeds, dtype=float).reshape(1, -1, n),
                                 (m, len(seeds), n))
         starts = np.concatenate([starts, extra], axis=1)
-    branches = kin.inverse(R_AG, p_AG, starts)  # (m, B, n)
-    exact = kin.ARM.exact(branches, R_AG, p_AG, POSE_TOLERANCE)
-    turned = nearest_turn(np.nan_to_num(branches), references[:, None])
-    exact &= kin.ARM.within_limits(turned)
+    branches = arm.inverse(R_AG, p_AG, starts)  # (m, B, n)
+    exact = arm.exact(branches, R_AG, p_AG, POSE_TOLERANCE)
+    turned = arm.nearest_turn(np.nan_to_num(branches), references[:, None])
+    exact &= arm.within_limits(turned)
     gap = np.where(exact, np.linalg.norm(turned - references[:, None], axis=-1), np.inf)
     order = np.argsort(gap, axis=1, kind="stable")
     return [[turned[k, b] for b in order[k] if exact[k, b]] for k in range(m)]
 
 
 def moved(q: np.ndarray, base: np.ndarray, X_WG_target: RigidTransform,
-          checker: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """q (NUM_POSITIONS) with the arm moved so that G is at X_WG_target, collision-free, or None."""
-    return _moved(q, X_WA(base).inverse() @ X_WG_target, checker)
-
-
-def _moved(q: np.ndarray, X_AG_target: RigidTransform,
-           checker: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """`moved` with the target in the arm's base frame A."""
+          checker: SceneGraphCollisionChecker, *, robot: Robot) -> np.ndarray | None:
+    """q (`robot`'s positions) with the arm moved so that G is at X_WG_target,
+    collision-free, or None."""
+    X_AG_target = X_WA(base, robot=robot).inverse() @ X_WG_target
     R = X_AG_target.rotation().matrix()
-    return _first_free(q, solve_arm(R, X_AG_target.translation(), q[ARM_POSITIONS]), checker)
+    arms = solve_arm(R, X_AG_target.translation(), q[robot.arm_positions], robot=robot)
+    return _first_free(q, arms, checker, robot=robot)
 
 
-def _first_free(q: np.ndarray, arms: list[np.ndarray],
-                checker: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """q (NUM_POSITIONS) with the first of `arms` that is collision-free, or None."""
+def _first_free(q: np.ndarray, arms: list[np.ndarray], checker: SceneGraphCollisionChecker,
+                *, robot: Robot) -> np.ndarray | None:
+    """q (`robot`'s positions) with the first of `arms` that is collision-free, or None."""
     for arm in arms:
         candidate = q.copy()
-        candidate[ARM_POSITIONS] = arm
+        candidate[robot.arm_positions] = arm
         if checker.CheckConfigCollisionFree(candidate):
             return candidate
     return None
@@ -254,12 +245,12 @@ def _first_free(q: np.ndarray, arms: list[np.ndarray],
 
 def _first_offset(q: np.ndarray, solutions: list[list[np.ndarray]],
                   checker: SceneGraphCollisionChecker,
-                  edge_checker: SceneGraphCollisionChecker) -> np.ndarray | None:
+                  edge_checker: SceneGraphCollisionChecker, *, robot: Robot) -> np.ndarray | None:
     """q moved to the first target (of `solutions`, one list of arms per target, in order)
     where the arm is free by `checker` and the straight line from q is free by
     `edge_checker`, or None."""
     for arms in solutions:
-        moved_q = _first_free(q, arms, checker)
+        moved_q = _first_free(q, arms, checker, robot=robot)
         if moved_q is not None and edge_checker.CheckEdgeCollisionFree(moved_q, q):
             return moved_q
     return None
@@ -289,110 +280,117 @@ def _lift_offsets(p_AG: np.ndarray) -> np.ndarray:
     return np.stack([up, up + drawn, 0.6 * up + drawn, 0.45 * up, 0.3 * up], axis=1)
 
 
-def _arm_solutions(q_grasps: np.ndarray) -> list[tuple[list, list]]:
-    """For grasp configurations (n, NUM_POSITIONS): the IK solutions of every pre-grasp and every
-    lift target, in the order tried, near the grasp's arm (two vectorised solves)."""
-    arms = q_grasps[:, ARM_POSITIONS]
-    R, p = kin.forward(arms)
+def _arm_solutions(q_grasps: np.ndarray, *, robot: Robot) -> list[tuple[list, list]]:
+    """For grasp configurations (n, `robot`'s positions): the IK solutions of every
+    pre-grasp and every lift target, in the order tried, near the grasp's arm (two
+    vectorised solves)."""
+    arms = q_grasps[:, robot.arm_positions]
+    R, p = kin.arm_kinematics(robot).forward(arms)
     n = len(arms)
     found = []
     for offsets in (_pre_grasp_offsets(R), _lift_offsets(p)):
         k = offsets.shape[1]
         solutions = solve_arm_many(np.repeat(R, k, axis=0), (p[:, None] + offsets).reshape(-1, 3),
-                                   np.repeat(arms, k, axis=0))
+                                   np.repeat(arms, k, axis=0), robot=robot)
         found.append([solutions[i * k:(i + 1) * k] for i in range(n)])
     return list(zip(*found, strict=True))
 
 
-@lru_cache(maxsize=4)
-def tray_arms(grasp: str) -> tuple[np.ndarray, ...]:
-    """The arm configurations at release over the tray, in the order they are tried.
+@lru_cache(maxsize=8)
+def tray_arms(grasp: str, *, robot: Robot) -> tuple[np.ndarray, ...]:
+    """`robot`'s arm configurations at release over the tray, in the order they are tried.
 
     G is `TRAY_CLEARANCE` above the tray's centre; a top grasp keeps the gripper pointing
     down, a side grasp keeps it level (a cup stays upright). Headings of the approach axis
-    go from pointing backwards round to sideways; per heading, the solutions nearest
-    ARM_STOW first (an arm without a closed form starts from ARM_STOW and its default
-    seeds). In the arm's frame they do not depend on where the base stands, so they are
-    solved once.
+    go from pointing backwards round to sideways; per heading, the solutions nearest the
+    stow configuration first (an arm without a closed form starts from there and from its
+    default seeds). In the arm's frame they do not depend on where the base stands, so they
+    are solved once per robot.
     """
-    p_BT = np.array(TRAY_XYZ) + np.array([0.0, 0.0, TRAY_CLEARANCE])
-    p_AG = p_BT - np.array(ARM_MOUNT_XYZ)
+    p_BT = np.array(robot.tray_xyz) + np.array([0.0, 0.0, TRAY_CLEARANCE])
+    p_AG = p_BT - np.array(robot.arm_mount_xyz)
     R_bearing = R_BEARING_TOP if grasp == "top" else R_BEARING_SIDE
     arms = []
     for heading in (math.pi, 0.5 * math.pi, -0.5 * math.pi, 0.75 * math.pi, -0.75 * math.pi,
                     0.0):
         R_AG = (RotationMatrix.MakeZRotation(heading) @ R_bearing).matrix()
-        arms += solve_arm(R_AG, p_AG, np.asarray(ARM_STOW), kin.ARM.seeds)
+        arms += solve_arm(R_AG, p_AG, np.asarray(robot.arm_stow),
+                          kin.arm_kinematics(robot).seeds, robot=robot)
     return tuple(arms)
 
 
 def tray_configuration(base: np.ndarray, grasp: str, q_from: np.ndarray,
-                       checker: SceneGraphCollisionChecker) -> np.ndarray | None:
-    """The robot's positions at release over the tray (fingers as in `q_from`), or None:
+                       checker: SceneGraphCollisionChecker, *, robot: Robot) -> np.ndarray | None:
+    """`robot`'s positions at release over the tray (fingers as in `q_from`), or None:
     the first of `tray_arms` that is collision-free."""
-    for arm in tray_arms(grasp):
+    for arm in tray_arms(grasp, robot=robot):
         q = q_from.copy()
         q[:3] = base
-        q[ARM_POSITIONS] = arm
+        q[robot.arm_positions] = arm
         if checker.CheckConfigCollisionFree(q):
             return q
     return None
 
 
-def with_gripper(q: np.ndarray, gripper: np.ndarray) -> np.ndarray:
-    """q (NUM_POSITIONS) with the fingers at `gripper`."""
+def with_gripper(q: np.ndarray, gripper: np.ndarray, *, robot: Robot) -> np.ndarray:
+    """q (`robot`'s positions) with the fingers at `gripper`."""
     out = q.copy()
-    out[GRIPPER_POSITIONS] = gripper
+    out[robot.gripper_positions] = gripper
     return out
 
 
 def _complete(base: np.ndarray, grasp: str, q_grasp: np.ndarray, solutions: tuple[list, list],
-              free: SceneGraphCollisionChecker,
-              holding: SceneGraphCollisionChecker) -> tuple[PickupConfigurations | None, bool]:
-    """The rest of the pickup from one grasp configuration (see the module docstring):
-    the configurations, or None; and whether a lift was found (for the reason)."""
+              free: SceneGraphCollisionChecker, holding: SceneGraphCollisionChecker, *,
+              robot: Robot) -> tuple[PickupConfigurations | None, bool]:
+    """The rest of `robot`'s pickup from one grasp configuration (see the module
+    docstring): the configurations, or None; and whether a lift was found (for the
+    reason)."""
     pre_solutions, lift_solutions = solutions
-    q_pre = _first_offset(q_grasp, pre_solutions, free, holding)
+    q_pre = _first_offset(q_grasp, pre_solutions, free, holding, robot=robot)
     if q_pre is None:
         return None, False
-    q_closed = with_gripper(q_grasp, GRIPPER_CLOSED)
+    q_closed = with_gripper(q_grasp, robot.gripper_closed, robot=robot)
     if not holding.CheckEdgeCollisionFree(q_grasp, q_closed):
         return None, False
-    q_lift = _first_offset(q_closed, lift_solutions, holding, holding)
+    q_lift = _first_offset(q_closed, lift_solutions, holding, holding, robot=robot)
     if q_lift is None:
         return None, False
-    q_tray = tray_configuration(base, grasp, q_closed, holding)
+    q_tray = tray_configuration(base, grasp, q_closed, holding, robot=robot)
     if q_tray is None:
         return None, True
-    q_release = with_gripper(q_tray, GRIPPER_OPEN)
+    q_release = with_gripper(q_tray, robot.gripper_open, robot=robot)
     if not free.CheckConfigCollisionFree(q_release) or \
             not free.CheckEdgeCollisionFree(q_tray, q_release):
         return None, True
-    q_stow = with_gripper(robot_positions(*base), GRIPPER_OPEN)
+    q_stow = with_gripper(robot.positions(*base), robot.gripper_open, robot=robot)
     return PickupConfigurations(grasp, q_grasp, q_pre, q_closed, q_lift, q_tray, q_release,
                                 q_stow), True
 
 
-def _grasp_start(q: np.ndarray, q_arm: np.ndarray) -> np.ndarray:
-    """A grasp configuration (n, NUM_POSITIONS) with the fingers open and its two-turn joints
-    as near the arm's `q_arm` as they go."""
+def _grasp_start(q: np.ndarray, q_arm: np.ndarray, *, robot: Robot) -> np.ndarray:
+    """A grasp configuration (n, `robot`'s positions) with the fingers open and its two-turn
+    joints as near the arm's `q_arm` as they go."""
     q_grasp = np.array(q, dtype=float)
-    q_grasp[..., GRIPPER_POSITIONS] = GRIPPER_OPEN
-    q_grasp[..., ARM_POSITIONS] = nearest_turn(q_grasp[..., ARM_POSITIONS], q_arm)
+    q_grasp[..., robot.gripper_positions] = robot.gripper_open
+    q_grasp[..., robot.arm_positions] = nearest_turn(q_grasp[..., robot.arm_positions], q_arm,
+                                                     robot=robot)
     return q_grasp
 
 
 def pickup_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
                     dish: str, *, reach_offset: np.ndarray | None = None,
-                    q_arm: np.ndarray = ARM_STOW, grasp: str | None = None) -> PickupGeometry:
+                    q_arm: np.ndarray | None = None, grasp: str | None = None) -> PickupGeometry:
     """The configurations of picking `dish` from base pose `base` (x, y, yaw), or why not.
 
     `reach_offset` moves the grasp target in the world (the dish's true place and the reach
-    noise, as in `FeasibilityChecker.check`); `q_arm` is where the arm is now (the grasp's
-    ±2π joints are turned as near it as they go); `grasp` ("top" or "side"), when given,
-    is the only kind of grasp tried (putting an object down holds it as it was picked).
+    noise, as in `FeasibilityChecker.check`); `q_arm` is where the arm is now (default
+    stowed; the grasp's ±2π joints are turned as near it as they go); `grasp` ("top" or
+    "side"), when given, is the only kind of grasp tried (putting an object down holds it
+    as it was picked).
     See the module docstring.
     """
+    robot = scene.robot
+    q_arm = robot.arm_stow if q_arm is None else q_arm
     base = np.asarray(base, dtype=float).reshape(3)
     free = scene.checker
     holding = ik.grasp_checker(scene, dish)
@@ -404,10 +402,10 @@ def pickup_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: 
         if grasp is not None and result.grasp != grasp:
             continue
         tried = tried or result.grasp
-        q_grasp = _grasp_start(result.q, np.asarray(q_arm))
-        (solutions,) = _arm_solutions(q_grasp[None])
+        q_grasp = _grasp_start(result.q, np.asarray(q_arm), robot=robot)
+        (solutions,) = _arm_solutions(q_grasp[None], robot=robot)
         configurations, lifted = _complete(base, result.grasp, q_grasp, solutions, free,
-                                           holding)
+                                           holding, robot=robot)
         got_lift |= lifted
         if configurations is not None:
             return PickupGeometry(True, "ok", configurations, grasp=result.grasp)
@@ -430,11 +428,13 @@ def pickup_feasible_many(scene: FeasibilityScene, checker: FeasibilityChecker,
     rows = np.flatnonzero(feasible)
     if rows.size == 0:
         return ok
+    robot = scene.robot
     free, holding = scene.checker, ik.grasp_checker(scene, dish)
-    q_grasps = _grasp_start(q[rows], np.asarray(ARM_STOW))
-    for row, q_grasp, solutions in zip(rows, q_grasps, _arm_solutions(q_grasps), strict=True):
+    q_grasps = _grasp_start(q[rows], np.asarray(robot.arm_stow), robot=robot)
+    for row, q_grasp, solutions in zip(rows, q_grasps, _arm_solutions(q_grasps, robot=robot),
+                                       strict=True):
         configurations, _ = _complete(bases[row], grasps[row], q_grasp, solutions, free,
-                                      holding)
+                                      holding, robot=robot)
         if configurations is not None:
             ok[row] = True
         else:

@@ -33,8 +33,8 @@ class PlanningScene:
     @cached_property
     def checker(self) -> FeasibilityChecker:
         """The pickup check on the known world (with the reachability map)."""
-        return FeasibilityChecker(self.scene, ReachabilityMap.shared(self._reachability),
-                                  method="map")
+        rmap = ReachabilityMap.shared(self._reachability, robot=self.scene.robot)
+        return FeasibilityChecker(self.scene, rmap, method="map")
 
     @cached_property
     def oracle(self) -> FeasibilityOracle:

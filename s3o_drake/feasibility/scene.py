@@ -60,14 +60,15 @@ class FeasibilityScene:
                                                         self.robot_instance)
         context = self.plant.CreateDefaultContext()
         inspector = self.diagram.scene_graph().model_inspector()
-        extent = robot_plan_extent(self.plant, inspector, self.robot_instance, context)
+        extent = robot_plan_extent(self.plant, inspector, self.robot_instance, context,
+                                   robot=self.robot)
         self.robot_radius = robot_horizontal_radius(extent)
         """Horizontal reach (m) of the robot's collision geometry with the arm stowed."""
         self.padding = padding
         self.obstacles = Obstacles.of_contents(contents) if obstacles is None else obstacles
         self.clearance = BaseClearance(self.obstacles, robot_extent=extent, padding=padding)
         self.collision = CertainCollision.of_scene(self.plant, inspector, self.robot_instance,
-                                                   context)
+                                                   context, robot=self.robot)
         """Base positions that need no collision query (see `clearance`)."""
 
     def q(self, base: np.ndarray, arm: np.ndarray | None = None,

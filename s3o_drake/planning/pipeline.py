@@ -54,7 +54,7 @@ def heatmaps_for(known: KnownWorld, *, source: str | None = None, progress: bool
                              known.overhead.depth, known.overhead.label,
                              known.overhead.robot_labels)
         use_one_thread()
-        return FcnFeasibility.shared().heatmaps(view, list(known.dishes))
+        return FcnFeasibility.shared(robot=known.robot).heatmaps(view, list(known.dishes))
     scene = PlanningScene(known) if scene is None else scene
     return oracle_heatmaps(scene.oracle, [d.name for d in known.contents.dishes],
                            progress=progress)

@@ -6,6 +6,7 @@ faces them from y = 1.45.
 """
 
 import dataclasses
+import functools
 import inspect
 import math
 import time
@@ -38,7 +39,7 @@ from s3o_drake.world.dish_messages import DishPoses, DishState, GripEvent
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import with_place_targets
 from s3o_drake.world.objects import PlaceSpot
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS
+from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, load_robot
 from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
@@ -178,10 +179,11 @@ def test_base_too_far_fails_with_a_reason(scenario, scene, checker):
 
 
 def test_grasp_tolerances_follow_the_gripper_geometry():
-    assert grasp_tolerance("cup") == pytest.approx(0.07 - 0.045)
+    tolerance = functools.partial(grasp_tolerance, robot=load_robot("ur5e"))
+    assert tolerance("cup") == pytest.approx(0.07 - 0.045)
     for kind in ("plate", "bowl"):
-        assert 0.02 < grasp_tolerance(kind) <= 0.07 - RIM_INSET
-    assert grasp_tolerance("bowl") < grasp_tolerance("plate")
+        assert 0.02 < tolerance(kind) <= 0.07 - RIM_INSET
+    assert tolerance("bowl") < tolerance("plate")
 
 
 def test_large_reach_noise_misses_or_fails_without_raising(scenario, scene, checker):
@@ -206,7 +208,8 @@ def test_large_reach_noise_misses_or_fails_without_raising(scenario, scene, chec
     # Missed or not, each report says how far off the reach was drawn.
     assert all(s.reach_noise is not None and len(s.reach_noise) == 2 for s in outcomes)
     missed = [s for s in outcomes if s.reason == "missed"]
-    assert all(np.hypot(*s.reach_noise) > grasp_tolerance("plate") for s in missed)
+    tolerance = grasp_tolerance("plate", robot=scene.robot)
+    assert all(np.hypot(*s.reach_noise) > tolerance for s in missed)
 
 
 def test_same_seed_and_id_give_the_same_pickup(scenario, scene, checker):

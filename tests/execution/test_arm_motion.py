@@ -52,8 +52,8 @@ def around_the_table_edge(scene):
     q0 = scene.q(FRONT)
     below = RigidTransform(rotation_for("side", math.pi / 2), [1.6, 1.95, 0.6])
     above = RigidTransform(rotation_for("top", math.pi / 2), [2.1, 2.4, 0.85])
-    qa = moved(q0, FRONT, below, scene.checker)
-    qb = moved(q0, FRONT, above, scene.checker)
+    qa = moved(q0, FRONT, below, scene.checker, robot=scene.robot)
+    qb = moved(q0, FRONT, above, scene.checker, robot=scene.robot)
     assert qa is not None and qb is not None
     assert not scene.checker.CheckEdgeCollisionFree(qa, qb)
     return qa, qb
@@ -332,7 +332,7 @@ def test_at_arm_s_length_the_lift_draws_the_dish_in():
     pickup still succeeds, lifting the cup up and towards the arm."""
     task = load_scenario(REPO / "scenarios" / "generated" / "task_002.yaml")
     scene = FeasibilityScene(task.contents)
-    checker = FeasibilityChecker(scene, ReachabilityMap.load())
+    checker = FeasibilityChecker(scene, ReachabilityMap.load(robot=scene.robot))
     base = np.array([6.368, 2.618, -1.275])
     result = checker.check(base, "cup_3", None)
     assert result.feasible
@@ -341,12 +341,13 @@ def test_at_arm_s_length_the_lift_draws_the_dish_in():
     X_WG = scene.grasp_pose(q_closed)
     lifted = X_WG.translation() + np.array([0.0, 0.0, LIFT_HEIGHT])
     straight_up = RigidTransform(X_WG.rotation(), lifted)
-    assert moved(q_closed, base, straight_up, ik.grasp_checker(scene, "cup_3")) is None
+    assert moved(q_closed, base, straight_up, ik.grasp_checker(scene, "cup_3"),
+                 robot=scene.robot) is None
 
     plan = plan_pickup(scene, checker, base, "cup_3", seed=0)
     assert plan.ok, plan.reason
     lift = next(s for s in plan.segments if s.name == "lift")
     p_start, p_end = (scene.grasp_pose(q).translation() for q in lift.waypoints[[0, -1]])
     assert p_end[2] - p_start[2] > 0.02
-    arm_base = X_WA(base).translation()
+    arm_base = X_WA(base, robot=scene.robot).translation()
     assert np.hypot(*(p_end - arm_base)[:2]) < np.hypot(*(p_start - arm_base)[:2])

@@ -110,11 +110,11 @@ def test_no_timed_leg_from_over_the_tray_to_stow_beats_the_arms_bound(scene):
     from s3o_drake.experiments.limit import TIMING_SLACK, tray_leg_time
     from s3o_drake.feasibility.pickup_geometry import tray_arms
 
-    leg = tray_leg_time(scene.plant)
+    leg = tray_leg_time(scene.plant, robot=scene.robot)
     assert 0.5 < leg < 2.0
     durations = []
     for grasp in ("top", "side"):
-        for arm in tray_arms(grasp)[:6]:
+        for arm in tray_arms(grasp, robot=scene.robot)[:6]:
             start, stow = scene.q(np.zeros(3), arm=np.asarray(arm)), scene.q(np.zeros(3))
             path = np.stack([start, stow])
             durations.append(timed_segment("stow", path, scene.checker).duration)

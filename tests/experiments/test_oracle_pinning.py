@@ -9,6 +9,7 @@ import pytest
 from s3o_drake.commands.oracle_pinning import executed, sample_poses, summarize
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.feasibility.pickup_geometry import catch_probability, grasp_tolerance
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
@@ -47,7 +48,7 @@ def test_the_heatmap_is_the_expected_success_of_a_noisy_landing(oracle):
     middle = rng.permutation(np.flatnonzero((values > 0.3) & (values < 0.7)))[:3]
     noise = oracle.noise
     sigma = np.hypot(noise.nav_xy_std, noise.reach_std)
-    caught = catch_probability(dish.kind, noise.reach_std)
+    caught = catch_probability(dish.kind, noise.reach_std, robot=oracle.checker.scene.robot)
     for k in middle:
         y = heatmap.centers().reshape(-1, 2)[k]
         landings = y + rng.normal(0.0, sigma, (400, 2))
@@ -58,12 +59,13 @@ def test_the_heatmap_is_the_expected_success_of_a_noisy_landing(oracle):
 
 def test_the_catch_probability_is_that_of_the_rayleigh_radius():
     rng = np.random.default_rng(0)
+    ur5e = load_robot("ur5e")
     for kind in ("cup", "bowl", "plate"):
         xi = rng.normal(0.0, 0.01, (200_000, 2))
-        empirical = np.mean(np.linalg.norm(xi, axis=1) <= grasp_tolerance(kind))
-        assert catch_probability(kind, 0.01) == pytest.approx(empirical, abs=0.003)
-    assert catch_probability("cup", 0.01) == pytest.approx(1 - np.exp(-3.125))
-    assert catch_probability("cup", 0.0) == 1.0
+        empirical = np.mean(np.linalg.norm(xi, axis=1) <= grasp_tolerance(kind, robot=ur5e))
+        assert catch_probability(kind, 0.01, robot=ur5e) == pytest.approx(empirical, abs=0.003)
+    assert catch_probability("cup", 0.01, robot=ur5e) == pytest.approx(1 - np.exp(-3.125))
+    assert catch_probability("cup", 0.0, robot=ur5e) == 1.0
 
 
 def test_a_studys_first_pickups_are_sampled_by_the_plans_value():
@@ -151,7 +153,8 @@ def test_a_pickup_is_tested_where_the_base_landed_with_the_reach_drawn(oracle):
     poses = sample_poses(oracle, 10, np.random.default_rng(3))
     dish, base = next((d, b) for d, b, _ in poses
                       if oracle.landing_success(np.array([b[:2]]), d)[0])
-    for noise, expected in (((0.0, 0.0), True), ((2 * grasp_tolerance("plate"), 0.0), False)):
+    tolerance = grasp_tolerance("plate", robot=oracle.checker.scene.robot)
+    for noise, expected in (((0.0, 0.0), True), ((2 * tolerance, 0.0), False)):
         pickup = ExecutedPickup("run/a#0", "t.yaml", dish, 0.9, tuple(base), True, (),
                         landed=(float(base[0]), float(base[1])), reach_noise=noise,
                         kind=oracle.checker.scene.dishes[dish].kind)

@@ -27,7 +27,6 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.furniture import DISH_KINDS
 from s3o_drake.world.map import Chair
-from s3o_drake.world.robot import ARM_BASE_LINK, GRASP_FRAME, add_robot, robot_positions
 from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
@@ -39,8 +38,8 @@ ANGLE_TOLERANCE = math.radians(3.0)
 
 
 @pytest.fixture(scope="module")
-def reachability():
-    return reach.ReachabilityMap.load()
+def reachability(scene):
+    return reach.ReachabilityMap.load(robot=scene.robot)
 
 
 @pytest.fixture(scope="module")
@@ -180,14 +179,14 @@ def test_check_many_gives_the_answers_of_check(scene, by_map):
 def test_vectorised_grasp_geometry_follows_grasps_for(scene):
     rng = np.random.default_rng(5)
     bases = np.column_stack([rng.uniform(0, 4, 20), rng.uniform(0, 4, 20), rng.uniform(-3, 3, 20)])
-    p_WA = arm_base_positions(bases)
+    p_WA = arm_base_positions(bases, robot=scene.robot)
     for base, p in zip(bases, p_WA, strict=True):
         np.testing.assert_allclose(p, scene.p_WA(base), atol=1e-12)
     for kind in DISH_KINDS:
-        specs = grasp_specs(kind)
+        specs = grasp_specs(kind, robot=scene.robot)
         for p in p_WA:
             p_WD = rng.uniform(0, 4, 2)
-            grasps = grasps_for(kind, p_WD, 0.75, p)
+            grasps = grasps_for(kind, p_WD, 0.75, p, robot=scene.robot)
             assert [g.kind for g in grasps] == [s.kind for s in specs]
             for g, s in zip(grasps, specs, strict=True):
                 assert g.rho == pytest.approx(np.hypot(*(p_WD - p[:2])) - s.inset)
@@ -222,31 +221,33 @@ def test_reach_offsets_may_be_horizontal(by_map):
 
 # ------------------------------------------------------------------- kinematics and the map
 
-def test_numpy_kinematics_match_the_plant():
+def test_numpy_kinematics_match_the_plant(scene):
     from pydrake.planning import RobotDiagramBuilder
 
+    robot = scene.robot
+    arm = kin.arm_kinematics(robot)
     builder = RobotDiagramBuilder(time_step=0.0)
-    add_robot(builder.parser())
+    robot.add_to(builder.parser())
     builder.plant().Finalize()
     plant = builder.plant()
     context = plant.CreateDefaultContext()
-    A, G = plant.GetFrameByName(ARM_BASE_LINK), plant.GetFrameByName(GRASP_FRAME)
+    A, G = plant.GetFrameByName(robot.arm_base_link), plant.GetFrameByName(robot.grasp_frame)
     q = np.random.default_rng(0).uniform(-math.pi, math.pi, (30, 6))
-    R, p = kin.forward(q)
+    R, p = arm.forward(q)
     for i in range(len(q)):
-        plant.SetPositions(context, robot_positions(0.4, -0.3, 1.0, q[i]))
+        plant.SetPositions(context, robot.positions(0.4, -0.3, 1.0, q[i]))
         X_AG = plant.CalcRelativeTransform(context, A, G)
         np.testing.assert_allclose(X_AG.rotation().matrix(), R[i], atol=1e-12)
         np.testing.assert_allclose(X_AG.translation(), p[i], atol=1e-12)
     # Closed-form IK returns every configuration among its eight branches.
-    solutions = kin.inverse(R, p)
+    solutions = arm.inverse(R, p)
     gap = np.abs(kin.wrap(solutions - q[:, None])).max(axis=-1)
     assert np.nanmin(gap, axis=1).max() < 1e-8
 
 
 def test_shipped_map_loads_and_records_its_settings(reachability):
     s = reachability.settings
-    assert s["robot_urdf_sha256"] == reach.robot_model_sha256()
+    assert s["robot_urdf_sha256"] == reach.robot_model_sha256(reachability.robot)
     assert set(s["kinds"]) == {"top", "side"}
     assert s["resolution"] <= 0.02 and s["max_per_node"] == 8
     assert s["min_distance"] == pytest.approx(0.01)
@@ -254,11 +255,11 @@ def test_shipped_map_loads_and_records_its_settings(reachability):
     assert s["height_range"][1] >= 0.4
     for key in ("seeds", "built", "build_seconds", "max_major_iterations"):
         assert key in s
-    assert reach.DEFAULT_PATH.stat().st_size < 5e6
+    assert reachability.robot.files.reachability_map.stat().st_size < 5e6
     # A top grasp 0.6 m ahead at table height has several branches, all exact.
     q = reachability.candidates("top", 0.6, 0.03)
     assert 2 <= len(q) <= 8
-    R, p = kin.forward(q)
+    R, p = reachability.arm.forward(q)
     angle, distance = kin.pose_error(R, p, reach.R_KIND["top"], np.array([0.6, 0.0, 0.03]))
     assert distance.max() <= 0.002 and angle.max() <= math.radians(2)
     assert len(reachability.candidates("top", 1.15, 0.03)) == 0  # beyond the arm's reach
@@ -267,24 +268,24 @@ def test_shipped_map_loads_and_records_its_settings(reachability):
     pitch = math.radians(1.8)
     q, valid = reachability.candidates_many("side", np.array([0.7]), np.array([0.05]),
                                             pitch=pitch)
-    R, p = kin.forward(q[valid])
+    R, p = reachability.arm.forward(q[valid])
     R_tilted = np.array([[math.cos(pitch), 0, math.sin(pitch)], [0, 1, 0],
                          [-math.sin(pitch), 0, math.cos(pitch)]]) @ reach.R_KIND["side"]
     angle, distance = kin.pose_error(R, p, R_tilted, np.array([0.7, 0.0, 0.05]))
     assert valid.sum() >= 2 and distance.max() < 1e-3 and angle.max() < 1e-3
 
 
-def test_missing_map_names_the_build_command(tmp_path):
+def test_missing_map_names_the_build_command(tmp_path, scene):
     with pytest.raises(reach.ReachabilityMapError, match="s3o build reachability"):
-        reach.ReachabilityMap.load(tmp_path / "none.npz")
+        reach.ReachabilityMap.load(tmp_path / "none.npz", robot=scene.robot)
 
 
-def test_small_build_round_trips_through_its_file(tmp_path):
-    built = build_map(resolution=0.1, rho_range=(0.5, 0.7), height_range=(0.0, 0.1),
-                      workers=1, progress=False)
+def test_small_build_round_trips_through_its_file(tmp_path, scene):
+    built = build_map(robot=scene.robot, resolution=0.1, rho_range=(0.5, 0.7),
+                      height_range=(0.0, 0.1), workers=1, progress=False)
     path = tmp_path / "map.npz"
     path.write_bytes(built.to_bytes())
-    loaded = reach.ReachabilityMap.load(path)
+    loaded = reach.ReachabilityMap.load(path, robot=scene.robot)
     assert loaded.settings["resolution"] == 0.1 and loaded.configs["top"].shape == (3, 2, 8, 6)
     assert loaded.settings["nodes"]["top"] == 6
     np.testing.assert_array_equal(loaded.configs["side"], built.configs["side"])

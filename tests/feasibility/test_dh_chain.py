@@ -7,8 +7,9 @@ import pytest
 
 from s3o_drake.feasibility import kinematics
 from s3o_drake.feasibility.dh_chain import DHChain
-from s3o_drake.world.robot import ROBOT
+from s3o_drake.world.robot import load_robot
 
+UR5E = load_robot("ur5e")
 HALF_PI = np.pi / 2
 # Franka Emika Panda, Craig's convention: frankaemika/docs, source/dh-parameters.csv (the
 # flange's 0.107 m as the tool offset). Its URDF (franka_description) puts the flange at
@@ -24,7 +25,8 @@ def test_a_craig_table_puts_the_flange_where_the_makers_model_does():
     np.testing.assert_allclose(R[:, 2], [0.0, 0.0, -1.0], atol=1e-12)  # the flange faces down
 
 
-@pytest.mark.parametrize("chain", [PANDA, kinematics.CHAIN], ids=["modified, 7", "standard, 6"])
+@pytest.mark.parametrize("chain", [PANDA, kinematics.arm_kinematics(UR5E).chain],
+                         ids=["modified, 7", "standard, 6"])
 def test_the_jacobian_is_the_derivative_of_the_tool_pose(chain):
     rng = np.random.default_rng(0)
     q = rng.uniform(-2.5, 2.5, (5, chain.joints))
@@ -43,6 +45,7 @@ def test_the_jacobian_is_the_derivative_of_the_tool_pose(chain):
 
 
 def test_the_feasibility_chain_is_the_robots_description():
-    assert not kinematics.CHAIN.modified and kinematics.CHAIN.joints == 6
-    np.testing.assert_array_equal(kinematics.CHAIN.a, ROBOT.arm.dh_a)
-    assert kinematics.CHAIN.tool_offset == ROBOT.arm.flange_z + ROBOT.tool.grasp_offset
+    chain, description = kinematics.arm_kinematics(UR5E).chain, UR5E.description
+    assert not chain.modified and chain.joints == 6
+    np.testing.assert_array_equal(chain.a, description.arm.dh_a)
+    assert chain.tool_offset == description.arm.flange_z + description.tool.grasp_offset

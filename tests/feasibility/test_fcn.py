@@ -144,7 +144,7 @@ def test_bad_arguments_are_one_line_and_exit_2(module, argv, field, capsys, tmp_
 @pytest.mark.skipif(not WEIGHTS.is_file(), reason="no shipped weights")
 def test_shipped_weights_predict_a_held_out_dish():
     scenario = load_scenario(REPO / "scenarios" / "generated" / "task_000.yaml")
-    fcn = FcnFeasibility.load(WEIGHTS)
+    fcn = FcnFeasibility.load(WEIGHTS, robot=scenario.contents.robot)
     view = view_of(scenario)
     dish = scenario.dishes[0]
     predicted = fcn.heatmap(view, dish)
@@ -171,7 +171,8 @@ def test_objects_it_was_not_trained_on_are_seen_as_what_they_are_held_like(kind)
     scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
     dish = dataclasses.replace(scenario.dishes[1], kind=kind)
     scenario = dataclasses.replace(scenario, dishes=[dish])
-    predicted = FcnFeasibility.load(WEIGHTS).heatmap(view_of(scenario), dish)
+    predicted = FcnFeasibility.load(WEIGHTS, robot=scenario.contents.robot).heatmap(
+        view_of(scenario), dish)
     (oracle,) = compute_heatmaps(scenario, [dish.name], progress=False)
     assert oracle.values.max() > 0.9
     assert np.abs(predicted.values - oracle.values).mean() < 0.08
@@ -190,7 +191,8 @@ def test_a_place_target_is_rated_as_the_oracle_rates_it():
     within tolerance, it is close to the oracle's, and no higher than that chance."""
     tidy = with_place_targets(load_scenario(REPO / "scenarios" / "tidy_home.yaml"))
     (target,) = [d for d in tidy.dishes if d.name == "apple__place"]
-    predicted = FcnFeasibility.load(WEIGHTS).heatmap(view_of(tidy), target)
+    predicted = FcnFeasibility.load(WEIGHTS, robot=tidy.contents.robot).heatmap(
+        view_of(tidy), target)
     (oracle,) = compute_heatmaps(tidy, [target.name], progress=False)
     ceiling = place_probability("apple", tidy.uncertainty.reach_std)
     assert oracle.values.max() > 0.85 and predicted.values.max() <= ceiling + 1e-9

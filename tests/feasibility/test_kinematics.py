@@ -10,6 +10,7 @@ import pytest
 from s3o_drake.feasibility import kinematics
 from s3o_drake.feasibility.dh_chain import DHChain
 from s3o_drake.feasibility.kinematics import ArmKinematics
+from s3o_drake.world.robot import load_robot
 
 HALF_PI = math.pi / 2
 # A Franka-Panda-class arm (Craig's DH table, frankaemika/docs), with its hand: 0.107 m to
@@ -21,6 +22,7 @@ PANDA_LOWER = np.array([-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2
 PANDA_UPPER = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
 PANDA = ArmKinematics(PANDA_CHAIN, PANDA_LOWER, PANDA_UPPER, "numeric",
                       stow=np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, math.pi / 4]))
+UR5E = kinematics.arm_kinematics(load_robot("ur5e"))
 
 
 def _reachable_targets(arm: ArmKinematics, count: int, seed: int = 0):
@@ -54,7 +56,7 @@ def test_numeric_ik_from_a_nearby_reference_stays_on_its_branch():
 
 
 def test_numeric_ik_finds_the_ur5es_closed_form_solutions():
-    ur5e = kinematics.ARM
+    ur5e = UR5E
     numeric = ArmKinematics(ur5e.chain, ur5e.lower, ur5e.upper, "numeric", ur5e.stow)
     _, R, p = _reachable_targets(ur5e, 50, seed=3)
     closed = ur5e.inverse(R, p)
@@ -82,14 +84,14 @@ def test_angles_stay_inside_limits_narrower_than_two_turns():
     np.testing.assert_array_equal(PANDA.nearest_turn(q, q + 2 * math.pi), q)
     # The UR5e's joints do, all but the elbow; they turn towards the reference and stay
     # within ±2π.
-    assert kinematics.ARM.wrapping.tolist() == [True, True, False, True, True, True]
-    turned = kinematics.ARM.nearest_turn(np.full(6, 3.0), np.full(6, -3.0))
+    assert UR5E.wrapping.tolist() == [True, True, False, True, True, True]
+    turned = UR5E.nearest_turn(np.full(6, 3.0), np.full(6, -3.0))
     np.testing.assert_allclose(turned, [3.0 - 2 * math.pi, 3.0 - 2 * math.pi, 3.0,
                                         3.0 - 2 * math.pi, 3.0 - 2 * math.pi,
                                         3.0 - 2 * math.pi])
 
 
-@pytest.mark.parametrize("arm", [PANDA, kinematics.ARM], ids=["panda", "ur5e"])
+@pytest.mark.parametrize("arm", [PANDA, UR5E], ids=["panda", "ur5e"])
 def test_random_configurations_are_deterministic_and_inside_the_limits(arm):
     q = arm.random_configurations(500, seed=4)
     np.testing.assert_array_equal(q, arm.random_configurations(500, seed=4))

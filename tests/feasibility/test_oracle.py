@@ -33,8 +33,8 @@ OPEN_SPOT = np.array([1.85, 1.6])
 
 
 @pytest.fixture(scope="module")
-def rmap():
-    return ReachabilityMap.load()
+def rmap(scenario):
+    return ReachabilityMap.load(robot=scenario.contents.robot)
 
 
 def _oracle(scenario, rmap) -> FeasibilityOracle:
@@ -118,7 +118,7 @@ def test_benchmark_rejects_bad_arguments_in_one_line(capsys):
     assert capsys.readouterr().err.count("\n") == 1
 
 
-def test_a_place_is_rated_by_the_chance_the_object_stands_within_tolerance():
+def test_a_place_is_rated_by_the_chance_the_object_stands_within_tolerance(scenario):
     """Putting an object down is not caught: the reach errors of its pickup (the offset in
     the hand, across the fingers centred for an object held whole) and of the place add up,
     and Fea^m's factor is the chance the object ends within PLACE_TOLERANCE."""
@@ -132,8 +132,10 @@ def test_a_place_is_rated_by_the_chance_the_object_stands_within_tolerance():
         1 - math.exp(-PLACE_TOLERANCE**2 / (2 * 0.01**2))
     assert place_probability("apple", 0.02) < whole
     # The same object picked is rated by its catch, placed by its place.
-    assert goal_probability("apple", "apple", 0.01) == catch_probability("apple", 0.01)
-    assert goal_probability("apple__place", "apple", 0.01) == whole
+    robot = scenario.contents.robot
+    assert goal_probability("apple", "apple", 0.01, robot=robot) == catch_probability(
+        "apple", 0.01, robot=robot)
+    assert goal_probability("apple__place", "apple", 0.01, robot=robot) == whole
 
 
 def test_a_place_targets_heatmap_is_its_monte_carlo_expectation(rmap):

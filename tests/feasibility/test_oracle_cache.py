@@ -2,7 +2,9 @@
 made of is the same, the code included; never a cause of a wrong or a missing map."""
 
 import dataclasses
+import functools
 import os
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -13,6 +15,7 @@ from s3o_drake.feasibility.oracle import FeasibilityOracle
 from s3o_drake.feasibility.oracle_cache import CACHE_VARIABLE
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.map import Chair
+from s3o_drake.world.robot import RobotFiles, load_robot
 from s3o_drake.world.settings import Uncertainty
 
 CHEAP = {"cells": 8, "fine_cell": 0.25}  # a coarse map: the cache, not the map, is tested
@@ -59,7 +62,8 @@ def _slow_square(log: str) -> np.ndarray:
 
 
 def _ask(log: str) -> list[float]:
-    return oracle_cache.cached_array(lambda: ("square",), lambda: _slow_square(log)).tolist()
+    return oracle_cache.cached_array(lambda: ("square",), lambda: _slow_square(log),
+                                     robot=load_robot("ur5e")).tolist()
 
 
 def test_a_map_asked_for_by_processes_at_once_is_computed_once(folder, tmp_path):
@@ -84,7 +88,7 @@ def test_what_a_map_is_made_of_decides_whether_it_is_read(folder, computed, scen
     chair = Chair(name="chair_x", pose=[2.0, 1.6, 0.0])
     other = FeasibilityScene(dataclasses.replace(scenario.contents, chairs=(chair,)))
     FeasibilityOracle(FeasibilityChecker(other), Uncertainty()).heatmap("plate_a", **CHEAP)
-    monkeypatch.setattr(oracle_cache, "code_digest", lambda: "other code")
+    monkeypatch.setattr(oracle_cache, "code_digest", lambda robot: "other code")
     oracle.heatmap("plate_a", **CHEAP)
     assert computed == ["plate_a", "cup_b", "plate_a", "plate_a", "plate_a", "plate_a"]
     assert len(list(folder.glob("*.npy"))) == 6
@@ -121,8 +125,8 @@ def test_the_code_digest_changes_with_a_source_file_or_the_robot_model(tmp_path,
     (models / "ur5e" / "robot.urdf").write_text("<robot/>")
     monkeypatch.setattr(oracle_cache, "_PACKAGE_DIR", package)
     monkeypatch.setattr(oracle_cache, "MODELS_DIR", models)
-    monkeypatch.setattr(oracle_cache, "robot_dir", lambda name: models / name)
-    digest = oracle_cache.code_digest.__wrapped__
+    robot = SimpleNamespace(files=RobotFiles(models / "ur5e"))  # what the digest reads of one
+    digest = functools.partial(oracle_cache.code_digest.__wrapped__, robot)
     before = digest()
     (package / "notes.txt").write_text("not code")
     (models / "ur5e" / "fcn" / "fcn.pt").write_bytes(b"weights")  # the network's: no map's

@@ -173,7 +173,7 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
     free = scene.checker
     holding = ik.grasp_checker(scene, dish)
     fail = PickupPlan(False, "no_path", grasp=c.grasp)
-    q_open = with_gripper(q0, GRIPPER_OPEN)
+    q_open = with_gripper(q0, GRIPPER_OPEN, robot=scene.robot)
     opening = not np.allclose(q0[GRIPPER_POSITIONS], GRIPPER_OPEN)
     # Fingers not open: they open first, where the arm stands.
     if opening and not free.CheckEdgeCollisionFree(q0, q_open):
@@ -213,7 +213,7 @@ def plan_reach(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.nd
     q0[:3] = np.asarray(base, dtype=float).reshape(3)
     free = scene.checker
     if target is None:
-        goal = with_gripper(scene.q(q0[:3]), q0[GRIPPER_POSITIONS])
+        goal = with_gripper(scene.q(q0[:3]), q0[GRIPPER_POSITIONS], robot=scene.robot)
     else:
         geometry = pickup_geometry(scene, checker, q0[:3], target, q_arm=q0[ARM])
         if not geometry.ok:
@@ -236,8 +236,8 @@ def plan_release(scene: FeasibilityScene, base: np.ndarray, q_start: np.ndarray,
     q0 = np.asarray(q_start, dtype=float).copy()
     q0[:3] = np.asarray(base, dtype=float).reshape(3)
     free = scene.checker
-    q_open = with_gripper(q0, GRIPPER_OPEN)
-    q_stow = with_gripper(scene.q(q0[:3]), GRIPPER_OPEN)
+    q_open = with_gripper(q0, GRIPPER_OPEN, robot=scene.robot)
+    q_stow = with_gripper(scene.q(q0[:3]), GRIPPER_OPEN, robot=scene.robot)
     fail = PickupPlan(False, "no_path")
     if not free.CheckEdgeCollisionFree(q0, q_open):
         return fail

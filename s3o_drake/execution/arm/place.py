@@ -82,8 +82,8 @@ def plan_place(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.nd
         return PickupPlan(False, geometry.reason, grasp=grasp)
     c = geometry.configurations
     fingers = q0[GRIPPER_POSITIONS]
-    q_pre = with_gripper(c.q_pre, fingers)
-    q_down = with_gripper(c.q_grasp, fingers)
+    q_pre = with_gripper(c.q_pre, fingers, robot=scene.robot)
+    q_down = with_gripper(c.q_grasp, fingers, robot=scene.robot)
     free = scene.checker
     at_place = ik.grasp_checker(scene, target)
     fail = PickupPlan(False, "no_path", grasp=grasp)

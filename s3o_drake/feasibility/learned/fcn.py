@@ -53,11 +53,9 @@ from s3o_drake.world.builder import render_overhead
 from s3o_drake.world.camera import OverheadCamera, back_project, overhead_camera
 from s3o_drake.world.furniture import DISH_SHAPES, NETWORK_KIND, RESTAURANT_KINDS
 from s3o_drake.world.objects import Dish
-from s3o_drake.world.resources import FCN_WEIGHTS
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.scenario import Scenario
 
-DEFAULT_WEIGHTS = FCN_WEIGHTS
-"""The shipped network (see models/ur5e/fcn/README.md for the commands that made it)."""
 LABEL_REACH_STD = 0.01
 """The reach noise (m) of the training labels: the restaurant's (scenarios/restaurant.yaml),
 whose settings the dataset's scenes keep."""
@@ -199,29 +197,35 @@ class FeasibilityUNet(nn.Module):
 
 @dataclass
 class FcnFeasibility:
-    """A trained network with its input normalisation: crops in, Fea^m heatmaps out."""
+    """A network trained on `robot`'s labels, with its input normalisation: crops in, Fea^m
+    heatmaps out."""
 
     model: FeasibilityUNet
     mean: np.ndarray
     std: np.ndarray
+    robot: Robot
 
     @classmethod
-    def load(cls, path: Path) -> "FcnFeasibility":
-        """Reads a checkpoint written by `s3o_drake.feasibility.learned.training`."""
+    def load(cls, path: Path, *, robot: Robot) -> "FcnFeasibility":
+        """Reads a checkpoint written by `s3o_drake.feasibility.learned.training`, trained
+        for `robot`."""
         checkpoint = torch.load(Path(path), map_location="cpu", weights_only=True)
         model = FeasibilityUNet(**checkpoint["config"])
         model.load_state_dict(checkpoint["state_dict"])
         # Channels-last runs this network's small convolutions ~1.6x faster on a CPU.
         model.eval().to(memory_format=torch.channels_last)
         return cls(model, np.asarray(checkpoint["mean"], dtype=np.float32),
-                   np.asarray(checkpoint["std"], dtype=np.float32))
+                   np.asarray(checkpoint["std"], dtype=np.float32), robot)
 
     @classmethod
-    def shared(cls, path: Path = DEFAULT_WEIGHTS) -> "FcnFeasibility":
-        """`load(path)`, read once per process: the weights never change while it runs."""
-        key = str(Path(path).resolve())
+    def shared(cls, path: Path | None = None, *, robot: Robot) -> "FcnFeasibility":
+        """`load(path, robot=robot)`, read once per process: the weights never change while
+        it runs. The default is the robot's shipped network, `robot.files.fcn_weights` (see
+        models/ur5e/fcn/README.md for the commands that made the UR5e's)."""
+        path = robot.files.fcn_weights if path is None else path
+        key = (robot.name, str(Path(path).resolve()))
         if key not in _SHARED:
-            _SHARED[key] = cls.load(path)
+            _SHARED[key] = cls.load(path, robot=robot)
         return _SHARED[key]
 
     def predict(self, inputs: np.ndarray) -> np.ndarray:
@@ -240,7 +244,7 @@ class FcnFeasibility:
         inputs = np.stack([crop_inputs(view, np.asarray(d.position[:2]), d.kind)
                            for d in dishes])
         values = self.predict(inputs)
-        return [Heatmap(d.name, _floored(_own_factor(d, v)),
+        return [Heatmap(d.name, _floored(_own_factor(d, v, self.robot)),
                         *crop_grid(np.asarray(d.position[:2])))
                 for d, v in zip(dishes, values, strict=True)]
 
@@ -249,13 +253,13 @@ class FcnFeasibility:
         return self.heatmaps(view, [dish])[0]
 
 
-def _own_factor(dish: Dish, values: np.ndarray) -> np.ndarray:
+def _own_factor(dish: Dish, values: np.ndarray, robot: Robot) -> np.ndarray:
     """The network's heatmap with the factor of the reach noise it learned for the kind it
     is shown as replaced by the target's own (see the module docstring). The network's
     estimate of the blurred success, values over the learned factor, is at most 1: a
     trained kind's pick is the network's heatmap capped at its catch probability."""
-    learned = catch_probability(NETWORK_KIND[dish.kind], LABEL_REACH_STD)
-    own = goal_probability(dish.name, dish.kind, LABEL_REACH_STD)
+    learned = catch_probability(NETWORK_KIND[dish.kind], LABEL_REACH_STD, robot=robot)
+    own = goal_probability(dish.name, dish.kind, LABEL_REACH_STD, robot=robot)
     return np.minimum(values / learned, 1.0) * own
 
 
@@ -264,7 +268,7 @@ def _floored(values: np.ndarray) -> np.ndarray:
     return np.where(values < FEA_FLOOR, 0.0, values)
 
 
-_SHARED: dict[str, FcnFeasibility] = {}
+_SHARED: dict[tuple[str, str], FcnFeasibility] = {}
 
 
 def use_one_thread() -> None:
@@ -276,11 +280,12 @@ def use_one_thread() -> None:
 
 
 def scenario_heatmaps(scenario: Scenario, dishes: list[Dish] | None = None, *,
-                      weights: Path = DEFAULT_WEIGHTS) -> list[Heatmap]:
+                      weights: Path | None = None) -> list[Heatmap]:
     """FCN heatmaps of the dishes (default: all the scenario's) from one overhead render of
-    the scenario: the chairs come only from the camera's images, never from their poses."""
+    the scenario: the chairs come only from the camera's images, never from their poses.
+    `weights`: the scenario's robot's shipped network by default."""
     view = view_of(scenario)
-    return FcnFeasibility.shared(weights).heatmaps(
+    return FcnFeasibility.shared(weights, robot=scenario.contents.robot).heatmaps(
         view, list(scenario.dishes) if dishes is None else dishes)
 
 

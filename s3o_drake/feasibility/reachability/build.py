@@ -5,8 +5,8 @@ At each node of a (ρ, h) grid the arm's inverse kinematics (`kinematics.ArmKine
 the UR family all eight closed-form shoulder/wrist/elbow branches, for another arm damped
 least squares from its default seeds) seeds `InverseKinematics` with the grasp-frame
 constraints and a self-collision clearance of 1 cm (SNOPT, capped iterations); each
-verified solution is kept in its branch's slot. `build_map` solves the rows of the grid in
-worker processes, deterministically, for `s3o build reachability`.
+verified solution is kept in its branch's slot. `build_map` solves the rows of the grid of a
+robot's map in worker processes, deterministically, for `s3o build reachability`.
 """
 
 import datetime
@@ -31,7 +31,7 @@ from s3o_drake.feasibility.reachability.map import (
     grid_axis,
     robot_model_sha256,
 )
-from s3o_drake.world.robot import ARM_BASE_LINK
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.worker_processes import drake_parallelism, worker_pool
 
 #: Grid ranges (m): ρ from A's z axis, h above A's origin. A at 0.75 m above the floor; the
@@ -40,32 +40,36 @@ from s3o_drake.world.worker_processes import drake_parallelism, worker_pool
 RHO_RANGE = (0.0, 1.20)
 HEIGHT_RANGE = (-0.20, 0.45)
 RESOLUTION = 0.01
-#: At most this many configurations per node: one per branch (closed form) or seed.
-MAX_PER_NODE = kin.ARM.branches
 #: SNOPT's major iteration cap of the build (the seeds are exact solutions; only those in
 #: self-collision need iterations). Clearance and tolerances are the reference IK's.
 MAX_MAJOR_ITERATIONS = 30
 
 
+def max_per_node(robot: Robot) -> int:
+    """At most this many configurations per node of `robot`'s map: one per branch (closed
+    form) or seed."""
+    return kin.arm_kinematics(robot).branches
+
+
 class _NodeSolver:
     """Drake IK on a plant with the robot alone, base at the origin (one per worker)."""
 
-    def __init__(self, min_distance: float, max_major_iterations: int):
+    def __init__(self, min_distance: float, max_major_iterations: int, robot: Robot):
         from pydrake.multibody.inverse_kinematics import InverseKinematics
         from pydrake.planning import RobotDiagramBuilder, SceneGraphCollisionChecker
         from pydrake.solvers import SnoptSolver, SolverOptions
 
-        from s3o_drake.world.robot import ARM_BASE_LINK, GRASP_FRAME, add_robot
-
+        self.robot = robot
+        self.arm = kin.arm_kinematics(robot)
         builder = RobotDiagramBuilder(time_step=0.0)
-        self.model = add_robot(builder.parser())
+        self.model = robot.add_to(builder.parser())
         builder.plant().Finalize()
         self.diagram = builder.Build()
         self.plant = self.diagram.plant()
         self.context = self.diagram.CreateDefaultContext()
         self.plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
-        self.grasp_frame = self.plant.GetFrameByName(GRASP_FRAME, self.model)
-        self.p_WA = self.plant.GetFrameByName(ARM_BASE_LINK, self.model).CalcPoseInWorld(
+        self.grasp_frame = self.plant.GetFrameByName(robot.grasp_frame, self.model)
+        self.p_WA = self.plant.GetFrameByName(robot.arm_base_link, self.model).CalcPoseInWorld(
             self.plant_context).translation()
         self.checker = SceneGraphCollisionChecker(
             model=self.diagram, robot_model_instances=[self.model], edge_step_size=0.05,
@@ -79,21 +83,21 @@ class _NodeSolver:
                                int(max_major_iterations))
 
     def _q(self, arm: np.ndarray) -> np.ndarray:
-        from s3o_drake.world.robot import GRIPPER_OPEN, NUM_BASE_JOINTS
-        return np.concatenate([np.zeros(NUM_BASE_JOINTS), arm, GRIPPER_OPEN])
+        return np.concatenate([np.zeros(self.robot.num_base_joints), arm,
+                               self.robot.gripper_open])
 
     def solve(self, R_AG: np.ndarray, p_AG: np.ndarray, seeds: np.ndarray) -> list[np.ndarray]:
         """Arm configurations found by IK from each seed (in seed order), verified."""
         from pydrake.math import RotationMatrix
 
-        from s3o_drake.world.robot import ARM_POSITIONS, GRIPPER_OPEN, NUM_BASE_JOINTS
-
+        robot = self.robot
         ik = self.InverseKinematics(self.plant, self.plant_context, with_joint_limits=True)
         q = ik.q()
         prog = ik.get_mutable_prog()
-        base = np.zeros(NUM_BASE_JOINTS)
-        prog.AddBoundingBoxConstraint(base, base, q[:NUM_BASE_JOINTS])
-        prog.AddBoundingBoxConstraint(GRIPPER_OPEN, GRIPPER_OPEN, q[ARM_POSITIONS.stop:])
+        base = np.zeros(robot.num_base_joints)
+        prog.AddBoundingBoxConstraint(base, base, q[:robot.num_base_joints])
+        prog.AddBoundingBoxConstraint(robot.gripper_open, robot.gripper_open,
+                                      q[robot.arm_positions.stop:])
         p_WG = self.p_WA + p_AG
         ik.AddPositionConstraint(self.grasp_frame, np.zeros(3), self.plant.world_frame(),
                                  p_WG - POSITION_TOLERANCE, p_WG + POSITION_TOLERANCE)
@@ -106,21 +110,22 @@ class _NodeSolver:
             if result is None or not result.is_success():
                 found.append(None)
                 continue
-            arm = result.GetSolution(q)[ARM_POSITIONS]
-            R, p = kin.forward(arm)
+            arm = result.GetSolution(q)[robot.arm_positions]
+            R, p = self.arm.forward(arm)
             angle, distance = kin.pose_error(R, p, R_AG, p_AG)
             ok = (angle <= ANGLE_TOLERANCE + 1e-4 and distance <= POSITION_TOLERANCE + 1e-4
-                  and kin.ARM.within_limits(arm)
+                  and self.arm.within_limits(arm)
                   and self.checker.CheckConfigCollisionFree(self._q(arm)))
             found.append(arm if ok else None)
         return found
 
 
-def branch_of(arm: np.ndarray) -> int:
-    """The branch (slot) a configuration belongs to: the nearest of the arm's inverse
-    kinematics solutions at its pose."""
-    R, p = kin.forward(arm)
-    solutions = kin.inverse(R[None], p[None])[0]
+def branch_of(arm: np.ndarray, *, robot: Robot) -> int:
+    """The branch (slot) a configuration of `robot`'s arm belongs to: the nearest of the
+    arm's inverse kinematics solutions at its pose."""
+    kinematics = kin.arm_kinematics(robot)
+    R, p = kinematics.forward(arm)
+    solutions = kinematics.inverse(R[None], p[None])[0]
     gap = np.abs(kin.wrap(solutions - arm)).max(axis=1)
     return int(np.nanargmin(np.where(np.isnan(gap), np.inf, gap)))
 
@@ -129,9 +134,10 @@ def solve_node(solver: _NodeSolver, kind: str, rho: float, h: float) -> np.ndarr
     """The configurations (K, n) of one node (NaN rows for branches without one)."""
     R_AG = R_KIND[kind]
     p_AG = np.array([rho, 0.0, h])
-    slots = np.full((MAX_PER_NODE, kin.ARM.joints), np.nan)
-    seeds = kin.inverse(R_AG[None], p_AG[None])[0]
-    exact = kin.ARM.exact(seeds[None], R_AG[None], p_AG[None])[0]
+    arm = solver.arm
+    slots = np.full((arm.branches, arm.joints), np.nan)
+    seeds = arm.inverse(R_AG[None], p_AG[None])[0]
+    exact = arm.exact(seeds[None], R_AG[None], p_AG[None])[0]
     branches = np.flatnonzero(exact)
     if branches.size == 0:
         return slots
@@ -140,21 +146,21 @@ def solve_node(solver: _NodeSolver, kind: str, rho: float, h: float) -> np.ndarr
     free = [solver.checker.CheckConfigCollisionFree(solver._q(seeds[b])) for b in branches]
     branches = [b for _, b in sorted(zip([not f for f in free], branches, strict=True))]
     results = solver.solve(R_AG, p_AG, seeds[branches])
-    for b, arm in zip(branches, results, strict=True):
-        if arm is None:
+    for b, q in zip(branches, results, strict=True):
+        if q is None:
             continue
-        slot = b if np.abs(kin.wrap(arm - seeds[b])).max() < 0.3 else branch_of(arm)
+        slot = b if np.abs(kin.wrap(q - seeds[b])).max() < 0.3 else branch_of(q, robot=solver.robot)
         if np.isnan(slots[slot, 0]):
-            slots[slot] = kin.wrap(arm)
+            slots[slot] = kin.wrap(q)
     return slots
 
 
 _worker: _NodeSolver | None = None
 
 
-def _init_worker(min_distance: float, max_major_iterations: int) -> None:
+def _init_worker(min_distance: float, max_major_iterations: int, robot: Robot) -> None:
     global _worker
-    _worker = _NodeSolver(min_distance, max_major_iterations)
+    _worker = _NodeSolver(min_distance, max_major_iterations, robot)
 
 
 def _solve_row(task: tuple[str, float, Sequence[float]]) -> np.ndarray:
@@ -163,26 +169,30 @@ def _solve_row(task: tuple[str, float, Sequence[float]]) -> np.ndarray:
     return np.stack([solve_node(_worker, kind, rho, h) for h in heights])
 
 
-def branch_preference(configs: np.ndarray) -> np.ndarray:
-    """Slots (branches) ordered by how high the elbow stands, on average over the nodes.
+def branch_preference(configs: np.ndarray, *, robot: Robot) -> np.ndarray:
+    """Slots (branches) of `robot`'s map ordered by how high the elbow stands, on average
+    over the nodes.
 
     An elbow held high stays clear of the table a dish stands on, so those branches are
     tried first and most queries need a single collision check.
     """
+    arm = kin.arm_kinematics(robot)
     present = ~np.isnan(configs[..., 0])  # (..., K)
-    elbow_z = kin.CHAIN.frames(np.nan_to_num(configs))[kin.ARM.elbow_frame][..., 2, 3]
+    elbow_z = arm.chain.frames(np.nan_to_num(configs))[arm.elbow_frame][..., 2, 3]
     total = np.where(present, elbow_z, 0.0).reshape(-1, configs.shape[-2]).sum(axis=0)
     count = present.reshape(-1, configs.shape[-2]).sum(axis=0)
     mean = np.where(count > 0, total / np.maximum(count, 1), -np.inf)
     return np.argsort(-mean, kind="stable")
 
 
-def build_map(*, resolution: float = RESOLUTION, rho_range: tuple[float, float] = RHO_RANGE,
+def build_map(*, robot: Robot, resolution: float = RESOLUTION,
+              rho_range: tuple[float, float] = RHO_RANGE,
               height_range: tuple[float, float] = HEIGHT_RANGE, workers: int = 2,
               kinds: Sequence[str] = GRASP_KINDS, progress: bool = True,
               max_major_iterations: int = MAX_MAJOR_ITERATIONS,
               min_distance: float = MIN_DISTANCE) -> ReachabilityMap:
-    """Solves every node with Drake IK (in `workers` processes) and returns the map.
+    """Solves every node of `robot`'s map with Drake IK (in `workers` processes) and returns
+    the map.
 
     Deterministic: every node is solved from its own closed-form seeds, whichever worker
     takes it.
@@ -196,7 +206,7 @@ def build_map(*, resolution: float = RESOLUTION, rho_range: tuple[float, float] 
     rows: list[np.ndarray] = []
     bar = tqdm(total=len(tasks) * len(height), desc="reachability map", unit="node",
                disable=not progress, smoothing=0.05)
-    init_args = (min_distance, max_major_iterations)
+    init_args = (min_distance, max_major_iterations, robot)
     if workers <= 1:
         _init_worker(*init_args)
         for task in tasks:
@@ -214,27 +224,29 @@ def build_map(*, resolution: float = RESOLUTION, rho_range: tuple[float, float] 
     for i, kind in enumerate(kinds):
         table = np.stack(rows[i * len(rho):(i + 1) * len(rho)]).astype(np.float32)
         configs[kind] = table
-        order[kind] = branch_preference(table.astype(float))
+        order[kind] = branch_preference(table.astype(float), robot=robot)
     import importlib.metadata
 
+    per_node = max_per_node(robot)
     settings = {
         "format": FORMAT_VERSION,
         "kinds": list(kinds),
         "rho_range": [float(rho[0]), float(rho[-1])],
         "height_range": [float(height[0]), float(height[-1])],
         "resolution": float(resolution),
-        "max_per_node": MAX_PER_NODE,
-        "seeds": (f"closed-form solutions of all {MAX_PER_NODE} branches at the node"
-                  if kin.ARM.family == "ur" else
-                  f"damped least squares from {MAX_PER_NODE} seeds (stow first) at the node"),
-        "frame": f"grasp point relative to the arm base A ({ARM_BASE_LINK}): rho horizontal, "
+        "max_per_node": per_node,
+        "seeds": (f"closed-form solutions of all {per_node} branches at the node"
+                  if kin.arm_kinematics(robot).family == "ur" else
+                  f"damped least squares from {per_node} seeds (stow first) at the node"),
+        "frame": f"grasp point relative to the arm base A ({robot.arm_base_link}): rho "
+                 "horizontal, "
                  "height vertical, bearing 0, wrist turn 0",
         "min_distance": min_distance,
         "distance_margin": DISTANCE_MARGIN,
         "position_tolerance": POSITION_TOLERANCE,
         "angle_tolerance": ANGLE_TOLERANCE,
         "max_major_iterations": int(max_major_iterations),
-        "robot_urdf_sha256": robot_model_sha256(),
+        "robot_urdf_sha256": robot_model_sha256(robot),
         "drake_version": importlib.metadata.version("drake"),
         "built": datetime.date.today().isoformat(),
         "build_seconds": round(time.perf_counter() - start, 1),
@@ -243,4 +255,4 @@ def build_map(*, resolution: float = RESOLUTION, rho_range: tuple[float, float] 
         "configurations": {k: int((~np.isnan(configs[k][..., 0])).sum()) for k in kinds},
     }
     return ReachabilityMap(rho=rho, height=height, configs=configs, branch_order=order,
-                           settings=settings)
+                           settings=settings, robot=robot)

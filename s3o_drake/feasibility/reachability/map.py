@@ -25,7 +25,8 @@ the grid's resolution, and a target beyond the arm's reach has no candidates.
 
 `s3o build reachability` builds the map deterministically
 with worker processes (a few minutes on two cores) and writes it atomically, with its
-settings, as a compressed .npz; `ReachabilityMap.load()` reads it.
+settings, as a compressed .npz; `ReachabilityMap.load(robot=...)` reads a robot's
+(`Robot.files.reachability_map`).
 """
 
 import functools
@@ -41,10 +42,8 @@ import numpy as np
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP
 from s3o_drake.feasibility.ik import ANGLE_TOLERANCE, POSITION_TOLERANCE
-from s3o_drake.world.resources import REACHABILITY_MAP
-from s3o_drake.world.robot import ROBOT_URDF
+from s3o_drake.world.robot import Robot
 
-DEFAULT_PATH = REACHABILITY_MAP
 BUILD_COMMAND = "s3o build reachability"
 FORMAT_VERSION = 1
 
@@ -71,10 +70,10 @@ class ReachabilityMapError(RuntimeError):
     """The map file is missing, unreadable or was built for another robot model."""
 
 
-def robot_model_sha256() -> str:
-    """SHA-256 of the robot's URDF, recorded in the map so that a stale map is noticed."""
-    urdf = ROBOT_URDF
-    return hashlib.sha256(urdf.read_bytes()).hexdigest()
+def robot_model_sha256(robot: Robot) -> str:
+    """SHA-256 of `robot`'s model file, recorded in the map so that a stale map is
+    noticed."""
+    return hashlib.sha256(robot.model_file.read_bytes()).hexdigest()
 
 
 def grid_axis(lo: float, hi: float, step: float) -> np.ndarray:
@@ -93,7 +92,8 @@ _SHARED: dict[tuple, "ReachabilityMap"] = {}
 
 @dataclass
 class ReachabilityMap:
-    """Stored arm configurations (bearing 0, wrist turn 0) per grasp kind on a (ρ, h) grid.
+    """Stored configurations of `robot`'s arm (bearing 0, wrist turn 0) per grasp kind on a
+    (ρ, h) grid.
 
     `configs[kind]` is (n_rho, n_h, K, n) float32, NaN where a branch has no solution;
     `branch_order[kind]` lists the slots in the order in which query candidates are tried
@@ -105,27 +105,31 @@ class ReachabilityMap:
     configs: dict[str, np.ndarray]
     branch_order: dict[str, np.ndarray]
     settings: dict
+    robot: Robot
 
     # ----------------------------------------------------------------------------- file
     @classmethod
-    def shared(cls, path: str | Path | None = None) -> "ReachabilityMap":
-        """`load(path)`, read once per process and file version: the map is never
-        modified, and its lookups, prepared on first use (about 0.3 s per grasp kind), then
-        serve every scene and planning problem of the process."""
-        path = Path(path) if path is not None else DEFAULT_PATH
-        key = (str(path.resolve()), path.stat().st_mtime_ns if path.is_file() else None)
+    def shared(cls, path: str | Path | None = None, *, robot: Robot) -> "ReachabilityMap":
+        """`load(path, robot=robot)`, read once per process, robot and file version: the map
+        is never modified, and its lookups, prepared on first use (about 0.3 s per grasp
+        kind), then serve every scene and planning problem of the process."""
+        path = Path(path) if path is not None else robot.files.reachability_map
+        key = (robot.name, str(path.resolve()),
+               path.stat().st_mtime_ns if path.is_file() else None)
         if key not in _SHARED:
-            _SHARED[key] = cls.load(path)
+            _SHARED[key] = cls.load(path, robot=robot)
         return _SHARED[key]
 
     @classmethod
-    def load(cls, path: str | Path | None = None, *, check_robot: bool = True) -> "ReachabilityMap":
-        """Reads a map file (default: the shipped models/ur5e/reachability_map.npz).
+    def load(cls, path: str | Path | None = None, *, robot: Robot,
+             check_robot: bool = True) -> "ReachabilityMap":
+        """Reads `robot`'s map file (default: the one shipped in its folder,
+        `robot.files.reachability_map`).
 
         Raises ReachabilityMapError naming the build command when the file is missing, or
         when it was built for a different robot model (`check_robot=False` skips that test).
         """
-        path = Path(path) if path is not None else DEFAULT_PATH
+        path = Path(path) if path is not None else robot.files.reachability_map
         if not path.is_file():
             raise ReachabilityMapError(
                 f"reachability map {path} not found; build it with `{BUILD_COMMAND} --out {path}`")
@@ -142,14 +146,14 @@ class ReachabilityMap:
             raise ReachabilityMapError(
                 f"reachability map {path} is unreadable ({e}); rebuild it with "
                 f"`{BUILD_COMMAND} --out {path}`") from e
-        if check_robot and settings.get("robot_urdf_sha256") != robot_model_sha256():
+        if check_robot and settings.get("robot_urdf_sha256") != robot_model_sha256(robot):
             raise ReachabilityMapError(
                 f"reachability map {path} was built for another version of the robot model; "
                 f"rebuild it with `{BUILD_COMMAND} --out {path}`")
         rho = grid_axis(*settings["rho_range"], settings["resolution"])
         height = grid_axis(*settings["height_range"], settings["resolution"])
         return cls(rho=rho, height=height, configs=configs, branch_order=order,
-                   settings=settings)
+                   settings=settings, robot=robot)
 
     @functools.cached_property
     def fingerprint(self) -> str:
@@ -171,6 +175,11 @@ class ReachabilityMap:
         return buffer.getvalue()
 
     # ---------------------------------------------------------------------------- query
+    @property
+    def arm(self) -> kin.ArmKinematics:
+        """The kinematics of the robot's arm the map was built for."""
+        return kin.arm_kinematics(self.robot)
+
     @property
     def kinds(self) -> tuple[str, ...]:
         return tuple(self.configs)
@@ -195,8 +204,9 @@ class ReachabilityMap:
         rho = np.asarray(rho, dtype=float).reshape(-1)
         h = np.asarray(h, dtype=float).reshape(-1)
         cells = self._cells(kind)
+        arm = self.arm
         n_i, n_j, k = cells.full.shape
-        out = np.full((len(rho), k, kin.ARM.joints), np.nan)
+        out = np.full((len(rho), k, arm.joints), np.nan)
         valid = np.zeros((len(rho), k), dtype=bool)
         u = (rho - self.rho[0]) / self.settings["resolution"]
         v = (h - self.height[0]) / self.settings["resolution"]
@@ -234,7 +244,7 @@ class ReachabilityMap:
             if pitch:
                 cp, sp = math.cos(pitch), math.sin(pitch)
                 R_target = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]]) @ R_target
-            R, p = kin.forward(q_c)
+            R, p = arm.forward(q_c)
             angle, distance = kin.pose_error(R, p, R_target, p_target)
             ok = (angle <= (NEWTON_ANGLE if pitch else ACCEPT_ANGLE)) & (
                 distance <= ACCEPT_POSITION)
@@ -249,7 +259,7 @@ class ReachabilityMap:
                     redo = np.flatnonzero(~ok)
                     if redo.size == 0:
                         break
-                    q_new, angle, distance = kin.refine(
+                    q_new, angle, distance = arm.refine(
                         q_c[redo], R_target[redo], p_target[redo], iterations=iterations,
                         rotation_weight=weight)
                     good = (angle <= max_angle) & (distance <= max_distance)
@@ -258,8 +268,8 @@ class ReachabilityMap:
             q[m_idx, b_idx] = q_c
             ok_all[m_idx, b_idx] = ok
         # Wrapped into [-π, π), or a turn from there into the joint's limits.
-        q = kin.ARM.into_limits(q)
-        ok_all &= kin.ARM.within_limits(q)
+        q = arm.into_limits(q)
+        ok_all &= arm.within_limits(q)
         rank = self._rank[kind]
         out[rows[:, None], rank] = np.where(ok_all[..., None], q, np.nan)
         valid[rows[:, None], rank] = ok_all
@@ -278,7 +288,7 @@ class ReachabilityMap:
         """The grid cells of a kind, prepared for lookups on first use (about 0.3 s)."""
         if kind not in self._cache:
             self._cache[kind] = _Cells.of(self.configs[kind], self.rho, self.height,
-                                          self.settings["resolution"], R_KIND[kind])
+                                          self.settings["resolution"], R_KIND[kind], self.arm)
             self._rank[kind] = np.argsort(self.branch_order[kind])
         return self._cache[kind]
 
@@ -303,7 +313,7 @@ class _Cells:
 
     @classmethod
     def of(cls, configs: np.ndarray, rho: np.ndarray, height: np.ndarray, step: float,
-           R_target: np.ndarray) -> "_Cells":
+           R_target: np.ndarray, arm: kin.ArmKinematics) -> "_Cells":
         present = ~np.isnan(configs[..., 0])
         table = np.nan_to_num(configs.astype(float))
         c00 = table[:-1, :-1]
@@ -323,7 +333,7 @@ class _Cells:
                 q = c[:, 0] + c[:, 1] * fu + c[:, 2] * fv + c[:, 3] * fu * fv
                 p_target = np.stack([rho[cells[:, 0]] + fu * step, np.zeros(len(cells)),
                                      height[cells[:, 1]] + fv * step], axis=1)
-                R, p = kin.forward(q)
+                R, p = arm.forward(q)
                 angle, distance = kin.pose_error(R, p, R_target, p_target)
                 worst = np.maximum(worst, np.maximum(distance / TRUST_POSITION,
                                                      angle / TRUST_ANGLE))
@@ -342,8 +352,10 @@ class _Cells:
                    nearest=nearest)
 
 
-def place(q: np.ndarray, bearing: np.ndarray | float, wrist_turn: np.ndarray | float) -> np.ndarray:
-    """Configurations (..., n) at bearing 0, turn 0 moved to `bearing` and `wrist_turn`.
+def place(q: np.ndarray, bearing: np.ndarray | float, wrist_turn: np.ndarray | float, *,
+          robot: Robot) -> np.ndarray:
+    """Configurations (..., n) of `robot`'s arm at bearing 0, turn 0 moved to `bearing` and
+    `wrist_turn`.
 
     The first joint turns the arm about A's z axis and the last the gripper about the
     approach axis (`robot_description.check_model` confirms both of an arm); the results are
@@ -353,4 +365,4 @@ def place(q: np.ndarray, bearing: np.ndarray | float, wrist_turn: np.ndarray | f
     q = np.array(q, dtype=float)
     q[..., 0] = q[..., 0] + bearing
     q[..., -1] = q[..., -1] + wrist_turn
-    return kin.ARM.into_limits(q)
+    return kin.arm_kinematics(robot).into_limits(q)
