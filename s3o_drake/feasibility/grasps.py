@@ -22,7 +22,7 @@ from pydrake.math import RigidTransform, RotationMatrix
 
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.gripper import holds_whole
-from s3o_drake.world.robot import FINGERTIP_OFFSET, GRASP_OFFSET, ROBOT
+from s3o_drake.world.robot import FINGERTIP_OFFSET, GRASP_OFFSET, ROBOT, load_robot
 
 GRASP_KINDS = ("top", "side")
 # The fingers must stay this far above the table top (m); matches the 1 cm clearance of
@@ -88,7 +88,8 @@ def grasps_for(dish_kind: str, p_WD: np.ndarray, table_height: float,
     distance = float(np.hypot(*delta))
     bearing = math.atan2(delta[1], delta[0]) if distance > 1e-9 else 0.0
     u = np.array([math.cos(bearing), math.sin(bearing)])
-    whole = holds_whole(dish_kind)
+    # The process's robot, as the constants above, until the grasps are given one.
+    whole = holds_whole(dish_kind, robot=load_robot(ROBOT.name))
 
     grasps = []
     # Top: whole dish at its centre, or the near rim.

@@ -63,7 +63,9 @@ from s3o_drake.world.robot import (
     GRIPPER_CLOSED,
     GRIPPER_OPEN,
     GRIPPER_POSITIONS,
+    ROBOT,
     TRAY_XYZ,
+    load_robot,
     robot_positions,
 )
 
@@ -102,7 +104,7 @@ def grasp_tolerance(kind: str) -> float:
     a bowl, μ = 0.5). The smaller of the two applies in every direction.
     """
     radius = DISH_SHAPES[kind].radius
-    if holds_whole(kind):
+    if holds_whole(kind, robot=load_robot(ROBOT.name)):  # the process's, as FINGER_TRAVEL
         return FINGER_TRAVEL - radius
     sideways = radius * PAD_FRICTION / math.hypot(1.0, PAD_FRICTION)
     return min(FINGER_TRAVEL - RIM_INSET, sideways)
@@ -133,7 +135,7 @@ def place_error_stds(kind: str, reach_std: float) -> tuple[float, float]:
     the other only the place's, or both for a pinched rim.
     """
     both = math.sqrt(2.0) * reach_std
-    return both, both if not holds_whole(kind) else reach_std
+    return both, both if not holds_whole(kind, robot=load_robot(ROBOT.name)) else reach_std
 
 
 def place_probability(kind: str, reach_std: float) -> float:
