@@ -88,9 +88,10 @@ def tray_leg_time(plant) -> float:
     robot in `plant`: the slowest joint's stroke."""
     from s3o_drake.execution.arm.pickup import segment_limits
     from s3o_drake.feasibility.pickup_geometry import tray_arms
-    from s3o_drake.world.robot import ARM_POSITIONS, ARM_STOW
+    from s3o_drake.world.robot import ARM_POSITIONS, ARM_STOW, ROBOT, load_robot
 
-    v, a = segment_limits(plant, "stow")
+    # The process's robot, as ARM_STOW: the bound is not yet given one.
+    v, a = segment_limits(plant, "stow", robot=load_robot(ROBOT.name))
     v, a = np.asarray(v)[ARM_POSITIONS], np.asarray(a)[ARM_POSITIONS]
     legs = [max(stroke_time(abs(float(d)), float(vj), float(aj))
                 for d, vj, aj in zip(np.asarray(arm) - np.asarray(ARM_STOW), v, a, strict=True))
