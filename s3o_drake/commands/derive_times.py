@@ -110,8 +110,8 @@ def smooth_parts(scene, checker: FeasibilityChecker, base: np.ndarray, dish: str
     from s3o_drake.execution.arm.pickup import plan_pickup, timed_segment
     from s3o_drake.feasibility.pickup_geometry import with_gripper
     from s3o_drake.planning.time_model import SMOOTH_PARTS
-    from s3o_drake.world.robot import GRIPPER_OPEN
 
+    robot = scene.robot
     none = {f"smooth_{part}": None for part in SMOOTH_PARTS}
     plan = plan_pickup(scene, checker, base, dish, seed=seed, stow=False)
     if not plan.ok:
@@ -119,19 +119,19 @@ def smooth_parts(scene, checker: FeasibilityChecker, base: np.ndarray, dish: str
     took = {s.name: s.duration for s in plan.segments}
     q_release = plan.segments[-1].waypoints[-1]
     q_pre = plan.segments[1].waypoints[0]  # where "descend" starts
-    q_stow = with_gripper(scene.q(q_release[:3]), GRIPPER_OPEN, robot=scene.robot)
+    q_stow = with_gripper(scene.q(q_release[:3]), robot.gripper_open, robot=robot)
     out = {"smooth_grasp": took["descend"] + took["close"] + took["lift"],
            "smooth_tail": took["to_tray"] + took["release"],
            "smooth_prepare": took["approach"]}
     for part, goal in (("from_tray", q_pre), ("stow", q_stow)):
         try:
-            path = plan_arm_path(scene.checker, q_release, goal, seed=seed)
+            path = plan_arm_path(scene.checker, q_release, goal, robot=robot, seed=seed)
         except ValueError:
             path = None
         if path is None:
             return none
         out[f"smooth_{part}"] = timed_segment("approach" if part == "from_tray" else "stow",
-                                              path, scene.checker).duration
+                                              path, scene.checker, robot=robot).duration
     return out
 
 

@@ -99,7 +99,7 @@ def durations(plan: PickupPlan, scene: FeasibilityScene) -> dict[str, dict[str, 
     plant = scene.checker.plant()
     out = {timing: {} for timing in TIMINGS}
     for segment in plan.segments:
-        v, a = segment_limits(plant, segment.name)
+        v, a = segment_limits(plant, segment.name, robot=scene.robot)
         out["toppra"][segment.name] = segment.duration
         out["toppra_stops"][segment.name] = time_parameterize(
             segment.waypoints, plant, max_velocity=v, max_acceleration=a).duration

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from s3o_drake.world.robot import ARM_POSITIONS, GRIPPER_POSITIONS, NUM_POSITIONS
+from s3o_drake.world.robot import Robot
 
 BASE_MOVING = 0.02
 """The base moves when its speed exceeds this (m/s)..."""
@@ -26,10 +26,11 @@ class Activity:
     arm_speed: np.ndarray
 
     @classmethod
-    def of(cls, times: np.ndarray, states: np.ndarray) -> "Activity":
-        """From logged robot states (2 NUM_POSITIONS, n): positions then velocities."""
-        v = np.asarray(states, dtype=float)[NUM_POSITIONS:]
-        arm = np.vstack([v[ARM_POSITIONS], v[GRIPPER_POSITIONS]])
+    def of(cls, times: np.ndarray, states: np.ndarray, *, robot: Robot) -> "Activity":
+        """From logged states of `robot` (2 robot.num_positions, n): positions then
+        velocities."""
+        v = np.asarray(states, dtype=float)[robot.num_positions:]
+        arm = np.vstack([v[robot.arm_positions], v[robot.gripper_positions]])
         return cls(np.asarray(times, dtype=float), np.hypot(v[0], v[1]), np.abs(v[2]),
                    np.abs(arm).max(axis=0) if arm.size else np.zeros(len(times)))
 

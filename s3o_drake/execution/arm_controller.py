@@ -48,12 +48,9 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.choices import Motion
 from s3o_drake.world.dish_messages import DishPoses, GripEvent
 from s3o_drake.world.goals import place_target_name
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_BASE_JOINTS, NUM_POSITIONS
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.system_lifetime import weak_callback
 
-#: The arm's and the fingers' positions among the robot's.
-ARM_AND_FINGERS = slice(3, NUM_POSITIONS)
-NUM_ARM_AND_FINGERS = NUM_POSITIONS - NUM_BASE_JOINTS
 #: Stream tag of the reach noise in `numpy.random.default_rng([seed, tag, command id])`
 #: (the navigation noise has its own tag, so the two draws never share numbers).
 REACH_NOISE_STREAM = 2
@@ -66,7 +63,7 @@ PLACE_LANDINGS = 16
 class _Activity:
     """Everything the controller remembers (one abstract state).
 
-    `hold`: the arm's and fingers' 8 positions held while no motion plays; `trajectory`: the
+    `hold`: the arm's and fingers' positions held while no motion plays; `trajectory`: the
     motion playing (the robot's positions, t from 0 at `t_start`) or None; `t_grasp`, `t_release`:
     when (since `t_start`) the gripper closes on and lets go of `dish` (inf: it keeps it);
     `putting`: the motion puts `dish` down at its place (else it lets go over the tray);
@@ -82,7 +79,7 @@ class _Activity:
     command: int = NO_COMMAND
     status: Status = field(default_factory=Status)
     grip: GripEvent = field(default_factory=GripEvent)
-    hold: tuple[float, ...] = tuple(np.concatenate([ARM_STOW, GRIPPER_OPEN]))
+    hold: tuple[float, ...] = ()
     dish: str = ""
     trajectory: Trajectory | None = None
     t_start: float = 0.0
@@ -128,15 +125,16 @@ class ArmController(LeafSystem):
             `place` the putting down of the held object, or, naming the held object
             without `place`, its letting go over the tray (a command that arrives while
             another plays starts when that one ends).
-        robot_state: vector (2 NUM_POSITIONS), the robot's positions then its velocities
-            (base x, y, yaw; the arm's joints; the fingers).
+        robot_state: vector (2 robot.num_positions), the robot's positions then its
+            velocities (base x, y, yaw; the arm's joints; the fingers).
         dish_poses: abstract DishPoses, X_WD of each dish where it really is; unconnected:
             the scenario's positions.
         base_motion (optional): abstract, the navigator's motion (`desired(t)`, `id`,
             `end_time`), which a prepare is timed by and checked along.
     Output ports:
-        arm_desired_state: vector (16), the 6 arm and 2 finger positions, then their 8
-            velocities (for the plant's desired state, with the base's entries).
+        arm_desired_state: vector (2 (robot.num_positions - robot.num_base_joints)), the
+            arm's and the fingers' positions, then their velocities (for the plant's desired
+            state, with the base's entries).
         grip: abstract GripEvent; `dish` from the end of the pickup's "close" segment to
             the end of its "release", `placed` gains it at the end of "release"; an object
             to place stays `dish` until the end of the place's "release", when `put`
@@ -158,11 +156,17 @@ class ArmController(LeafSystem):
     last motion ended (a failed plan leaves the arm where it is).
     """
 
-    def __init__(self, *, params: ArmParams, scene: FeasibilityScene,
+    def __init__(self, *, robot: Robot, params: ArmParams, scene: FeasibilityScene,
                  checker: FeasibilityChecker, control_period: float = 0.01) -> None:
         super().__init__()
         if control_period <= 0:
             raise ValueError(f"control_period: expected a positive period, got {control_period}")
+        if scene.robot is not robot:
+            raise ValueError(f"scene: holds {scene.robot!r}, not the controller's {robot!r}")
+        self._robot = robot
+        # The arm's and the fingers' positions among the robot's (after the base's).
+        self._arm_and_fingers = slice(robot.num_base_joints, robot.num_positions)
+        self._num_arm_and_fingers = robot.num_positions - robot.num_base_joints
         self._scene = scene
         self._checker = checker
         self._seed = params.seed
@@ -173,16 +177,20 @@ class ArmController(LeafSystem):
 
         self._command_port = self.DeclareAbstractInputPort(
             "pick_command", AbstractValue.Make(PickCommand()))
-        self._robot_state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
+        self._robot_state_port = self.DeclareVectorInputPort("robot_state",
+                                                              2 * robot.num_positions)
         self._dish_poses_port = self.DeclareAbstractInputPort(
             "dish_poses", AbstractValue.Make(DishPoses()))
         self._base_motion_port = self.DeclareAbstractInputPort(
             "base_motion", AbstractValue.Make(object()))
         self._smooth = params.motion == Motion.SMOOTH.value
-        self._activity_index = self.DeclareAbstractState(AbstractValue.Make(_Activity()))
+        stowed = tuple(np.concatenate([robot.arm_stow, robot.gripper_open]))
+        self._activity_index = self.DeclareAbstractState(
+            AbstractValue.Make(_Activity(hold=stowed)))
         activity_ticket = {self.abstract_state_ticket(self._activity_index)}
         self.DeclareVectorOutputPort(
-            "arm_desired_state", 2 * NUM_ARM_AND_FINGERS, weak_callback(self._calc_desired_state),
+            "arm_desired_state", 2 * self._num_arm_and_fingers,
+            weak_callback(self._calc_desired_state),
             prerequisites_of_calc=activity_ticket | {self.time_ticket()})
         self.DeclareAbstractOutputPort(
             "grip", lambda: AbstractValue.Make(GripEvent()), weak_callback(self._calc_grip),
@@ -207,11 +215,12 @@ class ArmController(LeafSystem):
         activity = self._activity(context)
         trajectory = activity.trajectory
         if trajectory is None:
-            output.SetFromVector(np.concatenate([activity.hold, np.zeros(NUM_ARM_AND_FINGERS)]))
+            output.SetFromVector(np.concatenate([activity.hold,
+                                                 np.zeros(self._num_arm_and_fingers)]))
             return
         t = min(max(context.get_time() - activity.t_start, 0.0), trajectory.end_time())
-        q = trajectory.value(t).ravel()[ARM_AND_FINGERS]
-        v = trajectory.EvalDerivative(t, 1).ravel()[ARM_AND_FINGERS]
+        q = trajectory.value(t).ravel()[self._arm_and_fingers]
+        v = trajectory.EvalDerivative(t, 1).ravel()[self._arm_and_fingers]
         output.SetFromVector(np.concatenate([q, v]))
 
     def _calc_grip(self, context: Context, output: AbstractValue) -> None:
@@ -234,7 +243,7 @@ class ArmController(LeafSystem):
         robot_state = self._robot_state_port.Eval(context)
         if not activity.started:
             activity = replace(activity, started=True,
-                               hold=tuple(robot_state[ARM_AND_FINGERS]))
+                               hold=tuple(robot_state[self._arm_and_fingers]))
         if activity.trajectory is not None:
             activity = self._advance(activity, context.get_time())
         command = self._command_port.Eval(context)
@@ -270,7 +279,7 @@ class ArmController(LeafSystem):
             activity = replace(activity, status=status)
         if not ended:
             return activity
-        end = trajectory.value(trajectory.end_time()).ravel()[ARM_AND_FINGERS]
+        end = trajectory.value(trajectory.end_time()).ravel()[self._arm_and_fingers]
         # The object still in the gripper (a pick that holds it) is held with its grasp.
         keeps = held and math.isinf(activity.t_release)
         return replace(activity, hold=tuple(end), trajectory=None,
@@ -287,7 +296,7 @@ class ArmController(LeafSystem):
             return replace(activity, status=Status(command.id, CommandState.FAILED, reason,
                                                    activity.reach_noise))
 
-        q_now = np.asarray(robot_state[:NUM_POSITIONS], dtype=float)
+        q_now = np.asarray(robot_state[:self._robot.num_positions], dtype=float)
         if command.prepare is not None or command.to_stow:
             if command.prepare is not None and command.dish not in self._scene.dishes:
                 return failed("unknown_dish")
@@ -377,10 +386,10 @@ class ArmController(LeafSystem):
         while True:
             def arm_at(t: float, start: float = start) -> np.ndarray:
                 return trajectory.value(min(max(t - start, 0.0), duration)).ravel()[
-                    ARM_AND_FINGERS]
+                    self._arm_and_fingers]
 
             if free_together(lambda t: self._scene.checker, motion.desired, arm_at, start,
-                             start + duration):
+                             start + duration, robot=self._robot):
                 return start
             if start >= arrival:
                 return None

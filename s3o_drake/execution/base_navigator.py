@@ -41,13 +41,7 @@ from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.navigation.base_motion import SETTLE_TIME
 from s3o_drake.world.angles import facing_yaw, wrap
-from s3o_drake.world.robot import (
-    ARM_STOW,
-    GRIPPER_OPEN,
-    NUM_ARM_JOINTS,
-    NUM_POSITIONS,
-    robot_positions,
-)
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.system_lifetime import weak_callback
 from s3o_drake.world.worker_processes import drake_parallelism
 
@@ -142,8 +136,8 @@ class BaseNavigator(LeafSystem):
 
     Input ports:
         base_command (abstract `BaseCommand`): a new `id` starts a command; id 0 holds still.
-        robot_state (vector, 2 NUM_POSITIONS): the robot's positions then its velocities;
-            the base pose (x, y, yaw) is positions 0..2.
+        robot_state (vector, 2 robot.num_positions): the robot's positions then its
+            velocities; the base pose (x, y, yaw) is positions 0..2.
         arm_motion (abstract `ArmMotion`, optional; read with smooth motion only): what the
             arm does; a motion is checked with the arm where its motion ends, and with the
             two together while it plays, and waits for the arm where they collide.
@@ -166,7 +160,8 @@ class BaseNavigator(LeafSystem):
 
     The landing is `command.pose` + (dx, dy, dyaw) with dx, dy ~ N(0, nav_xy_std^2) and
     dyaw ~ N(0, nav_yaw_std^2) from numpy.random.default_rng([seed, 1, command.id]) (the
-    `params`; exactly `command.pose` when both are 0). With a `scene` (the true world), poses every
+    `params`; exactly `command.pose` when both are 0). With a `scene` (the true world, of
+    `robot`), poses every
     2 cm / 0.05 rad along the motion are checked (inside the room and collision-free, arm
     stowed); the motion is cut at the last free pose before the first collision. A
     collision within the last 0.5 m of driving or in the final turn ends the command done
@@ -181,16 +176,19 @@ class BaseNavigator(LeafSystem):
     (`escape.plan_motion`).
     """
 
-    def __init__(self, *, params: NavigatorParams, scene: FeasibilityScene | None,
-                 control_period: float = 0.01) -> None:
+    def __init__(self, *, robot: Robot, params: NavigatorParams,
+                 scene: FeasibilityScene | None, control_period: float = 0.01) -> None:
         super().__init__()
+        if scene is not None and scene.robot is not robot:
+            raise ValueError(f"scene: holds {scene.robot!r}, not the navigator's {robot!r}")
+        self._robot = robot
         self._params = params
         self._scene = scene
         self._smooth = params.profile.smooth
 
         self._command_port = self.DeclareAbstractInputPort(
             "base_command", AbstractValue.Make(BaseCommand()))
-        self._state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
+        self._state_port = self.DeclareVectorInputPort("robot_state", 2 * robot.num_positions)
         self._arm_port = self.DeclareAbstractInputPort("arm_motion",
                                                        AbstractValue.Make(ArmMotion()))
         # Until the initialization event reads robot_state, hold the scenario's start pose
@@ -286,7 +284,7 @@ class BaseNavigator(LeafSystem):
         while start < arm.end_time:
             moved = dataclasses.replace(motion, t0=start)
             if free_together(partial(self._checker, arm), moved.desired, arm.arm_at, start,
-                             arm.end_time):
+                             arm.end_time, robot=self._robot):
                 return moved
             start += WAIT_STEP
         return dataclasses.replace(motion, t0=max(t, arm.end_time))
@@ -304,12 +302,13 @@ class BaseNavigator(LeafSystem):
         # Far from every obstacle needs no collision query (a sound shortcut).
         query = free & ~clearance.certainly_free(poses[:, :2])
         if query.any():
+            robot = self._robot
             if arm is None:
-                configs = [robot_positions(*p, arm=ARM_STOW, gripper=GRIPPER_OPEN)
+                configs = [robot.positions(*p, arm=robot.arm_stow, gripper=robot.gripper_open)
                            for p in poses[query]]
             else:
-                configs = [robot_positions(*p, arm=arm[:NUM_ARM_JOINTS],
-                                           gripper=arm[NUM_ARM_JOINTS:])
+                num_arm = robot.num_arm_joints
+                configs = [robot.positions(*p, arm=arm[:num_arm], gripper=arm[num_arm:])
                            for p in poses[query]]
             checked = self._scene.checker.CheckConfigsCollisionFree(
                 configs, parallelize=drake_parallelism())

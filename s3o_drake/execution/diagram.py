@@ -10,11 +10,13 @@
               ── pick_command ──> arm_controller ── status ──> executive
               ── progress ──> task_monitor (ends the simulation)
     arm_controller ── grip ──> world (the tracker moves the held dish)
-    base_navigator (6) + arm_controller (16) ── desired_state_mux ──> world.robot_desired_state
+    base_navigator (6) + arm_controller (16 for the UR5e) ── desired_state_mux
+      ──> world.robot_desired_state
 
-The navigator drives the base's three positions and the arm controller the six arm joints
-and the two fingers; `desired_state_mux` interleaves their [q, v] into the plant's [q,
-v] with a permutation (a Multiplexer and a MatrixGain: no code of ours in the loop).
+The navigator drives the base's three positions and the arm controller the arm's joints
+and the fingers (of `scenario.robot_value`, which every system is given);
+`desired_state_mux` interleaves their [q, v] into the plant's [q, v] with a permutation
+(a Multiplexer and a MatrixGain: no code of ours in the loop).
 
 The systems take small parameter dataclasses; the functions here make them from the
 Scenario (`executive_params`, `navigator_params`, `arm_params`, `make_executive_system`).
@@ -48,16 +50,17 @@ from s3o_drake.world.choices import Recovery
 from s3o_drake.world.clearance_monitor import ClearanceMonitor, proximity_geometries
 from s3o_drake.world.directives import ROBOT_INSTANCE
 from s3o_drake.world.goals import place_target_name, place_targets, with_place_targets
-from s3o_drake.world.robot import CONTROL_PERIOD, NUM_BASE_JOINTS, NUM_POSITIONS, ROBOT
+from s3o_drake.world.robot import CONTROL_PERIOD, Robot
 from s3o_drake.world.scenario import Scenario
 
 TIME_LIMIT = 1800.0
 """Simulated seconds after which an execution is stopped whatever its state."""
 
 
-def desired_state_permutation() -> np.ndarray:
-    """P with [q, v] (2 n) = P @ [base q, base v, arm and finger q, arm and finger v]."""
-    n, b = NUM_POSITIONS, NUM_BASE_JOINTS
+def desired_state_permutation(*, robot: Robot) -> np.ndarray:
+    """P with [q, v] (2 n) = P @ [base q, base v, arm and finger q, arm and finger v], for
+    `robot`'s n positions."""
+    n, b = robot.num_positions, robot.num_base_joints
     order = [*range(0, b), *range(2 * b, b + n),  # positions: base, then arm and fingers
              *range(b, 2 * b), *range(b + n, 2 * n)]  # velocities, the same way
     P = np.zeros((2 * n, 2 * n))
@@ -110,7 +113,8 @@ def make_executive_system(scenario: Scenario, *, method: str | None = None,
         return perceive_known_world(briefing, images, pose=pose, dishes=dishes,
                                     perceive=perceive, robot_labels=robot_labels, held=held)
 
-    return ExecutiveSystem(params=params, perceive_world=perceive_world,
+    return ExecutiveSystem(robot=scenario.robot_value, params=params,
+                           perceive_world=perceive_world,
                            control_period=control_period, progress_bar=progress_bar,
                            **({} if plan_from is None else {"plan_from": plan_from}))
 
@@ -122,7 +126,7 @@ def navigator_params(scenario: Scenario, *, seed: int | None = None,
     u = scenario.uncertainty
     return NavigatorParams(
         profile=MotionProfile(speed=scenario.planner.speed, motion=scenario.execution.motion,
-                              holonomic=ROBOT.base.holonomic),
+                              holonomic=scenario.robot_value.description.base.holonomic),
         start=tuple(float(v) for v in scenario.robot.start),
         seed=scenario.seed if seed is None else seed,
         nav_xy_std=u.nav_xy_std if noise else 0.0, nav_yaw_std=u.nav_yaw_std if noise else 0.0)
@@ -155,6 +159,7 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     ended, or at `time_limit` simulated seconds.
     """
     seed = scenario.seed if seed is None else int(seed)
+    robot = scenario.robot_value
     builder = DiagramBuilder()
     world = builder.AddNamedSystem("world", build_world_diagram(
         scenario, meshcat=meshcat, track_dishes=True, show_collisions=show_collisions))
@@ -166,10 +171,10 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
         control_period=CONTROL_PERIOD, robot_labels=robot_render_labels(world), noise=noise,
         plan_from=plan_from))
     navigator = builder.AddNamedSystem("base_navigator", BaseNavigator(
-        params=navigator_params(scenario, seed=seed, noise=noise), scene=truth,
+        robot=robot, params=navigator_params(scenario, seed=seed, noise=noise), scene=truth,
         control_period=CONTROL_PERIOD))
     arm = builder.AddNamedSystem("arm_controller", ArmController(
-        params=arm_params(scenario, seed=seed, noise=noise), scene=truth,
+        robot=robot, params=arm_params(scenario, seed=seed, noise=noise), scene=truth,
         checker=FeasibilityChecker(truth), control_period=CONTROL_PERIOD))
     monitor = builder.AddNamedSystem("task_monitor", TaskMonitor(
         period=CONTROL_PERIOD, settle_time=scenario.simulation.hold_time,
@@ -188,9 +193,10 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
         period=CONTROL_PERIOD))
     mux = builder.AddNamedSystem(
         "desired_state_mux",
-        Multiplexer([2 * NUM_BASE_JOINTS, 2 * (NUM_POSITIONS - NUM_BASE_JOINTS)]))
+        Multiplexer([2 * robot.num_base_joints,
+                     2 * (robot.num_positions - robot.num_base_joints)]))
     permute = builder.AddNamedSystem("desired_state_order",
-                                     MatrixGain(desired_state_permutation()))
+                                     MatrixGain(desired_state_permutation(robot=robot)))
 
     for name in ("overhead_color_image", "overhead_depth_image", "overhead_label_image"):
         builder.Connect(world.GetOutputPort(name), executive.GetInputPort(name))
@@ -205,7 +211,7 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     builder.Connect(executive.GetOutputPort("pick_command"), arm.GetInputPort("pick_command"))
     # What the robot did, for the run's timeline.
     states = builder.AddNamedSystem("robot_state_log", VectorLogSink(
-        2 * NUM_POSITIONS, publish_period=CONTROL_PERIOD))
+        2 * robot.num_positions, publish_period=CONTROL_PERIOD))
     builder.Connect(world.GetOutputPort("robot_state"), states.get_input_port())
     # Each controller sees what the other's motion is: they move the robot together.
     builder.Connect(navigator.GetOutputPort("base_motion"), arm.GetInputPort("base_motion"))

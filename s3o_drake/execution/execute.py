@@ -220,7 +220,8 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
                   simulated_time=context.get_time())
     html = None if meshcat is None else meshcat.StaticHtml()
     log = diagram.GetSubsystemByName("robot_state_log").FindLog(context)
-    activity = Activity.of(log.sample_times().copy(), log.data().copy())
+    activity = Activity.of(log.sample_times().copy(), log.data().copy(),
+                           robot=scenario.robot_value)
     del simulator, executive, world, monitor, visualizer, executive_context, monitor_context
     del log
     release_diagram(diagram)

@@ -40,7 +40,7 @@ from s3o_drake.planning.navigation.map import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import PlanningResult, plan_from
 from s3o_drake.world.choices import Recovery
 from s3o_drake.world.goals import Goal, placed_object
-from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS
+from s3o_drake.world.robot import CONTROL_PERIOD, Robot
 from s3o_drake.world.settings import Uncertainty
 from s3o_drake.world.system_lifetime import weak_callback
 from s3o_drake.world.words import counted
@@ -98,7 +98,7 @@ class ExecutiveSystem(LeafSystem):
       overhead_color_image (ImageRgba8U), overhead_depth_image (ImageDepth32F),
       overhead_label_image (ImageLabel16I): the overhead camera, read once at start (and
         at each replan) through `perceive_world`;
-      robot_state (2 NUM_POSITIONS: the robot's positions then its velocities);
+      robot_state (2 robot.num_positions: the robot's positions then its velocities);
       base_status, arm_status (abstract Status): the controllers' reports;
       replan_request (1, optional): a change of its value asks for a new plan.
     Output ports:
@@ -115,9 +115,9 @@ class ExecutiveSystem(LeafSystem):
     pipeline with its Fea^m computed elsewhere, plugs in here.
     """
 
-    def __init__(self, *, params: ExecutiveSystemParams, perceive_world: PerceiveWorld,
-                 plan_from: PlanFrom = plan_from, control_period: float = CONTROL_PERIOD,
-                 progress_bar: bool = False):
+    def __init__(self, *, robot: Robot, params: ExecutiveSystemParams,
+                 perceive_world: PerceiveWorld, plan_from: PlanFrom = plan_from,
+                 control_period: float = CONTROL_PERIOD, progress_bar: bool = False):
         super().__init__()
         self._params = params
         self._perceive_world = perceive_world
@@ -133,7 +133,7 @@ class ExecutiveSystem(LeafSystem):
                                                       AbstractValue.Make(image()))
                         for name, image in (("color", ImageRgba8U), ("depth", ImageDepth32F),
                                             ("label", ImageLabel16I))]
-        self._robot_state = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
+        self._robot_state = self.DeclareVectorInputPort("robot_state", 2 * robot.num_positions)
         self._status = {
             "base": self.DeclareAbstractInputPort("base_status", AbstractValue.Make(Status())),
             "arm": self.DeclareAbstractInputPort("arm_status", AbstractValue.Make(Status()))}

@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from pydrake.planning import SceneGraphCollisionChecker
 
-from s3o_drake.world.robot import NUM_ARM_JOINTS, robot_positions
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.worker_processes import drake_parallelism
 
 TOGETHER_STEP = 0.02
@@ -26,20 +26,22 @@ until it would start once the other has ended."""
 
 def free_together(checker_at: Callable[[float], SceneGraphCollisionChecker],
                   base_at: Callable[[float], Sequence[float]],
-                  arm_at: Callable[[float], Sequence[float]], start: float, end: float) -> bool:
-    """Whether the robot is collision-free at every TOGETHER_STEP from `start` to `end`
-    (s, both included), its base at `base_at(t)` (x, y, yaw, ...) and its arm and fingers
-    at `arm_at(t)`, by `checker_at(t)` (the world's checker, or while the gripper holds or
-    reaches for a dish the one that lets it touch that dish)."""
+                  arm_at: Callable[[float], Sequence[float]], start: float, end: float, *,
+                  robot: Robot) -> bool:
+    """Whether `robot` (the checkers' robot) is collision-free at every TOGETHER_STEP from
+    `start` to `end` (s, both included), its base at `base_at(t)` (x, y, yaw, ...) and its
+    arm and fingers at `arm_at(t)`, by `checker_at(t)` (the world's checker, or while the
+    gripper holds or reaches for a dish the one that lets it touch that dish)."""
     if end < start:
         return True
     times = np.append(np.arange(start, end, TOGETHER_STEP), end)
     batches: dict[int, tuple[SceneGraphCollisionChecker, list[np.ndarray]]] = {}
+    num_arm = robot.num_arm_joints
     for t in times:
         arm = np.asarray(arm_at(float(t)), dtype=float)
         checker = checker_at(float(t))
         batches.setdefault(id(checker), (checker, []))[1].append(
-            robot_positions(*np.asarray(base_at(float(t)))[:3], arm=arm[:NUM_ARM_JOINTS],
-                            gripper=arm[NUM_ARM_JOINTS:]))
+            robot.positions(*np.asarray(base_at(float(t)))[:3], arm=arm[:num_arm],
+                            gripper=arm[num_arm:]))
     return all(all(checker.CheckConfigsCollisionFree(configs, parallelize=drake_parallelism()))
                for checker, configs in batches.values())

@@ -89,7 +89,7 @@ def tray_leg_time(plant, *, robot: Robot) -> float:
     from s3o_drake.execution.arm.pickup import segment_limits
     from s3o_drake.feasibility.pickup_geometry import tray_arms
 
-    v, a = segment_limits(plant, "stow")
+    v, a = segment_limits(plant, "stow", robot=robot)
     v, a = np.asarray(v)[robot.arm_positions], np.asarray(a)[robot.arm_positions]
     legs = [max(stroke_time(abs(float(d)), float(vj), float(aj))
                 for d, vj, aj in zip(np.asarray(arm) - robot.arm_stow, v, a, strict=True))

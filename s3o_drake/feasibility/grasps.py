@@ -88,7 +88,7 @@ def grasps_for(dish_kind: str, p_WD: np.ndarray, table_height: float,
     distance = float(np.hypot(*delta))
     bearing = math.atan2(delta[1], delta[0]) if distance > 1e-9 else 0.0
     u = np.array([math.cos(bearing), math.sin(bearing)])
-    whole = holds_whole(dish_kind)
+    whole = holds_whole(dish_kind, robot=robot)
 
     grasps = []
     # Top: whole dish at its centre, or the near rim.

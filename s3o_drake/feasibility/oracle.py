@@ -173,7 +173,8 @@ class FeasibilityOracle:
         else:  # put down where the reach aims, off by the object's offset in the hand too
             # The in-hand offset along the axes of `place_error_stds` (the disc is round:
             # which horizontal axes they are does not matter).
-            stds = np.array(place_error_stds(kind, self.noise.reach_std))
+            stds = np.array(place_error_stds(kind, self.noise.reach_std,
+                                             robot=self.checker.scene.robot))
             in_hand = rng.normal(0.0, 1.0, reach.shape) * np.sqrt(
                 np.maximum(stds**2 - self.noise.reach_std**2, 0.0))
             ok = landed & (np.linalg.norm(reach + in_hand, axis=1) <= PLACE_TOLERANCE)

@@ -93,7 +93,7 @@ def grasp_tolerance(kind: str, *, robot: Robot) -> float:
     """
     radius = DISH_SHAPES[kind].radius
     travel = robot.finger_travel
-    if holds_whole(kind):
+    if holds_whole(kind, robot=robot):
         return travel - radius
     sideways = radius * PAD_FRICTION / math.hypot(1.0, PAD_FRICTION)
     return min(travel - RIM_INSET, sideways)
@@ -114,7 +114,7 @@ def catch_probability(kind: str, reach_std: float, *, robot: Robot) -> float:
     return 1.0 - math.exp(-0.5 * (grasp_tolerance(kind, robot=robot) / reach_std) ** 2)
 
 
-def place_error_stds(kind: str, reach_std: float) -> tuple[float, float]:
+def place_error_stds(kind: str, reach_std: float, *, robot: Robot) -> tuple[float, float]:
     """The standard deviations (m) of where an object of `kind` is put down, off its place,
     along two perpendicular horizontal axes.
 
@@ -125,16 +125,16 @@ def place_error_stds(kind: str, reach_std: float) -> tuple[float, float]:
     the other only the place's, or both for a pinched rim.
     """
     both = math.sqrt(2.0) * reach_std
-    return both, both if not holds_whole(kind) else reach_std
+    return both, both if not holds_whole(kind, robot=robot) else reach_std
 
 
-def place_probability(kind: str, reach_std: float) -> float:
-    """P(an object of `kind`, put down with reach noise `reach_std`, stands within
+def place_probability(kind: str, reach_std: float, *, robot: Robot) -> float:
+    """P(an object of `kind`, put down by `robot` with reach noise `reach_std`, stands within
     PLACE_TOLERANCE of its place): the probability that the zero-mean Gaussian of
     `place_error_stds` falls in that disc, integrated over one axis."""
     if reach_std <= 0:
         return 1.0
-    a, b = place_error_stds(kind, reach_std)
+    a, b = place_error_stds(kind, reach_std, robot=robot)
     x = np.linspace(-PLACE_TOLERANCE, PLACE_TOLERANCE, 2001)
     half_chord = np.sqrt(np.maximum(PLACE_TOLERANCE**2 - x**2, 0.0))
     density = np.exp(-0.5 * (x / a) ** 2) / (a * math.sqrt(2.0 * math.pi))
@@ -147,7 +147,7 @@ def goal_probability(target: str, kind: str, reach_std: float, *, robot: Robot) 
     standing within tolerance of its place (`place_probability`; the held object is not
     caught again)."""
     if placed_object(target) is not None:
-        return place_probability(kind, reach_std)
+        return place_probability(kind, reach_std, robot=robot)
     return catch_probability(kind, reach_std, robot=robot)
 
 

@@ -6,14 +6,14 @@ object sits between the fingers).
 """
 
 from s3o_drake.world.furniture import DISH_SHAPES
-from s3o_drake.world.robot import FINGER_TRAVEL
+from s3o_drake.world.robot import Robot
 
 #: A dish is held whole when it is this much narrower than the full opening (m).
 OPENING_MARGIN = 0.03
 
 
-def holds_whole(kind: str) -> bool:
-    """Whether the opening spans an object of `kind` (a cup, a can, an apple): the fingers
-    close on its sides and centre it between them; else (a plate, a bowl) the rim is
-    pinched."""
-    return 2 * DISH_SHAPES[kind].radius <= 2 * FINGER_TRAVEL - OPENING_MARGIN
+def holds_whole(kind: str, *, robot: Robot) -> bool:
+    """Whether `robot`'s opening spans an object of `kind` (a cup, a can, an apple): the
+    fingers close on its sides and centre it between them; else (a plate, a bowl) the rim
+    is pinched."""
+    return 2 * DISH_SHAPES[kind].radius <= 2 * robot.finger_travel - OPENING_MARGIN

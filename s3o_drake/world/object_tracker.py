@@ -45,14 +45,6 @@ from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import surface_below
 from s3o_drake.world.gripper import holds_whole
 from s3o_drake.world.objects import surface_height
-from s3o_drake.world.robot import (
-    BASE_LINK,
-    GRASP_FRAME,
-    NUM_POSITIONS,
-    TRAY_INNER_LENGTH,
-    TRAY_INNER_WIDTH,
-    TRAY_LINK,
-)
 from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.system_lifetime import weak_callback
 
@@ -104,6 +96,7 @@ def AddObjectTracker(builder: DiagramBuilder, *, scenario: Scenario, plant: Mult
     """Registers the scenario's dishes with `scene_graph` and adds their ObjectTracker to
     `builder`, named `name`, connected to the plant's state of `robot` (robot_state) and to
     the scene graph (geometry_pose); grip and the dish outputs are the caller's to connect.
+    `robot` is the model instance of the scenario's robot (`scenario.robot_value`).
 
     Each dish D becomes a frame of a geometry source `name`, named after the dish, with one
     cylinder (its bottom face's centre at D's origin) that has illustration, perception
@@ -161,7 +154,9 @@ class ObjectTracker(LeafSystem):
     """Moves the dishes' geometry with the gripper, the tray, or not at all.
 
     `AddObjectTracker` registers the geometry and constructs it: `source_id` is the
-    geometry source, `frame_ids` each dish's frame in it, `labels` each dish's render label.
+    geometry source, `frame_ids` each dish's frame in it, `labels` each dish's render label;
+    `robot` is the model instance of the scenario's robot (`scenario.robot_value`), whose
+    grasp frame, tray and state it reads.
 
     A dish starts on its table. When `grip.dish` names it, it is in the gripper and keeps
     the pose relative to the grasp frame G that it had at that moment, except that one
@@ -176,7 +171,8 @@ class ObjectTracker(LeafSystem):
     unrestricted update; the poses of held dishes follow the robot's state continuously.
 
     Input ports:
-        robot_state: vector (2 NUM_POSITIONS): the robot's positions then its velocities.
+        robot_state: vector (2 robot.num_positions, of `scenario.robot_value`): the robot's
+            positions then its velocities.
         grip: abstract GripEvent; unconnected means the gripper holds nothing.
     Output ports:
         geometry_pose: FramePoseVector, for scene_graph.get_source_pose_port(source_id).
@@ -195,22 +191,29 @@ class ObjectTracker(LeafSystem):
         for given, what in ((frame_ids, "frame_ids"), (labels, "labels")):
             if set(given) != set(names):
                 raise ValueError(f"{what}: expected the dishes {names}, got {tuple(given)}")
+        # The scenario names its robot, whose model the plant holds as `robot`: one source,
+        # so the tracker cannot be given another robot than the world's.
+        robot_value = scenario.robot_value
         self._plant = plant
         self._scenario = scenario
-        self._G = plant.GetFrameByName(GRASP_FRAME, robot)
+        self._G = plant.GetFrameByName(robot_value.grasp_frame, robot)
         self._robot = robot
+        self._num_positions = robot_value.num_positions
+        tray = robot_value.description.tray
+        self._tray_inner = (tray.inner_length, tray.inner_width)
         # The tray is welded to the base link, which the planar joints place at (x, y, yaw):
         # the carried dishes follow from the first three positions without the plant's
         # kinematics at every step.
         default = plant.CreateDefaultContext()
-        self._X_BT = plant.GetFrameByName(TRAY_LINK, robot).CalcPose(
-            default, plant.GetFrameByName(BASE_LINK, robot))
+        self._X_BT = plant.GetFrameByName(robot_value.tray_link, robot).CalcPose(
+            default, plant.GetFrameByName(robot_value.base_link, robot))
         self._source_id = source_id
         self._names = names
         self._frame_ids = dict(frame_ids)
         self._labels = dict(labels)
         self._radii = {d.name: DISH_SHAPES[d.kind].radius for d in scenario.dishes}
-        self._whole = {d.name: holds_whole(d.kind) for d in scenario.dishes}
+        self._whole = {d.name: holds_whole(d.kind, robot=robot_value)
+                       for d in scenario.dishes}
         # As world.populate_plant welds the dishes: bottom centre on the surface.
         initial = tuple(
             _Track(d.name, DishState.TABLE,
@@ -218,7 +221,8 @@ class ObjectTracker(LeafSystem):
                                    surface_height(scenario.tables, d)]))
             for d in scenario.dishes)
 
-        self._robot_state_port = self.DeclareVectorInputPort("robot_state", 2 * NUM_POSITIONS)
+        self._robot_state_port = self.DeclareVectorInputPort("robot_state",
+                                                              2 * self._num_positions)
         self._grip_port = self.DeclareAbstractInputPort("grip", AbstractValue.Make(GripEvent()))
         self._tracks_index = self.DeclareAbstractState(AbstractValue.Make(initial))
         # A plant context per system context, kept as a cache entry: kinematics of the
@@ -262,7 +266,7 @@ class ObjectTracker(LeafSystem):
 
     def _calc_plant_context(self, context: Context, value: AbstractValue) -> None:
         plant_context = value.get_mutable_value()
-        q = self._robot_state_port.Eval(context)[:NUM_POSITIONS]
+        q = self._robot_state_port.Eval(context)[:self._num_positions]
         self._plant.SetPositions(plant_context, self._robot, q)
 
     def _frames(self, context: Context) -> tuple[RigidTransform, RigidTransform]:
@@ -358,8 +362,9 @@ class ObjectTracker(LeafSystem):
     def _on_tray(self, name: str, X_TD: RigidTransform) -> RigidTransform:
         """X_TD set down on the tray's floor (z = 0 in T) and kept inside its rim."""
         radius = self._radii[name]
-        half_x = max(TRAY_INNER_LENGTH / 2 - radius, 0.0)
-        half_y = max(TRAY_INNER_WIDTH / 2 - radius, 0.0)
+        inner_length, inner_width = self._tray_inner
+        half_x = max(inner_length / 2 - radius, 0.0)
+        half_y = max(inner_width / 2 - radius, 0.0)
         x, y, _ = X_TD.translation()
         return _upright(float(np.clip(x, -half_x, half_x)), float(np.clip(y, -half_y, half_y)),
                         0.0, X_TD.rotation())

@@ -52,7 +52,7 @@ def _controller(scenario, scene, checker, *, seed=None, noise=True, motion="stop
     """The scenario's controller; stopping and going unless `motion` says (the pickup then
     is done at its end)."""
     params = dataclasses.replace(arm_params(scenario, seed=seed, noise=noise), motion=motion)
-    arm = ArmController(params=params, scene=scene, checker=checker)
+    arm = ArmController(robot=scene.robot, params=params, scene=scene, checker=checker)
     return arm, arm.CreateDefaultContext()
 
 
@@ -347,6 +347,7 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     world = builder.AddNamedSystem(
         "world", build_world_diagram(start, **({"track_dishes": True} if tracked else {})))
     arm = builder.AddNamedSystem("arm_controller", ArmController(
+        robot=scene.robot,
         params=dataclasses.replace(arm_params(start, noise=False), motion="stop_and_go"),
         scene=scene, checker=checker))
     command = builder.AddSystem(ConstantValueSource(

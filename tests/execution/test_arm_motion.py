@@ -14,7 +14,6 @@ import pytest
 from pydrake.math import RigidTransform
 
 from s3o_drake.execution.arm.arm_motion import (
-    ARM,
     CORNER_ROUNDINGS,
     STILL_DURATION,
     curve_collision_free,
@@ -37,10 +36,12 @@ from s3o_drake.feasibility.pickup_geometry import LIFT_HEIGHT, X_WA, moved
 from s3o_drake.feasibility.reachability.map import ReachabilityMap
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.angles import facing_yaw
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_CLOSED, GRIPPER_OPEN
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parents[2]
+# The arm's joints among the positions of the scenes' robot, the UR5e.
+ARM = load_robot("ur5e").arm_positions
 # Facing north towards the table's free edge, 0.65 m from it.
 FRONT = np.array([1.85, 1.45, math.pi / 2])
 
@@ -63,7 +64,7 @@ def around_the_table_edge(scene):
 
 def test_planner_goes_around_an_obstacle(scene, around_the_table_edge):
     qa, qb = around_the_table_edge
-    path = plan_arm_path(scene.checker, qa, qb, seed=1, time_limit=5.0)
+    path = plan_arm_path(scene.checker, qa, qb, robot=scene.robot, seed=1, time_limit=5.0)
     assert path is not None and len(path) >= 3
     np.testing.assert_array_equal(path[0], qa)
     np.testing.assert_array_equal(path[-1], qb)
@@ -75,16 +76,16 @@ def test_planner_goes_around_an_obstacle(scene, around_the_table_edge):
 
 def test_same_seed_gives_the_same_path(scene, around_the_table_edge):
     qa, qb = around_the_table_edge
-    first = plan_arm_path(scene.checker, qa, qb, seed=7)
-    second = plan_arm_path(scene.checker, qa, qb, seed=7)
+    first = plan_arm_path(scene.checker, qa, qb, robot=scene.robot, seed=7)
+    second = plan_arm_path(scene.checker, qa, qb, robot=scene.robot, seed=7)
     assert first is not None
     np.testing.assert_array_equal(first, second)
 
 
 def test_free_straight_line_needs_no_planner(scene):
     q0 = scene.q(FRONT)
-    q1 = scene.q(FRONT, ARM_STOW + np.array([0.3, 0.0, 0.0, 0.0, 0.0, 0.2]))
-    path = plan_arm_path(scene.checker, q0, q1)
+    q1 = scene.q(FRONT, scene.robot.arm_stow + np.array([0.3, 0.0, 0.0, 0.0, 0.0, 0.2]))
+    path = plan_arm_path(scene.checker, q0, q1, robot=scene.robot)
     assert path.shape == (2, 11)
 
 
@@ -92,11 +93,11 @@ def test_endpoints_in_collision_are_rejected_by_name(scene, around_the_table_edg
     qa, _ = around_the_table_edge
     under_table = scene.q([1.85, 2.45, math.pi / 2])
     with pytest.raises(ValueError, match="q_start"):
-        plan_arm_path(scene.checker, under_table, qa)
+        plan_arm_path(scene.checker, under_table, qa, robot=scene.robot)
     # The arm stretched out level towards the table, through the table's top.
     into_table = scene.q(FRONT, np.array([math.pi, 0.0, 0.0, 0.0, 0.0, 0.0]))
     with pytest.raises(ValueError, match="q_goal"):
-        plan_arm_path(scene.checker, qa, into_table)
+        plan_arm_path(scene.checker, qa, into_table, robot=scene.robot)
 
 
 # ---------------------------------------------------------------------- time_parameterize
@@ -211,9 +212,10 @@ def test_waypoints_a_hair_apart_are_one(plant, gap):
 def test_stops_at_each_waypoint_on_the_straight_edges(scene, plant, around_the_table_edge):
     """Without a checker the motion stays on the checked straight edges and stops at each
     waypoint; within lower limits given per position."""
-    path = plan_arm_path(scene.checker, *around_the_table_edge, seed=1)
+    path = plan_arm_path(scene.checker, *around_the_table_edge, robot=scene.robot, seed=1)
     v, a = joint_limits(plant)
-    v[ARM], a[ARM] = [1.0, 0.5, 1.0, 2.0, 2.0, 2.0], 2.0
+    arm = scene.robot.arm_positions
+    v[arm], a[arm] = [1.0, 0.5, 1.0, 2.0, 2.0, 2.0], 2.0
     timed = time_parameterize(path, plant, max_velocity=v, max_acceleration=a)
     assert not timed.smoothed
     trajectory = timed.trajectory
@@ -223,7 +225,7 @@ def test_stops_at_each_waypoint_on_the_straight_edges(scene, plant, around_the_t
     # At rest where it passes each inner waypoint.
     for waypoint in path[1:-1]:
         at = np.argmin([np.linalg.norm(trajectory.value(t).ravel() - waypoint) for t in times])
-        assert speeds[:, at].max() < 0.1 * v[ARM].max()
+        assert speeds[:, at].max() < 0.1 * v[arm].max()
 
 
 def test_a_rounded_corner_is_checked_faster_and_within_the_limits(scene, plant,
@@ -297,14 +299,15 @@ def test_pickup_from_in_front_is_collision_free_and_ends_stowed(scene, checker, 
         if segment.smoothed:  # its rounded corners were checked by the same checker
             assert curve_collision_free(checkers[segment.name], trajectory.path())
         v, a = _max_rates(trajectory, 400)
-        v_max, a_max = segment_limits(scene.checker.plant(), segment.name)
+        v_max, a_max = segment_limits(scene.checker.plant(), segment.name, robot=scene.robot)
         assert np.all(v[3:] <= v_max[3:] * 1.001), segment.name
         assert np.all(a[3:] <= a_max[3:] * 1.001), segment.name
         assert np.all(v[9:] <= FINGER_MAX_VELOCITY * 1.001), segment.name
         np.testing.assert_allclose(v[:3], 0.0, atol=1e-12)  # the base stays put
         previous_end = qs[-1]
-    np.testing.assert_allclose(previous_end[ARM], ARM_STOW, atol=1e-12)
-    np.testing.assert_allclose(previous_end[9:], GRIPPER_OPEN)
+    np.testing.assert_allclose(previous_end[scene.robot.arm_positions], scene.robot.arm_stow,
+                               atol=1e-12)
+    np.testing.assert_allclose(previous_end[9:], scene.robot.gripper_open)
     whole = plan.trajectory()
     assert whole.end_time() == pytest.approx(plan.duration)
     t0 = 0.0
@@ -337,7 +340,7 @@ def test_at_arm_s_length_the_lift_draws_the_dish_in():
     result = checker.check(base, "cup_3", None)
     assert result.feasible
     q_closed = result.q.copy()
-    q_closed[9:] = GRIPPER_CLOSED
+    q_closed[9:] = scene.robot.gripper_closed
     X_WG = scene.grasp_pose(q_closed)
     lifted = X_WG.translation() + np.array([0.0, 0.0, LIFT_HEIGHT])
     straight_up = RigidTransform(X_WG.rotation(), lifted)

@@ -67,7 +67,8 @@ def _navigator(scenario, scene=None, *, seed=None, noise=False, motion=None,
     params = navigator_params(scenario, seed=seed, noise=noise)
     if motion is not None:
         changes["profile"] = dataclasses.replace(params.profile, motion=motion)
-    return BaseNavigator(params=dataclasses.replace(params, **changes), scene=scene)
+    return BaseNavigator(robot=scenario.robot_value,
+                         params=dataclasses.replace(params, **changes), scene=scene)
 
 
 def test_ports_and_no_feedthrough(scenario):
@@ -335,7 +336,8 @@ def test_a_noisy_landing_is_reached_along_the_planned_leg(scenario, scene):
     params = navigator_params(scenario, noise=False)
     stop_and_go = dataclasses.replace(params, profile=dataclasses.replace(
         params.profile, motion="stop_and_go"))
-    alone = _Alone(Landing(params=stop_and_go, scene=scene), base=(0.8, 1.72, 0.0))
+    alone = _Alone(Landing(robot=scene.robot, params=stop_and_go, scene=scene),
+                   base=(0.8, 1.72, 0.0))
     alone.send(BaseCommand(id=3, path=((0.8, 1.72), (1.6, 1.72), (3.4, 1.72)),
                            pose=(3.4, 1.72, 0.0)))
     final, status = alone.final()
@@ -528,10 +530,11 @@ def test_smooth_a_turn_that_ends_before_the_arm_s_motion_is_checked_until_that_e
     played = _played(_navigator(scenario, scene, motion="smooth"), base, arm, turn)
     assert played.id == 1 and played.duration < arm.end_time
     assert not free_together(lambda t: scene.checker, dataclasses.replace(played, t0=0.0).desired,
-                             arm.arm_at, 0.0, arm.end_time)  # at once, the reach hits the table
+                             arm.arm_at, 0.0, arm.end_time,
+                             robot=scene.robot)  # at once, the reach hits the table
     assert played.t0 > 0.0
     assert free_together(lambda t: scene.checker, played.desired, arm.arm_at, played.t0,
-                         arm.end_time)
+                         arm.end_time, robot=scene.robot)
 
 
 def test_a_motion_that_writes_its_heading_a_turn_round_is_played_from_the_joint_s_yaw():

@@ -117,5 +117,6 @@ def test_no_timed_leg_from_over_the_tray_to_stow_beats_the_arms_bound(scene):
         for arm in tray_arms(grasp, robot=scene.robot)[:6]:
             start, stow = scene.q(np.zeros(3), arm=np.asarray(arm)), scene.q(np.zeros(3))
             path = np.stack([start, stow])
-            durations.append(timed_segment("stow", path, scene.checker).duration)
+            durations.append(timed_segment("stow", path, scene.checker,
+                                           robot=scene.robot).duration)
     assert min(durations) >= TIMING_SLACK * leg

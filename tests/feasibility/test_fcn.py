@@ -194,7 +194,7 @@ def test_a_place_target_is_rated_as_the_oracle_rates_it():
     predicted = FcnFeasibility.load(WEIGHTS, robot=tidy.contents.robot).heatmap(
         view_of(tidy), target)
     (oracle,) = compute_heatmaps(tidy, [target.name], progress=False)
-    ceiling = place_probability("apple", tidy.uncertainty.reach_std)
+    ceiling = place_probability("apple", tidy.uncertainty.reach_std, robot=tidy.robot_value)
     assert oracle.values.max() > 0.85 and predicted.values.max() <= ceiling + 1e-9
     assert np.abs(predicted.values - oracle.values).mean() < 0.05
 

@@ -122,17 +122,17 @@ def test_a_place_is_rated_by_the_chance_the_object_stands_within_tolerance(scena
     """Putting an object down is not caught: the reach errors of its pickup (the offset in
     the hand, across the fingers centred for an object held whole) and of the place add up,
     and Fea^m's factor is the chance the object ends within PLACE_TOLERANCE."""
-    assert place_probability("cup", 0.0) == 1.0
+    robot = scenario.contents.robot
+    assert place_probability("cup", 0.0, robot=robot) == 1.0
     # A pinched rim keeps the whole pickup error: 2 sigma² per axis, a Rayleigh radius.
-    assert place_probability("plate", 0.01) == pytest.approx(
+    assert place_probability("plate", 0.01, robot=robot) == pytest.approx(
         1 - math.exp(-PLACE_TOLERANCE**2 / (4 * 0.01**2)), abs=1e-5)
     # Held whole, one axis loses the pickup's error: between the two isotropic cases.
-    whole = place_probability("apple", 0.01)
+    whole = place_probability("apple", 0.01, robot=robot)
     assert 1 - math.exp(-PLACE_TOLERANCE**2 / (4 * 0.01**2)) < whole < \
         1 - math.exp(-PLACE_TOLERANCE**2 / (2 * 0.01**2))
-    assert place_probability("apple", 0.02) < whole
+    assert place_probability("apple", 0.02, robot=robot) < whole
     # The same object picked is rated by its catch, placed by its place.
-    robot = scenario.contents.robot
     assert goal_probability("apple", "apple", 0.01, robot=robot) == catch_probability(
         "apple", 0.01, robot=robot)
     assert goal_probability("apple__place", "apple", 0.01, robot=robot) == whole
@@ -146,7 +146,8 @@ def test_a_place_targets_heatmap_is_its_monte_carlo_expectation(rmap):
     oracle = _oracle(tidy, rmap)
     heatmap = oracle.heatmap("apple__place", cells=32)
     best = heatmap.centers()[np.unravel_index(np.argmax(heatmap.values), heatmap.values.shape)]
-    assert heatmap.values.max() <= place_probability("apple", tidy.uncertainty.reach_std)
+    assert heatmap.values.max() <= place_probability("apple", tidy.uncertainty.reach_std,
+                                                     robot=tidy.robot_value)
     p = oracle.probability(best, "apple__place", rng=np.random.default_rng(0), samples=400)
     # 400 samples near p = 0.9: a standard error of 0.015.
     assert p == pytest.approx(heatmap.values.max(), abs=0.05)

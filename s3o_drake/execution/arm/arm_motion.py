@@ -1,7 +1,7 @@
 """Collision-free arm paths (OMPL's RRT-Connect on Drake's collision checker) and their timing.
 
-`plan_arm_path` moves the arm's joints (`ARM_POSITIONS` of the robot's positions) from one
-configuration to another with the base and the fingers held where they are. Drake has no
+`plan_arm_path` moves the arm's joints (`Robot.arm_positions` of the robot's positions) from
+one configuration to another with the base and the fingers held where they are. Drake has no
 sampling-based planner, so OMPL's RRT-Connect searches the arm's joint box (the plant's
 position limits); Drake's `SceneGraphCollisionChecker` answers its questions: a state is
 valid when `CheckConfigCollisionFree` holds for all the robot's positions, a motion when
@@ -53,16 +53,8 @@ from pydrake.trajectories import (
     Trajectory,
 )
 
-from s3o_drake.world.robot import (
-    ARM_POSITIONS,
-    GRIPPER_POSITIONS,
-    NUM_ARM_JOINTS,
-    NUM_BASE_JOINTS,
-    NUM_POSITIONS,
-)
+from s3o_drake.world.robot import Robot
 
-#: The arm's joints among the robot's positions.
-ARM = ARM_POSITIONS
 #: RRT-Connect's extension step (rad, joint-space distance). OMPL's default (a fifth of the
 #: box's diagonal, ~6 rad for joints that turn ±2π) makes long edges that mostly collide
 #: near tables; a 1 rad step keeps the trees growing.
@@ -91,11 +83,14 @@ SAMPLES_PER_INTERVAL = 4
 STILL_DURATION = 1e-3
 
 
-def arm_bounds(checker: SceneGraphCollisionChecker) -> tuple[np.ndarray, np.ndarray]:
-    """The arm's joint limits (rad), lower and upper, from the checker's plant."""
+def arm_bounds(checker: SceneGraphCollisionChecker, *,
+               robot: Robot) -> tuple[np.ndarray, np.ndarray]:
+    """`robot`'s arm joint limits (rad), lower and upper, from the checker's plant (whose
+    positions are the robot's)."""
     plant = checker.plant()
-    return (plant.GetPositionLowerLimits()[ARM].copy(),
-            plant.GetPositionUpperLimits()[ARM].copy())
+    arm = robot.arm_positions
+    return (plant.GetPositionLowerLimits()[arm].copy(),
+            plant.GetPositionUpperLimits()[arm].copy())
 
 
 @contextmanager
@@ -133,27 +128,30 @@ class _EdgeValidator(ob.MotionValidator):
 
 
 def _validate_endpoints(checker: SceneGraphCollisionChecker, q_start: np.ndarray,
-                        q_goal: np.ndarray) -> None:
-    lower, upper = arm_bounds(checker)
+                        q_goal: np.ndarray, robot: Robot) -> None:
+    lower, upper = arm_bounds(checker, robot=robot)
+    arm, n = robot.arm_positions, robot.num_positions
     for name, q in (("q_start", q_start), ("q_goal", q_goal)):
-        if q.shape != (NUM_POSITIONS,):
-            raise ValueError(f"{name}: expected {NUM_POSITIONS} positions, got shape {q.shape}")
-        if np.any(q[ARM] < lower - 1e-9) or np.any(q[ARM] > upper + 1e-9):
-            raise ValueError(f"{name}: arm joints {q[ARM]} outside the limits")
+        if q.shape != (n,):
+            raise ValueError(f"{name}: expected {n} positions, got shape {q.shape}")
+        if np.any(q[arm] < lower - 1e-9) or np.any(q[arm] > upper + 1e-9):
+            raise ValueError(f"{name}: arm joints {q[arm]} outside the limits")
         if not checker.CheckConfigCollisionFree(q):
             raise ValueError(f"{name} is in collision")
 
 
 def edges_free(checker: SceneGraphCollisionChecker, path: np.ndarray) -> bool:
-    """Whether every straight edge of `path` (n, NUM_POSITIONS) is collision-free by `checker`."""
+    """Whether every straight edge of `path` (n, the robot's positions) is collision-free by
+    `checker`."""
     return all(checker.CheckEdgeCollisionFree(a, b)
                for a, b in itertools.pairwise(path))
 
 
 def plan_arm_path(checker: SceneGraphCollisionChecker, q_start: np.ndarray, q_goal: np.ndarray,
-                  *, time_limit: float = 5.0, seed: int = 0,
+                  *, robot: Robot, time_limit: float = 5.0, seed: int = 0,
                   max_step: float = RRT_RANGE) -> np.ndarray | None:
-    """A collision-free path (n, NUM_POSITIONS) from q_start to q_goal moving only the arm, or None.
+    """A collision-free path (n, robot.num_positions) from q_start to q_goal moving only the
+    arm of `robot` (the checker's robot), or None.
 
     q_start and q_goal are the robot's positions; the path holds base and fingers at
     q_start's values (q_goal's are ignored there) and its consecutive waypoints are joined
@@ -164,10 +162,11 @@ def plan_arm_path(checker: SceneGraphCollisionChecker, q_start: np.ndarray, q_go
     """
     q_start = np.asarray(q_start, dtype=float).reshape(-1)
     q_goal = np.asarray(q_goal, dtype=float).reshape(-1).copy()
-    if q_goal.shape == q_start.shape == (NUM_POSITIONS,):
-        base, gripper = slice(0, NUM_BASE_JOINTS), GRIPPER_POSITIONS
+    arm, num_arm = robot.arm_positions, robot.num_arm_joints
+    if q_goal.shape == q_start.shape == (robot.num_positions,):
+        base, gripper = slice(0, robot.num_base_joints), robot.gripper_positions
         q_goal[base], q_goal[gripper] = q_start[base], q_start[gripper]
-    _validate_endpoints(checker, q_start, q_goal)
+    _validate_endpoints(checker, q_start, q_goal, robot)
     if checker.CheckEdgeCollisionFree(q_start, q_goal):
         return np.stack([q_start, q_goal])
 
@@ -175,14 +174,14 @@ def plan_arm_path(checker: SceneGraphCollisionChecker, q_start: np.ndarray, q_go
 
     def to_q(state) -> np.ndarray:
         q = template.copy()
-        q[ARM] = [state[i] for i in range(NUM_ARM_JOINTS)]
+        q[arm] = [state[i] for i in range(num_arm)]
         return q
 
     _seed_ompl(seed)
-    lower, upper = arm_bounds(checker)
-    space = ob.RealVectorStateSpace(NUM_ARM_JOINTS)
-    bounds = ob.RealVectorBounds(NUM_ARM_JOINTS)
-    for i in range(NUM_ARM_JOINTS):
+    lower, upper = arm_bounds(checker, robot=robot)
+    space = ob.RealVectorStateSpace(num_arm)
+    bounds = ob.RealVectorBounds(num_arm)
+    for i in range(num_arm):
         bounds.setLow(i, float(lower[i]))
         bounds.setHigh(i, float(upper[i]))
     space.setBounds(bounds)
@@ -191,8 +190,8 @@ def plan_arm_path(checker: SceneGraphCollisionChecker, q_start: np.ndarray, q_go
     si.setMotionValidator(_EdgeValidator(si, to_q, checker))
     si.setup()
     start, goal = si.allocState(), si.allocState()
-    for i in range(NUM_ARM_JOINTS):
-        start[i], goal[i] = float(q_start[ARM][i]), float(q_goal[ARM][i])
+    for i in range(num_arm):
+        start[i], goal[i] = float(q_start[arm][i]), float(q_goal[arm][i])
     problem = ob.ProblemDefinition(si)
     problem.setStartAndGoalStates(start, goal)
     planner = og.RRTConnect(si)

@@ -13,7 +13,7 @@ positions, in this order:
 - to_tray: RRT-Connect to the configuration over the tray, gripper held as it grasped
   (down for a top grasp, level for a side grasp so that a cup stays upright);
 - release: the fingers open;
-- stow: RRT-Connect back to ARM_STOW.
+- stow: RRT-Connect back to the arm's stow (`Robot.arm_stow`).
 
 An object whose goal is place is not let go over the tray: with `hold`, the pickup ends
 with "to_tray", the object held above the tray while the base drives on, and
@@ -44,7 +44,6 @@ from pydrake.planning import SceneGraphCollisionChecker
 from pydrake.trajectories import CompositeTrajectory, PathParameterizedTrajectory, Trajectory
 
 from s3o_drake.execution.arm.arm_motion import (
-    ARM,
     joint_limits,
     plan_arm_path,
     shifted,
@@ -54,7 +53,7 @@ from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.pickup_geometry import PickupGeometry, pickup_geometry, with_gripper
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.world.robot import GRIPPER_OPEN, GRIPPER_POSITIONS, NUM_POSITIONS
+from s3o_drake.world.robot import Robot
 
 SEGMENT_NAMES = ("approach", "descend", "close", "lift", "to_tray", "release", "stow")
 #: Near the dish (SLOW_SEGMENTS) the arm keeps to this fraction of its joint limits, so that
@@ -70,7 +69,7 @@ FINGER_MAX_ACCELERATION = 0.5
 class Segment:
     """One timed motion: `trajectory` gives the robot's positions over [0, duration].
 
-    `waypoints` (k, NUM_POSITIONS) is the path whose straight edges were checked; the
+    `waypoints` (k, the robot's positions) is the path whose straight edges were checked; the
     trajectory runs along them, stopping at each (`smoothed` False), or along a curve that
     rounds their corners and was itself checked densely (`smoothed` True; see
     `time_parameterize`).
@@ -108,23 +107,27 @@ class PickupPlan:
         return CompositeTrajectory(pieces)
 
 
-def segment_limits(plant: MultibodyPlant, name: str) -> tuple[np.ndarray, np.ndarray]:
-    """Speed and acceleration limits of the robot's positions in segment `name`: the arm's from
+def segment_limits(plant: MultibodyPlant, name: str, *,
+                   robot: Robot) -> tuple[np.ndarray, np.ndarray]:
+    """Speed and acceleration limits of `robot`'s positions (the plant's) in segment `name`:
+    the arm's from
     the robot model (models/<robot>/, their sources in its robot.yaml), the fingers' the
     gentler FINGER_MAX_*, all times SLOW in SLOW_SEGMENTS; the base does not move within a
     pickup (the model's limits, unused)."""
     v, a = joint_limits(plant)
-    v[GRIPPER_POSITIONS] = np.minimum(v[GRIPPER_POSITIONS], FINGER_MAX_VELOCITY)
-    a[GRIPPER_POSITIONS] = np.minimum(a[GRIPPER_POSITIONS], FINGER_MAX_ACCELERATION)
+    fingers = robot.gripper_positions
+    v[fingers] = np.minimum(v[fingers], FINGER_MAX_VELOCITY)
+    a[fingers] = np.minimum(a[fingers], FINGER_MAX_ACCELERATION)
     if name in SLOW_SEGMENTS:
         v, a = v * SLOW, a * SLOW
     return v, a
 
 
-def timed_segment(name: str, path: np.ndarray, checker: SceneGraphCollisionChecker) -> Segment:
-    """`path` timed by TOPPRA within `segment_limits`, its corners rounded where `checker`
-    finds the rounded curve collision-free."""
-    v, a = segment_limits(checker.plant(), name)
+def timed_segment(name: str, path: np.ndarray, checker: SceneGraphCollisionChecker, *,
+                  robot: Robot) -> Segment:
+    """`path` (positions of `robot`, the checker's) timed by TOPPRA within `segment_limits`,
+    its corners rounded where `checker` finds the rounded curve collision-free."""
+    v, a = segment_limits(checker.plant(), name, robot=robot)
     timed = time_parameterize(path, checker.plant(), max_velocity=v, max_acceleration=a,
                               checker=checker)
     return Segment(name, timed.trajectory, timed.duration, path, timed.smoothed)
@@ -138,13 +141,15 @@ def start_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: n
     default the arm stowed and the gripper open, its base entries set to `base`), and the
     configurations of picking `target` from there (`pickup_geometry`); shared by a pickup
     and a place. Raises ValueError for a `q_start` of another shape."""
+    robot = scene.robot
     base = np.asarray(base, dtype=float).reshape(3)
     q0 = scene.q(base) if q_start is None else np.asarray(q_start, dtype=float).copy()
-    if q0.shape != (NUM_POSITIONS,):
-        raise ValueError(f"q_start: expected {NUM_POSITIONS} positions, got shape {q0.shape}")
+    if q0.shape != (robot.num_positions,):
+        raise ValueError(f"q_start: expected {robot.num_positions} positions, "
+                         f"got shape {q0.shape}")
     q0[:3] = base
     return q0, pickup_geometry(scene, checker, base, target, reach_offset=reach_offset,
-                               q_arm=q0[ARM], grasp=grasp)
+                               q_arm=q0[robot.arm_positions], grasp=grasp)
 
 
 def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
@@ -159,7 +164,7 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
 
     `base` is where the robot really stands; `reach_offset` is the reach noise (moves the
     grasp target, as in `FeasibilityChecker.check`); `q_start` the robot's positions now
-    (default: ARM_STOW, gripper open; its base entries are replaced by `base`). `seed` and
+    (default: the arm stowed, gripper open; its base entries are replaced by `base`). `seed` and
     `time_limit` (seconds per RRT-Connect query) go to `plan_arm_path`. Not ok with reason
     "base_collision" (the base stands in collision), "no_ik" (no collision-free grasp, or no
     pre-grasp/lift on its branch) or "no_path" (some motion found no collision-free path).
@@ -170,24 +175,26 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
     if not geometry.ok:
         return PickupPlan(False, geometry.reason, grasp=geometry.grasp)
     c = geometry.configurations
+    robot = scene.robot
     free = scene.checker
     holding = ik.grasp_checker(scene, dish)
     fail = PickupPlan(False, "no_path", grasp=c.grasp)
-    q_open = with_gripper(q0, GRIPPER_OPEN, robot=scene.robot)
-    opening = not np.allclose(q0[GRIPPER_POSITIONS], GRIPPER_OPEN)
+    q_open = with_gripper(q0, robot.gripper_open, robot=robot)
+    opening = not np.allclose(q0[robot.gripper_positions], robot.gripper_open)
     # Fingers not open: they open first, where the arm stands.
     if opening and not free.CheckEdgeCollisionFree(q0, q_open):
         return fail
-    approach = plan_arm_path(free, q_open, c.q_pre, time_limit=time_limit, seed=seed)
+    approach = plan_arm_path(free, q_open, c.q_pre, robot=robot, time_limit=time_limit,
+                             seed=seed)
     if approach is None:
         return fail
     if opening:
         approach = np.vstack([q0[None, :], approach])
     # pickup_geometry checked the straight motions (descend, close, lift, release).
-    segments = [timed_segment("approach", approach, free),
-                timed_segment("descend", np.stack([c.q_pre, c.q_grasp]), holding),
-                timed_segment("close", np.stack([c.q_grasp, c.q_closed]), holding),
-                timed_segment("lift", np.stack([c.q_closed, c.q_lift]), holding)]
+    segments = [timed_segment("approach", approach, free, robot=robot),
+                timed_segment("descend", np.stack([c.q_pre, c.q_grasp]), holding, robot=robot),
+                timed_segment("close", np.stack([c.q_grasp, c.q_closed]), holding, robot=robot),
+                timed_segment("lift", np.stack([c.q_closed, c.q_lift]), holding, robot=robot)]
     rest = (("to_tray", c.q_lift, c.q_tray, holding),
             ("release", c.q_tray, c.q_release, free),
             ("stow", c.q_release, c.q_stow, free))
@@ -195,10 +202,11 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
         if name == "release":
             path = np.stack([a, b])
         else:
-            path = plan_arm_path(path_checker, a, b, time_limit=time_limit, seed=seed)
+            path = plan_arm_path(path_checker, a, b, robot=robot, time_limit=time_limit,
+                                 seed=seed)
         if path is None:
             return fail
-        segments.append(timed_segment(name, path, path_checker))
+        segments.append(timed_segment(name, path, path_checker, robot=robot))
     return PickupPlan(True, "ok", segments, grasp=c.grasp)
 
 
@@ -207,45 +215,50 @@ def plan_reach(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.nd
                time_limit: float = 5.0) -> PickupPlan:
     """The timed arm motion ("reach", RRT-Connect) from the robot's positions `q_start` to
     `target`'s pre-grasp as seen from base pose `base` (x, y, yaw), or with no `target` to
-    ARM_STOW; checked with the base standing at `base`. Not ok with the pickup's reasons
+    the arm's stow; checked with the base standing at `base`. Not ok with the pickup's reasons
     (`plan_pickup`)."""
+    robot = scene.robot
     q0 = np.asarray(q_start, dtype=float).copy()
     q0[:3] = np.asarray(base, dtype=float).reshape(3)
     free = scene.checker
     if target is None:
-        goal = with_gripper(scene.q(q0[:3]), q0[GRIPPER_POSITIONS], robot=scene.robot)
+        goal = with_gripper(scene.q(q0[:3]), q0[robot.gripper_positions], robot=robot)
     else:
-        geometry = pickup_geometry(scene, checker, q0[:3], target, q_arm=q0[ARM])
+        geometry = pickup_geometry(scene, checker, q0[:3], target,
+                                   q_arm=q0[robot.arm_positions])
         if not geometry.ok:
             return PickupPlan(False, geometry.reason, grasp=geometry.grasp)
         goal = geometry.configurations.q_pre
     try:
-        path = plan_arm_path(free, q0, goal, time_limit=time_limit, seed=seed)
+        path = plan_arm_path(free, q0, goal, robot=robot, time_limit=time_limit, seed=seed)
     except ValueError:
         return PickupPlan(False, "no_path")  # the arm stands in collision, within the padding
     if path is None:
         return PickupPlan(False, "no_path")
-    return PickupPlan(True, "ok", [timed_segment("reach", path, free)])
+    return PickupPlan(True, "ok", [timed_segment("reach", path, free, robot=robot)])
 
 
 def plan_release(scene: FeasibilityScene, base: np.ndarray, q_start: np.ndarray, *,
                  seed: int = 0, time_limit: float = 5.0) -> PickupPlan:
     """The timed arm motions that let go of a held object where the arm holds it, above
     the tray (where a pickup with `hold` left it), and stow: "release" (the fingers open),
-    "stow" (RRT-Connect to ARM_STOW). Not ok with reason "no_path"."""
+    "stow" (RRT-Connect to the arm's stow). Not ok with reason "no_path"."""
+    robot = scene.robot
     q0 = np.asarray(q_start, dtype=float).copy()
     q0[:3] = np.asarray(base, dtype=float).reshape(3)
     free = scene.checker
-    q_open = with_gripper(q0, GRIPPER_OPEN, robot=scene.robot)
-    q_stow = with_gripper(scene.q(q0[:3]), GRIPPER_OPEN, robot=scene.robot)
+    q_open = with_gripper(q0, robot.gripper_open, robot=robot)
+    q_stow = with_gripper(scene.q(q0[:3]), robot.gripper_open, robot=robot)
     fail = PickupPlan(False, "no_path")
     if not free.CheckEdgeCollisionFree(q0, q_open):
         return fail
     try:
-        stow = plan_arm_path(free, q_open, q_stow, time_limit=time_limit, seed=seed)
+        stow = plan_arm_path(free, q_open, q_stow, robot=robot, time_limit=time_limit,
+                             seed=seed)
     except ValueError:
         return fail  # the arm stands in collision, within the padding
     if stow is None:
         return fail
-    return PickupPlan(True, "ok", [timed_segment("release", np.stack([q0, q_open]), free),
-                                   timed_segment("stow", stow, free)])
+    return PickupPlan(True, "ok", [
+        timed_segment("release", np.stack([q0, q_open]), free, robot=robot),
+        timed_segment("stow", stow, free, robot=robot)])

@@ -13,7 +13,7 @@ hand never has to re-grasp), then joins, over the robot's positions:
 - lower: straight joint line pre-grasp -> grasp: the object comes down onto its surface;
 - release: the fingers open;
 - retreat: straight joint line back to the pre-grasp;
-- stow: RRT-Connect back to ARM_STOW.
+- stow: RRT-Connect back to the arm's stow.
 
 Each is timed by TOPPRA as a pickup's motions are (`pickup.timed_segment`; lower and retreat
 at SLOW). The checkers are the pickup's: the scene's own (1 cm padding) for approach and
@@ -32,7 +32,6 @@ from s3o_drake.feasibility.grasps import GRASP_KINDS
 from s3o_drake.feasibility.landing import pickup_poses
 from s3o_drake.feasibility.pickup_geometry import pickup_geometry, with_gripper
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.world.robot import GRIPPER_POSITIONS
 
 PLACE_SEGMENTS = ("approach", "lower", "release", "retreat", "stow")
 
@@ -81,26 +80,29 @@ def plan_place(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.nd
     if not geometry.ok:
         return PickupPlan(False, geometry.reason, grasp=grasp)
     c = geometry.configurations
-    fingers = q0[GRIPPER_POSITIONS]
-    q_pre = with_gripper(c.q_pre, fingers, robot=scene.robot)
-    q_down = with_gripper(c.q_grasp, fingers, robot=scene.robot)
+    robot = scene.robot
+    fingers = q0[robot.gripper_positions]
+    q_pre = with_gripper(c.q_pre, fingers, robot=robot)
+    q_down = with_gripper(c.q_grasp, fingers, robot=robot)
     free = scene.checker
     at_place = ik.grasp_checker(scene, target)
     fail = PickupPlan(False, "no_path", grasp=grasp)
     try:
-        approach = plan_arm_path(free, q0, q_pre, time_limit=time_limit, seed=seed)
+        approach = plan_arm_path(free, q0, q_pre, robot=robot, time_limit=time_limit,
+                                 seed=seed)
     except ValueError:
         return fail  # the arm stands in collision, within the padding: no path from here
     # pickup_geometry checked the straight motions at the place (descend and close, here
     # run backwards); the fingers open from where they hold the object.
     if approach is None or not at_place.CheckEdgeCollisionFree(q_down, c.q_grasp):
         return fail
-    stow = plan_arm_path(free, c.q_pre, c.q_stow, time_limit=time_limit, seed=seed)
+    stow = plan_arm_path(free, c.q_pre, c.q_stow, robot=robot, time_limit=time_limit,
+                         seed=seed)
     if stow is None:
         return fail
-    segments = [timed_segment("approach", approach, free),
-                timed_segment("lower", np.stack([q_pre, q_down]), at_place),
-                timed_segment("release", np.stack([q_down, c.q_grasp]), at_place),
-                timed_segment("retreat", np.stack([c.q_grasp, c.q_pre]), at_place),
-                timed_segment("stow", stow, free)]
+    segments = [timed_segment("approach", approach, free, robot=robot),
+                timed_segment("lower", np.stack([q_pre, q_down]), at_place, robot=robot),
+                timed_segment("release", np.stack([q_down, c.q_grasp]), at_place, robot=robot),
+                timed_segment("retreat", np.stack([c.q_grasp, c.q_pre]), at_place, robot=robot),
+                timed_segment("stow", stow, free, robot=robot)]
     return PickupPlan(True, "ok", segments, grasp=grasp)
