@@ -257,4 +257,4 @@ def build_abstraction(known: KnownWorld, feasibility, *,
     return rank(partition, task, top_k=planner.top_k, location_cost=location_cost,
                 max_count=max_count,
                 time_limit=time_limit, exhaustive_max_dishes=exhaustive_max_dishes,
-                beam_width=beam_width, shares=stop_shares(planner))
+                beam_width=beam_width, shares=stop_shares(planner, robot=known.robot))

@@ -31,10 +31,9 @@ import numpy as np
 import yaml
 
 from s3o_drake.world.choices import Recovery, SharedStop
-from s3o_drake.world.resources import SHARED_STOP
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.settings import PlanningSettings, Settings
 
-SHARES_FILE = SHARED_STOP
 FORMAT = "s3o_drake.SharedStop/1"
 SIZES = ("2", "3+")
 """The stop sizes with a share of their own: two dishes, and three or more."""
@@ -79,8 +78,9 @@ class StopShares:
                    {k: v for k, v in data.items() if k not in ("format", "shares")})
 
     @classmethod
-    def load(cls, path: str | Path = SHARES_FILE) -> StopShares:
-        """The recorded shares (cached per path)."""
+    def load(cls, path: str | Path) -> StopShares:
+        """The recorded shares at `path` (a robot's: `Robot.files.shared_stop`; cached per
+        path)."""
         return _load(str(Path(path).resolve()))
 
 
@@ -105,11 +105,16 @@ def uses_recorded_shares(settings: Settings) -> bool:
             and settings.execution.recovery == Recovery.NONE.value)
 
 
-def stop_shares(planner: PlanningSettings) -> StopShares:
-    """The shares the planner's utility and ranking use: the recorded ones with
+def stop_shares(planner: PlanningSettings, *, robot: Robot | None) -> StopShares:
+    """The shares the planner's utility and ranking use: those recorded for `robot` with
     `shared_stop: execution`, NONE with `shared_stop: paper` (which the planner's
-    settings say with recovery: `failure_price.priced_planner`)."""
-    return NONE if planner.shared_stop == SharedStop.PAPER.value else StopShares.load()
+    settings say with recovery: `failure_price.priced_planner`; no robot is needed then)."""
+    if planner.shared_stop == SharedStop.PAPER.value:
+        return NONE
+    if robot is None:
+        raise ValueError("shared_stop: execution rates pickups by the robot's recorded "
+                         "shares, and no robot was given")
+    return StopShares.load(robot.files.shared_stop)
 
 
 @dataclass(frozen=True)

@@ -119,7 +119,8 @@ def _validate(args: argparse.Namespace) -> tuple[list[Path], list[str]]:
 
     missing = missing_robot_files(dataclasses.replace(
         scenario, execution=dataclasses.replace(scenario.execution,
-                                                recovery=args.recovery)).settings)
+                                                recovery=args.recovery)).settings,
+                                  scenario.robot_value)
     if missing:
         fail(missing[0])
     if args.methods == ["all"]:

@@ -60,9 +60,11 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     folders = study_folders(args)
     from s3o_drake.experiments.store import ResultStore
-    from s3o_drake.planning.failure_price import PRICE_FILE, FailurePrice, derive_price
+    from s3o_drake.planning.failure_price import FailurePrice, derive_price
+    from s3o_drake.world.resources import ROBOT_NAME
+    from s3o_drake.world.robot import load_robot
 
-    out = out_file(args.out) if args.out else PRICE_FILE
+    out = out_file(args.out) if args.out else load_robot(ROBOT_NAME).files.failure_price
     everything, per_study, codes = [], {}, Counter()
     for folder in folders:
         rows = ResultStore(folder / "results.jsonl", read_only=True).rows()

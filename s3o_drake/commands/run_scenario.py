@@ -274,7 +274,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
             scenario.execution, recovery=args.recovery))
     from s3o_drake.planning.robot_files import missing_robot_files
 
-    missing = missing_robot_files(scenario.settings)
+    missing = missing_robot_files(scenario.settings, scenario.robot_value)
     if missing:
         fail(missing[0])
     seed = scenario.seed if args.seed is None else args.seed

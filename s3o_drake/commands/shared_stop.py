@@ -44,7 +44,6 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     folders = study_folders(args)
     from s3o_drake.abstraction.shared_stop import (
-        SHARES_FILE,
         SIZES,
         StopPickup,
         StopShares,
@@ -52,8 +51,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     from s3o_drake.experiments.calibration import RecordsError, read_records
     from s3o_drake.experiments.store import ResultStore
+    from s3o_drake.world.resources import ROBOT_NAME
+    from s3o_drake.world.robot import load_robot
 
-    out = out_file(args.out) if args.out else SHARES_FILE
+    out = out_file(args.out) if args.out else load_robot(ROBOT_NAME).files.shared_stop
     everything, per_study, codes = [], {}, Counter()
     for folder in folders:
         rows = [r for r in ResultStore(folder / "results.jsonl", read_only=True).rows()

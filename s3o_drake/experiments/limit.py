@@ -41,7 +41,7 @@ from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import Goto, Pickup, TaskMotionPlan
 from s3o_drake.world.goals import placed_object
-from s3o_drake.world.robot import GRIPPER_CLOSED, GRIPPER_OPEN, Robot
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.scenario import Scenario
 
 
@@ -76,9 +76,9 @@ def stroke_time(distance: float, velocity: float, acceleration: float) -> float:
     return 2.0 * math.sqrt(distance / acceleration)
 
 
-def finger_stroke_time() -> float:
-    """The fingers' shortest motion (s) between open and closed (either way)."""
-    travel = float(np.max(np.abs(np.asarray(GRIPPER_OPEN) - np.asarray(GRIPPER_CLOSED))))
+def finger_stroke_time(*, robot: Robot) -> float:
+    """`robot`'s fingers' shortest motion (s) between open and closed (either way)."""
+    travel = float(np.max(np.abs(robot.gripper_open - robot.gripper_closed)))
     return stroke_time(travel, FINGER_MAX_VELOCITY, FINGER_MAX_ACCELERATION)
 
 
@@ -145,10 +145,11 @@ def lower_bound(scenario: Scenario, heatmaps: Sequence[Heatmap] | None = None) -
     objects = sum(placed_object(name) is None for name in names)  # not the place targets
     placed = {d.name for d in scenario.dishes if d.goal == "place"}
     collected = sum(placed_object(name) is None and name not in placed for name in names)
-    legs = (tray_leg_time(FeasibilityScene(scenario.contents).plant, robot=scenario.contents.robot)
+    robot = scenario.robot_value
+    legs = (tray_leg_time(FeasibilityScene(scenario.contents).plant, robot=robot)
             if collected else 0.0)
     return LowerBound(tour_length=length, drive_time=length / scenario.planner.speed,
-                      hand_time=TIMING_SLACK * 2 * objects * finger_stroke_time(),
+                      hand_time=TIMING_SLACK * 2 * objects * finger_stroke_time(robot=robot),
                       arm_time=TIMING_SLACK * 2 * collected * legs)
 
 

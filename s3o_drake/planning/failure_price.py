@@ -30,10 +30,9 @@ import yaml
 
 from s3o_drake.abstraction.shared_stop import uses_recorded_shares
 from s3o_drake.world.choices import Recovery, SharedStop
-from s3o_drake.world.resources import FAILURE_PRICE
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.settings import PlanningSettings, Settings
 
-PRICE_FILE = FAILURE_PRICE
 FORMAT = "s3o_drake.FailurePrice/1"
 RECOVERY_KINDS = ("correction", "retry")
 """The recoveries a pickup that may fail costs: moves to a better stop, and tries again."""
@@ -60,8 +59,9 @@ class FailurePrice:
         return cls(seconds, {k: v for k, v in data.items() if k not in ("format", "seconds")})
 
     @classmethod
-    def load(cls, path: str | Path = PRICE_FILE) -> FailurePrice:
-        """The recorded price (cached per path)."""
+    def load(cls, path: str | Path) -> FailurePrice:
+        """The recorded price at `path` (a robot's: `Robot.files.failure_price`; cached per
+        path)."""
         return _load(str(Path(path).resolve()))
 
 
@@ -104,28 +104,31 @@ def derive_price(records: Iterable[PricedPickup], *, resamples: int = 2000,
 
 
 def uses_recorded_price(settings: Settings) -> bool:
-    """Whether `settings` price a failure with the recorded recovery price (PRICE_FILE):
+    """Whether `settings` price a failure with the robot's recorded recovery price:
     `failure_price: execution` with recovery on."""
     return (settings.planner.failure_price != "paper"
             and settings.execution.recovery != Recovery.NONE.value)
 
 
-def failure_reward(settings: Settings, price: FailurePrice | None = None) -> float:
+def failure_reward(settings: Settings, price: FailurePrice | None = None, *,
+                   robot: Robot) -> float:
     """λ as the utility prices a pickup's failure under `settings`: the planner's λ, or with
-    `failure_price: execution` and recovery on, the recorded recovery price."""
+    `failure_price: execution` and recovery on, the recovery price recorded for `robot`
+    (or `price`)."""
     if not uses_recorded_price(settings):
         return settings.planner.reward
-    return (price or FailurePrice.load()).seconds
+    return (price or FailurePrice.load(robot.files.failure_price)).seconds
 
 
-def priced_planner(settings: Settings, price: FailurePrice | None = None) -> PlanningSettings:
+def priced_planner(settings: Settings, price: FailurePrice | None = None, *,
+                   robot: Robot) -> PlanningSettings:
     """The planner settings as the execution's mode prices a pickup: λ replaced by
     `failure_reward`, and a shared stop's pickups at their Fea^m where the recorded shares
     do not apply (`shared_stop.uses_recorded_shares`: with recovery, whose price holds
     them). The same object when nothing changes."""
     planner = settings.planner
     changes: dict[str, object] = {}
-    reward = failure_reward(settings, price)
+    reward = failure_reward(settings, price, robot=robot)
     if reward != planner.reward:
         changes["reward"] = reward
     if planner.shared_stop != SharedStop.PAPER.value and not uses_recorded_shares(settings):

@@ -407,7 +407,7 @@ def plan_task(known: KnownWorld, *, method: str, heatmaps, seed: int,
     # of the plan reads the planner settings from here on. The result names the world as
     # the caller knew it.
     asked = known
-    priced = priced_planner(known.settings)
+    priced = priced_planner(known.settings, robot=known.robot)
     if priced is not known.planner:
         known = dataclasses.replace(known, settings=dataclasses.replace(known.settings,
                                                                         planner=priced))

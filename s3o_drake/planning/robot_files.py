@@ -6,35 +6,31 @@ shared-stop shares is told so in one line, with the setting that needs the file 
 make it or do without.
 """
 
-from s3o_drake.abstraction.shared_stop import SHARES_FILE, uses_recorded_shares
-from s3o_drake.planning.failure_price import PRICE_FILE, uses_recorded_price
+from s3o_drake.abstraction.shared_stop import uses_recorded_shares
+from s3o_drake.planning.failure_price import uses_recorded_price
 from s3o_drake.world.choices import FeasibilitySource
-from s3o_drake.world.resources import (
-    FCN_WEIGHTS,
-    REACHABILITY_MAP,
-    ROBOT_NAME,
-    TIME_MODEL,
-    repo_path,
-)
+from s3o_drake.world.resources import repo_path
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.settings import Settings
 
 
-def missing_robot_files(settings: Settings) -> list[str]:
-    """One line per file that `settings` need and the robot's folder lacks: the setting,
-    the file, and how to make it (or the setting that does without)."""
-    build = f"s3o build robot {ROBOT_NAME}"
-    needed = [("robot.name", REACHABILITY_MAP, f"`{build} --steps reachability`"),
-              ("robot.name", TIME_MODEL, f"`{build} --steps time-model`")]
+def missing_robot_files(settings: Settings, robot: Robot) -> list[str]:
+    """One line per file that `settings` need and `robot`'s folder lacks: the setting, the
+    file, and how to make it (or the setting that does without)."""
+    files = robot.files
+    build = f"s3o build robot {robot.name}"
+    needed = [("robot.name", files.reachability_map, f"`{build} --steps reachability`"),
+              ("robot.name", files.time_model, f"`{build} --steps time-model`")]
     if settings.planner.feasibility == FeasibilitySource.FCN.value:
-        needed.append(("planner.feasibility", FCN_WEIGHTS,
+        needed.append(("planner.feasibility", files.fcn_weights,
                        f"`{build} --steps fcn-data fcn`, or planner.feasibility: oracle"))
     if uses_recorded_price(settings):
-        needed.append(("planner.failure_price", PRICE_FILE,
+        needed.append(("planner.failure_price", files.failure_price,
                        "`s3o failure-price` on the robot's recovery runs, or "
                        "planner.failure_price: paper"))
     if uses_recorded_shares(settings):
-        needed.append(("planner.shared_stop", SHARES_FILE,
+        needed.append(("planner.shared_stop", files.shared_stop,
                        "`s3o shared-stop` on the robot's open-loop runs, or "
                        "planner.shared_stop: paper"))
-    return [f"{field}: {ROBOT_NAME!r} has no {repo_path(path)}; make it with {how}"
+    return [f"{field}: {robot.name!r} has no {repo_path(path)}; make it with {how}"
             for field, path, how in needed if not path.is_file()]

@@ -355,6 +355,8 @@ class CostModel:
                  start: Sequence[float] | None = None, time_model: TimeModel | None = None,
                  motion: str = STOP_AND_GO, uncertainty: Any = None):
         self.planner = planner
+        self.robot = robot
+        """The robot the costs are of (None: the paper's costs, which need none)."""
         self.uncertainty = uncertainty
         self.profile = planner.cost_profile if profile is None else profile
         if self.profile not in ("robot", "paper"):
@@ -377,9 +379,10 @@ class CostModel:
                              "`s3o build time-model`")
 
     @classmethod
-    def paper(cls, planner: PlanningSettings) -> CostModel:
-        """The paper's costs from the planner settings alone (no time prediction)."""
-        return cls(planner, robot=None, profile="paper")
+    def paper(cls, planner: PlanningSettings, robot: Robot | None = None) -> CostModel:
+        """The paper's costs from the planner settings alone (no time prediction); `robot`,
+        for the shares of its shared stops (`shared_stop: execution`)."""
+        return cls(planner, robot=robot, profile="paper")
 
     @classmethod
     def for_known(cls, known: KnownWorld, time_model: TimeModel | None = None, *,

@@ -27,8 +27,11 @@ from s3o_drake.feasibility.heatmaps import compute_heatmaps
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.world.map import Room, Table
 from s3o_drake.world.objects import Dish
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import Scenario, load_scenario
 from tests.conftest import COARSE_MAPS
+
+UR5E = load_robot("ur5e")
 
 SMALL = Path(__file__).resolve().parents[2] / "scenarios" / "small"
 
@@ -77,7 +80,7 @@ def test_a_merge_is_ranked_at_the_share_its_stop_size_achieves(two_dishes):
     """The recorded shares price the merged stop's pickups as executed pickups at two-dish
     stops went, and leave one-dish locations as they are."""
     scenario, heatmaps = two_dishes
-    share = stop_shares(scenario.planner).of(2)
+    share = stop_shares(scenario.planner, robot=UR5E).of(2)
     assert share < 1.0
     values = {}
     for rating in ("paper", "execution"):
@@ -319,7 +322,7 @@ def test_components_combined_rank_like_enumerating_the_whole_graph():
     cost = scenario.planner.gamma / scenario.planner.reward
     task = TaskFeasibility(LocationGrid.of(abstraction.partition, heatmaps), samples=100,
                            seed=scenario.seed, positions=scenario.planner.group_positions)
-    shares = stop_shares(scenario.planner)  # a merged group at its stop size's share
+    shares = stop_shares(scenario.planner, robot=UR5E)  # a merged group at its stop size's share
     brute = sorted(sum(shares.of(len(g)) * task.group_score(list(g)) for g in p) - cost * len(p)
                    for p in connected_partitions(4, abstraction.partition.adjacency))[::-1]
     assert abstraction.count == len(brute)

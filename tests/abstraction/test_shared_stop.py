@@ -19,8 +19,11 @@ from s3o_drake.abstraction.shared_stop import (
 )
 from s3o_drake.commands.shared_stop import main as shared_stop
 from s3o_drake.planning.failure_price import priced_planner
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.settings import PlanningSettings
+
+UR5E = load_robot("ur5e")
 
 
 def test_a_share_is_successes_over_summed_fea_m_per_stop_size():
@@ -40,10 +43,11 @@ def test_a_share_is_successes_over_summed_fea_m_per_stop_size():
 def test_one_dish_stops_keep_fea_m_and_the_paper_rates_every_pickup_at_it():
     shares = StopShares({"2": 0.97, "3+": 0.9})
     assert [shares.of(k) for k in (1, 2, 3, 7)] == [1.0, 0.97, 0.9, 0.9]
-    assert stop_shares(dataclasses.replace(PlanningSettings(), shared_stop="paper")) is NONE
+    paper = dataclasses.replace(PlanningSettings(), shared_stop="paper")
+    assert stop_shares(paper, robot=None) is NONE
     # The recorded shares are what the default planner reads.
-    recorded = stop_shares(PlanningSettings())
-    assert recorded is StopShares.load() and 0.5 < recorded.of(2) < 1.0
+    recorded = stop_shares(PlanningSettings(), robot=UR5E)
+    assert recorded is StopShares.load(UR5E.files.shared_stop) and 0.5 < recorded.of(2) < 1.0
     with pytest.raises(ValueError, match=r"shares.3\+"):
         StopShares({"2": 0.97})
 
@@ -55,16 +59,16 @@ def test_open_loop_reads_the_shares_and_recovery_its_own_price():
     assert scenario.planner.shared_stop == "execution"  # the default
     open_loop = dataclasses.replace(scenario, execution=dataclasses.replace(
         scenario.execution, recovery="none"))
-    assert priced_planner(open_loop.settings) is open_loop.planner
+    assert priced_planner(open_loop.settings, robot=UR5E) is open_loop.planner
     for recovery, rated in (("none", "execution"), ("retry", "paper"), ("replan", "paper")):
         s = dataclasses.replace(scenario, execution=dataclasses.replace(
             scenario.execution, recovery=recovery))
         assert uses_recorded_shares(s.settings) == (rated == "execution")
-        assert priced_planner(s.settings).shared_stop == rated
+        assert priced_planner(s.settings, robot=UR5E).shared_stop == rated
     paper = dataclasses.replace(open_loop, planner=dataclasses.replace(
         scenario.planner, shared_stop="paper"))
     assert not uses_recorded_shares(paper.settings)
-    assert priced_planner(paper.settings) is paper.planner
+    assert priced_planner(paper.settings, robot=UR5E) is paper.planner
 
 
 def _pickup(dish, pose, outcome, predicted=0.9):
@@ -135,6 +139,6 @@ def test_the_search_rates_a_shared_stops_pickups_at_its_share():
         found[rating] = problem.evaluate(X)
     (u_paper, _, F, _), (u_shared, _, F_shared, _) = found["paper"], found["execution"]
     assert np.array_equal(F, F_shared) and F.min() > 0  # Fea^m itself is what it was
-    share = stop_shares(PlanningSettings()).of(2)
+    share = stop_shares(PlanningSettings(), robot=UR5E).of(2)
     lam = scenario.planner.reward
     assert u_shared == pytest.approx(u_paper - lam * (1.0 - share) * F.sum(axis=1))

@@ -14,6 +14,9 @@ from s3o_drake.experiments.limit import (
     tour_length,
 )
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.world.robot import load_robot
+
+UR5E = load_robot("ur5e")
 
 
 def test_a_stroke_is_a_trapezoid_or_a_triangle():
@@ -78,11 +81,11 @@ def test_every_plan_is_priced_for_the_open_loop_that_judges_and_executes_it(scen
 
     recovering = replace(scenario, execution=replace(scenario.execution, recovery="replan"),
                          planner=replace(scenario.planner, failure_price="execution"))
-    assert failure_reward(recovering) != recovering.planner.reward
+    assert failure_reward(recovering, robot=UR5E) != recovering.planner.reward
     for lifted in ((), RATIONS):
         planned = rationed_scenario(recovering, lifted)
         assert planned.execution.recovery == "none"
-        assert failure_reward(planned) == recovering.planner.reward
+        assert failure_reward(planned, robot=UR5E) == recovering.planner.reward
 
 
 def test_a_plan_is_judged_by_the_true_world_at_the_stops_it_commands(scenario):

@@ -15,7 +15,10 @@ from s3o_drake.planning.failure_price import (
     failure_reward,
     priced_planner,
 )
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import Scenario
+
+UR5E = load_robot("ur5e")
 
 
 def test_the_price_is_recovery_time_per_expected_failure():
@@ -36,14 +39,14 @@ def test_recovery_prices_a_failure_by_its_time_and_open_loop_by_the_dish():
     for recovery, priced in (("none", 150.0), ("retry", 20.0), ("replan", 20.0)):
         s = dataclasses.replace(scenario, execution=dataclasses.replace(
             scenario.execution, recovery=recovery))
-        assert failure_reward(s.settings, price) == priced
+        assert failure_reward(s.settings, price, robot=UR5E) == priced
     # The paper's price whatever the execution does; and the planner is the same object.
     paper = dataclasses.replace(scenario, planner=dataclasses.replace(
         scenario.planner, failure_price="paper", shared_stop="paper"))
-    assert failure_reward(paper.settings, price) == 150.0
-    assert priced_planner(paper.settings, price) is paper.planner
+    assert failure_reward(paper.settings, price, robot=UR5E) == 150.0
+    assert priced_planner(paper.settings, price, robot=UR5E) is paper.planner
     # The recorded price is the one the planner reads.
-    assert FailurePrice.load().seconds > 0
+    assert FailurePrice.load(UR5E.files.failure_price).seconds > 0
 
 
 def _row(recovery, pickups, recoveries):

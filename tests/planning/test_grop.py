@@ -116,7 +116,7 @@ def _hand_robot_costs(result: MotionResult, scenario, nav, fea, costs: CostModel
             here, yaw, turned = y, arrive, first
             served = next((j for j, (n, _) in enumerate(result.actions[i + 1:]) if n == "goto"),
                           len(result.actions) - i - 1)
-            share = stop_shares(scenario.planner).of(served)  # s_k of a shared stop
+            share = stop_shares(scenario.planner, robot=UR5E).of(served)  # s_k of a shared stop
         else:
             if arg != turned:
                 delta = float(wrap(facing_yaw(here, dish_xy[arg]) - yaw))

@@ -112,8 +112,9 @@ def test_valid_plan_for_every_method(scenes, plans, known_checkers, scene, metho
     # shared stop's size (abstraction/shared_stop.py).
     assert scenario.planner.cost_profile == "robot"
     offset = TimeModel.load(UR5E.files.time_model).overheads.plan
-    lam = failure_reward(scenario.settings)
-    shares = stop_shares(priced_planner(scenario.settings))  # at a shared stop: s_k Fea^m
+    lam = failure_reward(scenario.settings, robot=UR5E)
+    # At a shared stop: s_k Fea^m.
+    shares = stop_shares(priced_planner(scenario.settings, robot=UR5E), robot=UR5E)
     stops = [[]]
     for a in p.actions:
         if isinstance(a, Goto):

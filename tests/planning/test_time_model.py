@@ -250,7 +250,8 @@ def test_the_cost_profile_switch(heatmaps):
                            heatmaps=maps, perceived_chairs=chairs, seed=0)
              for profile in ("robot", "paper")}
     model = TimeModel.load(UR5E.files.time_model)
-    reward = failure_reward(scenario.settings)  # λ as the execution's mode prices a failure
+    # λ as the execution's mode prices a failure.
+    reward = failure_reward(scenario.settings, robot=UR5E)
     robot = plans["robot"]
     gain = sum(reward * k.feasibility for k in robot.pickups)
     assert robot.utility == pytest.approx(-(robot.predicted_time - model.overheads.plan) + gain,

@@ -170,7 +170,8 @@ def draw(location: GridLocation, rng: np.random.Generator, n: int) -> np.ndarray
 
 class SequenceProblem:
     """One sequence prepared for evaluation: gotos, pickups, regions, costs (`costs`: the
-    cost profile and the time prediction; None: the paper's costs from `planner`), and
+    cost profile and the time prediction; None: the paper's costs from `planner`, with the
+    shared stops' shares of the robot `nav` is for), and
     the grid locations of its gotos (`grid` and `groups`: see the module docstring)."""
 
     def __init__(self, sequence: Sequence[Action], regions: Mapping[str, BaseGeometry],
@@ -186,7 +187,7 @@ class SequenceProblem:
         self.nav = nav
         self.feasibility = feasibility
         self.planner = planner
-        self.costs = CostModel.paper(planner) if costs is None else costs
+        self.costs = CostModel.paper(planner, nav.robot) if costs is None else costs
         self.pickup_duration = planner.delta if pickup_duration is None else pickup_duration
         locations: list[str] = []
         picks: list[tuple[int, str]] = []  # (goto index, or -1 for the start; dish)
@@ -205,7 +206,7 @@ class SequenceProblem:
         self.picks = picks
         self.stop_dishes = [[d for g, d in picks if g == k] for k in range(len(locations))]
         self.start_dishes = [d for g, d in picks if g < 0]
-        shares = stop_shares(planner)
+        shares = stop_shares(planner, robot=self.costs.robot)
         # s_k (`shared_stop.py`) of each goto's stop, and of the stop each pick is made from.
         self.stop_shares = [shares.of(len(dishes)) for dishes in self.stop_dishes]
         self.shares = np.array([shares.of(len(self.start_dishes)) if g < 0

@@ -117,6 +117,8 @@ class NavigationMap:
         if drive_margin < TIGHT_DRIVE_MARGIN:
             raise ValueError(f"drive_margin must be at least {TIGHT_DRIVE_MARGIN} m (the "
                              f"collision check's padding), got {drive_margin}")
+        self.robot = robot
+        """The robot whose base the map is for."""
         self.drive_radius = robot.base_radius + drive_margin
         """The clearance this map keeps along paths (m): the base's circumscribed radius
         and the margin, safe at any yaw."""
