@@ -5,10 +5,11 @@
 BEFORE and AFTER: study folders (their results.jsonl) of the same tasks, methods and seeds,
 made by two versions of the code. Runs are paired by task, method, run seed and recovery;
 for each pair every field of the row is compared but the bookkeeping and the wall-clock
-timings (code, packages, schema, job_seconds, planning_time, realtime_rate and anything of
-"wall"). Prints the pairs compared and each difference, and, when there are differences,
-the packages' versions of both sides if they differ (other versions of numpy or Drake
-change the last digits of a cost, and through the motion search a plan). Exit status 0
+timings (code, packages, machine, schema, job_seconds, planning_time, realtime_rate and
+anything of "wall"). Prints the pairs compared and each difference, and, when there are
+differences, the packages' versions and the processors of both sides if they differ (other
+versions of numpy or Drake, or another processor's vector instructions, change the last
+digits of a cost, and through the motion search a plan). Exit status 0
 when they are identical, 1 when some run did something else, 2 on bad input.
 """
 
@@ -33,7 +34,7 @@ def main(argv: list[str] | None = None) -> int:
     for name, folder in (("BEFORE", args.before), ("AFTER", args.after)):
         if not (Path(folder) / "results.jsonl").is_file():
             fail(f"{name}: no results.jsonl in {folder}")
-    from s3o_drake.experiments.run_rows import packages_of, run_differences
+    from s3o_drake.experiments.run_rows import machine_of, packages_of, run_differences
     from s3o_drake.experiments.store import ResultStore
 
     rows = [ResultStore(Path(f) / "results.jsonl", read_only=True).rows()
@@ -45,9 +46,10 @@ def main(argv: list[str] | None = None) -> int:
         print(line)
     print(f"{pairs} runs compared: " + ("identical, timings aside" if not differences
                                          else f"{len(differences)} differences"))
-    packages = [packages_of(r) for r in rows]
-    if differences and packages[0] != packages[1]:
-        print(f"made with other packages: BEFORE {packages[0]}; AFTER {packages[1]}")
+    for what, of in (("packages", packages_of), ("machines", machine_of)):
+        made = [of(r) for r in rows]
+        if differences and made[0] != made[1]:
+            print(f"made with other {what}: BEFORE {made[0]}; AFTER {made[1]}")
     return 1 if differences else 0
 
 

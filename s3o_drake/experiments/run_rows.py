@@ -75,6 +75,12 @@ def packages_of(runs: Sequence[Mapping]) -> str:
     return _recorded(runs, "packages", separator="; ")
 
 
+def machine_of(runs: Sequence[Mapping]) -> str:
+    """The processors the runs were made on (`store.machine_version`), as `packages_of`
+    says the packages."""
+    return _recorded(runs, "machine", separator="; ")
+
+
 def _recorded(runs: Sequence[Mapping], field: str, *, separator: str) -> str:
     """The runs' value of a bookkeeping `field`, or each value with its count, the most
     common first ("not recorded" for rows written before the field was)."""
@@ -84,8 +90,8 @@ def _recorded(runs: Sequence[Mapping], field: str, *, separator: str) -> str:
     return separator.join(f"{c} ({n})" for c, n in counts.most_common())
 
 
-BOOKKEEPING = frozenset({"code", "packages", "schema", "job_seconds", "planning_time",
-                         "realtime_rate", "key", "path", "digest"})
+BOOKKEEPING = frozenset({"code", "packages", "machine", "schema", "job_seconds",
+                         "planning_time", "realtime_rate", "key", "path", "digest"})
 """Fields of a run's row that say when, where and how fast it ran, not what it did."""
 
 

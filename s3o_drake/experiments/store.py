@@ -6,10 +6,13 @@ the store is opened again (its job then runs again); every complete line is kept
 that fails (a full disk) takes back what it wrote of its line before it raises.
 
 Every row written says its layout's version (`schema`), the code that made it (`code`), the
-versions of the packages that compute with it (`packages`) and the robot it ran (`robot`):
-studies and benchmarks resume across commits, and a reader must be able to tell the rows
-apart. The same code with other versions of numpy or Drake can differ in the last digits of
-a cost, and the motion search can then choose another plan. Rows written before the schema
+versions of the packages that compute with it (`packages`), the processor it ran on
+(`machine`) and the robot it ran (`robot`): studies and benchmarks resume across commits and
+machines, and a reader must be able to tell the rows apart. The same code with other
+versions of numpy or Drake can differ in the last digits of a cost, and the motion search
+can then choose another plan; so can the same code and packages on another processor, whose
+vector instructions numpy and the linear algebra pick their kernels by (seen here: 1 of 40
+runs collected a dish fewer). Rows written before the schema
 was recorded have none and read as they are; rows without a robot are the UR5e's, the only
 robot there was. A store opened to write refuses rows of a robot other than the process's.
 """
@@ -19,6 +22,7 @@ import functools
 import importlib.metadata
 import json
 import os
+import platform
 import subprocess
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -85,6 +89,31 @@ def packages_version() -> str:
     return ", ".join(f"{name} {version(name)}" for name in COMPUTING_PACKAGES)
 
 
+SIMD_FLAGS = ("sse4_2", "avx", "avx2", "fma", "avx512f", "avx512dq", "avx512bw", "avx512vl",
+              "avx512_vnni", "avx512_bf16", "amx_tile", "asimd", "sve")
+"""Processor features that decide which kernels numpy and BLAS run (x86-64 and Arm)."""
+
+
+@functools.cache
+def machine_version() -> str:
+    """The processor this process runs on: its architecture, its model name and the vector
+    instructions of SIMD_FLAGS it has ("x86_64, AMD EPYC, avx avx2 fma ..."), read from
+    /proc/cpuinfo where there is one."""
+    model, flags = platform.processor() or "unknown processor", set()
+    with contextlib.suppress(OSError):
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            key, _, value = line.partition(":")
+            key = key.strip()
+            if key == "model name":
+                model = value.strip()
+            elif key in ("flags", "Features"):
+                flags = set(value.split())
+            if model != "unknown processor" and flags:
+                break
+    present = " ".join(f for f in SIMD_FLAGS if f in flags)
+    return f"{platform.machine()}, {model}, {present or 'no listed vector flags'}"
+
+
 class ResultStore:
     """The rows of `path` (JSON lines), by job key; the last row of a key wins."""
 
@@ -135,7 +164,8 @@ class ResultStore:
 
     def append(self, row: dict) -> dict:
         """Adds the row as one line, on disk when this returns, stamped with the layout's
-        version, the code, the packages' versions and the robot (a row that already names
+        version, the code, the packages' versions, the machine and the robot (a row that
+        already names
         its own, copied from another store, keeps them); returns the row as written. A write
         that fails (the disk full: OSError ENOSPC) leaves no part of the line behind, so
         that the next row does not run into it and make both unreadable; the error is
@@ -143,7 +173,7 @@ class ResultStore:
         if self.read_only:
             raise PermissionError(f"{self.path} was opened read-only")
         row = {"schema": SCHEMA, "code": code_version(), "packages": packages_version(),
-               "robot": ROBOT_NAME, **row}
+               "machine": machine_version(), "robot": ROBOT_NAME, **row}
         data = (json.dumps(row, sort_keys=True) + "\n").encode()
         fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
         try:

@@ -110,6 +110,7 @@ def test_rows_say_their_schema_and_code_and_rows_from_before_still_read(tmp_path
     from s3o_drake.experiments.store import (
         SCHEMA,
         code_version,
+        machine_version,
         packages_version,
         robot_of,
         schema_of,
@@ -127,6 +128,7 @@ def test_rows_say_their_schema_and_code_and_rows_from_before_still_read(tmp_path
     new, copied = (json.loads(line) for line in path.read_text().splitlines()[2:])
     assert (new["schema"], new["code"]) == (SCHEMA, code_version()) and schema_of(new) == 1
     assert new["packages"] == packages_version() and "numpy " in new["packages"]
+    assert new["machine"] == machine_version() and new["machine"].count(", ") >= 2
     assert (copied["schema"], copied["code"]) == (0, "abc")
     assert ResultStore(path).get("new") == new
     assert new["robot"] == "ur5e" and robot_of(store.get("old")) == "ur5e"

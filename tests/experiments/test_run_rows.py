@@ -45,6 +45,18 @@ def test_the_command_exits_1_on_a_difference_and_2_without_runs(tmp_path, capsys
     assert same_runs([str(tmp_path / "a"), str(tmp_path / "d")]) == 1
     assert ("made with other packages: BEFORE not recorded; AFTER numpy 9"
             in capsys.readouterr().out)
+    # The same run on another processor: identical is identical, a difference names both.
+    for name, machine, changes in (("e", "x86_64, one, avx2", {}),
+                                   ("f", "x86_64, another, avx512f",
+                                    {"outcomes": ["goto l0: failed"]})):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "results.jsonl").write_text(json.dumps(
+            {"key": "t", **_run(**changes), "machine": machine}) + "\n")
+    assert same_runs([str(tmp_path / "a"), str(tmp_path / "e")]) == 0
+    capsys.readouterr()
+    assert same_runs([str(tmp_path / "e"), str(tmp_path / "f")]) == 1
+    assert ("made with other machines: BEFORE x86_64, one, avx2; AFTER x86_64, another, "
+            "avx512f" in capsys.readouterr().out)
     with pytest.raises(SystemExit) as e:
         same_runs([str(tmp_path / "a"), str(tmp_path / "c")])
     assert e.value.code == 2
