@@ -13,12 +13,12 @@ longer than the poses' distance): the tour bound is that tree's length over v.
 Each object is grasped and let go once: its fingers close over their whole stroke and open
 again, each stroke timed within the fingers' limits (FINGER_MAX_*; a rest-to-rest motion
 takes at least d / v + v / a, `stroke_time`). A dish collected onto the tray takes the arm
-from ARM_STOW, through its grasp, to one of the release configurations over the tray (the
+from stow, through its grasp, to one of the release configurations over the tray (the
 same few in the arm's frame wherever the base stands: `pickup_geometry.tray_arms`) and
-back to ARM_STOW, in rest-to-rest segments within the arm's joint limits. The time of
+back to stow, in rest-to-rest segments within the arm's joint limits. The time of
 such segments is at least that of one rest-to-rest stroke over their summed displacement
 (`stroke_time` is concave and 0 at 0), so each leg, there and back, takes at least the
-slowest joint's stroke between ARM_STOW and the nearest release configuration. Everything
+slowest joint's stroke between stow and the nearest release configuration. Everything
 else (turns, the grasp's own motions, settling, the corners of the drives) only adds time.
 TOPPRA keeps the limits at its grid points only; the hand's and the arm's times are taken
 at TIMING_SLACK of the analytic figure so that this cannot make the bound too high.
@@ -56,7 +56,7 @@ class LowerBound:
     hand_time: float
     """s: the fingers' strokes, closing and opening once per object."""
     arm_time: float = 0.0
-    """s: the arm's legs from ARM_STOW to over the tray and back, per dish collected."""
+    """s: the arm's legs from stow to over the tray and back, per dish collected."""
 
     @property
     def total(self) -> float:

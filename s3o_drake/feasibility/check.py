@@ -3,7 +3,7 @@
 For a base pose (x, y, yaw) where the robot really stands and a dish, feasible means
 
 (a) the base stands inside the room and is collision-free: the robot with its arm in
-    ARM_STOW passes the scene's collision checker (tables, chairs, walls and the other
+    stow passes the scene's collision checker (tables, chairs, walls and the other
     dishes, 1 cm padding; `check_many` settles most poses from plan-view geometry first,
     see `clearance`, with the same answers), and
 (b) for one of the dish's grasps (`grasps.grasps_for`, in order: top, then side) an arm
@@ -35,7 +35,7 @@ whose clearance lies within IK's 0.1 mm margin of the 1 cm, which IK then could 
   clearance by < 0.1 mm) at about 40 ms per try (1,300 tries), so it is off by default.
 - "ik" (the reference, slow): exhaustive Drake IK (`ik.solve_grasp_ik`) with the
   minimum-distance constraint, seeded with the map's candidates (when given a map), the
-  arm's closed-form solutions at the target (every branch), ARM_STOW and deterministic
+  arm's closed-form solutions at the target (every branch), stow and deterministic
   random configurations.
 
 `check_many` gives exactly `check`'s answers for many base poses at once: the geometry is
@@ -117,7 +117,7 @@ class FeasibilityChecker:
     the map method's bounded IK for queries whose candidates all collide; it is off by
     default because it rarely changes an answer and costs tens of milliseconds per such
     query (see the module docstring). `exhaustive=False` makes method "ik" plain bounded IK
-    from the stow configuration alone (a speed reference, not ground truth). `parallelize`
+    from stow alone (a speed reference, not ground truth). `parallelize`
     lets the collision checker spread batches over its contexts.
     """
 

@@ -11,10 +11,10 @@ an independent check confirms (forward kinematics, and `scene.checker` inside
 
 SNOPT's major iterations are capped: from a seed near a solution it finishes in 1-3 ms, while
 an infeasible problem costs 30-50 ms per seed (and would run longer uncapped). Seeds matter
-more than iterations: from ARM_STOW or a random configuration SNOPT rarely finds a grasp that
+more than iterations: from stow or a random configuration SNOPT rarely finds a grasp that
 exists (it ends in the local minimum of another IK branch), so "exhaustive IK", the reference
 the reachability map must agree with (method "ik" of `s3o_drake.feasibility.check`), seeds
-this with the arm's closed-form solutions of every branch, the map's candidates, ARM_STOW and
+this with the arm's closed-form solutions of every branch, the map's candidates, stow and
 random configurations.
 """
 

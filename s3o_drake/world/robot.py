@@ -2,8 +2,7 @@
 description (``models/<name>/robot.yaml``, read and checked against its model by
 `world/robot_description`): its joint layout, frames, sizes, named configurations, footprint
 and built files. Code that needs a robot is given one, as Drake code is given a plant; the
-module's upper-case names are the values of this process's robot (`resources.ROBOT_NAME`),
-for the code that is not yet given one.
+process that has several robots holds several values.
 
 The models are built from primitives (``models/ur5e``: an RMP-110-class base with a UR5e arm
 and a Robotiq 2F-140-class gripper; ``models/panda``: a smaller base with a Franka-Panda-class
@@ -46,7 +45,6 @@ from shapely.geometry import Polygon
 from s3o_drake.world.resources import (
     DEFAULT_ROBOT,
     PACKAGE_NAME,
-    ROBOT_NAME,
     models_dir,
     package_file,
     robot_dir,
@@ -323,48 +321,6 @@ def _load_robot(name: str) -> Robot:
     description = load_robot_description(name)
     check_model(description)
     return Robot(description, RobotFiles(robot_dir(description.name)))
-
-
-# The robot of this process (`resources.ROBOT_NAME`), for the modules that are not yet given
-# a `Robot`: the names below are its values.
-_PROCESS_ROBOT = load_robot(ROBOT_NAME)
-ROBOT: RobotDescription = _PROCESS_ROBOT.description
-ROBOT_URL = _PROCESS_ROBOT.model_url
-ROBOT_URDF = _PROCESS_ROBOT.model_file
-BASE_JOINTS = _PROCESS_ROBOT.base_joints
-ARM_JOINTS = _PROCESS_ROBOT.arm_joints
-GRIPPER_JOINTS = _PROCESS_ROBOT.gripper_joints
-ROBOT_JOINTS = _PROCESS_ROBOT.joints
-NUM_POSITIONS = _PROCESS_ROBOT.num_positions
-NUM_BASE_JOINTS = _PROCESS_ROBOT.num_base_joints
-NUM_ARM_JOINTS = _PROCESS_ROBOT.num_arm_joints
-ARM_POSITIONS = _PROCESS_ROBOT.arm_positions
-GRIPPER_POSITIONS = _PROCESS_ROBOT.gripper_positions
-BASE_LINK = _PROCESS_ROBOT.base_link
-ARM_BASE_LINK = _PROCESS_ROBOT.arm_base_link
-TOOL_FRAME = _PROCESS_ROBOT.tool_frame
-GRASP_FRAME = _PROCESS_ROBOT.grasp_frame
-TRAY_LINK = _PROCESS_ROBOT.tray_link
-LIDAR_LINK = _PROCESS_ROBOT.lidar_link
-BASE_LENGTH = _PROCESS_ROBOT.base_length
-BASE_WIDTH = _PROCESS_ROBOT.base_width
-BASE_RADIUS = _PROCESS_ROBOT.base_radius
-INSCRIBED_RADIUS = _PROCESS_ROBOT.inscribed_radius
-ARM_MOUNT_XYZ = _PROCESS_ROBOT.arm_mount_xyz
-GRASP_OFFSET = _PROCESS_ROBOT.grasp_offset
-FINGERTIP_OFFSET = _PROCESS_ROBOT.fingertip_offset
-FINGER_TRAVEL = _PROCESS_ROBOT.finger_travel
-TRAY_XYZ = _PROCESS_ROBOT.tray_xyz
-TRAY_INNER_LENGTH = ROBOT.tray.inner_length
-TRAY_INNER_WIDTH = ROBOT.tray.inner_width
-TRAY_RIM_HEIGHT = ROBOT.tray.rim_height
-ARM_STOW = _PROCESS_ROBOT.arm_stow
-GRIPPER_OPEN = _PROCESS_ROBOT.gripper_open
-GRIPPER_CLOSED = _PROCESS_ROBOT.gripper_closed
-add_robot = _PROCESS_ROBOT.add_to
-robot_positions = _PROCESS_ROBOT.positions
-robot_desired_state = _PROCESS_ROBOT.desired_state
-footprint_polygon = _PROCESS_ROBOT.footprint
 
 
 #: How often (s) the execution systems of the full diagram look at their inputs: commands,

@@ -9,9 +9,10 @@ from dataclasses import dataclass, field
 
 def _robot_reach() -> float:
     """The process's robot's reach (its description's), read when a default is made."""
-    from s3o_drake.world.robot import ROBOT
+    from s3o_drake.world.resources import ROBOT_NAME
+    from s3o_drake.world.robot import load_robot
 
-    return ROBOT.reach
+    return load_robot(ROBOT_NAME).reach
 
 
 @dataclass

@@ -39,12 +39,14 @@ from s3o_drake.world.dish_messages import DishPoses, DishState, GripEvent
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import with_place_targets
 from s3o_drake.world.objects import PlaceSpot
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, load_robot
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario
+
+UR5E = load_robot("ur5e")
 
 REPO = Path(__file__).resolve().parents[2]
 FRONT_OF_PLATE = np.array([1.85, 1.45, math.pi / 2])
-STOWED = np.concatenate([ARM_STOW, GRIPPER_OPEN])
+STOWED = np.concatenate([UR5E.arm_stow, UR5E.gripper_open])
 PLANNING_REASONS = ("no_ik", "no_path", "base_collision")
 
 
@@ -58,7 +60,8 @@ def _controller(scenario, scene, checker, *, seed=None, noise=True, motion="stop
 
 def _fix_robot(arm, context, base=FRONT_OF_PLATE, arm_q=STOWED):
     q = np.concatenate([base, arm_q])
-    arm.GetInputPort("robot_state").FixValue(context, np.concatenate([q, np.zeros(NUM_POSITIONS)]))
+    arm.GetInputPort("robot_state").FixValue(context,
+                                             np.concatenate([q, np.zeros(UR5E.num_positions)]))
 
 
 def _step(arm, context, t):
@@ -90,7 +93,7 @@ def _play(arm, context, t0, *, dt=0.05, limit=60.0):
 
 def test_ports_and_idle_hold(scenario, scene, checker):
     arm, context = _controller(scenario, scene, checker)
-    assert arm.GetInputPort("robot_state").size() == 2 * NUM_POSITIONS
+    assert arm.GetInputPort("robot_state").size() == 2 * UR5E.num_positions
     assert arm.GetOutputPort("arm_desired_state").size() == 16
     # Before any update: the scenario's start (stowed, open); no command: idle.
     desired, grip, status = _outputs(arm, context)
@@ -270,7 +273,7 @@ def test_an_object_to_place_is_held_then_put_down_at_its_place(tidy):
     # The gripper is busy: another pickup fails; a place of what it does not hold too.
     q_held = np.concatenate([FRONT_OF_PLATE, last[:8]])
     arm.GetInputPort("robot_state").FixValue(
-        context, np.concatenate([q_held, np.zeros(NUM_POSITIONS)]))
+        context, np.concatenate([q_held, np.zeros(UR5E.num_positions)]))
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=2, dish="plate_a"))
     _step(arm, context, t_end + 0.1)
     assert _outputs(arm, context)[2] == Status(2, CommandState.FAILED, "hand_full")
@@ -288,7 +291,7 @@ def test_an_object_to_place_is_held_then_put_down_at_its_place(tidy):
     _, desired, grip, status = record[-1]
     assert status == Status(4, CommandState.DONE)
     assert grip == GripEvent("", (), ("cup_b",))
-    np.testing.assert_allclose(desired[6:8], GRIPPER_OPEN, atol=1e-6)
+    np.testing.assert_allclose(desired[6:8], UR5E.gripper_open, atol=1e-6)
     # Where it let go: the grasp frame as at a grasp of the place target, the cup
     # standing on the plate's top.
     release = next(r for r in record if r[2].put)[1]
@@ -319,8 +322,8 @@ def test_an_object_to_place_whose_place_failed_is_let_go_over_the_tray(tidy):
     _, desired, grip, status = record[-1]
     assert status == Status(2, CommandState.DONE)
     assert grip == GripEvent("", ("cup_b",))  # on the tray
-    np.testing.assert_allclose(desired[:6], ARM_STOW, atol=1e-6)
-    np.testing.assert_allclose(desired[6:8], GRIPPER_OPEN, atol=1e-6)
+    np.testing.assert_allclose(desired[:6], UR5E.arm_stow, atol=1e-6)
+    np.testing.assert_allclose(desired[6:8], UR5E.gripper_open, atol=1e-6)
     # The gripper is free: a pickup may follow.
     _fix_robot(arm, context, arm_q=desired[:8])
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=3, dish="plate_a"))
@@ -370,7 +373,7 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     builder.Connect(gain.get_output_port(), world.GetInputPort("robot_desired_state"))
     period = 0.02
     desired_log = builder.AddSystem(VectorLogSink(16, period))
-    state_log = builder.AddSystem(VectorLogSink(2 * NUM_POSITIONS, period))
+    state_log = builder.AddSystem(VectorLogSink(2 * UR5E.num_positions, period))
     builder.Connect(arm.GetOutputPort("arm_desired_state"), desired_log.get_input_port())
     builder.Connect(world.GetOutputPort("robot_state"), state_log.get_input_port())
     diagram = builder.Build()
@@ -393,7 +396,7 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     assert arm.GetOutputPort("grip").Eval(arm_context).placed == ("plate_a",)
 
     desired = desired_log.FindLog(context).data()
-    actual = state_log.FindLog(context).data()[3:NUM_POSITIONS]
+    actual = state_log.FindLog(context).data()[3:UR5E.num_positions]
     # Arm joints (not the fingers, which the dish stops in the real world).
     error = np.abs(actual[:6] - desired[:6]).max()
     print(f"largest arm tracking error: {error:.4f} rad")
@@ -504,8 +507,8 @@ def test_smooth_a_pickup_another_follows_leaves_the_arm_over_the_tray(scenario, 
     status = _play(arm, context, 0.0)[-1][3]
     _step(arm, context, status.until + 0.05)
     over_tray = _outputs(arm, context)[0][:8].copy()
-    assert np.abs(over_tray[:6] - ARM_STOW).max() > 0.1
-    np.testing.assert_allclose(over_tray[6:], GRIPPER_OPEN, atol=1e-6)
+    assert np.abs(over_tray[:6] - UR5E.arm_stow).max() > 0.1
+    np.testing.assert_allclose(over_tray[6:], UR5E.gripper_open, atol=1e-6)
     _fix_robot(arm, context, arm_q=over_tray)  # where the plant's arm then is
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=2, dish="cup_b"))
     _step(arm, context, status.until + 0.1)

@@ -23,14 +23,16 @@ from s3o_drake.execution.diagram import navigator_params
 from s3o_drake.execution.messages import ArmMotion, BaseCommand, CommandState, Status
 from s3o_drake.world.angles import wrap as wrap_angle
 from s3o_drake.world.builder import build_world_diagram
-from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN, NUM_POSITIONS, robot_positions
+from s3o_drake.world.robot import load_robot
+
+UR5E = load_robot("ur5e")
 
 V = 0.4  # the scenario's planner speed (default)
-STOWED = np.concatenate([ARM_STOW, GRIPPER_OPEN])
+STOWED = np.concatenate([UR5E.arm_stow, UR5E.gripper_open])
 
 
 def _robot_state(x: float, y: float, yaw: float) -> np.ndarray:
-    state = np.zeros(2 * NUM_POSITIONS)
+    state = np.zeros(2 * UR5E.num_positions)
     state[:3] = [x, y, yaw]
     return state
 
@@ -356,7 +358,7 @@ def _drive_in_world(scenario, command: BaseCommand, **kwargs):
     world = builder.AddSystem(build_world_diagram(scenario))
     navigator = builder.AddSystem(_navigator(scenario, **kwargs))
     commands = builder.AddSystem(ConstantValueSource(AbstractValue.Make(command)))
-    arm = builder.AddSystem(ConstantVectorSource(np.concatenate([ARM_STOW, GRIPPER_OPEN,
+    arm = builder.AddSystem(ConstantVectorSource(np.concatenate([UR5E.arm_stow, UR5E.gripper_open,
                                                                  np.zeros(8)])))
     mux = builder.AddSystem(Multiplexer([6, 16]))
     # [base q, base v, arm q, arm v] -> [base q, arm q, base v, arm v]
@@ -392,7 +394,7 @@ def test_drives_the_plant_to_the_goal_in_simulation(scenario):
     assert status == Status(id=1, state=CommandState.DONE)
     np.testing.assert_allclose(state[:2], command.pose[:2], atol=0.02)
     assert wrap_angle(state[2] - command.pose[2]) == pytest.approx(0.0, abs=0.02)
-    np.testing.assert_allclose(state[3:9], ARM_STOW, atol=0.01)  # the arm held still
+    np.testing.assert_allclose(state[3:9], UR5E.arm_stow, atol=0.01)  # the arm held still
 
 
 def test_a_turn_command_turns_where_the_base_stands(scenario):
@@ -474,10 +476,10 @@ def test_a_base_that_cannot_leave_a_tight_spot_goes_back_the_way_it_came(dense):
 def _arm_out_of_the_table(base) -> ArmMotion:
     """An arm motion that starts with the hand inside the table in front of `base` and
     reaches the stow, in a straight joint line over 2 s: clear of the table about halfway."""
-    reaching = np.array(ARM_STOW, dtype=float)
+    reaching = np.array(UR5E.arm_stow, dtype=float)
     reaching[:3] = [math.pi, -0.3, 1.0]
-    q0 = robot_positions(*base, arm=reaching, gripper=GRIPPER_OPEN)
-    q1 = robot_positions(*base, arm=ARM_STOW, gripper=GRIPPER_OPEN)
+    q0 = UR5E.positions(*base, arm=reaching, gripper=UR5E.gripper_open)
+    q1 = UR5E.positions(*base, arm=UR5E.arm_stow, gripper=UR5E.gripper_open)
     trajectory = PiecewisePolynomial.FirstOrderHold([0.0, 2.0], np.column_stack([q0, q1]))
     return ArmMotion(trajectory, 0.0, tuple(q0[3:]))
 
@@ -520,10 +522,10 @@ def test_smooth_a_turn_that_ends_before_the_arm_s_motion_is_checked_until_that_e
     from s3o_drake.execution.together import free_together
 
     base = (1.85, 1.55, math.pi / 2)
-    out = np.array(ARM_STOW, dtype=float)
+    out = np.array(UR5E.arm_stow, dtype=float)
     out[:3] = [4.2, -0.3, 1.0]  # clear of the table at yaw π/2, in it at π/2 - 1
-    q = [robot_positions(*base, arm=arm, gripper=GRIPPER_OPEN)
-         for arm in (ARM_STOW, ARM_STOW, out, ARM_STOW)]
+    q = [UR5E.positions(*base, arm=arm, gripper=UR5E.gripper_open)
+         for arm in (UR5E.arm_stow, UR5E.arm_stow, out, UR5E.arm_stow)]
     arm = ArmMotion(PiecewisePolynomial.FirstOrderHold([0.0, 2.5, 4.0, 5.5], np.column_stack(q)),
                     0.0, tuple(q[0][3:]))
     turn = BaseCommand(id=1, path=(base[:2],), pose=(*base[:2], base[2] - 1.0), turn=True)

@@ -18,9 +18,11 @@ from s3o_drake.belief import scenario_unmapped_chairs
 from s3o_drake.execution.diagram import make_executive_system
 from s3o_drake.execution.messages import NO_COMMAND, PickupRecord, Status
 from s3o_drake.planning.plan import Goto, Pickup, Place
-from s3o_drake.world.robot import robot_desired_state, robot_positions
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario
 from tests.conftest import ORACLE_MAPS_ONCE
+
+UR5E = load_robot("ur5e")
 
 SCENE = "scenarios/small/opposite_sides.yaml"
 
@@ -58,7 +60,7 @@ def _context(system, scenario):
     system.GetInputPort("overhead_color_image").FixValue(context, ImageRgba8U(8, 8))
     system.GetInputPort("overhead_depth_image").FixValue(context, ImageDepth32F(8, 8))
     system.GetInputPort("overhead_label_image").FixValue(context, ImageLabel16I(8, 8))
-    state = robot_desired_state(robot_positions(*scenario.robot.start))
+    state = UR5E.desired_state(UR5E.positions(*scenario.robot.start))
     system.GetInputPort("robot_state").FixValue(context, state)
     system.GetInputPort("base_status").FixValue(context, Status())
     system.GetInputPort("arm_status").FixValue(context, Status())
@@ -70,7 +72,7 @@ def _land(system, context, goto):
     command = system.GetOutputPort("base_command").Eval(context)
     system.GetInputPort("base_status").FixValue(context, Status(command.id, "done"))
     system.GetInputPort("robot_state").FixValue(
-        context, robot_desired_state(robot_positions(*goto.pose)))
+        context, UR5E.desired_state(UR5E.positions(*goto.pose)))
 
 
 def _step(system, context):
@@ -134,7 +136,7 @@ def test_in_a_short_simulation_it_plans_then_sends_the_first_drive(scenario, mot
     builder = DiagramBuilder()
     system = builder.AddSystem(_executive(
         scenario, method="V-GROP*", seed=0, perceive=scenario_unmapped_chairs(scenario)))
-    state = robot_desired_state(robot_positions(*scenario.robot.start))
+    state = UR5E.desired_state(UR5E.positions(*scenario.robot.start))
     inputs = {"overhead_color_image": ImageRgba8U(8, 8),
               "overhead_depth_image": ImageDepth32F(8, 8),
               "overhead_label_image": ImageLabel16I(8, 8),
@@ -182,7 +184,7 @@ def test_walks_the_plan_on_the_controllers_reports(scenario):
             base_status.FixValue(context, Status(id=command.id, state="done"))
             # The base arrives: the first pickup there needs no turn (the stop faces it).
             system.GetInputPort("robot_state").FixValue(
-                context, robot_desired_state(robot_positions(*action.pose)))
+                context, UR5E.desired_state(UR5E.positions(*action.pose)))
         else:
             assert isinstance(action, Pickup)
             command = system.GetOutputPort("pick_command").Eval(context)
@@ -248,7 +250,7 @@ def test_turns_to_face_each_further_dish_before_picking_it():
     command = system.GetOutputPort("base_command").Eval(context)
     system.GetInputPort("base_status").FixValue(context, Status(id=command.id, state="done"))
     system.GetInputPort("robot_state").FixValue(
-        context, robot_desired_state(robot_positions(*goto.pose)))
+        context, UR5E.desired_state(UR5E.positions(*goto.pose)))
     _step(system, context)  # goto done
     _step(system, context)  # first pickup: faced already
     pick = system.GetOutputPort("pick_command").Eval(context)
@@ -292,7 +294,7 @@ def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenari
             x, y = action.pose[0] + 0.03 * (i + 1), action.pose[1] - 0.02
             landing = (x, y, float(np.arctan2(dish[1] - y, dish[0] - x)))
             system.GetInputPort("robot_state").FixValue(
-                context, robot_desired_state(robot_positions(*landing)))
+                context, UR5E.desired_state(UR5E.positions(*landing)))
             stop = action.pose
         else:
             command = system.GetOutputPort("pick_command").Eval(context)
@@ -326,7 +328,7 @@ def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
     command = system.GetOutputPort("base_command").Eval(context)
     system.GetInputPort("base_status").FixValue(context, Status(id=command.id, state="done"))
     system.GetInputPort("robot_state").FixValue(
-        context, robot_desired_state(robot_positions(*goto.pose)))
+        context, UR5E.desired_state(UR5E.positions(*goto.pose)))
     _step(system, context)
     _step(system, context)
     pick = system.GetOutputPort("pick_command").Eval(context)
@@ -337,7 +339,7 @@ def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
     assert turn.turn
     stopped = (goto.pose[0], goto.pose[1], goto.pose[2] + 0.2)
     system.GetInputPort("robot_state").FixValue(
-        context, robot_desired_state(robot_positions(*stopped)))
+        context, UR5E.desired_state(UR5E.positions(*stopped)))
     system.GetInputPort("base_status").FixValue(
         context, Status(id=turn.id, state="failed", reason="blocked"))
     _step(system, context)

@@ -21,11 +21,13 @@ from s3o_drake.planning.navigation.map import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.obstacles import CONTACT_RADIUS
-from s3o_drake.world.robot import robot_desired_state, robot_positions
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario
 from s3o_drake.world.settings import Uncertainty
 from tests.conftest import ORACLE_MAPS_ONCE
 from tests.execution.test_executive_system import _context, _step, _with_oracle
+
+UR5E = load_robot("ur5e")
 
 SCENE = "scenarios/small/opposite_sides.yaml"
 
@@ -146,7 +148,7 @@ def _planner(scenario, plan_from=ORACLE_MAPS_ONCE, **changes):
 
 def _land(system, context, pose):
     system.GetInputPort("robot_state").FixValue(
-        context, robot_desired_state(robot_positions(*pose)))
+        context, UR5E.desired_state(UR5E.positions(*pose)))
 
 
 def _finish(system, context, port, command, state="done", reason=""):

@@ -27,7 +27,10 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.furniture import DISH_KINDS
 from s3o_drake.world.map import Chair
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario
+
+UR5E = load_robot("ur5e")
 
 REPO = Path(__file__).resolve().parents[2]
 # In front of the plate, facing it (north), 0.34 m from the table's edge.
@@ -309,7 +312,6 @@ def test_build_command_rejects_bad_arguments_in_one_line():
 def test_plan_view_shortcuts_agree_with_drake(scenario_path):
     """The base check's shortcuts (far from everything: free; prisms overlapping: collides)
     never contradict the Drake collision checker, and settle most random poses."""
-    from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
 
     scenario = load_scenario(scenario_path)
     scene = FeasibilityScene(scenario.contents)
@@ -319,7 +321,7 @@ def test_plan_view_shortcuts_agree_with_drake(scenario_path):
     bases = np.stack([rng.uniform(x0, x1, n), rng.uniform(y0, y1, n),
                       rng.uniform(-math.pi, math.pi, n)], axis=1)
     free = np.array(scene.checker.CheckConfigsCollisionFree(
-        [np.concatenate([b, ARM_STOW, GRIPPER_OPEN]) for b in bases]), dtype=bool)
+        [np.concatenate([b, UR5E.arm_stow, UR5E.gripper_open]) for b in bases]), dtype=bool)
     certainly_free = scene.clearance.certainly_free(bases[:, :2])
     certainly_colliding = scene.collision.certainly_colliding(bases)
     assert not (certainly_free & ~free).any()
@@ -337,7 +339,6 @@ def test_the_posed_shortcut_agrees_with_drake_next_to_furniture(scenario_path):
     import shapely
 
     from s3o_drake.world.obstacles import Obstacles
-    from s3o_drake.world.robot import ARM_STOW, GRIPPER_OPEN
 
     scenario = load_scenario(scenario_path)
     scene = FeasibilityScene(scenario.contents)
@@ -349,7 +350,7 @@ def test_the_posed_shortcut_agrees_with_drake_next_to_furniture(scenario_path):
     xy = on_ring + rng.uniform(-0.35, 0.35, (n, 2))
     bases = np.column_stack([xy, rng.uniform(-math.pi, math.pi, n)])
     free = np.array(scene.checker.CheckConfigsCollisionFree(
-        [np.concatenate([b, ARM_STOW, GRIPPER_OPEN]) for b in bases]), dtype=bool)
+        [np.concatenate([b, UR5E.arm_stow, UR5E.gripper_open]) for b in bases]), dtype=bool)
     posed = scene.clearance.certainly_free_posed(bases)
     assert not (posed & ~free).any()
     # Of the free poses that the radius and prism tests leave to Drake (measured: 730 and

@@ -22,8 +22,10 @@ from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.goals import with_place_targets
 from s3o_drake.world.map import Chair
 from s3o_drake.world.placing import PLACE_TOLERANCE
-from s3o_drake.world.robot import BASE_WIDTH
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario
+
+UR5E = load_robot("ur5e")
 
 REPO = Path(__file__).resolve().parents[2]
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -46,7 +48,7 @@ def _with_chair_beside_open_spot(scenario, gap: float):
     """A chair east of OPEN_SPOT, about `gap` metres beyond the base's padded side."""
     # Facing away from the robot (yaw 0), the chair's rear legs stand 0.19 m behind the
     # seat's centre, at the chassis' height; the 1 cm padding counts as contact.
-    x = OPEN_SPOT[0] + BASE_WIDTH / 2 + 0.01 + gap + 0.19
+    x = OPEN_SPOT[0] + UR5E.base_width / 2 + 0.01 + gap + 0.19
     chair = Chair(name="close_chair", pose=[x, OPEN_SPOT[1], 0.0])
     return dataclasses.replace(scenario, chairs=[*scenario.chairs, chair])
 

@@ -27,8 +27,10 @@ from s3o_drake.planning.navigation.base_motion import (
 )
 from s3o_drake.world.angles import wrap
 from s3o_drake.world.choices import MOTIONS
-from s3o_drake.world.robot import NUM_POSITIONS
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario, with_overrides
+
+UR5E = load_robot("ur5e")
 
 REPO = Path(__file__).resolve().parents[2]
 PROFILE = BaseProfile(speed=0.4)
@@ -125,7 +127,7 @@ def test_the_navigator_plays_the_profile_time(motion):
         points = rng.uniform(0.5, 3.5, (int(rng.integers(2, 6)), 2))
         yaw0, yaw1 = rng.uniform(-math.pi, math.pi, 2)
         context = navigator.CreateDefaultContext()
-        state = np.zeros(2 * NUM_POSITIONS)
+        state = np.zeros(2 * UR5E.num_positions)
         state[:3] = [*points[0], yaw0]
         navigator.GetInputPort("robot_state").FixValue(context, state)
         command = BaseCommand(id=cid, path=tuple(map(tuple, points)), pose=(*points[-1], yaw1))

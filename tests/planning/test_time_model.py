@@ -38,7 +38,7 @@ from s3o_drake.planning.time_model import (
 )
 from s3o_drake.world.angles import facing_yaw, wrap
 from s3o_drake.world.choices import MOTIONS
-from s3o_drake.world.robot import CONTROL_PERIOD, NUM_POSITIONS, load_robot
+from s3o_drake.world.robot import CONTROL_PERIOD, load_robot
 from s3o_drake.world.scenario import dump_scenario, load_scenario, with_overrides
 from tests.conftest import COARSE_MAPS
 
@@ -130,7 +130,7 @@ def test_goto_times_are_the_navigators_motion(motion):
         yaw = yaw1[k] if not np.isnan(yaw1[k]) else facing_yaw(path[-2], path[-1])
         assert landing[k] == pytest.approx(yaw)
         context = navigator.CreateDefaultContext()
-        state = np.zeros(2 * NUM_POSITIONS)
+        state = np.zeros(2 * UR5E.num_positions)
         state[:3] = [*P[k], yaw0[k]]
         navigator.GetInputPort("robot_state").FixValue(context, state)
         command = BaseCommand(id=k + 1, path=tuple(map(tuple, path)), pose=(*Q[k], yaw))

@@ -12,8 +12,10 @@ from shapely.geometry import box
 from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.clearance_monitor import REACH, ClearanceMonitor, proximity_geometries
 from s3o_drake.world.directives import ROBOT_INSTANCE
-from s3o_drake.world.robot import BASE_LENGTH, BASE_WIDTH
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import with_overrides
+
+UR5E = load_robot("ur5e")
 
 
 def _world_and_monitor(scenario, start):
@@ -48,8 +50,9 @@ def _measured(scenario, start) -> float:
 
 
 def _plan_view_gap(scenario, start) -> float:
-    footprint = affinity.rotate(box(-BASE_LENGTH / 2, -BASE_WIDTH / 2, BASE_LENGTH / 2,
-                                    BASE_WIDTH / 2), start[2], use_radians=True)
+    half_l, half_w = UR5E.base_length / 2, UR5E.base_width / 2
+    footprint = affinity.rotate(box(-half_l, -half_w, half_l, half_w), start[2],
+                                use_radians=True)
     footprint = affinity.translate(footprint, *start[:2])
     (table,) = scenario.tables
     x, y = table.center

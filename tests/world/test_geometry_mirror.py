@@ -23,8 +23,10 @@ from pydrake.systems.framework import DiagramBuilder
 from s3o_drake.world.builder import build_world_diagram, robot_render_labels
 from s3o_drake.world.camera import overhead_camera
 from s3o_drake.world.geometry_mirror import AddGeometryMirror
-from s3o_drake.world.robot import robot_desired_state, robot_positions
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario
+
+UR5E = load_robot("ur5e")
 
 REPO = Path(__file__).resolve().parents[2]
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -109,10 +111,10 @@ def test_camera_sees_the_robot_where_the_simulation_moved_it():
         return np.array([u.mean(), v.mean()])
 
     world.GetInputPort("robot_desired_state").FixValue(
-        context, robot_desired_state(robot_positions(*scenario.robot.start)))
+        context, UR5E.desired_state(UR5E.positions(*scenario.robot.start)))
     before = robot_centroid_px()
     world.GetInputPort("robot_desired_state").FixValue(
-        context, robot_desired_state(robot_positions(*goal)))
+        context, UR5E.desired_state(UR5E.positions(*goal)))
     simulator.AdvanceTo(3.0)
     q = world.GetOutputPort("robot_state").Eval(context)[:3]
     np.testing.assert_allclose(q, goal, atol=0.02)

@@ -28,15 +28,9 @@ from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import surface_below
 from s3o_drake.world.object_tracker import STANDING_TILT, AddObjectTracker
 from s3o_drake.world.objects import PlaceSpot
-from s3o_drake.world.robot import (
-    ARM_STOW,
-    GRASP_FRAME,
-    TRAY_INNER_LENGTH,
-    TRAY_INNER_WIDTH,
-    TRAY_LINK,
-    robot_desired_state,
-    robot_positions,
-)
+from s3o_drake.world.robot import load_robot
+
+UR5E = load_robot("ur5e")
 
 ARM_REACHING = np.array([0.3, -0.6, 1.2, -2.2, -1.571, 0.4])
 
@@ -80,8 +74,8 @@ def _frames(plant, robot, q) -> tuple[RigidTransform, RigidTransform]:
     """X_WG and X_WT at robot positions q, computed with the plant."""
     plant_context = plant.CreateDefaultContext()
     plant.SetPositions(plant_context, robot, q)
-    return (plant.GetFrameByName(GRASP_FRAME, robot).CalcPoseInWorld(plant_context),
-            plant.GetFrameByName(TRAY_LINK, robot).CalcPoseInWorld(plant_context))
+    return (plant.GetFrameByName(UR5E.grasp_frame, robot).CalcPoseInWorld(plant_context),
+            plant.GetFrameByName(UR5E.tray_link, robot).CalcPoseInWorld(plant_context))
 
 
 class _Driver:
@@ -90,10 +84,10 @@ class _Driver:
     def __init__(self, tracker):
         self.tracker = tracker
         self.context = tracker.CreateDefaultContext()
-        self.set(robot_positions(1.2, 2.0, 0.0), GripEvent())
+        self.set(UR5E.positions(1.2, 2.0, 0.0), GripEvent())
 
     def set(self, q, grip):
-        self.tracker.GetInputPort("robot_state").FixValue(self.context, robot_desired_state(q))
+        self.tracker.GetInputPort("robot_state").FixValue(self.context, UR5E.desired_state(q))
         self.tracker.GetInputPort("grip").FixValue(self.context, grip)
 
     def update(self):
@@ -135,7 +129,7 @@ def test_dishes_start_on_their_tables(tracker_and_plant, scenario):
         assert frame_poses.value(frame_id).translation()[2] == pytest.approx(0.75)
     # The output holds copies: a reader that changes one does not move the dish.
     driver.poses()["plate_a"].set_translation([0.0, 0.0, 0.0])
-    driver.set(robot_positions(1.2, 2.0, 0.0), GripEvent())  # a fresh Eval
+    driver.set(UR5E.positions(1.2, 2.0, 0.0), GripEvent())  # a fresh Eval
     np.testing.assert_allclose(driver.poses()["plate_a"].translation(), [1.85, 2.3, 0.75])
 
 
@@ -143,7 +137,7 @@ def test_gripped_dish_follows_the_grasp_frame_then_lands_on_the_tray(tracker_and
     tracker, plant, robot = tracker_and_plant
     driver = _Driver(tracker)
     X_WD0 = driver.poses()["plate_a"]
-    q1 = robot_positions(1.2, 2.0, 0.1, ARM_REACHING)
+    q1 = UR5E.positions(1.2, 2.0, 0.1, ARM_REACHING)
     driver.set(q1, GripEvent(dish="plate_a"))
     driver.update()
     assert driver.states() == {"plate_a": DishState.GRIPPER, "cup_b": DishState.TABLE}
@@ -151,7 +145,7 @@ def test_gripped_dish_follows_the_grasp_frame_then_lands_on_the_tray(tracker_and
 
     # The arm and base move: the dish keeps its pose in the grasp frame.
     X_WG1, _ = _frames(plant, robot, q1)
-    q2 = robot_positions(1.0, 1.7, -0.4, ARM_STOW)
+    q2 = UR5E.positions(1.0, 1.7, -0.4, UR5E.arm_stow)
     driver.set(q2, GripEvent(dish="plate_a"))
     X_WG2, X_WT2 = _frames(plant, robot, q2)
     _assert_same_pose(driver.poses()["plate_a"], X_WG2 @ X_WG1.inverse() @ X_WD0)
@@ -166,12 +160,12 @@ def test_gripped_dish_follows_the_grasp_frame_then_lands_on_the_tray(tracker_and
     radius = DISH_SHAPES["plate"].radius
     x, y, z = X_TD.translation()
     assert z == pytest.approx(0.0, abs=1e-9)
-    assert abs(x) <= TRAY_INNER_LENGTH / 2 - radius + 1e-9
-    assert abs(y) <= TRAY_INNER_WIDTH / 2 - radius + 1e-9
+    assert abs(x) <= UR5E.description.tray.inner_length / 2 - radius + 1e-9
+    assert abs(y) <= UR5E.description.tray.inner_width / 2 - radius + 1e-9
     np.testing.assert_allclose(X_TD.rotation().col(2), [0, 0, 1], atol=1e-9)  # upright
 
     # The base drives on: the dish rides along on the tray.
-    q3 = robot_positions(2.5, 1.0, 1.2, ARM_STOW)
+    q3 = UR5E.positions(2.5, 1.0, 1.2, UR5E.arm_stow)
     driver.set(q3, GripEvent(dish="", placed=("plate_a",)))
     _, X_WT3 = _frames(plant, robot, q3)
     _assert_same_pose(driver.poses()["plate_a"], X_WT3 @ X_TD)
@@ -184,7 +178,7 @@ def test_a_cup_gripped_off_centre_is_pushed_between_the_fingers(tracker_and_plan
     keeps its offset along the pads (x) and the approach (z); a plate, pinched at the rim,
     stays where it was caught."""
     tracker, plant, robot = tracker_and_plant
-    q = robot_positions(1.5, 1.8, 0.5, ARM_REACHING)
+    q = UR5E.positions(1.5, 1.8, 0.5, ARM_REACHING)
     X_WG, _ = _frames(plant, robot, q)
     for dish in ("cup_b", "plate_a"):
         driver = _Driver(tracker)
@@ -200,10 +194,10 @@ def test_a_cup_gripped_off_centre_is_pushed_between_the_fingers(tracker_and_plan
 def test_released_dish_not_placed_drops_to_the_floor(tracker_and_plant):
     tracker = tracker_and_plant[0]
     driver = _Driver(tracker)
-    q = robot_positions(1.5, 1.8, 0.5, ARM_REACHING)
+    q = UR5E.positions(1.5, 1.8, 0.5, ARM_REACHING)
     driver.set(q, GripEvent(dish="cup_b"))
     driver.update()
-    q_moved = robot_positions(1.4, 1.6, 0.2, ARM_REACHING)
+    q_moved = UR5E.positions(1.4, 1.6, 0.2, ARM_REACHING)
     driver.set(q_moved, GripEvent(dish="cup_b"))
     p_held = driver.poses()["cup_b"].translation()
     assert np.hypot(p_held[0] - 2.15, p_held[1] - 2.3) > 0.1  # it moved with the gripper
@@ -214,7 +208,7 @@ def test_released_dish_not_placed_drops_to_the_floor(tracker_and_plant):
     X_WD = driver.poses()["cup_b"]
     np.testing.assert_allclose(X_WD.translation(), [p_held[0], p_held[1], 0.0], atol=1e-9)
     # It stays there whatever the robot does next.
-    driver.set(robot_positions(0.5, 0.5, 0.0), GripEvent())
+    driver.set(UR5E.positions(0.5, 0.5, 0.0), GripEvent())
     driver.update()
     _assert_same_pose(driver.poses()["cup_b"], X_WD)
 
@@ -239,7 +233,7 @@ def test_an_object_put_down_stands_on_the_surface_below_where_it_was_let_go(scen
         dataclasses.replace(cup, goal="place", place=PlaceSpot(onto="plate_a"))])
     diagram, tracker, _, _ = _tracker_of(tidy)
     plate_top = 0.75 + DISH_SHAPES["plate"].height
-    grasp = robot_positions(1.5, 1.8, 0.5, ARM_REACHING)
+    grasp = UR5E.positions(1.5, 1.8, 0.5, ARM_REACHING)
     bent = ARM_REACHING + np.array([0.0, 0.0, 0.0, 0.0, 0.5, 0.0])  # wrist 2 turned
     # The held cup moves with the base: a base shifted by d moves it by d.
     for target, arm, surface, upright in (((1.85, 2.3), ARM_REACHING, plate_top, True),
@@ -248,7 +242,7 @@ def test_an_object_put_down_stands_on_the_surface_below_where_it_was_let_go(scen
         driver = _Driver(tracker)
         driver.set(grasp, GripEvent(dish="cup_b"))
         driver.update()
-        q = robot_positions(1.5, 1.8, 0.5, arm)
+        q = UR5E.positions(1.5, 1.8, 0.5, arm)
         driver.set(q, GripEvent(dish="cup_b"))
         p = driver.poses()["cup_b"].translation()
         q[:2] += np.asarray(target) - p[:2]
@@ -272,8 +266,8 @@ def test_tracker_in_a_periodic_simulation_picks_up_when_gripped(tracker_and_plan
     tracker = tracker_and_plant[0]
     simulator = Simulator(tracker)
     context = simulator.get_mutable_context()
-    q = robot_positions(1.2, 2.0, 0.0, ARM_REACHING)
-    tracker.GetInputPort("robot_state").FixValue(context, robot_desired_state(q))
+    q = UR5E.positions(1.2, 2.0, 0.0, ARM_REACHING)
+    tracker.GetInputPort("robot_state").FixValue(context, UR5E.desired_state(q))
     tracker.GetInputPort("grip").FixValue(context, GripEvent(dish="cup_b"))
     simulator.AdvanceTo(0.05)
     assert tracker.GetOutputPort("dish_states").Eval(context)["cup_b"] is DishState.GRIPPER

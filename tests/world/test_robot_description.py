@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from s3o_drake.world import robot
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.robot_description import (
     RobotDescriptionError,
     check_model,
@@ -15,16 +15,17 @@ from s3o_drake.world.robot_description import (
 )
 
 UR5E = robot_description_path("ur5e").read_text()
+UR5E_ROBOT = load_robot("ur5e")
 
 
 def test_the_ur5e_description_agrees_with_its_model_and_is_what_the_package_uses():
     ur5e = load_robot_description("ur5e")
     check_model(ur5e)
-    assert ur5e == robot.ROBOT
-    assert tuple(ur5e.joints) == robot.ROBOT_JOINTS and robot.NUM_POSITIONS == 11
+    assert ur5e == UR5E_ROBOT.description
+    assert tuple(ur5e.joints) == UR5E_ROBOT.joints and UR5E_ROBOT.num_positions == 11
     # The stow configuration keeps the gripper pointing down (q2 + q3 + q4 = -pi/2).
-    assert sum(robot.ARM_STOW[1:4]) == pytest.approx(-math.pi / 2, abs=1e-12)
-    assert math.hypot(0.31, 0.28) == pytest.approx(robot.BASE_RADIUS)
+    assert sum(UR5E_ROBOT.arm_stow[1:4]) == pytest.approx(-math.pi / 2, abs=1e-12)
+    assert math.hypot(0.31, 0.28) == pytest.approx(UR5E_ROBOT.base_radius)
 
 
 @pytest.mark.parametrize("old, new, path", [

@@ -21,8 +21,10 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from s3o_drake.world import robot
 from s3o_drake.world.resources import make_parser
+from s3o_drake.world.robot import load_robot
+
+UR5E = load_robot("ur5e")
 
 UR5E_POSITION_LIMITS = (2 * math.pi, 2 * math.pi, math.pi, 2 * math.pi, 2 * math.pi, 2 * math.pi)
 UR5E_EFFORT_LIMITS = (150.0, 150.0, 150.0, 28.0, 28.0, 28.0)
@@ -43,7 +45,7 @@ class RobotScene:
     def __init__(self):
         builder = DiagramBuilder()
         self.plant, self.scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.0)
-        self.model = robot.add_robot(make_parser(self.plant))
+        self.model = UR5E.add_to(make_parser(self.plant))
         self.plant.Finalize()
         self.diagram = builder.Build()
         self.context = self.diagram.CreateDefaultContext()
@@ -91,7 +93,7 @@ def _support(shape, X_FG: RigidTransform, e_F: np.ndarray) -> float:
 def test_model_size_and_names(scene):
     plant, model = scene.plant, scene.model
     assert plant.GetModelInstanceName(model) == "robot"
-    assert plant.num_positions(model) == robot.NUM_POSITIONS == 11
+    assert plant.num_positions(model) == UR5E.num_positions == 11
     assert plant.num_velocities(model) == 11
     assert plant.num_actuators(model) == 11
     assert plant.num_positions() == 11  # only the robot in this plant
@@ -100,12 +102,12 @@ def test_model_size_and_names(scene):
 def test_joint_order_is_concatenation(scene):
     plant, model = scene.plant, scene.model
     names = plant.GetPositionNames(model, add_model_instance_prefix=False, always_add_suffix=False)
-    assert tuple(names) == robot.ROBOT_JOINTS
+    assert tuple(names) == UR5E.joints
     velocity_names = plant.GetVelocityNames(
         model, add_model_instance_prefix=False, always_add_suffix=False
     )
-    assert tuple(velocity_names) == robot.ROBOT_JOINTS
-    for i, joint_name in enumerate(robot.ROBOT_JOINTS):
+    assert tuple(velocity_names) == UR5E.joints
+    for i, joint_name in enumerate(UR5E.joints):
         joint = plant.GetJointByName(joint_name, model)
         assert joint.num_positions() == 1
         assert joint.position_start() == i
@@ -114,30 +116,30 @@ def test_joint_order_is_concatenation(scene):
     actuated = [
         plant.get_joint_actuator(i).joint().name() for i in plant.GetJointActuatorIndices(model)
     ]
-    assert tuple(actuated) == robot.ROBOT_JOINTS
+    assert tuple(actuated) == UR5E.joints
 
-    q = robot.robot_positions(1.0, 2.0, 0.5)
+    q = UR5E.positions(1.0, 2.0, 0.5)
     np.testing.assert_array_equal(q[:3], [1.0, 2.0, 0.5])
-    np.testing.assert_array_equal(q[3:9], robot.ARM_STOW)
-    np.testing.assert_array_equal(q[9:], robot.GRIPPER_OPEN)
+    np.testing.assert_array_equal(q[3:9], UR5E.arm_stow)
+    np.testing.assert_array_equal(q[9:], UR5E.gripper_open)
     scene.set_positions(q)
-    for joint_name, value in zip(robot.ROBOT_JOINTS, q, strict=True):
+    for joint_name, value in zip(UR5E.joints, q, strict=True):
         joint = plant.GetJointByName(joint_name, model)
         assert joint.GetOnePosition(scene.plant_context) == value
 
 
 def test_robot_positions_rejects_wrong_sizes():
     with pytest.raises(ValueError, match="arm"):
-        robot.robot_positions(0.0, 0.0, 0.0, arm=np.zeros(5))
+        UR5E.positions(0.0, 0.0, 0.0, arm=np.zeros(5))
     with pytest.raises(ValueError, match="gripper"):
-        robot.robot_positions(0.0, 0.0, 0.0, gripper=np.zeros(3))
+        UR5E.positions(0.0, 0.0, 0.0, gripper=np.zeros(3))
     with pytest.raises(ValueError):
-        robot.ARM_STOW[0] = 1.0  # the named configurations are read-only
+        UR5E.arm_stow[0] = 1.0  # the named configurations are read-only
 
 
 def test_desired_state_layout():
-    q = robot.robot_positions(0.1, 0.2, 0.3)
-    xd = robot.robot_desired_state(q)
+    q = UR5E.positions(0.1, 0.2, 0.3)
+    xd = UR5E.desired_state(q)
     assert xd.shape == (22,)
     np.testing.assert_array_equal(xd[:11], q)
     np.testing.assert_array_equal(xd[11:], np.zeros(11))
@@ -145,7 +147,7 @@ def test_desired_state_layout():
 
 def test_arm_joint_limits_are_ur5e(scene):
     plant, model = scene.plant, scene.model
-    for joint_name, limit in zip(robot.ARM_JOINTS, UR5E_POSITION_LIMITS, strict=True):
+    for joint_name, limit in zip(UR5E.arm_joints, UR5E_POSITION_LIMITS, strict=True):
         joint = plant.GetJointByName(joint_name, model)
         assert joint.position_lower_limits()[0] == pytest.approx(-limit)
         assert joint.position_upper_limits()[0] == pytest.approx(limit)
@@ -153,15 +155,15 @@ def test_arm_joint_limits_are_ur5e(scene):
         assert joint.velocity_lower_limits()[0] == pytest.approx(-math.pi)
     for actuator_index in plant.GetJointActuatorIndices(model):
         actuator = plant.get_joint_actuator(actuator_index)
-        if actuator.joint().name() in robot.ARM_JOINTS:
-            i = robot.ARM_JOINTS.index(actuator.joint().name())
+        if actuator.joint().name() in UR5E.arm_joints:
+            i = UR5E.arm_joints.index(actuator.joint().name())
             assert actuator.effort_limit() == pytest.approx(UR5E_EFFORT_LIMITS[i])
     yaw = plant.GetJointByName("base_yaw", model)
     assert np.isinf(yaw.position_upper_limits()[0]) and np.isinf(yaw.position_lower_limits()[0])
-    for finger in robot.GRIPPER_JOINTS:
+    for finger in UR5E.gripper_joints:
         joint = plant.GetJointByName(finger, model)
         assert joint.position_lower_limits()[0] == 0.0
-        assert joint.position_upper_limits()[0] == pytest.approx(robot.FINGER_TRAVEL)
+        assert joint.position_upper_limits()[0] == pytest.approx(UR5E.finger_travel)
 
 
 def test_arm_acceleration_limits_parse_and_fit_the_rated_torques(scene):
@@ -181,7 +183,7 @@ def test_arm_acceleration_limits_parse_and_fit_the_rated_torques(scene):
     arms = [np.zeros(6)] + [rng.uniform(-math.pi, math.pi, 6) for _ in range(40)]
     worst = np.zeros(6)
     for arm in arms:
-        plant.SetPositions(context, model, robot.robot_positions(0.0, 0.0, 0.0, arm=arm))
+        plant.SetPositions(context, model, UR5E.positions(0.0, 0.0, 0.0, arm=arm))
         M = plant.CalcMassMatrix(context)[3:9, 3:9]
         g = plant.CalcGravityGeneralizedForces(context)[3:9]
         inertial = np.abs(M) @ a_max[3:9]
@@ -224,30 +226,30 @@ def test_masses(scene):
 
 def test_tool_flange_at_zero_angles_matches_ur5e(scene):
     plant = scene.plant
-    scene.set_positions(robot.robot_positions(0.3, -0.2, 1.0, arm=np.zeros(6)))
+    scene.set_positions(UR5E.positions(0.3, -0.2, 1.0, arm=np.zeros(6)))
     X_AT = plant.CalcRelativeTransform(
         scene.plant_context,
-        plant.GetFrameByName(robot.ARM_BASE_LINK),
-        plant.GetFrameByName(robot.TOOL_FRAME),
+        plant.GetFrameByName(UR5E.arm_base_link),
+        plant.GetFrameByName(UR5E.tool_frame),
     )
     np.testing.assert_allclose(X_AT.translation(), [-0.8172, -0.2329, 0.0628], atol=1e-4)
 
 
 def test_arm_mount_and_tray_frames(scene):
     plant = scene.plant
-    scene.set_positions(robot.robot_positions(0.0, 0.0, 0.0))
-    base = plant.GetFrameByName(robot.BASE_LINK)
+    scene.set_positions(UR5E.positions(0.0, 0.0, 0.0))
+    base = plant.GetFrameByName(UR5E.base_link)
     X_BA = plant.CalcRelativeTransform(
-        scene.plant_context, base, plant.GetFrameByName(robot.ARM_BASE_LINK)
+        scene.plant_context, base, plant.GetFrameByName(UR5E.arm_base_link)
     )
-    np.testing.assert_allclose(X_BA.translation(), robot.ARM_MOUNT_XYZ, atol=1e-12)
+    np.testing.assert_allclose(X_BA.translation(), UR5E.arm_mount_xyz, atol=1e-12)
     assert X_BA.rotation().IsNearlyIdentity(1e-12)
     X_BT = plant.CalcRelativeTransform(
-        scene.plant_context, base, plant.GetFrameByName(robot.TRAY_LINK)
+        scene.plant_context, base, plant.GetFrameByName(UR5E.tray_link)
     )
-    np.testing.assert_allclose(X_BT.translation(), robot.TRAY_XYZ, atol=1e-12)
+    np.testing.assert_allclose(X_BT.translation(), UR5E.tray_xyz, atol=1e-12)
     X_BL = plant.CalcRelativeTransform(
-        scene.plant_context, base, plant.GetFrameByName(robot.LIDAR_LINK)
+        scene.plant_context, base, plant.GetFrameByName(UR5E.lidar_link)
     )
     assert X_BL.translation()[2] == pytest.approx(0.45, abs=0.02)
     assert X_BL.translation()[0] > 0.2  # near the front
@@ -255,19 +257,19 @@ def test_arm_mount_and_tray_frames(scene):
 
 def test_grasp_frame_beyond_flange(scene):
     plant = scene.plant
-    scene.set_positions(robot.robot_positions(0.0, 0.0, 0.0, gripper=robot.GRIPPER_CLOSED))
+    scene.set_positions(UR5E.positions(0.0, 0.0, 0.0, gripper=UR5E.gripper_closed))
     X_TG = plant.CalcRelativeTransform(
         scene.plant_context,
-        plant.GetFrameByName(robot.TOOL_FRAME),
-        plant.GetFrameByName(robot.GRASP_FRAME),
+        plant.GetFrameByName(UR5E.tool_frame),
+        plant.GetFrameByName(UR5E.grasp_frame),
     )
     assert X_TG.rotation().IsNearlyIdentity(1e-12)
-    np.testing.assert_allclose(X_TG.translation(), [0.0, 0.0, robot.GRASP_OFFSET], atol=1e-12)
-    assert 0.22 <= robot.GRASP_OFFSET <= 0.24
+    np.testing.assert_allclose(X_TG.translation(), [0.0, 0.0, UR5E.grasp_offset], atol=1e-12)
+    assert 0.22 <= UR5E.grasp_offset <= 0.24
     # The grasp frame is centred between the fingers at any opening.
-    for opening in (0.0, 0.03, robot.FINGER_TRAVEL):
-        scene.set_positions(robot.robot_positions(0, 0, 0, gripper=[opening, opening]))
-        grasp = plant.GetFrameByName(robot.GRASP_FRAME)
+    for opening in (0.0, 0.03, UR5E.finger_travel):
+        scene.set_positions(UR5E.positions(0, 0, 0, gripper=[opening, opening]))
+        grasp = plant.GetFrameByName(UR5E.grasp_frame)
         p_GL = plant.GetFrameByName("left_finger").CalcPose(scene.plant_context, grasp)
         p_GR = plant.GetFrameByName("right_finger").CalcPose(scene.plant_context, grasp)
         np.testing.assert_allclose(p_GL.translation()[1], opening, atol=1e-12)
@@ -293,25 +295,25 @@ def test_every_actuator_has_pd_gains(scene):
     assert effort["base_y"] >= 5 * 123 * 0.5
 
 
-@pytest.mark.parametrize("arm", [robot.ARM_STOW, np.zeros(6)], ids=["stow", "zero"])
+@pytest.mark.parametrize("arm", [UR5E.arm_stow, np.zeros(6)], ids=["stow", "zero"])
 @pytest.mark.parametrize("base", [(0.0, 0.0, 0.0), (3.2, -1.5, 2.4), (-7.0, 4.0, -0.9)])
 def test_no_self_collision(scene, arm, base):
-    for gripper in (robot.GRIPPER_OPEN, robot.GRIPPER_CLOSED):
-        scene.set_positions(robot.robot_positions(*base, arm=arm, gripper=gripper))
+    for gripper in (UR5E.gripper_open, UR5E.gripper_closed):
+        scene.set_positions(UR5E.positions(*base, arm=arm, gripper=gripper))
         query = scene.query_object()
         assert not query.HasCollisions()
         assert scene.penetrating_body_pairs() == set()
 
 
 def test_stow_keeps_clearance(scene):
-    scene.set_positions(robot.robot_positions(0.0, 0.0, 0.0))
+    scene.set_positions(UR5E.positions(0.0, 0.0, 0.0))
     query = scene.query_object()
     distances = query.ComputeSignedDistancePairwiseClosestPoints(max_distance=0.05)
     assert min(d.distance for d in distances) > 0.01
 
 
 def test_gripper_folded_into_base_collides(scene):
-    scene.set_positions(robot.robot_positions(1.0, 1.0, 0.3, arm=ARM_INTO_BASE))
+    scene.set_positions(UR5E.positions(1.0, 1.0, 0.3, arm=ARM_INTO_BASE))
     assert scene.query_object().HasCollisions()
     pairs = scene.penetrating_body_pairs()
     assert any({a, b} & GRIPPER_BODIES and {a, b} & BASE_BODIES for a, b in pairs), pairs
@@ -320,13 +322,13 @@ def test_gripper_folded_into_base_collides(scene):
 def test_arm_folded_onto_itself_collides(scene):
     # Elbow folded almost fully: the wrist runs into the shoulder and the upper arm.
     arm = np.array([math.pi, -math.pi / 2 - 0.6, 2.9, 0.0, 0.0, 0.0])
-    scene.set_positions(robot.robot_positions(0.0, 0.0, 0.0, arm=arm))
+    scene.set_positions(UR5E.positions(0.0, 0.0, 0.0, arm=arm))
     pairs = scene.penetrating_body_pairs()
     assert ("shoulder_link", "wrist_1_link") in pairs or ("upper_arm_link", "wrist_1_link") in pairs
 
 
 def test_fingers_touching_is_not_a_collision(scene):
-    scene.set_positions(robot.robot_positions(0.0, 0.0, 0.0, gripper=robot.GRIPPER_CLOSED))
+    scene.set_positions(UR5E.positions(0.0, 0.0, 0.0, gripper=UR5E.gripper_closed))
     query = scene.query_object()
     inspector = query.inspector()
     left = scene.plant.GetBodyByName("left_finger").index()
@@ -340,35 +342,35 @@ def test_fingers_touching_is_not_a_collision(scene):
 @pytest.mark.parametrize("base", [(0.0, 0.0, 0.0), (2.0, -1.0, 0.7), (-3.0, 5.0, -2.5)])
 def test_robot_positions_place_base_link(scene, base):
     x, y, yaw = base
-    scene.set_positions(robot.robot_positions(x, y, yaw))
-    X_WB = scene.plant.GetFrameByName(robot.BASE_LINK).CalcPoseInWorld(scene.plant_context)
+    scene.set_positions(UR5E.positions(x, y, yaw))
+    X_WB = scene.plant.GetFrameByName(UR5E.base_link).CalcPoseInWorld(scene.plant_context)
     X_WB_expected = RigidTransform(RotationMatrix.MakeZRotation(yaw), [x, y, 0.0])
     assert X_WB.IsNearlyEqualTo(X_WB_expected, 1e-12)
 
 
 def test_footprint_polygon():
-    assert math.isclose(robot.BASE_RADIUS, math.hypot(0.31, 0.28))
-    footprint = robot.footprint_polygon(0.0, 0.0, 0.0)
+    assert math.isclose(UR5E.base_radius, math.hypot(0.31, 0.28))
+    footprint = UR5E.footprint(0.0, 0.0, 0.0)
     assert footprint.area == pytest.approx(0.62 * 0.56)
     assert footprint.bounds == pytest.approx((-0.31, -0.28, 0.31, 0.28))
-    turned = robot.footprint_polygon(1.0, 2.0, math.pi / 2)
+    turned = UR5E.footprint(1.0, 2.0, math.pi / 2)
     assert turned.area == pytest.approx(0.62 * 0.56)
     assert turned.bounds == pytest.approx((1.0 - 0.28, 2.0 - 0.31, 1.0 + 0.28, 2.0 + 0.31))
-    oblique = robot.footprint_polygon(-1.0, 0.5, 0.4)
+    oblique = UR5E.footprint(-1.0, 0.5, 0.4)
     assert oblique.area == pytest.approx(0.62 * 0.56)
     assert oblique.centroid.coords[0] == pytest.approx((-1.0, 0.5))
     corner = np.array(oblique.exterior.coords[0])
-    assert np.linalg.norm(corner - [-1.0, 0.5]) == pytest.approx(robot.BASE_RADIUS)
+    assert np.linalg.norm(corner - [-1.0, 0.5]) == pytest.approx(UR5E.base_radius)
 
 
 def test_stowed_robot_stays_inside_footprint(scene):
     """All geometry (visual and collision) in stow lies within the footprint in x and y."""
     x, y, yaw = 1.0, -2.0, 0.8
-    scene.set_positions(robot.robot_positions(x, y, yaw))
+    scene.set_positions(UR5E.positions(x, y, yaw))
     query = scene.query_object()
     inspector = query.inspector()
     X_BW = (
-        scene.plant.GetFrameByName(robot.BASE_LINK).CalcPoseInWorld(scene.plant_context).inverse()
+        scene.plant.GetFrameByName(UR5E.base_link).CalcPoseInWorld(scene.plant_context).inverse()
     )
     geometry_ids = inspector.GetAllGeometryIds()
     assert len(geometry_ids) > 30
@@ -389,7 +391,7 @@ def _simulate_robot(time_step, trajectory, q0, duration):
     plant, _ = AddMultibodyPlant(
         MultibodyPlantConfig(time_step=time_step, discrete_contact_approximation="sap"), builder
     )
-    model = robot.add_robot(make_parser(plant))
+    model = UR5E.add_to(make_parser(plant))
     plant.set_gravity_enabled(model, False)
     plant.Finalize()
     source = builder.AddSystem(TrajectorySource(trajectory, output_derivative_order=1))
@@ -409,16 +411,16 @@ def test_holds_stow_with_fixed_desired_state():
     plant, _ = AddMultibodyPlant(
         MultibodyPlantConfig(time_step=1e-3, discrete_contact_approximation="sap"), builder
     )
-    model = robot.add_robot(make_parser(plant))
+    model = UR5E.add_to(make_parser(plant))
     plant.set_gravity_enabled(model, False)
     plant.Finalize()
     diagram = builder.Build()
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     plant_context = plant.GetMyContextFromRoot(context)
-    q_desired = robot.robot_positions(0.5, -0.3, 0.2)
+    q_desired = UR5E.positions(0.5, -0.3, 0.2)
     plant.get_desired_state_input_port(model).FixValue(
-        plant_context, robot.robot_desired_state(q_desired)
+        plant_context, UR5E.desired_state(q_desired)
     )
     # Starting at the setpoint, the robot stays there.
     plant.SetPositions(plant_context, model, q_desired)
@@ -428,7 +430,7 @@ def test_holds_stow_with_fixed_desired_state():
         assert error.max() < 1e-3, t
     # Pushed 2 cm / 20 mrad off the setpoint, the PD controllers pull it back.
     plant.SetPositions(plant_context, model, q_desired + np.r_[0.02, -0.02, 0.02, [0.02] * 6, 0, 0])
-    plant.SetVelocities(plant_context, model, np.zeros(robot.NUM_POSITIONS))
+    plant.SetVelocities(plant_context, model, np.zeros(UR5E.num_positions))
     simulator.AdvanceTo(2.0)
     error = np.abs(plant.GetPositions(plant_context, model) - q_desired)
     assert error.max() < 1e-3
@@ -439,7 +441,7 @@ def test_holds_stow_with_fixed_desired_state():
 
 
 def test_tracks_moving_base_setpoint():
-    q0 = robot.robot_positions(0.0, 0.0, 0.0)
+    q0 = UR5E.positions(0.0, 0.0, 0.0)
     times = [0.0, 0.5, 1.5, 2.5, 3.0]
     base = np.array([[0, 0, 0], [0, 0, 0], [0.4, 0.2, 0.5], [0.8, 0.4, 1.0], [0.8, 0.4, 1.0]])
     knots = np.hstack([base, np.tile(q0[3:], (len(times), 1))]).T
@@ -455,16 +457,16 @@ def test_tracks_moving_base_setpoint():
 
 def test_parses_with_a_plain_parser():
     plant = MultibodyPlant(0.0)
-    first = robot.add_robot(Parser(plant))
-    second = robot.add_robot(Parser(plant), name="robot2")
+    first = UR5E.add_to(Parser(plant))
+    second = UR5E.add_to(Parser(plant), name="robot2")
     plant.Finalize()
     assert plant.GetModelInstanceName(first) == "robot"
     assert plant.GetModelInstanceName(second) == "robot2"
     assert plant.num_positions() == 22
     with pytest.raises(ValueError, match="robot"):
         unfinalized = MultibodyPlant(0.0)
-        robot.add_robot(Parser(unfinalized))
-        robot.add_robot(Parser(unfinalized))
+        UR5E.add_to(Parser(unfinalized))
+        UR5E.add_to(Parser(unfinalized))
 
 
 def _solve_top_grasp(scene, p_WQ, seed_arm):
@@ -474,14 +476,14 @@ def _solve_top_grasp(scene, p_WQ, seed_arm):
     q = ik.q()
     prog = ik.prog()
     prog.AddBoundingBoxConstraint(np.zeros(3), np.zeros(3), q[:3])
-    prog.AddBoundingBoxConstraint(robot.GRIPPER_OPEN, robot.GRIPPER_OPEN, q[9:])
-    grasp = plant.GetFrameByName(robot.GRASP_FRAME)
+    prog.AddBoundingBoxConstraint(UR5E.gripper_open, UR5E.gripper_open, q[9:])
+    grasp = plant.GetFrameByName(UR5E.grasp_frame)
     ik.AddPositionConstraint(grasp, np.zeros(3), plant.world_frame(), p_WQ, p_WQ)
     ik.AddAngleBetweenVectorsConstraint(
         grasp, [0.0, 0.0, 1.0], plant.world_frame(), [0.0, 0.0, -1.0], 0.0, 0.0
     )
     ik.AddMinimumDistanceLowerBoundConstraint(0.01)
-    q_seed = robot.robot_positions(0.0, 0.0, 0.0, arm=seed_arm)
+    q_seed = UR5E.positions(0.0, 0.0, 0.0, arm=seed_arm)
     prog.AddQuadraticErrorCost(0.01 * np.eye(len(q_seed)), q_seed, q)
     prog.SetInitialGuess(q, q_seed)
     result = Solve(prog)
@@ -495,7 +497,7 @@ def test_top_grasp_reaches_table_height(scene):
     success, q = _solve_top_grasp(scene, p_WQ, seed)
     assert success
     scene.set_positions(q)
-    X_WG = scene.plant.GetFrameByName(robot.GRASP_FRAME).CalcPoseInWorld(scene.plant_context)
+    X_WG = scene.plant.GetFrameByName(UR5E.grasp_frame).CalcPoseInWorld(scene.plant_context)
     np.testing.assert_allclose(X_WG.translation(), p_WQ, atol=1e-4)
     np.testing.assert_allclose(X_WG.rotation().matrix()[:, 2], [0, 0, -1], atol=1e-4)
     np.testing.assert_allclose(q[:3], 0.0, atol=1e-9)
