@@ -56,6 +56,7 @@ Modes (with nothing out, the next `Tick` sends the next command):
                                                   | SEND (given up) | RELEASE (a place)
     RELEASE --> RELEASING --> SEND | FINISHED
     SEND, smooth, a base command with the arm out --> STOWING --> SEND
+                                                            --failed STOW_ATTEMPTS times--> FINISHED
     FINISHED (the plan ended; recovery replan) --> PLANNING (the dishes left out, once)
 """
 
@@ -304,6 +305,11 @@ class Finish:
 Decision = Drive | Turn | Pick | Stow | Release | Plan | Finish
 
 
+STOW_ATTEMPTS = 3
+"""Stows tried in a row before a run whose arm will not stow ends (each is a new path
+search with a seed of its own)."""
+
+
 # ------------------------------------------------------------------------------ params
 @dataclass(frozen=True)
 class TaskObject:
@@ -381,6 +387,7 @@ class ExecutiveState:
     pick_started: float = 0.0  # simulated time (s) the arm's command went out
     to_tray: str = ""  # an object to place whose place failed for good, to let go
     arm_out: bool = False  # smooth: the arm may be out at a pre-grasp, not stowed
+    stow_failures: int = 0  # stows failed in a row, the arm still out
     deferred: tuple[Pose, tuple[str, str, float], tuple[Pose, float] | None] | None = None
     """A corrective move decided while the arm was out: (its pose, `pending`, `stop`), sent
     once the arm has stowed."""
@@ -637,8 +644,15 @@ class Executive:
             return _after(dataclasses.replace(e, mode=Mode.SEND, to_tray="",
                                               command_id=NO_COMMAND)), ()
         if e.mode is Mode.STOWING:  # the base command it made way for goes out next
+            failures = 0 if event.ok else e.stow_failures + 1
+            if failures >= STOW_ATTEMPTS:
+                # The base may not move with the arm out, and the arm finds no way in: the
+                # run ends here rather than asking again for ever.
+                return dataclasses.replace(
+                    e, mode=Mode.FINISHED, command_id=NO_COMMAND, stow_failures=failures,
+                    reason=f"the arm could not stow ({failures} tries): {event.reason}"), ()
             return dataclasses.replace(e, mode=Mode.SEND, command_id=NO_COMMAND,
-                                       arm_out=not event.ok), ()
+                                       arm_out=not event.ok, stow_failures=failures), ()
         action = e.plan.actions[e.step]
         if isinstance(event, BaseFinished):
             if event.contact is not None and self._recovery == Recovery.REPLAN:

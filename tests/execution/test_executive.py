@@ -11,6 +11,7 @@ import pytest
 
 from s3o_drake.execution.executive import (
     MIN_CORRECTION,
+    STOW_ATTEMPTS,
     ArmFinished,
     Assessment,
     BaseFinished,
@@ -734,6 +735,27 @@ def test_smooth_a_correction_stows_a_prepared_arm_first():
     assert not run.state.arm_out and run.state.mode is Mode.SEND
     (correction,) = run.tick()
     assert isinstance(correction, Drive) and run.state.mode is Mode.CORRECTING
+
+
+def test_smooth_an_arm_that_will_not_stow_ends_the_run_after_a_few_tries():
+    """The arm is out after a failed pickup and finds no way to its stow: the base may not
+    drive. Each try is a new search; after STOW_ATTEMPTS the run ends, and says why, instead
+    of asking again every control period for ever."""
+    run = Run(Recovery.NONE, motion="smooth")
+    run.start(_ready(_plan(_goto("l1", L1), Pickup("plate", "l1", 0.9),
+                           _goto("l2", (3.0, 1.0, 0.0)), Pickup("cup", "l2", 0.7))))
+    run.to_stop()
+    run.pick()
+    run.arm(ok=False, reason="no_ik")
+    assert run.state.arm_out
+    for attempt in range(1, STOW_ATTEMPTS + 1):
+        (stow,) = run.tick()
+        assert isinstance(stow, Stow) and run.state.mode is Mode.STOWING
+        decisions = run.arm(ok=False, reason="no_path")
+        assert run.state.stow_failures == attempt
+    assert run.state.finished and "could not stow" in run.state.reason
+    assert decisions == (Finish(run.state.reason),)
+    assert run.tick() == ()
 
 
 def test_stop_and_go_sends_no_prepare_and_always_stows():
