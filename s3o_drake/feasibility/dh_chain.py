@@ -100,11 +100,11 @@ class DHChain:
             z = frames[i + first][..., :3, 2]
             o = frames[i + first][..., :3, 3]
             J[..., :3, i] = z
-            J[..., 3:, i] = _cross(z, p - o)
+            J[..., 3:, i] = cross(z, p - o)
         return R, p, J
 
 
-def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """u x v over the last axis: `np.cross` without its per-call axis handling, which
     dominated Newton steps on a few configurations."""
     return np.stack([u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1],

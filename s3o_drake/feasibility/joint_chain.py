@@ -21,6 +21,8 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame, ModelInstanceIndex, RevoluteJoint, WeldJoint
 
+from s3o_drake.feasibility.dh_chain import cross
+
 
 @dataclass(frozen=True, eq=False)
 class JointChain:
@@ -116,7 +118,7 @@ class JointChain:
             z = frames[i][..., :3, :3] @ self.axes[i]
             o = frames[i][..., :3, 3]
             J[..., :3, i] = z
-            J[..., 3:, i] = np.cross(z, p - o)
+            J[..., 3:, i] = cross(z, p - o)
         return R, p, J
 
 
