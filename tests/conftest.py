@@ -70,6 +70,25 @@ def still_clock() -> float:
     the one that no budget cuts, on any machine."""
     return 0.0
 
+@pytest.fixture(scope="session")
+def _meshcat_server():
+    """The test process's one Meshcat, made on its main thread and kept to its end: Drake
+    aborts when a Meshcat is destroyed on another thread, and one held in a test diagram's
+    reference cycles would be freed on whichever thread the garbage collector runs next
+    (as `commands.common.start_meshcat` keeps the commands' server)."""
+    from pydrake.geometry import Meshcat
+
+    return Meshcat()
+
+
+@pytest.fixture
+def meshcat(_meshcat_server):
+    """The process's Meshcat, emptied of what an earlier test drew."""
+    _meshcat_server.Delete()
+    _meshcat_server.DeleteRecording()
+    return _meshcat_server
+
+
 @pytest.fixture(scope="module")
 def scenario() -> Scenario:
     """scenarios/small/two_dishes.yaml: a table (x 1.4..2.6, y 2.1..2.9, top at 0.75 m)

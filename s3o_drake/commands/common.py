@@ -2,6 +2,7 @@
 the scenario files read for a command, and the Meshcat it starts."""
 
 import argparse
+import functools
 import os
 import subprocess
 import sys
@@ -109,8 +110,24 @@ def read_base(path: str | Path) -> "Scenario":
 
 def start_meshcat(host: str = MESHCAT_HOST) -> "Meshcat":
     """A Meshcat server that listens on `host` only (by default localhost: the live view
-    and the recording are not served to the network); a host it cannot listen on is one
-    line (--host) and exit status 2."""
+    and the recording are not served to the network), emptied of what an earlier run of
+    this process showed; a host it cannot listen on is one line (--host) and exit status 2.
+
+    One server per host, kept until the process ends. Drake aborts the process when a
+    Meshcat is destroyed on another thread than the one that made it, and a finished run's
+    diagram holds its Meshcat in reference cycles that the garbage collector frees on
+    whichever thread it runs next (clingo's search calls Python on its own): a server never
+    freed cannot be freed on the wrong thread."""
+    meshcat = _meshcat_server(host)
+    meshcat.Delete()
+    meshcat.DeleteAddedControls()
+    meshcat.DeleteRecording()
+    return meshcat
+
+
+@functools.cache
+def _meshcat_server(host: str) -> "Meshcat":
+    """The process's Meshcat server on `host` (`start_meshcat`); a failure is not kept."""
     from pydrake.geometry import Meshcat, MeshcatParams
 
     try:

@@ -1,5 +1,8 @@
 """The commands' Meshcat listens on localhost unless --host says otherwise."""
 
+import subprocess
+import sys
+import textwrap
 from pathlib import Path
 
 import pytest
@@ -40,3 +43,38 @@ def test_an_address_it_cannot_listen_on_is_one_line_and_status_2(capsys):
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert err.startswith("error: --host: ") and err.count("\n") == 1
+
+
+def test_every_run_of_a_process_gets_its_one_server_empty():
+    from pydrake.geometry import Rgba, Sphere
+
+    first = start_meshcat()
+    first.SetObject("earlier_run", Sphere(0.1), Rgba(1, 0, 0, 1))  # where runs draw: /drake
+    assert first.HasPath("earlier_run")
+    again = start_meshcat()
+    assert again is first
+    assert not again.HasPath("earlier_run")
+
+
+def test_a_server_held_in_a_finished_runs_cycles_survives_a_gc_on_another_thread():
+    """Drake aborts when a Meshcat is destroyed on another thread than its maker's; the
+    garbage collector may free a finished run's cycles on any thread (clingo's search runs
+    Python on its own). In a child process: an abort would end it with SIGABRT."""
+    child = textwrap.dedent("""
+        import gc, threading
+        from s3o_drake.commands.common import start_meshcat
+
+        class Run:  # a finished run's diagram: it holds the server in a cycle
+            pass
+        run = Run()
+        run.meshcat, run.itself = start_meshcat(), run
+        del run
+        collector = threading.Thread(target=gc.collect)
+        collector.start()
+        collector.join()
+        print("alive")
+        """)
+    done = subprocess.run([sys.executable, "-c", child], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr[-500:]
+    assert done.stdout.strip() == "alive"

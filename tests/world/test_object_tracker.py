@@ -9,7 +9,6 @@ import re
 
 import numpy as np
 import pytest
-from pydrake.geometry import Meshcat
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.analysis import Simulator
@@ -286,8 +285,7 @@ def _world_with_robot_held(scenario, grip: GripEvent, meshcat=None):
     return world, simulator, world_context
 
 
-def test_world_with_tracked_dishes_sees_them_on_the_tables(scenario):
-    meshcat = Meshcat()
+def test_world_with_tracked_dishes_sees_them_on_the_tables(scenario, meshcat):
     world, simulator, world_context = _world_with_robot_held(scenario, GripEvent(), meshcat)
     plant = world.GetSubsystemByName("plant")
     assert not any(plant.HasModelInstanceNamed(d.name) for d in scenario.dishes)

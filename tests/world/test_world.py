@@ -4,7 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pydrake.geometry import Meshcat, Role
+from pydrake.geometry import Role
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.planning import RobotDiagramBuilder
@@ -203,12 +203,11 @@ def test_gravity_acts_on_the_robot_and_its_actuators_carry_it():
     np.testing.assert_allclose(plant.GetPositions(plant_context), level[:11], atol=1e-3)
 
 
-def test_meshcat_gets_drakes_visualizers_as_the_scenarios_visualization_says():
+def test_meshcat_gets_drakes_visualizers_as_the_scenarios_visualization_says(meshcat):
     """`visualization` (Drake's VisualizationConfig) decides what Meshcat shows: by default
     the illustration (what the playback records), the proximity geometry in a live view
     only; none at all without a Meshcat (the studies' runs)."""
     scenario = load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml")
-    meshcat = Meshcat()
 
     def visualizers(**kwargs) -> set[str]:
         world = build_world_diagram(scenario, **kwargs)
