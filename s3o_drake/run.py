@@ -3,9 +3,7 @@ project's card names it); `s3o run` is the same command."""
 
 import sys
 
-from s3o_drake.commands.common import invoked_as
 from s3o_drake.commands.run_scenario import main
 
 if __name__ == "__main__":
-    invoked_as(["run", *sys.argv[1:]])
     sys.exit(main(prog="python -m s3o_drake.run"))

@@ -202,7 +202,7 @@ def voronoi_partition(known: KnownWorld, *, dishes: Sequence[str] | None = None,
     claim starts after `deadline` (None: none): a planner out of time plans on the cells
     as they are.
     """
-    reach = known.planner.reach if reach is None else reach
+    reach = known.planner.reach_for(known.robot) if reach is None else reach
     by_name = {d.name: d for d in known.dishes}
     names = list(dishes) if dishes is not None else list(by_name)
     p_WO = np.array([by_name[n].position for n in names], dtype=float).reshape(-1, 2)

@@ -13,7 +13,7 @@ import statistics
 import sys
 
 from s3o_drake.commands.common import command_parser, read_scenario
-from s3o_drake.commands.options import add_json, add_tasks, json_store, task_paths
+from s3o_drake.commands.options import add_json, add_tasks, json_store, one_robot, task_paths
 from s3o_drake.world.choices import FEASIBILITY_SOURCES
 
 
@@ -58,8 +58,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="the Fea^m source (default: each task's planner.feasibility)")
     add_json(parser, "task")
     args = parser.parse_args(argv)
-    tasks = [(path.stem, read_scenario(path)) for path in task_paths(args)]
-    store = json_store(args)
+    paths = task_paths(args)
+    tasks = [(path.stem, read_scenario(path)) for path in paths]
+    store = json_store(args, robot=one_robot(zip(paths, (s for _, s in tasks), strict=True)))
     logging.getLogger("drake").setLevel(logging.WARNING)
     rows = []
     for name, scenario in tasks:

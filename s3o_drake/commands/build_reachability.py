@@ -1,12 +1,12 @@
 """Build the arm's inverse reachability map with Drake IK.
 
-    s3o build reachability [--out out/reachability_map.npz] [--workers 2] [--resolution M]
+    s3o build reachability [--robot NAME] [--out out/reachability_map.npz] [--workers 2]
 
 The inverse reachability map stores, per grasp kind, arm configurations on a grid over the
 grasp point's horizontal distance and height from the arm base; the feasibility check
 looks them up in microseconds. The build is deterministic (the same file, whatever
---workers), about 6 minutes on two cores; the shipped map, models/ur5e/reachability_map.npz, is
-replaced only when --out names it.
+--workers), about 6 minutes on two cores; the shipped map, models/NAME/reachability_map.npz,
+is replaced only when --out names it.
 """
 
 import argparse
@@ -16,11 +16,10 @@ from pathlib import Path
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import command_parser, fail
-from s3o_drake.commands.options import add_out, add_quiet, add_workers, out_file
+from s3o_drake.commands.options import add_out, add_quiet, add_robot, add_workers, out_file
 from s3o_drake.world.files import write_atomically
-from s3o_drake.world.resources import REACHABILITY_MAP, REPO_DIR
 
-DEFAULT_OUT = Path("out") / REACHABILITY_MAP.name
+DEFAULT_OUT = Path("out") / "reachability_map.npz"
 """Where the map goes unless --out says otherwise: not over the shipped one."""
 
 
@@ -36,9 +35,10 @@ def _positive(text: str) -> float:
 
 def main(argv: list[str] | None = None) -> int:
     parser = command_parser("build reachability", __doc__)
+    add_robot(parser, "the robot whose arm is mapped")
     add_out(parser, file=True, default=str(DEFAULT_OUT),
-            note=f"the shipped map is replaced only when told: --out "
-                 f"{REACHABILITY_MAP.relative_to(REPO_DIR)}")
+            note="the shipped map is replaced only when told: --out "
+                 "models/NAME/reachability_map.npz")
     add_workers(parser, 2)
     parser.add_argument("--resolution", type=_positive, metavar="M",
                         help="grid step in metres (default: the shipped map's)")
@@ -51,7 +51,6 @@ def main(argv: list[str] | None = None) -> int:
         argv = argv[1:]
     args = parser.parse_args(argv)
     from s3o_drake.feasibility.reachability.build import RESOLUTION, build_map
-    from s3o_drake.world.resources import ROBOT_NAME
     from s3o_drake.world.robot import load_robot
 
     if args.resolution is None:
@@ -59,7 +58,7 @@ def main(argv: list[str] | None = None) -> int:
     if not 0.002 <= args.resolution <= 0.1:
         fail(f"--resolution: must be between 0.002 and 0.1 m, got {args.resolution}")
     out = out_file(args.out)
-    reach_map = build_map(robot=load_robot(ROBOT_NAME), resolution=args.resolution,
+    reach_map = build_map(robot=load_robot(args.robot), resolution=args.resolution,
                           workers=args.workers, progress=not args.quiet)
     data = reach_map.to_bytes()
     out.parent.mkdir(parents=True, exist_ok=True)

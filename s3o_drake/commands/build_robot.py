@@ -2,14 +2,14 @@
 
     s3o build robot NAME [--steps STEP ...] [--workers 2]
 
-Runs, for the robot of models/NAME/ (its robot.yaml and model), each in a process for that
-robot (S3O_ROBOT=NAME), in order:
+Runs, for the robot of models/NAME/ (its robot.yaml and model), each in a process of its
+own, in order:
 
-  reachability    s3o build reachability  -> models/NAME/reachability_map.npz
-  time-model      s3o build time-model    -> models/NAME/time_model.yaml
-  fcn-data        s3o build fcn-data      -> out/NAME/fcn_data, out/NAME/fcn_data_dense
-  fcn             s3o build fcn           -> models/NAME/fcn/
-  oracle-pinning  s3o bench oracle-pinning -> models/NAME/oracle_pinning.json
+  reachability    s3o build reachability --robot NAME  -> models/NAME/reachability_map.npz
+  time-model      s3o build time-model --robot NAME    -> models/NAME/time_model.yaml
+  fcn-data        s3o build fcn-data --robot NAME      -> out/NAME/fcn_data, .../fcn_data_dense
+  fcn             s3o build fcn                        -> models/NAME/fcn/
+  oracle-pinning  s3o bench oracle-pinning --robot NAME -> models/NAME/oracle_pinning.json
 
 and records each finished step in models/NAME/build.json: its command, the checksums of
 what it read and wrote, its time. Run again, it resumes: a step whose command, inputs and
@@ -23,7 +23,6 @@ import datetime
 import fcntl
 import hashlib
 import json
-import os
 import subprocess
 import sys
 import time
@@ -37,7 +36,6 @@ from s3o_drake.world.files import write_atomically
 from s3o_drake.world.resources import (
     REPO_DIR,
     RESTAURANT_DENSE,
-    ROBOT_VARIABLE,
     repo_path,
     robot_dir,
 )
@@ -74,11 +72,13 @@ def plan_steps(name: str, *, workers: int) -> list[Step]:
     reach_map, times = folder / "reachability_map.npz", folder / "time_model.yaml"
     fcn, pinning = folder / "fcn", folder / "oracle_pinning.json"
     w = str(workers)
-    scenes = ("--seed", str(DATA_SEED), "--count", str(DATA_SCENES), "--workers", w, "--quiet")
+    robot = ("--robot", name)
+    scenes = ("--seed", str(DATA_SEED), "--count", str(DATA_SCENES), "--workers", w, "--quiet",
+              *robot)
     return [
-        Step("reachability", ("build", "reachability", "--out", str(reach_map), "--workers", w,
-                              "--quiet"), model, (reach_map,)),
-        Step("time-model", ("build", "time-model", "--out", str(times), "--seed", "0"),
+        Step("reachability", ("build", "reachability", *robot, "--out", str(reach_map),
+                              "--workers", w, "--quiet"), model, (reach_map,)),
+        Step("time-model", ("build", "time-model", *robot, "--out", str(times), "--seed", "0"),
              (*model, reach_map), (times,)),
         Step("fcn-data", ("build", "fcn-data", "--out", str(spacious), *scenes),
              (*model, reach_map), (spacious,)),
@@ -87,8 +87,9 @@ def plan_steps(name: str, *, workers: int) -> list[Step]:
         Step("fcn", ("build", "fcn", "--data", str(spacious), str(dense), "--out", str(fcn),
                      "--seed", "0", "--epochs", str(EPOCHS), "--quiet"), (spacious, dense),
              (fcn,)),
-        Step("oracle-pinning", ("bench", "oracle-pinning", "--json", str(pinning), "--count",
-                                str(PINNING_TASKS)), (*model, reach_map), (pinning,)),
+        Step("oracle-pinning", ("bench", "oracle-pinning", *robot, "--json", str(pinning),
+                                "--count", str(PINNING_TASKS)), (*model, reach_map),
+             (pinning,)),
     ]
 
 
@@ -131,13 +132,12 @@ def is_done(step: Step, manifest: dict) -> bool:
         now["writes"].values())
 
 
-def run_step(name: str, step: Step) -> float:
-    """Runs one step for robot `name`; returns its seconds. A failed step is one line
-    and exit status 2."""
-    env = dict(os.environ, **{ROBOT_VARIABLE: name})
+def run_step(step: Step) -> float:
+    """Runs one step (its arguments name the robot); returns its seconds. A failed step
+    is one line and exit status 2."""
     start = time.perf_counter()
     status = subprocess.call([sys.executable, "-m", "s3o_drake.commands", *step.argv],
-                             env=env, cwd=REPO_DIR)
+                             cwd=REPO_DIR)
     if status != 0:
         fail(f"step {step.name} failed (exit status {status}): s3o {' '.join(step.argv)}")
     return time.perf_counter() - start
@@ -193,7 +193,7 @@ def _build(args) -> int:
                   f"{repo_path(manifest_path)}", flush=True)
             continue
         print(f"[{i}/{len(steps)}] {step.name}: s3o {' '.join(step.argv)}", flush=True)
-        seconds = run_step(args.name, step)
+        seconds = run_step(step)
         manifest["steps"][step.name] = _record(step, seconds)
         write_atomically(manifest_path, json.dumps(manifest, indent=1) + "\n")
         print(f"[{i}/{len(steps)}] {step.name}: {seconds:.0f} s", flush=True)

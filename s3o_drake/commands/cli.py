@@ -12,7 +12,7 @@ import importlib
 import sys
 from dataclasses import dataclass
 
-from s3o_drake.commands.common import DOCS, EXIT_BAD_INPUT, PROG, invoked_as
+from s3o_drake.commands.common import DOCS, EXIT_BAD_INPUT, PROG
 
 
 @dataclass(frozen=True)
@@ -170,7 +170,6 @@ def main(argv: list[str] | None = None) -> int:
     if command is None:
         return _unknown(PROG, args[0], top)
     rest = args[len(command.name.split()):]
-    invoked_as(args)
     status = importlib.import_module(command.module).main(rest)
     return 0 if status is None else int(status)
 

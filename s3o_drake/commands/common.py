@@ -3,8 +3,6 @@ the scenario files read for a command, and the Meshcat it starts."""
 
 import argparse
 import functools
-import os
-import subprocess
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
@@ -21,8 +19,6 @@ DOCS = "docs/commands.md"
 """Where each command's long explanation is: its --help fits a screen."""
 MESHCAT_HOST = "localhost"
 """Where the commands' Meshcat listens: this machine only, unless --host says otherwise."""
-_invocation: list[str] | None = None
-"""The words of the running command and its arguments (`invoked_as`)."""
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -55,45 +51,16 @@ def fail(message: str) -> NoReturn:
     sys.exit(EXIT_BAD_INPUT)
 
 
-def invoked_as(words: list[str]) -> None:
-    """Records the running command as `s3o` would be given it (`run x.yaml --seed 2`), so
-    that `use_robot` can start it again."""
-    global _invocation
-    _invocation = list(words)
-
-
-def use_robot(name: str) -> NoReturn:
-    """Runs the command again for robot `name` and exits with its status.
-
-    A process plans for one robot, whose constants every module read at import
-    (`resources.ROBOT_NAME`); a scenario that names another starts the same command in a
-    process that has it (the environment's S3O_ROBOT set), with the same arguments.
-    """
-    from s3o_drake.world.resources import ROBOT_VARIABLE
-
-    if _invocation is None or os.environ.get(ROBOT_VARIABLE) == name:
-        fail(f"robot.name: {name!r}, but this process plans for another robot; set "
-             f"{ROBOT_VARIABLE}={name}")
-    sys.stdout.flush()
-    sys.stderr.flush()
-    env = dict(os.environ, **{ROBOT_VARIABLE: name})
-    sys.exit(subprocess.call([sys.executable, "-m", "s3o_drake.commands", *_invocation],
-                             env=env))
-
-
 def read_scenario(path: str | Path, option: str = "") -> "Scenario":
     """Loads a scenario file for a command. A bad one (missing, a folder, not YAML, a bad
     field) is one line on stderr naming the file once and the field, and exit status 2
     (`option`, such as "--base", says which argument gave the file). An empty or
-    comment-only file is all defaults. A scenario for another robot runs the command again
-    for it (`use_robot`)."""
+    comment-only file is all defaults."""
     from s3o_drake.world.scenario import load_scenario
-    from s3o_drake.world.scenario_checks import OtherRobotError, ScenarioError
+    from s3o_drake.world.scenario_checks import ScenarioError
 
     try:
         return load_scenario(path)
-    except OtherRobotError as e:
-        use_robot(e.robot)
     except ScenarioError as e:
         fail(f"{option}: {e}" if option else str(e))
 

@@ -17,7 +17,14 @@ from pathlib import Path
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import command_parser, read_scenario, start_meshcat
-from s3o_drake.commands.options import add_json, add_seed, add_tasks, json_store, task_paths
+from s3o_drake.commands.options import (
+    add_json,
+    add_seed,
+    add_tasks,
+    json_store,
+    one_robot,
+    task_paths,
+)
 from s3o_drake.world.choices import FEASIBILITY_SOURCES, Recovery
 
 SOURCES = FEASIBILITY_SOURCES
@@ -51,9 +58,8 @@ def main(argv: list[str] | None = None) -> int:
     add_json(parser, "run")
     args = parser.parse_args(argv)
     tasks = task_paths(args)
-    for path in tasks:
-        read_scenario(path)
-    store = json_store(args, key=row_key)
+    robot = one_robot((path, read_scenario(path)) for path in tasks)
+    store = json_store(args, key=row_key, robot=robot)
     logging.getLogger("drake").setLevel(logging.WARNING)
 
     print(f"{'task':<10} " + "  ".join(f"{s + ' dishes':>13} {s + ' plan s':>12}"

@@ -17,13 +17,14 @@ from s3o_drake.commands.common import command_parser, fail, read_base
 from s3o_drake.commands.options import (
     add_out,
     add_quiet,
+    add_robot,
     add_seed,
     add_workers,
     at_least,
     out_folder,
 )
 from s3o_drake.world.files import write_atomically
-from s3o_drake.world.resources import REPO_DIR, RESTAURANT
+from s3o_drake.world.resources import DEFAULT_ROBOT, REPO_DIR, RESTAURANT
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -38,24 +39,30 @@ def main(argv: list[str] | None = None) -> int:
                              f"{RESTAURANT.relative_to(REPO_DIR)})")
     parser.add_argument("--dishes", type=at_least(1), metavar="N",
                         help="dishes per scene (default: the protocol's 5 to 7)")
+    add_robot(parser, "the robot the oracle labels for", default=None,
+              shown="the base scenario's")
     add_quiet(parser)
     args = parser.parse_args(argv)
-    read_base(args.base)
+    base = read_base(args.base)
+    robot = args.robot or base.robot_value.name
     out = out_folder(args.out)
     from s3o_drake.feasibility.learned.dataset import MANIFEST, build_dataset
 
     manifest = {"seed": args.seed, "base": Path(args.base).resolve().name}
     if args.dishes is not None:  # a folder made without it stays valid
         manifest["dishes"] = args.dishes
+    if robot != DEFAULT_ROBOT:  # the same: folders of the UR5e's scenes name none
+        manifest["robot"] = robot
     if (out / MANIFEST).exists():
         known = json.loads((out / MANIFEST).read_text())
         if known != manifest:
-            fail(f"--seed/--base/--dishes: {out} holds scenes made with {known}, "
+            fail(f"--seed/--base/--dishes/--robot: {out} holds scenes made with {known}, "
                  f"not {manifest}")
     out.mkdir(parents=True, exist_ok=True)
     write_atomically(out / MANIFEST, json.dumps(manifest) + "\n")
     done = build_dataset(out, count=args.count, seed=args.seed, base_path=Path(args.base),
-                         dishes=args.dishes, workers=args.workers, progress=not args.quiet)
+                         dishes=args.dishes, robot=robot, workers=args.workers,
+                         progress=not args.quiet)
     print(f"{done} scenes computed, {args.count - done} already on disk, in {out}")
     return 0
 

@@ -1,9 +1,8 @@
 """Derive the planner's time model from the robot's own motions.
 
-    s3o build time-model [--samples 400] [--seed 0] [--departure-tasks 10]
-                         [--noise-tasks 20] [--workers 1]
+    s3o build time-model [--robot ur5e] [--samples 400] [--seed 0] [--out FILE]
+                         [--departure-tasks 10] [--noise-tasks 20] [--workers 1]
                          [--smooth-only | --departure-only | --noise-only]
-                         [--out out/time_model.yaml]
 
 Plans --samples pickups as the ArmController runs them, from base positions the feasibility
 check accepts near the shipped tasks' dishes; fits candidate models of their duration by the
@@ -35,14 +34,13 @@ import yaml
 # Light imports only: --help and bad arguments answer before Drake loads; the functions
 # import the planner's and the arm's modules where they use them.
 from s3o_drake.commands.common import command_parser, fail
-from s3o_drake.commands.options import add_out, add_seed, at_least, out_file
-from s3o_drake.world.resources import REPO_DIR, TIME_MODEL
+from s3o_drake.commands.options import add_out, add_robot, add_seed, at_least, out_file
 
 if TYPE_CHECKING:
     from s3o_drake.feasibility.check import FeasibilityChecker
     from s3o_drake.planning.time_model import NoiseTerms, PickupModel, TimeModel
 
-DEFAULT_OUT = Path("out") / TIME_MODEL.name
+DEFAULT_OUT = Path("out") / "time_model.yaml"
 """Where the model goes unless --out says otherwise: not over the shipped one."""
 FOLDS = 5
 CANDIDATES_PER_ROUND = 64
@@ -55,14 +53,15 @@ MIN_DISTANCE = 0.3
 BEYOND_REACH = 0.5
 
 
-def sample_pickups(paths: Sequence[Path], samples: int, seed: int, *,
+def sample_pickups(paths: Sequence[Path], samples: int, seed: int, *, robot: str,
                    progress: bool = True) -> list[dict]:
-    """Feasible pickups planned with `plan_pickup` (see the module docstring): one row per
-    planned pickup with the task, dish, kind, distance (m), grasp, outcome and duration (s)."""
+    """Feasible pickups of `robot` planned with `plan_pickup` (see the module docstring):
+    one row per planned pickup with the task, dish, kind, distance (m), grasp, outcome and
+    duration (s)."""
     from s3o_drake.execution.arm.pickup import plan_pickup
     from s3o_drake.feasibility.check import FeasibilityChecker
     from s3o_drake.feasibility.scene import FeasibilityScene
-    from s3o_drake.world.scenario import load_scenario
+    from s3o_drake.world.scenario import load_scenario, with_overrides
 
     rng = np.random.default_rng(seed)
     per_task = math.ceil(samples / len(paths))
@@ -70,7 +69,7 @@ def sample_pickups(paths: Sequence[Path], samples: int, seed: int, *,
     for path in paths:
         if len(rows) >= samples:
             break
-        scenario = load_scenario(path)
+        scenario = with_overrides(load_scenario(path), (f"robot.name={robot}",))
         if not scenario.dishes:
             continue
         scene = FeasibilityScene(scenario.contents)
@@ -78,8 +77,9 @@ def sample_pickups(paths: Sequence[Path], samples: int, seed: int, *,
         order = rng.permutation(len(scenario.dishes))
         for k in range(min(per_task, samples - len(rows))):
             dish = scenario.dishes[int(order[k % len(order)])]
+            reach = scenario.planner.reach_for(scenario.robot_value)
             base = _feasible_base(checker, dish.name, np.asarray(dish.position, float),
-                                  scenario.planner.reach + BEYOND_REACH, rng)
+                                  reach + BEYOND_REACH, rng)
             if base is None:
                 continue
             plan = plan_pickup(scene, checker, base, dish.name,
@@ -240,9 +240,9 @@ def best_fit(rows: list[dict], key: str) -> tuple[PickupModel, dict]:
                                 "max": float(y.max())}}
 
 
-def derive(samples: int, seed: int, command: str, *, progress: bool = True
+def derive(samples: int, seed: int, command: str, *, robot: str, progress: bool = True
            ) -> tuple[TimeModel, list[dict]]:
-    """The time model from `samples` planned pickups (docs/commands.md, "s3o build
+    """`robot`'s time model from `samples` planned pickups (docs/commands.md, "s3o build
     time-model")."""
     from s3o_drake.planning.navigation.base_motion import (
         ACCELERATION,
@@ -261,7 +261,7 @@ def derive(samples: int, seed: int, command: str, *, progress: bool = True
     from s3o_drake.world.robot import CONTROL_PERIOD
 
     paths = [RESTAURANT, *shipped_tasks()]
-    rows = sample_pickups(paths, samples, seed, progress=progress)
+    rows = sample_pickups(paths, samples, seed, robot=robot, progress=progress)
     good = [r for r in rows if r["ok"]]
     if len(good) < 2 * FOLDS:
         raise RuntimeError(f"only {len(good)} pickups could be planned; need {2 * FOLDS}")
@@ -305,7 +305,7 @@ def derive(samples: int, seed: int, command: str, *, progress: bool = True
                      provenance=provenance, fit=fit_info, smooth=smooth), rows
 
 
-def measure_departure(model_path: Path, tasks: Sequence[Path], *, seed: int,
+def measure_departure(model_path: Path, tasks: Sequence[Path], *, seed: int, robot: str,
                       progress: bool = True) -> tuple[float, list[dict]]:
     """The base's wait for the arm when it leaves a stop, with smooth motion: the median over
     `tasks` (planned with S3O-GROP* on the model at `model_path`, whose departure is 0, and
@@ -317,7 +317,8 @@ def measure_departure(model_path: Path, tasks: Sequence[Path], *, seed: int,
     runs, waits = [], []
     for path in tasks:
         scenario = as_benchmarked(with_overrides(load_scenario(path), (
-            "execution.motion=smooth", f"planner.time_model={model_path}")))
+            "execution.motion=smooth", f"planner.time_model={model_path}",
+            f"robot.name={robot}")))
         row = measure(path.stem, scenario, method="S3O-GROP*", seed=seed, noise=False)
         n = row["departures"]
         runs.append(row)
@@ -359,7 +360,7 @@ def noise_terms(pairs: Sequence[tuple[dict, dict]]) -> tuple[float, float, dict]
 
 
 def measure_noise(model_path: Path, tasks: Sequence[Path], motion: str, *, seed: int,
-                  workers: int = 1, progress: bool = True) -> NoiseTerms:
+                  robot: str, workers: int = 1, progress: bool = True) -> NoiseTerms:
     """`NoiseTerms` of `motion`: `tasks` planned with S3O-GROP* on the model at `model_path`
     and executed with the noise off and on (`noise_terms`), at the scenarios' noise."""
     from s3o_drake.commands.time_benchmark import local_pool, measure_job
@@ -371,7 +372,8 @@ def measure_noise(model_path: Path, tasks: Sequence[Path], motion: str, *, seed:
     jobs, noise = [], None
     for path in tasks:
         scenario = as_benchmarked(with_overrides(load_scenario(path), (
-            f"execution.motion={motion}", f"planner.time_model={model_path}")))
+            f"execution.motion={motion}", f"planner.time_model={model_path}",
+            f"robot.name={robot}")))
         at = {name: float(getattr(scenario.uncertainty, name)) for name in NOISE_FIELDS}
         if noise is not None and at != noise:
             raise ValueError(f"{path}: its noise {at} is not the other tasks' {noise}")
@@ -444,14 +446,16 @@ def main(argv: list[str] | None = None) -> int:
                       help="keep every term of the model at --out but the noise's; measure "
                            "them again")
     add_seed(parser, 0, "seed of the draws")
+    add_robot(parser, "the robot timed")
     add_out(parser, file=True, default=str(DEFAULT_OUT),
-            note=f"the shipped model is replaced only when told: --out "
-                 f"{TIME_MODEL.relative_to(REPO_DIR)}")
+            note="the shipped model is replaced only when told: --out "
+                 "models/NAME/time_model.yaml")
     args = parser.parse_args(argv)
     out = out_file(args.out)
     logging.getLogger("drake").setLevel(logging.WARNING)
-    command = (f"s3o build time-model --samples {args.samples} --seed {args.seed} "
-               f"--departure-tasks {args.departure_tasks} --noise-tasks {args.noise_tasks}")
+    command = (f"s3o build time-model --robot {args.robot} --samples {args.samples} "
+               f"--seed {args.seed} --departure-tasks {args.departure_tasks} "
+               f"--noise-tasks {args.noise_tasks}")
     from s3o_drake.planning.time_model import TimeModel
 
     kept = None
@@ -471,7 +475,7 @@ def main(argv: list[str] | None = None) -> int:
     elif args.noise_only:
         model, rows = kept, []
     else:
-        model, rows = derive(args.samples, args.seed, command)
+        model, rows = derive(args.samples, args.seed, command, robot=args.robot)
     if kept is not None and args.smooth_only:
         model = dataclasses.replace(kept, smooth=dataclasses.replace(
             model.smooth, fit={**model.smooth.fit, "command": command + " --smooth-only"}))
@@ -481,7 +485,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args.noise_only:
         write_model(model, out)
         tasks = list(shipped_tasks())[:args.departure_tasks]
-        wait, runs = measure_departure(out.resolve(), tasks, seed=args.seed)
+        wait, runs = measure_departure(out.resolve(), tasks, seed=args.seed, robot=args.robot)
         model = dataclasses.replace(model, smooth=dataclasses.replace(
             model.smooth, departure=wait, fit={**model.smooth.fit, "departure_measured": {
                 "command": command + (" --departure-only" if args.departure_only else ""),
@@ -498,7 +502,7 @@ def main(argv: list[str] | None = None) -> int:
     tasks = list(shipped_tasks())[-args.noise_tasks:]
     noise = {}
     for motion in Motion:
-        terms = measure_noise(out.resolve(), tasks, motion.value, seed=args.seed,
+        terms = measure_noise(out.resolve(), tasks, motion.value, seed=args.seed, robot=args.robot,
                               workers=args.workers)
         noise[motion.value] = dataclasses.replace(terms, fit={
             "command": command + (" --noise-only" if args.noise_only else ""), **terms.fit})

@@ -30,6 +30,7 @@ from s3o_drake.commands.options import (
     add_seeds,
     add_tasks,
     add_workers,
+    one_robot,
     out_folder,
     task_paths,
     with_overrides_or_fail,
@@ -110,11 +111,14 @@ def _study_settings(args, argv: list[str]) -> None:
         args.overrides = list(settings.get("overrides", []))
 
 
-def _validate(args: argparse.Namespace) -> tuple[list[Path], list[str]]:
+def _validate(args: argparse.Namespace) -> tuple[list[Path], list[str], str]:
+    """The tasks, the methods and the robot of the study (one: a study's rows are one
+    robot's); a bad argument is one line and exit status 2."""
     paths = task_paths(args)
-    for path in paths:
-        scenario = read_scenario(path)
-    scenario = with_overrides_or_fail(scenario, args.overrides)
+    tasks = [(path, with_overrides_or_fail(read_scenario(path), args.overrides))
+             for path in paths]
+    robot = one_robot(tasks)
+    scenario = tasks[-1][1]
     from s3o_drake.planning.robot_files import missing_robot_files
 
     missing = missing_robot_files(dataclasses.replace(
@@ -147,7 +151,7 @@ def _validate(args: argparse.Namespace) -> tuple[list[Path], list[str]]:
     if args.scheduler is not None and not SCHEDULER.match(args.scheduler):
         fail(f"--scheduler: expected an address like tcp://HOST:PORT, got {args.scheduler!r}")
     out_folder(args.out)
-    return paths, methods
+    return paths, methods, robot
 
 
 def study_jobs(paths: list[Path], methods: list[str], seeds: int,
@@ -177,7 +181,7 @@ def _cannot_write(error: OSError, then: str) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     _study_settings(args, sys.argv[1:] if argv is None else argv)
-    paths, methods = _validate(args)
+    paths, methods, robot = _validate(args)
     from s3o_drake.experiments.difficulty import GROUPS, difficulty_groups
     from s3o_drake.experiments.scheduler import ClusterError, check_cluster, run_jobs
 
@@ -199,8 +203,9 @@ def main(argv: list[str] | None = None) -> int:
     difficulty_jobs, run_job_list = study_jobs(paths, methods, args.seeds, args.recovery,
                                                  tuple(args.overrides))
     try:
-        difficulty_store = ResultStore(out / "difficulty.jsonl", read_only=args.summarize)
-        store = ResultStore(out / "results.jsonl", read_only=args.summarize)
+        difficulty_store = ResultStore(out / "difficulty.jsonl", robot=robot,
+                                       read_only=args.summarize)
+        store = ResultStore(out / "results.jsonl", robot=robot, read_only=args.summarize)
     except OtherRobotRowsError as e:
         fail(f"--out: {e}")
     before: dict[str, dict] = {}

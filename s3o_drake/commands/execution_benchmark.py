@@ -15,7 +15,14 @@ from pathlib import Path
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import command_parser, read_scenario, start_meshcat
-from s3o_drake.commands.options import add_json, add_seeds, add_tasks, json_store, task_paths
+from s3o_drake.commands.options import (
+    add_json,
+    add_seeds,
+    add_tasks,
+    json_store,
+    one_robot,
+    task_paths,
+)
 from s3o_drake.world.resources import RESTAURANT
 
 RATE_TARGET = 10.0
@@ -54,9 +61,8 @@ def main(argv: list[str] | None = None) -> int:
     add_json(parser, "run")
     args = parser.parse_args(argv)
     paths = task_paths(args)
-    for path in paths:
-        read_scenario(path)
-    store = json_store(args, key=row_key)
+    robot = one_robot((path, read_scenario(path)) for path in paths)
+    store = json_store(args, key=row_key, robot=robot)
     logging.getLogger("drake").setLevel(logging.WARNING)
 
     print(f"{'scenario':<16} {'seed':>4} {'dishes':>7} {'exec s':>7} {'wall s':>7} "

@@ -20,6 +20,7 @@ from s3o_drake.commands.options import (
     add_studies,
     out_file,
     study_folders,
+    study_robot,
     write_record,
 )
 
@@ -61,10 +62,9 @@ def main(argv: list[str] | None = None) -> int:
     folders = study_folders(args)
     from s3o_drake.experiments.store import ResultStore
     from s3o_drake.planning.failure_price import FailurePrice, derive_price
-    from s3o_drake.world.resources import ROBOT_NAME
     from s3o_drake.world.robot import load_robot
 
-    out = out_file(args.out) if args.out else load_robot(ROBOT_NAME).files.failure_price
+    out = out_file(args.out) if args.out else load_robot(study_robot(folders)).files.failure_price
     everything, per_study, codes = [], {}, Counter()
     for folder in folders:
         rows = ResultStore(folder / "results.jsonl", read_only=True).rows()

@@ -28,16 +28,15 @@ from s3o_drake.commands.options import (
     add_tasks,
     at_least,
     json_file,
+    one_robot,
     out_folder,
     task_paths,
 )
 from s3o_drake.world.files import write_atomically
-from s3o_drake.world.resources import FCN_WEIGHTS, REPO_DIR
 
 if TYPE_CHECKING:
     from s3o_drake.feasibility.oracle import Heatmap
 
-WEIGHTS = FCN_WEIGHTS
 REPEATS = 5
 """FCN timings are the median of this many runs (an oracle heatmap is timed once)."""
 TARGETS = {"mae": 0.06, "auroc": 0.95, "speed_ratio": 100.0}
@@ -71,8 +70,8 @@ def save_picture(path: Path, inputs: np.ndarray, predicted: Heatmap, oracle: Hea
 def main(argv: list[str] | None = None) -> int:
     parser = command_parser("bench fcn", __doc__)
     add_tasks(parser, count=10)
-    parser.add_argument("--weights", metavar="PT", default=str(WEIGHTS),
-                        help=f"checkpoint (default {WEIGHTS.relative_to(REPO_DIR)})")
+    parser.add_argument("--weights", metavar="PT",
+                        help="checkpoint (default the tasks' robot's: models/NAME/fcn/fcn.pt)")
     parser.add_argument("--pictures", metavar="DIR", help="write side-by-side pictures here")
     parser.add_argument("--picture-count", type=at_least(0), default=4, metavar="N",
                         help="dishes to picture (default 4)")
@@ -82,7 +81,13 @@ def main(argv: list[str] | None = None) -> int:
     add_quiet(parser)
     args = parser.parse_args(argv)
     tasks = task_paths(args)
+    scenarios = [(path.stem, read_scenario(path)) for path in tasks]
     json_path = json_file(args)
+    from s3o_drake.world.robot import load_robot
+
+    robot = load_robot(one_robot(zip(tasks, (s for _, s in scenarios), strict=True)))
+    if args.weights is None:
+        args.weights = str(robot.files.fcn_weights)
     if not Path(args.weights).is_file():
         fail(f"--weights: no such file {args.weights}")
     pictures = out_folder(args.pictures, "--pictures") if args.pictures else None
@@ -99,15 +104,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     from s3o_drake.feasibility.oracle_cache import bypassed
     from s3o_drake.feasibility.reachability.map import ReachabilityMap
-    from s3o_drake.world.resources import ROBOT_NAME
-    from s3o_drake.world.robot import load_robot
-
-    robot = load_robot(ROBOT_NAME)  # the scenarios' (`read_scenario`)
     try:
         fcn = FcnFeasibility.load(Path(args.weights), robot=robot)
     except Exception as e:  # a corrupt or foreign file: say so in one line
         fail(f"--weights: cannot load {args.weights}: {e}")
-    scenarios = [(path.stem, read_scenario(path)) for path in tasks]
 
     logging.getLogger("drake").setLevel(logging.WARNING)
     torch.set_num_threads(args.threads)

@@ -26,6 +26,7 @@ from s3o_drake.commands.options import (
     add_tasks,
     at_least,
     json_store,
+    one_robot,
     task_paths,
 )
 from s3o_drake.world.resources import repo_path
@@ -118,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     paths = task_paths(args)
     scenarios = [read_scenario(path) for path in paths]  # a bad task: one line, no work
-    store = json_store(args, key=row_key)
+    store = json_store(args, key=row_key, robot=one_robot(zip(paths, scenarios, strict=True)))
 
     import logging
 

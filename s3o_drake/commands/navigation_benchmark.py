@@ -48,7 +48,7 @@ def benchmark(known: KnownWorld, *, queries: int = 2000, seed: int = 0) -> dict[
     build = time.perf_counter() - t0
     free = free_space(known)
     dishes = np.array([d.position for d in known.dishes], float).reshape(-1, 2)
-    near = unary_union([Point(*d).buffer(known.planner.reach) for d in dishes]) \
+    near = unary_union([Point(*d).buffer(known.planner.reach_for(known.robot)) for d in dishes]) \
         if len(dishes) else nav.room
     region = free.intersection(near)
     x0, y0, x1, y1 = region.bounds

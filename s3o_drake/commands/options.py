@@ -20,13 +20,13 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from s3o_drake.commands.common import fail, use_robot
+from s3o_drake.commands.common import fail
 from s3o_drake.world.choices import METHODS
-from s3o_drake.world.resources import TASKS_DIR, repo_path
+from s3o_drake.world.resources import DEFAULT_ROBOT, TASKS_DIR, repo_path
 
 if TYPE_CHECKING:
     from s3o_drake.experiments.store import ResultStore
@@ -121,6 +121,26 @@ def add_seeds(parser: argparse.ArgumentParser, default: int) -> None:
                         help=f"seeds 0 to N-1 (default {default})")
 
 
+def robot_name(text: str) -> str:
+    """An argparse type: a shipped robot's name (a folder of models/ with its robot.yaml;
+    the description is read and checked where the robot is loaded, after the arguments)."""
+    from s3o_drake.world.resources import DESCRIPTION_FILE, robot_dir
+
+    if not text or "/" in text or not (robot_dir(text) / DESCRIPTION_FILE).is_file():
+        raise argparse.ArgumentTypeError(f"no robot named {text!r} (no models/{text}/"
+                                         f"{DESCRIPTION_FILE})")
+    return text
+
+
+def add_robot(parser: argparse.ArgumentParser, what: str = "the robot",
+              default: str | None = DEFAULT_ROBOT, shown: str | None = None) -> None:
+    """--robot NAME: for a command that works for a robot rather than on a scenario's
+    (`default` None: the command's scenario's, as `shown` says)."""
+    parser.add_argument("--robot", type=robot_name, default=default, metavar="NAME",
+                        help=f"{what}: a folder of models/ with its robot.yaml (default "
+                             f"{shown or default})")
+
+
 def add_workers(parser: argparse.ArgumentParser, default: int,
                 what: str = "worker processes") -> None:
     parser.add_argument("--workers", type=at_least(1), default=default, metavar="N",
@@ -143,12 +163,10 @@ def with_overrides_or_fail(scenario: Scenario, overrides: Sequence[str]) -> Scen
     if not overrides:
         return scenario
     from s3o_drake.world.scenario import with_overrides
-    from s3o_drake.world.scenario_checks import OtherRobotError, ScenarioError
+    from s3o_drake.world.scenario_checks import ScenarioError
 
     try:
         return with_overrides(scenario, overrides)
-    except OtherRobotError as e:
-        use_robot(e.robot)
     except ScenarioError as e:
         fail(str(e) if str(e).startswith("--set") else f"--set {e}")
 
@@ -216,10 +234,25 @@ def json_file(args: argparse.Namespace) -> Path | None:
     return path
 
 
-def json_store(args: argparse.Namespace,
-               key: Callable[[dict], str] | None = None) -> ResultStore | None:
-    """The result store of --json (None without it), emptied first with --fresh. `key`
-    keys the lines written before the command used the store."""
+def one_robot(scenarios: Iterable[tuple[Path, Scenario]], option: str = "--tasks") -> str:
+    """The robot that every scenario (with the file it came from) is for; scenarios for two
+    robots are one line naming `option` and exit status 2 (a result file holds one robot's
+    rows)."""
+    robots: dict[str, Path] = {}
+    for path, scenario in scenarios:
+        robots.setdefault(scenario.robot_value.name, path)
+    if len(robots) > 1:
+        (a, path_a), (b, path_b) = list(robots.items())[:2]
+        fail(f"{option}: {path_a} is for robot {a!r} and {path_b} for {b!r}: one command "
+             "runs one robot")
+    return next(iter(robots), DEFAULT_ROBOT)
+
+
+def json_store(args: argparse.Namespace, key: Callable[[dict], str] | None = None, *,
+               robot: str = DEFAULT_ROBOT) -> ResultStore | None:
+    """The result store of --json (None without it), emptied first with --fresh, for the
+    rows of `robot`'s runs. `key` keys the lines written before the command used the
+    store."""
     path = json_file(args)
     if path is None:
         return None
@@ -227,7 +260,23 @@ def json_store(args: argparse.Namespace,
 
     if getattr(args, "fresh", False):
         path.unlink(missing_ok=True)
-    return ResultStore(path, key=key)
+    return ResultStore(path, robot=robot, key=key)
+
+
+def study_robot(folders: Sequence[Path]) -> str:
+    """The robot whose runs the study folders hold (their rows say; one robot, or one line
+    naming DIR and exit status 2)."""
+    from s3o_drake.experiments.store import ResultStore, robot_of
+
+    robots: dict[str, Path] = {}
+    for folder in folders:
+        for row in ResultStore(folder / "results.jsonl", read_only=True).rows():
+            robots.setdefault(robot_of(row), folder)
+    if len(robots) > 1:
+        (a, folder_a), (b, folder_b) = list(robots.items())[:2]
+        fail(f"DIR: {folder_a} holds runs of robot {a!r} and {folder_b} of {b!r}: the "
+             "studies must be one robot's")
+    return next(iter(robots), DEFAULT_ROBOT)
 
 
 def add_studies(parser: argparse.ArgumentParser, text: str) -> None:

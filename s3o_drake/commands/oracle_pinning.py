@@ -21,11 +21,13 @@ import numpy as np
 from s3o_drake.commands.common import command_parser, read_scenario
 from s3o_drake.commands.options import (
     add_json,
+    add_robot,
     add_seed,
     add_tasks,
     at_least,
     json_file,
     task_paths,
+    with_overrides_or_fail,
 )
 from s3o_drake.world.angles import facing_yaw
 
@@ -135,9 +137,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--positions", type=at_least(0), default=20, metavar="N",
                         help="positions per task for the expectation comparison (default 20)")
     add_seed(parser, 0, "seed of the sampling")
+    add_robot(parser, "the robot of the tasks", default=None, shown="each task's")
     add_json(parser, None)
     args = parser.parse_args(argv)
     tasks = [(path.stem, read_scenario(path)) for path in task_paths(args)]
+    if args.robot is not None:
+        tasks = [(name, with_overrides_or_fail(scenario, [f"robot.name={args.robot}"]))
+                 for name, scenario in tasks]
     json_path = json_file(args)
     from tqdm import tqdm
 

@@ -22,13 +22,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 # Light imports only: --help and bad arguments answer before Drake loads.
-from s3o_drake.commands.common import command_parser
+from s3o_drake.commands.common import command_parser, read_scenario
 from s3o_drake.commands.options import (
     add_json,
     add_seed,
     add_tasks,
     at_least,
     json_file,
+    one_robot,
     task_paths,
 )
 from s3o_drake.world.files import write_atomically
@@ -139,6 +140,7 @@ def main(argv: list[str] | None = None) -> int:
     add_json(parser, None)
     args = parser.parse_args(argv)
     paths = task_paths(args)
+    robot = one_robot((path, read_scenario(path)) for path in paths)
     json_path = json_file(args)
     from tqdm import tqdm
 
@@ -147,14 +149,13 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.feasibility.pickup_geometry import REASONS
     from s3o_drake.feasibility.reachability.map import ReachabilityMap
     from s3o_drake.feasibility.scene import FeasibilityScene
-    from s3o_drake.world.resources import ROBOT_NAME
     from s3o_drake.world.robot import load_robot
     from s3o_drake.world.scenario import load_scenario
 
     logging.getLogger("drake").setLevel(logging.WARNING)
 
     rng = np.random.default_rng(args.seed)
-    rmap = ReachabilityMap.load(robot=load_robot(ROBOT_NAME))
+    rmap = ReachabilityMap.load(robot=load_robot(robot))
     records = []
     with tqdm(total=args.poses, desc="pickups", unit="pose", file=sys.stderr) as bar:
         for k, path in enumerate(paths):

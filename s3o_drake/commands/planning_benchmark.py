@@ -28,6 +28,7 @@ from s3o_drake.commands.options import (
     add_workers,
     at_least,
     json_store,
+    one_robot,
     task_paths,
 )
 
@@ -145,19 +146,20 @@ def main(argv: list[str] | None = None) -> int:
                         help="sample multiplier of the long run (default 10)")
     add_json(parser, "task")
     args = parser.parse_args(argv)
-    scenarios = [(path.stem, read_scenario(path)) for path in task_paths(args)]
-    store = json_store(args, key=row_key)
+    paths = task_paths(args)
+    scenarios = [(path.stem, read_scenario(path)) for path in paths]
+    robot = one_robot(zip(paths, (s for _, s in scenarios), strict=True))
+    store = json_store(args, key=row_key, robot=robot)
     settings = {"method": args.method, "seed": args.seed, "workers": args.workers,
                 "factor": args.factor}
     done = {name: store.get(row_key({"task": name, **settings})) for name, _ in scenarios
             if store is not None and store.finished(row_key({"task": name, **settings}))}
 
     from s3o_drake.feasibility.reachability.map import ReachabilityMap
-    from s3o_drake.world.resources import ROBOT_NAME
     from s3o_drake.world.robot import load_robot
 
     start = time.perf_counter()
-    ReachabilityMap.shared(robot=load_robot(ROBOT_NAME)).prepare_all()
+    ReachabilityMap.shared(robot=load_robot(robot)).prepare_all()
     startup = time.perf_counter() - start
     print(f"{args.method}, seed {args.seed}, {args.workers} workers, long run x{args.factor}; "
           f"times in s; one-time start-up (reachability map) {startup:.2f} s"

@@ -14,7 +14,14 @@ import numpy as np
 
 # Light imports only: --help and bad arguments answer before Drake loads.
 from s3o_drake.commands.common import command_parser, fail, read_scenario
-from s3o_drake.commands.options import add_quiet, add_seed, add_tasks, at_least, task_paths
+from s3o_drake.commands.options import (
+    add_quiet,
+    add_seed,
+    add_tasks,
+    at_least,
+    one_robot,
+    task_paths,
+)
 from s3o_drake.world.resources import RESTAURANT
 
 
@@ -39,12 +46,11 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.experiments.reachability_agreement import Agreement, measure, sample_queries
     from s3o_drake.feasibility.reachability.map import ReachabilityMap, ReachabilityMapError
     from s3o_drake.feasibility.scene import FeasibilityScene
-    from s3o_drake.world.resources import ROBOT_NAME
     from s3o_drake.world.robot import load_robot
 
+    robot = load_robot(one_robot(zip(paths, scenarios, strict=True)))
     try:
-        # The scenarios' robot (`read_scenario` runs the command again for another).
-        reachability = ReachabilityMap.load(args.map, robot=load_robot(ROBOT_NAME))
+        reachability = ReachabilityMap.load(args.map, robot=robot)
     except (ReachabilityMapError, OSError) as e:
         fail(f"--map: {e}")
     rng = np.random.default_rng(args.seed)

@@ -24,6 +24,7 @@ from s3o_drake.commands.options import (
     add_seed,
     at_least,
     json_store,
+    one_robot,
     seconds,
 )
 from s3o_drake.world.resources import REPO_DIR, repo_path
@@ -125,9 +126,9 @@ def main(argv: list[str] | None = None) -> int:
                  f"with: s3o generate --dishes {size} --chairs 5 --count {args.count} "
                  f"--seed 0 --out {folder})")
         paths += found[:args.count]
-    seeds = {path: read_scenario(path).seed if args.seed is None else args.seed
-             for path in paths}
-    store = json_store(args, key=row_key)
+    scenarios = {path: read_scenario(path) for path in paths}
+    seeds = {path: s.seed if args.seed is None else args.seed for path, s in scenarios.items()}
+    store = json_store(args, key=row_key, robot=one_robot(scenarios.items()))
 
     import logging
 

@@ -21,6 +21,7 @@ from s3o_drake.commands.options import (
     add_studies,
     out_file,
     study_folders,
+    study_robot,
     write_record,
 )
 
@@ -51,10 +52,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     from s3o_drake.experiments.calibration import RecordsError, read_records
     from s3o_drake.experiments.store import ResultStore
-    from s3o_drake.world.resources import ROBOT_NAME
     from s3o_drake.world.robot import load_robot
 
-    out = out_file(args.out) if args.out else load_robot(ROBOT_NAME).files.shared_stop
+    out = out_file(args.out) if args.out else load_robot(study_robot(folders)).files.shared_stop
     everything, per_study, codes = [], {}, Counter()
     for folder in folders:
         rows = [r for r in ResultStore(folder / "results.jsonl", read_only=True).rows()

@@ -36,11 +36,11 @@ from s3o_drake.commands.options import (
     add_tasks,
     add_workers,
     json_store,
+    one_robot,
     task_paths,
     with_overrides_or_fail,
 )
 from s3o_drake.world.choices import COST_PROFILES, Recovery
-from s3o_drake.world.resources import TIME_MODEL
 
 if TYPE_CHECKING:
     from concurrent.futures import ProcessPoolExecutor
@@ -51,7 +51,7 @@ TARGETS = {"off": 0.03, "on": 0.08}
 """Median |predicted - simulated| / simulated allowed, per noise setting."""
 
 
-def model_version(path: Path = TIME_MODEL) -> str:
+def model_version(path: Path) -> str:
     """A short digest of the recorded time model: rows of another model are not reused."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:12]
 
@@ -205,12 +205,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--evaluation", action="store_true",
                         help="measure the CMA-ES evaluation cost per sample instead")
     args = parser.parse_args(argv)
-    tasks = [(path.stem, read_scenario(path)) for path in task_paths(args)]
+    paths = task_paths(args)
+    tasks = [(path.stem, read_scenario(path)) for path in paths]
     if args.cost_profile is not None:
         tasks = [(name, dataclasses.replace(scenario, planner=dataclasses.replace(
             scenario.planner, cost_profile=args.cost_profile))) for name, scenario in tasks]
     tasks = [(name, with_overrides_or_fail(scenario, args.overrides)) for name, scenario in tasks]
-    store = None if args.evaluation else json_store(args)
+    robot = one_robot(zip(paths, (s for _, s in tasks), strict=True))
+    store = None if args.evaluation else json_store(args, robot=robot)
     logging.getLogger("drake").setLevel(logging.WARNING)
 
     if args.evaluation:
@@ -225,7 +227,9 @@ def main(argv: list[str] | None = None) -> int:
               f"{statistics.median(ratios):.2f}x (range {min(ratios):.2f}-{max(ratios):.2f})")
         return 0
 
-    version = model_version()
+    from s3o_drake.world.robot import load_robot
+
+    version = model_version(load_robot(robot).files.time_model)
     changed = "".join(f"|set:{item}" for item in args.overrides)
     runs = [(f"{name}|{args.method}|{seed}|{noise}|{scenario.planner.cost_profile}|{version}"
              f"{changed}", name, scenario, seed, noise)

@@ -16,10 +16,10 @@ from pathlib import Path
 from s3o_drake.commands.common import command_parser, fail
 from s3o_drake.commands.options import add_out, add_quiet, out_folder
 from s3o_drake.feasibility.learned.train_config import TrainConfig
-from s3o_drake.world.resources import FCN_WEIGHTS, repo_path
+from s3o_drake.world.resources import repo_path
 
 DEFAULT_OUT = Path("out") / "fcn"
-"""Where the weights go unless --out says otherwise: not over the shipped models/ur5e/fcn/."""
+"""Where the weights go unless --out says otherwise: not over a shipped models/NAME/fcn/."""
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -27,8 +27,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--data", metavar="DIR", nargs="+", required=True,
                         help="dataset folders (one per layout, say)")
     add_out(parser, file=False, default=str(DEFAULT_OUT),
-            note=f"the shipped weights are replaced only when told: --out "
-                 f"{repo_path(FCN_WEIGHTS.parent)}")
+            note="the shipped weights are replaced only when told: --out "
+                 "models/NAME/fcn")
     defaults = TrainConfig()
     for name, kind, metavar, what in (
             ("seed", int, "N", "seed of the split, the turns and torch"),

@@ -45,7 +45,7 @@ def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0, *,
     dish's last drivable way, which the navigation map alone shows: they then cost no
     collision checker."""
     known = KnownWorld.perfect(scenario)
-    reach = known.planner.reach
+    reach = known.planner.reach_for(known.robot)
     nav = NavigationMap(known.obstacles_grown(chair_margin), robot=known.robot)
     start = nav.way_out(known.pose[:2])
     clear = known.obstacles.free_space(known.robot.inscribed_radius)

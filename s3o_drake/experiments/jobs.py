@@ -127,6 +127,7 @@ def _run(job: Job) -> dict:
             "outcomes": [f"{action} {arg}: {outcome}" for action, arg, outcome in r["outcomes"]],
             "pickups": r["pickups"], "recoveries": r["recoveries"],
             "unreachable": r["unreachable"], "motion": scenario.execution.motion,
+            "robot": scenario.robot_value.name,
             "closest_approach": r["closest_approach"]}
 
 

@@ -14,7 +14,7 @@ can then choose another plan; so can the same code and packages on another proce
 vector instructions numpy and the linear algebra pick their kernels by (seen here: 1 of 40
 runs collected a dish fewer). Rows written before the schema
 was recorded have none and read as they are; rows without a robot are the UR5e's, the only
-robot there was. A store opened to write refuses rows of a robot other than the process's.
+robot there was. A store opened to write is for one robot's rows (`ResultStore(robot=...)`).
 """
 
 import contextlib
@@ -27,7 +27,7 @@ import subprocess
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from s3o_drake.world.resources import DEFAULT_ROBOT, PACKAGE_NAME, REPO_DIR, ROBOT_NAME
+from s3o_drake.world.resources import DEFAULT_ROBOT, PACKAGE_NAME, REPO_DIR
 
 SCHEMA = 1
 """The version of the rows' layout that `append` writes as each row's "schema". Rows
@@ -36,7 +36,7 @@ version 1's, so they read alike."""
 
 
 class OtherRobotRowsError(ValueError):
-    """A store opened to write holds rows of a robot other than the process's."""
+    """A store opened to write holds rows of a robot other than the one it is for."""
 
 
 def robot_of(row: Mapping) -> str:
@@ -117,13 +117,16 @@ def machine_version() -> str:
 class ResultStore:
     """The rows of `path` (JSON lines), by job key; the last row of a key wins."""
 
-    def __init__(self, path: Path, *, read_only: bool = False,
+    def __init__(self, path: Path, *, robot: str = DEFAULT_ROBOT, read_only: bool = False,
                  key: Callable[[dict], str] | None = None) -> None:
-        """`read_only`: never touch the file (another process may be appending to it); a
-        cut-short last line is then only skipped. `key`: the key of a row written without
-        one (a benchmark's file from before it used the store); rows it cannot key
-        (KeyError) are not read."""
+        """`robot`: the robot whose runs the rows are (`append` stamps it); a store opened
+        to write that holds another robot's rows is refused (OtherRobotRowsError): one
+        folder, one robot. `read_only`: never touch the file (another process may be
+        appending to it); a cut-short last line is then only skipped. `key`: the key of a
+        row written without one (a benchmark's file from before it used the store); rows it
+        cannot key (KeyError) are not read."""
         self.path = Path(path)
+        self.robot = robot
         self.read_only = read_only
         self._rows: dict[str, dict] = {}
         if not self.path.exists():
@@ -145,11 +148,11 @@ class ResultStore:
                     row = {"key": key(row), **row}
             if "key" in row:
                 self._rows[row["key"]] = row
-        others = {robot_of(r) for r in self._rows.values()} - {ROBOT_NAME}
+        others = {robot_of(r) for r in self._rows.values()} - {robot}
         if others and not read_only:
             raise OtherRobotRowsError(
-                f"{self.path}: holds runs of robot {', '.join(sorted(others))}, and this "
-                f"process runs {ROBOT_NAME!r}: write to another folder")
+                f"{self.path}: holds runs of robot {', '.join(sorted(others))}, not of "
+                f"{robot!r}: write to another folder")
 
     def rows(self) -> list[dict]:
         return list(self._rows.values())
@@ -173,7 +176,7 @@ class ResultStore:
         if self.read_only:
             raise PermissionError(f"{self.path} was opened read-only")
         row = {"schema": SCHEMA, "code": code_version(), "packages": packages_version(),
-               "machine": machine_version(), "robot": ROBOT_NAME, **row}
+               "machine": machine_version(), "robot": self.robot, **row}
         data = (json.dumps(row, sort_keys=True) + "\n").encode()
         fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
         try:

@@ -1,7 +1,6 @@
 """Where the project's shipped files live (models, scenarios, the diagrams' pictures), and a
 Drake parser that finds the models. Every path to a shipped file is made here."""
 
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -25,12 +24,8 @@ LAYOUTS = {"spacious": (RESTAURANT, TASKS_DIR),
 DIAGRAMS_DIR = REPO_DIR / "diagrams"
 DEFAULT_ROBOT = "ur5e"
 """The robot a scenario names when it names none: its folder under models/."""
-ROBOT_VARIABLE = "S3O_ROBOT"
-"""The environment variable that selects the robot of a process (default: DEFAULT_ROBOT).
-A process plans and executes for one robot, whose constants every module reads at import;
-the commands set it from the scenario's `robot.name` (`commands.common.use_robot`)."""
-ROBOT_NAME = os.environ.get(ROBOT_VARIABLE) or DEFAULT_ROBOT
-"""The robot of this process: its folder under models/."""
+DESCRIPTION_FILE = "robot.yaml"
+"""A robot's description, in its folder under models/ (`world/robot_description.py`)."""
 
 
 def repo_path(path: str | Path) -> str:
@@ -48,13 +43,6 @@ def robot_dir(name: str) -> Path:
     weights)."""
     return MODELS_DIR / name
 
-
-# What was built for this process's robot.
-FCN_WEIGHTS = robot_dir(ROBOT_NAME) / "fcn" / "fcn.pt"
-REACHABILITY_MAP = robot_dir(ROBOT_NAME) / "reachability_map.npz"
-TIME_MODEL = robot_dir(ROBOT_NAME) / "time_model.yaml"
-FAILURE_PRICE = robot_dir(ROBOT_NAME) / "failure_price.yaml"
-SHARED_STOP = robot_dir(ROBOT_NAME) / "shared_stop.yaml"
 
 
 def package_file(url: str) -> Path:

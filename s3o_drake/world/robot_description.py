@@ -18,7 +18,7 @@ from pathlib import Path
 
 from pydrake.common.yaml import yaml_load_typed
 
-from s3o_drake.world.resources import DEFAULT_ROBOT, MODELS_DIR, robot_dir
+from s3o_drake.world.resources import DEFAULT_ROBOT, DESCRIPTION_FILE, MODELS_DIR, robot_dir
 from s3o_drake.world.yaml_checks import FieldError, check_structure, load_yaml
 
 DH_CONVENTIONS = ("standard", "modified")
@@ -28,10 +28,8 @@ IK_FAMILIES = ("ur", "numeric")
 closed-form solutions of the UR family's geometry (three parallel axes between a shoulder
 and a wrist offset; eight branches); "numeric", damped least squares from seeds, for any
 serial arm (a redundant one too)."""
-DESCRIPTION_FILE = "robot.yaml"
 BASE_DRIVES = ("differential", "holonomic")
 """How a base moves: where it faces only, or sideways too (`BaseDescription.drive`)."""
-"""A robot's description, in its folder (`resources.robot_dir`)."""
 
 
 @dataclass

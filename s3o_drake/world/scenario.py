@@ -35,9 +35,9 @@ from pydrake.visualization import VisualizationConfig
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.map import Chair, Map, Room, Table
 from s3o_drake.world.objects import Dish
-from s3o_drake.world.resources import DEFAULT_ROBOT, ROBOT_NAME
+from s3o_drake.world.resources import DEFAULT_ROBOT
 from s3o_drake.world.robot import Robot, load_robot
-from s3o_drake.world.scenario_checks import OtherRobotError, ScenarioError, validate_scenario
+from s3o_drake.world.scenario_checks import ScenarioError, validate_scenario
 from s3o_drake.world.settings import (
     Camera,
     ExecutionSettings,
@@ -154,7 +154,7 @@ def parse_scenario(text: str) -> Scenario:
             raw, text = {}, "{}"
         check_structure(raw, Scenario, "")
         scenario = _older_fields(yaml_load_typed(schema=Scenario, data=text), raw)
-        scenario.robot.name = scenario.robot.name or ROBOT_NAME
+        scenario.robot.name = scenario.robot.name or DEFAULT_ROBOT
     except FieldError as e:
         raise ScenarioError(e.path, e.message) from None
     except (RuntimeError, ValueError) as e:  # the checks should have caught it; keep one line
@@ -204,8 +204,6 @@ def load_scenario(path: str | Path) -> Scenario:
                                             f"offset {e.start})", file=str(path)) from None
     try:
         return parse_scenario(text)
-    except OtherRobotError as e:
-        raise OtherRobotError(e.robot, file=str(path)) from None
     except ScenarioError as e:
         raise ScenarioError(e.path, e.message, file=str(path)) from None
 

@@ -34,7 +34,7 @@ from s3o_drake.world.furniture import (
     dish_footprint,
     table_footprint,
 )
-from s3o_drake.world.resources import ROBOT_NAME, ROBOT_VARIABLE
+from s3o_drake.world.resources import DEFAULT_ROBOT
 from s3o_drake.world.robot import load_robot
 from s3o_drake.world.robot_description import robot_names
 from s3o_drake.world.yaml_checks import quoted
@@ -53,19 +53,6 @@ class ScenarioError(ValueError):
         self.path = path
         self.message = message
         self.file = file
-
-
-class OtherRobotError(ScenarioError):
-    """The scenario names a robot other than this process's (`resources.ROBOT_NAME`), whose
-    constants every module has read: the commands start again for it
-    (`commands.common.use_robot`); Python code sets the variable before importing."""
-
-    def __init__(self, robot: str, file: str = ""):
-        super().__init__("robot.name", f"{robot!r}, but this process plans for {ROBOT_NAME!r} "
-                                       f"(set {ROBOT_VARIABLE}={robot} before importing "
-                                       "s3o_drake; the s3o commands do)", file)
-        self.robot = robot
-
 
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -141,14 +128,11 @@ def room_polygon(scenario: Scenario) -> Polygon:
 
 
 def validate_scenario(scenario: Scenario) -> None:
-    """Raises ScenarioError for the first problem found, naming its field (OtherRobotError when
-    it names a robot other than this process's)."""
-    name = scenario.robot.name or ROBOT_NAME  # a scenario made in code names none
+    """Raises ScenarioError for the first problem found, naming its field."""
+    name = scenario.robot.name or DEFAULT_ROBOT  # a scenario made in code names none
     if name not in robot_names():
         raise ScenarioError("robot.name", f"no robot named {quoted(name)} (known: "
                                           f"{', '.join(robot_names())})")
-    if name != ROBOT_NAME:
-        raise OtherRobotError(name)
     _validate_settings(scenario)
     room = room_polygon(scenario)
     names: dict[str, str] = {}
@@ -298,7 +282,8 @@ def _validate_settings(scenario: Scenario) -> None:
     for name in ("delta", "gamma", "reward"):
         _at_least(getattr(p, name), 0.0, f"planner.{name}")
     for name in ("speed", "reach", "time_budget"):
-        _at_least(getattr(p, name), 0.0, f"planner.{name}", strict=True)
+        if getattr(p, name) is not None:  # no reach: the robot's
+            _at_least(getattr(p, name), 0.0, f"planner.{name}", strict=True)
 
     u = scenario.uncertainty
     for name in ("nav_xy_std", "nav_yaw_std", "reach_std", "localization_xy_std",

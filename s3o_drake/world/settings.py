@@ -5,14 +5,10 @@ YAML (`world/scenario.py`); `Settings` gathers them for what the robot is given 
 """
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-
-def _robot_reach() -> float:
-    """The process's robot's reach (its description's), read when a default is made."""
-    from s3o_drake.world.resources import ROBOT_NAME
-    from s3o_drake.world.robot import load_robot
-
-    return load_robot(ROBOT_NAME).reach
+if TYPE_CHECKING:
+    from s3o_drake.world.robot import Robot
 
 
 @dataclass
@@ -21,8 +17,8 @@ class RobotSection:
 
     name: str = ""
     """Which robot: its folder under models/ (`world/robot_description.py`). A file that
-    names none is for the process's robot (`resources.ROBOT_NAME`: the UR5e unless
-    S3O_ROBOT says otherwise), whose name the loaded scenario then holds."""
+    names none is for the UR5e (`resources.DEFAULT_ROBOT`), whose name the loaded scenario
+    then holds."""
     start: list[float] = field(default_factory=lambda: [1.0, 1.0, 0.0])
     """[x, y, yaw] of the base at the start."""
 
@@ -49,9 +45,9 @@ class PlanningSettings:
     speed: float = 0.4
     """v: the base's cruise speed (m/s): the navigator drives at it, and both cost profiles
     cost navigation with it."""
-    reach: float = field(default_factory=lambda: _robot_reach())
-    """How far from the base centre the robot can pick a dish (m); by default what the
-    robot's description says (the UR5e's 1.0 m, the Panda's 0.9 m)."""
+    reach: float | None = None
+    """How far from the base centre the robot can pick a dish (m); none: what the robot's
+    description says (the UR5e's 1.0 m, the Panda's 0.9 m), as `reach_for` reads it."""
     location_samples: int = 100
     """N: positions drawn from a location to estimate its task-level feasibility."""
     group_positions: str = "shared"
@@ -93,6 +89,11 @@ class PlanningSettings:
     none with the oracle, collected 85% against 64% of the dishes, and planned in 4.9 s
     against 8.5 s (`s3o bench compare-feasibility --count 6`): CMA-ES
     maximising the oracle's 5-sample estimates picks spots that were lucky (docs/fcn.md)."""
+
+    def reach_for(self, robot: "Robot") -> float:
+        """How far from the base centre `robot` can pick a dish (m): `reach`, or where the
+        scenario gives none, the robot's description's."""
+        return robot.reach if self.reach is None else self.reach
 
 
 @dataclass

@@ -110,7 +110,8 @@ def test_dishes_on_opposite_sides_are_never_one_location(opposite_sides):
 def test_cell_areas_add_up_to_the_reachable_free_area(name):
     scenario = load_scenario(SMALL / f"{name}.yaml")
     partition = voronoi_partition(_known(scenario, _chairs(scenario)))
-    discs = unary_union([Point(*d.position).buffer(scenario.planner.reach, quad_segs=32)
+    reach = scenario.planner.reach_for(scenario.robot_value)
+    discs = unary_union([Point(*d.position).buffer(reach, quad_segs=32)
                          for d in scenario.dishes])
     reachable_free = free_space(_known(scenario, _chairs(scenario))).intersection(discs)
     assert reachable_free.area > 0.5

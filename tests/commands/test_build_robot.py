@@ -30,7 +30,7 @@ def ran(monkeypatch):
     """The steps run, by name; each writes its outputs (the same bytes every time)."""
     names = []
 
-    def run_step(name, step):
+    def run_step(step):
         names.append(step.name)
         for path in step.writes:
             if path.suffix:
@@ -52,7 +52,11 @@ def test_every_step_runs_once_in_order_and_is_recorded(robot_folder, ran, capsys
     manifest = json.loads((robot_folder / build_robot.MANIFEST).read_text())
     assert list(manifest["steps"]) == ran
     reach = manifest["steps"]["reachability"]
-    assert reach["command"].startswith("s3o build reachability --out ur5e/reachability_map.npz")
+    assert reach["command"].startswith(
+        "s3o build reachability --robot ur5e --out ur5e/reachability_map.npz")
+    # Each step is told the robot it builds for, but the network's (it reads only data).
+    assert all("--robot ur5e" in step["command"]
+               for name, step in manifest["steps"].items() if name != "fcn")
     assert set(reach["reads"]) == {"ur5e/robot.yaml", "ur5e/mobile_manipulator.urdf"}
     assert all(len(v) == 64 for v in reach["writes"].values())
 

@@ -6,7 +6,7 @@ import types
 import pytest
 
 from s3o_drake.commands import build_reachability, derive_times, train
-from s3o_drake.world.resources import REACHABILITY_MAP
+from s3o_drake.world.robot import load_robot
 
 
 @pytest.mark.parametrize(("command", "argv", "default"), [
@@ -29,10 +29,11 @@ def test_build_writes_under_out_and_leaves_the_shipped_map(tmp_path, monkeypatch
                                  settings={"nodes": 1, "configurations": 1, "build_seconds": 0})
     monkeypatch.setattr(reachability_build, "build_map", lambda **kwargs: fake)
     monkeypatch.chdir(tmp_path)
-    shipped = REACHABILITY_MAP.stat().st_mtime_ns
+    shipped_map = load_robot("ur5e").files.reachability_map
+    shipped = shipped_map.stat().st_mtime_ns
     assert build_reachability.main(["build", "--quiet"]) == 0
     assert (tmp_path / "out" / "reachability_map.npz").read_bytes() == b"map"
-    assert REACHABILITY_MAP.stat().st_mtime_ns == shipped
+    assert shipped_map.stat().st_mtime_ns == shipped
 
 
 def test_a_bad_out_is_one_line_and_writes_nothing(tmp_path, monkeypatch, capsys):

@@ -1,52 +1,67 @@
-"""The scenario's robot.name selects the robot: an unknown one is refused in one line, and a
-command given a scenario for a robot other than its process's runs again for that robot."""
+"""The scenario's robot.name selects the robot, in whatever process: an unknown one is
+refused in one line, and one process plans and executes for two robots what two processes,
+one for each, do."""
 
+import json
 import subprocess
 import sys
 
 import pytest
 
-from s3o_drake.commands import cli, common
-from s3o_drake.world import scenario_checks
-from s3o_drake.world.resources import RESTAURANT, ROBOT_NAME, ROBOT_VARIABLE
-from s3o_drake.world.scenario import parse_scenario
-from s3o_drake.world.scenario_checks import OtherRobotError, ScenarioError
+from s3o_drake.world.resources import DEFAULT_ROBOT, REPO_DIR, RESTAURANT, SCENARIOS_DIR
+from s3o_drake.world.scenario import load_scenario, parse_scenario, with_overrides
+from s3o_drake.world.scenario_checks import ScenarioError
+
+SHORT = ("planner.cma_generations=4", "planner.cma_population=6", "execution.recovery=none")
+"""A short run: a small search, open loop."""
+SAME = ("dishes", "collected", "completed", "execution_time", "finished", "reason",
+        "outcomes", "outcome_times", "pickups", "unreachable", "closest_approach",
+        "simulated_time")
+"""What a run's report says of the plan and the execution (not its wall-clock timings)."""
 
 
 def test_a_scenario_names_its_robot_and_an_unknown_one_is_refused():
-    assert parse_scenario(RESTAURANT.read_text()).robot.name == ROBOT_NAME == "ur5e"
+    assert parse_scenario(RESTAURANT.read_text()).robot.name == DEFAULT_ROBOT == "ur5e"
+    assert parse_scenario("robot: {name: panda}").robot_value.name == "panda"
     with pytest.raises(ScenarioError, match=r"^robot.name: no robot named 'r2d2' \(known: "
                                             r".*ur5e"):
         parse_scenario("robot: {name: r2d2}")
 
 
-def test_a_command_runs_again_for_the_robot_its_scenario_names(monkeypatch, capsys, tmp_path):
-    # This process plans for a robot named "other"; the scenario names the UR5e.
-    monkeypatch.setattr(scenario_checks, "ROBOT_NAME", "other")
-    monkeypatch.delenv(ROBOT_VARIABLE, raising=False)
-    with pytest.raises(OtherRobotError) as error:
-        parse_scenario(RESTAURANT.read_text())
-    assert error.value.path == "robot.name" and error.value.robot == "ur5e"
-    calls = []
+def short_run(robot: str) -> dict:
+    """The report of a short run of one dish of two_dishes.yaml for `robot`, seed 0."""
+    import dataclasses
 
-    def call(argv, env):
-        calls.append((argv, env[ROBOT_VARIABLE]))
-        return 3
+    from s3o_drake.execution.execute import execute
 
-    monkeypatch.setattr(subprocess, "call", call)
-    argv = ["run", str(RESTAURANT), "--out", str(tmp_path), "--set", "planner.top_k=4"]
+    scenario = with_overrides(load_scenario(SCENARIOS_DIR / "small" / "two_dishes.yaml"),
+                              (f"robot.name={robot}", *SHORT))
+    scenario = dataclasses.replace(scenario, dishes=scenario.dishes[:1])
+    report = execute(scenario, seed=0, meshcat=None, progress=False).report
+    return json.loads(json.dumps({key: report[key] for key in SAME}))
+
+
+def test_one_process_plans_and_executes_for_two_robots_what_two_processes_do():
+    child = ("import json, sys; from tests.commands.test_robot_selection import short_run; "
+             "print(json.dumps(short_run(sys.argv[1])))")
+    # One process for each robot, started first so that they run while this one does.
+    apart = {robot: subprocess.Popen([sys.executable, "-c", child, robot], cwd=REPO_DIR,
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for robot in ("ur5e", "panda")}
+    together = {robot: short_run(robot) for robot in ("ur5e", "panda")}
+    for robot, process in apart.items():
+        out, err = process.communicate(timeout=600)
+        assert process.returncode == 0, err[-1000:]
+        assert json.loads(out.splitlines()[-1]) == together[robot], robot
+    assert together["ur5e"]["collected"] == together["panda"]["collected"] == 1
+    assert together["ur5e"]["pickups"] != together["panda"]["pickups"]  # two robots, two runs
+
+
+def test_a_build_is_told_its_robot_and_an_unknown_one_is_one_line_and_status_2(capsys):
+    from s3o_drake.commands import build_reachability
+
     with pytest.raises(SystemExit) as info:
-        cli.main(argv)
-    assert info.value.code == 3  # the new process's status
-    assert calls == [([sys.executable, "-m", "s3o_drake.commands", *argv], "ur5e")]
-    assert not any(tmp_path.iterdir())  # this process wrote nothing
-
-
-def test_without_a_command_to_run_again_the_robot_is_one_line_and_status_2(monkeypatch,
-                                                                          capsys):
-    monkeypatch.setattr(common, "_invocation", None)
-    with pytest.raises(SystemExit) as info:
-        common.use_robot("ur5e")
+        build_reachability.main(["--robot", "r2d2"])
     assert info.value.code == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and f"set {ROBOT_VARIABLE}=ur5e" in err
+    assert err.count("\n") == 1 and "--robot" in err and "no robot named 'r2d2'" in err

@@ -142,6 +142,27 @@ def test_a_folder_of_another_robots_runs_is_read_but_not_written(tmp_path):
     assert [robot_of(r) for r in ResultStore(path, read_only=True).rows()] == ["panda", "ur5e"]
     with pytest.raises(OtherRobotRowsError, match=r"holds runs of robot panda.*'ur5e'"):
         ResultStore(path)
+    with pytest.raises(OtherRobotRowsError, match=r"holds runs of robot ur5e.*'panda'"):
+        ResultStore(path, robot="panda")
+    only_panda = tmp_path / "panda.jsonl"
+    only_panda.write_text('{"key": "a", "robot": "panda"}\n')
+    store = ResultStore(only_panda, robot="panda")  # the Panda's study goes on
+    assert store.append({"key": "c"})["robot"] == "panda"
+
+
+def test_a_study_runs_one_robot_and_says_which_tasks_differ(tmp_path, capsys):
+    tasks = tmp_path / "tasks"
+    tasks.mkdir()
+    text = (SMALL / "two_dishes.yaml").read_text()
+    (tasks / "a_ur5e.yaml").write_text(text)
+    (tasks / "b_panda.yaml").write_text(text.replace("robot:\n", "robot:\n  name: panda\n", 1))
+    with pytest.raises(SystemExit) as info:
+        evaluate(["--tasks", str(tasks), "--out", str(tmp_path / "out")])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "a_ur5e.yaml is for robot 'ur5e'" in err, err
+    assert "b_panda.yaml for 'panda'" in err
+    assert not (tmp_path / "out" / "results.jsonl").exists()
 
 
 def test_a_killed_worker_is_replaced_and_no_result_is_lost_or_repeated(tmp_path):

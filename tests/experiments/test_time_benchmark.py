@@ -10,6 +10,7 @@ import pytest
 
 from s3o_drake.commands import time_benchmark
 from s3o_drake.commands.time_benchmark import main, summarize
+from s3o_drake.world.robot import load_robot
 
 REPO = Path(__file__).resolve().parents[2]
 SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
@@ -23,7 +24,8 @@ def test_runs_writes_a_line_per_run_and_resumes(tmp_path, capsys, monkeypatch):
     assert row["cost_profile"] == "robot" and row["method"] == "S3O-GROP*"
     assert row["rel_error"] == pytest.approx(
         (row["predicted_time"] - row["execution_time"]) / row["execution_time"])
-    assert row["time_model"] == time_benchmark.model_version()
+    assert row["time_model"] == time_benchmark.model_version(
+        load_robot("ur5e").files.time_model)
     printed = capsys.readouterr().out
     assert "two_dishes" in printed and "noise off      all:   1 runs" in printed
 

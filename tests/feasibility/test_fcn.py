@@ -105,8 +105,8 @@ def test_dataset_writes_scenes_and_a_rerun_resumes(tmp_path, monkeypatch):
     (out / ".scene_00001.npz.abc.tmp").write_bytes(b"partial")
     computed = []
 
-    def fake_scene(base_path, seed, index, dishes):
-        computed.append(index)
+    def fake_scene(base_path, seed, index, dishes, robot):
+        computed.append((index, robot))
         n = CROP_CELLS
         return {"inputs": np.zeros((1, len(CHANNELS), n, n)), "labels": np.zeros((1, n, n)),
                 "index": np.array(index)}
@@ -114,10 +114,14 @@ def test_dataset_writes_scenes_and_a_rerun_resumes(tmp_path, monkeypatch):
     monkeypatch.setattr(dataset, "make_scene", fake_scene)
     argv = ["--count", "2", "--seed", "1000", "--dishes", "1", "--out", str(out), "--quiet"]
     assert dataset_command.main(argv) == 0
-    assert computed == [1]
+    assert computed == [(1, "ur5e")]  # the base scenario's robot
     assert first.stat().st_mtime_ns == stamp
     loaded = dataset.load_dataset(out)
     assert list(loaded["scenes"]) == [0] * n + [1]
+    # The folder is the UR5e's: another robot's scenes go to a folder of their own.
+    with pytest.raises(SystemExit) as info:
+        dataset_command.main([*argv, "--robot", "panda"])
+    assert info.value.code == 2 and computed == [(1, "ur5e")]
 
 
 @pytest.mark.parametrize(("module", "argv", "field"), [

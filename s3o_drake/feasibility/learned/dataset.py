@@ -26,7 +26,8 @@ import numpy as np
 from tqdm import tqdm
 
 from s3o_drake.world.files import write_atomically
-from s3o_drake.world.scenario import load_scenario
+from s3o_drake.world.resources import DEFAULT_ROBOT
+from s3o_drake.world.scenario import load_scenario, with_overrides
 from s3o_drake.world.task_generation import DEFAULT_BASE, generate_task
 from s3o_drake.world.worker_processes import worker_pool
 
@@ -38,16 +39,17 @@ def scene_path(out: Path, index: int) -> Path:
     return Path(out) / f"scene_{index:05d}.npz"
 
 
-def make_scene(base_path: Path, seed: int, index: int,
-               dishes: int | None = None) -> dict[str, np.ndarray]:
-    """Inputs and oracle labels of every dish of scene `index` (arrays for np.savez);
-    `dishes`: the generator's, that many instead of the protocol's 5 to 7."""
+def make_scene(base_path: Path, seed: int, index: int, dishes: int | None = None,
+               robot: str = DEFAULT_ROBOT) -> dict[str, np.ndarray]:
+    """Inputs and oracle labels of every dish of scene `index` for `robot` (arrays for
+    np.savez); `dishes`: the generator's, that many instead of the protocol's 5 to 7."""
     from s3o_drake.feasibility.heatmaps import compute_heatmaps
     from s3o_drake.feasibility.learned.fcn import crop_inputs, overhead_view
     from s3o_drake.world.builder import render_overhead
     from s3o_drake.world.camera import overhead_camera
 
-    scenario = generate_task(load_scenario(base_path), seed, index, dishes=dishes)
+    base = with_overrides(load_scenario(base_path), (f"robot.name={robot}",))
+    scenario = generate_task(base, seed, index, dishes=dishes)
     _, depth, label, robot_labels = render_overhead(scenario)
     view = overhead_view(overhead_camera(scenario.room, scenario.camera), depth, label,
                          robot_labels)
@@ -68,9 +70,9 @@ def make_scene(base_path: Path, seed: int, index: int,
 
 
 def write_scene(out: Path, base_path: Path, seed: int, index: int,
-                dishes: int | None = None) -> int:
+                dishes: int | None = None, robot: str = DEFAULT_ROBOT) -> int:
     """Computes scene `index` and writes its file atomically; returns its dish count."""
-    arrays = make_scene(base_path, seed, index, dishes)
+    arrays = make_scene(base_path, seed, index, dishes, robot)
     buffer = io.BytesIO()
     np.savez_compressed(buffer, **arrays)
     write_atomically(scene_path(out, index), buffer.getvalue())
@@ -83,13 +85,14 @@ def _job(job: tuple) -> int:
 
 
 def build_dataset(out: Path, *, count: int, seed: int, base_path: Path = DEFAULT_BASE,
-                  dishes: int | None = None, workers: int = 1, progress: bool = True) -> int:
-    """Writes scenes 0..count-1 that are not on disk yet; returns how many it computed.
-    `dishes`: per scene, instead of the protocol's 5 to 7 (`make_scene`)."""
+                  dishes: int | None = None, robot: str = DEFAULT_ROBOT, workers: int = 1,
+                  progress: bool = True) -> int:
+    """Writes scenes 0..count-1 for `robot` that are not on disk yet; returns how many it
+    computed. `dishes`: per scene, instead of the protocol's 5 to 7 (`make_scene`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     todo = [i for i in range(count) if not scene_path(out, i).exists()]
-    jobs = [(out, Path(base_path), seed, i, dishes) for i in todo]
+    jobs = [(out, Path(base_path), seed, i, dishes, robot) for i in todo]
     bar = tqdm(total=count, initial=count - len(todo), desc="scenes", unit="scene",
                disable=not progress)
     if workers <= 1 or len(jobs) <= 1:
