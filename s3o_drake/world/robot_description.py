@@ -3,11 +3,13 @@ its model.
 
 The description names what the planner and the execution need to know of a robot: the
 model file, the base's joints and footprint, the arm's joints with their speed and
-acceleration limits (and where those come from), its kinematic parameters, the tool,
+acceleration limits (and where those come from), its inverse kinematics family, the tool,
 grasp and tray frames, the gripper, the stow configuration and the reach the planner
-assumes. The model (URDF) holds the geometry and is what Drake simulates; `check_model`
-confirms that it has every joint and frame the description names, of the right kind, with
-the same limits, so that the two cannot drift apart unnoticed.
+assumes. The model (URDF) holds the geometry and is what Drake simulates; the arm's
+kinematics are read from it (feasibility/kinematics.py), so no kinematic parameters are
+typed here. `check_model` confirms that it has every joint and frame the description
+names, of the right kind, with the same limits, so that the two cannot drift apart
+unnoticed.
 
 Vectors are lists (pydrake's `yaml_load_typed` reads no tuples); SI units.
 """
@@ -21,12 +23,11 @@ from pydrake.common.yaml import yaml_load_typed
 from s3o_drake.world.resources import DEFAULT_ROBOT, MODELS_DIR, robot_dir
 from s3o_drake.world.yaml_checks import FieldError, check_structure, load_yaml
 
-DH_CONVENTIONS = ("standard", "modified")
-"""Classic DH, and Craig's (feasibility/dh_chain.py)."""
 IK_FAMILIES = ("ur", "numeric")
 """How the arm's inverse kinematics is solved (feasibility/kinematics.py): "ur", the
 closed-form solutions of the UR family's geometry (three parallel axes between a shoulder
-and a wrist offset; eight branches); "numeric", damped least squares from seeds, for any
+and a wrist offset; eight branches), its lengths read from the model and checked against
+it; "numeric", damped least squares from seeds, for any
 serial arm (a redundant one too)."""
 DESCRIPTION_FILE = "robot.yaml"
 BASE_DRIVES = ("differential", "holonomic")
@@ -66,18 +67,9 @@ class ArmDescription:
     acceleration_limits: list[float] = field(default_factory=list)
     """rad/s², per joint."""
     limits_source: str = ""
-    dh_convention: str = "standard"
-    """Of the DH parameters below: "standard" (classic) or "modified" (Craig's)."""
-    dh_a: list[float] = field(default_factory=list)
-    """DH parameters of the chain from `base_link` to the last DH frame (m, m, rad); the
-    tool frame is `flange_z`, `flange_yaw` beyond it."""
-    dh_d: list[float] = field(default_factory=list)
-    dh_alpha: list[float] = field(default_factory=list)
-    flange_z: float = 0.0
-    """The tool frame from the last DH frame: along its z (m), ..."""
-    flange_yaw: float = 0.0
-    """... then turned about that z (rad); zero when the table ends at the tool flange."""
     kinematics_source: str = ""
+    """Where the model's joint origins and axes come from (the arm's kinematics are read
+    from the model)."""
     inverse_kinematics: str = "numeric"
     """One of IK_FAMILIES."""
 
@@ -197,9 +189,6 @@ def _check_values(d: RobotDescription) -> None:
                         ("arm.limits_source", d.arm.limits_source)):
         if not value.strip():
             fail(path, "must be given")
-    if d.arm.dh_convention not in DH_CONVENTIONS:
-        fail("arm.dh_convention",
-             f"expected one of {', '.join(DH_CONVENTIONS)}, got {d.arm.dh_convention!r}")
     if d.arm.inverse_kinematics not in IK_FAMILIES:
         fail("arm.inverse_kinematics",
              f"expected one of {', '.join(IK_FAMILIES)}, got {d.arm.inverse_kinematics!r}")
@@ -219,20 +208,6 @@ def _check_values(d: RobotDescription) -> None:
                          ("configurations.stow", d.configurations.stow)):
         if len(values) != n:
             fail(path, f"expected {n} values (one per arm joint), got {len(values)}")
-    for path, values in (("arm.dh_a", d.arm.dh_a), ("arm.dh_d", d.arm.dh_d),
-                         ("arm.dh_alpha", d.arm.dh_alpha)):
-        if len(values) != n:
-            fail(path, f"expected {n} values (one per arm joint), got {len(values)}")
-    # The reachability map turns one stored configuration to every bearing with the first
-    # joint and to every wrist turn with the last: the first must turn about A's vertical z
-    # axis, the last about the approach axis of the grasp frame.
-    if d.arm.dh_convention == "modified":
-        row, why = 0, "the first joint must turn the arm about the arm base's vertical axis"
-    else:
-        row, why = n - 1, "the last joint must turn the gripper about its approach axis"
-    for name, values in (("dh_a", d.arm.dh_a), ("dh_alpha", d.arm.dh_alpha)):
-        if values[row] != 0.0:
-            fail(f"arm.{name}[{row}]", f"must be 0 ({why}), got {values[row]}")
     for path, values in (("arm.mount_xyz", d.arm.mount_xyz), ("tray.xyz", d.tray.xyz)):
         if len(values) != 3:
             fail(path, f"expected 3 values (x, y, z), got {len(values)}")

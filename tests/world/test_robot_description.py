@@ -52,18 +52,18 @@ def test_a_description_that_disagrees_with_its_model_is_named(old, new, path):
     ("reach: 1.0", "reach: -1.0", "reach"),
     ("reach: 1.0", "reach: 1.0\nspeed: 2.0", "speed"),
     ("stow: [0.0, -1.3,", "stow: [-1.3,", "configurations.stow"),
-    ("dh_d: [0.1625, 0.0, ", "dh_d: [", "arm.dh_d"),
     ("acceleration_limits: [5.0,", "acceleration_limits: [0.0,", "arm.acceleration_limits[0]"),
     ("joints: [left_finger_joint, right_finger_joint]",
      "joints: [left_finger_joint, elbow_joint]", "joints"),
     ("width: 0.56", "width: wide", "base.width"),
     ("name: ur5e", "name: ''", "name"),
-    ("dh_convention: standard", "dh_convention: craig", "arm.dh_convention"),
-    ("dh_convention: standard", "dh_convention: modified", "arm.dh_alpha[0]"),
     ("inverse_kinematics: ur", "inverse_kinematics: analytic", "arm.inverse_kinematics"),
     ("stow: [0.0, -1.3, 2.7,", "stow: [0.0, -1.3, 3.2,", "configurations.stow[2]"),
-], ids=["negative", "unknown field", "stow", "dh", "zero limit", "twice", "type", "empty",
-        "convention", "first axis", "ik family", "stow limits"])
+    # The arm's kinematics are read from its model: a typed DH table is not a field.
+    ("inverse_kinematics: ur", "inverse_kinematics: ur\n  dh_a: [0.0, -0.425, -0.3922, 0, 0, 0]",
+     "arm.dh_a"),
+], ids=["negative", "unknown field", "stow", "zero limit", "twice", "type", "empty",
+        "ik family", "stow limits", "typed kinematics"])
 def test_a_description_that_cannot_be_used_names_the_field(old, new, path):
     assert UR5E.count(old) == 1
     with pytest.raises(RobotDescriptionError) as error:
