@@ -1,7 +1,7 @@
 """Every shipped robot (each folder of models/ with a robot.yaml): what a user of its
 description relies on holds in its model. The description agrees with the model
 (`check_model`); the arm's kinematics that the feasibility check moves are the model's arm
-chain, with the description's limits; its frames and gripper are where it says; its stow
+chain, with the model's limits; its frames and gripper are where it says; its stow
 configuration is within the joint limits, at least 1 cm from any self-collision and inside
 the footprint."""
 
@@ -52,9 +52,10 @@ class RobotModel:
         self.checker = SceneGraphCollisionChecker(
             model=self.diagram, robot_model_instances=[self.model], edge_step_size=0.05)
         self.checker.SetPaddingAllRobotRobotPairs(SELF_CLEARANCE)
-        arm = self.description.arm
-        self.lower = np.array(arm.position_lower)
-        self.upper = np.array(arm.position_upper)
+        arm = [self.plant.GetJointByName(name, self.model).position_start()
+               for name in self.description.arm.joints]
+        self.lower = self.plant.GetPositionLowerLimits()[arm]
+        self.upper = self.plant.GetPositionUpperLimits()[arm]
         self.travel = self.description.gripper.travel
 
     def frame(self, name: str):
@@ -109,7 +110,7 @@ def test_the_description_agrees_with_its_model(robot):
 
 def test_the_arms_kinematics_are_the_models_arm_chain(robot):
     """What the feasibility check moves puts the grasp frame where Drake does, in the arm's
-    base frame, over the joint limits, which are the description's."""
+    base frame, over the joint limits, which are the model's."""
     d = robot.description
     arm = arm_kinematics(load_robot(d.name))
     np.testing.assert_array_equal(arm.lower, robot.lower)
