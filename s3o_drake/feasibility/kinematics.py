@@ -51,9 +51,10 @@ NUMERIC_RANDOM_SEEDS = 15
 #: Random seeds keep this far from a limited joint's ends and from ±π (rad): an arm folded
 #: on itself, or at a stop, starts nowhere useful.
 FOLD_LIMIT = 2.8
-#: The model's arm is what a description says of it to this precision (m, and rad or unit
-#: vectors' components): its first and last joints' axes, the UR family's closed form over
-#: this many configurations.
+#: How closely (m, and entries of unit vectors and rotations) the model's arm must do what
+#: its description's use of it needs: its first and last joints turn about A's and G's z
+#: axes, and the UR family's closed form reproduces its forward kinematics over
+#: `UR_CHECK_CONFIGURATIONS` configurations spread within the limits.
 MODEL_TOLERANCE = 1e-9
 UR_CHECK_CONFIGURATIONS = 200
 
@@ -94,6 +95,8 @@ class ArmKinematics:
     family: str = "numeric"
     stow: np.ndarray | None = None
     """The arm's stow configuration: the numeric family's first default seed."""
+    grasp_offset: float = 0.0
+    """G along the flange's z (m): the UR family's closed form takes it apart from its d6."""
     ur: URGeometry | None = field(init=False, repr=False)
     """The UR family's lengths, read from the chain (None for another family)."""
     _seeds: np.ndarray = field(init=False, repr=False)
@@ -101,8 +104,9 @@ class ArmKinematics:
     @classmethod
     def of(cls, robot: Robot) -> ArmKinematics:
         """The kinematics of `robot`'s model: its chain from the arm's base frame to the
-        grasp frame, and its joint limits. Raises `RobotDescriptionError` when the model's
-        arm is not what the description's use of it needs."""
+        grasp frame, its joint limits, and the grasp frame's offset from the flange. Raises
+        `RobotDescriptionError` when the model's arm is not what the description's use of
+        it needs."""
         plant = MultibodyPlant(0.0)
         model = robot.add_to(Parser(plant))
         plant.Finalize()
@@ -112,9 +116,12 @@ class ArmKinematics:
                      for name in robot.arm_joints]
         lower = plant.GetPositionLowerLimits()[positions]
         upper = plant.GetPositionUpperLimits()[positions]
+        X_TG = plant.CalcRelativeTransform(plant.CreateDefaultContext(),
+                                           plant.GetFrameByName(robot.tool_frame, model),
+                                           plant.GetFrameByName(robot.grasp_frame, model))
         try:
             return cls(chain, lower, upper, robot.description.arm.inverse_kinematics,
-                       np.array(robot.arm_stow))
+                       np.array(robot.arm_stow), grasp_offset=float(X_TG.translation()[2]))
         except ArmModelError as e:
             raise RobotDescriptionError(e.path, f"robot {robot.name!r}: {e}") from None
 
@@ -156,7 +163,7 @@ class ArmKinematics:
                                 f"the UR family's closed form is for 6 joints, not {self.joints}")
         q = self.random_configurations(UR_CHECK_CONFIGURATIONS, seed=1)
         R, p = self.forward(q)
-        geometry = URGeometry.fit(p, q)
+        geometry = URGeometry.fit(R, p, q, self.grasp_offset)
         candidates = ur_inverse(geometry, R, p)
         R_c, p_c = self.forward(np.nan_to_num(candidates))
         # Entries of the rotations, not an angle: arccos cannot resolve 1e-9 rad.

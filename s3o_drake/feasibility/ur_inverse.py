@@ -6,11 +6,11 @@ do not meet in a point. In standard DH their twists are fixed (`UR_ALPHA`) and s
 differ from arm to arm (`URGeometry`); their inverse kinematics has eight solutions, picked
 by the shoulder's, the wrist's and the elbow's sign.
 
-The lengths are read from the arm's model (`URGeometry.fit`): the grasp point's position is
-linear in them, so least squares over the model's forward kinematics gives them. The
-closed form assumes that the model's arm base frame is DH frame 0, that its zero angles are
-the DH table's, and that the tool frame has DH frame 6's axes; whoever uses it checks that
-it reproduces the model (`kinematics.ArmKinematics`).
+The lengths are read from the arm's model (`URGeometry.fit`): the flange's position is
+linear in them, so least squares over the model's forward kinematics gives them, to
+`LENGTH_RESOLUTION`. The closed form assumes that the model's arm base frame is DH frame 0,
+that its zero angles are the DH table's, and that the grasp frame has DH frame 6's axes;
+whoever uses it checks that it reproduces the model (`kinematics.ArmKinematics`).
 """
 
 import math
@@ -21,6 +21,11 @@ import numpy as np
 from s3o_drake.world.angles import wrap
 
 NUM_BRANCHES = 8
+#: Fitted lengths are rounded to this (m). Least squares leaves a few units in the last
+#: place of each; a model's lengths are given far coarser (a URDF's are decimals of a
+#: tenth of a millimetre), so rounding gives the model's own numbers, whatever the
+#: arithmetic of the fit. The check against the model (1e-9) is far above the rounding.
+LENGTH_RESOLUTION = 1e-12
 #: The family's DH twists (rad), joint by joint.
 UR_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
 _COS_ALPHA = np.cos(UR_ALPHA)
@@ -43,20 +48,25 @@ class URGeometry:
     d5: float
     """Wrist 1's axis to wrist 3's, along wrist 2's."""
     d6: float
-    """Wrist 2's axis to G, along wrist 3's: the flange's d6 and the tool's offset, which
-    only their sum moves."""
+    """Wrist 2's axis to the flange, along wrist 3's."""
+    tool_offset: float = 0.0
+    """The flange to G, along wrist 3's axis."""
 
     @classmethod
-    def fit(cls, p_AG: np.ndarray, q: np.ndarray) -> "URGeometry":
-        """The lengths that best explain the tool positions p_AG (m, 3) of configurations q
-        (m, 6), by least squares: with the twists fixed, each length moves G along one
-        axis of one DH frame, whatever the lengths."""
+    def fit(cls, R_AG: np.ndarray, p_AG: np.ndarray, q: np.ndarray,
+            tool_offset: float) -> "URGeometry":
+        """The lengths that best explain the grasp frame's poses (m, 3, 3), (m, 3) at
+        configurations q (m, 6), G `tool_offset` beyond the flange along its z, by least
+        squares: with the twists fixed, each length moves the flange along one axis of one
+        DH frame, whatever the lengths."""
         frames = _rotations(np.asarray(q, dtype=float))
         x = [frame[..., :, 0] for frame in frames]
         z = [frame[..., :, 2] for frame in frames]
         M = np.stack([z[0], x[2], x[3], z[3], z[4], z[5]], axis=-1).reshape(-1, 6)
-        lengths, *_ = np.linalg.lstsq(M, np.asarray(p_AG, dtype=float).reshape(-1), rcond=None)
-        return cls(*(float(v) for v in lengths))
+        p_AT = np.asarray(p_AG, dtype=float) - tool_offset * np.asarray(R_AG)[..., :, 2]
+        lengths, *_ = np.linalg.lstsq(M, p_AT.reshape(-1), rcond=None)
+        digits = round(-math.log10(LENGTH_RESOLUTION))
+        return cls(*(round(float(v), digits) for v in (*lengths, tool_offset)))
 
     def transform(self, q: np.ndarray, i: int) -> np.ndarray:
         """Row i of the DH table at angles q (...): T_{i,i+1} (..., 4, 4)."""
@@ -64,13 +74,6 @@ class URGeometry:
         d = (self.d1, 0.0, 0.0, self.d4, self.d5, self.d6)[i]
         return _dh(np.asarray(q, dtype=float), a, d, _COS_ALPHA[i], _SIN_ALPHA[i])
 
-    def forward(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """X_AG of configurations q (..., 6) by the table: rotations, positions."""
-        q = np.asarray(q, dtype=float)
-        T = self.transform(q[..., 0], 0)
-        for i in range(1, 6):
-            T = T @ self.transform(q[..., i], i)
-        return T[..., :3, :3], T[..., :3, 3]
 
 
 def _dh(q: np.ndarray, a: float, d: float, ca: float, sa: float) -> np.ndarray:
@@ -107,20 +110,19 @@ def ur_inverse(geometry: URGeometry, R_AG: np.ndarray, p_AG: np.ndarray) -> np.n
     p_AG = np.asarray(p_AG, dtype=float).reshape(-1, 3)
     m = len(p_AG)
     a2, a3, d4, d6 = geometry.a2, geometry.a3, geometry.d4, geometry.d6
-    p05 = p_AG - d6 * R_AG[:, :, 2]
+    p06 = p_AG - geometry.tool_offset * R_AG[:, :, 2]  # the flange, DH frame 6
+    p05 = p06 - d6 * R_AG[:, :, 2]
     out = np.full((m, NUM_BRANCHES, 6), np.nan)
     r05 = np.hypot(p05[:, 0], p05[:, 1])
     T06 = np.zeros((m, 4, 4))
-    T06[:, :3, :3], T06[:, :3, 3], T06[:, 3, 3] = R_AG, p_AG, 1.0
+    T06[:, :3, :3], T06[:, :3, 3], T06[:, 3, 3] = R_AG, p06, 1.0
     with np.errstate(invalid="ignore", divide="ignore"):
         phi = np.arccos(d4 / r05)
         psi = np.arctan2(p05[:, 1], p05[:, 0])
         for s, s_sign in enumerate((1.0, -1.0)):
             q1 = psi + s_sign * phi + np.pi / 2
             s1, c1 = np.sin(q1), np.cos(q1)
-            # Wrist 2's angle from G's distance to the parallel axes' plane, less the
-            # shoulder offset.
-            c5 = (p_AG[:, 0] * s1 - p_AG[:, 1] * c1 - d4) / d6
+            c5 = (p06[:, 0] * s1 - p06[:, 1] * c1 - d4) / d6
             for w, w_sign in enumerate((1.0, -1.0)):
                 q5 = w_sign * np.arccos(np.clip(c5, -1.0, 1.0))
                 q5 = np.where(np.abs(c5) > 1.0 + 1e-9, np.nan, q5)

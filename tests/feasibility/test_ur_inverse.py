@@ -11,21 +11,22 @@ from pydrake.multibody.plant import MultibodyPlant
 
 from s3o_drake.feasibility import kinematics
 from s3o_drake.feasibility.kinematics import ArmKinematics
-from s3o_drake.feasibility.ur_inverse import NUM_BRANCHES, ur_inverse
+from s3o_drake.feasibility.ur_inverse import NUM_BRANCHES, URGeometry, ur_inverse
 from s3o_drake.world.angles import wrap
 from s3o_drake.world.robot import Robot, RobotFiles, load_robot
 from s3o_drake.world.robot_description import RobotDescriptionError
 
 UR5E = load_robot("ur5e")
-#: Universal Robots' UR5e DH lengths (m) (docs/DESIGN's facts), and the grasp point 0.225 m
-#: beyond the flange (models/ur5e/robot.yaml: tool.grasp_offset).
-UR5E_LENGTHS = dict(d1=0.1625, a2=-0.425, a3=-0.3922, d4=0.1333, d5=0.0997, d6=0.0996 + 0.225)
+#: Universal Robots' UR5e DH lengths (m), and the grasp point 0.225 m beyond the flange
+#: (models/ur5e/robot.yaml: tool.grasp_offset).
+UR5E_LENGTHS = URGeometry(d1=0.1625, a2=-0.425, a3=-0.3922, d4=0.1333, d5=0.0997, d6=0.0996,
+                          tool_offset=0.225)
 
 
-def test_the_ur5es_lengths_read_from_its_model_are_its_makers():
-    geometry = kinematics.arm_kinematics(UR5E).ur
-    for name, length in UR5E_LENGTHS.items():
-        assert getattr(geometry, name) == pytest.approx(length, abs=1e-12), name
+def test_the_ur5es_lengths_read_from_its_model_are_its_makers_to_the_last_digit():
+    # Rounded to LENGTH_RESOLUTION, the fit gives the model's own decimals: the same
+    # closed-form solutions, to the last bit, as a table typed from the maker's numbers.
+    assert kinematics.arm_kinematics(UR5E).ur == UR5E_LENGTHS
 
 
 def test_every_branch_puts_the_grasp_frame_where_the_plant_does():
