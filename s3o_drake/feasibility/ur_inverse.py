@@ -22,9 +22,9 @@ from s3o_drake.world.angles import wrap
 
 NUM_BRANCHES = 8
 #: Fitted lengths are rounded to this (m). Least squares leaves a few units in the last
-#: place of each; a model's lengths are given far coarser (a URDF's are decimals of a
-#: tenth of a millimetre), so rounding gives the model's own numbers, whatever the
-#: arithmetic of the fit. The check against the model (1e-9) is far above the rounding.
+#: place of each; a model gives its lengths as decimals far coarser than this, so rounding
+#: gives the model's own numbers, whatever the arithmetic of the fit (and of composing the
+#: model's transforms). The check against the model (1e-9) is far above the rounding.
 LENGTH_RESOLUTION = 1e-12
 #: The family's DH twists (rad), joint by joint.
 UR_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
@@ -35,7 +35,8 @@ _SIN_ALPHA = np.sin(UR_ALPHA)
 @dataclass(frozen=True)
 class URGeometry:
     """The lengths (m) of a UR-family arm's standard DH table from its base frame A to its
-    tool frame G; the table's other lengths are zero."""
+    flange (the table's other lengths are zero), and the grasp frame G's offset beyond
+    it."""
 
     d1: float
     """The shoulder-lift axis above A."""
@@ -73,7 +74,6 @@ class URGeometry:
         a = (0.0, self.a2, self.a3, 0.0, 0.0, 0.0)[i]
         d = (self.d1, 0.0, 0.0, self.d4, self.d5, self.d6)[i]
         return _dh(np.asarray(q, dtype=float), a, d, _COS_ALPHA[i], _SIN_ALPHA[i])
-
 
 
 def _dh(q: np.ndarray, a: float, d: float, ca: float, sa: float) -> np.ndarray:
