@@ -21,8 +21,6 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame, ModelInstanceIndex, RevoluteJoint, WeldJoint
 
-from s3o_drake.feasibility.dh_chain import cross
-
 
 @dataclass(frozen=True, eq=False)
 class JointChain:
@@ -150,3 +148,11 @@ def _rotations(axes: np.ndarray, q: np.ndarray) -> np.ndarray:
     T[..., :3, :3] = R
     T[..., 3, 3] = 1.0
     return T
+
+
+def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """u x v over the last axis: `np.cross` without its per-call axis handling, which
+    dominated Newton steps on a few configurations."""
+    return np.stack([u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1],
+                     u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2],
+                     u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]], axis=-1)

@@ -1,13 +1,14 @@
 """The arm's kinematics from its arm base A to the grasp frame G, vectorised in numpy.
 
-Drake's plant is the reference; `ArmKinematics` repeats the arm's chain (its DH table, as
-the model is built from it) so that thousands of configurations can be moved and verified
-per call without a plant context: forward kinematics X_AG(q), the geometric Jacobian, a few
-Newton steps that carry a stored configuration onto a nearby target (the reachability map's
-refinement), the joint limits, and inverse kinematics by the arm's family
-(`robot_description.IK_FAMILIES`):
+Drake's plant is the reference; `ArmKinematics` holds the arm's chain as its model has it
+(`JointChain`: the joints' poses and axes, read from the parsed model) so that thousands of
+configurations can be moved and verified per call without a plant context: forward
+kinematics X_AG(q), the geometric Jacobian, a few Newton steps that carry a stored
+configuration onto a nearby target (the reachability map's refinement), the joint limits
+(the model's), and inverse kinematics by the arm's family (`robot_description.IK_FAMILIES`):
 
-- "ur": the closed-form solutions of all eight branches (`ur_inverse`);
+- "ur": the closed-form solutions of all eight branches (`ur_inverse`), with the lengths
+  read from the model and checked against it when the kinematics are made;
 - "numeric": damped least squares from seed configurations, one solution per seed (the
   one the seed's own branch leads to), for any serial arm, a redundant one too.
 
@@ -26,13 +27,15 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
 
-from s3o_drake.feasibility.dh_chain import DHChain
+from s3o_drake.feasibility.joint_chain import JointChain
 from s3o_drake.feasibility.ur_inverse import NUM_BRANCHES as UR_BRANCHES
-from s3o_drake.feasibility.ur_inverse import ur_inverse
+from s3o_drake.feasibility.ur_inverse import URGeometry, ur_inverse
 from s3o_drake.world.angles import wrap
 from s3o_drake.world.robot import Robot
-from s3o_drake.world.robot_description import RobotDescription
+from s3o_drake.world.robot_description import RobotDescriptionError
 
 #: A verified inverse-kinematics solution is this close to its target (rad and m).
 EXACT_TOLERANCE = 1e-6
@@ -48,6 +51,21 @@ NUMERIC_RANDOM_SEEDS = 15
 #: Random seeds keep this far from a limited joint's ends and from ±π (rad): an arm folded
 #: on itself, or at a stop, starts nowhere useful.
 FOLD_LIMIT = 2.8
+#: How closely (m, and entries of unit vectors and rotations) the model's arm must do what
+#: its description's use of it needs: its first and last joints turn about A's and G's z
+#: axes, and the UR family's closed form reproduces its forward kinematics over
+#: `UR_CHECK_CONFIGURATIONS` configurations spread within the limits.
+MODEL_TOLERANCE = 1e-9
+UR_CHECK_CONFIGURATIONS = 200
+
+
+class ArmModelError(ValueError):
+    """The arm's model does not have what its description's use of it needs; `path` names
+    the description's field."""
+
+    def __init__(self, path: str, message: str):
+        super().__init__(message)
+        self.path = path
 
 
 def pose_error(R: np.ndarray, p: np.ndarray, R_target: np.ndarray,
@@ -71,31 +89,95 @@ class ArmKinematics:
     """One arm's chain from A to G, its joint limits and its inverse kinematics family
     (compared by identity: it holds arrays)."""
 
-    chain: DHChain
+    chain: JointChain
     lower: np.ndarray
     upper: np.ndarray
     family: str = "numeric"
     stow: np.ndarray | None = None
     """The arm's stow configuration: the numeric family's first default seed."""
+    grasp_offset: float = 0.0
+    """G along the flange's z (m): the UR family's closed form takes it apart from its d6."""
+    ur: URGeometry | None = field(init=False, repr=False)
+    """The UR family's lengths, read from the chain (None for another family)."""
     _seeds: np.ndarray = field(init=False, repr=False)
 
     @classmethod
-    def of(cls, description: RobotDescription) -> ArmKinematics:
-        """The kinematics of a robot's description: its DH table with the tool frame at the
-        grasp frame (the flange, then `tool.grasp_offset` along its z)."""
-        arm = description.arm
-        chain = DHChain(arm.dh_a, arm.dh_d, arm.dh_alpha, modified=arm.dh_convention == "modified",
-                        tool_offset=arm.flange_z + description.tool.grasp_offset,
-                        tool_yaw=arm.flange_yaw)
-        return cls(chain, np.array(arm.position_lower), np.array(arm.position_upper),
-                   arm.inverse_kinematics, np.array(description.configurations.stow))
+    def of(cls, robot: Robot) -> ArmKinematics:
+        """The kinematics of `robot`'s model: its chain from the arm's base frame to the
+        grasp frame, its joint limits, and the grasp frame's offset from the flange. Raises
+        `RobotDescriptionError` when the model's arm is not what the description's use of
+        it needs."""
+        plant = MultibodyPlant(0.0)
+        model = robot.add_to(Parser(plant))
+        plant.Finalize()
+        chain = JointChain.of_plant(plant, model, base=robot.arm_base_link,
+                                    tool=robot.grasp_frame, joints=robot.arm_joints)
+        positions = [plant.GetJointByName(name, model).position_start()
+                     for name in robot.arm_joints]
+        lower = plant.GetPositionLowerLimits()[positions]
+        upper = plant.GetPositionUpperLimits()[positions]
+        X_TG = plant.CalcRelativeTransform(plant.CreateDefaultContext(),
+                                           plant.GetFrameByName(robot.tool_frame, model),
+                                           plant.GetFrameByName(robot.grasp_frame, model))
+        try:
+            return cls(chain, lower, upper, robot.description.arm.inverse_kinematics,
+                       np.array(robot.arm_stow), grasp_offset=float(X_TG.translation()[2]))
+        except ArmModelError as e:
+            raise RobotDescriptionError(e.path, f"robot {robot.name!r}: {e}") from None
 
     def __post_init__(self) -> None:
         for name in ("lower", "upper"):
             object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=float))
+        self._check_turning_axes()
         stow = [] if self.stow is None else [np.asarray(self.stow, dtype=float)]
         seeds = np.vstack([*stow, self.random_configurations(NUMERIC_RANDOM_SEEDS)])
         object.__setattr__(self, "_seeds", seeds)
+        object.__setattr__(self, "ur", self._ur_geometry() if self.family == "ur" else None)
+
+    def _check_turning_axes(self) -> None:
+        """The reachability map turns one stored configuration to every bearing with the
+        first joint and to every wrist turn with the last: the first must turn about A's
+        vertical z axis, the last about G's approach axis z. Raises ArmModelError."""
+        C_0, C_n = self.chain.fixed[0], self.chain.fixed[-1]
+        # The first joint's axis and a point of it in A; the last one's in G.
+        axis_A, point_A = C_0[:3, :3] @ self.chain.axes[0], C_0[:3, 3]
+        R_JG, p_JG = C_n[:3, :3], C_n[:3, 3]
+        axis_G, point_G = R_JG.T @ self.chain.axes[-1], -R_JG.T @ p_JG
+        for index, axis, point, frame, why in (
+                (0, axis_A, point_A, "A", "turn the arm about the arm base's vertical axis"),
+                (self.joints - 1, axis_G, point_G, "G",
+                 "turn the gripper about its approach axis")):
+            if (np.abs(axis - [0.0, 0.0, 1.0]).max() > MODEL_TOLERANCE
+                    or np.abs(point[:2]).max() > MODEL_TOLERANCE):
+                raise ArmModelError(f"arm.joints[{index}]", (
+                    f"the joint must {why} (z of {frame}); in the model it turns about "
+                    f"{np.round(axis, 6).tolist()} through {np.round(point, 6).tolist()} m "
+                    f"in {frame}"))
+
+    def _ur_geometry(self) -> URGeometry:
+        """The UR family's lengths read from the chain, checked: the closed form must put G
+        where the chain does over configurations spread within the limits. Raises
+        ArmModelError."""
+        if self.joints != 6:
+            raise ArmModelError("arm.inverse_kinematics",
+                                f"the UR family's closed form is for 6 joints, not {self.joints}")
+        q = self.random_configurations(UR_CHECK_CONFIGURATIONS, seed=1)
+        R, p = self.forward(q)
+        geometry = URGeometry.fit(R, p, q, self.grasp_offset)
+        candidates = ur_inverse(geometry, R, p)
+        R_c, p_c = self.forward(np.nan_to_num(candidates))
+        # Entries of the rotations, not an angle: arccos cannot resolve 1e-9 rad.
+        error = np.maximum(np.abs(R_c - R[:, None]).max(axis=(-2, -1)),
+                           np.abs(p_c - p[:, None]).max(axis=-1))
+        error = np.where(np.isnan(candidates).any(axis=-1), np.inf, error).min(axis=1)
+        worst = int(np.argmax(error))
+        if not error[worst] <= MODEL_TOLERANCE:
+            raise ArmModelError("arm.inverse_kinematics", (
+                f"the UR family's closed form misses the model's grasp frame by up to "
+                f"{error[worst]:.3g} (m, or rotation entries) at q = "
+                f"{np.round(q[worst], 3).tolist()}: the arm is not UR-shaped, or its zero "
+                "angles or frames are not those of the UR's DH table"))
+        return geometry
 
     # ------------------------------------------------------------------------ the chain
     @property
@@ -112,10 +194,10 @@ class ArmKinematics:
         return self.chain.jacobian(q)
 
     @property
-    def elbow_frame(self) -> int:
-        """The chain's frame at the elbow (the UR family's: DH frame 2); for another arm,
-        the frame halfway along the chain."""
-        return 2 if self.family == "ur" else (self.joints + 1) // 2
+    def elbow_joint(self) -> int:
+        """The joint halfway along the chain, whose frame (`JointChain.frames`) stands
+        where the arm bends: the UR family's elbow, a 7-joint arm's fourth joint."""
+        return (self.joints - 1) // 2
 
     # ----------------------------------------------------------------------- the limits
     @property
@@ -184,7 +266,7 @@ class ArmKinematics:
         candidates with `exact`.
         """
         if self.family == "ur":
-            return ur_inverse(self.chain, R_AG, p_AG)
+            return ur_inverse(self.ur, R_AG, p_AG)
         return self.numeric_inverse(R_AG, p_AG, self._seeds if seeds is None else seeds)
 
     def exact(self, candidates: np.ndarray, R_AG: np.ndarray, p_AG: np.ndarray,
@@ -263,6 +345,6 @@ class ArmKinematics:
 
 @functools.cache
 def arm_kinematics(robot: Robot) -> ArmKinematics:
-    """The kinematics of `robot`'s arm, made once per robot (its seeds cost a little, and a
-    robot's arm never changes)."""
-    return ArmKinematics.of(robot.description)
+    """The kinematics of `robot`'s arm, made once per robot (parsing its model and its
+    seeds cost a little, and a robot's arm never changes)."""
+    return ArmKinematics.of(robot)

@@ -51,6 +51,7 @@ from s3o_drake.world.resources import (
 )
 from s3o_drake.world.robot_description import (
     RobotDescription,
+    apply_limit_overrides,
     check_model,
     load_robot_description,
 )
@@ -296,8 +297,8 @@ class Robot:
 
     def add_to(self, parser: Parser, *, name: str = "robot") -> ModelInstanceIndex:
         """Parses the robot into `parser`'s (not yet finalized) plant as model instance
-        `name`, registering the ``s3o_drake`` package with its package map if need be.
-        Its positions are in `joints` order."""
+        `name`, registering the ``s3o_drake`` package with its package map if need be, with
+        the limits its description overrides. Its positions are in `joints` order."""
         packages = parser.package_map()
         if not packages.Contains(PACKAGE_NAME):
             packages.Add(PACKAGE_NAME, str(models_dir()))
@@ -306,6 +307,7 @@ class Robot:
             raise ValueError(f"the plant already has a model instance named {name!r}")
         (model,) = parser.AddModels(url=self.model_url)
         plant.RenameModelInstance(model, name)
+        apply_limit_overrides(plant, model, self.description)
         return model
 
 

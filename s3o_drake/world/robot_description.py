@@ -2,12 +2,15 @@
 its model.
 
 The description names what the planner and the execution need to know of a robot: the
-model file, the base's joints and footprint, the arm's joints with their speed and
-acceleration limits (and where those come from), its kinematic parameters, the tool,
-grasp and tray frames, the gripper, the stow configuration and the reach the planner
-assumes. The model (URDF) holds the geometry and is what Drake simulates; `check_model`
-confirms that it has every joint and frame the description names, of the right kind, with
-the same limits, so that the two cannot drift apart unnoticed.
+model file, the base's joints and footprint, the arm's joints (where their limits come
+from, and any limit it overrides), its inverse kinematics family, the tool, grasp and tray
+frames, the gripper, the stow configuration and the reach the planner assumes. The model
+(URDF) holds the geometry and the joint limits and is what Drake simulates; the arm's
+kinematics and limits are read from it (feasibility/kinematics.py), so no kinematic
+parameters or limits are typed here unless they override the model's
+(`apply_limit_overrides`, where the robot is parsed). `check_model` confirms that the model
+has every joint and frame the description names, of the right kind, with finite limits
+that hold the stow configuration.
 
 Vectors are lists (pydrake's `yaml_load_typed` reads no tuples); SI units.
 """
@@ -21,12 +24,11 @@ from pydrake.common.yaml import yaml_load_typed
 from s3o_drake.world.resources import DEFAULT_ROBOT, DESCRIPTION_FILE, MODELS_DIR, robot_dir
 from s3o_drake.world.yaml_checks import FieldError, check_structure, load_yaml
 
-DH_CONVENTIONS = ("standard", "modified")
-"""Classic DH, and Craig's (feasibility/dh_chain.py)."""
 IK_FAMILIES = ("ur", "numeric")
 """How the arm's inverse kinematics is solved (feasibility/kinematics.py): "ur", the
 closed-form solutions of the UR family's geometry (three parallel axes between a shoulder
-and a wrist offset; eight branches); "numeric", damped least squares from seeds, for any
+and a wrist offset; eight branches), its lengths read from the model and checked against
+it; "numeric", damped least squares from seeds, for any
 serial arm (a redundant one too)."""
 BASE_DRIVES = ("differential", "holonomic")
 """How a base moves: where it faces only, or sideways too (`BaseDescription.drive`)."""
@@ -51,31 +53,34 @@ class BaseDescription:
 
 
 @dataclass
+class LimitOverride:
+    """One arm joint's limits that replace its model's; those not given stay the model's."""
+
+    joint: str = ""
+    position_lower: float | None = None
+    """rad."""
+    position_upper: float | None = None
+    velocity: float | None = None
+    """rad/s, either way."""
+    acceleration: float | None = None
+    """rad/s², either way."""
+    source: str = ""
+    """Where these values come from (must be given)."""
+
+
+@dataclass
 class ArmDescription:
     base_link: str = ""
     mount_xyz: list[float] = field(default_factory=list)
     """The arm's base frame in the base link (m); its axes are the base link's."""
     joints: list[str] = field(default_factory=list)
-    position_lower: list[float] = field(default_factory=list)
-    """rad, per joint (the model's, repeated here with their source)."""
-    position_upper: list[float] = field(default_factory=list)
-    velocity_limits: list[float] = field(default_factory=list)
-    """rad/s, per joint."""
-    acceleration_limits: list[float] = field(default_factory=list)
-    """rad/s², per joint."""
     limits_source: str = ""
-    dh_convention: str = "standard"
-    """Of the DH parameters below: "standard" (classic) or "modified" (Craig's)."""
-    dh_a: list[float] = field(default_factory=list)
-    """DH parameters of the chain from `base_link` to the last DH frame (m, m, rad); the
-    tool frame is `flange_z`, `flange_yaw` beyond it."""
-    dh_d: list[float] = field(default_factory=list)
-    dh_alpha: list[float] = field(default_factory=list)
-    flange_z: float = 0.0
-    """The tool frame from the last DH frame: along its z (m), ..."""
-    flange_yaw: float = 0.0
-    """... then turned about that z (rad); zero when the table ends at the tool flange."""
+    """Where the model's joint limits (position, velocity, acceleration) come from."""
+    limit_overrides: list[LimitOverride] = field(default_factory=list)
+    """Limits that replace the model's wherever the robot is parsed."""
     kinematics_source: str = ""
+    """Where the model's joint origins and axes come from (the arm's kinematics are read
+    from the model)."""
     inverse_kinematics: str = "numeric"
     """One of IK_FAMILIES."""
 
@@ -195,9 +200,6 @@ def _check_values(d: RobotDescription) -> None:
                         ("arm.limits_source", d.arm.limits_source)):
         if not value.strip():
             fail(path, "must be given")
-    if d.arm.dh_convention not in DH_CONVENTIONS:
-        fail("arm.dh_convention",
-             f"expected one of {', '.join(DH_CONVENTIONS)}, got {d.arm.dh_convention!r}")
     if d.arm.inverse_kinematics not in IK_FAMILIES:
         fail("arm.inverse_kinematics",
              f"expected one of {', '.join(IK_FAMILIES)}, got {d.arm.inverse_kinematics!r}")
@@ -210,44 +212,31 @@ def _check_values(d: RobotDescription) -> None:
     n = len(d.arm.joints)
     if n == 0:
         fail("arm.joints", "must name the arm's joints")
-    for path, values in (("arm.position_lower", d.arm.position_lower),
-                         ("arm.position_upper", d.arm.position_upper),
-                         ("arm.velocity_limits", d.arm.velocity_limits),
-                         ("arm.acceleration_limits", d.arm.acceleration_limits),
-                         ("configurations.stow", d.configurations.stow)):
-        if len(values) != n:
-            fail(path, f"expected {n} values (one per arm joint), got {len(values)}")
-    for path, values in (("arm.dh_a", d.arm.dh_a), ("arm.dh_d", d.arm.dh_d),
-                         ("arm.dh_alpha", d.arm.dh_alpha)):
-        if len(values) != n:
-            fail(path, f"expected {n} values (one per arm joint), got {len(values)}")
-    # The reachability map turns one stored configuration to every bearing with the first
-    # joint and to every wrist turn with the last: the first must turn about A's vertical z
-    # axis, the last about the approach axis of the grasp frame.
-    if d.arm.dh_convention == "modified":
-        row, why = 0, "the first joint must turn the arm about the arm base's vertical axis"
-    else:
-        row, why = n - 1, "the last joint must turn the gripper about its approach axis"
-    for name, values in (("dh_a", d.arm.dh_a), ("dh_alpha", d.arm.dh_alpha)):
-        if values[row] != 0.0:
-            fail(f"arm.{name}[{row}]", f"must be 0 ({why}), got {values[row]}")
+    if len(d.configurations.stow) != n:
+        fail("configurations.stow",
+             f"expected {n} values (one per arm joint), got {len(d.configurations.stow)}")
     for path, values in (("arm.mount_xyz", d.arm.mount_xyz), ("tray.xyz", d.tray.xyz)):
         if len(values) != 3:
             fail(path, f"expected 3 values (x, y, z), got {len(values)}")
-    for path, values in (("arm.velocity_limits", d.arm.velocity_limits),
-                         ("arm.acceleration_limits", d.arm.acceleration_limits)):
-        for i, v in enumerate(values):
-            if not (math.isfinite(v) and v > 0):
-                fail(f"{path}[{i}]", f"must be positive, got {v}")
-    for i, (lo, hi) in enumerate(zip(d.arm.position_lower, d.arm.position_upper,
-                                     strict=True)):
-        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
-            fail(f"arm.position_upper[{i}]", f"must be finite and above the lower limit "
-                 f"{lo}, got {hi}")
-        stow = d.configurations.stow[i]
-        if not lo <= stow <= hi:
-            fail(f"configurations.stow[{i}]", f"{stow} is outside the joint's limits "
-                 f"[{lo}, {hi}]")
+    overridden = set()
+    for i, o in enumerate(d.arm.limit_overrides):
+        path = f"arm.limit_overrides[{i}]"
+        if o.joint not in d.arm.joints:
+            fail(f"{path}.joint", f"{o.joint!r} is not one of arm.joints")
+        if o.joint in overridden:
+            fail(f"{path}.joint", f"{o.joint!r} is overridden twice")
+        overridden.add(o.joint)
+        if not o.source.strip():
+            fail(f"{path}.source", "must say where the values come from")
+        values = {"position_lower": o.position_lower, "position_upper": o.position_upper,
+                  "velocity": o.velocity, "acceleration": o.acceleration}
+        if all(v is None for v in values.values()):
+            fail(path, "overrides no limit")
+        for name, v in values.items():
+            if v is not None and not math.isfinite(v):
+                fail(f"{path}.{name}", f"must be finite, got {v}")
+            if v is not None and name in ("velocity", "acceleration") and v <= 0:
+                fail(f"{path}.{name}", f"must be positive, got {v}")
     for path, v in (("base.length", d.base.length), ("base.width", d.base.width),
                     ("gripper.travel", d.gripper.travel), ("reach", d.reach),
                     ("tool.wrist_radius", d.tool.wrist_radius),
@@ -266,11 +255,28 @@ def _check_values(d: RobotDescription) -> None:
             fail("joints", f"{joint!r} is named twice")
 
 
+def apply_limit_overrides(plant, model, description: RobotDescription) -> None:
+    """Gives the arm's joints of `model` in `plant` (parsed, not yet finalized) the limits
+    that `description` overrides (`ArmDescription.limit_overrides`)."""
+    for o in description.arm.limit_overrides:
+        joint = plant.GetJointByName(o.joint, model)
+        if o.position_lower is not None or o.position_upper is not None:
+            lower, upper = joint.position_lower_limits(), joint.position_upper_limits()
+            joint.set_position_limits(
+                lower if o.position_lower is None else [o.position_lower],
+                upper if o.position_upper is None else [o.position_upper])
+        if o.velocity is not None:
+            joint.set_velocity_limits([-o.velocity], [o.velocity])
+        if o.acceleration is not None:
+            joint.set_acceleration_limits([-o.acceleration], [o.acceleration])
+
+
 def check_model(description: RobotDescription) -> None:
     """Parses the description's model and checks that it agrees with the description: every
     joint named, in the model instance's position order, of the right kind (base x and y
-    prismatic, the rest revolute or prismatic as the model has them), with the arm's
-    position, speed and acceleration limits; every frame and body named. Raises
+    prismatic, the rest revolute or prismatic as the model has them); every frame and body
+    named; the arm's position, speed and acceleration limits (the model's, or the
+    description's overrides) finite, and the stow configuration within them. Raises
     RobotDescriptionError."""
     from pydrake.multibody.plant import MultibodyPlant
     from pydrake.multibody.tree import PrismaticJoint, RevoluteJoint
@@ -279,6 +285,11 @@ def check_model(description: RobotDescription) -> None:
 
     plant = MultibodyPlant(0.0)
     (model,) = make_parser(plant).AddModels(url=description.model)
+    for i, override in enumerate(description.arm.limit_overrides):
+        if not plant.HasJointNamed(override.joint, model):
+            raise RobotDescriptionError(f"arm.limit_overrides[{i}].joint",
+                                        f"the model has no joint {override.joint!r}")
+    apply_limit_overrides(plant, model, description)
     plant.Finalize()
     for path, frame in (("base.link", description.base.link),
                         ("arm.base_link", description.arm.base_link),
@@ -312,12 +323,16 @@ def check_model(description: RobotDescription) -> None:
     for i, name in enumerate(description.arm.joints):
         joint = plant.GetJointByName(name, model)
         index, position = joint.velocity_start(), joint.position_start()
-        for path, given, modelled in (
-                ("arm.position_lower", description.arm.position_lower[i], lower[position]),
-                ("arm.position_upper", description.arm.position_upper[i], upper[position]),
-                ("arm.velocity_limits", description.arm.velocity_limits[i], velocity[index]),
-                ("arm.acceleration_limits", description.arm.acceleration_limits[i],
-                 acceleration[index])):
-            if not math.isclose(given, modelled, rel_tol=1e-12):
-                raise RobotDescriptionError(f"{path}[{i}]", f"{given} here, {modelled} in "
-                                            f"the model ({name})")
+        lo, hi = lower[position], upper[position]
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise RobotDescriptionError(f"arm.joints[{i}]", f"{name}'s position limits "
+                                        f"[{lo}, {hi}] must be finite, the lower below")
+        for kind, limit in (("velocity", velocity[index]),
+                            ("acceleration", acceleration[index])):
+            if not (math.isfinite(limit) and limit > 0):
+                raise RobotDescriptionError(f"arm.joints[{i}]", f"{name}'s {kind} limit "
+                                            f"must be finite and positive, got {limit}")
+        stow = description.configurations.stow[i]
+        if not lo <= stow <= hi:
+            raise RobotDescriptionError(f"configurations.stow[{i}]", f"{stow} is outside "
+                                        f"{name}'s limits [{lo}, {hi}]")

@@ -9,6 +9,7 @@ import pytest
 
 from s3o_drake.execution.arm.pickup import plan_pickup
 from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.kinematics import arm_kinematics
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.resources import SCENARIOS_DIR
@@ -36,6 +37,6 @@ def test_every_robot_picks_a_dish_within_its_limits(name):
     assert plan.ok and 2.0 < plan.duration < 30.0
     q = np.vstack([s.waypoints for s in plan.segments])[:, robot.arm_positions]
     assert q.shape[1] == {"ur5e": 6, "panda": 7}.get(name, q.shape[1])
-    arm = robot.description.arm
-    assert np.all(q >= np.array(arm.position_lower) - 1e-9)
-    assert np.all(q <= np.array(arm.position_upper) + 1e-9)
+    arm = arm_kinematics(robot)  # the model's limits
+    assert np.all(q >= arm.lower - 1e-9)
+    assert np.all(q <= arm.upper + 1e-9)

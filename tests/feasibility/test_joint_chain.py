@@ -23,8 +23,8 @@ def test_the_chain_moves_the_grasp_frame_as_the_plant_does(name):
     chain = JointChain.of_plant(plant, model, base=robot.arm_base_link, tool=robot.grasp_frame,
                                 joints=robot.arm_joints)
     assert chain.joints == robot.num_arm_joints
-    lower = np.maximum(robot.description.arm.position_lower, -3.0)
-    upper = np.minimum(robot.description.arm.position_upper, 3.0)
+    lower = np.maximum(plant.GetPositionLowerLimits()[robot.arm_positions], -3.0)
+    upper = np.minimum(plant.GetPositionUpperLimits()[robot.arm_positions], 3.0)
     q = np.random.default_rng(0).uniform(lower, upper, (50, robot.num_arm_joints))
     R, p = chain.forward(q)
     context = plant.CreateDefaultContext()

@@ -8,16 +8,13 @@ import numpy as np
 import pytest
 
 from s3o_drake.feasibility import kinematics
-from s3o_drake.feasibility.dh_chain import DHChain
-from s3o_drake.feasibility.kinematics import ArmKinematics
+from s3o_drake.feasibility.joint_chain import JointChain
+from s3o_drake.feasibility.kinematics import ArmKinematics, ArmModelError
 from s3o_drake.world.robot import load_robot
 
-HALF_PI = math.pi / 2
-# A Franka-Panda-class arm (Craig's DH table, frankaemika/docs), with its hand: 0.107 m to
-# the flange, turned -π/4, then 0.1034 m to the point between the fingertips.
-PANDA_CHAIN = DHChain(a=[0, 0, 0, 0.0825, -0.0825, 0, 0.088], d=[0.333, 0, 0.316, 0, 0.384, 0, 0],
-                      alpha=[0, -HALF_PI, HALF_PI, HALF_PI, -HALF_PI, HALF_PI, HALF_PI],
-                      modified=True, tool_offset=0.107 + 0.1034, tool_yaw=-math.pi / 4)
+# A Franka-Panda-class arm with its hand, as the shipped Panda's model has it, with its
+# maker's limits and a stow of this test's own.
+PANDA_CHAIN = kinematics.arm_kinematics(load_robot("panda")).chain
 PANDA_LOWER = np.array([-2.8973, -1.7628, -2.8973, -3.0718, -2.8973, -0.0175, -2.8973])
 PANDA_UPPER = np.array([2.8973, 1.7628, 2.8973, -0.0698, 2.8973, 3.7525, 2.8973])
 PANDA = ArmKinematics(PANDA_CHAIN, PANDA_LOWER, PANDA_UPPER, "numeric",
@@ -97,3 +94,23 @@ def test_random_configurations_are_deterministic_and_inside_the_limits(arm):
     np.testing.assert_array_equal(q, arm.random_configurations(500, seed=4))
     assert arm.within_limits(q).all()
     assert (np.abs(q) <= math.pi).all()
+
+
+
+@pytest.mark.parametrize("where", ["first", "last"])
+def test_an_arm_whose_end_joints_do_not_turn_about_A_and_G_is_refused(where):
+    # The reachability map turns a stored configuration by the first joint (about A's z)
+    # and by the last (about G's approach axis): a first joint tilted off A's vertical or
+    # beside it, or a tool beside the last joint's axis or tilted off it, cannot be mapped.
+    tilt, beside = np.eye(4), np.eye(4)
+    tilt[1:3, 1:3] = [[math.cos(0.1), -math.sin(0.1)], [math.sin(0.1), math.cos(0.1)]]
+    beside[0, 3] = 0.01
+    for X in (tilt, beside):
+        fixed = PANDA_CHAIN.fixed.copy()
+        if where == "first":  # the first joint's frame moved in A
+            fixed[0] = fixed[0] @ X
+        else:  # G moved in the last joint's frame
+            fixed[-1] = X @ fixed[-1]
+        with pytest.raises(ArmModelError, match="must turn") as error:
+            ArmKinematics(JointChain(fixed, PANDA_CHAIN.axes), PANDA_LOWER, PANDA_UPPER)
+        assert error.value.path == ("arm.joints[0]" if where == "first" else "arm.joints[6]")

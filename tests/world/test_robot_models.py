@@ -1,8 +1,9 @@
 """Every shipped robot (each folder of models/ with a robot.yaml): what a user of its
 description relies on holds in its model. The description agrees with the model
-(`check_model`); its DH table, with the flange and the grasp offset, is the model's arm
-chain; its frames and gripper are where it says; its stow configuration is within the joint
-limits, at least 1 cm from any self-collision and inside the footprint."""
+(`check_model`); the arm's kinematics that the feasibility check moves are the model's arm
+chain, with the model's limits; its frames and gripper are where it says; its stow
+configuration is within the joint limits, at least 1 cm from any self-collision and inside
+the footprint."""
 
 import math
 
@@ -12,9 +13,9 @@ from pydrake.geometry import Box, Capsule, Cylinder, Role, Sphere
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.planning import RobotDiagramBuilder, SceneGraphCollisionChecker
 
-from s3o_drake.feasibility.dh_chain import DHChain
-from s3o_drake.feasibility.kinematics import ArmKinematics
+from s3o_drake.feasibility.kinematics import arm_kinematics
 from s3o_drake.world.resources import make_parser
+from s3o_drake.world.robot import load_robot
 from s3o_drake.world.robot_description import (
     RobotDescription,
     check_model,
@@ -24,7 +25,7 @@ from s3o_drake.world.robot_description import (
 
 #: Padding (m) between any two of the robot's bodies in the stow configuration.
 SELF_CLEARANCE = 0.01
-#: Random arm configurations on which the DH chain is compared with the model.
+#: Random arm configurations on which the arm's kinematics are compared with the model.
 SAMPLES = 200
 #: The tool flange at zero joint angles in the arm's base frame (m), as its maker publishes
 #: it: Universal Robots' UR5e DH parameters; Franka's Panda DH table (frankaemika/docs,
@@ -51,9 +52,10 @@ class RobotModel:
         self.checker = SceneGraphCollisionChecker(
             model=self.diagram, robot_model_instances=[self.model], edge_step_size=0.05)
         self.checker.SetPaddingAllRobotRobotPairs(SELF_CLEARANCE)
-        arm = self.description.arm
-        self.lower = np.array(arm.position_lower)
-        self.upper = np.array(arm.position_upper)
+        arm = [self.plant.GetJointByName(name, self.model).position_start()
+               for name in self.description.arm.joints]
+        self.lower = self.plant.GetPositionLowerLimits()[arm]
+        self.upper = self.plant.GetPositionUpperLimits()[arm]
         self.travel = self.description.gripper.travel
 
     def frame(self, name: str):
@@ -77,15 +79,6 @@ class RobotModel:
 @pytest.fixture(scope="module", params=robot_names())
 def robot(request) -> RobotModel:
     return RobotModel(request.param)
-
-
-def _chain(description: RobotDescription, offset: float) -> DHChain:
-    """The description's DH chain from the arm's base frame to a frame `offset` beyond the
-    flange along its z (the flange turned by `flange_yaw`, as the tool frame is)."""
-    arm = description.arm
-    return DHChain(arm.dh_a, arm.dh_d, arm.dh_alpha,
-                   modified=arm.dh_convention == "modified",
-                   tool_offset=arm.flange_z + offset, tool_yaw=arm.flange_yaw)
 
 
 def _support(shape, X_FG: RigidTransform, e_F: np.ndarray) -> float:
@@ -115,27 +108,21 @@ def test_the_description_agrees_with_its_model(robot):
         assert joint.position_upper_limits()[0] == pytest.approx(robot.travel, abs=1e-12)
 
 
-def test_the_dh_table_is_the_models_arm_chain(robot):
-    """The DH chain with `flange_z`, `flange_yaw` and the grasp offset moves the grasp frame
-    as Drake does, in the arm's base frame, within the joint limits; without the grasp
-    offset it moves the tool frame."""
+def test_the_arms_kinematics_are_the_models_arm_chain(robot):
+    """What the feasibility check moves puts the grasp frame where Drake does, in the arm's
+    base frame, over the joint limits, which are the model's."""
     d = robot.description
-    arm_kinematics = ArmKinematics.of(d)  # what the feasibility check moves
-    grasp, tool = arm_kinematics.chain, _chain(d, 0.0)
-    np.testing.assert_array_equal(arm_kinematics.lower, robot.lower)
-    np.testing.assert_array_equal(arm_kinematics.upper, robot.upper)
+    arm = arm_kinematics(load_robot(d.name))
+    np.testing.assert_array_equal(arm.lower, robot.lower)
+    np.testing.assert_array_equal(arm.upper, robot.upper)
     rng = np.random.default_rng(0)
     arms = rng.uniform(robot.lower, robot.upper, size=(SAMPLES, len(d.arm.joints)))
-    R_AG, p_AG = grasp.forward(arms)
-    R_AT, p_AT = tool.forward(arms)
-    for i, arm in enumerate(arms):
-        robot.set(robot.positions(arm, base=(0.4, -1.3, 2.0)))
+    R_AG, p_AG = arm.forward(arms)
+    for i, q in enumerate(arms):
+        robot.set(robot.positions(q, base=(0.4, -1.3, 2.0)))
         X_AG = robot.pose(d.arm.base_link, d.tool.grasp_frame)
-        np.testing.assert_allclose(X_AG.translation(), p_AG[i], rtol=0, atol=1e-9)
-        np.testing.assert_allclose(X_AG.rotation().matrix(), R_AG[i], rtol=0, atol=1e-9)
-        X_AT = robot.pose(d.arm.base_link, d.tool.frame)
-        np.testing.assert_allclose(X_AT.translation(), p_AT[i], rtol=0, atol=1e-9)
-        np.testing.assert_allclose(X_AT.rotation().matrix(), R_AT[i], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(X_AG.translation(), p_AG[i], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(X_AG.rotation().matrix(), R_AG[i], rtol=0, atol=1e-12)
 
 
 def test_the_flange_at_zero_angles_is_where_its_maker_says(robot):

@@ -178,7 +178,7 @@ def branch_preference(configs: np.ndarray, *, robot: Robot) -> np.ndarray:
     """
     arm = kin.arm_kinematics(robot)
     present = ~np.isnan(configs[..., 0])  # (..., K)
-    elbow_z = arm.chain.frames(np.nan_to_num(configs))[arm.elbow_frame][..., 2, 3]
+    elbow_z = arm.chain.frames(np.nan_to_num(configs))[arm.elbow_joint][..., 2, 3]
     total = np.where(present, elbow_z, 0.0).reshape(-1, configs.shape[-2]).sum(axis=0)
     count = present.reshape(-1, configs.shape[-2]).sum(axis=0)
     mean = np.where(count > 0, total / np.maximum(count, 1), -np.inf)
