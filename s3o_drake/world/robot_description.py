@@ -59,7 +59,9 @@ class ArmDescription:
     """The arm's base frame in the base link (m); its axes are the base link's."""
     joints: list[str] = field(default_factory=list)
     position_lower: list[float] = field(default_factory=list)
-    """rad, per joint (the model's, repeated here with their source)."""
+    """rad, per joint (the model's, repeated here with their source). A robot of parts
+    reads each limit that is not given here from its model; one given here overrides the
+    model's, and `limits_source` names where it comes from."""
     position_upper: list[float] = field(default_factory=list)
     velocity_limits: list[float] = field(default_factory=list)
     """rad/s, per joint."""
@@ -104,7 +106,14 @@ class GripperDescription:
     bodies: list[str] = field(default_factory=list)
     """The bodies that may touch the object being grasped (palm and fingers)."""
     travel: float = 0.0
-    """Travel of each finger (m); the opening is the sum of the fingers' positions."""
+    """Travel of each finger (m); for sliding fingers the opening is the sum of the
+    fingers' positions."""
+    open: list[float] = field(default_factory=list)
+    """The joints' positions when open; default each at `travel` (sliding fingers). A
+    linkage gripper (its fingers turn, and its other joints mimic the one actuated) gives
+    its own, in its joints' units (rad)."""
+    closed: list[float] = field(default_factory=list)
+    """... and closed on nothing; default all zero (sliding fingers)."""
 
 
 @dataclass
@@ -118,6 +127,65 @@ class TrayDescription:
 
 
 @dataclass
+class MountDescription:
+    """Where a part is welded, as a model directive's `add_weld` says it: the parent frame
+    (of a part listed before, `part::frame`), the child frame of this part, and the child
+    in the parent (X_PC: m, and roll-pitch-yaw in rad)."""
+
+    parent: str = ""
+    child: str = ""
+    xyz: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+@dataclass
+class ActuatorGains:
+    """A joint the robot actuates that its maker's model leaves to a ROS controller: the
+    build adds its actuator with these PD gains (Drake's `controller_gains`)."""
+
+    joint: str = ""
+    p: float = 0.0
+    """N m/rad or N/m."""
+    d: float = 0.0
+    """N m s/rad or N s/m."""
+
+
+@dataclass
+class PartDescription:
+    """One part of a robot as its maker ships it (the arm, the gripper) or as we make it
+    (the base with its tray), and where it mounts."""
+
+    name: str = ""
+    """The part's model instance is `<robot>::<name>` (a model directive's namespace)."""
+    model: str = ""
+    """The file Drake reads (`package://s3o_drake/...`; URDF, SDFormat or MJCF)."""
+    mount: MountDescription = field(default_factory=MountDescription)
+    """Where it is welded; none for the part that joins the world by its own joints (the
+    base, listed first)."""
+    xacro: str = ""
+    """The xacro `model` is generated from, if any (`s3o build robot NAME --steps model`:
+    world/maker_models.py), with the maker's meshes converted for Drake."""
+    actuators: list[ActuatorGains] = field(default_factory=list)
+    """Actuators the generated model gets, in this order (with `xacro`)."""
+    visuals_from_collision: bool = False
+    """Draw each link with its collision geometry (with `xacro`, for a part whose visual
+    meshes are not shipped)."""
+
+
+@dataclass
+class FrameDescription:
+    """A frame of ours on a part (a model directive's `add_frame`): the tool or grasp
+    frame that the maker's model does not have."""
+
+    name: str = ""
+    """`part::name`."""
+    parent: str = ""
+    """`part::frame`."""
+    xyz: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+@dataclass
 class Configurations:
     stow: list[float] = field(default_factory=list)
     """The arm's joint angles (rad) while the base drives."""
@@ -128,8 +196,17 @@ class RobotDescription:
     """One robot's description file (see the module docstring)."""
 
     name: str = ""
+    missing: str = ""
+    """What the robot still lacks to plan and execute, if anything: a robot that lacks
+    something is not offered to scenarios (`robot_names`), but loads by its name."""
     model: str = ""
-    """The model's URL (`package://s3o_drake/...`)."""
+    """The model's URL (`package://s3o_drake/...`), one model instance; or none, and ..."""
+    parts: list[PartDescription] = field(default_factory=list)
+    """... the robot's parts, each a model instance, welded as model directives weld them.
+    Names of joints, bodies and frames are then `part::name`, or only `name` where one
+    part alone has it."""
+    frames: list[FrameDescription] = field(default_factory=list)
+    """Frames of ours on the parts (a robot of parts only)."""
     base: BaseDescription = field(default_factory=BaseDescription)
     arm: ArmDescription = field(default_factory=ArmDescription)
     tool: ToolDescription = field(default_factory=ToolDescription)
@@ -151,8 +228,10 @@ class RobotDescriptionError(FieldError):
 
 
 def robot_names() -> list[str]:
-    """The shipped robots: the folders of models/ with a description."""
-    return sorted(p.parent.name for p in MODELS_DIR.glob(f"*/{DESCRIPTION_FILE}"))
+    """The shipped robots: the folders of models/ with a description that lacks nothing
+    (its `missing` empty)."""
+    return sorted(p.parent.name for p in MODELS_DIR.glob(f"*/{DESCRIPTION_FILE}")
+                  if not (load_yaml(p.read_text()) or {}).get("missing"))
 
 
 def robot_description_path(name: str) -> Path:
@@ -191,7 +270,13 @@ def _check_values(d: RobotDescription) -> None:
     def fail(path: str, message: str) -> None:
         raise RobotDescriptionError(path, message)
 
-    for path, value in (("name", d.name), ("model", d.model), ("base.link", d.base.link),
+    if bool(d.model) == bool(d.parts):
+        fail("model", "give either a model or parts")
+    if d.parts:
+        _check_parts(d)
+    elif d.frames:
+        fail("frames", "only a robot of parts adds frames (a model holds its own)")
+    for path, value in (("name", d.name), ("base.link", d.base.link),
                         ("arm.base_link", d.arm.base_link), ("tool.frame", d.tool.frame),
                         ("tool.grasp_frame", d.tool.grasp_frame), ("tray.link", d.tray.link),
                         ("arm.limits_source", d.arm.limits_source)):
@@ -212,27 +297,30 @@ def _check_values(d: RobotDescription) -> None:
     n = len(d.arm.joints)
     if n == 0:
         fail("arm.joints", "must name the arm's joints")
-    for path, values in (("arm.position_lower", d.arm.position_lower),
-                         ("arm.position_upper", d.arm.position_upper),
-                         ("arm.velocity_limits", d.arm.velocity_limits),
-                         ("arm.acceleration_limits", d.arm.acceleration_limits),
-                         ("configurations.stow", d.configurations.stow)):
-        if len(values) != n:
+    # A robot of parts reads from its model the limits its description does not give.
+    limits = (("arm.position_lower", d.arm.position_lower),
+              ("arm.position_upper", d.arm.position_upper),
+              ("arm.velocity_limits", d.arm.velocity_limits),
+              ("arm.acceleration_limits", d.arm.acceleration_limits))
+    for path, values in (*limits, ("configurations.stow", d.configurations.stow)):
+        if len(values) != n and not (d.parts and not values and path.startswith("arm.")):
             fail(path, f"expected {n} values (one per arm joint), got {len(values)}")
-    for path, values in (("arm.dh_a", d.arm.dh_a), ("arm.dh_d", d.arm.dh_d),
-                         ("arm.dh_alpha", d.arm.dh_alpha)):
-        if len(values) != n:
-            fail(path, f"expected {n} values (one per arm joint), got {len(values)}")
-    # The reachability map turns one stored configuration to every bearing with the first
-    # joint and to every wrist turn with the last: the first must turn about A's vertical z
-    # axis, the last about the approach axis of the grasp frame.
-    if d.arm.dh_convention == "modified":
-        row, why = 0, "the first joint must turn the arm about the arm base's vertical axis"
-    else:
-        row, why = n - 1, "the last joint must turn the gripper about its approach axis"
-    for name, values in (("dh_a", d.arm.dh_a), ("dh_alpha", d.arm.dh_alpha)):
-        if values[row] != 0.0:
-            fail(f"arm.{name}[{row}]", f"must be 0 ({why}), got {values[row]}")
+    # A robot of parts takes its kinematics from its model: no DH table is asked for.
+    if not d.parts:
+        for path, values in (("arm.dh_a", d.arm.dh_a), ("arm.dh_d", d.arm.dh_d),
+                             ("arm.dh_alpha", d.arm.dh_alpha)):
+            if len(values) != n:
+                fail(path, f"expected {n} values (one per arm joint), got {len(values)}")
+        # The reachability map turns one stored configuration to every bearing with the first
+        # joint and to every wrist turn with the last: the first must turn about A's vertical z
+        # axis, the last about the approach axis of the grasp frame.
+        if d.arm.dh_convention == "modified":
+            row, why = 0, "the first joint must turn the arm about the arm base's vertical axis"
+        else:
+            row, why = n - 1, "the last joint must turn the gripper about its approach axis"
+        for name, values in (("dh_a", d.arm.dh_a), ("dh_alpha", d.arm.dh_alpha)):
+            if values[row] != 0.0:
+                fail(f"arm.{name}[{row}]", f"must be 0 ({why}), got {values[row]}")
     for path, values in (("arm.mount_xyz", d.arm.mount_xyz), ("tray.xyz", d.tray.xyz)):
         if len(values) != 3:
             fail(path, f"expected 3 values (x, y, z), got {len(values)}")
@@ -260,6 +348,11 @@ def _check_values(d: RobotDescription) -> None:
             fail(path, f"must be positive, got {v}")
     if d.base.width > d.base.length:
         fail("base.width", "the base's x is its long side: width must not exceed length")
+    for path, values in (("gripper.open", d.gripper.open),
+                         ("gripper.closed", d.gripper.closed)):
+        if values and len(values) != len(d.gripper.joints):
+            fail(path, f"expected {len(d.gripper.joints)} values (one per gripper joint), "
+                 f"got {len(values)}")
     if d.base.drive not in BASE_DRIVES:
         fail("base.drive", f"expected one of {', '.join(BASE_DRIVES)}, got {d.base.drive!r}")
     names = d.joints
@@ -268,58 +361,254 @@ def _check_values(d: RobotDescription) -> None:
             fail("joints", f"{joint!r} is named twice")
 
 
+def _check_parts(d: RobotDescription) -> None:
+    def fail(path: str, message: str) -> None:
+        raise RobotDescriptionError(path, message)
+
+    def scoped(path: str, value: str, parts: list[str]) -> None:
+        part, sep, local = value.partition("::")
+        if not sep or part not in parts or not local or "::" in local:
+            fail(path, f"expected 'part::name' of a part listed before, got {value!r}")
+
+    names = [p.name for p in d.parts]
+    for i, part in enumerate(d.parts):
+        path = f"parts[{i}]"
+        if not part.name.strip() or "::" in part.name:
+            fail(f"{path}.name", f"must be given, without '::', got {part.name!r}")
+        if names.index(part.name) != i:
+            fail(f"{path}.name", f"{part.name!r} is named twice")
+        if not part.model.strip():
+            fail(f"{path}.model", "must be given")
+        if i == 0 and (part.mount.parent or part.mount.child):
+            fail(f"{path}.mount", "the first part (the base) joins the world by its own "
+                 "joints: no mount")
+        if i > 0:
+            scoped(f"{path}.mount.parent", part.mount.parent, names[:i])
+            if not part.mount.child.strip():
+                fail(f"{path}.mount.child", "must be given")
+        for key in ("xyz", "rpy"):
+            if len(getattr(part.mount, key)) != 3:
+                fail(f"{path}.mount.{key}", "expected 3 values")
+        if (part.actuators or part.visuals_from_collision) and not part.xacro:
+            fail(f"{path}.xacro", "must be given: only a model built from a xacro gets "
+                 "actuators or visuals from its collision geometry")
+    for i, frame in enumerate(d.frames):
+        scoped(f"frames[{i}].name", frame.name, names)
+        scoped(f"frames[{i}].parent", frame.parent, names)
+        if frame.name.partition("::")[0] != frame.parent.partition("::")[0]:
+            fail(f"frames[{i}].parent", "must be on the frame's own part")
+        for key in ("xyz", "rpy"):
+            if len(getattr(frame, key)) != 3:
+                fail(f"frames[{i}].{key}", "expected 3 values")
+
+
+def _transform(xyz: list[float], rpy: list[float], base_frame: str | None = None):
+    from pydrake.common.schema import Transform
+    from pydrake.math import RigidTransform, RollPitchYaw
+
+    transform = Transform(RigidTransform(RollPitchYaw(rpy), xyz))
+    if base_frame is not None:
+        transform.base_frame = base_frame
+    return transform
+
+
+def part_directives(description: RobotDescription, name: str = "robot"):
+    """A robot of parts as Drake's model directives: each part a model instance
+    `<name>::<part>`, welded where its mount says, then the frames of ours."""
+    from pydrake.multibody.parsing import (
+        AddFrame,
+        AddModel,
+        AddWeld,
+        ModelDirective,
+        ModelDirectives,
+    )
+
+    directives = []
+    for part in description.parts:
+        directives.append(ModelDirective(add_model=AddModel(name=f"{name}::{part.name}",
+                                                            file=part.model)))
+        mount = part.mount
+        if mount.parent:
+            directives.append(ModelDirective(add_weld=AddWeld(
+                parent=f"{name}::{mount.parent}", child=f"{name}::{part.name}::{mount.child}",
+                X_PC=_transform(mount.xyz, mount.rpy))))
+    for frame in description.frames:
+        directives.append(ModelDirective(add_frame=AddFrame(
+            name=f"{name}::{frame.name}",
+            X_PF=_transform(frame.xyz, frame.rpy, base_frame=f"{name}::{frame.parent}"))))
+    return ModelDirectives(directives=directives)
+
+
+def add_model_instances(parser, description: RobotDescription, name: str = "robot") -> list:
+    """Adds the robot to `parser`'s unfinalized plant: one model instance `name`, or one per
+    part (`<name>::<part>`, in the parts' order) with the description's limit overrides
+    set on the arm's joints. Returns the instances."""
+    from pydrake.multibody.parsing import ProcessModelDirectives
+
+    plant = parser.plant()
+    if not description.parts:
+        if plant.HasModelInstanceNamed(name):
+            raise ValueError(f"the plant already has a model instance named {name!r}")
+        (model,) = parser.AddModels(url=description.model)
+        plant.RenameModelInstance(model, name)
+        return [model]
+    infos = ProcessModelDirectives(part_directives(description, name), parser)
+    instances = [i.model_instance for i in infos]
+    arm = description.arm
+    for i, joint_name in enumerate(arm.joints):
+        joint = find_joint(plant, instances, joint_name)
+        if arm.position_lower:
+            joint.set_position_limits([arm.position_lower[i]], [arm.position_upper[i]])
+        if arm.velocity_limits:
+            v = arm.velocity_limits[i]
+            joint.set_velocity_limits([-v], [v])
+        if arm.acceleration_limits:
+            a = arm.acceleration_limits[i]
+            joint.set_acceleration_limits([-a], [a])
+    return instances
+
+
+def _find(plant, instances: list, name: str, has, get, kind: str):
+    """The element `name` (`part::name`, or `name` where one instance alone has it) of the
+    robot's `instances`; ValueError if there is none or more than one."""
+    scope, _, local = name.rpartition("::")
+    candidates = [i for i in instances
+                  if not scope or plant.GetModelInstanceName(i).endswith(f"::{scope}")]
+    found = [i for i in candidates if has(local, i)]
+    if len(found) != 1:
+        where = ", ".join(plant.GetModelInstanceName(i) for i in found) or "none"
+        raise ValueError(f"{kind} {name!r}: expected in one of the robot's parts, found in "
+                         f"{where}")
+    return get(local, found[0])
+
+
+def find_joint(plant, instances: list, name: str):
+    return _find(plant, instances, name, plant.HasJointNamed, plant.GetJointByName, "joint")
+
+
+def find_body(plant, instances: list, name: str):
+    return _find(plant, instances, name, plant.HasBodyNamed, plant.GetBodyByName, "body")
+
+
+def find_frame(plant, instances: list, name: str):
+    return _find(plant, instances, name, plant.HasFrameNamed, plant.GetFrameByName, "frame")
+
+
+def mimic_joints(description: RobotDescription) -> list[tuple[str, str, float, float]]:
+    """The joints of the robot's URDF parts that follow another (URDF `<mimic>`: Drake
+    makes each a coupler constraint, which only a discrete SAP plant enforces):
+    (`part::follower`, `part::leader`, multiplier, offset), q_f = m q_l + offset."""
+    import xml.etree.ElementTree as ET
+
+    from s3o_drake.world.resources import package_file
+
+    mimics = []
+    for part in description.parts:
+        if not part.model.endswith(".urdf"):
+            continue
+        for joint in ET.parse(package_file(part.model)).getroot().iter("joint"):
+            mimic = joint.find("mimic")
+            if mimic is not None:
+                mimics.append((f"{part.name}::{joint.get('name')}",
+                               f"{part.name}::{mimic.get('joint')}",
+                               float(mimic.get("multiplier", 1.0)),
+                               float(mimic.get("offset", 0.0))))
+    return mimics
+
+
 def check_model(description: RobotDescription) -> None:
-    """Parses the description's model and checks that it agrees with the description: every
-    joint named, in the model instance's position order, of the right kind (base x and y
-    prismatic, the rest revolute or prismatic as the model has them), with the arm's
-    position, speed and acceleration limits; every frame and body named. Raises
-    RobotDescriptionError."""
+    """Parses the description's model (or its parts) and checks that it agrees with the
+    description: every joint named, of the right kind (base x and y prismatic, the rest
+    revolute or prismatic as the model has them), in the order of the model instance's
+    positions (a robot of parts: of its actuators, which the plant's inputs follow); the
+    arm's position, speed and acceleration limits the model's (a robot of parts: those the
+    description does not override), the stow within them; every frame and body named.
+    Raises RobotDescriptionError."""
     from pydrake.multibody.plant import MultibodyPlant
-    from pydrake.multibody.tree import PrismaticJoint, RevoluteJoint
+    from pydrake.multibody.tree import JointActuatorIndex, PrismaticJoint, RevoluteJoint
 
     from s3o_drake.world.resources import make_parser
 
     plant = MultibodyPlant(0.0)
-    (model,) = make_parser(plant).AddModels(url=description.model)
+    try:
+        instances = add_model_instances(make_parser(plant), description)
+    except RuntimeError as e:  # Drake's parser or directives, in its words
+        raise RobotDescriptionError("parts" if description.parts else "model",
+                                    str(e).splitlines()[0]) from None
     plant.Finalize()
+
+    def found(find, name: str):
+        try:
+            return find(plant, instances, name)
+        except ValueError:
+            return None
+
     for path, frame in (("base.link", description.base.link),
                         ("arm.base_link", description.arm.base_link),
                         ("tool.frame", description.tool.frame),
                         ("tool.grasp_frame", description.tool.grasp_frame),
                         ("tray.link", description.tray.link),
                         ("lidar_link", description.lidar_link)):
-        if frame and not plant.HasFrameNamed(frame, model):
+        if frame and found(find_frame, frame) is None:
             raise RobotDescriptionError(path, f"the model has no frame {frame!r}")
     for body in description.gripper.bodies:
-        if not plant.HasBodyNamed(body, model):
+        if found(find_body, body) is None:
             raise RobotDescriptionError("gripper.bodies", f"the model has no body {body!r}")
     kinds = {description.base.joints[0]: PrismaticJoint,
              description.base.joints[1]: PrismaticJoint,
              description.base.joints[2]: RevoluteJoint}
-    order = []
+    joints = []
     for name in description.joints:
-        if not plant.HasJointNamed(name, model):
+        joint = found(find_joint, name)
+        if joint is None:
             raise RobotDescriptionError("joints", f"the model has no joint {name!r}")
-        joint = plant.GetJointByName(name, model)
         if name in kinds and not isinstance(joint, kinds[name]):
             raise RobotDescriptionError("base.joints", f"{name!r} is a {joint.type_name()} "
                                         f"joint, expected {kinds[name].__name__}")
-        order.append(joint.position_start())
-    if order != sorted(order) or len(order) != plant.num_positions(model):
-        raise RobotDescriptionError("joints", "the joints must be all of the model's, in the "
-                                    "order of its positions")
+        joints.append(joint)
+    if description.parts:
+        actuated = [plant.get_joint_actuator(JointActuatorIndex(a)).joint().index()
+                    for a in range(plant.num_actuators())]
+        if [j.index() for j in joints] != actuated:
+            raise RobotDescriptionError("joints", "the joints must be all of the parts' "
+                                        "actuated joints, in the order of their actuators")
+    else:
+        order = [j.position_start() for j in joints]
+        if order != sorted(order) or len(order) != plant.num_positions(instances[0]):
+            raise RobotDescriptionError("joints", "the joints must be all of the model's, in "
+                                        "the order of its positions")
     velocity = plant.GetVelocityUpperLimits()
     acceleration = plant.GetAccelerationUpperLimits()
     lower, upper = plant.GetPositionLowerLimits(), plant.GetPositionUpperLimits()
-    for i, name in enumerate(description.arm.joints):
-        joint = plant.GetJointByName(name, model)
+    arm = description.arm
+    for i, name in enumerate(arm.joints):
+        joint = joints[len(description.base.joints) + i]
         index, position = joint.velocity_start(), joint.position_start()
+        # A robot of parts has set its overrides on the plant: what is compared is the
+        # model's value where the description gives none.
         for path, given, modelled in (
-                ("arm.position_lower", description.arm.position_lower[i], lower[position]),
-                ("arm.position_upper", description.arm.position_upper[i], upper[position]),
-                ("arm.velocity_limits", description.arm.velocity_limits[i], velocity[index]),
-                ("arm.acceleration_limits", description.arm.acceleration_limits[i],
-                 acceleration[index])):
-            if not math.isclose(given, modelled, rel_tol=1e-12):
-                raise RobotDescriptionError(f"{path}[{i}]", f"{given} here, {modelled} in "
+                ("arm.position_lower", arm.position_lower, lower[position]),
+                ("arm.position_upper", arm.position_upper, upper[position]),
+                ("arm.velocity_limits", arm.velocity_limits, velocity[index]),
+                ("arm.acceleration_limits", arm.acceleration_limits, acceleration[index])):
+            if given and not math.isclose(given[i], modelled, rel_tol=1e-12):
+                raise RobotDescriptionError(f"{path}[{i}]", f"{given[i]} here, {modelled} in "
                                             f"the model ({name})")
+            # Toppra times the arm's paths within its speed and acceleration limits.
+            if (description.parts and not math.isfinite(modelled)
+                    and path in ("arm.velocity_limits", "arm.acceleration_limits")):
+                raise RobotDescriptionError(path, f"the model has no limit for {name}: "
+                                            "give one, with its source")
+        stow = description.configurations.stow[i]
+        if not lower[position] <= stow <= upper[position]:
+            raise RobotDescriptionError(f"configurations.stow[{i}]", f"{stow} is outside the "
+                                        f"joint's limits [{lower[position]}, "
+                                        f"{upper[position]}]")
+    gripper = joints[len(description.base.joints) + len(arm.joints):]
+    for path, values in (("gripper.open", description.gripper.open),
+                         ("gripper.closed", description.gripper.closed)):
+        for i, (joint, q) in enumerate(zip(gripper, values, strict=False)):
+            lo, hi = joint.position_lower_limits()[0], joint.position_upper_limits()[0]
+            if not lo <= q <= hi:
+                raise RobotDescriptionError(f"{path}[{i}]", f"{q} is outside the joint's "
+                                            f"limits [{lo}, {hi}]")
