@@ -1,4 +1,4 @@
-"""Build a robot's parts from their makers' files: the xacro expanded, the meshes converted.
+"""Build a robot's parts from their makers' files.
 
     s3o build model NAME
 
