@@ -5,6 +5,8 @@
 Runs, for the robot of models/NAME/ (its robot.yaml and model), each in a process of its
 own, in order:
 
+  model           s3o build model NAME                 -> models/NAME/generated/ (a robot
+                                                          of parts, from its makers' files)
   reachability    s3o build reachability --robot NAME  -> models/NAME/reachability_map.npz
   time-model      s3o build time-model --robot NAME    -> models/NAME/time_model.yaml
   fcn-data        s3o build fcn-data --robot NAME      -> out/NAME/fcn_data, .../fcn_data_dense
@@ -34,6 +36,7 @@ from s3o_drake.commands.common import command_parser, fail
 from s3o_drake.commands.options import add_workers
 from s3o_drake.world.files import write_atomically
 from s3o_drake.world.resources import (
+    MODELS_DIR,
     REPO_DIR,
     RESTAURANT_DENSE,
     repo_path,
@@ -66,7 +69,10 @@ def plan_steps(name: str, *, workers: int) -> list[Step]:
     """The build's steps for robot `name`: into its folder, and the training data (which
     does not ship) into out/NAME/."""
     folder = robot_dir(name)
-    model = (folder / "robot.yaml", *sorted(folder.glob("*.urdf")))
+    generated = folder / "generated"
+    sources = (folder / "robot.yaml", *sorted(folder.glob("*.xacro")), MODELS_DIR / "parts")
+    model = (folder / "robot.yaml", *sorted(folder.glob("*.urdf")),
+             *((generated,) if any(folder.glob("*.xacro")) else ()))
     data = REPO_DIR / "out" / name
     spacious, dense = data / "fcn_data", data / "fcn_data_dense"
     reach_map, times = folder / "reachability_map.npz", folder / "time_model.yaml"
@@ -75,7 +81,11 @@ def plan_steps(name: str, *, workers: int) -> list[Step]:
     robot = ("--robot", name)
     scenes = ("--seed", str(DATA_SEED), "--count", str(DATA_SCENES), "--workers", w, "--quiet",
               *robot)
+    # A robot of parts built from its makers' files first builds them (`s3o build model`).
+    built = ([Step("model", ("build", "model", name), sources, (generated,))]
+             if any(folder.glob("*.xacro")) else [])
     return [
+        *built,
         Step("reachability", ("build", "reachability", *robot, "--out", str(reach_map),
                               "--workers", w, "--quiet"), model, (reach_map,)),
         Step("time-model", ("build", "time-model", *robot, "--out", str(times), "--seed", "0"),
@@ -93,7 +103,7 @@ def plan_steps(name: str, *, workers: int) -> list[Step]:
     ]
 
 
-STEP_NAMES = ("reachability", "time-model", "fcn-data", "fcn", "oracle-pinning")
+STEP_NAMES = ("model", "reachability", "time-model", "fcn-data", "fcn", "oracle-pinning")
 """What --steps names; fcn-data makes both layouts' scenes."""
 
 
@@ -172,7 +182,11 @@ def main(argv: list[str] | None = None) -> int:
     )
 
     try:
-        check_model(load_robot_description(args.name))
+        description = load_robot_description(args.name)
+        # A robot of parts built from its makers' files is checked once the model step has
+        # built them (that step checks it).
+        if not any(part.xacro for part in description.parts):
+            check_model(description)
     except RobotDescriptionError as e:
         fail(f"{args.name}: {e}")
     with only_build(args.name):

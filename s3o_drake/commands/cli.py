@@ -50,6 +50,7 @@ COMMANDS: tuple[Command, ...] = (
     _c("diagrams", "diagrams", "Regenerate the Graphviz pictures of the Drake diagrams."),
     _c("build robot", "build_robot",
        "Build what a robot needs from its description: map, times, FCN, checks."),
+    _c("build model", "build_model", "Build a robot's parts from their makers' files."),
     _c("build reachability", "build_reachability",
        "Build the arm's inverse reachability map with Drake IK."),
     _c("build time-model", "derive_times",

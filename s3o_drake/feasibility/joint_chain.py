@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import Frame, ModelInstanceIndex, RevoluteJoint, WeldJoint
+from pydrake.multibody.tree import Frame, Joint, RevoluteJoint, WeldJoint
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,27 +40,27 @@ class JointChain:
         object.__setattr__(self, "axes", axes / np.linalg.norm(axes, axis=1, keepdims=True))
 
     @classmethod
-    def of_plant(cls, plant: MultibodyPlant, model: ModelInstanceIndex, *, base: str,
-                 tool: str, joints: Sequence[str]) -> JointChain:
+    def of_plant(cls, plant: MultibodyPlant, *, base: Frame, tool: Frame,
+                 joints: Sequence[Joint]) -> JointChain:
         """The chain of `joints` (revolute, in order from `base`) from frame `base` to frame
-        `tool` of `model` in a finalized `plant`. Raises ValueError when the way from one
-        to the other holds another moving joint, or not these joints in this order."""
-        A = plant.GetFrameByName(base, model)
-        G = plant.GetFrameByName(tool, model)
+        `tool` in a finalized `plant` (the robot's model instances may be several: the
+        frames and joints are the plant's own). Raises ValueError when the way from one to
+        the other holds another moving joint, or not these joints in this order."""
+        A, G = base, tool
         # The way from G's body down to A's body, through each body's inboard joint.
         steps = []
         body = G.body()
         while body.index() != A.body().index():
             joint = _inboard_joint(plant, body)
             if joint is None:
-                raise ValueError(f"{tool!r} is not outboard of {base!r}")
+                raise ValueError(f"{G.name()!r} is not outboard of {A.name()!r}")
             steps.append(joint)
             body = joint.parent_body()
         steps.reverse()
-        names = [j.name() for j in steps if not isinstance(j, WeldJoint)]
-        if names != list(joints):
-            raise ValueError(f"the joints from {base!r} to {tool!r} are {names}, not "
-                             f"{list(joints)}")
+        moving = [j for j in steps if not isinstance(j, WeldJoint)]
+        if [j.index() for j in moving] != [j.index() for j in joints]:
+            raise ValueError(f"the joints from {A.name()!r} to {G.name()!r} are "
+                             f"{[j.name() for j in moving]}, not {[j.name() for j in joints]}")
         fixed, axes = [], []
         # From A to the first joint's frame on its parent.
         current = _in_body(A).inverse()

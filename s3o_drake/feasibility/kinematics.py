@@ -108,17 +108,17 @@ class ArmKinematics:
         `RobotDescriptionError` when the model's arm is not what the description's use of
         it needs."""
         plant = MultibodyPlant(0.0)
-        model = robot.add_to(Parser(plant))
+        placed = robot.add_model_instances(Parser(plant))
         plant.Finalize()
-        chain = JointChain.of_plant(plant, model, base=robot.arm_base_link,
-                                    tool=robot.grasp_frame, joints=robot.arm_joints)
-        positions = [plant.GetJointByName(name, model).position_start()
-                     for name in robot.arm_joints]
+        arm = [placed.joint(name) for name in robot.arm_joints]
+        chain = JointChain.of_plant(plant, base=placed.frame(robot.arm_base_link),
+                                    tool=placed.frame(robot.grasp_frame), joints=arm)
+        positions = [joint.position_start() for joint in arm]
         lower = plant.GetPositionLowerLimits()[positions]
         upper = plant.GetPositionUpperLimits()[positions]
         X_TG = plant.CalcRelativeTransform(plant.CreateDefaultContext(),
-                                           plant.GetFrameByName(robot.tool_frame, model),
-                                           plant.GetFrameByName(robot.grasp_frame, model))
+                                           placed.frame(robot.tool_frame),
+                                           placed.frame(robot.grasp_frame))
         try:
             return cls(chain, lower, upper, robot.description.arm.inverse_kinematics,
                        np.array(robot.arm_stow), grasp_offset=float(X_TG.translation()[2]))

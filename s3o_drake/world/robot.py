@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
 from shapely.geometry import Polygon
 
@@ -51,9 +52,13 @@ from s3o_drake.world.resources import (
 )
 from s3o_drake.world.robot_description import (
     RobotDescription,
-    apply_limit_overrides,
+    add_model_instances,
     check_model,
+    find_body,
+    find_frame,
+    find_joint,
     load_robot_description,
+    mimic_joints,
 )
 
 
@@ -121,8 +126,10 @@ class Robot:
         set_ = functools.partial(object.__setattr__, self)
         set_("joints", (*d.base.joints, *d.arm.joints, *d.gripper.joints))
         set_("arm_stow", _frozen(d.configurations.stow))
-        set_("gripper_open", _frozen([d.gripper.travel] * len(d.gripper.joints)))
-        set_("gripper_closed", _frozen([0.0] * len(d.gripper.joints)))
+        # Sliding fingers unless the description says otherwise (a linkage gripper).
+        set_("gripper_open", _frozen(d.gripper.open
+                                     or [d.gripper.travel] * len(d.gripper.joints)))
+        set_("gripper_closed", _frozen(d.gripper.closed or [0.0] * len(d.gripper.joints)))
 
     # --- names -------------------------------------------------------------------------
     @property
@@ -130,13 +137,26 @@ class Robot:
         return self.description.name
 
     @property
+    def is_of_parts(self) -> bool:
+        """Whether the robot is several model instances (its description's parts)."""
+        return bool(self.description.parts)
+
+    @property
     def model_url(self) -> str:
-        """The model's URL (`package://s3o_drake/...`)."""
+        """The model's URL (`package://s3o_drake/...`); a robot of parts has one per part."""
+        if self.is_of_parts:
+            raise ValueError(f"robot {self.name!r} is made of parts: see model_files")
         return self.description.model
 
     @property
     def model_file(self) -> Path:
-        return package_file(self.description.model)
+        return package_file(self.model_url)
+
+    @property
+    def model_files(self) -> tuple[Path, ...]:
+        """The files Drake reads for the robot: its model, or its parts' in order."""
+        urls = [p.model for p in self.description.parts] or [self.description.model]
+        return tuple(package_file(url) for url in urls)
 
     # --- joints ------------------------------------------------------------------------
     @property
@@ -298,17 +318,99 @@ class Robot:
     def add_to(self, parser: Parser, *, name: str = "robot") -> ModelInstanceIndex:
         """Parses the robot into `parser`'s (not yet finalized) plant as model instance
         `name`, registering the ``s3o_drake`` package with its package map if need be, with
-        the limits its description overrides. Its positions are in `joints` order."""
+        the limits its description overrides. Its positions are in `joints` order. A robot
+        of parts is several instances: `add_model_instances`."""
+        if self.is_of_parts:
+            raise ValueError(f"robot {self.name!r} is made of parts, one model instance "
+                             "each: use add_model_instances")
+        return self.add_model_instances(parser, name=name).instances[0]
+
+    def add_model_instances(self, parser: Parser, *, name: str = "robot") -> "RobotInstances":
+        """Parses the robot into `parser`'s (not yet finalized) plant: one model instance
+        `name`, or for a robot of parts one per part (`<name>::<part>`, welded as model
+        directives weld them). What is returned finds the robot's joints, bodies and
+        frames in the plant, and its positions among the plant's."""
         packages = parser.package_map()
         if not packages.Contains(PACKAGE_NAME):
             packages.Add(PACKAGE_NAME, str(models_dir()))
-        plant = parser.plant()
-        if plant.HasModelInstanceNamed(name):
-            raise ValueError(f"the plant already has a model instance named {name!r}")
-        (model,) = parser.AddModels(url=self.model_url)
-        plant.RenameModelInstance(model, name)
-        apply_limit_overrides(plant, model, self.description)
-        return model
+        instances = add_model_instances(parser, self.description, name)
+        return RobotInstances(self, parser.plant(), tuple(instances))
+
+
+@dataclass(frozen=True)
+class RobotInstances:
+    """A robot in a plant: its model instances (one, or one per part in the parts'
+    order). The robot's positions, velocities and actuators are in `Robot.joints` order
+    (base, arm, gripper); a robot of parts has them spread over its instances, and its
+    mimic joints (a linkage gripper's) follow the joints they mimic, so they are read and
+    set through the joints' indices here. The index methods need a finalized plant."""
+
+    robot: Robot
+    plant: MultibodyPlant
+    instances: tuple[ModelInstanceIndex, ...]
+
+    def joint(self, name: str):
+        """A joint by its name in the description (`part::name`, or `name`)."""
+        return find_joint(self.plant, list(self.instances), name)
+
+    def body(self, name: str):
+        return find_body(self.plant, list(self.instances), name)
+
+    def frame(self, name: str):
+        return find_frame(self.plant, list(self.instances), name)
+
+    def position_indices(self) -> np.ndarray:
+        """Where the robot's positions (`Robot.joints` order) are among the plant's."""
+        return np.array([self.joint(j).position_start() for j in self.robot.joints])
+
+    def velocity_indices(self) -> np.ndarray:
+        """... and its velocities among the plant's."""
+        return np.array([self.joint(j).velocity_start() for j in self.robot.joints])
+
+    def _followers(self) -> list[tuple[int, int, float, float]]:
+        """(follower's position index, leader's, multiplier, offset) of the mimic joints."""
+        return [(self.joint(f).position_start(), self.joint(leader).position_start(), m, b)
+                for f, leader, m, b in mimic_joints(self.robot.description)]
+
+    def set_positions(self, context, q: np.ndarray) -> None:
+        """Sets the robot's positions (`Robot.joints` order) in a plant context, and its
+        mimic joints where they follow them."""
+        plant_q = self.plant.GetPositions(context).copy()
+        plant_q[self.position_indices()] = q
+        for follower, leader, multiplier, offset in self._followers():
+            plant_q[follower] = multiplier * plant_q[leader] + offset
+        self.plant.SetPositions(context, plant_q)
+
+    def get_positions(self, context) -> np.ndarray:
+        return self.plant.GetPositions(context)[self.position_indices()]
+
+    def state_selector(self) -> np.ndarray:
+        """The matrix that takes the plant's state [q; v] to the robot's [q; v] in
+        `Robot.joints` order (a MatrixGain on the plant's state output gives the
+        "robot_state" a single-instance robot's state output port gives)."""
+        plant, n = self.plant, self.robot.num_positions
+        S = np.zeros((2 * n, plant.num_positions() + plant.num_velocities()))
+        S[np.arange(n), self.position_indices()] = 1.0
+        S[n + np.arange(n), plant.num_positions() + self.velocity_indices()] = 1.0
+        return S
+
+    def desired_state_selectors(self) -> dict[ModelInstanceIndex, np.ndarray]:
+        """For each of the robot's instances with actuators, the matrix that takes the
+        robot's desired state [q_d; v_d] (`Robot.joints` order) to that instance's
+        desired-state input (its actuated joints' [q_d; v_d], in actuator order)."""
+        plant, n = self.plant, self.robot.num_positions
+        index = {int(self.joint(j).index()): k for k, j in enumerate(self.robot.joints)}
+        selectors = {}
+        for instance in self.instances:
+            rows = [index[int(plant.get_joint_actuator(a).joint().index())]
+                    for a in plant.GetJointActuatorIndices(instance)]
+            if not rows:
+                continue
+            S = np.zeros((2 * len(rows), 2 * n))
+            S[np.arange(len(rows)), rows] = 1.0
+            S[len(rows) + np.arange(len(rows)), n + np.array(rows)] = 1.0
+            selectors[instance] = S
+        return selectors
 
 
 def load_robot(name: str = DEFAULT_ROBOT) -> Robot:

@@ -107,7 +107,14 @@ class GripperDescription:
     bodies: list[str] = field(default_factory=list)
     """The bodies that may touch the object being grasped (palm and fingers)."""
     travel: float = 0.0
-    """Travel of each finger (m); the opening is the sum of the fingers' positions."""
+    """Travel of each finger (m); for sliding fingers the opening is the sum of the
+    fingers' positions."""
+    open: list[float] = field(default_factory=list)
+    """The joints' positions when open; default each at `travel` (sliding fingers). A
+    linkage gripper (its fingers turn, and its other joints mimic the one actuated) gives
+    its own, in its joints' units (rad)."""
+    closed: list[float] = field(default_factory=list)
+    """... and closed on nothing; default all zero (sliding fingers)."""
 
 
 @dataclass
@@ -121,6 +128,65 @@ class TrayDescription:
 
 
 @dataclass
+class MountDescription:
+    """Where a part is welded, as a model directive's `add_weld` says it: the parent frame
+    (of a part listed before, `part::frame`), the child frame of this part, and the child
+    in the parent (X_PC: m, and roll-pitch-yaw in rad)."""
+
+    parent: str = ""
+    child: str = ""
+    xyz: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+@dataclass
+class ActuatorGains:
+    """A joint the robot actuates that its maker's model leaves to a ROS controller: the
+    build adds its actuator with these PD gains (Drake's `controller_gains`)."""
+
+    joint: str = ""
+    p: float = 0.0
+    """N m/rad or N/m."""
+    d: float = 0.0
+    """N m s/rad or N s/m."""
+
+
+@dataclass
+class PartDescription:
+    """One part of a robot as its maker ships it (the arm, the gripper) or as we make it
+    (the base with its tray), and where it mounts."""
+
+    name: str = ""
+    """The part's model instance is `<robot>::<name>` (a model directive's namespace)."""
+    model: str = ""
+    """The file Drake reads (`package://s3o_drake/...`; URDF, SDFormat or MJCF)."""
+    mount: MountDescription = field(default_factory=MountDescription)
+    """Where it is welded; none for the part that joins the world by its own joints (the
+    base, listed first)."""
+    xacro: str = ""
+    """The xacro `model` is generated from, if any (`s3o build robot NAME --steps model`:
+    world/maker_models.py), with the maker's meshes converted for Drake."""
+    actuators: list[ActuatorGains] = field(default_factory=list)
+    """Actuators the generated model gets, in this order (with `xacro`)."""
+    visuals_from_collision: bool = False
+    """Draw each link with its collision geometry (with `xacro`, for a part whose visual
+    meshes are not shipped)."""
+
+
+@dataclass
+class FrameDescription:
+    """A frame of ours on a part (a model directive's `add_frame`): the tool or grasp
+    frame that the maker's model does not have."""
+
+    name: str = ""
+    """`part::name`."""
+    parent: str = ""
+    """`part::frame`."""
+    xyz: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+@dataclass
 class Configurations:
     stow: list[float] = field(default_factory=list)
     """The arm's joint angles (rad) while the base drives."""
@@ -131,8 +197,17 @@ class RobotDescription:
     """One robot's description file (see the module docstring)."""
 
     name: str = ""
+    missing: str = ""
+    """What the robot still lacks to plan and execute, if anything: a robot that lacks
+    something is not offered to scenarios (`robot_names`), but loads by its name."""
     model: str = ""
-    """The model's URL (`package://s3o_drake/...`)."""
+    """The model's URL (`package://s3o_drake/...`), one model instance; or none, and ..."""
+    parts: list[PartDescription] = field(default_factory=list)
+    """... the robot's parts, each a model instance, welded as model directives weld them.
+    Names of joints, bodies and frames are then `part::name`, or only `name` where one
+    part alone has it."""
+    frames: list[FrameDescription] = field(default_factory=list)
+    """Frames of ours on the parts (a robot of parts only)."""
     base: BaseDescription = field(default_factory=BaseDescription)
     arm: ArmDescription = field(default_factory=ArmDescription)
     tool: ToolDescription = field(default_factory=ToolDescription)
@@ -154,8 +229,10 @@ class RobotDescriptionError(FieldError):
 
 
 def robot_names() -> list[str]:
-    """The shipped robots: the folders of models/ with a description."""
-    return sorted(p.parent.name for p in MODELS_DIR.glob(f"*/{DESCRIPTION_FILE}"))
+    """The shipped robots: the folders of models/ with a description that lacks nothing
+    (its `missing` empty)."""
+    return sorted(p.parent.name for p in MODELS_DIR.glob(f"*/{DESCRIPTION_FILE}")
+                  if not (load_yaml(p.read_text()) or {}).get("missing"))
 
 
 def robot_description_path(name: str) -> Path:
@@ -194,7 +271,13 @@ def _check_values(d: RobotDescription) -> None:
     def fail(path: str, message: str) -> None:
         raise RobotDescriptionError(path, message)
 
-    for path, value in (("name", d.name), ("model", d.model), ("base.link", d.base.link),
+    if bool(d.model) == bool(d.parts):
+        fail("model", "give either a model or parts")
+    if d.parts:
+        _check_parts(d)
+    elif d.frames:
+        fail("frames", "only a robot of parts adds frames (a model holds its own)")
+    for path, value in (("name", d.name), ("base.link", d.base.link),
                         ("arm.base_link", d.arm.base_link), ("tool.frame", d.tool.frame),
                         ("tool.grasp_frame", d.tool.grasp_frame), ("tray.link", d.tray.link),
                         ("arm.limits_source", d.arm.limits_source)):
@@ -247,6 +330,11 @@ def _check_values(d: RobotDescription) -> None:
             fail(path, f"must be positive, got {v}")
     if d.base.width > d.base.length:
         fail("base.width", "the base's x is its long side: width must not exceed length")
+    for path, values in (("gripper.open", d.gripper.open),
+                         ("gripper.closed", d.gripper.closed)):
+        if values and len(values) != len(d.gripper.joints):
+            fail(path, f"expected {len(d.gripper.joints)} values (one per gripper joint), "
+                 f"got {len(values)}")
     if d.base.drive not in BASE_DRIVES:
         fail("base.drive", f"expected one of {', '.join(BASE_DRIVES)}, got {d.base.drive!r}")
     names = d.joints
@@ -255,11 +343,161 @@ def _check_values(d: RobotDescription) -> None:
             fail("joints", f"{joint!r} is named twice")
 
 
-def apply_limit_overrides(plant, model, description: RobotDescription) -> None:
-    """Gives the arm's joints of `model` in `plant` (parsed, not yet finalized) the limits
-    that `description` overrides (`ArmDescription.limit_overrides`)."""
-    for o in description.arm.limit_overrides:
-        joint = plant.GetJointByName(o.joint, model)
+def _check_parts(d: RobotDescription) -> None:
+    def fail(path: str, message: str) -> None:
+        raise RobotDescriptionError(path, message)
+
+    def scoped(path: str, value: str, parts: list[str]) -> None:
+        part, sep, local = value.partition("::")
+        if not sep or part not in parts or not local or "::" in local:
+            fail(path, f"expected 'part::name' of a part listed before, got {value!r}")
+
+    names = [p.name for p in d.parts]
+    for i, part in enumerate(d.parts):
+        path = f"parts[{i}]"
+        if not part.name.strip() or "::" in part.name:
+            fail(f"{path}.name", f"must be given, without '::', got {part.name!r}")
+        if names.index(part.name) != i:
+            fail(f"{path}.name", f"{part.name!r} is named twice")
+        if not part.model.strip():
+            fail(f"{path}.model", "must be given")
+        if i == 0 and (part.mount.parent or part.mount.child):
+            fail(f"{path}.mount", "the first part (the base) joins the world by its own "
+                 "joints: no mount")
+        if i > 0:
+            scoped(f"{path}.mount.parent", part.mount.parent, names[:i])
+            if not part.mount.child.strip():
+                fail(f"{path}.mount.child", "must be given")
+        for key in ("xyz", "rpy"):
+            if len(getattr(part.mount, key)) != 3:
+                fail(f"{path}.mount.{key}", "expected 3 values")
+        if (part.actuators or part.visuals_from_collision) and not part.xacro:
+            fail(f"{path}.xacro", "must be given: only a model built from a xacro gets "
+                 "actuators or visuals from its collision geometry")
+    for i, frame in enumerate(d.frames):
+        scoped(f"frames[{i}].name", frame.name, names)
+        scoped(f"frames[{i}].parent", frame.parent, names)
+        if frame.name.partition("::")[0] != frame.parent.partition("::")[0]:
+            fail(f"frames[{i}].parent", "must be on the frame's own part")
+        for key in ("xyz", "rpy"):
+            if len(getattr(frame, key)) != 3:
+                fail(f"frames[{i}].{key}", "expected 3 values")
+
+
+def _transform(xyz: list[float], rpy: list[float], base_frame: str | None = None):
+    from pydrake.common.schema import Transform
+    from pydrake.math import RigidTransform, RollPitchYaw
+
+    transform = Transform(RigidTransform(RollPitchYaw(rpy), xyz))
+    if base_frame is not None:
+        transform.base_frame = base_frame
+    return transform
+
+
+def part_directives(description: RobotDescription, name: str = "robot"):
+    """A robot of parts as Drake's model directives: each part a model instance
+    `<name>::<part>`, welded where its mount says, then the frames of ours."""
+    from pydrake.multibody.parsing import (
+        AddFrame,
+        AddModel,
+        AddWeld,
+        ModelDirective,
+        ModelDirectives,
+    )
+
+    directives = []
+    for part in description.parts:
+        directives.append(ModelDirective(add_model=AddModel(name=f"{name}::{part.name}",
+                                                            file=part.model)))
+        mount = part.mount
+        if mount.parent:
+            directives.append(ModelDirective(add_weld=AddWeld(
+                parent=f"{name}::{mount.parent}", child=f"{name}::{part.name}::{mount.child}",
+                X_PC=_transform(mount.xyz, mount.rpy))))
+    for frame in description.frames:
+        directives.append(ModelDirective(add_frame=AddFrame(
+            name=f"{name}::{frame.name}",
+            X_PF=_transform(frame.xyz, frame.rpy, base_frame=f"{name}::{frame.parent}"))))
+    return ModelDirectives(directives=directives)
+
+
+def add_model_instances(parser, description: RobotDescription, name: str = "robot") -> list:
+    """Adds the robot to `parser`'s unfinalized plant: one model instance `name`, or one per
+    part (`<name>::<part>`, in the parts' order), with the limits its description overrides
+    (`apply_limit_overrides`). Returns the instances."""
+    from pydrake.multibody.parsing import ProcessModelDirectives
+
+    plant = parser.plant()
+    if not description.parts:
+        if plant.HasModelInstanceNamed(name):
+            raise ValueError(f"the plant already has a model instance named {name!r}")
+        (model,) = parser.AddModels(url=description.model)
+        plant.RenameModelInstance(model, name)
+        instances = [model]
+    else:
+        infos = ProcessModelDirectives(part_directives(description, name), parser)
+        instances = [i.model_instance for i in infos]
+    apply_limit_overrides(plant, instances, description)
+    return instances
+
+
+def _find(plant, instances: list, name: str, has, get, kind: str):
+    """The element `name` (`part::name`, or `name` where one instance alone has it) of the
+    robot's `instances`; ValueError if there is none or more than one."""
+    scope, _, local = name.rpartition("::")
+    candidates = [i for i in instances
+                  if not scope or plant.GetModelInstanceName(i).endswith(f"::{scope}")]
+    found = [i for i in candidates if has(local, i)]
+    if len(found) != 1:
+        where = ", ".join(plant.GetModelInstanceName(i) for i in found) or "none"
+        raise ValueError(f"{kind} {name!r}: expected in one of the robot's parts, found in "
+                         f"{where}")
+    return get(local, found[0])
+
+
+def find_joint(plant, instances: list, name: str):
+    return _find(plant, instances, name, plant.HasJointNamed, plant.GetJointByName, "joint")
+
+
+def find_body(plant, instances: list, name: str):
+    return _find(plant, instances, name, plant.HasBodyNamed, plant.GetBodyByName, "body")
+
+
+def find_frame(plant, instances: list, name: str):
+    return _find(plant, instances, name, plant.HasFrameNamed, plant.GetFrameByName, "frame")
+
+
+def mimic_joints(description: RobotDescription) -> list[tuple[str, str, float, float]]:
+    """The joints of the robot's URDF parts that follow another (URDF `<mimic>`: Drake
+    makes each a coupler constraint, which only a discrete SAP plant enforces):
+    (`part::follower`, `part::leader`, multiplier, offset), q_f = m q_l + offset."""
+    import xml.etree.ElementTree as ET
+
+    from s3o_drake.world.resources import package_file
+
+    mimics = []
+    for part in description.parts:
+        if not part.model.endswith(".urdf"):
+            continue
+        for joint in ET.parse(package_file(part.model)).getroot().iter("joint"):
+            mimic = joint.find("mimic")
+            if mimic is not None:
+                mimics.append((f"{part.name}::{joint.get('name')}",
+                               f"{part.name}::{mimic.get('joint')}",
+                               float(mimic.get("multiplier", 1.0)),
+                               float(mimic.get("offset", 0.0))))
+    return mimics
+
+
+def apply_limit_overrides(plant, instances: list, description: RobotDescription) -> None:
+    """Gives the arm's joints among the robot's `instances` in `plant` (parsed, not yet
+    finalized) the limits that `description` overrides (`ArmDescription.limit_overrides`)."""
+    for i, o in enumerate(description.arm.limit_overrides):
+        try:
+            joint = find_joint(plant, instances, o.joint)
+        except ValueError:
+            raise RobotDescriptionError(f"arm.limit_overrides[{i}].joint",
+                                        f"the model has no joint {o.joint!r}") from None
         if o.position_lower is not None or o.position_upper is not None:
             lower, upper = joint.position_lower_limits(), joint.position_upper_limits()
             joint.set_position_limits(
@@ -272,56 +510,76 @@ def apply_limit_overrides(plant, model, description: RobotDescription) -> None:
 
 
 def check_model(description: RobotDescription) -> None:
-    """Parses the description's model and checks that it agrees with the description: every
-    joint named, in the model instance's position order, of the right kind (base x and y
-    prismatic, the rest revolute or prismatic as the model has them); every frame and body
-    named; the arm's position, speed and acceleration limits (the model's, or the
-    description's overrides) finite, and the stow configuration within them. Raises
-    RobotDescriptionError."""
+    """Parses the description's model (or its parts) and checks that it agrees with the
+    description: every joint named, of the right kind (base x and y prismatic, the rest
+    revolute or prismatic as the model has them), in the order of the model instance's
+    positions (a robot of parts: of its actuators, which the plant's inputs follow); every
+    frame and body named; the arm's position, speed and acceleration limits (the model's, or
+    the description's overrides) finite, the stow and the gripper's open and closed
+    positions within them. Raises RobotDescriptionError."""
     from pydrake.multibody.plant import MultibodyPlant
-    from pydrake.multibody.tree import PrismaticJoint, RevoluteJoint
+    from pydrake.multibody.tree import JointActuatorIndex, PrismaticJoint, RevoluteJoint
 
     from s3o_drake.world.resources import make_parser
 
     plant = MultibodyPlant(0.0)
-    (model,) = make_parser(plant).AddModels(url=description.model)
+    parser = make_parser(plant)
     for i, override in enumerate(description.arm.limit_overrides):
-        if not plant.HasJointNamed(override.joint, model):
-            raise RobotDescriptionError(f"arm.limit_overrides[{i}].joint",
-                                        f"the model has no joint {override.joint!r}")
-    apply_limit_overrides(plant, model, description)
+        if not override.joint.strip():
+            raise RobotDescriptionError(f"arm.limit_overrides[{i}].joint", "must be given")
+    try:
+        instances = add_model_instances(parser, description)
+    except RuntimeError as e:  # Drake's parser or directives, in its words
+        raise RobotDescriptionError("parts" if description.parts else "model",
+                                    str(e).splitlines()[0]) from None
     plant.Finalize()
+
+    def found(find, name: str):
+        try:
+            return find(plant, instances, name)
+        except ValueError:
+            return None
+
     for path, frame in (("base.link", description.base.link),
                         ("arm.base_link", description.arm.base_link),
                         ("tool.frame", description.tool.frame),
                         ("tool.grasp_frame", description.tool.grasp_frame),
                         ("tray.link", description.tray.link),
                         ("lidar_link", description.lidar_link)):
-        if frame and not plant.HasFrameNamed(frame, model):
+        if frame and found(find_frame, frame) is None:
             raise RobotDescriptionError(path, f"the model has no frame {frame!r}")
     for body in description.gripper.bodies:
-        if not plant.HasBodyNamed(body, model):
+        if found(find_body, body) is None:
             raise RobotDescriptionError("gripper.bodies", f"the model has no body {body!r}")
     kinds = {description.base.joints[0]: PrismaticJoint,
              description.base.joints[1]: PrismaticJoint,
              description.base.joints[2]: RevoluteJoint}
-    order = []
+    joints = []
     for name in description.joints:
-        if not plant.HasJointNamed(name, model):
+        joint = found(find_joint, name)
+        if joint is None:
             raise RobotDescriptionError("joints", f"the model has no joint {name!r}")
-        joint = plant.GetJointByName(name, model)
         if name in kinds and not isinstance(joint, kinds[name]):
             raise RobotDescriptionError("base.joints", f"{name!r} is a {joint.type_name()} "
                                         f"joint, expected {kinds[name].__name__}")
-        order.append(joint.position_start())
-    if order != sorted(order) or len(order) != plant.num_positions(model):
-        raise RobotDescriptionError("joints", "the joints must be all of the model's, in the "
-                                    "order of its positions")
+        joints.append(joint)
+    if description.parts:
+        actuated = [plant.get_joint_actuator(JointActuatorIndex(a)).joint().index()
+                    for a in range(plant.num_actuators())]
+        if [j.index() for j in joints] != actuated:
+            raise RobotDescriptionError("joints", "the joints must be all of the parts' "
+                                        "actuated joints, in the order of their actuators")
+    else:
+        order = [j.position_start() for j in joints]
+        if order != sorted(order) or len(order) != plant.num_positions(instances[0]):
+            raise RobotDescriptionError("joints", "the joints must be all of the model's, in "
+                                        "the order of its positions")
     velocity = plant.GetVelocityUpperLimits()
     acceleration = plant.GetAccelerationUpperLimits()
     lower, upper = plant.GetPositionLowerLimits(), plant.GetPositionUpperLimits()
-    for i, name in enumerate(description.arm.joints):
-        joint = plant.GetJointByName(name, model)
+    arm = description.arm
+    for i, name in enumerate(arm.joints):
+        joint = joints[len(description.base.joints) + i]
         index, position = joint.velocity_start(), joint.position_start()
         lo, hi = lower[position], upper[position]
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
@@ -336,3 +594,11 @@ def check_model(description: RobotDescription) -> None:
         if not lo <= stow <= hi:
             raise RobotDescriptionError(f"configurations.stow[{i}]", f"{stow} is outside "
                                         f"{name}'s limits [{lo}, {hi}]")
+    gripper = joints[len(description.base.joints) + len(arm.joints):]
+    for path, values in (("gripper.open", description.gripper.open),
+                         ("gripper.closed", description.gripper.closed)):
+        for i, (joint, q) in enumerate(zip(gripper, values, strict=False)):
+            lo, hi = joint.position_lower_limits()[0], joint.position_upper_limits()[0]
+            if not lo <= q <= hi:
+                raise RobotDescriptionError(f"{path}[{i}]", f"{q} is outside the joint's "
+                                            f"limits [{lo}, {hi}]")

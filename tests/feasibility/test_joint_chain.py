@@ -17,11 +17,17 @@ def _plant(name: str):
     return robot, plant, model
 
 
+def _chain(robot, plant, model, joints=None) -> JointChain:
+    return JointChain.of_plant(
+        plant, base=plant.GetFrameByName(robot.arm_base_link, model),
+        tool=plant.GetFrameByName(robot.grasp_frame, model),
+        joints=[plant.GetJointByName(name, model) for name in joints or robot.arm_joints])
+
+
 @pytest.mark.parametrize("name", ["ur5e", "panda"])
 def test_the_chain_moves_the_grasp_frame_as_the_plant_does(name):
     robot, plant, model = _plant(name)
-    chain = JointChain.of_plant(plant, model, base=robot.arm_base_link, tool=robot.grasp_frame,
-                                joints=robot.arm_joints)
+    chain = _chain(robot, plant, model)
     assert chain.joints == robot.num_arm_joints
     lower = np.maximum(plant.GetPositionLowerLimits()[robot.arm_positions], -3.0)
     upper = np.minimum(plant.GetPositionUpperLimits()[robot.arm_positions], 3.0)
@@ -39,8 +45,7 @@ def test_the_chain_moves_the_grasp_frame_as_the_plant_does(name):
 
 def test_the_jacobian_is_the_derivative_of_the_chain():
     robot, plant, model = _plant("panda")
-    chain = JointChain.of_plant(plant, model, base=robot.arm_base_link, tool=robot.grasp_frame,
-                                joints=robot.arm_joints)
+    chain = _chain(robot, plant, model)
     q = np.random.default_rng(1).uniform(-1.5, 1.5, (4, robot.num_arm_joints))
     R, _, J = chain.jacobian(q)
     eps = 1e-6
@@ -59,5 +64,4 @@ def test_the_jacobian_is_the_derivative_of_the_chain():
 def test_joints_that_are_not_the_way_from_base_to_tool_are_refused():
     robot, plant, model = _plant("ur5e")
     with pytest.raises(ValueError, match="the joints from"):
-        JointChain.of_plant(plant, model, base=robot.arm_base_link, tool=robot.grasp_frame,
-                            joints=robot.arm_joints[:-1])
+        _chain(robot, plant, model, robot.arm_joints[:-1])
