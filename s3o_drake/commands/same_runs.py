@@ -1,12 +1,14 @@
 """Whether two studies' runs did the same, the machine's timings aside.
 
-    s3o bench same-runs BEFORE AFTER
+    s3o bench same-runs BEFORE AFTER [--tolerance T]
 
 BEFORE and AFTER: study folders (their results.jsonl) of the same tasks, methods and seeds,
 made by two versions of the code. Runs are paired by task, method, run seed and recovery;
 for each pair every field of the row is compared but the bookkeeping and the wall-clock
 timings (code, packages, machine, schema, job_seconds, planning_time, realtime_rate and
-anything of "wall"). Prints the pairs compared and each difference, and, when there are
+anything of "wall"); numbers exactly, or with --tolerance within T of their size (at least
+1): code that computes the same thing in another order changes the last digits of a pose or
+a distance, and nothing else. Prints the pairs compared and each difference, and, when there are
 differences, the packages' versions and the processors of both sides if they differ (other
 versions of numpy or Drake, or another processor's vector instructions, change the last
 digits of a cost, and through the motion search a plan). Exit status 0
@@ -22,10 +24,23 @@ from pathlib import Path
 from s3o_drake.commands.common import command_parser, fail
 
 
+def _tolerance(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0.0 <= value < 1e-3:  # a study's figures are not compared this way
+        raise argparse.ArgumentTypeError(f"expected a number from 0 below 1e-3, got {text!r}")
+    return value
+
+
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser = command_parser("bench same-runs", __doc__)
     parser.add_argument("before", metavar="BEFORE", help="a study folder")
     parser.add_argument("after", metavar="AFTER", help="the same study, other code")
+    parser.add_argument("--tolerance", type=_tolerance, default=0.0, metavar="T",
+                        help="numbers within T times their size (at least 1) are the same "
+                             "(default 0: exact)")
     return parser.parse_args(argv)
 
 
@@ -39,12 +54,13 @@ def main(argv: list[str] | None = None) -> int:
 
     rows = [ResultStore(Path(f) / "results.jsonl", read_only=True).rows()
             for f in (args.before, args.after)]
-    pairs, differences = run_differences(*rows)
+    pairs, differences = run_differences(*rows, tolerance=args.tolerance)
     if pairs == 0:
         fail("AFTER: no run of BEFORE's tasks, methods and seeds")
     for line in differences:
         print(line)
-    print(f"{pairs} runs compared: " + ("identical, timings aside" if not differences
+    same = "identical" if args.tolerance == 0 else f"the same within {args.tolerance:g}"
+    print(f"{pairs} runs compared: " + (f"{same}, timings aside" if not differences
                                          else f"{len(differences)} differences"))
     for what, of in (("packages", packages_of), ("machines", machine_of)):
         made = [of(r) for r in rows]

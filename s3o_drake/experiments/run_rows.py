@@ -119,12 +119,28 @@ def _what_it_did(value: object, top: bool = True) -> object:
     return value
 
 
-def run_differences(before: Sequence[Mapping], after: Sequence[Mapping]
-                    ) -> tuple[int, list[str]]:
+def same_values(x, y, tolerance: float = 0.0) -> bool:
+    """Whether two row values are the same: equal, or numbers (within lists and mappings
+    alike) that differ by at most `tolerance` times the larger of 1 and their size."""
+    if isinstance(x, Mapping) and isinstance(y, Mapping):
+        return x.keys() == y.keys() and all(same_values(x[k], y[k], tolerance) for k in x)
+    if isinstance(x, (list, tuple)) and isinstance(y, (list, tuple)):
+        return len(x) == len(y) and all(same_values(u, v, tolerance)
+                                        for u, v in zip(x, y, strict=True))
+    if (isinstance(x, float) or isinstance(y, float)) and not isinstance(x, bool) and \
+            not isinstance(y, bool) and isinstance(x, (int, float)) and \
+            isinstance(y, (int, float)):
+        return x == y or abs(x - y) <= tolerance * max(1.0, abs(x), abs(y))
+    return x == y
+
+
+def run_differences(before: Sequence[Mapping], after: Sequence[Mapping],
+                    tolerance: float = 0.0) -> tuple[int, list[str]]:
     """The runs that both sets hold (by task, method, run seed and recovery), and one line
     per field where a run did something else: plans, outcomes, pickups, recoveries,
-    simulated times. Timings of the machine and bookkeeping are left out, and so are fields
-    that only one of the versions records."""
+    simulated times (numbers the same within `tolerance`: `same_values`). Timings of the
+    machine and bookkeeping are left out, and so are fields that only one of the versions
+    records."""
     def keyed(rows):
         return {(r["task"], r["method"], r.get("run_seed"), r.get("recovery", "none")): r
                 for r in rows if "error" not in r}
@@ -135,7 +151,7 @@ def run_differences(before: Sequence[Mapping], after: Sequence[Mapping]
         x, y = _what_it_did(a[key]), _what_it_did(b[key])
         # A field one version does not record yet is no difference in what the run did.
         for field in sorted(set(x) & set(y)):
-            if x[field] != y[field]:
+            if not same_values(x[field], y[field], tolerance):
                 lines.append(f"{'/'.join(map(str, key))}: {field}: {str(x[field])[:80]} "
                              f"-> {str(y[field])[:80]}")
     return len(common), lines

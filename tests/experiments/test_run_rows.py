@@ -72,3 +72,19 @@ def test_a_run_without_a_plan_has_no_time_and_predicts_nothing():
 
 def test_a_field_only_one_version_records_is_no_difference():
     assert run_differences([_run()], [_run(predicted_time=41.0)]) == (1, [])
+
+
+def test_with_a_tolerance_last_digits_are_the_same_and_anything_more_is_not():
+    pose = {"dish": "cup", "predicted": 0.9, "planned": 0.9, "actual_pose": [1.2, 2.5, 0.3]}
+    nudged = {**pose, "actual_pose": [1.2 + 4e-16, 2.5, 0.3 - 5e-17]}
+    before = [_run(pickups=[pose], closest_approach=0.0134)]
+    after = [_run(pickups=[nudged], closest_approach=0.0134 + 1e-14)]
+    assert run_differences(before, after)[1] != []  # exact by default
+    assert run_differences(before, after, tolerance=1e-12) == (1, [])
+    moved = [_run(pickups=[{**pose, "actual_pose": [1.21, 2.5, 0.3]}],
+                  closest_approach=0.0134)]
+    assert run_differences(before, moved, tolerance=1e-12)[1] != []
+    # Not numbers: a tolerance changes nothing.
+    assert run_differences([_run()], [_run(outcomes=["goto l0: failed"])],
+                           tolerance=1e-12)[1] != []
+    assert run_differences([_run(execution_time=40)], [_run(execution_time=40.0)]) == (1, [])
