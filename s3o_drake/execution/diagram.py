@@ -48,7 +48,6 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.builder import build_world_diagram, robot_render_labels
 from s3o_drake.world.choices import Recovery
 from s3o_drake.world.clearance_monitor import ClearanceMonitor, proximity_geometries
-from s3o_drake.world.directives import ROBOT_INSTANCE
 from s3o_drake.world.goals import place_target_name, place_targets, with_place_targets
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot
 from s3o_drake.world.scenario import Scenario
@@ -168,7 +167,7 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     truth = FeasibilityScene(with_place_targets(scenario).contents)
     executive = builder.AddNamedSystem("executive", make_executive_system(
         scenario, method=method, seed=seed, perceive=perceive, progress_bar=progress_bar,
-        control_period=CONTROL_PERIOD, robot_labels=robot_render_labels(world), noise=noise,
+        control_period=CONTROL_PERIOD, robot_labels=robot_render_labels(world, robot), noise=noise,
         plan_from=plan_from))
     navigator = builder.AddNamedSystem("base_navigator", BaseNavigator(
         robot=robot, params=navigator_params(scenario, seed=seed, noise=noise), scene=truth,
@@ -184,7 +183,7 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     scene_graph = world.GetSubsystemByName("scene_graph")
     clearance = builder.AddNamedSystem("clearance_monitor", ClearanceMonitor(
         robot=proximity_geometries(plant, scene_graph,
-                                   [plant.GetModelInstanceByName(ROBOT_INSTANCE)]),
+                                   list(robot.instances_in(plant).instances)),
         world=proximity_geometries(
             plant, scene_graph,
             [plant.GetModelInstanceByName(f.name) for f in (*scenario.tables,

@@ -24,11 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from pydrake.geometry import Box, Capsule, Cylinder, Role, Sphere
+from pydrake.geometry import Box, Capsule, Convex, Cylinder, Mesh, Role, Sphere
 
 from s3o_drake.world.furniture import DistanceField
 from s3o_drake.world.obstacles import Obstacles
-from s3o_drake.world.robot import Robot
+from s3o_drake.world.robot import RobotInstances
 
 #: Raster cell (m): fine enough that the one-cell-diagonal allowance costs little.
 FIELD_RESOLUTION = 0.02
@@ -49,22 +49,32 @@ def _shape_half_extents(shape) -> np.ndarray:
     raise TypeError(f"no bounding box for a {type(shape).__name__} collision shape")
 
 
-def robot_plan_extent(plant, scene_graph_inspector, robot_instance, context, *,
-                      robot: Robot) -> np.ndarray:
-    """[x_lo, x_hi, y_lo, y_hi] (m) of the collision geometry of `robot` (model instance
-    `robot_instance`) in base_link's frame, with the arm stowed: bounding-box corners of
-    every proximity shape."""
-    plant.SetPositions(context, robot_instance, robot.positions(
+def _shape_corners(shape, signs: np.ndarray) -> np.ndarray:
+    """Points (k, 3) in a shape's frame whose hull holds it: its bounding box's corners
+    (`signs` (8, 3) of ±1), or a mesh's convex hull's vertices (a maker's arm is meshes)."""
+    if isinstance(shape, Mesh | Convex):
+        hull = shape.GetConvexHull()
+        return np.array([hull.vertex(i) for i in range(hull.num_vertices())])
+    return signs * _shape_half_extents(shape)
+
+
+def robot_plan_extent(plant, scene_graph_inspector, placed: RobotInstances,
+                      context) -> np.ndarray:
+    """[x_lo, x_hi, y_lo, y_hi] (m) of the collision geometry of the robot `placed` in
+    `plant` (all its model instances) in base_link's frame, with the arm stowed:
+    bounding-box corners of every proximity shape."""
+    robot = placed.robot
+    placed.set_positions(context, robot.positions(
         0.0, 0.0, 0.0, arm=robot.arm_stow, gripper=robot.gripper_open))
     signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     corners = []
-    for body_index in plant.GetBodyIndices(robot_instance):
+    for body_index in placed.body_indices():
         body = plant.get_body(body_index)
         X_WB = plant.EvalBodyPoseInWorld(context, body)
         frame_id = plant.GetBodyFrameIdOrThrow(body_index)
         for geometry in scene_graph_inspector.GetGeometries(frame_id, Role.kProximity):
             X_BG = scene_graph_inspector.GetPoseInFrame(geometry)
-            corners_G = signs * _shape_half_extents(scene_graph_inspector.GetShape(geometry))
+            corners_G = _shape_corners(scene_graph_inspector.GetShape(geometry), signs)
             corners.append((X_WB @ X_BG).multiply(corners_G.T).T[:, :2])
     xy = np.vstack(corners)
     return np.array([xy[:, 0].min(), xy[:, 0].max(), xy[:, 1].min(), xy[:, 1].max()])
@@ -232,13 +242,15 @@ class CertainCollision:
         self._reach = max((float(np.hypot(*r.center)) + r.reach for r in robot), default=0.0)
 
     @classmethod
-    def of_scene(cls, plant, inspector, robot_instance, context, *,
-                 robot: Robot) -> "CertainCollision":
-        """The vertical prisms of a plant's proximity geometry: those of `robot` (model
-        instance `robot_instance`) with the arm stowed, in base_link's frame (the base at
-        the origin), the rest in the world."""
-        plant.SetPositions(context, robot_instance, robot.positions(
+    def of_scene(cls, plant, inspector, placed: RobotInstances,
+                 context) -> "CertainCollision":
+        """The vertical prisms of a plant's proximity geometry: those of the robot `placed`
+        in it (all its model instances) with the arm stowed, in base_link's frame (the base
+        at the origin), the rest in the world."""
+        robot = placed.robot
+        placed.set_positions(context, robot.positions(
             0.0, 0.0, 0.0, arm=robot.arm_stow, gripper=robot.gripper_open))
+        mine = set(placed.instances)
         robot_prisms, env_prisms = [], []
         for geometry in inspector.GetAllGeometryIds(Role.kProximity):
             body = plant.GetBodyFromFrameId(inspector.GetFrameId(geometry))
@@ -247,8 +259,8 @@ class CertainCollision:
             X_WG = plant.EvalBodyPoseInWorld(context, body) @ inspector.GetPoseInFrame(geometry)
             prism = _prism(inspector.GetShape(geometry), X_WG)
             if prism is not None:
-                mine = body.model_instance() == robot_instance
-                (robot_prisms if mine else env_prisms).append(prism)
+                ours = body.model_instance() in mine
+                (robot_prisms if ours else env_prisms).append(prism)
         return cls(robot_prisms, env_prisms)
 
     def certainly_colliding(self, bases: np.ndarray) -> np.ndarray:

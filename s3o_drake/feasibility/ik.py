@@ -65,7 +65,7 @@ def grasp_checker(scene: FeasibilityScene, dish: str):
         filtered = np.array(checker.GetFilteredCollisionMatrix())
         d = int(scene.dish_body(dish).index())
         for name in scene.robot.gripper_bodies:
-            g = int(scene.plant.GetBodyByName(name, scene.robot_instance).index())
+            g = int(scene.robot_instances.body(name).index())
             filtered[g, d] = filtered[d, g] = 1
         checker.SetCollisionFilterMatrix(filtered)
         per_scene[dish] = checker
@@ -80,7 +80,7 @@ def _diagram_context(scene: FeasibilityScene, dish: str):
         plant, scene_graph = scene.plant, scene.diagram.scene_graph()
         gripper = GeometrySet()
         for name in scene.robot.gripper_bodies:
-            body = plant.GetBodyByName(name, scene.robot_instance)
+            body = scene.robot_instances.body(name)
             gripper.Add(plant.GetCollisionGeometriesForBody(body))
         dish_geometries = GeometrySet(plant.GetCollisionGeometriesForBody(scene.dish_body(dish)))
         sg_context = scene_graph.GetMyMutableContextFromRoot(context)

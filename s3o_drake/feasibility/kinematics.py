@@ -57,6 +57,14 @@ FOLD_LIMIT = 2.8
 #: `UR_CHECK_CONFIGURATIONS` configurations spread within the limits.
 MODEL_TOLERANCE = 1e-9
 UR_CHECK_CONFIGURATIONS = 200
+#: How far (rad) the first joint's axis may lean from A's z (up or down) and the last
+#: one's from G's z, for the reachability map's turns of a stored configuration. Makers
+#: write a joint flipped by pi to a few digits (Kinova's Gen3 turns its joint 1 by 3.1416:
+#: 7.3e-6 rad off -z). Turning about an axis off by e rad moves a point r metres from it by
+#: at most 2 r e: 2.6e-5 m at 1.3 m (the map's reach) for 1e-5 rad, below the map's Newton
+#: tolerance (1e-4 m, reachability/map.py) and far below a grasp's (2 mm), so the map's
+#: turned configurations are what it says they are.
+TURNING_AXIS_TOLERANCE = 1e-5
 
 
 class ArmModelError(ValueError):
@@ -99,6 +107,9 @@ class ArmKinematics:
     """G along the flange's z (m): the UR family's closed form takes it apart from its d6."""
     ur: URGeometry | None = field(init=False, repr=False)
     """The UR family's lengths, read from the chain (None for another family)."""
+    turn_signs: tuple[float, float] = field(init=False)
+    """+1 or -1: whether the first joint turns about A's +z or -z, and the last about G's
+    +z or -z (the bearing and the wrist turn of a grasp then go with that sign)."""
     _seeds: np.ndarray = field(init=False, repr=False)
 
     @classmethod
@@ -137,22 +148,28 @@ class ArmKinematics:
     def _check_turning_axes(self) -> None:
         """The reachability map turns one stored configuration to every bearing with the
         first joint and to every wrist turn with the last: the first must turn about A's
-        vertical z axis, the last about G's approach axis z. Raises ArmModelError."""
+        vertical z axis, the last about G's approach axis z, either way (`turn_signs`),
+        within `TURNING_AXIS_TOLERANCE`, through the axis (within `MODEL_TOLERANCE`).
+        Raises ArmModelError."""
         C_0, C_n = self.chain.fixed[0], self.chain.fixed[-1]
         # The first joint's axis and a point of it in A; the last one's in G.
         axis_A, point_A = C_0[:3, :3] @ self.chain.axes[0], C_0[:3, 3]
         R_JG, p_JG = C_n[:3, :3], C_n[:3, 3]
         axis_G, point_G = R_JG.T @ self.chain.axes[-1], -R_JG.T @ p_JG
+        signs = []
         for index, axis, point, frame, why in (
                 (0, axis_A, point_A, "A", "turn the arm about the arm base's vertical axis"),
                 (self.joints - 1, axis_G, point_G, "G",
                  "turn the gripper about its approach axis")):
-            if (np.abs(axis - [0.0, 0.0, 1.0]).max() > MODEL_TOLERANCE
-                    or np.abs(point[:2]).max() > MODEL_TOLERANCE):
+            lean = math.atan2(math.hypot(axis[0], axis[1]), abs(axis[2]))
+            if lean > TURNING_AXIS_TOLERANCE or np.abs(point[:2]).max() > MODEL_TOLERANCE:
                 raise ArmModelError(f"arm.joints[{index}]", (
-                    f"the joint must {why} (z of {frame}); in the model it turns about "
+                    f"the joint must {why} (z of {frame}, either way, within "
+                    f"{TURNING_AXIS_TOLERANCE:g} rad); in the model it turns about "
                     f"{np.round(axis, 6).tolist()} through {np.round(point, 6).tolist()} m "
                     f"in {frame}"))
+            signs.append(1.0 if axis[2] > 0 else -1.0)
+        object.__setattr__(self, "turn_signs", tuple(signs))
 
     def _ur_geometry(self) -> URGeometry:
         """The UR family's lengths read from the chain, checked: the closed form must put G

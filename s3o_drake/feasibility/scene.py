@@ -47,28 +47,28 @@ class FeasibilityScene:
         self.diagram = builder.Build()
         self.plant = self.diagram.plant()
         self.robot = contents.robot
-        self.robot_instance = self.models.robot
+        self.robot_instances = self.models.robot
+        """The robot in the plant: its model instances (one, or one per part)."""
+        # Every instance of the robot is the robot's: the checker's configurations are the
+        # plant's positions (a robot of parts has mimic joints among them, which follow).
         self.checker = SceneGraphCollisionChecker(
-            model=self.diagram, robot_model_instances=[self.robot_instance],
+            model=self.diagram, robot_model_instances=list(self.robot_instances.instances),
             edge_step_size=EDGE_STEP, env_collision_padding=padding,
             implicit_context_parallelism=drake_parallelism())
         self.table_height = {t.name: t.height for t in contents.tables}
         self.dishes = {d.name: d for d in contents.dishes}
-        self.grasp_frame = self.plant.GetFrameByName(self.robot.grasp_frame,
-                                                     self.robot_instance)
-        self.arm_base_frame = self.plant.GetFrameByName(self.robot.arm_base_link,
-                                                        self.robot_instance)
+        self.grasp_frame = self.robot_instances.frame(self.robot.grasp_frame)
+        self.arm_base_frame = self.robot_instances.frame(self.robot.arm_base_link)
         context = self.plant.CreateDefaultContext()
         inspector = self.diagram.scene_graph().model_inspector()
-        extent = robot_plan_extent(self.plant, inspector, self.robot_instance, context,
-                                   robot=self.robot)
+        extent = robot_plan_extent(self.plant, inspector, self.robot_instances, context)
         self.robot_radius = robot_horizontal_radius(extent)
         """Horizontal reach (m) of the robot's collision geometry with the arm stowed."""
         self.padding = padding
         self.obstacles = Obstacles.of_contents(contents) if obstacles is None else obstacles
         self.clearance = BaseClearance(self.obstacles, robot_extent=extent, padding=padding)
-        self.collision = CertainCollision.of_scene(self.plant, inspector, self.robot_instance,
-                                                   context, robot=self.robot)
+        self.collision = CertainCollision.of_scene(self.plant, inspector,
+                                                   self.robot_instances, context)
         """Base positions that need no collision query (see `clearance`)."""
 
     def q(self, base: np.ndarray, arm: np.ndarray | None = None,
@@ -97,8 +97,7 @@ class FeasibilityScene:
     def grasping(self, name: str) -> Iterator[None]:
         """Within it, the gripper may touch the dish `name` (the one it grasps)."""
         dish = self.dish_body(name)
-        bodies = [self.plant.GetBodyByName(b, self.robot_instance)
-                  for b in self.robot.gripper_bodies]
+        bodies = [self.robot_instances.body(b) for b in self.robot.gripper_bodies]
         for body in bodies:
             self.checker.SetCollisionFilteredBetween(body, dish, True)
         try:
@@ -110,5 +109,5 @@ class FeasibilityScene:
     def grasp_pose(self, q: np.ndarray) -> RigidTransform:
         """X_WG of the grasp frame at the robot positions q."""
         context = self.plant.CreateDefaultContext()
-        self.plant.SetPositions(context, self.robot_instance, q)
+        self.robot_instances.set_positions(context, q)
         return self.grasp_frame.CalcPoseInWorld(context)

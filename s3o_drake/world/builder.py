@@ -49,7 +49,8 @@ from s3o_drake.world.map import Chair, Room, Table
 from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
 from s3o_drake.world.objects import Dish, surface_height
 from s3o_drake.world.resources import make_parser, models_dir
-from s3o_drake.world.robot import CONTROL_PERIOD
+from s3o_drake.world.robot import CONTROL_PERIOD, Robot, RobotInstances
+from s3o_drake.world.robot_ports import export_robot_desired_state, robot_state_output
 from s3o_drake.world.scenario import Scenario
 
 RENDERER = "vtk"
@@ -61,9 +62,10 @@ WALL_RGBA = np.array([0.90, 0.90, 0.88, 1.0])
 
 @dataclass
 class WorldModels:
-    """The model instances a world holds, by scenario name."""
+    """The model instances a world holds, by scenario name (the robot's: one, or one per
+    part)."""
 
-    robot: ModelInstanceIndex
+    robot: RobotInstances
     tables: dict[str, ModelInstanceIndex] = field(default_factory=dict)
     chairs: dict[str, ModelInstanceIndex] = field(default_factory=dict)
     dishes: dict[str, ModelInstanceIndex] = field(default_factory=dict)
@@ -204,10 +206,10 @@ def populate_plant(plant: MultibodyPlant, scene_graph: SceneGraph | None,
     parser = make_parser(plant, scene_graph)
     _add_room(plant, contents.room, contents.floor_margin)
     robot = contents.robot
-    models = WorldModels(robot=robot.add_to(parser))
+    models = WorldModels(robot=robot.add_model_instances(parser))
     q0 = robot.positions(*contents.start)
     for name, q in zip(robot.joints, q0, strict=True):
-        plant.GetJointByName(name, models.robot).set_default_positions([q])
+        models.robot.joint(name).set_default_positions([q])
 
     kinds = {"table": models.tables, "chair": models.chairs, "dish": models.dishes}
     for fixed in fixed_models(contents, dishes=dishes):
@@ -243,7 +245,7 @@ def _add_overhead_camera(builder: DiagramBuilder, plant: MultibodyPlant,
 
 
 def _add_object_tracker(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
-                        scenario: Scenario, robot: ModelInstanceIndex) -> ObjectTracker:
+                        scenario: Scenario, robot: RobotInstances) -> ObjectTracker:
     tracker = AddObjectTracker(builder, scenario=scenario, plant=plant, robot=robot,
                                scene_graph=scene_graph, period=CONTROL_PERIOD)
     builder.ExportInput(tracker.GetInputPort("grip"), "grip")
@@ -295,8 +297,8 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     """The simulated restaurant as one named Diagram ("s3o_world").
 
     Input ports:  robot_desired_state (positions then velocities of the robot's joints,
-                  tracked by the joints' PD actuators)
-    Output ports: robot_state, overhead_color_image, overhead_depth_image,
+                  `Robot.joints` order, tracked by the joints' PD actuators)
+    Output ports: robot_state (the same order), overhead_color_image, overhead_depth_image,
                   overhead_label_image, query_object, body_poses
 
     With `track_dishes`, the dishes are not welded into the plant: an ObjectTracker
@@ -323,8 +325,9 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
 
     sensor = _add_overhead_camera(builder, plant, scene_graph, tracker, scenario)
     _add_gravity_compensation(builder, plant)
-    builder.ExportInput(plant.get_desired_state_input_port(models.robot), "robot_desired_state")
-    builder.ExportOutput(plant.get_state_output_port(models.robot), "robot_state")
+    # A single-instance robot's are the plant's own ports; a robot of parts', MatrixGains.
+    export_robot_desired_state(builder, models.robot, "robot_desired_state")
+    builder.ExportOutput(robot_state_output(builder, models.robot), "robot_state")
     builder.ExportOutput(sensor.color_image_output_port(), "overhead_color_image")
     builder.ExportOutput(sensor.depth_image_32F_output_port(), "overhead_depth_image")
     builder.ExportOutput(sensor.label_image_output_port(), "overhead_label_image")
@@ -354,13 +357,13 @@ def overhead_images(world: Diagram, context) -> tuple[np.ndarray, np.ndarray, np
     return np.array(color, copy=True), np.array(depth[:, :, 0]), np.array(label[:, :, 0])
 
 
-def robot_render_labels(world: Diagram) -> frozenset[int]:
-    """The render labels of the robot's geometry in a world diagram: the robot knows its
-    own body when it sees it."""
+def robot_render_labels(world: Diagram, robot: Robot) -> frozenset[int]:
+    """The render labels of `robot`'s geometry (all its model instances') in a world
+    diagram: the robot knows its own body when it sees it."""
     plant = world.GetSubsystemByName("plant")
     inspector = world.GetSubsystemByName("scene_graph").model_inspector()
     labels = set()
-    for body in plant.GetBodyIndices(plant.GetModelInstanceByName("robot")):
+    for body in robot.instances_in(plant).body_indices():
         for g in inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(body), Role.kPerception):
             labels.add(int(inspector.GetPerceptionProperties(g).GetProperty("label", "id")))
     return frozenset(labels)
@@ -373,7 +376,7 @@ def render_overhead(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndar
     world = build_world_diagram(scenario)
     context = world.CreateDefaultContext()
     world.GetInputPort("robot_desired_state").FixValue(context, robot_hold_state(scenario))
-    return (*overhead_images(world, context), robot_render_labels(world))
+    return (*overhead_images(world, context), robot_render_labels(world, scenario.robot_value))
 
 
 def robot_hold_state(scenario: Scenario) -> np.ndarray:

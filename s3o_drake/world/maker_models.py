@@ -106,10 +106,10 @@ def convert_mesh(source: Path, target: Path) -> None:
 
     mesh = trimesh.load(source, force="mesh")
     target.parent.mkdir(parents=True, exist_ok=True)
-    # Micrometres (digits=6) are finer than the parts are made; no normals (the renderers
-    # make them) and no material file (Drake draws the URDF's material, or its default):
-    # less than half the size.
-    target.write_text(mesh.export(file_type="obj", include_normals=False, digits=6,
+    # Micrometres (digits=6) are finer than the parts are made; no material file (Drake
+    # draws the URDF's material, or its default). Normals are written: Drake's VTK render
+    # engine (the overhead camera's) refuses an OBJ without them.
+    target.write_text(mesh.export(file_type="obj", include_normals=True, digits=6,
                                   include_texture=False, write_texture=False))
 
 

@@ -30,7 +30,6 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.systems.framework import (
     Context,
     DiagramBuilder,
@@ -45,6 +44,8 @@ from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import surface_below
 from s3o_drake.world.gripper import holds_whole
 from s3o_drake.world.objects import surface_height
+from s3o_drake.world.robot import RobotInstances
+from s3o_drake.world.robot_ports import robot_state_output
 from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.system_lifetime import weak_callback
 
@@ -91,12 +92,12 @@ def _upright(x: float, y: float, z: float, R: RotationMatrix) -> RigidTransform:
 
 
 def AddObjectTracker(builder: DiagramBuilder, *, scenario: Scenario, plant: MultibodyPlant,
-                     robot: ModelInstanceIndex, scene_graph: SceneGraph, period: float = 0.01,
+                     robot: RobotInstances, scene_graph: SceneGraph, period: float = 0.01,
                      name: str = "object_tracker") -> "ObjectTracker":
     """Registers the scenario's dishes with `scene_graph` and adds their ObjectTracker to
-    `builder`, named `name`, connected to the plant's state of `robot` (robot_state) and to
-    the scene graph (geometry_pose); grip and the dish outputs are the caller's to connect.
-    `robot` is the model instance of the scenario's robot (`scenario.robot_value`).
+    `builder`, named `name`, connected to the robot's state (robot_state, `robot_ports`) and
+    to the scene graph (geometry_pose); grip and the dish outputs are the caller's to
+    connect. `robot` is the scenario's robot (`scenario.robot_value`) in the plant.
 
     Each dish D becomes a frame of a geometry source `name`, named after the dish, with one
     cylinder (its bottom face's centre at D's origin) that has illustration, perception
@@ -144,7 +145,7 @@ def AddObjectTracker(builder: DiagramBuilder, *, scenario: Scenario, plant: Mult
     tracker = builder.AddNamedSystem(name, ObjectTracker(
         scenario=scenario, plant=plant, robot=robot, source_id=source_id,
         frame_ids=frame_ids, labels=labels, period=period))
-    builder.Connect(plant.get_state_output_port(robot), tracker.GetInputPort("robot_state"))
+    builder.Connect(robot_state_output(builder, robot), tracker.GetInputPort("robot_state"))
     builder.Connect(tracker.GetOutputPort("geometry_pose"),
                     scene_graph.get_source_pose_port(source_id))
     return tracker
@@ -155,8 +156,8 @@ class ObjectTracker(LeafSystem):
 
     `AddObjectTracker` registers the geometry and constructs it: `source_id` is the
     geometry source, `frame_ids` each dish's frame in it, `labels` each dish's render label;
-    `robot` is the model instance of the scenario's robot (`scenario.robot_value`), whose
-    grasp frame, tray and state it reads.
+    `robot` is the scenario's robot (`scenario.robot_value`) in the plant, whose grasp
+    frame, tray and state it reads.
 
     A dish starts on its table. When `grip.dish` names it, it is in the gripper and keeps
     the pose relative to the grasp frame G that it had at that moment, except that one
@@ -181,7 +182,7 @@ class ObjectTracker(LeafSystem):
             tray, placed or dropped).
     """
 
-    def __init__(self, *, scenario: Scenario, plant: MultibodyPlant, robot: ModelInstanceIndex,
+    def __init__(self, *, scenario: Scenario, plant: MultibodyPlant, robot: RobotInstances,
                  source_id: SourceId, frame_ids: Mapping[str, FrameId],
                  labels: Mapping[str, int], period: float = 0.01) -> None:
         super().__init__()
@@ -196,7 +197,7 @@ class ObjectTracker(LeafSystem):
         robot_value = scenario.robot_value
         self._plant = plant
         self._scenario = scenario
-        self._G = plant.GetFrameByName(robot_value.grasp_frame, robot)
+        self._G = robot.frame(robot_value.grasp_frame)
         self._robot = robot
         self._num_positions = robot_value.num_positions
         tray = robot_value.description.tray
@@ -205,8 +206,8 @@ class ObjectTracker(LeafSystem):
         # the carried dishes follow from the first three positions without the plant's
         # kinematics at every step.
         default = plant.CreateDefaultContext()
-        self._X_BT = plant.GetFrameByName(robot_value.tray_link, robot).CalcPose(
-            default, plant.GetFrameByName(robot_value.base_link, robot))
+        self._X_BT = robot.frame(robot_value.tray_link).CalcPose(
+            default, robot.frame(robot_value.base_link))
         self._source_id = source_id
         self._names = names
         self._frame_ids = dict(frame_ids)
@@ -267,7 +268,7 @@ class ObjectTracker(LeafSystem):
     def _calc_plant_context(self, context: Context, value: AbstractValue) -> None:
         plant_context = value.get_mutable_value()
         q = self._robot_state_port.Eval(context)[:self._num_positions]
-        self._plant.SetPositions(plant_context, self._robot, q)
+        self._robot.set_positions(plant_context, q)
 
     def _frames(self, context: Context) -> tuple[RigidTransform, RigidTransform]:
         """X_WG (grasp frame) and X_WT (tray) at the robot's current positions."""

@@ -336,6 +336,19 @@ class Robot:
         instances = add_model_instances(parser, self.description, name)
         return RobotInstances(self, parser.plant(), tuple(instances))
 
+    def model_instance_names(self, name: str = "robot") -> tuple[str, ...]:
+        """The names of the model instances `add_model_instances(parser, name=name)` adds:
+        `name`, or `<name>::<part>` for each part in order."""
+        if not self.is_of_parts:
+            return (name,)
+        return tuple(f"{name}::{part.name}" for part in self.description.parts)
+
+    def instances_in(self, plant: MultibodyPlant, *, name: str = "robot") -> "RobotInstances":
+        """The robot in a plant that holds it as `add_model_instances(..., name=name)` put it
+        there (a world diagram's plant, found by its instances' names)."""
+        return RobotInstances(self, plant, tuple(
+            plant.GetModelInstanceByName(n) for n in self.model_instance_names(name)))
+
 
 @dataclass(frozen=True)
 class RobotInstances:
@@ -375,6 +388,10 @@ class RobotInstances:
     def set_positions(self, context, q: np.ndarray) -> None:
         """Sets the robot's positions (`Robot.joints` order) in a plant context, and its
         mimic joints where they follow them."""
+        if self.is_single:
+            # One instance: its positions are the robot's, in order (check_model).
+            self.plant.SetPositions(context, self.instances[0], q)
+            return
         plant_q = self.plant.GetPositions(context).copy()
         plant_q[self.position_indices()] = q
         for follower, leader, multiplier, offset in self._followers():
@@ -382,7 +399,27 @@ class RobotInstances:
         self.plant.SetPositions(context, plant_q)
 
     def get_positions(self, context) -> np.ndarray:
+        if self.is_single:
+            return self.plant.GetPositions(context, self.instances[0])
         return self.plant.GetPositions(context)[self.position_indices()]
+
+    @property
+    def is_single(self) -> bool:
+        """Whether the robot is one model instance (then its positions are that instance's
+        and need no selection)."""
+        return len(self.instances) == 1
+
+    def body_indices(self) -> list:
+        """The robot's bodies in the plant, instance after instance."""
+        return [b for instance in self.instances for b in self.plant.GetBodyIndices(instance)]
+
+    def plant_positions(self, q: np.ndarray, context=None) -> np.ndarray:
+        """The plant's positions with the robot at `q` (`Robot.joints` order) and its
+        mimic joints following, set in `context` (its other positions stay; default: a new
+        context): a configuration for a collision checker over the whole plant."""
+        context = self.plant.CreateDefaultContext() if context is None else context
+        self.set_positions(context, q)
+        return self.plant.GetPositions(context).copy()
 
     def state_selector(self) -> np.ndarray:
         """The matrix that takes the plant's state [q; v] to the robot's [q; v] in

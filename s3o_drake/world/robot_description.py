@@ -437,8 +437,26 @@ def add_model_instances(parser, description: RobotDescription, name: str = "robo
     else:
         infos = ProcessModelDirectives(part_directives(description, name), parser)
         instances = [i.model_instance for i in infos]
+        _filter_gripper_self_collisions(parser, instances, description)
     apply_limit_overrides(plant, instances, description)
     return instances
+
+
+def _filter_gripper_self_collisions(parser, instances: list, description) -> None:
+    """No collisions among the bodies of the part that holds the gripper's joints: a
+    linkage gripper's links (the Robotiq 2F-85's knuckles, inner knuckles and finger tips)
+    overlap at the pins of its closed chain by design, and Drake filters only parent and
+    child, so otherwise every configuration of the robot would be in collision."""
+    from pydrake.geometry import CollisionFilterDeclaration
+
+    plant, scene_graph = parser.plant(), parser.scene_graph()
+    if not description.gripper.joints or scene_graph is None:
+        return
+    part = find_joint(plant, instances, description.gripper.joints[0]).model_instance()
+    geometries = plant.CollectRegisteredGeometries(
+        [plant.get_body(b) for b in plant.GetBodyIndices(part)])
+    scene_graph.collision_filter_manager().Apply(
+        CollisionFilterDeclaration().ExcludeWithin(geometries))
 
 
 def _find(plant, instances: list, name: str, has, get, kind: str):

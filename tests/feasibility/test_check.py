@@ -102,7 +102,7 @@ def _min_robot_environment_distance(contents, q, dish) -> float:
     world = FeasibilityScene(contents)
     plant = world.plant
     context = world.diagram.CreateDefaultContext()
-    plant.SetPositions(plant.GetMyMutableContextFromRoot(context), world.robot_instance, q)
+    world.robot_instances.set_positions(plant.GetMyMutableContextFromRoot(context), q)
     scene_graph = world.diagram.scene_graph()
     query = scene_graph.get_query_output_port().Eval(scene_graph.GetMyContextFromRoot(context))
     inspector = query.inspector()
@@ -111,13 +111,13 @@ def _min_robot_environment_distance(contents, q, dish) -> float:
         return plant.GetBodyFromFrameId(inspector.GetFrameId(geometry_id))
 
     dish_body = world.dish_body(dish)
-    gripper = {plant.GetBodyByName(name, world.robot_instance).index()
+    gripper = {world.robot_instances.body(name).index()
                for name in world.robot.gripper_bodies}
     smallest = np.inf
     for pair in query.ComputeSignedDistancePairwiseClosestPoints(max_distance=0.05):
         a, b = body(pair.id_A), body(pair.id_B)
-        robot_a = a.model_instance() == world.robot_instance
-        robot_b = b.model_instance() == world.robot_instance
+        robot_a = a.model_instance() in world.robot_instances.instances
+        robot_b = b.model_instance() in world.robot_instances.instances
         if robot_a == robot_b:
             continue  # robot-robot (self) or environment-environment
         other = b if robot_a else a

@@ -114,3 +114,46 @@ def test_an_arm_whose_end_joints_do_not_turn_about_A_and_G_is_refused(where):
         with pytest.raises(ArmModelError, match="must turn") as error:
             ArmKinematics(JointChain(fixed, PANDA_CHAIN.axes), PANDA_LOWER, PANDA_UPPER)
         assert error.value.path == ("arm.joints[0]" if where == "first" else "arm.joints[6]")
+
+
+def test_end_joints_about_minus_z_turn_the_other_way_within_a_makers_rounding():
+    # Kinova writes its joint 1 flipped by 3.1416 (7.3e-6 rad from pi): the first joint of
+    # the Gen3 turns about -z of A, and its last about -z of G. The map turns them by minus
+    # the bearing and the wrist turn; the UR5e's and the Panda's turn about +z.
+    assert UR5E.turn_signs == (1.0, 1.0)
+    assert kinematics.arm_kinematics(load_robot("panda")).turn_signs == (1.0, 1.0)
+    gen3 = kinematics.arm_kinematics(load_robot("gen3"))
+    assert gen3.turn_signs == (-1.0, -1.0)
+    # A lean of ten times the tolerance is refused.
+    fixed = PANDA_CHAIN.fixed.copy()
+    lean = 10 * kinematics.TURNING_AXIS_TOLERANCE
+    fixed[0][1:3, 1:3] = [[math.cos(lean), -math.sin(lean)], [math.sin(lean), math.cos(lean)]]
+    with pytest.raises(ArmModelError, match="must turn"):
+        ArmKinematics(JointChain(fixed, PANDA_CHAIN.axes), PANDA_LOWER, PANDA_UPPER)
+
+
+def test_the_gen3s_numeric_ik_reaches_grasps_in_front_of_the_base_and_the_map_turns_them():
+    from s3o_drake.feasibility.reachability.map import R_KIND, place
+
+    robot = load_robot("gen3")
+    arm = kinematics.arm_kinematics(robot)
+    # Top grasps over a table top 0.75 m high (A is 0.66 m up) and a side grasp, 0.4 to
+    # 0.7 m ahead of the arm's base.
+    R = np.stack([R_KIND["top"], R_KIND["top"], R_KIND["top"], R_KIND["side"]])
+    p = np.array([[0.4, 0.0, 0.15], [0.55, 0.0, 0.12], [0.7, 0.0, 0.1], [0.6, 0.0, 0.12]])
+    solutions = arm.inverse(R, p)
+    exact = arm.exact(solutions, R, p)
+    assert exact.any(axis=1).all()
+    # Turned to a bearing and a wrist turn, a stored solution grasps there.
+    for k in range(len(p)):
+        q0 = solutions[k][exact[k]][0]
+        for bearing, turn in ((0.7, 0.0), (-1.2, math.pi / 2)):
+            q = place(q0, bearing, turn, robot=robot)
+            R_q, p_q = arm.forward(q)
+            c, s = math.cos(bearing), math.sin(bearing)
+            Rz = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+            cw, sw = math.cos(turn), math.sin(turn)
+            Rw = np.array([[cw, -sw, 0.0], [sw, cw, 0.0], [0.0, 0.0, 1.0]])
+            # Within what the axis's lean allows (2 r e, kinematics.TURNING_AXIS_TOLERANCE).
+            np.testing.assert_allclose(p_q, Rz @ p[k], atol=3e-5)
+            np.testing.assert_allclose(R_q, Rz @ R[k] @ Rw, atol=3e-5)

@@ -103,7 +103,7 @@ def test_camera_sees_the_robot_where_the_simulation_moved_it():
     context = simulator.get_mutable_context()
     x0, y0, yaw0 = scenario.robot.start
     goal = (x0 + 0.5, y0, yaw0)
-    robot_labels = list(robot_render_labels(world))
+    robot_labels = list(robot_render_labels(world, scenario.robot_value))
 
     def robot_centroid_px() -> np.ndarray:
         label = world.GetOutputPort("overhead_label_image").Eval(context).data[:, :, 0]

@@ -219,7 +219,7 @@ def _tracker_of(scenario):
     plant.Finalize()
     tracker = AddObjectTracker(builder, scenario=scenario, plant=plant, robot=models.robot,
                                scene_graph=scene_graph)
-    return builder.Build(), tracker, plant, models.robot
+    return builder.Build(), tracker, plant, models.robot.instances[0]
 
 
 def test_an_object_put_down_stands_on_the_surface_below_where_it_was_let_go(scenario):

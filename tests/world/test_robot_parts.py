@@ -238,3 +238,29 @@ def test_description_checks_against_the_parts():
     joint_5.acceleration = None
     with pytest.raises(RobotDescriptionError, match=r"arm\.joints\[4\].*acceleration limit"):
         check_model(description)
+
+
+def test_gen3_stows_inside_its_footprint_clear_of_the_base_and_tray(gen3):
+    from pydrake.planning import RobotDiagramBuilder, SceneGraphCollisionChecker
+
+    from s3o_drake.feasibility.clearance import robot_plan_extent
+    from s3o_drake.world.resources import make_parser
+
+    builder = RobotDiagramBuilder(time_step=0.0)
+    placed = gen3.add_model_instances(make_parser(builder.plant(), builder.scene_graph()))
+    builder.plant().Finalize()
+    diagram = builder.Build()
+    plant = diagram.plant()
+    extent = robot_plan_extent(plant, diagram.scene_graph().model_inspector(), placed,
+                               plant.CreateDefaultContext())
+    half_l, half_w = gen3.base_length / 2, gen3.base_width / 2
+    assert extent[0] >= -half_l - 1e-9 and extent[1] <= half_l + 1e-9
+    assert extent[2] >= -half_w - 1e-9 and extent[3] <= half_w + 1e-9
+    checker = SceneGraphCollisionChecker(model=diagram,
+                                         robot_model_instances=list(placed.instances),
+                                         edge_step_size=0.05)
+    q = placed.plant_positions(gen3.positions(0.0, 0.0, 0.0))  # arm stowed, gripper open
+    clearance = checker.CalcRobotClearance(q, 0.1)
+    assert min(clearance.distances()) >= 0.03
+    # The tray is among what it is clear of: a body of the base's part.
+    assert placed.body(gen3.tray_link).model_instance() == placed.instances[0]

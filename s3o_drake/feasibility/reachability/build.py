@@ -62,17 +62,21 @@ class _NodeSolver:
         self.robot = robot
         self.arm = kin.arm_kinematics(robot)
         builder = RobotDiagramBuilder(time_step=0.0)
-        self.model = robot.add_to(builder.parser())
+        self.placed = robot.add_model_instances(builder.parser())
         builder.plant().Finalize()
         self.diagram = builder.Build()
         self.plant = self.diagram.plant()
         self.context = self.diagram.CreateDefaultContext()
         self.plant_context = self.plant.GetMyMutableContextFromRoot(self.context)
-        self.grasp_frame = self.plant.GetFrameByName(robot.grasp_frame, self.model)
-        self.p_WA = self.plant.GetFrameByName(robot.arm_base_link, self.model).CalcPoseInWorld(
+        self.grasp_frame = self.placed.frame(robot.grasp_frame)
+        self.p_WA = self.placed.frame(robot.arm_base_link).CalcPoseInWorld(
             self.plant_context).translation()
+        # The plant's positions hold the robot's (`Robot.joints` order) at these indices; a
+        # robot of parts has its mimic joints among the rest.
+        self.indices = self.placed.position_indices()
         self.checker = SceneGraphCollisionChecker(
-            model=self.diagram, robot_model_instances=[self.model], edge_step_size=0.05,
+            model=self.diagram, robot_model_instances=list(self.placed.instances),
+            edge_step_size=0.05,
             implicit_context_parallelism=drake_parallelism())
         self.checker.SetPaddingAllRobotRobotPairs(min_distance)
         self.min_distance = min_distance
@@ -83,8 +87,11 @@ class _NodeSolver:
                                int(max_major_iterations))
 
     def _q(self, arm: np.ndarray) -> np.ndarray:
-        return np.concatenate([np.zeros(self.robot.num_base_joints), arm,
-                               self.robot.gripper_open])
+        """The plant's positions with the base at the origin, the arm at `arm` and the
+        gripper open (the robot's positions for a single-instance robot)."""
+        q = np.concatenate([np.zeros(self.robot.num_base_joints), arm,
+                            self.robot.gripper_open])
+        return q if self.placed.is_single else self.placed.plant_positions(q)
 
     def solve(self, R_AG: np.ndarray, p_AG: np.ndarray, seeds: np.ndarray) -> list[np.ndarray]:
         """Arm configurations found by IK from each seed (in seed order), verified."""
@@ -95,9 +102,16 @@ class _NodeSolver:
         q = ik.q()
         prog = ik.get_mutable_prog()
         base = np.zeros(robot.num_base_joints)
-        prog.AddBoundingBoxConstraint(base, base, q[:robot.num_base_joints])
+        arm_indices = self.indices[robot.arm_positions]
+        prog.AddBoundingBoxConstraint(base, base, q[self.indices[:robot.num_base_joints]])
         prog.AddBoundingBoxConstraint(robot.gripper_open, robot.gripper_open,
-                                      q[robot.arm_positions.stop:])
+                                      q[self.indices[robot.gripper_positions]])
+        # A robot of parts' other positions (mimic joints: IK knows no coupler
+        # constraints) stay where the open gripper puts them.
+        others = np.setdiff1d(np.arange(self.plant.num_positions()), self.indices)
+        if others.size:
+            q_open = self._q(self.robot.arm_stow)
+            prog.AddBoundingBoxConstraint(q_open[others], q_open[others], q[others])
         p_WG = self.p_WA + p_AG
         ik.AddPositionConstraint(self.grasp_frame, np.zeros(3), self.plant.world_frame(),
                                  p_WG - POSITION_TOLERANCE, p_WG + POSITION_TOLERANCE)
@@ -110,7 +124,7 @@ class _NodeSolver:
             if result is None or not result.is_success():
                 found.append(None)
                 continue
-            arm = result.GetSolution(q)[robot.arm_positions]
+            arm = result.GetSolution(q)[arm_indices]
             R, p = self.arm.forward(arm)
             angle, distance = kin.pose_error(R, p, R_AG, p_AG)
             ok = (angle <= ANGLE_TOLERANCE + 1e-4 and distance <= POSITION_TOLERANCE + 1e-4

@@ -71,9 +71,13 @@ class ReachabilityMapError(RuntimeError):
 
 
 def robot_model_sha256(robot: Robot) -> str:
-    """SHA-256 of `robot`'s model file, recorded in the map so that a stale map is
-    noticed."""
-    return hashlib.sha256(robot.model_file.read_bytes()).hexdigest()
+    """SHA-256 of `robot`'s model file (a robot of parts: of its parts' files' digests in
+    order), recorded in the map so that a stale map is noticed."""
+    files = robot.model_files
+    if len(files) == 1:
+        return hashlib.sha256(files[0].read_bytes()).hexdigest()
+    return hashlib.sha256("".join(hashlib.sha256(f.read_bytes()).hexdigest()
+                                  for f in files).encode()).hexdigest()
 
 
 def grid_axis(lo: float, hi: float, step: float) -> np.ndarray:
@@ -358,11 +362,15 @@ def place(q: np.ndarray, bearing: np.ndarray | float, wrist_turn: np.ndarray | f
     `wrist_turn`.
 
     The first joint turns the arm about A's z axis and the last the gripper about the
-    approach axis (`robot_description.check_model` confirms both of an arm); the results are
+    approach axis, each about +z or -z (`ArmKinematics.turn_signs`: a joint about -z turns
+    by minus the bearing or the wrist turn; `ArmKinematics` checks both axes); the results are
     wrapped into [-π, π), or a turn from there into the joints' limits. A joint that cannot
     turn that far leaves the configuration outside its limits (`ArmKinematics.within_limits`).
     """
+    arm = kin.arm_kinematics(robot)
+    first, last = arm.turn_signs
     q = np.array(q, dtype=float)
-    q[..., 0] = q[..., 0] + bearing
-    q[..., -1] = q[..., -1] + wrist_turn
-    return kin.arm_kinematics(robot).into_limits(q)
+    # Exact for a joint about +z (times 1.0): the UR5e's and the Panda's are.
+    q[..., 0] = q[..., 0] + first * np.asarray(bearing)
+    q[..., -1] = q[..., -1] + last * np.asarray(wrist_turn)
+    return arm.into_limits(q)
