@@ -8,6 +8,8 @@ import itertools
 import numpy as np
 import pytest
 
+from s3o_drake.execution.arm.arm_motion import joint_limits, time_parameterize
+from s3o_drake.execution.arm.pickup import segment_limits
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.robot import load_robot
 from s3o_drake.world.robot_description import mimic_joints
@@ -96,3 +98,31 @@ def test_a_robot_of_parts_is_checked_with_its_mimic_joints_following(gen3_scene)
     # A clone of the checker speaks the robot's positions too (the grasping checkers).
     assert scene.checker.Clone().CheckConfigCollisionFree(qs[0]) == free[0]
 
+
+def test_a_robot_of_parts_motion_is_timed_in_its_own_positions(gen3_scene):
+    scene, robot = gen3_scene, gen3_scene.robot
+    positions = scene.positions
+    q0 = robot.positions(*FRONT)
+    arm = robot.arm_stow + np.array([0.4, -0.3, 0.2, 0.3, -0.2, 0.1, 0.5])
+    q1 = robot.positions(*FRONT, arm=arm, gripper=np.array([0.6]))
+    q2 = robot.positions(*FRONT, arm=robot.arm_stow + 0.2, gripper=np.array([0.3]))
+    assert all(limits.shape == (11,) for limits in joint_limits(scene.plant, positions))
+    # The fingers' limits are the pickup's (the model gives no acceleration limit).
+    v, a = segment_limits(scene.plant, "stow", robot=robot, positions=positions)
+    for path in (np.stack([q0, q1]), np.stack([q0, q1, q2])):
+        timed = time_parameterize(path, scene.plant, max_velocity=v, max_acceleration=a,
+                                  positions=positions)
+        trajectory = timed.trajectory
+        assert trajectory.rows() == 11
+        np.testing.assert_allclose(trajectory.value(trajectory.end_time()).ravel(), path[-1],
+                                   atol=1e-9)
+        times = np.linspace(0, trajectory.end_time(), 200)
+        speeds = np.abs(trajectory.MakeDerivative(1).vector_values(times))
+        moving = np.isfinite(v)
+        assert np.all(speeds[moving] <= v[moving, None] * (1 + 1e-6))
+        # The mimic joints' lifted limits repeat their leaders': timing the lifted path in
+        # the plant's positions takes as long.
+        lifted = time_parameterize(positions.to_plant(path), scene.plant,
+                                   max_velocity=positions.rate_limits_to_plant(v),
+                                   max_acceleration=positions.rate_limits_to_plant(a))
+        assert timed.duration == pytest.approx(lifted.duration, rel=1e-6)
