@@ -100,10 +100,12 @@ def durations(plan: PickupPlan, scene: FeasibilityScene) -> dict[str, dict[str, 
     plant = scene.checker.plant()
     out = {timing: {} for timing in TIMINGS}
     for segment in plan.segments:
-        v, a = segment_limits(plant, segment.name, robot=scene.robot)
+        v, a = segment_limits(plant, segment.name, robot=scene.robot,
+                              positions=scene.positions)
         out["toppra"][segment.name] = segment.duration
         out["toppra_stops"][segment.name] = time_parameterize(
-            segment.waypoints, plant, max_velocity=v, max_acceleration=a).duration
+            segment.waypoints, plant, max_velocity=v, max_acceleration=a,
+            positions=scene.positions).duration
         out["trapezoid"][segment.name] = trapezoid_duration(
             segment.waypoints, *trapezoid_limits(segment.name))
     return out

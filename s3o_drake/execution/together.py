@@ -11,8 +11,8 @@ checks its motion against the arm's, the arm controller a prepare against the ba
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from pydrake.planning import SceneGraphCollisionChecker
 
+from s3o_drake.feasibility.robot_checker import RobotChecker
 from s3o_drake.world.robot import Robot
 from s3o_drake.world.worker_processes import drake_parallelism
 
@@ -24,7 +24,7 @@ WAIT_STEP = 0.25
 until it would start once the other has ended."""
 
 
-def free_together(checker_at: Callable[[float], SceneGraphCollisionChecker],
+def free_together(checker_at: Callable[[float], RobotChecker],
                   base_at: Callable[[float], Sequence[float]],
                   arm_at: Callable[[float], Sequence[float]], start: float, end: float, *,
                   robot: Robot) -> bool:
@@ -35,7 +35,7 @@ def free_together(checker_at: Callable[[float], SceneGraphCollisionChecker],
     if end < start:
         return True
     times = np.append(np.arange(start, end, TOGETHER_STEP), end)
-    batches: dict[int, tuple[SceneGraphCollisionChecker, list[np.ndarray]]] = {}
+    batches: dict[int, tuple[RobotChecker, list[np.ndarray]]] = {}
     num_arm = robot.num_arm_joints
     for t in times:
         arm = np.asarray(arm_at(float(t)), dtype=float)

@@ -82,14 +82,15 @@ def finger_stroke_time(*, robot: Robot) -> float:
     return stroke_time(travel, FINGER_MAX_VELOCITY, FINGER_MAX_ACCELERATION)
 
 
-def tray_leg_time(plant, *, robot: Robot) -> float:
+def tray_leg_time(plant, *, robot: Robot, positions=None) -> float:
     """The arm's shortest rest-to-rest leg (s) between its stow configuration and a release
     configuration over the tray (the nearest of every grasp kind's), within the arm's joint
-    limits of `robot` in `plant`: the slowest joint's stroke."""
+    limits of `robot` in `plant` (its positions among the plant's at `positions`, a
+    `PositionMap`; default: they are the plant's): the slowest joint's stroke."""
     from s3o_drake.execution.arm.pickup import segment_limits
     from s3o_drake.feasibility.pickup_geometry import tray_arms
 
-    v, a = segment_limits(plant, "stow", robot=robot)
+    v, a = segment_limits(plant, "stow", robot=robot, positions=positions)
     v, a = np.asarray(v)[robot.arm_positions], np.asarray(a)[robot.arm_positions]
     legs = [max(stroke_time(abs(float(d)), float(vj), float(aj))
                 for d, vj, aj in zip(np.asarray(arm) - robot.arm_stow, v, a, strict=True))
@@ -146,8 +147,11 @@ def lower_bound(scenario: Scenario, heatmaps: Sequence[Heatmap] | None = None) -
     placed = {d.name for d in scenario.dishes if d.goal == "place"}
     collected = sum(placed_object(name) is None and name not in placed for name in names)
     robot = scenario.robot_value
-    legs = (tray_leg_time(FeasibilityScene(scenario.contents).plant, robot=robot)
-            if collected else 0.0)
+    if collected:
+        scene = FeasibilityScene(scenario.contents)
+        legs = tray_leg_time(scene.plant, robot=robot, positions=scene.positions)
+    else:
+        legs = 0.0
     return LowerBound(tour_length=length, drive_time=length / scenario.planner.speed,
                       hand_time=TIMING_SLACK * 2 * objects * finger_stroke_time(robot=robot),
                       arm_time=TIMING_SLACK * 2 * collected * legs)

@@ -122,9 +122,9 @@ def verify(scene: FeasibilityScene, q: np.ndarray, dish: str, X_WG: RigidTransfo
            angle_tolerance: float = ANGLE_TOLERANCE) -> bool:
     """Whether positions q grasp X_WG within tolerance, within limits and collision-free
     (`scene.checker` as inside `scene.grasping(dish)`: the gripper may touch the dish)."""
-    plant = scene.plant
-    lower = plant.GetPositionLowerLimits()
-    upper = plant.GetPositionUpperLimits()
+    plant, robot = scene.plant, scene.positions.to_robot
+    lower = robot(plant.GetPositionLowerLimits())
+    upper = robot(plant.GetPositionUpperLimits())
     if np.any(q < lower - 1e-9) or np.any(q > upper + 1e-9):
         return False
     angle, distance = grasp_error(scene, q, X_WG)
@@ -152,9 +152,18 @@ def solve_grasp_ik(scene: FeasibilityScene, base: np.ndarray, grasp: Grasp, *, d
     q = ik.q()
     prog = ik.get_mutable_prog()
     base = np.asarray(base, dtype=float)
-    prog.AddBoundingBoxConstraint(base, base, q[:robot.num_base_joints])
+    # IK's variables are the plant's positions; the robot's are among them (`positions`).
+    positions = scene.positions
+    indices = np.arange(plant.num_positions()) if positions.is_identity else positions.indices
+    prog.AddBoundingBoxConstraint(base, base, q[indices[:robot.num_base_joints]])
     prog.AddBoundingBoxConstraint(robot.gripper_open, robot.gripper_open,
-                                  q[robot.arm_positions.stop:])
+                                  q[indices[robot.arm_positions.stop:]])
+    others = np.setdiff1d(np.arange(plant.num_positions()), indices)
+    if others.size:
+        # A robot of parts' mimic joints (IK knows no coupler constraints) stay where the
+        # open gripper puts them.
+        q_open = positions.to_plant(scene.q(base))
+        prog.AddBoundingBoxConstraint(q_open[others], q_open[others], q[others])
     p_WG = grasp.X_WG.translation()
     ik.AddPositionConstraint(
         frameB=scene.grasp_frame, p_BQ=np.zeros(3), frameA=plant.world_frame(),
@@ -170,11 +179,11 @@ def solve_grasp_ik(scene: FeasibilityScene, base: np.ndarray, grasp: Grasp, *, d
     if seeds is None:
         seeds = np.vstack([robot.arm_stow, random_arm_seeds(3, robot=robot)])
     for arm in np.asarray(seeds, dtype=float).reshape(-1, robot.num_arm_joints):
-        guess = scene.q(base, arm)
+        guess = positions.to_plant(scene.q(base, arm))
         result = solve_or_none(solver, prog, guess, options)
         if result is None or not result.is_success():
             continue
-        q_sol = result.GetSolution(q)
+        q_sol = positions.to_robot(result.GetSolution(q))
         if verify(scene, q_sol, dish, grasp.X_WG, position_tolerance=position_tolerance,
                   angle_tolerance=angle_tolerance):
             return q_sol

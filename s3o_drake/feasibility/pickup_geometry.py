@@ -43,13 +43,13 @@ from functools import lru_cache
 
 import numpy as np
 from pydrake.math import RigidTransform, RotationMatrix
-from pydrake.planning import SceneGraphCollisionChecker
 from scipy.special import erf
 
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP, RIM_INSET
+from s3o_drake.feasibility.robot_checker import RobotChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import placed_object
@@ -223,7 +223,7 @@ def solve_arm_many(R_AG: np.ndarray, p_AG: np.ndarray, reference: np.ndarray,
 
 
 def moved(q: np.ndarray, base: np.ndarray, X_WG_target: RigidTransform,
-          checker: SceneGraphCollisionChecker, *, robot: Robot) -> np.ndarray | None:
+          checker: RobotChecker, *, robot: Robot) -> np.ndarray | None:
     """q (`robot`'s positions) with the arm moved so that G is at X_WG_target,
     collision-free, or None."""
     X_AG_target = X_WA(base, robot=robot).inverse() @ X_WG_target
@@ -232,7 +232,7 @@ def moved(q: np.ndarray, base: np.ndarray, X_WG_target: RigidTransform,
     return _first_free(q, arms, checker, robot=robot)
 
 
-def _first_free(q: np.ndarray, arms: list[np.ndarray], checker: SceneGraphCollisionChecker,
+def _first_free(q: np.ndarray, arms: list[np.ndarray], checker: RobotChecker,
                 *, robot: Robot) -> np.ndarray | None:
     """q (`robot`'s positions) with the first of `arms` that is collision-free, or None."""
     for arm in arms:
@@ -244,8 +244,8 @@ def _first_free(q: np.ndarray, arms: list[np.ndarray], checker: SceneGraphCollis
 
 
 def _first_offset(q: np.ndarray, solutions: list[list[np.ndarray]],
-                  checker: SceneGraphCollisionChecker,
-                  edge_checker: SceneGraphCollisionChecker, *, robot: Robot) -> np.ndarray | None:
+                  checker: RobotChecker,
+                  edge_checker: RobotChecker, *, robot: Robot) -> np.ndarray | None:
     """q moved to the first target (of `solutions`, one list of arms per target, in order)
     where the arm is free by `checker` and the straight line from q is free by
     `edge_checker`, or None."""
@@ -320,7 +320,7 @@ def tray_arms(grasp: str, *, robot: Robot) -> tuple[np.ndarray, ...]:
 
 
 def tray_configuration(base: np.ndarray, grasp: str, q_from: np.ndarray,
-                       checker: SceneGraphCollisionChecker, *, robot: Robot) -> np.ndarray | None:
+                       checker: RobotChecker, *, robot: Robot) -> np.ndarray | None:
     """`robot`'s positions at release over the tray (fingers as in `q_from`), or None:
     the first of `tray_arms` that is collision-free."""
     for arm in tray_arms(grasp, robot=robot):
@@ -340,7 +340,7 @@ def with_gripper(q: np.ndarray, gripper: np.ndarray, *, robot: Robot) -> np.ndar
 
 
 def _complete(base: np.ndarray, grasp: str, q_grasp: np.ndarray, solutions: tuple[list, list],
-              free: SceneGraphCollisionChecker, holding: SceneGraphCollisionChecker, *,
+              free: RobotChecker, holding: RobotChecker, *,
               robot: Robot) -> tuple[PickupConfigurations | None, bool]:
     """The rest of `robot`'s pickup from one grasp configuration (see the module
     docstring): the configurations, or None; and whether a lift was found (for the

@@ -1,8 +1,9 @@
 """The world as the feasibility checks see it: a RobotDiagram and a collision checker.
 
 A `FeasibilityScene` holds the robot, the tables, the dishes and the chairs of a room in a
-`RobotDiagram` (plant + scene graph, no simulation), and a `SceneGraphCollisionChecker` over
-the robot's positions with a padding between robot and environment. Which room it holds
+`RobotDiagram` (plant + scene graph, no simulation), and a `SceneGraphCollisionChecker` with
+a padding between robot and environment, asked in the robot's positions (`RobotChecker`:
+a robot of parts has more positions in the plant than its own). Which room it holds
 is the caller's choice: the true world's (`Scenario.contents`: ground truth, for labels and
 the execution's judge) or a belief's (`KnownWorld.contents`: what a planner may know; the
 planner's one scene per plan is `feasibility.planning_scene.PlanningScene`).
@@ -21,6 +22,7 @@ from s3o_drake.feasibility.clearance import (
     robot_horizontal_radius,
     robot_plan_extent,
 )
+from s3o_drake.feasibility.robot_checker import RobotChecker
 from s3o_drake.world.builder import populate_plant
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.obstacles import Obstacles
@@ -49,12 +51,17 @@ class FeasibilityScene:
         self.robot = contents.robot
         self.robot_instances = self.models.robot
         """The robot in the plant: its model instances (one, or one per part)."""
-        # Every instance of the robot is the robot's: the checker's configurations are the
-        # plant's positions (a robot of parts has mimic joints among them, which follow).
-        self.checker = SceneGraphCollisionChecker(
+        self.positions = self.robot_instances.position_map()
+        """The robot's positions among the plant's (the identity for a robot that is one
+        model instance)."""
+        # Every instance of the robot is the robot's. Drake's checker takes the plant's
+        # positions (a robot of parts has mimic joints among them, which follow); the
+        # scene's checker takes the robot's and lifts them (`robot_checker`).
+        self.checker = RobotChecker(SceneGraphCollisionChecker(
             model=self.diagram, robot_model_instances=list(self.robot_instances.instances),
             edge_step_size=EDGE_STEP, env_collision_padding=padding,
-            implicit_context_parallelism=drake_parallelism())
+            implicit_context_parallelism=drake_parallelism()), self.positions)
+        """The collision checker over the robot's positions (`Robot.joints` order)."""
         self.table_height = {t.name: t.height for t in contents.tables}
         self.dishes = {d.name: d for d in contents.dishes}
         self.grasp_frame = self.robot_instances.frame(self.robot.grasp_frame)
@@ -73,7 +80,7 @@ class FeasibilityScene:
 
     def q(self, base: np.ndarray, arm: np.ndarray | None = None,
           gripper: np.ndarray | None = None) -> np.ndarray:
-        """The plant's positions (the robot's) for a base pose (x, y, yaw) and arm (default
+        """The robot's positions for a base pose (x, y, yaw) and arm (default
         stowed, the gripper open)."""
         return self.robot.positions(*base, arm=arm, gripper=gripper)
 

@@ -421,6 +421,21 @@ class RobotInstances:
         self.set_positions(context, q)
         return self.plant.GetPositions(context).copy()
 
+    def position_map(self) -> "PositionMap":
+        """The robot's positions (`Robot.joints` order) among the plant's: how a collision
+        checker or a plant context over the whole plant is given them (`PositionMap`). The
+        plant's other positions are taken from its default context."""
+        plant = self.plant
+        indices = self.position_indices()
+        rest = plant.GetPositions(plant.CreateDefaultContext()).copy()
+        identity = (plant.num_positions() == self.robot.num_positions
+                    and np.array_equal(indices, np.arange(self.robot.num_positions)))
+        indices = np.array(indices, dtype=int)
+        indices.flags.writeable = False
+        return PositionMap(num_plant=plant.num_positions(), indices=indices,
+                           followers=tuple(self._followers()), rest=_frozen(rest),
+                           is_identity=identity)
+
     def state_selector(self) -> np.ndarray:
         """The matrix that takes the plant's state [q; v] to the robot's [q; v] in
         `Robot.joints` order (a MatrixGain on the plant's state output gives the
@@ -448,6 +463,64 @@ class RobotInstances:
             S[len(rows) + np.arange(len(rows)), n + np.array(rows)] = 1.0
             selectors[instance] = S
         return selectors
+
+
+@dataclass(frozen=True, eq=False)
+class PositionMap:
+    """The robot's positions (`Robot.joints` order) lifted to a plant's (`to_plant`) and
+    read back (`to_robot`): made by `RobotInstances.position_map`.
+
+    The plant's positions are the robot's at `indices`, its mimic joints (`followers`:
+    follower's index, leader's index, multiplier, offset) following their leaders, and the
+    rest as in `rest`. The map is affine, so a straight line between two robot positions
+    lifts to the straight line between their lifts, and a B-spline's lift is the B-spline
+    of its lifted control points.
+
+    For a robot that is one model instance alone in its plant the plant's positions are the
+    robot's (`is_identity`): then every method returns its argument itself, no copy and no
+    arithmetic, so that such a robot's plans are exactly what they were before robots of
+    parts."""
+
+    num_plant: int
+    indices: np.ndarray
+    followers: tuple[tuple[int, int, float, float], ...]
+    rest: np.ndarray
+    is_identity: bool
+
+    @property
+    def num_robot(self) -> int:
+        return len(self.indices)
+
+    def to_plant(self, q: np.ndarray) -> np.ndarray:
+        """The plant's positions for the robot's `q` (n,) or (k, n) (one per row)."""
+        if self.is_identity:
+            return q
+        q = np.asarray(q, dtype=float)
+        plant_q = np.array(np.broadcast_to(self.rest, (*q.shape[:-1], self.num_plant)))
+        plant_q[..., self.indices] = q
+        for follower, leader, multiplier, offset in self.followers:
+            plant_q[..., follower] = multiplier * plant_q[..., leader] + offset
+        return plant_q
+
+    def to_robot(self, values: np.ndarray) -> np.ndarray:
+        """The robot's entries (`Robot.joints` order) of a vector over the plant's
+        positions (n_plant,) or (k, n_plant): positions, or their limits."""
+        if self.is_identity:
+            return values
+        return np.asarray(values)[..., self.indices]
+
+    def rate_limits_to_plant(self, limits: np.ndarray) -> np.ndarray:
+        """Nonnegative speed or acceleration limits of the robot's positions (n,) as limits
+        of the plant's: a mimic joint gets its leader's times |multiplier| (it moves exactly
+        that much faster: its limit repeats its leader's, never binds more); the plant's
+        other positions, which the robot's motions never move, get +inf."""
+        if self.is_identity:
+            return limits
+        plant_limits = np.full(self.num_plant, np.inf)
+        plant_limits[self.indices] = limits
+        for follower, leader, multiplier, _ in self.followers:
+            plant_limits[follower] = abs(multiplier) * plant_limits[leader]
+        return plant_limits
 
 
 def load_robot(name: str = DEFAULT_ROBOT) -> Robot:

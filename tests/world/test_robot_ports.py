@@ -94,11 +94,16 @@ def test_a_robot_of_parts_world_holds_a_setpoint(gen3_scenario):
 def test_a_robot_of_parts_feasibility_scene_checks_all_its_instances(gen3_scenario):
     scene = FeasibilityScene(gen3_scenario.contents)
     robot = scene.robot
-    # The checker's configurations are the plant's positions: the robot's and the
-    # gripper's mimic joints.
+    # Drake's checker takes the plant's positions (the robot's and the gripper's mimic
+    # joints); the scene's takes the robot's and lifts them.
     assert scene.checker.plant().num_positions() == 16
-    q = scene.robot_instances.plant_positions(robot.positions(*gen3_scenario.robot.start))
+    q = robot.positions(*gen3_scenario.robot.start)
+    assert q.shape == (11,) and not scene.positions.is_identity
+    lifted = scene.positions.to_plant(q)
+    np.testing.assert_array_equal(lifted, scene.robot_instances.plant_positions(q))
+    np.testing.assert_array_equal(scene.positions.to_robot(lifted), q)
     assert scene.checker.CheckConfigCollisionFree(q)
+    assert scene.checker.inner.CheckConfigCollisionFree(lifted)
     assert scene.grasp_pose(robot.positions(*gen3_scenario.robot.start)).translation()[2] > 0.5
     # The stowed arm stays over the footprint (mesh geometry: its hulls' vertices).
     assert scene.robot_radius <= robot.base_radius + 1e-9

@@ -3,8 +3,9 @@
 `plan_arm_path` moves the arm's joints (`Robot.arm_positions` of the robot's positions) from
 one configuration to another with the base and the fingers held where they are. Drake has no
 sampling-based planner, so OMPL's RRT-Connect searches the arm's joint box (the plant's
-position limits); Drake's `SceneGraphCollisionChecker` answers its questions: a state is
-valid when `CheckConfigCollisionFree` holds for all the robot's positions, a motion when
+position limits); Drake's `SceneGraphCollisionChecker` (the scene's `RobotChecker`, asked in
+the robot's positions) answers its questions: a state is valid when
+`CheckConfigCollisionFree` holds for all the robot's positions, a motion when
 `CheckEdgeCollisionFree` does (straight line in the robot's positions, stepped at the checker's
 edge step, 0.05 rad here), so the planner and the final verification use the very same test.
 The found path is shortcut (OMPL's `PathSimplifier`, by step counts rather than a time budget
@@ -45,7 +46,6 @@ from ompl import util as ou
 from pydrake.math import BsplineBasis
 from pydrake.multibody.optimization import CalcGridPointsOptions, Toppra
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.planning import SceneGraphCollisionChecker
 from pydrake.trajectories import (
     BsplineTrajectory,
     PathParameterizedTrajectory,
@@ -53,7 +53,8 @@ from pydrake.trajectories import (
     Trajectory,
 )
 
-from s3o_drake.world.robot import Robot
+from s3o_drake.feasibility.robot_checker import RobotChecker
+from s3o_drake.world.robot import PositionMap, Robot
 
 #: RRT-Connect's extension step (rad, joint-space distance). OMPL's default (a fifth of the
 #: box's diagonal, ~6 rad for joints that turn ±2π) makes long edges that mostly collide
@@ -83,14 +84,11 @@ SAMPLES_PER_INTERVAL = 4
 STILL_DURATION = 1e-3
 
 
-def arm_bounds(checker: SceneGraphCollisionChecker, *,
-               robot: Robot) -> tuple[np.ndarray, np.ndarray]:
-    """`robot`'s arm joint limits (rad), lower and upper, from the checker's plant (whose
-    positions are the robot's)."""
-    plant = checker.plant()
+def arm_bounds(checker: RobotChecker, *, robot: Robot) -> tuple[np.ndarray, np.ndarray]:
+    """`robot`'s arm joint limits (rad), lower and upper, from the checker's plant."""
+    lower, upper = checker.position_limits()
     arm = robot.arm_positions
-    return (plant.GetPositionLowerLimits()[arm].copy(),
-            plant.GetPositionUpperLimits()[arm].copy())
+    return lower[arm].copy(), upper[arm].copy()
 
 
 @contextmanager
@@ -118,7 +116,7 @@ def _seed_ompl(seed: int) -> None:
 class _EdgeValidator(ob.MotionValidator):
     """OMPL motion validity = Drake's `CheckEdgeCollisionFree` on all the robot's positions."""
 
-    def __init__(self, si: ob.SpaceInformation, to_q, checker: SceneGraphCollisionChecker):
+    def __init__(self, si: ob.SpaceInformation, to_q, checker: RobotChecker):
         super().__init__(si)
         self._to_q = to_q
         self._checker = checker
@@ -127,7 +125,7 @@ class _EdgeValidator(ob.MotionValidator):
         return bool(self._checker.CheckEdgeCollisionFree(self._to_q(s1), self._to_q(s2)))
 
 
-def _validate_endpoints(checker: SceneGraphCollisionChecker, q_start: np.ndarray,
+def _validate_endpoints(checker: RobotChecker, q_start: np.ndarray,
                         q_goal: np.ndarray, robot: Robot) -> None:
     lower, upper = arm_bounds(checker, robot=robot)
     arm, n = robot.arm_positions, robot.num_positions
@@ -140,14 +138,14 @@ def _validate_endpoints(checker: SceneGraphCollisionChecker, q_start: np.ndarray
             raise ValueError(f"{name} is in collision")
 
 
-def edges_free(checker: SceneGraphCollisionChecker, path: np.ndarray) -> bool:
+def edges_free(checker: RobotChecker, path: np.ndarray) -> bool:
     """Whether every straight edge of `path` (n, the robot's positions) is collision-free by
     `checker`."""
     return all(checker.CheckEdgeCollisionFree(a, b)
                for a, b in itertools.pairwise(path))
 
 
-def plan_arm_path(checker: SceneGraphCollisionChecker, q_start: np.ndarray, q_goal: np.ndarray,
+def plan_arm_path(checker: RobotChecker, q_start: np.ndarray, q_goal: np.ndarray,
                   *, robot: Robot, time_limit: float = 5.0, seed: int = 0,
                   max_step: float = RRT_RANGE) -> np.ndarray | None:
     """A collision-free path (n, robot.num_positions) from q_start to q_goal moving only the
@@ -220,7 +218,7 @@ def plan_arm_path(checker: SceneGraphCollisionChecker, q_start: np.ndarray, q_go
     return None
 
 
-def _greedy_shortcut(checker: SceneGraphCollisionChecker, path: np.ndarray) -> np.ndarray:
+def _greedy_shortcut(checker: RobotChecker, path: np.ndarray) -> np.ndarray:
     """From each kept waypoint, jump to the farthest later one the straight line reaches.
 
     Deterministic and cheap on the few waypoints left after OMPL's shortcutting; it removes
@@ -253,10 +251,15 @@ class TimedPath:
         return self.trajectory.end_time() - self.trajectory.start_time()
 
 
-def joint_limits(plant: MultibodyPlant) -> tuple[np.ndarray, np.ndarray]:
+def joint_limits(plant: MultibodyPlant,
+                 positions: PositionMap | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The model's speed and acceleration limits of each position (rad/s and rad/s², or m/s
-    and m/s²; +inf where the model gives none), from the robot's URDF via the plant."""
-    return (plant.GetVelocityUpperLimits().copy(), plant.GetAccelerationUpperLimits().copy())
+    and m/s²; +inf where the model gives none), from the robot's URDF via the plant: of the
+    plant's positions, or of the robot's among them (`positions`)."""
+    v, a = plant.GetVelocityUpperLimits(), plant.GetAccelerationUpperLimits()
+    if positions is not None:
+        v, a = positions.to_robot(v), positions.to_robot(a)
+    return v.copy(), a.copy()
 
 
 #: Waypoints nearer than this (rad, in the positions' space) are one. TOPPRA times a
@@ -318,7 +321,7 @@ def rounded_corners(path: np.ndarray, rounding: float) -> BsplineTrajectory:
     return BsplineTrajectory(BsplineBasis(order, knots), [p.reshape(-1, 1) for p in points])
 
 
-def curve_collision_free(checker: SceneGraphCollisionChecker, curve: Trajectory) -> bool:
+def curve_collision_free(checker: RobotChecker, curve: Trajectory) -> bool:
     """Whether `curve` (a path over the robot's positions) is collision-free by `checker`.
 
     The curve is sampled so that consecutive samples are at most the checker's edge step
@@ -370,12 +373,33 @@ def _peak_ratio(trajectory: PathParameterizedTrajectory, times: np.ndarray,
     return float(np.max(values[finite] / limits[finite, None], initial=0.0))
 
 
+def _lifted(curve: Trajectory, positions: PositionMap | None) -> Trajectory:
+    """`curve` over the robot's positions as a curve over the plant's (TOPPRA takes a path
+    over all of the plant's positions), the same function of s: the lift is affine, so a
+    B-spline's is the B-spline of its lifted control points and a first-order hold's the
+    hold of its lifted breakpoints (the two kinds timed here)."""
+    if positions is None or positions.is_identity:
+        return curve
+    if isinstance(curve, BsplineTrajectory):
+        return BsplineTrajectory(curve.basis(), [positions.to_plant(p.ravel()).reshape(-1, 1)
+                                                 for p in curve.control_points()])
+    if isinstance(curve, PiecewisePolynomial) and curve.getSegmentPolynomialDegree(0) <= 1:
+        breaks = curve.get_segment_times()
+        return PiecewisePolynomial.FirstOrderHold(
+            breaks, positions.to_plant(curve.vector_values(breaks).T).T)
+    raise TypeError(f"cannot lift a {type(curve).__name__} to the plant's positions")
+
+
 def time_optimal(curve: Trajectory, plant: MultibodyPlant, max_velocity: np.ndarray,
-                 max_acceleration: np.ndarray) -> PathParameterizedTrajectory | None:
+                 max_acceleration: np.ndarray, positions: PositionMap | None = None,
+                 ) -> PathParameterizedTrajectory | None:
     """The fastest motion along `curve` from rest to rest within the joint limits (Drake's
     TOPPRA), or None when TOPPRA finds none.
 
-    `curve` is a path q(s) over the plant's positions; the result is q(s(t)) with s(t) from
+    `curve` is a path q(s) over the plant's positions, or over the robot's among them
+    (`positions`; the limits are then the robot's, and TOPPRA times the curve's lift with
+    the lifted limits: a mimic joint's repeat its leader's, so the timing is the robot
+    curve's); the result is q(s(t)) with s(t) from
     `Toppra.SolvePathParameterization` (ṡ = 0 at both ends), starting at t = 0. TOPPRA
     enforces the limits at its grid points only; between them the acceleration can exceed
     them by a few per cent where the path bends. The result is therefore sampled
@@ -384,9 +408,14 @@ def time_optimal(curve: Trajectory, plant: MultibodyPlant, max_velocity: np.ndar
     scale with 1/k, accelerations with 1/k²).
     """
     grid = Toppra.CalcGridPoints(curve, _grid_options())
-    toppra = Toppra(curve, plant, grid)
-    toppra.AddJointVelocityLimit(-max_velocity, max_velocity)
-    toppra.AddJointAccelerationLimit(-max_acceleration, max_acceleration)
+    # Toppra keeps a reference to its path, not a copy: the lift must outlive it.
+    lifted = _lifted(curve, positions)
+    toppra = Toppra(lifted, plant, grid)
+    v, a = max_velocity, max_acceleration
+    if positions is not None:
+        v, a = positions.rate_limits_to_plant(v), positions.rate_limits_to_plant(a)
+    toppra.AddJointVelocityLimit(-v, v)
+    toppra.AddJointAccelerationLimit(-a, a)
     with _quiet_drake():
         time_scaling = toppra.SolvePathParameterization()
     if time_scaling is None:
@@ -406,7 +435,8 @@ def time_optimal(curve: Trajectory, plant: MultibodyPlant, max_velocity: np.ndar
 
 
 def _with_stops(points: np.ndarray, plant: MultibodyPlant, max_velocity: np.ndarray,
-                max_acceleration: np.ndarray) -> PathParameterizedTrajectory:
+                max_acceleration: np.ndarray,
+                positions: PositionMap | None = None) -> PathParameterizedTrajectory:
     """The time-optimal rest-to-rest motion along each straight edge in turn: the path is the
     polyline itself, parameterised by arc length, and the time scaling stops at each corner."""
     length = _arc_length(points)
@@ -414,7 +444,7 @@ def _with_stops(points: np.ndarray, plant: MultibodyPlant, max_velocity: np.ndar
     time_scaling = None
     for i in range(len(points) - 1):
         edge = PiecewisePolynomial.FirstOrderHold(length[i:i + 2], points[i:i + 2].T)
-        timed = time_optimal(edge, plant, max_velocity, max_acceleration)
+        timed = time_optimal(edge, plant, max_velocity, max_acceleration, positions)
         if timed is None:
             raise RuntimeError(f"TOPPRA found no timing for the straight edge {i} of a path")
         piece = timed.time_scaling().Clone()
@@ -429,10 +459,12 @@ def _with_stops(points: np.ndarray, plant: MultibodyPlant, max_velocity: np.ndar
 def time_parameterize(path: np.ndarray, plant: MultibodyPlant, *,
                       max_velocity: np.ndarray | None = None,
                       max_acceleration: np.ndarray | None = None,
-                      checker: SceneGraphCollisionChecker | None = None,
-                      roundings: tuple[float, ...] = CORNER_ROUNDINGS) -> TimedPath:
-    """A timed motion through the waypoints `path` (n, plant's positions), at rest at both
-    ends, within the joint limits (default: the plant's, `joint_limits`).
+                      checker: RobotChecker | None = None,
+                      roundings: tuple[float, ...] = CORNER_ROUNDINGS,
+                      positions: PositionMap | None = None) -> TimedPath:
+    """A timed motion through the waypoints `path` (n, plant's positions; or the robot's
+    among them, `positions`), at rest at both ends, within the joint limits (default: the
+    plant's, `joint_limits`).
 
     With a `checker` and at least three distinct waypoints, the corners are rounded
     (`rounded_corners`, the largest of `roundings` whose curve `checker` finds
@@ -443,10 +475,10 @@ def time_parameterize(path: np.ndarray, plant: MultibodyPlant, *,
     `STILL_DURATION`.
     """
     path = np.asarray(path, dtype=float)
-    dimension = plant.num_positions()
+    dimension = plant.num_positions() if positions is None else positions.num_robot
     if path.ndim != 2 or len(path) == 0 or path.shape[1] != dimension:
         raise ValueError(f"path: expected (n, {dimension}) waypoints, got shape {path.shape}")
-    v_default, a_default = joint_limits(plant)
+    v_default, a_default = joint_limits(plant, positions)
     v = v_default if max_velocity is None else np.broadcast_to(
         np.asarray(max_velocity, dtype=float), (dimension,)).copy()
     a = a_default if max_acceleration is None else np.broadcast_to(
@@ -462,13 +494,13 @@ def time_parameterize(path: np.ndarray, plant: MultibodyPlant, *,
         if bad.any():
             raise ValueError(f"{name}: positions {np.flatnonzero(bad).tolist()} move but have "
                              f"no positive finite limit ({limits[bad]})")
-    stops = _with_stops(points, plant, v, a)
+    stops = _with_stops(points, plant, v, a, positions)
     if checker is not None and len(points) >= 3:
         for rounding in roundings:
             curve = rounded_corners(points, rounding)
             if not curve_collision_free(checker, curve):
                 continue
-            trajectory = time_optimal(curve, plant, v, a)
+            trajectory = time_optimal(curve, plant, v, a, positions)
             if trajectory is None:
                 continue
             # Rounder is faster except when a slowdown after TOPPRA ate the gain (1 motion in

@@ -40,7 +40,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.planning import SceneGraphCollisionChecker
 from pydrake.trajectories import CompositeTrajectory, PathParameterizedTrajectory, Trajectory
 
 from s3o_drake.execution.arm.arm_motion import (
@@ -52,8 +51,9 @@ from s3o_drake.execution.arm.arm_motion import (
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.pickup_geometry import PickupGeometry, pickup_geometry, with_gripper
+from s3o_drake.feasibility.robot_checker import RobotChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.world.robot import Robot
+from s3o_drake.world.robot import PositionMap, Robot
 
 SEGMENT_NAMES = ("approach", "descend", "close", "lift", "to_tray", "release", "stow")
 #: Near the dish (SLOW_SEGMENTS) the arm keeps to this fraction of its joint limits, so that
@@ -107,14 +107,14 @@ class PickupPlan:
         return CompositeTrajectory(pieces)
 
 
-def segment_limits(plant: MultibodyPlant, name: str, *,
-                   robot: Robot) -> tuple[np.ndarray, np.ndarray]:
-    """Speed and acceleration limits of `robot`'s positions (the plant's) in segment `name`:
-    the arm's from
+def segment_limits(plant: MultibodyPlant, name: str, *, robot: Robot,
+                   positions: PositionMap | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Speed and acceleration limits of `robot`'s positions in segment `name` (the plant's
+    are the robot's, or the robot's are among them at `positions`): the arm's from
     the robot model (models/<robot>/, their sources in its robot.yaml), the fingers' the
     gentler FINGER_MAX_*, all times SLOW in SLOW_SEGMENTS; the base does not move within a
     pickup (the model's limits, unused)."""
-    v, a = joint_limits(plant)
+    v, a = joint_limits(plant, positions)
     fingers = robot.gripper_positions
     v[fingers] = np.minimum(v[fingers], FINGER_MAX_VELOCITY)
     a[fingers] = np.minimum(a[fingers], FINGER_MAX_ACCELERATION)
@@ -123,13 +123,14 @@ def segment_limits(plant: MultibodyPlant, name: str, *,
     return v, a
 
 
-def timed_segment(name: str, path: np.ndarray, checker: SceneGraphCollisionChecker, *,
+def timed_segment(name: str, path: np.ndarray, checker: RobotChecker, *,
                   robot: Robot) -> Segment:
     """`path` (positions of `robot`, the checker's) timed by TOPPRA within `segment_limits`,
     its corners rounded where `checker` finds the rounded curve collision-free."""
-    v, a = segment_limits(checker.plant(), name, robot=robot)
+    positions = checker.positions
+    v, a = segment_limits(checker.plant(), name, robot=robot, positions=positions)
     timed = time_parameterize(path, checker.plant(), max_velocity=v, max_acceleration=a,
-                              checker=checker)
+                              checker=checker, positions=positions)
     return Segment(name, timed.trajectory, timed.duration, path, timed.smoothed)
 
 
