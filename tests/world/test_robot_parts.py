@@ -12,9 +12,7 @@ from pydrake.geometry import Role
 from pydrake.math import RollPitchYaw
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
-from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import ConstantVectorSource, MatrixGain
 
 from s3o_drake.commands.build_robot import checksum
 from s3o_drake.world.maker_models import (
@@ -107,32 +105,6 @@ def test_composed_plant(gen3):
     y = [plant.CalcRelativeTransform(context, tool, placed.frame(f"robotiq_85_{s}_finger_tip_link"))
          .translation()[1] for s in ("left", "right")]
     assert abs(y[0] - y[1]) == pytest.approx(0.1355, abs=1e-4)  # tip origins: pads 0.025 in
-
-
-def test_ports_of_a_robot_of_parts_hold_a_setpoint(gen3):
-    # The world's "robot_state" and "robot_desired_state" in the robot's joint order,
-    # through selection matrices instead of one instance's ports.
-    builder, plant, _, placed = _plant(gen3)
-    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, 0.0])
-    plant.Finalize()
-    q = gen3.positions(0.0, 0.0, 0.0, arm=ARM_Q, gripper=[0.3])
-    desired = builder.AddSystem(ConstantVectorSource(gen3.desired_state(q)))
-    for instance, S in placed.desired_state_selectors().items():
-        gain = builder.AddSystem(MatrixGain(S))
-        builder.Connect(desired.get_output_port(), gain.get_input_port())
-        builder.Connect(gain.get_output_port(), plant.get_desired_state_input_port(instance))
-    state = builder.AddSystem(MatrixGain(placed.state_selector()))
-    builder.Connect(plant.get_state_output_port(), state.get_input_port())
-    diagram = builder.Build()
-    simulator = Simulator(diagram)
-    context = diagram.GetMutableSubsystemContext(plant, simulator.get_mutable_context())
-    placed.set_positions(context, q)
-    simulator.AdvanceTo(0.2)
-    x = state.get_output_port().Eval(state.GetMyContextFromRoot(simulator.get_context()))
-    np.testing.assert_allclose(x[:11], q, atol=2e-3)
-    # SAP holds the couplers: the mimic joints still follow the knuckle.
-    tip = placed.joint("robotiq_85_right_finger_tip_joint")
-    assert tip.get_angle(context) == pytest.approx(x[10], abs=2e-3)
 
 
 def test_shipped_generated_files_are_the_recorded_build():

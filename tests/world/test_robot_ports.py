@@ -77,16 +77,21 @@ def test_a_robot_of_parts_world_holds_a_setpoint(gen3_scenario):
     simulator = Simulator(world)
     context = simulator.get_mutable_context()
     hold = robot_hold_state(gen3_scenario)
+    hold[n - 1] = 0.3  # the knuckle part-closed: its mimic joints must follow
     world.GetInputPort("robot_desired_state").FixValue(context, hold)
     simulator.AdvanceTo(0.3)
     x = world.GetOutputPort("robot_state").Eval(context)
     np.testing.assert_allclose(x[:n], hold[:n], atol=5e-3)
     np.testing.assert_allclose(x[n:], 0.0, atol=1e-3)
+    # SAP holds the couplers: the gripper's mimic joints follow its knuckle.
+    plant = world.GetSubsystemByName("plant")
+    placed = robot.instances_in(plant)
+    tip = placed.joint("robotiq_85_right_finger_tip_joint")
+    assert tip.get_angle(plant.GetMyContextFromRoot(context)) == pytest.approx(
+        x[n - 1], abs=2e-3)
     # The object tracker reads the same state: the dishes stay on their tables.
     assert set(world.GetOutputPort("dish_states").Eval(context).values()) == {"table"}
     # Every part's geometry is the robot's to the camera.
-    plant = world.GetSubsystemByName("plant")
-    placed = robot.instances_in(plant)
     assert len(placed.instances) == 3
     assert len(robot_render_labels(world, robot)) > 1
 
