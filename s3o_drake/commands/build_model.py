@@ -10,25 +10,23 @@ packages (pip install -e ".[robots]"). `s3o build robot NAME` runs it as its fir
 
 import sys
 
-from s3o_drake.commands.common import command_parser, fail
+from s3o_drake.commands.common import (
+    add_robot_name,
+    command_parser,
+    fail,
+    read_robot_description,
+)
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = command_parser("build model", __doc__)
-    parser.add_argument("name", help="the robot: a folder of models/ with its robot.yaml")
+    add_robot_name(parser)
     args = parser.parse_args(argv)
     from s3o_drake.world.maker_models import build_parts
     from s3o_drake.world.resources import repo_path, robot_dir
-    from s3o_drake.world.robot_description import (
-        RobotDescriptionError,
-        check_model,
-        load_robot_description,
-    )
+    from s3o_drake.world.robot_description import RobotDescriptionError, check_model
 
-    try:
-        description = load_robot_description(args.name)
-    except RobotDescriptionError as e:
-        fail(f"{args.name}: {e}")
+    description = read_robot_description(args.name)
     if not any(part.xacro for part in description.parts):
         fail(f"{args.name}: no part is built from a xacro; nothing to build")
     try:

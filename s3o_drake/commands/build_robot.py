@@ -32,7 +32,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 # Light imports only: each step runs in its own process.
-from s3o_drake.commands.common import command_parser, fail
+from s3o_drake.commands.common import (
+    add_robot_name,
+    command_parser,
+    fail,
+    read_robot_description,
+)
 from s3o_drake.commands.options import add_workers
 from s3o_drake.world.files import write_atomically
 from s3o_drake.world.resources import (
@@ -170,19 +175,15 @@ def only_build(name: str):
 
 def main(argv: list[str] | None = None) -> int:
     parser = command_parser("build robot", __doc__)
-    parser.add_argument("name", help="the robot: a folder of models/ with its robot.yaml")
+    add_robot_name(parser)
     parser.add_argument("--steps", nargs="+", choices=STEP_NAMES, metavar="STEP",
                         help=f"only these steps (default all: {', '.join(STEP_NAMES)})")
     add_workers(parser, 2)
     args = parser.parse_args(argv)
-    from s3o_drake.world.robot_description import (
-        RobotDescriptionError,
-        check_model,
-        load_robot_description,
-    )
+    from s3o_drake.world.robot_description import RobotDescriptionError, check_model
 
+    description = read_robot_description(args.name)
     try:
-        description = load_robot_description(args.name)
         # A robot of parts built from its makers' files is checked once the model step has
         # built them (that step checks it).
         if not any(part.xacro for part in description.parts):

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, NoReturn
 if TYPE_CHECKING:
     from pydrake.geometry import Meshcat
 
+    from s3o_drake.world.robot_description import RobotDescription
     from s3o_drake.world.scenario import Scenario
 
 EXIT_BAD_INPUT = 2
@@ -63,6 +64,22 @@ def read_scenario(path: str | Path, option: str = "") -> "Scenario":
         return load_scenario(path)
     except ScenarioError as e:
         fail(f"{option}: {e}" if option else str(e))
+
+
+def add_robot_name(parser: argparse.ArgumentParser) -> None:
+    """NAME: the robot a build command builds (a folder of models/ with its robot.yaml)."""
+    parser.add_argument("name", help="the robot: a folder of models/ with its robot.yaml")
+
+
+def read_robot_description(name: str) -> "RobotDescription":
+    """Robot `name`'s description, read and checked for shape and values; one that cannot
+    be used is one line naming the robot and the field, and exit status 2."""
+    from s3o_drake.world.robot_description import RobotDescriptionError, load_robot_description
+
+    try:
+        return load_robot_description(name)
+    except RobotDescriptionError as e:
+        fail(f"{name}: {e}")
 
 
 def read_base(path: str | Path) -> "Scenario":
