@@ -259,14 +259,15 @@ def _two_dishes_task(tmp_path):
 
 
 def _three_tasks(folder: Path) -> Path:
-    """Two dishes at one stop, and two scenes of one dish each (the oracle's map of each
-    dish is most of the difficulty's time)."""
+    """Two scenes of one dish each, and two dishes at one stop (the oracle's map of each
+    dish is most of the difficulty's time). The cheapest task sorts first: a study with
+    `--count 1` runs it alone."""
     folder.mkdir()
-    shutil.copy(SMALL / "two_dishes.yaml", folder / "a_two_dishes.yaml")
+    shutil.copy(SMALL / "two_dishes.yaml", folder / "c_two_dishes.yaml")
     for name, scene, dish in (
             ("b_one_bowl", "opposite_sides",
              "  - {name: bowl_south, table: long_table, position: [2.5, 1.65], kind: bowl}\n"),
-            ("c_one_cup", "two_dishes",
+            ("a_one_cup", "two_dishes",
              "  - {name: plate_a, table: table, position: [1.85, 2.3], kind: plate}\n")):
         one = (SMALL / f"{scene}.yaml").read_text().replace(dish, "")
         assert one.count("kind:") == 1
@@ -339,10 +340,10 @@ def test_a_dask_cluster_started_as_documented_runs_what_the_local_pool_runs(
     local, dask = (ResultStore(f / "results.jsonl", read_only=True).rows()
                    for f in (local, tmp_path / "dask"))
     assert run_differences(local, dask) == (2, [])
-    run = next(r for r in dask if r["task"] == "a_two_dishes" and r["method"] == "S3O-GROP*")
-    # The run went to its end; whether both pickups succeed depends on the plan and the seed's
+    run = next(r for r in dask if r["task"] == "a_one_cup" and r["method"] == "S3O-GROP*")
+    # The run went to its end; whether its pickup succeeds depends on the plan and the seed's
     # noise draws (about 0.97 per pickup), not on the scheduler.
-    assert run["dishes"] == 2 and run["collected"] >= 1 and run["finished"]
+    assert run["dishes"] == 1 and run["finished"]
     assert run["execution_time"] > 10.0 and run["outcomes"][-1].endswith("done")
     # A record per executed pickup, in the order of the outcomes, as plain JSON.
     records = [PickupRecord.from_dict(r) for r in run["pickups"]]
