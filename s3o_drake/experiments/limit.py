@@ -77,9 +77,9 @@ def stroke_time(distance: float, velocity: float, acceleration: float) -> float:
 
 
 def finger_stroke_time(*, robot: Robot) -> float:
-    """`robot`'s fingers' shortest motion (s) between open and closed (either way)."""
-    travel = float(np.max(np.abs(robot.gripper_open - robot.gripper_closed)))
-    return stroke_time(travel, FINGER_MAX_VELOCITY, FINGER_MAX_ACCELERATION)
+    """`robot`'s fingers' shortest motion (s) between open and closed (either way): the
+    pads' travel within their limits."""
+    return stroke_time(robot.finger_travel, FINGER_MAX_VELOCITY, FINGER_MAX_ACCELERATION)
 
 
 def tray_leg_time(plant, *, robot: Robot, positions=None) -> float:

@@ -257,13 +257,21 @@ class Robot:
 
     @property
     def fingertip_offset(self) -> float:
-        """From the tool frame to the fingertips along the tool's z (m)."""
+        """The farthest the fingers reach from the tool frame along the tool's z over
+        their stroke (m)."""
         return self.description.tool.fingertip_offset
 
     @property
     def finger_travel(self) -> float:
         """Each finger's travel (m); the opening is the sum of the fingers' positions."""
         return self.description.gripper.travel
+
+    @property
+    def finger_joint_per_metre(self) -> np.ndarray:
+        """Each gripper joint's motion per metre of its pads' travel (the joint's units per
+        m), over the whole stroke: 1 for sliding fingers, whose joints are the pads'
+        positions; a linkage gripper's knuckle turns (rad) as its pads close."""
+        return np.abs(self.gripper_open - self.gripper_closed) / self.finger_travel
 
     @property
     def tray_xyz(self) -> tuple[float, float, float]:

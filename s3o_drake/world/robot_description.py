@@ -94,7 +94,9 @@ class ToolDescription:
     grasp_offset: float = 0.0
     """From the tool frame to the grasp frame along the tool's z (m)."""
     fingertip_offset: float = 0.0
-    """From the tool frame to the fingertips along the tool's z (m)."""
+    """The farthest the fingers reach from the tool frame along the tool's z (m), over
+    their stroke: where sliding fingers' tips are; a linkage gripper's swing further out as
+    they close. A grasp leaves that much above the table."""
     wrist_radius: float = 0.0
     """The radius (m) about the approach axis of what follows the grasp point along it (the
     hand and the wrist): in a side grasp it passes over the table, so it sets the lowest

@@ -9,9 +9,12 @@ import math
 
 import numpy as np
 import pytest
-from pydrake.geometry import Box, Capsule, Cylinder, Role, Sphere
+from pydrake.geometry import Box, Capsule, Convex, Cylinder, Mesh, Role, Sphere
 from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.planning import RobotDiagramBuilder, SceneGraphCollisionChecker
+from pydrake.systems.framework import DiagramBuilder
 
 from s3o_drake.feasibility.kinematics import arm_kinematics
 from s3o_drake.world.resources import make_parser
@@ -96,7 +99,39 @@ def _support(shape, X_FG: RigidTransform, e_F: np.ndarray) -> float:
     if isinstance(shape, Cylinder):
         sin_axis = math.sqrt(max(0.0, 1.0 - cos_axis**2))
         return centre + shape.radius() * sin_axis + shape.length() / 2 * cos_axis
+    if isinstance(shape, Mesh | Convex):
+        hull = shape.GetConvexHull()
+        p_FV = X_FG.multiply(np.array([hull.vertex(i) for i in range(hull.num_vertices())]).T)
+        return float(np.max(e_F @ p_FV))
     raise AssertionError(f"unexpected shape {shape}")
+
+
+@pytest.mark.parametrize("name", [*robot_names(), "gen3"])
+def test_the_fingertip_offset_is_the_fingers_farthest_reach_over_their_stroke(name):
+    """A grasp leaves `fingertip_offset` above the table: no collision geometry of the
+    gripper reaches farther along the tool's z, anywhere between open and closed (a linkage
+    gripper's pads swing out as they close), and one reaches that far (within 0.5 mm)."""
+    robot = load_robot(name)
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0)
+    placed = robot.add_model_instances(Parser(plant, scene_graph))
+    plant.Finalize()
+    context = plant.CreateDefaultContext()
+    inspector = scene_graph.model_inspector()
+    tool = placed.frame(robot.tool_frame)
+    bodies = [placed.body(b) for b in robot.gripper_bodies]
+    reach = []
+    for s in np.linspace(0.0, 1.0, 17):
+        q = robot.positions(0.0, 0.0, 0.0)
+        q[robot.gripper_positions] = robot.gripper_open + s * (robot.gripper_closed -
+                                                                robot.gripper_open)
+        placed.set_positions(context, q)
+        X_TW = tool.CalcPoseInWorld(context).inverse()
+        reach.append(max(
+            _support(inspector.GetShape(g), X_TW @ plant.EvalBodyPoseInWorld(context, body)
+                     @ inspector.GetPoseInFrame(g), np.array([0.0, 0.0, 1.0]))
+            for body in bodies for g in plant.GetCollisionGeometriesForBody(body)))
+    assert max(reach) == pytest.approx(robot.fingertip_offset, abs=5e-4), reach
 
 
 def test_the_description_agrees_with_its_model(robot):

@@ -60,9 +60,17 @@ SEGMENT_NAMES = ("approach", "descend", "close", "lift", "to_tray", "release", "
 #: the hand arrives at the grasp gently and the PD-tracked arm settles before the fingers close.
 SLOW = 0.5
 SLOW_SEGMENTS = ("descend", "lift", "lower", "retreat")
-#: Finger speed and acceleration limits (m/s, m/s²); the plant allows 0.15 m/s.
+#: The finger pads' speed and acceleration limits (m/s, m/s²); the plant allows 0.15 m/s.
 FINGER_MAX_VELOCITY = 0.1
 FINGER_MAX_ACCELERATION = 0.5
+
+
+def finger_limits(robot: Robot) -> tuple[np.ndarray, np.ndarray]:
+    """The speed and acceleration limits of `robot`'s gripper joints, in their own units:
+    FINGER_MAX_* of the pads, through each joint's motion per metre of their travel (a
+    knuckle's radians for a linkage gripper)."""
+    per_metre = robot.finger_joint_per_metre
+    return FINGER_MAX_VELOCITY * per_metre, FINGER_MAX_ACCELERATION * per_metre
 
 
 @dataclass(frozen=True)
@@ -116,8 +124,9 @@ def segment_limits(plant: MultibodyPlant, name: str, *, robot: Robot,
     pickup (the model's limits, unused)."""
     v, a = joint_limits(plant, positions)
     fingers = robot.gripper_positions
-    v[fingers] = np.minimum(v[fingers], FINGER_MAX_VELOCITY)
-    a[fingers] = np.minimum(a[fingers], FINGER_MAX_ACCELERATION)
+    finger_v, finger_a = finger_limits(robot)
+    v[fingers] = np.minimum(v[fingers], finger_v)
+    a[fingers] = np.minimum(a[fingers], finger_a)
     if name in SLOW_SEGMENTS:
         v, a = v * SLOW, a * SLOW
     return v, a
