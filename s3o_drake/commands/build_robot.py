@@ -8,9 +8,9 @@ own, in order:
   model           s3o build model NAME                 -> models/NAME/generated/ (a robot
                                                           of parts, from its makers' files)
   reachability    s3o build reachability --robot NAME  -> models/NAME/reachability_map.npz
-  time-model      s3o build time-model --robot NAME    -> models/NAME/time_model.yaml
   fcn-data        s3o build fcn-data --robot NAME      -> out/NAME/fcn_data, .../fcn_data_dense
   fcn             s3o build fcn                        -> models/NAME/fcn/
+  time-model      s3o build time-model --robot NAME    -> models/NAME/time_model.yaml
   oracle-pinning  s3o bench oracle-pinning --robot NAME -> models/NAME/oracle_pinning.json
 
 and records each finished step in models/NAME/build.json: its command, the checksums of
@@ -93,8 +93,6 @@ def plan_steps(name: str, *, workers: int) -> list[Step]:
         *built,
         Step("reachability", ("build", "reachability", *robot, "--out", str(reach_map),
                               "--workers", w, "--quiet"), model, (reach_map,)),
-        Step("time-model", ("build", "time-model", *robot, "--out", str(times), "--seed", "0"),
-             (*model, reach_map), (times,)),
         Step("fcn-data", ("build", "fcn-data", "--out", str(spacious), *scenes),
              (*model, reach_map), (spacious,)),
         Step("fcn-data-dense", ("build", "fcn-data", "--base", str(RESTAURANT_DENSE), "--out",
@@ -102,13 +100,16 @@ def plan_steps(name: str, *, workers: int) -> list[Step]:
         Step("fcn", ("build", "fcn", "--data", str(spacious), str(dense), "--out", str(fcn),
                      "--seed", "0", "--epochs", str(EPOCHS), "--quiet"), (spacious, dense),
              (fcn,)),
+        # The time model's measured runs plan as the robot plans, with its network.
+        Step("time-model", ("build", "time-model", *robot, "--out", str(times), "--seed", "0"),
+             (*model, reach_map, fcn), (times,)),
         Step("oracle-pinning", ("bench", "oracle-pinning", *robot, "--json", str(pinning),
                                 "--count", str(PINNING_TASKS)), (*model, reach_map),
              (pinning,)),
     ]
 
 
-STEP_NAMES = ("model", "reachability", "time-model", "fcn-data", "fcn", "oracle-pinning")
+STEP_NAMES = ("model", "reachability", "fcn-data", "fcn", "time-model", "oracle-pinning")
 """What --steps names; fcn-data makes both layouts' scenes."""
 
 

@@ -452,6 +452,15 @@ def main(argv: list[str] | None = None) -> int:
                  "models/NAME/time_model.yaml")
     args = parser.parse_args(argv)
     out = out_file(args.out)
+    from s3o_drake.world.resources import repo_path
+    from s3o_drake.world.robot import load_robot
+
+    # Every mode measures the noise's terms on runs that plan as the robot plans.
+    network = load_robot(args.robot).files.fcn_weights
+    if not network.is_file():
+        fail(f"--robot: {args.robot!r} has no {repo_path(network)}, which the measured runs "
+             f"plan with; make it first with `s3o build robot {args.robot} --steps fcn-data "
+             "fcn`")
     logging.getLogger("drake").setLevel(logging.WARNING)
     command = (f"s3o build time-model --robot {args.robot} --samples {args.samples} "
                f"--seed {args.seed} --departure-tasks {args.departure_tasks} "

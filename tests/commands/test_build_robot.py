@@ -47,7 +47,7 @@ def ran(monkeypatch):
 
 def test_every_step_runs_once_in_order_and_is_recorded(robot_folder, ran, capsys):
     assert build_robot.main(["ur5e"]) == 0
-    assert ran == ["reachability", "time-model", "fcn-data", "fcn-data-dense", "fcn",
+    assert ran == ["reachability", "fcn-data", "fcn-data-dense", "fcn", "time-model",
                    "oracle-pinning"]
     manifest = json.loads((robot_folder / build_robot.MANIFEST).read_text())
     assert list(manifest["steps"]) == ran
@@ -70,7 +70,7 @@ def test_every_step_runs_once_in_order_and_is_recorded(robot_folder, ran, capsys
     with (robot_folder / "robot.yaml").open("a") as f:
         f.write("# changed\n")
     assert build_robot.main(["ur5e"]) == 0
-    assert ran == ["reachability", "time-model", "fcn-data", "fcn-data-dense",
+    assert ran == ["reachability", "fcn-data", "fcn-data-dense", "time-model",
                    "oracle-pinning"]
 
 

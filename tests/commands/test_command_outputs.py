@@ -44,3 +44,21 @@ def test_a_bad_out_is_one_line_and_writes_nothing(tmp_path, monkeypatch, capsys)
     assert info.value.code == 2
     assert capsys.readouterr().err.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
+
+
+def test_a_time_model_without_the_robots_network_is_refused_first(tmp_path, monkeypatch,
+                                                                   capsys):
+    """Its measured runs plan with the robot's network: a robot still being built is told
+    which step makes it, in one line, before any pickup is planned and with nothing
+    written."""
+    from s3o_drake.world.robot import RobotFiles
+
+    monkeypatch.setattr(RobotFiles, "fcn_weights", property(lambda files: tmp_path / "fcn.pt"))
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as info:
+        derive_times.main(["--robot", "panda"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: --robot: 'panda' has no ")
+    assert "s3o build robot panda --steps fcn-data fcn" in err
+    assert sorted(tmp_path.iterdir()) == []
