@@ -34,9 +34,9 @@ from s3o_drake.world.furniture import (
     dish_footprint,
     table_footprint,
 )
-from s3o_drake.world.resources import DEFAULT_ROBOT
+from s3o_drake.world.resources import DEFAULT_ROBOT, DESCRIPTION_FILE
 from s3o_drake.world.robot import load_robot
-from s3o_drake.world.robot_description import robot_names
+from s3o_drake.world.robot_description import RobotDescriptionError, robot_names
 from s3o_drake.world.yaml_checks import quoted
 
 if TYPE_CHECKING:
@@ -133,6 +133,11 @@ def validate_scenario(scenario: Scenario) -> None:
     if name not in robot_names():
         raise ScenarioError("robot.name", f"no robot named {quoted(name)} (known: "
                                           f"{', '.join(robot_names())})")
+    try:
+        robot_value = load_robot(name)
+    except RobotDescriptionError as e:  # a description being written: one line, as a field
+        raise ScenarioError("robot.name", f"{quoted(name)}: models/{name}/{DESCRIPTION_FILE}: {e}"
+                            ) from None
     _validate_settings(scenario)
     room = room_polygon(scenario)
     names: dict[str, str] = {}
@@ -191,7 +196,7 @@ def validate_scenario(scenario: Scenario) -> None:
 
     start = scenario.robot.start
     _numbers(start, "robot.start", 3, what="numbers [x, y, yaw]")
-    robot = load_robot(name).footprint(*start).buffer(START_CLEARANCE, join_style="mitre")
+    robot = robot_value.footprint(*start).buffer(START_CLEARANCE, join_style="mitre")
     _inside_room(robot, room, "robot.start", f"the robot at {_fmt(start)}")
     _overlap(robot, tables + chairs, "robot.start", f"the robot at {_fmt(start)}")
 

@@ -28,6 +28,22 @@ def test_a_scenario_names_its_robot_and_an_unknown_one_is_refused():
         parse_scenario("robot: {name: r2d2}")
 
 
+def test_a_description_being_written_is_refused_in_one_line_naming_its_file(monkeypatch):
+    """A user bringing a robot edits its robot.yaml: a scenario that names it gets the
+    description's problem as the robot.name field's, not a traceback."""
+    from s3o_drake.world import scenario_checks
+    from s3o_drake.world.robot_description import RobotDescriptionError
+
+    def broken(name):
+        raise RobotDescriptionError("missing_of", "unknown field 'missing_of'")
+
+    monkeypatch.setattr(scenario_checks, "load_robot", broken)
+    with pytest.raises(ScenarioError) as info:
+        parse_scenario("robot: {name: panda}")
+    assert str(info.value) == ("robot.name: 'panda': models/panda/robot.yaml: missing_of: "
+                               "unknown field 'missing_of'")
+
+
 def short_run(robot: str) -> dict:
     """The report of a short run of one dish of two_dishes.yaml for `robot`, seed 0."""
     import dataclasses
