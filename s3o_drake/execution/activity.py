@@ -48,3 +48,19 @@ class Activity:
             return 0.0
         dt = np.diff(self.t)
         return float((dt * (self.base_moving & self.arm_moving)[:-1]).sum())
+
+    def by_motion(self) -> dict[str, float]:
+        """Seconds of the run in each of five kinds of motion, which add up to its length:
+        "drive" (the base translates, the arm is still), "turn" (the base turns in place,
+        the arm is still), "together" (the base and the arm move at once), "arm" (the arm
+        moves, the base is at rest) and "still" (neither moves: a grasp's settling, a
+        wait). Where a smooth motion's time goes, against stop-and-go's."""
+        if len(self.t) < 2:
+            return dict.fromkeys(("drive", "turn", "together", "arm", "still"), 0.0)
+        dt = np.diff(self.t)
+        translating = (self.base_speed > BASE_MOVING)[:-1]
+        base, arm = self.base_moving[:-1], self.arm_moving[:-1]
+        kinds = {"drive": translating & ~arm, "turn": base & ~translating & ~arm,
+                 "together": base & arm, "arm": arm & ~base, "still": ~base & ~arm}
+        return {name: float(dt[mask].sum()) for name, mask in kinds.items()}
+

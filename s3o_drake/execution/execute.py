@@ -222,6 +222,7 @@ def execute(scenario: Scenario, *, method: str | None = None, seed: int | None =
     log = diagram.GetSubsystemByName("robot_state_log").FindLog(context)
     activity = Activity.of(log.sample_times().copy(), log.data().copy(),
                            robot=scenario.robot_value)
+    report["time_by_motion"] = activity.by_motion()
     del simulator, executive, world, monitor, visualizer, executive_context, monitor_context
     del log
     release_diagram(diagram)

@@ -128,7 +128,7 @@ def _run(job: Job) -> dict:
             "pickups": r["pickups"], "recoveries": r["recoveries"],
             "unreachable": r["unreachable"], "motion": scenario.execution.motion,
             "robot": scenario.robot_value.name,
-            "closest_approach": r["closest_approach"]}
+            "closest_approach": r["closest_approach"], "time_by_motion": r["time_by_motion"]}
 
 
 def _predicted_completion(plan) -> float:

@@ -13,7 +13,9 @@ Per method and motion (`execution.motion`, recorded in every row):
   robot's shipped time model), where it has one;
 - the landings: for each stop's first executed pickup, the distance between the base's
   position when the pickup was commanded and the stop as planned (the landing noise, and
-  whatever the navigator made of it), its median and 90th percentile.
+  whatever the navigator made of it), its median and 90th percentile;
+- where the time went (`time_by_motion_table`): the mean seconds of a complete run in each
+  kind of motion (`execution.activity.Activity.by_motion`), for the rows that record it.
 """
 
 from collections.abc import Mapping, Sequence
@@ -98,3 +100,25 @@ def motion_table(runs: Sequence[Mapping], methods: Sequence[str]) -> str:
                                             if offsets.size else ["–"] * 2)
             lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+MOTION_KINDS = ("drive", "turn", "together", "arm", "still")
+"""`Activity.by_motion`'s kinds, in the order the table shows them."""
+
+
+def time_by_motion_table(runs: Sequence[Mapping], methods: Sequence[str]) -> str:
+    """Per method and motion, the mean seconds of a complete run in each kind of motion
+    (the base driving, turning in place, the base and the arm together, the arm alone,
+    neither), over the complete runs whose rows record them; "" when none does."""
+    lines = ["| method | motion | complete runs | " + " | ".join(MOTION_KINDS) + " | total |",
+             "|---" * (4 + len(MOTION_KINDS)) + "|"]
+    for method in methods:
+        mine = [r for r in runs if r["method"] == method and r.get("complete")
+                and r.get("time_by_motion")]
+        for motion in sorted({motion_of(r) for r in mine}):
+            these = [r["time_by_motion"] for r in mine if motion_of(r) == motion]
+            means = [float(np.mean([t[k] for t in these])) for k in MOTION_KINDS]
+            lines.append(f"| {method} | {motion} | {len(these)} | "
+                         + " | ".join(f"{m:.1f}" for m in means) + f" | {sum(means):.1f} |")
+    return "\n".join(lines) + "\n" if len(lines) > 2 else ""
+

@@ -25,7 +25,7 @@ import numpy as np
 from scipy.stats import binomtest
 
 from s3o_drake.experiments.difficulty import GROUPS, difficulty_groups
-from s3o_drake.experiments.motion_summary import motion_table
+from s3o_drake.experiments.motion_summary import motion_table, time_by_motion_table
 from s3o_drake.experiments.recovery_summary import recovery_figures, recovery_table
 from s3o_drake.experiments.run_rows import code_of, has_time, predicted_completion
 from s3o_drake.viz.study import plot_figure_five, plot_table
@@ -498,6 +498,11 @@ def write_outputs(out: Path, runs: Sequence[dict], areas: dict[str, float],
               "the simulated one on the runs that collected every dish; each stop's landing "
               "against the stop as planned, at its first pickup)", "",
               motion_table(runs, methods)]
+    by_motion = time_by_motion_table(runs, methods)
+    if by_motion:
+        lines += ["", "**Where the time went** (mean seconds of a complete run: the base "
+                  "driving with the arm still, turning in place, the base and the arm moving "
+                  "together, the arm alone, neither moving)", "", by_motion]
     lines += ["", "**Why dishes were not collected** (failed actions by reason; dishes that "
               "no pickup was planned for or that a failed goto left behind)", "",
               failure_table(runs, methods)]

@@ -8,6 +8,7 @@ from s3o_drake.experiments.motion_summary import (
     expected_errors,
     landing_offsets,
     motion_table,
+    time_by_motion_table,
     time_errors,
 )
 
@@ -63,3 +64,17 @@ def test_the_table_has_a_row_per_method_and_motion():
     # Rows from before the motion was recorded ran stop-and-go.
     assert stop_and_go[:3] == ["| S3O-GROP*", "stop_and_go", "1"]
     assert other[:6] == ["| V-GROP*", "smooth", "1", "–", "–", "–"]
+
+
+def test_where_the_time_went_is_the_mean_of_the_complete_runs_that_record_it():
+    split = {"drive": 10.0, "turn": 4.0, "together": 6.0, "arm": 20.0, "still": 2.0}
+    runs = [{"method": "S3O-GROP*", "motion": "smooth", "complete": True,
+             "time_by_motion": {k: v * scale for k, v in split.items()}}
+            for scale in (1.0, 2.0)]
+    runs += [{"method": "S3O-GROP*", "motion": "smooth", "complete": False,
+              "time_by_motion": split},  # did less than its plan: left out
+             {"method": "S3O-GROP*", "motion": "stop_and_go", "complete": True}]  # older
+    table = time_by_motion_table(runs, ["S3O-GROP*"])
+    assert "| S3O-GROP* | smooth | 2 | 15.0 | 6.0 | 9.0 | 30.0 | 3.0 | 63.0 |" in table
+    assert "stop_and_go" not in table
+    assert time_by_motion_table(runs[3:], ["S3O-GROP*"]) == ""

@@ -333,6 +333,11 @@ def test_smooth_the_plan_predicts_the_simulated_execution():
     assert run.report["collected"] == 2
     assert run.plan.predicted_time == pytest.approx(run.report["execution_time"], rel=0.03)
     assert run.activity.together() > 1.0  # the arm moved while the base did
+    # Where the time went adds up to the run, and says the same of the motion together.
+    split = run.report["time_by_motion"]
+    assert sum(split.values()) == pytest.approx(run.report["simulated_time"], abs=0.06)
+    assert split["together"] == pytest.approx(run.activity.together())
+    assert split["drive"] > 0 and split["arm"] > 0
 
 
 # -------------------------------------------------------------------------------- noise
