@@ -14,7 +14,7 @@ plant stays the reference, and the chain agrees with it to the model's own preci
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.math import RigidTransform
@@ -29,6 +29,9 @@ class JointChain:
 
     fixed: np.ndarray
     axes: np.ndarray
+    _skew: np.ndarray = field(init=False, repr=False)
+    _skew_squared: np.ndarray = field(init=False, repr=False)
+    _axis_columns: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         fixed = np.asarray(self.fixed, dtype=float)
@@ -37,7 +40,16 @@ class JointChain:
             raise ValueError(f"expected n + 1 transforms and n axes, got {fixed.shape} and "
                              f"{axes.shape}")
         object.__setattr__(self, "fixed", fixed)
-        object.__setattr__(self, "axes", axes / np.linalg.norm(axes, axis=1, keepdims=True))
+        axes = axes / np.linalg.norm(axes, axis=1, keepdims=True)
+        object.__setattr__(self, "axes", axes)
+        # Constants of every evaluation: the axes' cross-product matrices K, K @ K, and the
+        # axes as columns.
+        skew = np.zeros((len(axes), 3, 3))
+        skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -axes[:, 2], axes[:, 1], -axes[:, 0]
+        skew = skew - np.swapaxes(skew, -1, -2)
+        object.__setattr__(self, "_skew", skew)
+        object.__setattr__(self, "_skew_squared", skew @ skew)
+        object.__setattr__(self, "_axis_columns", axes[:, :, None])
 
     @classmethod
     def of_plant(cls, plant: MultibodyPlant, *, base: Frame, tool: Frame,
@@ -87,37 +99,42 @@ class JointChain:
         """X_A of each joint's frame for angles q (..., n), turned by its angle: the
         transform up to and including joint i's rotation, i = 1..n, then the tool's; each
         (..., 4, 4). The first n are where each joint's axis `axes[i]` is expressed."""
-        q = np.asarray(q, dtype=float)
-        rotations = _rotations(self.axes, q)
-        T = np.broadcast_to(self.fixed[0], (*q.shape[:-1], 4, 4))
-        out = []
-        for i in range(self.joints):
-            T = T @ rotations[..., i, :, :]
-            out.append(T)
-            T = T @ self.fixed[i + 1]
-        out.append(T)
-        return out
+        stacked = self._stacked_frames(np.asarray(q, dtype=float))
+        return [stacked[..., i, :, :] for i in range(self.joints + 1)]
 
     def forward(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The tool's pose for configurations q (..., n): rotations (..., 3, 3), positions
         (..., 3), in A."""
-        T = self.frames(q)[-1]
+        T = self._stacked_frames(np.asarray(q, dtype=float))[..., -1, :, :]
         return T[..., :3, :3], T[..., :3, 3]
 
     def jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The tool's rotation, position and geometric Jacobian (..., 6, n) in A: rows ω
         (3) then v (3), a column per joint."""
-        frames = self.frames(q)
-        T = frames[-1]
+        frames = self._stacked_frames(np.asarray(q, dtype=float))
+        T = frames[..., -1, :, :]
         R, p = T[..., :3, :3], T[..., :3, 3]
+        # A rotation about each joint's axis z through its frame's origin o; all joints at
+        # once (damped least squares evaluates a few configurations at a time, thousands of
+        # times, where numpy's per-call cost is most of the work).
+        z = (frames[..., :-1, :3, :3] @ self._axis_columns)[..., 0]
+        o = frames[..., :-1, :3, 3]
         J = np.empty((*p.shape[:-1], 6, self.joints))
-        for i in range(self.joints):
-            # A rotation about the joint's axis through its frame's origin.
-            z = frames[i][..., :3, :3] @ self.axes[i]
-            o = frames[i][..., :3, 3]
-            J[..., :3, i] = z
-            J[..., 3:, i] = cross(z, p - o)
+        J[..., :3, :] = np.swapaxes(z, -1, -2)
+        J[..., 3:, :] = np.swapaxes(cross(z, p[..., None, :] - o), -1, -2)
         return R, p, J
+
+    def _stacked_frames(self, q: np.ndarray) -> np.ndarray:
+        """`frames` as one array (..., n + 1, 4, 4)."""
+        rotations = _rotations(self._skew, self._skew_squared, q)
+        frames = np.empty((*q.shape[:-1], self.joints + 1, 4, 4))
+        between = np.empty((*q.shape[:-1], 4, 4))  # a frame times the next fixed transform
+        T = np.broadcast_to(self.fixed[0], between.shape)
+        for i in range(self.joints):
+            T = np.matmul(T, rotations[..., i, :, :], out=frames[..., i, :, :])
+            T = np.matmul(T, self.fixed[i + 1],
+                          out=frames[..., i + 1, :, :] if i + 1 == self.joints else between)
+        return frames
 
 
 def _in_body(frame: Frame) -> RigidTransform:
@@ -137,22 +154,23 @@ def _inboard_joint(plant: MultibodyPlant, body):
     return None
 
 
-def _rotations(axes: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """(..., n, 4, 4): the rotation by q_i about axes[i] (Rodrigues), as transforms."""
+def _rotations(skew: np.ndarray, skew_squared: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(..., n, 4, 4): the rotation by q_i about the axis whose cross-product matrix is
+    skew[i] (Rodrigues; skew_squared[i] = skew[i] @ skew[i]), as transforms."""
     c, s = np.cos(q)[..., None, None], np.sin(q)[..., None, None]
-    K = np.zeros((len(axes), 3, 3))
-    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -axes[:, 2], axes[:, 1], -axes[:, 0]
-    K = K - np.swapaxes(K, -1, -2)
-    R = np.eye(3) + s * K + (1.0 - c) * (K @ K)
     T = np.zeros((*q.shape, 4, 4))
-    T[..., :3, :3] = R
+    T[..., :3, :3] = np.eye(3) + s * skew + (1.0 - c) * skew_squared
     T[..., 3, 3] = 1.0
     return T
 
 
+#: Component i of u x v is u[j] v[k] - u[k] v[j] with (i, j, k) cyclic.
+_NEXT, _AFTER = (1, 2, 0), (2, 0, 1)
+
+
 def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """u x v over the last axis: `np.cross` without its per-call axis handling, which
-    dominated Newton steps on a few configurations."""
-    return np.stack([u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1],
-                     u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2],
-                     u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]], axis=-1)
+    dominated Newton steps on a few configurations; the three components in two products
+    of gathered components and a difference, not nine operations and a stack (the same
+    arithmetic, component by component)."""
+    return u[..., _NEXT] * v[..., _AFTER] - u[..., _AFTER] * v[..., _NEXT]

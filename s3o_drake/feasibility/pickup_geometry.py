@@ -38,6 +38,7 @@ reach noise decides instead whether it stands within PLACE_TOLERANCE of its plac
 """
 
 import math
+from collections.abc import Generator
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -282,18 +283,17 @@ def _lift_offsets(p_AG: np.ndarray) -> np.ndarray:
 
 def _arm_solutions(q_grasps: np.ndarray, *, robot: Robot) -> list[tuple[list, list]]:
     """For grasp configurations (n, `robot`'s positions): the IK solutions of every
-    pre-grasp and every lift target, in the order tried, near the grasp's arm (two
-    vectorised solves)."""
+    pre-grasp and every lift target, in the order tried, near the grasp's arm (one
+    vectorised solve: a numeric arm's costs little more for more targets)."""
     arms = q_grasps[:, robot.arm_positions]
     R, p = kin.arm_kinematics(robot).forward(arms)
-    n = len(arms)
-    found = []
-    for offsets in (_pre_grasp_offsets(R), _lift_offsets(p)):
-        k = offsets.shape[1]
-        solutions = solve_arm_many(np.repeat(R, k, axis=0), (p[:, None] + offsets).reshape(-1, 3),
-                                   np.repeat(arms, k, axis=0), robot=robot)
-        found.append([solutions[i * k:(i + 1) * k] for i in range(n)])
-    return list(zip(*found, strict=True))
+    pre_grasps, lifts = _pre_grasp_offsets(R), _lift_offsets(p)
+    offsets = np.concatenate([pre_grasps, lifts], axis=1)
+    pre, k = pre_grasps.shape[1], offsets.shape[1]
+    solutions = solve_arm_many(np.repeat(R, k, axis=0), (p[:, None] + offsets).reshape(-1, 3),
+                               np.repeat(arms, k, axis=0), robot=robot)
+    return [(solutions[i * k:i * k + pre], solutions[i * k + pre:(i + 1) * k])
+            for i in range(len(arms))]
 
 
 @lru_cache(maxsize=8)
@@ -389,6 +389,24 @@ def pickup_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: 
     as it was picked).
     See the module docstring.
     """
+    (answer,) = _in_lockstep([_pickup_steps(scene, checker, base, dish, reach_offset=reach_offset,
+                                            q_arm=q_arm, grasp=grasp)], robot=scene.robot)
+    return answer
+
+
+#: `_pickup_steps` yields a grasp configuration, is sent its `_arm_solutions`, and returns
+#: the pickup's answer.
+_PickupSteps = Generator[np.ndarray, tuple[list, list], PickupGeometry]
+
+
+def _pickup_steps(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.ndarray,
+                  dish: str, *, reach_offset: np.ndarray | None, q_arm: np.ndarray | None,
+                  grasp: str | None) -> _PickupSteps:
+    """`pickup_geometry` as steps: it yields each grasp configuration whose pre-grasps and
+    lifts it needs solved, is sent their solutions, and returns its answer. Pickups from
+    many base poses then go through their grasps together (`_in_lockstep`), one IK solve
+    per round for all of them: a numeric arm's IK costs per call far more than per target.
+    """
     robot = scene.robot
     q_arm = robot.arm_stow if q_arm is None else q_arm
     base = np.asarray(base, dtype=float).reshape(3)
@@ -403,13 +421,36 @@ def pickup_geometry(scene: FeasibilityScene, checker: FeasibilityChecker, base: 
             continue
         tried = tried or result.grasp
         q_grasp = _grasp_start(result.q, np.asarray(q_arm), robot=robot)
-        (solutions,) = _arm_solutions(q_grasp[None], robot=robot)
+        solutions = yield q_grasp
         configurations, lifted = _complete(base, result.grasp, q_grasp, solutions, free,
                                            holding, robot=robot)
         got_lift |= lifted
         if configurations is not None:
             return PickupGeometry(True, "ok", configurations, grasp=result.grasp)
     return PickupGeometry(False, "no_path" if got_lift else "no_ik", grasp=tried)
+
+
+def _in_lockstep(pickups: list[_PickupSteps], *, robot: Robot) -> list[PickupGeometry]:
+    """The answers of pickups' steps, run in rounds: each round solves the grasps that the
+    pickups still open ask for in one `_arm_solutions`. Each pickup tries its grasps in its
+    own order and stops at its answer, as alone."""
+    answers: list[PickupGeometry | None] = [None] * len(pickups)
+    asking: dict[int, np.ndarray] = {}
+
+    def advance(i: int, solutions: tuple[list, list] | None) -> None:
+        try:
+            asking[i] = next(pickups[i]) if solutions is None else pickups[i].send(solutions)
+        except StopIteration as stop:
+            answers[i] = stop.value
+
+    for i in range(len(pickups)):
+        advance(i, None)
+    while asking:
+        round_ = sorted(asking)
+        q_grasps = np.array([asking.pop(i) for i in round_])
+        for i, solutions in zip(round_, _arm_solutions(q_grasps, robot=robot), strict=True):
+            advance(i, solutions)
+    return answers
 
 
 def pickup_feasible_many(scene: FeasibilityScene, checker: FeasibilityChecker,
@@ -419,8 +460,9 @@ def pickup_feasible_many(scene: FeasibilityScene, checker: FeasibilityChecker,
     the arm stowed: bool (n,).
 
     The same answers, faster: the first grasp of every pose comes from the checker's batch,
-    the IK of all their pre-grasps and lifts from two vectorised solves; a pose whose first
-    grasp does not complete gets `pickup_geometry` (which goes on to its other grasps).
+    the IK of all their pre-grasps and lifts from one vectorised solve; the poses whose first
+    grasp does not complete go through `pickup_geometry`'s steps together (`_in_lockstep`:
+    each goes on to its other grasps).
     """
     bases = np.asarray(bases, dtype=float).reshape(-1, 3)
     feasible, q, grasps = checker.first_grasps(bases, dish, reach_offsets)
@@ -431,6 +473,7 @@ def pickup_feasible_many(scene: FeasibilityScene, checker: FeasibilityChecker,
     robot = scene.robot
     free, holding = scene.checker, ik.grasp_checker(scene, dish)
     q_grasps = _grasp_start(q[rows], np.asarray(robot.arm_stow), robot=robot)
+    again = []
     for row, q_grasp, solutions in zip(rows, q_grasps, _arm_solutions(q_grasps, robot=robot),
                                        strict=True):
         configurations, _ = _complete(bases[row], grasps[row], q_grasp, solutions, free,
@@ -438,7 +481,11 @@ def pickup_feasible_many(scene: FeasibilityScene, checker: FeasibilityChecker,
         if configurations is not None:
             ok[row] = True
         else:
-            offset = None if reach_offsets is None else np.asarray(reach_offsets)[row]
-            ok[row] = pickup_geometry(scene, checker, bases[row], dish,
-                                      reach_offset=offset).ok
+            again.append(row)
+    offsets = [None if reach_offsets is None else np.asarray(reach_offsets)[row]
+               for row in again]
+    answers = _in_lockstep([_pickup_steps(scene, checker, bases[row], dish, reach_offset=offset,
+                                          q_arm=None, grasp=None)
+                            for row, offset in zip(again, offsets, strict=True)], robot=robot)
+    ok[again] = [answer.ok for answer in answers]
     return ok
