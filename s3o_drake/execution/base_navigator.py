@@ -38,6 +38,8 @@ from s3o_drake.execution.messages import (
 )
 from s3o_drake.execution.together import WAIT_STEP, free_together
 from s3o_drake.feasibility import ik
+from s3o_drake.feasibility.landing import PaddedFree
+from s3o_drake.feasibility.robot_checker import RobotChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.navigation.base_motion import SETTLE_TIME
 from s3o_drake.world.angles import facing_yaw, wrap
@@ -184,6 +186,9 @@ class BaseNavigator(LeafSystem):
         self._robot = robot
         self._params = params
         self._scene = scene
+        # The same world without the padding: where a landing left the base inside it, the
+        # way out must not touch (`PaddedFree`).
+        self._untouched = None if scene is None else _unpadded(scene.checker)
         self._smooth = params.profile.smooth
 
         self._command_port = self.DeclareAbstractInputPort(
@@ -261,7 +266,9 @@ class BaseNavigator(LeafSystem):
         the two together; where those collide it starts later (`together.WAIT_STEP`),
         at the latest as the arm's motion ends."""
         posture = None if arm is None or not arm.hold else np.asarray(arm.final)
-        free = None if self._scene is None else partial(self._free, arm=posture)
+        free = None if self._scene is None else PaddedFree(
+            partial(self._free, arm=posture),
+            partial(self._free, arm=posture, checker=self._untouched))
         cut = plan_motion(base, self._landing(command), path=command.path, stop=command.pose,
                           turn=command.turn, trail=trail, free=free,
                           profile=self._params.profile)
@@ -294,9 +301,11 @@ class BaseNavigator(LeafSystem):
         dish = arm.touching(t)
         return ik.grasp_checker(self._scene, dish) if dish else self._scene.checker
 
-    def _free(self, poses: np.ndarray, arm: np.ndarray | None = None) -> np.ndarray:
+    def _free(self, poses: np.ndarray, arm: np.ndarray | None = None,
+              checker: RobotChecker | None = None) -> np.ndarray:
         """bool (n,): base poses inside the room and collision-free with the arm and the
-        fingers at `arm` (default: stowed, open)."""
+        fingers at `arm` (default: stowed, open), by `checker` (default the scene's, with
+        its padding)."""
         clearance = self._scene.clearance
         free = clearance.in_room(poses[:, :2])
         # Far from every obstacle needs no collision query (a sound shortcut).
@@ -310,7 +319,7 @@ class BaseNavigator(LeafSystem):
                 num_arm = robot.num_arm_joints
                 configs = [robot.positions(*p, arm=arm[:num_arm], gripper=arm[num_arm:])
                            for p in poses[query]]
-            checked = self._scene.checker.CheckConfigsCollisionFree(
+            checked = (checker or self._scene.checker).CheckConfigsCollisionFree(
                 configs, parallelize=drake_parallelism())
             free[query] = np.asarray(checked, dtype=bool)
         return free
@@ -330,4 +339,11 @@ class BaseNavigator(LeafSystem):
         else:
             output.set_value(Status(id=motion.id, state=motion.outcome, reason=motion.reason,
                                     contact=motion.contact))
+
+
+def _unpadded(checker: RobotChecker) -> RobotChecker:
+    """A clone of `checker` without its padding between the robot and the world."""
+    clone = checker.Clone()
+    clone.inner.SetPaddingAllRobotEnvironmentPairs(0.0)
+    return clone
 

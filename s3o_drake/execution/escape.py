@@ -32,6 +32,7 @@ from s3o_drake.feasibility.landing import (
     FINAL_APPROACH,
     TURN_TOLERANCE,
     FreeTest,
+    PaddedFree,
 )
 from s3o_drake.planning.navigation.base_motion import (
     ACCELERATION,
@@ -395,19 +396,26 @@ def cut_at_collision(segments: list[BaseSegment], free: FreeTest | None,
                      profile: MotionProfile) -> Cut:
     """The segments up to the last free pose, whether the collision blocks the way, and
     the first colliding pose (see `Cut`). Collisions at the very start (the base already
-    stands there) are ignored until the first free pose."""
+    stands there) are ignored until the first free pose; with a `PaddedFree` test only
+    those within the padding: a pose on the way out that touches is a collision."""
     if free is None or not segments:
         return Cut(segments)
     # Samples: (segment index, distance along it, pose); index -1 is the start pose.
     samples = [(-1, 0.0, np.asarray(segments[0].start))]
     for i, seg in enumerate(segments):
         samples += [(i, s, pose) for s, pose in _samples(seg)]
-    is_free = free(np.array([pose for _, _, pose in samples]))
+    poses = np.array([pose for _, _, pose in samples])
+    is_free = free(poses)
     first_free = int(np.argmax(is_free)) if is_free.any() else len(is_free)
-    colliding = np.flatnonzero(~is_free[first_free:])
-    if colliding.size == 0:
+    colliding = np.zeros(len(poses), dtype=bool)
+    colliding[first_free:] = ~is_free[first_free:]
+    if isinstance(free, PaddedFree) and first_free > 1:
+        # A landing left the base within the padding: it may turn or drive out of it,
+        # but a turn that swings a corner of the base into a table leg is a collision.
+        colliding[1:first_free] = ~free.untouched(poses[1:first_free])
+    if not colliding.any():
         return Cut(segments)
-    hit = first_free + int(colliding[0])
+    hit = int(np.argmax(colliding))
     last = hit - 1
     if last > first_free and not free(nudged(samples[last][2], samples[hit][2])[None])[0]:
         # The collision begins a hair past the last free pose: the plant, which settles

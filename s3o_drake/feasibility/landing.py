@@ -26,6 +26,7 @@ A pose is "free" when it is inside the room and collision-free with the arm stow
 """
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -43,6 +44,19 @@ _STEPS_PER_CALL = 5
 
 #: Vectorised free-pose test: base poses (n, 3) -> bool (n,).
 FreeTest = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class PaddedFree:
+    """A FreeTest with a padding (`padded`, what it answers), and the same test without
+    the padding (`untouched`): a base that stands inside the padding, where a noisy landing
+    may leave it, may move out of it, but not into contact (`escape.cut_at_collision`)."""
+
+    padded: FreeTest
+    untouched: FreeTest
+
+    def __call__(self, poses: np.ndarray) -> np.ndarray:
+        return self.padded(poses)
 
 
 def stop_short(free: FreeTest, targets: np.ndarray, sent: np.ndarray | None = None

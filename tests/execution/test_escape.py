@@ -18,6 +18,7 @@ from s3o_drake.execution.escape import (
     facing,
     plan_motion,
 )
+from s3o_drake.feasibility.landing import PaddedFree
 from s3o_drake.world.angles import wrap
 
 PROFILE = MotionProfile(speed=0.4)
@@ -84,6 +85,35 @@ def test_collisions_where_the_base_starts_are_ignored_until_it_is_free():
 
     cut = _drive((0.0, 0.0, 0.0), (2.0, 0.0, 0.0), free)
     assert not cut.blocked and cut.hit is None
+
+
+def test_a_base_inside_the_padding_leaves_it_without_touching():
+    """A landing left the base 5 mm from a table leg at its right front corner: inside the
+    padding, so the first poses are not free. Turning right where it stands swings the
+    corner into the leg. A plain test lets the base do it (nothing counts until the first
+    free pose); a padded one knows the touch, and the base backs out first."""
+    def padded(poses):  # free 2 cm back from the leg, and not turned right near it
+        x, y, yaw = poses.T
+        near = (np.abs(y) < 0.15) & (x > -0.2)
+        return ~(near & ((x > -0.02) | (wrap(yaw) < -0.3)))
+
+    def untouched(poses):  # the leg itself: a right turn where the base stands hits it
+        x, y, yaw = poses.T
+        return ~((np.abs(y) < 0.15) & (x > -0.1) & (wrap(yaw) < -0.2))
+
+    target = (0.0, -2.0, -math.pi / 2)
+    plain = _drive((0.0, 0.0, 0.0), target, padded)
+    assert plain.segments[0].turn and not untouched(np.array([_end(_first(plain))]))[0]
+    cut = _drive((0.0, 0.0, 0.0), target, PaddedFree(padded, untouched))
+    assert not cut.blocked and not cut.segments[0].turn  # backs out first
+    poses = [seg.pose(s) for seg in cut.segments for s in np.linspace(0.0, seg.length, 30)]
+    assert np.all(untouched(np.array(poses)))
+    np.testing.assert_allclose(_end(cut), [0.0, -2.0, -math.pi / 2], atol=1e-12)
+
+
+def _first(cut):
+    """The cut's first segment alone, as a cut."""
+    return type(cut)(cut.segments[:1])
 
 
 def test_a_turn_the_short_way_blocked_is_made_the_other_way_round():
