@@ -16,9 +16,13 @@ from s3o_drake.world.settings import Settings
 
 def missing_robot_files(settings: Settings, robot: Robot) -> list[str]:
     """One line per file that `settings` need and `robot`'s folder lacks: the setting, the
-    file, and how to make it (or the setting that does without)."""
+    file, and how to make it (or the setting that does without). A robot still being built
+    gets one line: what its description says it lacks."""
     files = robot.files
     build = f"s3o build robot {robot.name}"
+    if robot.description.missing:  # still being built: its description says what it lacks
+        return [f"robot.name: {robot.name!r} is not ready to plan and execute; it lacks "
+                f"{' '.join(robot.description.missing.split())}"]
     needed = [("robot.name", files.reachability_map, f"`{build} --steps reachability`"),
               ("robot.name", files.time_model, f"`{build} --steps time-model`")]
     if settings.planner.feasibility == FeasibilitySource.FCN.value:

@@ -201,7 +201,8 @@ class RobotDescription:
     name: str = ""
     missing: str = ""
     """What the robot still lacks to plan and execute, if anything: a robot that lacks
-    something is not offered to scenarios (`robot_names`), but loads by its name."""
+    something is not offered (`robot_names`; `s3o run` and `s3o evaluate` refuse it), but
+    loads by its name, and a scenario may name it (its build's steps do)."""
     model: str = ""
     """The model's URL (`package://s3o_drake/...`), one model instance; or none, and ..."""
     parts: list[PartDescription] = field(default_factory=list)
@@ -230,18 +231,24 @@ class RobotDescriptionError(FieldError):
     """A description that cannot be used, located by its field path; one line."""
 
 
+def described_robots() -> list[str]:
+    """Every robot with a description: the folders of models/ with a robot.yaml, those
+    still being built among them."""
+    return sorted(p.parent.name for p in MODELS_DIR.glob(f"*/{DESCRIPTION_FILE}"))
+
+
 def robot_names() -> list[str]:
-    """The shipped robots: the folders of models/ with a description that lacks nothing
-    (its `missing` empty)."""
-    return sorted(p.parent.name for p in MODELS_DIR.glob(f"*/{DESCRIPTION_FILE}")
-                  if not (load_yaml(p.read_text()) or {}).get("missing"))
+    """The shipped robots: the described ones that lack nothing (`missing` empty)."""
+    return [name for name in described_robots()
+            if not (load_yaml((robot_dir(name) / DESCRIPTION_FILE).read_text()) or {})
+            .get("missing")]
 
 
 def robot_description_path(name: str) -> Path:
     """The shipped description of robot `name`."""
     path = robot_dir(name) / DESCRIPTION_FILE
     if not path.is_file():
-        known = ", ".join(robot_names())
+        known = ", ".join(described_robots())
         raise RobotDescriptionError("robot", f"no robot named {name!r} (known: {known})")
     return path
 

@@ -36,7 +36,7 @@ from s3o_drake.world.furniture import (
 )
 from s3o_drake.world.resources import DEFAULT_ROBOT, DESCRIPTION_FILE
 from s3o_drake.world.robot import load_robot
-from s3o_drake.world.robot_description import RobotDescriptionError, robot_names
+from s3o_drake.world.robot_description import RobotDescriptionError, described_robots
 from s3o_drake.world.yaml_checks import quoted
 
 if TYPE_CHECKING:
@@ -53,6 +53,10 @@ class ScenarioError(ValueError):
         self.path = path
         self.message = message
         self.file = file
+
+    def __reduce__(self):
+        # Raised in a worker process, it crosses back whole (see `FieldError`).
+        return type(self), (self.path, self.message, self.file)
 
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
@@ -130,9 +134,9 @@ def room_polygon(scenario: Scenario) -> Polygon:
 def validate_scenario(scenario: Scenario) -> None:
     """Raises ScenarioError for the first problem found, naming its field."""
     name = scenario.robot.name or DEFAULT_ROBOT  # a scenario made in code names none
-    if name not in robot_names():
+    if name not in described_robots():
         raise ScenarioError("robot.name", f"no robot named {quoted(name)} (known: "
-                                          f"{', '.join(robot_names())})")
+                                          f"{', '.join(described_robots())})")
     try:
         robot_value = load_robot(name)
     except RobotDescriptionError as e:  # a description being written: one line, as a field

@@ -43,6 +43,11 @@ class FieldError(ValueError):
         self.path = path
         self.message = message
 
+    def __reduce__(self):
+        # Raised in a worker process, it crosses back whole (the default pickles only
+        # the message, which __init__ cannot take alone).
+        return type(self), (self.path, self.message)
+
 
 def quoted(value: object) -> str:
     """`value` as a message quotes it: its repr, cut short, on one line."""

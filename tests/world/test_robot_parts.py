@@ -23,7 +23,7 @@ from s3o_drake.world.maker_models import (
     expand_xacro,
     ros_packages,
 )
-from s3o_drake.world.resources import MODELS_DIR, robot_dir
+from s3o_drake.world.resources import MODELS_DIR, RESTAURANT, robot_dir
 from s3o_drake.world.robot import load_robot
 from s3o_drake.world.robot_description import (
     RobotDescriptionError,
@@ -48,11 +48,23 @@ def _plant(robot, time_step=1e-3):
     return builder, plant, scene_graph, placed
 
 
-def test_gen3_loads_but_is_not_offered_to_scenarios(gen3):
-    # It lacks what planning needs (its description's `missing`), so scenarios cannot
-    # name it; it loads by name, checked against its parts.
+def test_gen3_loads_but_is_not_offered_to_run(gen3, capsys):
+    # It lacks what planning needs (its description's `missing`): it is not offered, and
+    # the commands that plan and execute refuse it in one line saying what it lacks. It
+    # loads by name, checked against its parts, and a scenario may name it: its build's
+    # steps run scenarios with it.
+    from s3o_drake.commands.run_scenario import main as run_main
+    from s3o_drake.world.scenario import parse_scenario
+
     assert gen3.is_of_parts and gen3.description.missing
     assert "gen3" not in robot_names() and {"ur5e", "panda"} <= set(robot_names())
+    assert parse_scenario("robot: {name: gen3}").robot_value is gen3
+    with pytest.raises(SystemExit) as info:
+        run_main([str(RESTAURANT), "--set",
+                  "robot.name=gen3"])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and err.count("\n") == 1
+    assert "robot.name: 'gen3' is not ready to plan and execute; it lacks " in err
     assert gen3.joints == ("base_x", "base_y", "base_yaw", *(f"joint_{i}" for i in range(1, 8)),
                            "robotiq_85_left_knuckle_joint")
     assert [p.name for p in gen3.description.parts] == ["base", "arm", "gripper"]
