@@ -64,6 +64,8 @@ COMMANDS: tuple[Command, ...] = (
        "How much faster than real time a plan runs, and the playback's size."),
     _c("bench pickup", "pickup_benchmark",
        "Pickup durations: TOPPRA under the UR5e's limits against trapezoids."),
+    _c("bench tracking", "tracking_benchmark",
+       "How closely each robot's arm follows a planned pickup in simulation."),
     _c("bench time", "time_benchmark",
        "The plan's predicted execution time against the simulated one."),
     _c("bench scale", "scale_benchmark",
