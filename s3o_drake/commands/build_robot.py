@@ -31,6 +31,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import yaml
+
 # Light imports only: each step runs in its own process.
 from s3o_drake.commands.common import (
     add_robot_name,
@@ -41,6 +43,7 @@ from s3o_drake.commands.common import (
 from s3o_drake.commands.options import add_workers
 from s3o_drake.world.files import write_atomically
 from s3o_drake.world.resources import (
+    DESCRIPTION_FILE,
     MODELS_DIR,
     REPO_DIR,
     RESTAURANT_DENSE,
@@ -114,8 +117,15 @@ STEP_NAMES = ("model", "reachability", "fcn-data", "fcn", "time-model", "oracle-
 
 
 def checksum(path: Path) -> str:
-    """SHA-256 of a file, or of a folder's files (their paths and bytes); "" if missing."""
+    """SHA-256 of a file, or of a folder's files (their paths and bytes); "" if missing. A
+    robot's description counts by its content without its `missing` field: its comments
+    and what it says the robot still lacks are not what a step reads (emptying `missing`
+    at the end of a build would otherwise make every step's record stale)."""
     path = Path(path)
+    if path.is_file() and path.name == DESCRIPTION_FILE:
+        content = yaml.safe_load(path.read_text()) or {}
+        content.pop("missing", None)
+        return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()
     if path.is_file():
         return hashlib.sha256(path.read_bytes()).hexdigest()
     if not path.is_dir():

@@ -66,9 +66,15 @@ def test_every_step_runs_once_in_order_and_is_recorded(robot_folder, ran, capsys
     assert ran == []
     assert capsys.readouterr().out.count(": done, as recorded in") == 6
 
-    # A changed description runs again what reads it; the network reads only its data.
+    # A comment, or what the description says the robot still lacks, is not what a step
+    # reads: nothing runs again.
     with (robot_folder / "robot.yaml").open("a") as f:
-        f.write("# changed\n")
+        f.write("# changed\nmissing: its network\n")
+    assert build_robot.main(["ur5e"]) == 0
+    assert ran == []
+    # A changed description runs again what reads it; the network reads only its data.
+    description = robot_folder / "robot.yaml"
+    description.write_text(description.read_text().replace("\nreach: 1.0\n", "\nreach: 0.85\n"))
     assert build_robot.main(["ur5e"]) == 0
     assert ran == ["reachability", "fcn-data", "fcn-data-dense", "time-model",
                    "oracle-pinning"]
