@@ -154,7 +154,7 @@ def solve_grasp_ik(scene: FeasibilityScene, base: np.ndarray, grasp: Grasp, *, d
     base = np.asarray(base, dtype=float)
     # IK's variables are the plant's positions; the robot's are among them (`positions`).
     positions = scene.positions
-    indices = np.arange(plant.num_positions()) if positions.is_identity else positions.indices
+    indices = positions.indices
     prog.AddBoundingBoxConstraint(base, base, q[indices[:robot.num_base_joints]])
     prog.AddBoundingBoxConstraint(robot.gripper_open, robot.gripper_open,
                                   q[indices[robot.arm_positions.stop:]])

@@ -34,6 +34,7 @@ Frames (names of bodies in the model):
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -400,11 +401,8 @@ class RobotInstances:
             # One instance: its positions are the robot's, in order (check_model).
             self.plant.SetPositions(context, self.instances[0], q)
             return
-        plant_q = self.plant.GetPositions(context).copy()
-        plant_q[self.position_indices()] = q
-        for follower, leader, multiplier, offset in self._followers():
-            plant_q[follower] = multiplier * plant_q[leader] + offset
-        self.plant.SetPositions(context, plant_q)
+        self.plant.SetPositions(context, _lifted(self.plant.GetPositions(context), q,
+                                                 self.position_indices(), self._followers()))
 
     def get_positions(self, context) -> np.ndarray:
         if self.is_single:
@@ -473,6 +471,18 @@ class RobotInstances:
         return selectors
 
 
+def _lifted(plant_q: np.ndarray, q: np.ndarray, indices: np.ndarray,
+            followers: Sequence[tuple[int, int, float, float]]) -> np.ndarray:
+    """A copy of the plant's positions `plant_q` (..., plant's) with the robot's `q`
+    (..., robot's) at `indices` and each mimic joint (follower, leader, multiplier,
+    offset) following its leader."""
+    plant_q = np.array(plant_q, dtype=float)
+    plant_q[..., indices] = q
+    for follower, leader, multiplier, offset in followers:
+        plant_q[..., follower] = multiplier * plant_q[..., leader] + offset
+    return plant_q
+
+
 @dataclass(frozen=True, eq=False)
 class PositionMap:
     """The robot's positions (`Robot.joints` order) lifted to a plant's (`to_plant`) and
@@ -504,11 +514,8 @@ class PositionMap:
         if self.is_identity:
             return q
         q = np.asarray(q, dtype=float)
-        plant_q = np.array(np.broadcast_to(self.rest, (*q.shape[:-1], self.num_plant)))
-        plant_q[..., self.indices] = q
-        for follower, leader, multiplier, offset in self.followers:
-            plant_q[..., follower] = multiplier * plant_q[..., leader] + offset
-        return plant_q
+        return _lifted(np.broadcast_to(self.rest, (*q.shape[:-1], self.num_plant)), q,
+                       self.indices, self.followers)
 
     def to_robot(self, values: np.ndarray) -> np.ndarray:
         """The robot's entries (`Robot.joints` order) of a vector over the plant's
