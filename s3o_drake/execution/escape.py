@@ -166,15 +166,17 @@ class MotionProfile:
                             accel=self.acceleration)
 
     def segments(self, waypoints: Sequence[np.ndarray], yaw: float, target_yaw: float, *,
-                 long_way: bool = False) -> list[Segment]:
+                 long_way: bool = False, other_way: bool = False) -> list[Segment]:
         """The segments through the waypoints, then the turn to `target_yaw`: turn-then-
         drive (`base_motion.motion_segments`), or with smooth motion
-        `base_motion.smooth_segments` (the rules the planner's cost model times); with
-        `long_way`, stop and go, the first turn the other way round."""
+        `base_motion.smooth_segments` (the rules the planner's cost model times; with
+        `other_way`, the first leg driven the other way); with `long_way`, stop and go,
+        the first turn the other way round."""
         if self.smooth and not long_way:
             return [self.segment(s.start, s.end, turn=True, length=s.length)
                     if isinstance(s, SegmentSpec) else s
-                    for s in smooth_segments(self.base, waypoints, yaw, target_yaw)]
+                    for s in smooth_segments(self.base, waypoints, yaw, target_yaw,
+                                             other_way=other_way)]
         return [self.segment(s.start, s.end, turn=s.turn, length=s.length)
                 for s in motion_segments(waypoints, yaw, target_yaw, long_way=long_way)]
 
@@ -238,7 +240,8 @@ def _smooth_landings(base: np.ndarray, target: np.ndarray, planned: list[np.ndar
                      stop: Sequence[float], turn: bool, trail: tuple[BaseSegment, ...],
                      free: FreeTest | None, profile: MotionProfile) -> Iterator[Cut]:
     """The smooth motions that land (free, or short but facing the target), in the order
-    they are tried: the direct motion, one that keeps to the planned last leg, one that
+    they are tried: the direct motion, the same with its first leg driven the other way
+    (`base_motion.fewer_turns_backing`), one that keeps to the planned last leg, one that
     drives smoothly to APPROACH_STEPS before the stop, turns there to the stop's heading and
     drives straight in; the escapes with the smooth motion; smooth to the path's last
     corner, stopping there, and the stop-and-go motion from there."""
@@ -249,9 +252,13 @@ def _smooth_landings(base: np.ndarray, target: np.ndarray, planned: list[np.ndar
     def lands(cut: Cut) -> bool:
         return not cut.blocked and (turn or cut.hit is None or facing(cut.segments, target[2]))
 
+    # Second: the first leg driven the other way (backed where the rule drives it
+    # forwards, or the reverse), where the turn towards it is blocked.
     motions = itertools.chain(
+        (profile.segments(waypoints, yaw, float(target[2]), other_way=other)
+         for other in (False, True)),
         (profile.segments(way, yaw, float(target[2]))
-         for way in [waypoints, *along_plan(stop, waypoints, turn=turn)]),
+         for way in along_plan(stop, waypoints, turn=turn)),
         ([] if turn else (
             [*profile.segments([*waypoints[:-1], target[:2] - d * h], yaw, float(target[2])),
              *straight.segments([target[:2] - d * h, target[:2]], float(target[2]),

@@ -16,6 +16,7 @@ from s3o_drake.execution.messages import BaseCommand, CommandState
 from s3o_drake.planning.navigation.base_motion import (
     CORNER_CUT,
     BaseProfile,
+    MovingDrive,
     MovingTurn,
     SegmentSpec,
     backs_away,
@@ -240,7 +241,7 @@ def test_a_differential_base_still_turns_in_place_to_start_and_to_land():
     yaw at rest; a holonomic base turns while it drives and takes no longer than its
     translation or its turn, whichever is longer."""
     path = [(0.0, 0.0), (2.0, 0.0)]
-    kinds = [type(s).__name__ for s in smooth_segments(SMOOTH, path, math.pi / 2, math.pi)]
+    kinds = [type(s).__name__ for s in smooth_segments(SMOOTH, path, 1.4, -math.pi / 2)]
     assert kinds == ["SegmentSpec", "MovingDrive", "SegmentSpec"]
     (motion,) = smooth_segments(HOLONOMIC, path, math.pi / 2, math.pi)
     assert motion.duration == pytest.approx(max(HOLONOMIC.drive_time(2.0),
@@ -252,3 +253,31 @@ def test_a_differential_base_still_turns_in_place_to_start_and_to_land():
 def test_an_unknown_motion_is_refused():
     with pytest.raises(ValueError, match="motion"):
         BaseProfile(speed=0.4, motion="glide")
+
+
+def test_a_differential_base_backs_its_first_leg_where_that_turns_it_less():
+    """Facing a table (north), it backs a leg straight away from it without turning; a leg
+    across it (100 degrees off) that the path follows on is driven forwards, where backing
+    it turned 1.4 rad one way at the start and 3.1 rad the other way at the cusp."""
+    def in_place(path, yaw, target):
+        segments = smooth_segments(SMOOTH, path, yaw, target)
+        return [round(s.end[2] - s.start[2], 2) for s in segments
+                if isinstance(s, SegmentSpec)], segments
+
+    turns, segments = in_place([(0.0, 0.0), (0.0, -1.0), (1.5, -1.0)], math.pi / 2, 0.0)
+    assert turns[0] == pytest.approx(-math.pi / 2, abs=0.01)  # only the cusp
+    assert len(turns) == 1 and segments[0].end[2] == pytest.approx(math.pi / 2)
+    across = math.radians(100)
+    first = (math.cos(math.pi / 2 + across), math.sin(math.pi / 2 + across))
+    path = [(0.0, 0.0), first, (first[0] - 2.0, first[1] - 0.2)]
+    turns, segments = in_place(path, math.pi / 2, math.pi)
+    assert sum(abs(t) for t in turns) < 1.9
+    assert isinstance(segments[1], MovingDrive) and segments[1].start[2] == pytest.approx(
+        math.pi / 2 + across)  # facing along it
+    other = smooth_segments(SMOOTH, path, math.pi / 2, math.pi, other_way=True)
+    assert sum(s.length for s in other if isinstance(s, SegmentSpec)) > 4.0
+    # The planner times the motion the navigator plays.
+    points = np.array(path)[None]
+    time, _ = smooth_chain_time(SMOOTH, points, np.array([3]), np.array([math.pi / 2]),
+                                np.array([math.pi]))
+    assert time[0] == pytest.approx(SMOOTH.motion_time(path, math.pi / 2, math.pi))

@@ -24,8 +24,10 @@ does not stop at the inner corners of its path: it turns while it drives (`smoot
 `smooth_chain_time`).
 
 - Differential drive (the default): the start (the turn to the first leg's heading, or
-  backing away), a cusp after a backed first leg, and the final turn to the landing yaw
-  stay turns in place at rest. At every other corner the base keeps moving at a corner
+  away from it to back it), a cusp after a backed first leg, and the final turn to the
+  landing yaw stay turns in place at rest. The first leg is backed where that turns the
+  base less in place than driving it forwards (`fewer_turns_backing`), not by
+  `backs_away`'s rule alone. At every other corner the base keeps moving at a corner
   speed u and turns through the corner's angle θ with the yaw profile of a turn in place
   (the same yaw rate and yaw acceleration, so the same duration): a *moving turn*. At
   constant speed under that yaw profile the base follows a curve (clothoid, arc, clothoid)
@@ -494,18 +496,53 @@ def _compressed(points: np.ndarray, count: np.ndarray) -> tuple[np.ndarray, np.n
     return np.take_along_axis(points, keep[..., None], axis=1), 1 + live.sum(axis=1)
 
 
+def fewer_turns_backing(profile: BaseProfile, heading: np.ndarray, length: np.ndarray,
+                        legs: np.ndarray, yaw0: np.ndarray, yaw1: np.ndarray) -> np.ndarray:
+    """Whether a differential base leaving yaw `yaw0` (m,) backs the first leg of each of m
+    paths (`heading`, `length` (m, L) of their legs, `legs` (m,) of them; at least one):
+    when that turns it in place for less time than driving it forwards. Backing turns at
+    the start to face away from the leg and at the cusp after it (towards the second leg,
+    or for a path of one leg to the landing yaw `yaw1`); driving forwards turns at the
+    start to face along it, and at its end where the corner is too sharp or its legs too
+    short to take moving (`corner_speeds`), or to `yaw1`. A NaN `yaw1` is "facing along
+    the last leg", as in `chain_time`. Ties keep `backs_away`'s rule.
+
+    A stop faces its table: the leg straight away from it is backed (no turn at the start),
+    and a leg across it goes whichever way turns the base less: backing it, then turning
+    the other way round at the cusp, turned up to 4.4 rad where 1.5 would have done."""
+    h0 = heading[:, 0]
+    h1 = heading[:, 1] if heading.shape[1] > 1 else h0
+    theta = np.asarray(wrap(h1 - h0))
+    second = length[:, 1] if length.shape[1] > 1 else np.zeros(len(h0))
+    corner_speed, _ = corner_speeds(profile, theta, length[:, 0], second)
+    known = np.isfinite(yaw1)
+    end = np.where(known, yaw1, h0)
+    one = legs < 2
+    forwards = profile.turn_time(wrap(h0 - yaw0)) + np.where(
+        one, profile.turn_time(wrap(end - h0)),
+        np.where(corner_speed > 0, 0.0, profile.turn_time(theta)))
+    backwards = profile.turn_time(wrap(h0 + math.pi - yaw0)) + np.where(
+        one, profile.turn_time(wrap(end - h0 - math.pi)), profile.turn_time(wrap(theta - math.pi)))
+    tie = np.abs(backwards - forwards) <= 1e-9
+    return np.where(tie, backs_away(h0, yaw0), backwards < forwards)
+
+
 def path_corners(profile: BaseProfile, points: np.ndarray, count: np.ndarray,
-                 yaw0: np.ndarray) -> Corners:
+                 yaw0: np.ndarray, yaw1: np.ndarray | None = None, *,
+                 other_way: bool = False) -> Corners:
     """The corners of m paths through `points` (m, P, 2; the first `count` (m,) of each
-    row), for a base starting at yaw `yaw0` (m,).
+    row), for a base starting at yaw `yaw0` (m,) and landing at `yaw1` (m,; NaN or None:
+    facing along the last leg).
 
     Consecutive inner corners that turn the same way, joined by legs shorter than
     MERGE_LENGTH (the navigation map rounds an obstacle's corner with several short
     legs), are one corner: at the point where the legs before and after them would meet,
     turning by their sum (at most MAX_MOVING_TURN), and its curve may pass CORNER_CUT
     inside the path they make (their polyline's distance from that point more than
-    CORNER_CUT inside it). A differential base's cusp after a backed first leg stays a
-    corner of its own, turned in place."""
+    CORNER_CUT inside it). A differential base backs its first leg where that turns it
+    less in place (`fewer_turns_backing`; with `other_way`, where it does not: the
+    navigator's fallback when that first turn is blocked), and its cusp after a backed
+    first leg stays a corner of its own, turned in place."""
     points = np.asarray(points, dtype=float)
     m = len(points)
     p, n_points = _compressed(points, np.asarray(count, dtype=int).reshape(m))
@@ -515,8 +552,11 @@ def path_corners(profile: BaseProfile, points: np.ndarray, count: np.ndarray,
     ell = np.hypot(d[..., 0], d[..., 1])
     rows = np.arange(m)
     yaw0 = np.asarray(yaw0, dtype=float).reshape(m)
-    backed = (n_legs > 0) & (not profile.holonomic) & backs_away(
-        h[:, 0] if h.size else yaw0, yaw0)
+    yaw1 = np.full(m, np.nan) if yaw1 is None else np.asarray(yaw1, dtype=float).reshape(m)
+    backed = np.zeros(m, dtype=bool)
+    if h.size and not profile.holonomic:
+        backed = (n_legs > 0) & (fewer_turns_backing(profile, h, ell, n_legs, yaw0, yaw1)
+                                 != other_way)
     width = max(p.shape[1] - 2, 0)
     point = np.zeros((m, max(width, 1), 2))
     angle = np.zeros((m, max(width, 1)))
@@ -600,12 +640,14 @@ def path_corners(profile: BaseProfile, points: np.ndarray, count: np.ndarray,
 
 
 def smooth_segments(profile: BaseProfile, waypoints: Sequence[Sequence[float]], yaw: float,
-                    target_yaw: float) -> list[SmoothSegment]:
+                    target_yaw: float, *, other_way: bool = False) -> list[SmoothSegment]:
     """The pieces of the smooth motion through `waypoints` (x, y), starting at `yaw` and
     landing at `target_yaw` (module docstring); legs of at most TINY are left out. Yaw
-    stays continuous. A holonomic base's motion is one `HolonomicMotion`."""
+    stays continuous. A holonomic base's motion is one `HolonomicMotion`. `other_way`:
+    the first leg driven the other way than `path_corners` chooses."""
     points = np.asarray([np.asarray(w, dtype=float)[:2] for w in waypoints])
-    c = path_corners(profile, points[None], np.array([len(points)]), np.array([yaw]))
+    c = path_corners(profile, points[None], np.array([len(points)]), np.array([yaw]),
+                     np.array([target_yaw]), other_way=other_way)
     count, legs = int(c.count[0]), int(c.legs[0])
     pieces: list[MovingDrive | MovingTurn] = []
     turns: list[tuple[int, float]] = []  # (piece index before which, angle): in place
@@ -674,7 +716,7 @@ def smooth_chain_time(profile: BaseProfile, points: np.ndarray, count: np.ndarra
     m = len(points)
     yaw0 = np.asarray(yaw0, dtype=float).reshape(m)
     yaw1 = np.asarray(yaw1, dtype=float).reshape(m)
-    c = path_corners(profile, points, count, yaw0)
+    c = path_corners(profile, points, count, yaw0, yaw1)
     rows = np.arange(m)
     j = np.arange(c.length.shape[1])[None, :]
     zero = np.zeros((m, 1))
