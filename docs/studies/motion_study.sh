@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # The smooth motion's studies at one commit (docs/results.md, "The smooth motion's studies").
-# Run from the repository's main checkout:  bash docs/studies/motion_COMMIT/study.sh
+# Run from the repository's main checkout:  bash docs/studies/motion_study.sh COMMIT
 # It makes the worktree ../study64-COMMIT at COMMIT, restores the rows already committed
 # under docs/studies/motion_COMMIT/ into its out/ folders, and resumes: `s3o evaluate` skips
 # the runs that have a row. Every hour it copies the rows back and commits them as `data:`.
 set -euo pipefail
 main="$(git rev-parse --show-toplevel)"
-here="$(cd "$(dirname "$0")" && pwd)"
-commit="${here##*/motion_}"
+commit="${1:?usage: motion_study.sh COMMIT}"
+here="$main/docs/studies/motion_$commit"
+mkdir -p "$here"
 tree="$main/../study64-$commit"
 [ -d "$tree" ] || git -C "$main" worktree add --detach "$tree" "$commit"
 cd "$tree"
@@ -20,6 +21,10 @@ for name in "${studies[@]}"; do
     mkdir -p "out/$name"
     rows="$here/$name/results.jsonl"
     [ -f "out/$name/results.jsonl" ] || { [ -f "$rows" ] && cp "$rows" "out/$name/"; } || true
+    # 028cb79's own rows, the paper's motion before the smooth one existed.
+    [ "$name" != same_runs_028cb79 ] || [ -f "out/$name/results.jsonl" ] ||
+        tar -xJOf "$main/docs/studies/motion_ce2f701.tar.xz" \
+            motion_ce2f701/same_runs_028cb79/results.jsonl > "out/$name/results.jsonl"
     case "$name" in same_runs_*) ;; *)
         [ -f "out/$name/difficulty.jsonl" ] ||
             tar -xJOf "$main/docs/studies/$(difficulty "$name")_open_loop_494b2e6.tar.xz" \
@@ -31,7 +36,7 @@ done
 (set +e; while sleep 3600; do
     counts=""
     for name in "${studies[@]}"; do
-        [ -s "out/$name/results.jsonl" ] || continue
+        [ "$name" != same_runs_028cb79 ] && [ -s "out/$name/results.jsonl" ] || continue
         mkdir -p "$here/$name" && cp "out/$name/results.jsonl" "$here/$name/"
         counts="$counts$name $(wc -l < "out/$name/results.jsonl"), "
     done
@@ -44,12 +49,15 @@ ev() { s3o evaluate --quiet --workers 2 "$@" || [ $? -eq 1 ]; }
 # same_runs_028cb79 holds 028cb79's rows made on an AMD EPYC with AVX-512: the runs depend on
 # the processor (docs/results.md), so on another kind the comparison says nothing.
 [ -s out/same_runs_028cb79/results.jsonl ] || echo "out/same_runs_028cb79: the 40 rows of 028cb79 are missing" >&2
-ev --tasks scenarios/generated --count 20 --methods "S3O-GROP*" V-GROP* --seeds 1 $SG --out out/same_runs_stop_and_go
-s3o bench same-runs out/same_runs_028cb79 out/same_runs_stop_and_go > out/same_runs.txt || true
 # Open loop first: the smooth motion against the paper's, and S3O against the Voronoi
-# methods, are measured there. The paper's motion is not run again with recovery: its code
+# methods, are measured there. The dense room's first 20 tasks in both motions first, so
+# that paired rows come early. The paper's motion is not run again with recovery: its code
 # is unchanged since 494b2e6, whose rows it repeats (same_runs_stop_and_go), and those
 # recovery rows stand.
+ev --tasks scenarios/generated_dense --count 20 --methods "S3O-GROP*" --seeds 3 --out out/dense_open_loop
+ev --tasks scenarios/generated_dense --count 20 --methods "S3O-GROP*" --seeds 3 $SG --out out/dense_open_loop_stop_and_go
+ev --tasks scenarios/generated --count 20 --methods "S3O-GROP*" V-GROP* --seeds 1 $SG --out out/same_runs_stop_and_go
+s3o bench same-runs out/same_runs_028cb79 out/same_runs_stop_and_go > out/same_runs.txt || true
 for room in dense spacious; do
     tasks=scenarios/generated_dense; [ "$room" = spacious ] && tasks=scenarios/generated
     ev --tasks $tasks --methods "S3O-GROP*" --seeds 3 --out out/${room}_open_loop
