@@ -10,6 +10,7 @@ Below zero, the robot was in collision with the world.
 
 import math
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -18,6 +19,7 @@ from pydrake.geometry import (
     Capsule,
     Cylinder,
     Ellipsoid,
+    FrameId,
     GeometryId,
     QueryObject,
     Role,
@@ -80,7 +82,7 @@ class ClearanceMonitor(LeafSystem):
         self._robot, self._world = frozenset(robot), frozenset(world)
         self._ordered = (sorted(self._robot, key=GeometryId.get_value),
                          sorted(self._world, key=GeometryId.get_value))
-        self._bound: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._bound: _Shapes | None = None
         self._query_port = self.DeclareAbstractInputPort(
             "query_object", AbstractValue.Make(QueryObject()))
         self._closest = self.DeclareDiscreteState([REACH])
@@ -113,14 +115,21 @@ class ClearanceMonitor(LeafSystem):
         if not robot or not world:
             return []
         inspector = query.inspector()
-        r, half, extra = self._bounds(inspector)
-        centre = np.array([query.GetPoseInWorld(g).translation() for g in robot])
-        X_WG = [query.GetPoseInWorld(g) for g in world]
-        p_WG = np.array([X.translation() for X in X_WG])
-        R_WG = np.array([X.rotation().matrix() for X in X_WG])
-        p_GC = np.einsum("rwk,wkl->rwl", centre[:, None] - p_WG[None], R_WG)
-        gap = np.linalg.norm(np.maximum(np.abs(p_GC) - half, 0.0), axis=-1) \
-            - extra - r[:, None]
+        shapes = self._shapes(inspector)
+        # One pose per frame (a link holds several geometries; the furniture is on few).
+        R_WF, p_WF = [], []
+        for frame in shapes.frames:
+            X_WF = query.GetPoseInWorld(frame)
+            R_WF.append(X_WF.rotation().matrix())
+            p_WF.append(X_WF.translation())
+        R_WF, p_WF = np.array(R_WF), np.array(p_WF)
+        f = shapes.frame_of
+        p_WG = np.einsum("gkl,gl->gk", R_WF[f], shapes.p_FG) + p_WF[f]
+        n = len(robot)
+        R_WG = R_WF[f[n:]] @ shapes.R_FG[n:]
+        p_GC = np.einsum("rwk,wkl->rwl", p_WG[:n, None] - p_WG[None, n:], R_WG)
+        gap = np.linalg.norm(np.maximum(np.abs(p_GC) - shapes.half, 0.0), axis=-1) \
+            - shapes.extra - shapes.radius[:, None]
         pairs = []
         for i, j in zip(*np.nonzero(~(gap > REACH + BOUND_MARGIN)), strict=True):
             a, b = robot[i], world[j]
@@ -130,23 +139,48 @@ class ClearanceMonitor(LeafSystem):
                 pairs.append((a, b))
         return pairs
 
-    def _bounds(self, inspector: SceneGraphInspector
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The robot geometries' bounding radii about their frames' origins (m); the
-        world geometries' half sizes (a box's, else 0) and what their distance falls
-        short of their surface's (0 for a box, else the bounding radius). inf for a
-        shape of no known bound: its pairs are always measured. Shapes do not change
-        during a simulation: made once."""
+    def _shapes(self, inspector: SceneGraphInspector) -> "_Shapes":
+        """What `_near_pairs` needs of the geometries' shapes, made once: shapes and their
+        poses in their frames do not change during a simulation."""
         if self._bound is None:
-            robot, world = self._ordered
-            shapes = [inspector.GetShape(g) for g in world]
-            self._bound = (
-                np.array([_bounding_radius(inspector.GetShape(g)) for g in robot]),
-                np.array([[s.width() / 2, s.depth() / 2, s.height() / 2]
-                          if isinstance(s, Box) else [0.0, 0.0, 0.0] for s in shapes]),
-                np.array([0.0 if isinstance(s, Box) else _bounding_radius(s)
-                          for s in shapes]))
+            self._bound = _Shapes.of(inspector, *self._ordered)
         return self._bound
+
+
+@dataclass(frozen=True)
+class _Shapes:
+    """The robot's geometries, then the world's: their frames and poses in them, the
+    robot geometries' bounding radii about their origins (m), the world geometries' half
+    sizes (a box's, else 0) and what their distance falls short of their surface's (0
+    for a box, else the bounding radius). inf for a shape of no known bound: its pairs
+    are always measured."""
+
+    frames: list[FrameId]
+    frame_of: np.ndarray
+    R_FG: np.ndarray
+    p_FG: np.ndarray  # noqa: N815 (monogram notation)
+    radius: np.ndarray
+    half: np.ndarray
+    extra: np.ndarray
+
+    @classmethod
+    def of(cls, inspector: SceneGraphInspector, robot: list[GeometryId],
+           world: list[GeometryId]) -> "_Shapes":
+        geometries = [*robot, *world]
+        frames: dict[FrameId, int] = {}
+        frame_of = [frames.setdefault(inspector.GetFrameId(g), len(frames))
+                    for g in geometries]
+        X_FG = [inspector.GetPoseInFrame(g) for g in geometries]
+        shapes = [inspector.GetShape(g) for g in world]
+        return cls(
+            frames=list(frames), frame_of=np.array(frame_of),
+            R_FG=np.array([X.rotation().matrix() for X in X_FG]),
+            p_FG=np.array([X.translation() for X in X_FG]),
+            radius=np.array([_bounding_radius(inspector.GetShape(g)) for g in robot]),
+            half=np.array([[s.width() / 2, s.depth() / 2, s.height() / 2]
+                           if isinstance(s, Box) else [0.0, 0.0, 0.0] for s in shapes]),
+            extra=np.array([0.0 if isinstance(s, Box) else _bounding_radius(s)
+                            for s in shapes]))
 
 
 def _bounding_radius(shape: object) -> float:
