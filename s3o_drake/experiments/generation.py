@@ -15,6 +15,7 @@ import shapely
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.feasibility.oracle import Heatmap
 from s3o_drake.feasibility.planning_scene import PlanningScene
+from s3o_drake.feasibility.stops import FreeStops
 from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.world.scenario import Scenario
 
@@ -38,7 +39,8 @@ def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0, *,
     `best_stops` with Fea^m 1 within reach, but cheaper (the generator asks once per chair
     drawn): the collision check, the costly part, is asked only at positions that keep
     the base's inscribed radius from every obstacle (nearer, every yaw collides) and that a
-    drive reaches, and only until one free stop is found (`FreeStops.any_free_cell`).
+    drive reaches, and only until one free stop is found (`FreeStops.any_free_cell`); the
+    drives too are asked only until they settle the question (`_Candidates`).
 
     `first`: return at the first dish found without a stop (a list of one), for a caller
     that asks only whether there is one. The generator's rejected chairs mostly close a
@@ -58,17 +60,79 @@ def dishes_without_stops(scenario: Scenario, chair_margin: float = 0.0, *,
         centres = grid.centers()
         ask = (np.linalg.norm(centres - p, axis=-1) <= reach) & shapely.contains_xy(
             clear, centres[..., 0], centres[..., 1])
-        ask[ask] = nav.reachable(start, centres[ask])
-        if not ask.any():
+        stops = _Candidates(grid, ask, nav, start)
+        if not stops.any_reachable():
             if first:
                 return [dish.name]
             missing.append(dish.name)
         else:
-            asked.append(dataclasses.replace(grid, values=ask.astype(float)))
-    stops = PlanningScene(known).free_stops if asked else None
-    for grid in asked:
-        if not stops.any_free_cell(grid):
+            asked.append(stops)
+    free = PlanningScene(known).free_stops if asked else None
+    for stops in asked:
+        if not stops.any_free(free):
             if first:
-                return [grid.dish]
-            missing.append(grid.dish)
+                return [stops.grid.dish]
+            missing.append(stops.grid.dish)
     return sorted(missing)
+
+
+class _Candidates:
+    """One dish's candidate stops (`ask`: in reach and clear of obstacles, on `grid`),
+    asked of the navigation map only as far as the question needs.
+
+    Whether a cell is reachable, and whether it is a free stop, depends on that cell
+    alone, so "is any cell reachable and free" has the same answer whatever the order and
+    the batches the cells are asked in. A dish has hundreds of candidate cells and a few
+    mostly settle it, while the generator asks once per chair drawn. Reachability is asked
+    in growing batches from the cells of most clearance (in open floor: likely reachable,
+    cheap for the map and likely free), and the free-stop test first on the cells found
+    reachable so far; all cells are asked only of a dish that a chair cut off."""
+
+    FIRST_BATCH = 8
+
+    def __init__(self, grid: Heatmap, ask: np.ndarray, nav: NavigationMap,
+                 start: np.ndarray) -> None:
+        self.grid = grid
+        self._nav, self._start = nav, start
+        centres = grid.centers()
+        idx = np.flatnonzero(ask)
+        # Stable: ties keep the grid's order, so the work done is the same every time.
+        order = np.argsort(-nav.clearance(centres.reshape(-1, 2)[idx]), kind="stable")
+        self._todo = idx[order]
+        self._centres = centres.reshape(-1, 2)
+        self._reachable = np.zeros(ask.shape, dtype=bool)
+        self._tested = np.zeros(ask.shape, dtype=bool)
+        self._batch = self.FIRST_BATCH
+
+    def _ask_next(self, size: int | None = None) -> bool:
+        """Asks the map about the next `size` cells (default: the next batch, each
+        twice the last); whether any of them is reachable."""
+        size = self._batch if size is None else size
+        batch, self._todo = self._todo[:size], self._todo[size:]
+        self._batch *= 2
+        if not len(batch):
+            return False
+        ok = self._nav.reachable(self._start, self._centres[batch])
+        self._reachable.flat[batch[ok]] = True
+        return bool(ok.any())
+
+    def any_reachable(self) -> bool:
+        """Whether a drive from the start reaches any candidate cell."""
+        while len(self._todo):
+            if self._ask_next():
+                return True
+        return bool(self._reachable.any())
+
+    def any_free(self, stops: FreeStops) -> bool:
+        """Whether any reachable candidate cell is a free stop (`FreeStops.any_free_cell`
+        on the reachable cells, asked first of those found so far)."""
+        while True:
+            fresh = self._reachable & ~self._tested
+            if fresh.any():
+                self._tested |= fresh
+                if stops.any_free_cell(dataclasses.replace(self.grid,
+                                                           values=fresh.astype(float))):
+                    return True
+            if not len(self._todo):
+                return False
+            self._ask_next(len(self._todo))

@@ -8,10 +8,25 @@ the dishes, which the gripper touches, nor the floor): the run's `closest_approa
 Below zero, the robot was in collision with the world.
 """
 
+import math
 from collections.abc import Iterable
+from dataclasses import dataclass
 
+import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.geometry import GeometryId, QueryObject, Role, SceneGraph
+from pydrake.geometry import (
+    Box,
+    Capsule,
+    Cylinder,
+    Ellipsoid,
+    FrameId,
+    GeometryId,
+    QueryObject,
+    Role,
+    SceneGraph,
+    SceneGraphInspector,
+    Sphere,
+)
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
 from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
@@ -21,6 +36,10 @@ from s3o_drake.world.system_lifetime import weak_callback
 REACH = 0.3
 """Pairs further apart than this (m) are not measured: the closest approach of a run is
 never that large (a stop keeps a few centimetres from its table)."""
+BOUND_MARGIN = 1e-3
+"""A pair is measured unless a lower bound of its distance exceeds REACH by this much (m):
+far more than the narrow phase's error, so that a pair left out would have measured more
+than REACH."""
 
 
 def proximity_geometries(plant: MultibodyPlant, scene_graph: SceneGraph,
@@ -61,6 +80,9 @@ class ClearanceMonitor(LeafSystem):
         if period <= 0:
             raise ValueError(f"period: expected a positive period, got {period}")
         self._robot, self._world = frozenset(robot), frozenset(world)
+        self._ordered = (sorted(self._robot, key=GeometryId.get_value),
+                         sorted(self._world, key=GeometryId.get_value))
+        self._bound: _Shapes | None = None
         self._query_port = self.DeclareAbstractInputPort(
             "query_object", AbstractValue.Make(QueryObject()))
         self._closest = self.DeclareDiscreteState([REACH])
@@ -71,10 +93,106 @@ class ClearanceMonitor(LeafSystem):
     def _measure(self, context: Context, state: DiscreteValues) -> EventStatus:
         query: QueryObject = self._query_port.Eval(context)
         closest = float(context.get_discrete_state(self._closest).GetAtIndex(0))
-        for pair in query.ComputeSignedDistancePairwiseClosestPoints(REACH):
-            a, b = pair.id_A, pair.id_B
-            if (a in self._robot and b in self._world) or (b in self._robot and a in self._world):
-                closest = min(closest, float(pair.distance))
+        # Drake's pairwise query measures every pair within REACH, the robot's links
+        # against each other too (most of its pairs, and of its time), to drop all but
+        # the robot's against the world's. Those pairs are measured alone instead, by the
+        # same narrow phase: the same distances. A pair it leaves out (a filtered one) is
+        # left out here too, and a pair whose distance is bounded above REACH would
+        # measure more than REACH, which never lowers `closest` (at most REACH).
+        for a, b in self._near_pairs(query):
+            closest = min(closest, float(
+                query.ComputeSignedDistancePairClosestPoints(a, b).distance))
         state.get_mutable_vector(self._closest).SetAtIndex(0, closest)
         return EventStatus.Succeeded()
 
+    def _near_pairs(self, query: QueryObject) -> list[tuple[GeometryId, GeometryId]]:
+        """The unfiltered (robot, world) pairs that may come within REACH, each in the
+        order of their ids (that of the pairwise query's narrow phase). A lower bound of a
+        pair's distance: the distance from the robot geometry's bounding sphere to the
+        world geometry's box (the walls, tables and chairs are boxes), else to its
+        bounding sphere."""
+        robot, world = self._ordered
+        if not robot or not world:
+            return []
+        inspector = query.inspector()
+        shapes = self._shapes(inspector)
+        # One pose per frame (a link holds several geometries; the furniture is on few).
+        R_WF, p_WF = [], []
+        for frame in shapes.frames:
+            X_WF = query.GetPoseInWorld(frame)
+            R_WF.append(X_WF.rotation().matrix())
+            p_WF.append(X_WF.translation())
+        R_WF, p_WF = np.array(R_WF), np.array(p_WF)
+        f = shapes.frame_of
+        p_WG = np.einsum("gkl,gl->gk", R_WF[f], shapes.p_FG) + p_WF[f]
+        n = len(robot)
+        R_WG = R_WF[f[n:]] @ shapes.R_FG[n:]
+        p_GC = np.einsum("rwk,wkl->rwl", p_WG[:n, None] - p_WG[None, n:], R_WG)
+        gap = np.linalg.norm(np.maximum(np.abs(p_GC) - shapes.half, 0.0), axis=-1) \
+            - shapes.extra - shapes.radius[:, None]
+        pairs = []
+        for i, j in zip(*np.nonzero(~(gap > REACH + BOUND_MARGIN)), strict=True):
+            a, b = robot[i], world[j]
+            if b.get_value() < a.get_value():
+                a, b = b, a
+            if not inspector.CollisionFiltered(a, b):
+                pairs.append((a, b))
+        return pairs
+
+    def _shapes(self, inspector: SceneGraphInspector) -> "_Shapes":
+        """What `_near_pairs` needs of the geometries' shapes, made once: shapes and their
+        poses in their frames do not change during a simulation."""
+        if self._bound is None:
+            self._bound = _Shapes.of(inspector, *self._ordered)
+        return self._bound
+
+
+@dataclass(frozen=True)
+class _Shapes:
+    """The robot's geometries, then the world's: their frames and poses in them, the
+    robot geometries' bounding radii about their origins (m), the world geometries' half
+    sizes (a box's, else 0) and what their distance falls short of their surface's (0
+    for a box, else the bounding radius). inf for a shape of no known bound: its pairs
+    are always measured."""
+
+    frames: list[FrameId]
+    frame_of: np.ndarray
+    R_FG: np.ndarray
+    p_FG: np.ndarray  # noqa: N815 (monogram notation)
+    radius: np.ndarray
+    half: np.ndarray
+    extra: np.ndarray
+
+    @classmethod
+    def of(cls, inspector: SceneGraphInspector, robot: list[GeometryId],
+           world: list[GeometryId]) -> "_Shapes":
+        geometries = [*robot, *world]
+        frames: dict[FrameId, int] = {}
+        frame_of = [frames.setdefault(inspector.GetFrameId(g), len(frames))
+                    for g in geometries]
+        X_FG = [inspector.GetPoseInFrame(g) for g in geometries]
+        shapes = [inspector.GetShape(g) for g in world]
+        return cls(
+            frames=list(frames), frame_of=np.array(frame_of),
+            R_FG=np.array([X.rotation().matrix() for X in X_FG]),
+            p_FG=np.array([X.translation() for X in X_FG]),
+            radius=np.array([_bounding_radius(inspector.GetShape(g)) for g in robot]),
+            half=np.array([[s.width() / 2, s.depth() / 2, s.height() / 2]
+                           if isinstance(s, Box) else [0.0, 0.0, 0.0] for s in shapes]),
+            extra=np.array([0.0 if isinstance(s, Box) else _bounding_radius(s)
+                            for s in shapes]))
+
+
+def _bounding_radius(shape: object) -> float:
+    """The radius (m) of a sphere about the shape's origin that holds it; inf if unknown."""
+    if isinstance(shape, Box):
+        return 0.5 * math.sqrt(shape.width() ** 2 + shape.depth() ** 2 + shape.height() ** 2)
+    if isinstance(shape, Cylinder):
+        return math.hypot(shape.radius(), shape.length() / 2)
+    if isinstance(shape, Sphere):
+        return shape.radius()
+    if isinstance(shape, Capsule):
+        return shape.radius() + shape.length() / 2
+    if isinstance(shape, Ellipsoid):
+        return max(shape.a(), shape.b(), shape.c())
+    return math.inf
