@@ -115,8 +115,8 @@ class ReachabilityMap:
     @classmethod
     def shared(cls, path: str | Path | None = None, *, robot: Robot) -> "ReachabilityMap":
         """`load(path, robot=robot)`, read once per process, robot and file version: the map
-        is never modified, and its lookups, prepared on first use (about 0.3 s per grasp
-        kind), then serve every scene and planning problem of the process."""
+        is never modified, and its lookups, prepared on first use, then serve every scene and
+        planning problem of the process."""
         path = Path(path) if path is not None else robot.files.reachability_map
         key = (robot.name, str(path.resolve()),
                path.stat().st_mtime_ns if path.is_file() else None)
@@ -237,7 +237,7 @@ class ReachabilityMap:
             q[m_idx, b_idx] = cells.table[i[m_idx] + corner // 2, j[m_idx] + corner % 2, b_idx]
         # Trusted cells interpolate within 0.5 mm and 0.5°; the others are verified and, if
         # need be, moved onto the target.
-        check = has & ~(full & cells.trusted[i, j]) if not pitch else has
+        check = has & ~(full & cells.trusted(i, j)) if not pitch else has
         m_idx, b_idx = np.nonzero(check)
         ok_all = has.copy()
         if m_idx.size:
@@ -289,7 +289,7 @@ class ReachabilityMap:
         self._cells(kind)
 
     def _cells(self, kind: str) -> "_Cells":
-        """The grid cells of a kind, prepared for lookups on first use (about 0.3 s)."""
+        """The grid cells of a kind, prepared for lookups on first use."""
         if kind not in self._cache:
             self._cache[kind] = _Cells.of(self.configs[kind], self.rho, self.height,
                                           self.settings["resolution"], R_KIND[kind], self.arm)
@@ -307,13 +307,27 @@ class _Cells:
     cell's first corner), whether all four corners hold the branch (`full`), whether the
     interpolation stays within 0.5 mm and 0.5° of the targets at the cell's centre and edge
     midpoints (`trusted`), and for each quarter of the cell the nearest corner that holds
-    the branch (0..3 as 2 di + dj, -1 for none)."""
+    the branch (0..3 as 2 di + dj, -1 for none).
+
+    Whether a cell is trusted costs the arm's forward kinematics at five points of each of
+    its branches, most of a kind's preparation if done for every cell, while a process
+    looks up few of them (the cells at its dishes' distances and heights): it is worked out
+    for a cell when a lookup first needs it, all its branches at once, with the same
+    arithmetic row by row."""
 
     table: np.ndarray
     coefficients: np.ndarray  # (n_rho - 1, n_h - 1, K, 4, n)
     full: np.ndarray  # (n_rho - 1, n_h - 1, K)
-    trusted: np.ndarray  # (n_rho - 1, n_h - 1, K)
     nearest: np.ndarray  # (n_rho - 1, n_h - 1, 2, 2, K)
+    rho: np.ndarray
+    height: np.ndarray
+    step: float
+    R_target: np.ndarray
+    arm: kin.ArmKinematics
+
+    def __post_init__(self) -> None:
+        self._trusted = np.zeros_like(self.full)
+        self._known = np.zeros(self.full.shape[:2], dtype=bool)
 
     @classmethod
     def of(cls, configs: np.ndarray, rho: np.ndarray, height: np.ndarray, step: float,
@@ -328,20 +342,6 @@ class _Cells:
         corners = np.stack([present[:-1, :-1], present[:-1, 1:], present[1:, :-1],
                             present[1:, 1:]], axis=-1)  # (..., K, 4), index 2 di + dj
         full = corners.all(axis=-1)
-        trusted = np.zeros_like(full)
-        cells = np.argwhere(full)
-        if len(cells):
-            worst = np.zeros(len(cells))
-            for fu, fv in ((0.5, 0.5), (0.5, 0.0), (0.0, 0.5), (1.0, 0.5), (0.5, 1.0)):
-                c = coefficients[full]
-                q = c[:, 0] + c[:, 1] * fu + c[:, 2] * fv + c[:, 3] * fu * fv
-                p_target = np.stack([rho[cells[:, 0]] + fu * step, np.zeros(len(cells)),
-                                     height[cells[:, 1]] + fv * step], axis=1)
-                R, p = arm.forward(q)
-                angle, distance = kin.pose_error(R, p, R_target, p_target)
-                worst = np.maximum(worst, np.maximum(distance / TRUST_POSITION,
-                                                     angle / TRUST_ANGLE))
-            trusted[full] = worst < 1.0
         # Nearest corner holding the branch, for each quarter (qi, qj) of the cell.
         nearest = np.full((*full.shape[:2], 2, 2, full.shape[2]), -1, dtype=np.int64)
         for qi in (0, 1):
@@ -352,8 +352,35 @@ class _Cells:
                 for n in reversed(order):
                     pick = np.where(corners[..., n], n, pick)
                 nearest[:, :, qi, qj] = pick
-        return cls(table=table, coefficients=coefficients, full=full, trusted=trusted,
-                   nearest=nearest)
+        return cls(table=table, coefficients=coefficients, full=full, nearest=nearest,
+                   rho=rho, height=height, step=step, R_target=R_target, arm=arm)
+
+    def trusted(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """Whether each branch of the cells (i, j) (m,) is trusted: (m, K)."""
+        fresh = ~self._known[i, j]
+        if fresh.any():
+            self._work_out(np.unique(np.stack([i[fresh], j[fresh]], axis=1), axis=0))
+        return self._trusted[i, j]
+
+    def _work_out(self, cells: np.ndarray) -> None:
+        """Works out the trust of every branch of the cells (c, 2)."""
+        self._known[cells[:, 0], cells[:, 1]] = True
+        full = np.zeros_like(self.full)
+        full[cells[:, 0], cells[:, 1]] = self.full[cells[:, 0], cells[:, 1]]
+        rows = np.argwhere(full)
+        if not len(rows):
+            return
+        worst = np.zeros(len(rows))
+        c = self.coefficients[full]
+        for fu, fv in ((0.5, 0.5), (0.5, 0.0), (0.0, 0.5), (1.0, 0.5), (0.5, 1.0)):
+            q = c[:, 0] + c[:, 1] * fu + c[:, 2] * fv + c[:, 3] * fu * fv
+            p_target = np.stack([self.rho[rows[:, 0]] + fu * self.step, np.zeros(len(rows)),
+                                 self.height[rows[:, 1]] + fv * self.step], axis=1)
+            R, p = self.arm.forward(q)
+            angle, distance = kin.pose_error(R, p, self.R_target, p_target)
+            worst = np.maximum(worst, np.maximum(distance / TRUST_POSITION,
+                                                 angle / TRUST_ANGLE))
+        self._trusted[full] = worst < 1.0
 
 
 def place(q: np.ndarray, bearing: np.ndarray | float, wrist_turn: np.ndarray | float, *,
