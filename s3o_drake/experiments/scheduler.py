@@ -41,8 +41,10 @@ if TYPE_CHECKING:
     from distributed import Client
 
 WORKER_MODULES = ("s3o_drake.experiments.jobs", "s3o_drake.execution.execute",
-                  "s3o_drake.feasibility.heatmaps")
-"""What a run or a difficulty job imports: the fork server imports it once."""
+                  "s3o_drake.feasibility.heatmaps", "s3o_drake.feasibility.learned.fcn")
+"""What a run or a difficulty job imports: the fork server imports it once. The network's
+module (torch, about 1.5 s of a core) too: a run plans with the network by default, and
+the planner imports it only when it is first asked for, in every worker."""
 TASKS_PER_CHILD = 10
 """Local workers are replaced after this many jobs, a bound on what any leak costs a long
 study. Until execute() freed its diagram (s3o_drake/world/system_lifetime.py) each executed run
