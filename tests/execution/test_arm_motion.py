@@ -354,3 +354,35 @@ def test_at_arm_s_length_the_lift_draws_the_dish_in():
     assert p_end[2] - p_start[2] > 0.02
     arm_base = X_WA(base, robot=scene.robot).translation()
     assert np.hypot(*(p_end - arm_base)[:2]) < np.hypot(*(p_start - arm_base)[:2])
+
+
+def test_an_arm_swung_round_past_a_chair_stows_the_other_way_round():
+    """Dense task_089 (seed 2, smooth): a landing turned the base 0.7 rad from its plan while
+    the arm swung out towards the pre-grasp, its first joint at 2.93 rad; the pickup failed
+    and the way back to the stow's 0 rad was shut by a chair, the stow a turn away was not.
+    The UR5e's first joint may turn two whole turns, so the stow is its pose, whatever the
+    turn: a stow finds that way, and the path ends there, free."""
+    scenario = load_scenario(REPO / "scenarios" / "generated_dense" / "task_089.yaml")
+    scene = FeasibilityScene(scenario.contents)
+    robot = scene.robot
+    q_out = np.array([5.507945357294337, 4.6913977400266935, 3.457925031849662,
+                      2.9292844302741936, -1.2289693738030507, 1.514583741309258,
+                      -1.8564104390747902, -1.5707981293381645, 2.9292896127034984,
+                      0.07000000001339073, 0.06993494942420485])
+    q_stow = scene.q(q_out[:3])
+    first = np.arange(robot.num_positions)[robot.arm_positions][0]
+    assert q_stow[first] == 0.0
+    kwargs = {"robot": robot, "time_limit": 1.0, "seed": 3}
+    assert plan_arm_path(scene.checker, q_out, q_stow, **kwargs) is None
+    path = plan_arm_path(scene.checker, q_out, q_stow, turned_goal=True, **kwargs)
+    assert path is not None and edges_free(scene.checker, path)
+    assert np.array_equal(path[0], q_out)
+    assert path[-1][first] == 2 * math.pi
+    arm = np.arange(robot.num_positions)[robot.arm_positions]
+    assert np.array_equal(path[-1][arm[1:]], q_stow[arm[1:]])
+    # Where the goal's own angles are reached, nothing changes.
+    q_near = q_stow.copy()
+    q_near[first] = 0.1
+    assert np.array_equal(plan_arm_path(scene.checker, q_near, q_stow, **kwargs),
+                          plan_arm_path(scene.checker, q_near, q_stow, turned_goal=True,
+                                        **kwargs))

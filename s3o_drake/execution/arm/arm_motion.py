@@ -147,7 +147,7 @@ def edges_free(checker: RobotChecker, path: np.ndarray) -> bool:
 
 def plan_arm_path(checker: RobotChecker, q_start: np.ndarray, q_goal: np.ndarray,
                   *, robot: Robot, time_limit: float = 5.0, seed: int = 0,
-                  max_step: float = RRT_RANGE) -> np.ndarray | None:
+                  max_step: float = RRT_RANGE, turned_goal: bool = False) -> np.ndarray | None:
     """A collision-free path (n, robot.num_positions) from q_start to q_goal moving only the
     arm of `robot` (the checker's robot), or None.
 
@@ -157,13 +157,42 @@ def plan_arm_path(checker: RobotChecker, q_start: np.ndarray, q_goal: np.ndarray
     line is returned as is when it is free (no planner). Otherwise RRT-Connect searches for
     up to `time_limit` seconds (None when it finds nothing), with OMPL's RNG seeded from
     `seed`. Raises ValueError when the start or the goal collides or is out of the limits.
+
+    `turned_goal`: the goal is a pose, whatever the angles that reach it (a stow, which
+    nothing follows). The arm's first joint swings the whole arm about the vertical, and
+    where its limits span more than a turn it reaches the same pose a whole turn away: an
+    arm swung round past an obstacle at its side may be stowed only the other way round.
+    Where no path reaches the goal's own angles, the goal a turn away is searched for too
+    (within the limits, the one nearer the start first); the path then ends there.
     """
     q_start = np.asarray(q_start, dtype=float).reshape(-1)
     q_goal = np.asarray(q_goal, dtype=float).reshape(-1).copy()
-    arm, num_arm = robot.arm_positions, robot.num_arm_joints
     if q_goal.shape == q_start.shape == (robot.num_positions,):
         base, gripper = slice(0, robot.num_base_joints), robot.gripper_positions
         q_goal[base], q_goal[gripper] = q_start[base], q_start[gripper]
+    path = _plan_arm_path(checker, q_start, q_goal, robot=robot, time_limit=time_limit,
+                          seed=seed, max_step=max_step)
+    if path is not None or not turned_goal:
+        return path
+    first = np.arange(robot.num_positions)[robot.arm_positions][0]
+    lower, upper = arm_bounds(checker, robot=robot)
+    turned = [q_goal[first] + turn for turn in (-2 * math.pi, 2 * math.pi)
+              if lower[0] - 1e-9 <= q_goal[first] + turn <= upper[0] + 1e-9]
+    for angle in sorted(turned, key=lambda a: abs(a - q_start[first])):
+        q_turned = q_goal.copy()
+        q_turned[first] = angle
+        path = _plan_arm_path(checker, q_start, q_turned, robot=robot,
+                              time_limit=time_limit, seed=seed, max_step=max_step)
+        if path is not None:
+            return path
+    return None
+
+
+def _plan_arm_path(checker: RobotChecker, q_start: np.ndarray, q_goal: np.ndarray, *,
+                   robot: Robot, time_limit: float, seed: int,
+                   max_step: float) -> np.ndarray | None:
+    """`plan_arm_path` to the goal's own angles."""
+    arm, num_arm = robot.arm_positions, robot.num_arm_joints
     _validate_endpoints(checker, q_start, q_goal, robot)
     if checker.CheckEdgeCollisionFree(q_start, q_goal):
         return np.stack([q_start, q_goal])

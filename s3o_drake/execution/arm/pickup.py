@@ -213,7 +213,7 @@ def plan_pickup(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.n
             path = np.stack([a, b])
         else:
             path = plan_arm_path(path_checker, a, b, robot=robot, time_limit=time_limit,
-                                 seed=seed)
+                                 seed=seed, turned_goal=name == "stow")
         if path is None:
             return fail
         segments.append(timed_segment(name, path, path_checker, robot=robot))
@@ -240,7 +240,8 @@ def plan_reach(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.nd
             return PickupPlan(False, geometry.reason, grasp=geometry.grasp)
         goal = geometry.configurations.q_pre
     try:
-        path = plan_arm_path(free, q0, goal, robot=robot, time_limit=time_limit, seed=seed)
+        path = plan_arm_path(free, q0, goal, robot=robot, time_limit=time_limit, seed=seed,
+                             turned_goal=target is None)
     except ValueError:
         return PickupPlan(False, "no_path")  # the arm stands in collision, within the padding
     if path is None:
@@ -264,7 +265,7 @@ def plan_release(scene: FeasibilityScene, base: np.ndarray, q_start: np.ndarray,
         return fail
     try:
         stow = plan_arm_path(free, q_open, q_stow, robot=robot, time_limit=time_limit,
-                             seed=seed)
+                             seed=seed, turned_goal=True)
     except ValueError:
         return fail  # the arm stands in collision, within the padding
     if stow is None:

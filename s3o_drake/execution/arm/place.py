@@ -97,7 +97,7 @@ def plan_place(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.nd
     if approach is None or not at_place.CheckEdgeCollisionFree(q_down, c.q_grasp):
         return fail
     stow = plan_arm_path(free, c.q_pre, c.q_stow, robot=robot, time_limit=time_limit,
-                         seed=seed)
+                         seed=seed, turned_goal=True)
     if stow is None:
         return fail
     segments = [timed_segment("approach", approach, free, robot=robot),
