@@ -14,8 +14,9 @@ own, in order:
   oracle-pinning  s3o bench oracle-pinning --robot NAME -> models/NAME/oracle_pinning.json
 
 and records each finished step in models/NAME/build.json: its command, the checksums of
-what it read and wrote, its time. Run again, it resumes: a step whose command, inputs and
-outputs are as recorded is skipped (the data step also keeps the scenes it has). Each step
+what it read and wrote, its time. Run again, it resumes: a step whose command (whatever its
+--workers), inputs and outputs are as recorded is skipped (the data step also keeps the
+scenes it has). Each step
 reads what the ones before it wrote where the robot's files are (models/NAME/), so the
 build replaces them as it goes.
 """
@@ -25,6 +26,7 @@ import datetime
 import fcntl
 import hashlib
 import json
+import re
 import subprocess
 import sys
 import time
@@ -148,14 +150,23 @@ def _record(step: Step, seconds: float | None = None) -> dict:
     return record
 
 
+def what_it_makes(command: str) -> str:
+    """A recorded command without its `--workers N`: how many processes made a step's
+    outputs says how fast, not what (a build resumed on fewer workers would otherwise make
+    its finished steps again, the map's among them)."""
+    return re.sub(r" --workers \d+", "", command)
+
+
 def is_done(step: Step, manifest: dict) -> bool:
-    """Whether the manifest records `step` with this command, these inputs and outputs."""
+    """Whether the manifest records `step` with this command (whatever its workers), these
+    inputs and outputs."""
     done = manifest.get("steps", {}).get(step.name)
     if done is None:
         return False
     now = _record(step)
-    return all(done.get(k) == now[k] for k in ("command", "reads", "writes")) and all(
-        now["writes"].values())
+    return (what_it_makes(done.get("command", "")) == what_it_makes(now["command"])
+            and all(done.get(k) == now[k] for k in ("reads", "writes"))
+            and all(now["writes"].values()))
 
 
 def run_step(step: Step) -> float:

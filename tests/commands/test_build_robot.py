@@ -103,3 +103,21 @@ def test_a_second_build_of_the_same_robot_is_refused_in_one_line(robot_folder, r
     assert ran == [] and "another build of this robot is running" in capsys.readouterr().err
     # Once the first ends, the build runs.
     assert build_robot.main(["ur5e"]) == 0 and ran
+
+
+def test_a_build_resumed_on_other_workers_keeps_its_finished_steps(robot_folder, ran,
+                                                                     monkeypatch):
+    # The workers say how fast a step runs, not what it makes: a build resumed on one
+    # worker must not make the map again that two made.
+    assert build_robot.main(["ur5e", "--steps", "reachability", "--workers", "2"]) == 0
+    assert ran == ["reachability"]
+    ran.clear()
+    assert build_robot.main(["ur5e", "--steps", "reachability", "--workers", "1"]) == 0
+    assert ran == []
+    # Anything else in its command still makes it again.
+    plan_steps = build_robot.plan_steps
+    monkeypatch.setattr(build_robot, "plan_steps", lambda name, *, workers: [
+        build_robot.Step(s.name, (*s.argv, "--resolution", "0.05"), s.reads, s.writes)
+        for s in plan_steps(name, workers=workers)])
+    assert build_robot.main(["ur5e", "--steps", "reachability"]) == 0
+    assert ran == ["reachability"]
