@@ -16,9 +16,8 @@ own, in order:
 and records each finished step in models/NAME/build.json: its command, the checksums of
 what it read and wrote, its time. Run again, it resumes: a step whose command (whatever its
 --workers), inputs and outputs are as recorded is skipped (the data step also keeps the
-scenes it has). Each step
-reads what the ones before it wrote where the robot's files are (models/NAME/), so the
-build replaces them as it goes.
+scenes it has). Each step reads what the ones before it wrote where the robot's files are
+(models/NAME/), so the build replaces them as it goes.
 """
 
 import contextlib
