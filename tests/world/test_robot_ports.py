@@ -24,11 +24,11 @@ from s3o_drake.world.directives import write_directives
 from s3o_drake.world.resources import RESTAURANT
 from s3o_drake.world.scenario import load_scenario
 
-#: The systems of the restaurant's world with tracked dishes, as they were before a robot
-#: could be of parts (same-runs identity: a single-instance robot's diagram is unchanged).
+#: The systems of the restaurant's world with tracked dishes for a single-instance robot:
+#: the robot's own ports are the plant's (same-runs identity: no system of ours between).
 SINGLE_INSTANCE_SYSTEMS = ["camera_scene_graph", "geometry_mirror", "gravity_compensation",
                            "gravity_to_actuators", "object_tracker", "overhead_camera", "plant",
-                           "scene_graph"]
+                           "scene_graph", "target_sensor"]
 
 
 @pytest.fixture(scope="module")
