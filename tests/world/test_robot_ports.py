@@ -53,9 +53,10 @@ def test_a_single_instance_robots_world_keeps_the_plants_own_ports(restaurant):
     world = build_world_diagram(restaurant, track_dishes=True)
     assert sorted(s.get_name() for s in world.GetSystems()) == SINGLE_INSTANCE_SYSTEMS
     assert _port_names(world) == (
-        ["grip", "robot_desired_state"],
-        ["dish_poses", "dish_states", "robot_state", "overhead_color_image",
-         "overhead_depth_image", "overhead_label_image", "query_object", "body_poses"])
+        ["grip", "target_request", "robot_desired_state"],
+        ["target_sighting", "gripper_status", "dish_poses", "dish_states", "robot_state",
+         "overhead_color_image", "overhead_depth_image", "overhead_label_image",
+         "query_object", "body_poses"])
     plant = world.GetSubsystemByName("plant")
     robot = plant.GetModelInstanceByName("robot")
     context = world.CreateDefaultContext()
