@@ -1,17 +1,17 @@
 """The arm's part of execution: a `PickCommand` becomes a timed arm motion and grip events.
 
-A pickup is planned once, when its command arrives, from where the robot really is (base and
-arm from `robot_state`) towards where the dish really is (`dish_poses`), with the reach noise
-T^m added to the grasp target (`plan_pickup`'s `reach_offset`). The motion is then played
-back open-loop from the Context: the plant's PD actuators track it. Whether the gripper
-really holds the dish is decided by geometry, not by contact simulation: the noise must
-leave the real dish within the gripper's tolerance of the grasp point
-(`pickup_geometry.grasp_tolerance`).
+A pickup is planned once, when its command arrives, from where the robot is (base and arm
+from `robot_state`) towards where the robot's sensor sees the dish: the controller asks for
+it (`target_request`) and aims at the answer (`target_sighting`), which is off by the
+sensor's error T^m (`plan_pickup`'s `reach_offset`, from where the briefing put the dish).
+The motion is then played back open-loop from the Context: the plant's PD actuators track
+it. Whether the fingers hold the dish is the robot's to say: after they close, the
+gripper's report (`gripper_status`) tells a caught dish from a miss.
 
 An object whose goal is place is picked the same way but kept in the gripper, held above
 the tray (`plan_pickup(..., hold=True)`), until a command with `place` puts it down at its
-place target (`arm.place.plan_place`: with the grasp it was picked with, the
-reach noise added to where it goes down). The scene the controller checks in must hold the
+place target (`arm.place.plan_place`: with the grasp it was picked with, where the sensor
+sees the place). The scene the controller checks in must hold the
 place targets (`goals.with_place_targets`).
 
 With smooth motion (`ArmParams.motion`) the arm works while the base drives. A pickup
@@ -43,17 +43,23 @@ from s3o_drake.execution.messages import (
 )
 from s3o_drake.execution.together import WAIT_STEP, free_together
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.pickup_geometry import caught
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.choices import Motion
-from s3o_drake.world.dish_messages import DishPoses, GripEvent
 from s3o_drake.world.goals import place_target_name
 from s3o_drake.world.robot import Robot
+from s3o_drake.world.robot_messages import (
+    REACH_STREAM,
+    GripEvent,
+    GripperStatus,
+    TargetRequest,
+    TargetSighting,
+)
 from s3o_drake.world.system_lifetime import weak_callback
 
-#: Stream tag of the reach noise in `numpy.random.default_rng([seed, tag, command id])`
-#: (the navigation noise has its own tag, so the two draws never share numbers).
-REACH_NOISE_STREAM = 2
+#: How long after the fingers close the arm waits for the gripper to report an object
+#: before it counts the grasp as missed (s): a parallel gripper's driver reports one a few
+#: of its cycles after its fingers stop on it (the simulated robot's, two control periods).
+GRIP_REPORT_TIMEOUT = 0.25
 #: Stream tag of the landing draws that choose an object to place's grasp at its pickup.
 PLACE_GRASP_STREAM = 5
 #: How many landings at the place's stop rate each grasp (`place.place_grasps`).
@@ -68,11 +74,12 @@ class _Activity:
     when (since `t_start`) the gripper closes on and lets go of `dish` (inf: it keeps it);
     `putting`: the motion puts `dish` down at its place (else it lets go over the tray);
     `grasp`: the motion's grasp ("top" or "side"); `held_grasp`: the grasp the gripper
-    holds an object to place with between motions ("": it holds nothing); `missed`: the
-    reach noise put the dish out of the gripper's tolerance; `reach_noise`: that noise
-    (None with the noise off), reported on every status of the command; `t_done`: when
-    (since `t_start`) the command is reported done (or failed, missed): the motion's end,
-    or with smooth motion a pickup's lift.
+    holds an object to place with between motions ("": it holds nothing); `sighted`: the
+    target whose sighting the command aims at ("": none); `checked`: the gripper's
+    report has settled the grasp, and `missed`: the fingers hold nothing (no object
+    reported within GRIP_REPORT_TIMEOUT of their closing); `t_done`: when (since
+    `t_start`) the command is reported done (or failed, missed): the motion's end, or
+    with smooth motion a pickup's lift.
     """
 
     started: bool = False
@@ -88,8 +95,9 @@ class _Activity:
     putting: bool = False
     grasp: str = ""
     held_grasp: str = ""
+    sighted: str = ""
+    checked: bool = False
     missed: bool = False
-    reach_noise: tuple[float, float] | None = None
     t_done: float = math.inf
 
     def __deepcopy__(self, memo: dict) -> "_Activity":
@@ -102,14 +110,13 @@ class _Activity:
 
 @dataclass(frozen=True)
 class ArmParams:
-    """What the arm controller needs of the scenario: the run's `seed`; the reach noise
-    T^m (`reach_std`, m; 0: none) and the navigation noise T^n (`nav_std`: x, y in m, yaw in
-    rad; None: none), which the choice of an object to place's grasp rates its place's
-    landings with; the objects whose goal is place (`to_place`, held after their pickup);
-    the cap (s) on one motion plan; and the robot's `motion`."""
+    """What the arm controller needs of the scenario: the run's `seed` (its motion
+    planner's seeds); the navigation noise T^n (`nav_std`: x, y in m, yaw in rad; None:
+    none), which the choice of an object to place's grasp rates its place's landings with;
+    the objects whose goal is place (`to_place`, held after their pickup); the cap (s) on
+    one motion plan; and the robot's `motion`."""
 
     seed: int
-    reach_std: float = 0.0
     nav_std: tuple[float, float, float] | None = None
     to_place: frozenset[str] = frozenset()
     plan_time_limit: float = 5.0
@@ -127,8 +134,11 @@ class ArmController(LeafSystem):
             another plays starts when that one ends).
         robot_state: vector (2 robot.num_positions), the robot's positions then its
             velocities (base x, y, yaw; the arm's joints; the fingers).
-        dish_poses: abstract DishPoses, X_WD of each dish where it really is; unconnected:
-            the scenario's positions.
+        target_sighting: abstract TargetSighting, the sensor's answer to `target_request`;
+            a command waits for the answer to its own request; unconnected: the targets
+            are where the briefing put them.
+        gripper_status: abstract GripperStatus, the gripper's report; unconnected: the
+            fingers hold what they close on.
         base_motion (optional): abstract, the navigator's motion (`desired(t)`, `id`,
             `end_time`), which a prepare is timed by and checked along.
     Output ports:
@@ -142,9 +152,12 @@ class ArmController(LeafSystem):
         status: abstract Status of the latest command taken: its CommandState idle,
             running, done or failed with reason "no_ik", "no_path", "base_collision",
             "missed", "unknown_dish", "hand_full" (a pickup while an object to place is
-            held) or "not_held" (a place of an object the gripper does not hold); its
-            `reach_noise` is the reach error drawn for the command (None with the noise
-            off); `until`, when the command's motion ends.
+            held) or "not_held" (a place of an object the gripper does not hold);
+            `sighted`, whether it aimed where the sensor saw its target; `until`, when the
+            command's motion ends.
+        target_request: abstract TargetRequest, where the sensor is asked to look: the
+            target of the pick or place `pick_command` names (none for a prepare, a stow
+            or a letting go).
         arm_motion: abstract ArmMotion, the motion playing (or none) and where the arm
             holds: what the navigator checks its motions with.
 
@@ -170,7 +183,6 @@ class ArmController(LeafSystem):
         self._scene = scene
         self._checker = checker
         self._seed = params.seed
-        self._reach_std = params.reach_std
         self._nav_std = None if params.nav_std is None else np.array(params.nav_std)
         self._to_place = params.to_place
         self._plan_time_limit = params.plan_time_limit
@@ -179,8 +191,10 @@ class ArmController(LeafSystem):
             "pick_command", AbstractValue.Make(PickCommand()))
         self._robot_state_port = self.DeclareVectorInputPort("robot_state",
                                                               2 * robot.num_positions)
-        self._dish_poses_port = self.DeclareAbstractInputPort(
-            "dish_poses", AbstractValue.Make(DishPoses()))
+        self._sighting_port = self.DeclareAbstractInputPort(
+            "target_sighting", AbstractValue.Make(TargetSighting()))
+        self._gripper_port = self.DeclareAbstractInputPort(
+            "gripper_status", AbstractValue.Make(GripperStatus()))
         self._base_motion_port = self.DeclareAbstractInputPort(
             "base_motion", AbstractValue.Make(object()))
         self._smooth = params.motion == Motion.SMOOTH.value
@@ -201,6 +215,11 @@ class ArmController(LeafSystem):
         self.DeclareAbstractOutputPort(
             "arm_motion", lambda: AbstractValue.Make(ArmMotion()),
             weak_callback(self._calc_arm_motion), prerequisites_of_calc=activity_ticket)
+        # From the command itself, so that the answer is there when the command is taken.
+        self.DeclareAbstractOutputPort(
+            "target_request", lambda: AbstractValue.Make(TargetRequest()),
+            weak_callback(self._calc_target_request),
+            prerequisites_of_calc=activity_ticket | {self._command_port.ticket()})
         self.DeclarePeriodicUnrestrictedUpdateEvent(control_period, 0.0,
                                                     weak_callback(self._update))
         # The same update on demand (`CalcForcedUnrestrictedUpdate`): tests and callers
@@ -237,6 +256,21 @@ class ArmController(LeafSystem):
                                    release_time=a.t_start + a.t_release if picking
                                    else -math.inf))
 
+    def _calc_target_request(self, context: Context, output: AbstractValue) -> None:
+        command: PickCommand = self._command_port.Eval(context)
+        activity = self._activity(context)
+        if command.id == activity.command:  # taken: what it asked when it was taken
+            output.set_value(TargetRequest(command.id, activity.sighted)
+                             if activity.sighted else TargetRequest())
+            return
+        holding = activity.grip.dish if activity.held_grasp else ""
+        if (command.id == NO_COMMAND or command.prepare is not None or command.to_stow
+                or (not command.place and holding == command.dish)):
+            output.set_value(TargetRequest())
+            return
+        target = place_target_name(command.dish) if command.place else command.dish
+        output.set_value(TargetRequest(command.id, target))
+
     # ------------------------------------------------------------------------------ update
     def _update(self, context: Context, state: State) -> EventStatus:
         activity = self._activity(context)
@@ -245,7 +279,9 @@ class ArmController(LeafSystem):
             activity = replace(activity, started=True,
                                hold=tuple(robot_state[self._arm_and_fingers]))
         if activity.trajectory is not None:
-            activity = self._advance(activity, context.get_time())
+            gripper = (self._gripper_port.Eval(context)
+                       if self._gripper_port.HasValue(context) else None)
+            activity = self._advance(activity, context.get_time(), gripper)
         command = self._command_port.Eval(context)
         if (activity.trajectory is None and command.id != NO_COMMAND
                 and command.id != activity.command
@@ -254,9 +290,23 @@ class ArmController(LeafSystem):
         state.get_mutable_abstract_state(self._activity_index).set_value(activity)
         return EventStatus.Succeeded()
 
-    def _advance(self, activity: _Activity, time: float) -> _Activity:
-        """The playing motion's grip and status at `time`; at its end the arm holds there."""
+    def _advance(self, activity: _Activity, time: float,
+                 gripper: GripperStatus | None) -> _Activity:
+        """The playing motion's grip and status at `time`, with the gripper's report
+        `gripper` (None: none; the fingers hold what they close on); at its end the arm
+        holds there."""
         elapsed = time - activity.t_start
+        trajectory = activity.trajectory
+        # The periodic update falls on the end time only up to rounding: a motion counts as
+        # ended within a nanosecond of it.
+        ended = elapsed >= trajectory.end_time() - 1e-9
+        if (not activity.checked and math.isfinite(activity.t_grasp)
+                and elapsed >= activity.t_grasp):
+            if gripper is None or gripper.object_detected:
+                activity = replace(activity, checked=True)
+            elif (elapsed >= activity.t_grasp + GRIP_REPORT_TIMEOUT or ended
+                  or elapsed >= activity.t_done - 1e-9):
+                activity = replace(activity, checked=True, missed=True)
         held = not activity.missed and activity.t_grasp <= elapsed < activity.t_release
         placed, put = activity.grip.placed, activity.grip.put
         if not activity.missed and elapsed >= activity.t_release:
@@ -265,17 +315,13 @@ class ArmController(LeafSystem):
             elif not activity.putting and activity.dish not in placed:
                 placed = (*placed, activity.dish)
         activity = replace(activity, grip=GripEvent(activity.dish if held else "", placed, put))
-        trajectory = activity.trajectory
-        # The periodic update falls on the end time only up to rounding: a motion counts as
-        # ended within a nanosecond of it.
-        ended = elapsed >= trajectory.end_time() - 1e-9
         if not activity.status.finished and (ended or elapsed >= activity.t_done - 1e-9):
             until = activity.t_start + trajectory.end_time()
             status = (Status(activity.command, CommandState.FAILED, "missed",
-                             activity.reach_noise, until=until)
+                             sighted=bool(activity.sighted), until=until)
                       if activity.missed
                       else Status(activity.command, CommandState.DONE,
-                                  reach_noise=activity.reach_noise, until=until))
+                                  sighted=bool(activity.sighted), until=until))
             activity = replace(activity, status=status)
         if not ended:
             return activity
@@ -287,22 +333,26 @@ class ArmController(LeafSystem):
 
     def _start(self, activity: _Activity, command: PickCommand, context: Context,
                robot_state: np.ndarray) -> _Activity:
-        """Plans `command`'s pickup; the motion plays from now, or the command fails."""
+        """Plans `command`'s pickup; the motion plays from now, or the command fails; or,
+        while the sensor has not answered the command's request, nothing yet."""
         holding = activity.grip.dish if activity.held_grasp else ""
-        activity = replace(activity, command=command.id, dish=command.dish, missed=False,
-                           reach_noise=None)
+        taken = replace(activity, command=command.id, dish=command.dish, missed=False,
+                        checked=False, sighted="")
 
         def failed(reason: str) -> _Activity:
-            return replace(activity, status=Status(command.id, CommandState.FAILED, reason,
-                                                   activity.reach_noise))
+            return replace(taken, status=Status(command.id, CommandState.FAILED, reason,
+                                                sighted=bool(taken.sighted)))
 
         q_now = np.asarray(robot_state[:self._robot.num_positions], dtype=float)
+        # The command's own stream (robot_messages.REACH_STREAM): the sensor's error takes
+        # its first two draws, the planner's seed the next; neither depends on what ran
+        # before, and the seed is the same with the noise off.
+        rng = np.random.default_rng([self._seed, REACH_STREAM, command.id])
         if command.prepare is not None or command.to_stow:
             if command.prepare is not None and command.dish not in self._scene.dishes:
                 return failed("unknown_dish")
-            seed = int(np.random.default_rng([self._seed, REACH_NOISE_STREAM, command.id])
-                       .integers(2**31 - 1))
-            return self._reach(activity, command, context, q_now, seed, failed)
+            return self._reach(taken, command, context, q_now,
+                               int(rng.integers(2**31 - 1)), failed)
         name = place_target_name(command.dish) if command.place else command.dish
         dish = self._scene.dishes.get(name)
         if dish is None:
@@ -311,22 +361,29 @@ class ArmController(LeafSystem):
             return failed("not_held")
         if not command.place and holding and holding != command.dish:
             return failed("hand_full")
-        # The command's own stream: its noise and its planner seed do not depend on what
-        # ran before it; the draw is the same with the noise off, so is the planner's seed.
-        rng = np.random.default_rng([self._seed, REACH_NOISE_STREAM, command.id])
-        noise = rng.normal(0.0, 1.0, 2) * self._reach_std
+        rng.normal(0.0, 1.0, 2)  # the sensor's
         plan_seed = int(rng.integers(2**31 - 1))
-        if self._reach_std > 0:  # reported, for the calibration of Fea^m against outcomes
-            activity = replace(activity, reach_noise=(float(noise[0]), float(noise[1])))
         releasing = not command.place and holding == command.dish
+        offset = np.zeros(2)
+        if not releasing:
+            sighting = self._sighting(context, command.id, name)
+            if sighting is None:
+                return activity  # asked; the answer comes at a later update
+            if sighting.p_WT is None:
+                return failed("unknown_dish")
+            p_WT, _ = self._scene.dish_p_WD(name)
+            offset = np.asarray(sighting.p_WT) - p_WT
+            if self._sighting_port.HasValue(context):
+                taken = replace(taken, sighted=name)
+        activity = taken
         try:
             if releasing:  # its place failed for good: let go over the tray
                 plan = plan_release(self._scene, q_now[:3], q_now, seed=plan_seed,
                                     time_limit=self._plan_time_limit)
             elif command.place:
-                plan = self._place(command.dish, activity.held_grasp, q_now, noise, plan_seed)
+                plan = self._place(command.dish, activity.held_grasp, q_now, offset, plan_seed)
             else:
-                plan = self._pick(context, command, q_now, noise, plan_seed)
+                plan = self._pick(command, q_now, offset, plan_seed)
         except ValueError:
             # The arm's path planner refuses a start in collision (the arm pushed into
             # something, within the checker's padding): no path from here.
@@ -336,7 +393,7 @@ class ArmController(LeafSystem):
         ends = dict(zip((s.name for s in plan.segments),
                         np.cumsum([s.duration for s in plan.segments]), strict=True))
         running = replace(activity, status=Status(command.id, CommandState.RUNNING,
-                                                  reach_noise=activity.reach_noise),
+                                                  sighted=bool(activity.sighted)),
                           trajectory=plan.trajectory(), t_start=context.get_time(),
                           putting=command.place, grasp=plan.grasp or "", t_done=math.inf)
         if command.place or releasing:  # held from the start, let go at the end of "release"
@@ -344,8 +401,18 @@ class ArmController(LeafSystem):
         onto_tray = "release" in ends
         return replace(running, t_grasp=float(ends["close"]),
                        t_release=float(ends.get("release", math.inf)),
-                       missed=not caught(noise, dish.kind, robot=self._scene.robot),
                        t_done=float(ends["lift"]) if self._smooth and onto_tray else math.inf)
+
+    def _sighting(self, context: Context, command: int, target: str) -> TargetSighting | None:
+        """The sensor's answer to command `command`'s request for `target`; None while it
+        has not come. Unconnected: the target where the scene (the briefing) has it."""
+        if not self._sighting_port.HasValue(context):
+            p_WT, _ = self._scene.dish_p_WD(target)
+            return TargetSighting(command, target, (float(p_WT[0]), float(p_WT[1])))
+        sighting: TargetSighting = self._sighting_port.Eval(context)
+        if sighting.id != command or sighting.target != target:
+            return None
+        return sighting
 
     def _reach(self, activity: _Activity, command: PickCommand, context: Context,
                q_now: np.ndarray, seed: int, failed) -> _Activity:
@@ -395,20 +462,18 @@ class ArmController(LeafSystem):
                 return None
             start = min(start + WAIT_STEP, arrival)
 
-    def _pick(self, context: Context, command: PickCommand, q_now: np.ndarray,
-              noise: np.ndarray, seed: int) -> PickupPlan:
-        """The pickup of `command.dish` from where the robot stands (an object to place is
-        held, with a grasp it can be put down with from `command.place_from` where one
-        picks it)."""
+    def _pick(self, command: PickCommand, q_now: np.ndarray, offset: np.ndarray,
+              seed: int) -> PickupPlan:
+        """The pickup of `command.dish` from where the robot stands, aimed `offset` (dx,
+        dy; m) from where the scene has it (an object to place is held, with a grasp it can
+        be put down with from `command.place_from` where one picks it)."""
         name = command.dish
-        p_WD_scenario, _ = self._scene.dish_p_WD(name)
-        p_WD = self._dish_xy(context, name, p_WD_scenario)
 
         def pick(grasp: str | None) -> PickupPlan:
-            # The checker's scene has the dish where the scenario put it: the offset
-            # carries both where it really is and the noise of reaching for it.
+            # The checker's scene has the dish where the briefing put it: the offset
+            # carries where the sensor sees it.
             return plan_pickup(self._scene, self._checker, q_now[:3], name,
-                               reach_offset=p_WD - p_WD_scenario + noise, q_start=q_now,
+                               reach_offset=offset, q_start=q_now,
                                seed=seed, time_limit=self._plan_time_limit,
                                hold=name in self._to_place, grasp=grasp, stow=command.stow)
 
@@ -427,17 +492,10 @@ class ArmController(LeafSystem):
                     return plan
         return pick(None)
 
-    def _place(self, name: str, grasp: str, q_now: np.ndarray, noise: np.ndarray,
+    def _place(self, name: str, grasp: str, q_now: np.ndarray, offset: np.ndarray,
                seed: int) -> PickupPlan:
-        """Putting the held `name` down at its place target (where the scene has it), the
-        reach noise added."""
+        """Putting the held `name` down at its place target, aimed `offset` (dx, dy; m)
+        from where the scene has it."""
         return plan_place(self._scene, self._checker, q_now[:3], place_target_name(name),
-                          grasp=grasp, q_start=q_now, reach_offset=noise, seed=seed,
+                          grasp=grasp, q_start=q_now, reach_offset=offset, seed=seed,
                           time_limit=self._plan_time_limit)
-
-    def _dish_xy(self, context: Context, name: str, default: np.ndarray) -> np.ndarray:
-        if not self._dish_poses_port.HasValue(context):
-            return default
-        poses: DishPoses = self._dish_poses_port.Eval(context)
-        X_WD = poses.get(name)
-        return default if X_WD is None else np.asarray(X_WD.translation()[:2], dtype=float)

@@ -2,10 +2,11 @@
 
 `build_execution_diagram(scenario, ...)` returns the Diagram "s3o_execution":
 
-    world (plant, scene graph, overhead camera, object tracker, Meshcat)
+    world (plant, scene graph, overhead camera, object tracker, target sensor, Meshcat)
       robot_state ──> executive, base_navigator, arm_controller
       overhead images ──> executive (perception)
-      dish_poses ──> arm_controller, task_monitor     dish_states ──> task_monitor
+      target_sighting, gripper_status ──> arm_controller ── target_request ──> world
+      dish_poses, dish_states ──> task_monitor (the referee)
     executive ── base_command ──> base_navigator ── status ──> executive
               ── pick_command ──> arm_controller ── status ──> executive
               ── progress ──> task_monitor (ends the simulation)
@@ -132,11 +133,11 @@ def navigator_params(scenario: Scenario, *, seed: int | None = None,
 
 
 def arm_params(scenario: Scenario, *, seed: int | None = None, noise: bool = True) -> ArmParams:
-    """The ArmController's params: the reach and navigation noise (none without `noise`),
-    the objects to place, the motion and `seed` (default the scenario's)."""
+    """The ArmController's params: the navigation noise its place grasps are rated with
+    (none without `noise`), the objects to place, the motion and `seed` (default the
+    scenario's)."""
     u = scenario.uncertainty
     return ArmParams(seed=scenario.seed if seed is None else int(seed),
-                     reach_std=u.reach_std if noise else 0.0,
                      nav_std=(u.nav_xy_std, u.nav_xy_std, u.nav_yaw_std) if noise else None,
                      to_place=frozenset(d.name for d in scenario.dishes if d.goal == "place"),
                      motion=scenario.execution.motion)
@@ -161,7 +162,8 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     robot = scenario.robot_value
     builder = DiagramBuilder()
     world = builder.AddNamedSystem("world", build_world_diagram(
-        scenario, meshcat=meshcat, track_dishes=True, show_collisions=show_collisions))
+        scenario, meshcat=meshcat, track_dishes=True, show_collisions=show_collisions,
+        seed=seed, noise=noise))
     # The controllers act in the true world: their collision checks see every chair, and
     # the arm's the place targets it puts objects down at.
     truth = FeasibilityScene(with_place_targets(scenario).contents)
@@ -178,7 +180,8 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     monitor = builder.AddNamedSystem("task_monitor", TaskMonitor(
         period=CONTROL_PERIOD, settle_time=scenario.simulation.hold_time,
         time_limit=time_limit, places=place_targets(scenario),
-        fixtures=[d.name for d in scenario.dishes if d.goal == "stay"]))
+        fixtures=[d.name for d in scenario.dishes if d.goal == "stay"],
+        sensing_error=world.GetSubsystemByName("target_sensor").error))
     plant = world.GetSubsystemByName("plant")
     scene_graph = world.GetSubsystemByName("scene_graph")
     clearance = builder.AddNamedSystem("clearance_monitor", ClearanceMonitor(
@@ -201,7 +204,9 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
         builder.Connect(world.GetOutputPort(name), executive.GetInputPort(name))
     for system in (executive, navigator, arm):
         builder.Connect(world.GetOutputPort("robot_state"), system.GetInputPort("robot_state"))
-    builder.Connect(world.GetOutputPort("dish_poses"), arm.GetInputPort("dish_poses"))
+    builder.Connect(world.GetOutputPort("target_sighting"), arm.GetInputPort("target_sighting"))
+    builder.Connect(arm.GetOutputPort("target_request"), world.GetInputPort("target_request"))
+    builder.Connect(world.GetOutputPort("gripper_status"), arm.GetInputPort("gripper_status"))
     builder.Connect(world.GetOutputPort("dish_states"), monitor.GetInputPort("dish_states"))
     builder.Connect(world.GetOutputPort("dish_poses"), monitor.GetInputPort("dish_poses"))
     builder.Connect(arm.GetOutputPort("grip"), world.GetInputPort("grip"))

@@ -212,14 +212,14 @@ class BaseFinished:
 @dataclass(frozen=True)
 class ArmFinished:
     """Arm command `id` ended at time `t`, the base at `pose`: done (`ok`) or failed for
-    `reason`; `reach_noise`: the reach error the arm drew (None without noise)."""
+    `reason`; `sighted`: it aimed where the robot's sensor saw its target."""
 
     t: float
     pose: np.ndarray
     id: int
     ok: bool
     reason: str = ""
-    reach_noise: tuple[float, float] | None = None
+    sighted: bool = False
 
 
 Event = Start | ReplanRequested | PlanReady | PlanFailed | Tick | BaseFinished | ArmFinished
@@ -854,11 +854,11 @@ class Executive:
         for), which `event` has just ended."""
         if e.mode is Mode.TURNING:  # the turn to face the dish failed: no pick, the base
             actual = tuple(float(v) for v in event.pose)  # stopped here
-            outcome, noise = f"turn {event.reason}", None
+            outcome, sighting = f"turn {event.reason}", 0
         else:
             actual = e.pick_pose
             outcome = "done" if event.ok else event.reason
-            noise = event.reach_noise
+            sighting = event.id if event.sighted else 0
         if e.stop is not None:  # a correction moved the base: its stop and Fea^m
             stop, predicted = e.stop
         else:
@@ -871,7 +871,7 @@ class Executive:
                             method=self._params.method, predicted=float(predicted),
                             source=e.planned.source,
                             planned_pose=tuple(float(v) for v in stop), actual_pose=actual,
-                            outcome=outcome, reach_noise=noise, attempt=e.tries + 1,
+                            outcome=outcome, sighting=sighting, attempt=e.tries + 1,
                             planned=float(action.feasibility))
 
 

@@ -205,7 +205,7 @@ class ExecutiveSystem(LeafSystem):
             return ex.BaseFinished(t, self._pose(context), status.id, ok, status.reason,
                                    status.contact)
         return ex.ArmFinished(t, self._pose(context), status.id, ok, status.reason,
-                              status.reach_noise)
+                              status.sighted)
 
     def _run(self, context: Context, memory: _Memory, event: ex.Event) -> _Memory:
         """`memory` after the Executive's step on `event`, its decisions carried out."""

@@ -144,9 +144,8 @@ class Status:
     command, running, done or failed), with the failure's `reason` (e.g. "no_ik",
     "no_path", "missed", "base_collision", "blocked").
 
-    `reach_noise`: on the arm's reports of a pickup, the reach error T^m drawn for it
-    ((dx, dy), m, added to where the gripper aims); None when none was drawn (the
-    simulation's noise is off, the dish is unknown) and on the base's reports.
+    `sighted`: on the arm's reports of a pick or a place, whether it aimed where the
+    robot's sensor saw its target (the referee joins the sensing error to it).
 
     `contact`: on the base's report of a blocked drive, the plan-view point (x, y) where the
     base touched what blocked it (a bumper's reading, `BaseClearance.contact`)."""
@@ -154,7 +153,7 @@ class Status:
     id: int = NO_COMMAND
     state: CommandState = CommandState.IDLE
     reason: str = ""
-    reach_noise: tuple[float, float] | None = None
+    sighted: bool = False
     contact: tuple[float, float] | None = None
     until: float = field(default=0.0, compare=False)
     """When the controller's motion for the command ends (s, simulated). The arm reports a
@@ -185,7 +184,10 @@ class PickupRecord:
     was none); `actual_pose`: the base's (x, y, yaw) when the pickup was commanded, after
     any turn to face the dish (where a turn failed: where it stopped); `outcome`: "done",
     or the failure's reason ("no_ik", "missed", "turn blocked", ...); `reach_noise`: the
-    reach error drawn, (dx, dy) m, None when none was drawn; `attempt`: 1 for the plan's
+    reach error, (dx, dy) m: the error of the robot's sighting of the target that the arm
+    aimed at (None where it aimed at none, or the sighting was exact), which the referee
+    fills in from `sighting`, the arm command that asked for it (0: none; not kept in the
+    plain data); `attempt`: 1 for the plan's
     pickup, 2, 3, ... for the recovery's retries of it (whose `planned_pose` and
     `predicted` are those of the corrected stop, where there was a correction); `planned`:
     the plan's Fea^m of the action whatever corrections did (None in records written
@@ -203,6 +205,7 @@ class PickupRecord:
     reach_noise: tuple[float, float] | None = None
     attempt: int = 1
     planned: float | None = None
+    sighting: int = field(default=0, compare=False)
 
     @property
     def succeeded(self) -> bool:

@@ -2,7 +2,7 @@
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
@@ -21,7 +21,9 @@ OFF_PLACE = "off_place"
 class TaskMonitor(LeafSystem):
     """Reports how many dishes are on the tray, and where each object to place stands
     against its place target (`places`; `fixtures` names the objects that stay, which have
-    no goal), and stops the simulation when the plan is over.
+    no goal), and stops the simulation when the plan is over. It is the referee, on the
+    simulation's side: each pickup record gets the error of the sighting its arm command
+    aimed with from `sensing_error` (`TargetSensor.error`; None: no sensing errors).
 
     A periodic check (`period`; also a forced discrete update) records the simulated time at
     which `progress.finished` first holds, and ends the simulation once it has held for
@@ -49,7 +51,9 @@ class TaskMonitor(LeafSystem):
 
     def __init__(self, *, settle_time: float = 0.5, time_limit: float = 600.0,
                  period: float = 0.01, places: Sequence[PlaceTarget] = (),
-                 fixtures: Sequence[str] = ()) -> None:
+                 fixtures: Sequence[str] = (),
+                 sensing_error: Callable[[int], tuple[float, float] | None] | None = None
+                 ) -> None:
         super().__init__()
         if settle_time < 0 or time_limit <= 0 or period <= 0:
             raise ValueError("settle_time must be >= 0, time_limit and period > 0")
@@ -58,6 +62,7 @@ class TaskMonitor(LeafSystem):
         self._places = tuple(places)
         self._place_names = frozenset(p.name for p in self._places)
         self._fixtures = frozenset(fixtures)
+        self._sensing_error = sensing_error
         self._progress_port = self.DeclareAbstractInputPort(
             "progress", AbstractValue.Make(PlanProgress()))
         self._dish_states_port = self.DeclareAbstractInputPort(
@@ -113,10 +118,18 @@ class TaskMonitor(LeafSystem):
             placements=placements,
             execution_time=t if math.isnan(finished_at) else finished_at,
             finished=bool(progress.finished), reason=reason, outcomes=progress.outcomes,
-            pickups=_judged(progress.pickups, placements), recoveries=progress.recoveries,
+            pickups=_judged(self._sensed(progress.pickups), placements),
+            recoveries=progress.recoveries,
             unreachable=progress.unreachable, plans=progress.plans,
             closest_approach=(float(self._closest_port.Eval(context)[0])
                               if self._closest_port.HasValue(context) else math.nan)))
+
+    def _sensed(self, records: tuple[PickupRecord, ...]) -> tuple[PickupRecord, ...]:
+        """The records with the error of the sighting each aimed with."""
+        if self._sensing_error is None:
+            return records
+        return tuple(dataclasses.replace(r, reach_noise=self._sensing_error(r.sighting))
+                     if r.sighting else r for r in records)
 
     def _placements(self, context: Context, dish_states: DishStates) -> tuple[Placement, ...]:
         if not self._places:

@@ -146,7 +146,7 @@ def evaluate(pickup: ExecutedPickup, oracle, *, samples: int, seed: int) -> dict
     the base landed and the reach error, whether the oracle's test passes there ("landed",
     else None)."""
     from s3o_drake.feasibility.oracle import CROP_CELLS, CROP_SIZE
-    from s3o_drake.feasibility.pickup_geometry import caught
+    from s3o_drake.world.gripper import caught
 
     x, y, _ = pickup.planned_pose
     cell = CROP_SIZE / CROP_CELLS  # the heatmaps' own cell: the same blur

@@ -21,15 +21,13 @@ import numpy as np
 from pydrake.math import RigidTransform, RotationMatrix
 
 from s3o_drake.world.furniture import DISH_SHAPES
-from s3o_drake.world.gripper import holds_whole
+from s3o_drake.world.gripper import RIM_INSET, holds_whole
 from s3o_drake.world.robot import Robot
 
 GRASP_KINDS = ("top", "side")
 # The fingers must stay this far above the table top (m); matches the 1 cm clearance of
 # the feasibility check plus a little.
 TABLE_CLEARANCE = 0.012
-# How far inside the rim the fingers pinch a wide dish (m).
-RIM_INSET = 0.01
 # Half the height of a finger pad seen from the side (m), for side grasps.
 PAD_HALF_HEIGHT = 0.015
 

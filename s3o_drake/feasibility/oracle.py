@@ -44,12 +44,12 @@ from s3o_drake.feasibility.landing import pickup_poses, stop_short
 from s3o_drake.feasibility.oracle_cache import cached_array
 from s3o_drake.feasibility.pickup_geometry import (
     goal_probability,
-    grasp_tolerance,
     pickup_feasible_many,
     place_error_stds,
 )
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.goals import placed_object
+from s3o_drake.world.gripper import grasp_tolerance
 from s3o_drake.world.placing import PLACE_TOLERANCE
 from s3o_drake.world.settings import Uncertainty
 

@@ -49,12 +49,11 @@ from scipy.special import erf
 from s3o_drake.feasibility import ik
 from s3o_drake.feasibility import kinematics as kin
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP, RIM_INSET
+from s3o_drake.feasibility.grasps import R_BEARING_SIDE, R_BEARING_TOP
 from s3o_drake.feasibility.robot_checker import RobotChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
-from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import placed_object
-from s3o_drake.world.gripper import holds_whole
+from s3o_drake.world.gripper import grasp_tolerance, holds_whole
 from s3o_drake.world.placing import PLACE_TOLERANCE
 from s3o_drake.world.robot import Robot
 
@@ -70,41 +69,7 @@ LIFT_INWARD = 0.08
 TRAY_CLEARANCE = 0.10
 #: IK tolerance of the derived poses (pre-grasp, lift, tray): rad and m.
 POSE_TOLERANCE = 1e-4
-#: Friction coefficient between pads and dish (the world's default contact friction).
-PAD_FRICTION = 0.5
 _UP = np.array([0.0, 0.0, 1.0])
-
-
-def grasp_tolerance(kind: str, *, robot: Robot) -> float:
-    """How far (m, horizontally) the real dish may be from where `robot`'s gripper aims and
-    still be held, for a dish of `kind`.
-
-    Held whole (a cup): the fingers open twice the finger travel wide and close on the dish's
-    sides, so the dish's centre may be off by the half-clearance travel - radius
-    (0.025 m for a cup) before a finger comes down on it instead of beside it; the same
-    number is used along the pads' width, where a dish further off is pushed aside by the
-    pads' edges rather than centred.
-
-    Pinched at the rim (plate, bowl): the fingers open along the bearing with the near rim
-    RIM_INSET beyond the grasp point; the dish coming nearer by travel - RIM_INSET
-    puts the rim under the outer pad (going away leaves more room). Sideways, the flat pads
-    meet the round rim at an angle asin(e / radius); past the friction angle atan(μ) the
-    squeezed rim slips out, so e <= radius μ / sqrt(1 + μ²) (0.054 m for a plate, 0.036 m for
-    a bowl, μ = 0.5). The smaller of the two applies in every direction.
-    """
-    radius = DISH_SHAPES[kind].radius
-    travel = robot.finger_travel
-    if holds_whole(kind, robot=robot):
-        return travel - radius
-    sideways = radius * PAD_FRICTION / math.hypot(1.0, PAD_FRICTION)
-    return min(travel - RIM_INSET, sideways)
-
-
-def caught(reach_noise: np.ndarray, kind: str, *, robot: Robot) -> bool:
-    """Whether `robot`'s fingers catch a dish of `kind` when the reach misses it by
-    `reach_noise` (m, horizontal)."""
-    miss = np.linalg.norm(np.asarray(reach_noise, dtype=float)[:2])
-    return bool(miss <= grasp_tolerance(kind, robot=robot))
 
 
 def catch_probability(kind: str, reach_std: float, *, robot: Robot) -> float:

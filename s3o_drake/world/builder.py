@@ -45,6 +45,7 @@ from s3o_drake.world import furniture as fu
 from s3o_drake.world.camera import overhead_camera
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.geometry_mirror import AddGeometryMirror
+from s3o_drake.world.goals import place_targets
 from s3o_drake.world.map import Chair, Room, Table
 from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
 from s3o_drake.world.objects import Dish, surface_height
@@ -52,6 +53,7 @@ from s3o_drake.world.resources import make_parser, models_dir
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot, RobotInstances
 from s3o_drake.world.robot_ports import export_robot_desired_state, robot_state_output
 from s3o_drake.world.scenario import Scenario
+from s3o_drake.world.target_sensor import TargetSensor
 
 RENDERER = "vtk"
 ILLUSTRATION = "meshcat_visualizer(illustration)"
@@ -245,10 +247,19 @@ def _add_overhead_camera(builder: DiagramBuilder, plant: MultibodyPlant,
 
 
 def _add_object_tracker(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
-                        scenario: Scenario, robot: RobotInstances) -> ObjectTracker:
+                        scenario: Scenario, robot: RobotInstances, *, seed: int,
+                        reach_std: float) -> ObjectTracker:
     tracker = AddObjectTracker(builder, scenario=scenario, plant=plant, robot=robot,
                                scene_graph=scene_graph, period=CONTROL_PERIOD)
+    sensor = builder.AddNamedSystem("target_sensor", TargetSensor(
+        places={t.target: t.position for t in place_targets(scenario)}, seed=seed,
+        reach_std=reach_std))
+    builder.Connect(tracker.GetOutputPort("dish_poses"), sensor.GetInputPort("dish_poses"))
+    builder.Connect(sensor.GetOutputPort("sensing_error"), tracker.GetInputPort("sensing_error"))
     builder.ExportInput(tracker.GetInputPort("grip"), "grip")
+    builder.ExportInput(sensor.GetInputPort("target_request"), "target_request")
+    builder.ExportOutput(sensor.GetOutputPort("target_sighting"), "target_sighting")
+    builder.ExportOutput(tracker.GetOutputPort("gripper_status"), "gripper_status")
     builder.ExportOutput(tracker.GetOutputPort("dish_poses"), "dish_poses")
     builder.ExportOutput(tracker.GetOutputPort("dish_states"), "dish_states")
     return tracker
@@ -293,7 +304,8 @@ def _anchor_fixed_geometry(plant: MultibodyPlant, scene_graph: SceneGraph,
 
 
 def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
-                        track_dishes: bool = False, show_collisions: bool = True) -> Diagram:
+                        track_dishes: bool = False, show_collisions: bool = True,
+                        seed: int | None = None, noise: bool = True) -> Diagram:
     """The simulated restaurant as one named Diagram ("s3o_world").
 
     Input ports:  robot_desired_state (positions then velocities of the robot's joints,
@@ -302,11 +314,16 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
                   overhead_label_image, query_object, body_poses
 
     With `track_dishes`, the dishes are not welded into the plant: an ObjectTracker
-    ("object_tracker") owns their geometry and moves them with the gripper and the tray,
-    and the diagram also has
-    Input ports:  grip (abstract GripEvent; unconnected: the gripper holds nothing)
-    Output ports: dish_poses (abstract DishPoses, X_WD), dish_states (abstract DishStates)
-    (world/dish_messages.py).
+    ("object_tracker") owns their geometry and moves them with the gripper and the tray by
+    its grasp rules, a TargetSensor ("target_sensor") sees what the arm reaches for with
+    the sensing error (the scenario's `reach_std`, none without `noise`, from `seed`,
+    default the scenario's), and the diagram also has
+    Input ports:  grip (abstract GripEvent; unconnected: the gripper holds nothing),
+                  target_request (abstract TargetRequest)
+    Output ports: target_sighting (abstract TargetSighting), gripper_status (abstract
+                  GripperStatus) (world/robot_messages.py: what the robot's controllers
+                  see), dish_poses (abstract DishPoses, X_WD), dish_states (abstract
+                  DishStates) (world/dish_messages.py: the simulation's truth).
 
     With a Meshcat, adds Drake's visualizers as `scenario.visualization` says
     (`ApplyVisualizationConfig`): the illustration (`ILLUSTRATION`, which records for
@@ -321,7 +338,10 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     _anchor_fixed_geometry(plant, scene_graph, models)
     tracker = None
     if track_dishes:
-        tracker = _add_object_tracker(builder, plant, scene_graph, scenario, models.robot)
+        tracker = _add_object_tracker(
+            builder, plant, scene_graph, scenario, models.robot,
+            seed=scenario.seed if seed is None else int(seed),
+            reach_std=scenario.uncertainty.reach_std if noise else 0.0)
 
     sensor = _add_overhead_camera(builder, plant, scene_graph, tracker, scenario)
     _add_gravity_compensation(builder, plant)

@@ -1,12 +1,11 @@
-"""The values on the ObjectTracker's ports (world/object_tracker.py): where the dishes are,
-in what state, and what the gripper holds.
+"""The values on the ObjectTracker's ports (world/object_tracker.py): where the dishes are
+and in what state, as the simulation knows them (the referee's view, not the robot's).
 
 All are immutable: Drake copies port values and state, and nothing may change them in
 place. The containers are read-only mappings by dish name, in the scenario's order.
 """
 
 from collections.abc import Iterable, Iterator, Mapping
-from dataclasses import dataclass
 from enum import Enum
 from typing import Generic, TypeVar
 
@@ -79,17 +78,3 @@ class DishStates(_ByDish[DishState]):
     def named(self, state: DishState) -> tuple[str, ...]:
         """The dishes in `state`, sorted by name."""
         return tuple(sorted(name for name, s in self.items() if s is state))
-
-
-@dataclass(frozen=True)
-class GripEvent:
-    """What the gripper holds: `dish` ("" for nothing). The arm controller outputs it and
-    the object tracker follows it: a dish named here moves with the gripper from the
-    moment it appears; when it disappears, the dish lands on the tray if it is in `placed`
-    (the dishes the arm has put down on the tray so far), comes to stand on the surface
-    below it if it is in `put` (the objects the arm has put down at their places), and is
-    dropped where it is otherwise."""
-
-    dish: str = ""
-    placed: tuple[str, ...] = ()
-    put: tuple[str, ...] = ()

@@ -39,15 +39,17 @@ from pydrake.systems.framework import (
     ValueProducer,
 )
 
-from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
+from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import surface_below
-from s3o_drake.world.gripper import holds_whole
+from s3o_drake.world.gripper import caught, holds_whole
 from s3o_drake.world.objects import surface_height
 from s3o_drake.world.robot import RobotInstances
+from s3o_drake.world.robot_messages import GripEvent, GripperStatus
 from s3o_drake.world.robot_ports import robot_state_output
 from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.system_lifetime import weak_callback
+from s3o_drake.world.target_sensor import SensingError
 
 
 @dataclass(frozen=True)
@@ -159,7 +161,10 @@ class ObjectTracker(LeafSystem):
     `robot` is the scenario's robot (`scenario.robot_value`) in the plant, whose grasp
     frame, tray and state it reads.
 
-    A dish starts on its table. When `grip.dish` names it, it is in the gripper and keeps
+    A dish starts on its table. When `grip.dish` names it, the fingers close on it: they
+    catch it unless the sighting the arm aimed with (`sensing_error`, for that dish) missed
+    it by more than the gripper's tolerance (`gripper.caught`); a dish they miss stays
+    where it is. A caught dish is in the gripper and keeps
     the pose relative to the grasp frame G that it had at that moment, except that one
     held whole (`gripper.holds_whole`: a cup, a can, an apple) is pushed by the closing
     fingers to the middle between them. When it is no longer
@@ -175,11 +180,15 @@ class ObjectTracker(LeafSystem):
         robot_state: vector (2 robot.num_positions, of `scenario.robot_value`): the robot's
             positions then its velocities.
         grip: abstract GripEvent; unconnected means the gripper holds nothing.
+        sensing_error: abstract SensingError (world/target_sensor.py), the error of the
+            arm's latest sighting; unconnected: exact sightings.
     Output ports:
         geometry_pose: FramePoseVector, for scene_graph.get_source_pose_port(source_id).
         dish_poses: abstract DishPoses, X_WD per dish.
         dish_states: abstract DishStates, the DishState of each dish (table, gripper,
             tray, placed or dropped).
+        gripper_status: abstract GripperStatus, the gripper's report: an object is
+            detected between the fingers while a dish is in the gripper.
     """
 
     def __init__(self, *, scenario: Scenario, plant: MultibodyPlant, robot: RobotInstances,
@@ -215,6 +224,8 @@ class ObjectTracker(LeafSystem):
         self._radii = {d.name: DISH_SHAPES[d.kind].radius for d in scenario.dishes}
         self._whole = {d.name: holds_whole(d.kind, robot=robot_value)
                        for d in scenario.dishes}
+        self._kinds = {d.name: d.kind for d in scenario.dishes}
+        self._robot_value = robot_value
         # As world.populate_plant welds the dishes: bottom centre on the surface.
         initial = tuple(
             _Track(d.name, DishState.TABLE,
@@ -225,6 +236,8 @@ class ObjectTracker(LeafSystem):
         self._robot_state_port = self.DeclareVectorInputPort("robot_state",
                                                               2 * self._num_positions)
         self._grip_port = self.DeclareAbstractInputPort("grip", AbstractValue.Make(GripEvent()))
+        self._sensing_port = self.DeclareAbstractInputPort(
+            "sensing_error", AbstractValue.Make(SensingError()))
         self._tracks_index = self.DeclareAbstractState(AbstractValue.Make(initial))
         # A plant context per system context, kept as a cache entry: kinematics of the
         # gripper and tray without a Python attribute that changes during simulation.
@@ -245,6 +258,10 @@ class ObjectTracker(LeafSystem):
         self.DeclareAbstractOutputPort(
             "dish_states", lambda: AbstractValue.Make(DishStates()),
             weak_callback(self._calc_dish_states))
+        self.DeclareAbstractOutputPort(
+            "gripper_status", lambda: AbstractValue.Make(GripperStatus()),
+            weak_callback(self._calc_gripper_status),
+            prerequisites_of_calc={self.abstract_state_ticket(self._tracks_index)})
         # Transitions only (the held dishes' poses are computed from the robot's live state),
         # so a 10 ms delay on grasp and release costs nothing visible and saves copying the
         # abstract state at every plant step.
@@ -318,11 +335,27 @@ class ObjectTracker(LeafSystem):
     def _calc_dish_states(self, context: Context, output: AbstractValue) -> None:
         output.set_value(DishStates((t.dish, t.state) for t in self._tracks(context)))
 
+    def _calc_gripper_status(self, context: Context, output: AbstractValue) -> None:
+        output.set_value(GripperStatus(object_detected=any(
+            t.state is DishState.GRIPPER for t in self._tracks(context))))
+
+    def _misses(self, context: Context, dish: str) -> bool:
+        """Whether the fingers closing on `dish` miss it: the sighting the arm aimed with
+        was off by more than the gripper's tolerance."""
+        if not self._sensing_port.HasValue(context):
+            return False
+        sensing: SensingError = self._sensing_port.Eval(context)
+        return sensing.target == dish and not caught(np.array(sensing.error),
+                                                      self._kinds[dish],
+                                                      robot=self._robot_value)
+
     def _update_tracks(self, context: Context, state: State) -> EventStatus:
         tracks = self._tracks(context)
         grip = self._grip(context)
         changes = {t.dish for t in tracks
                    if (t.dish == grip.dish) != (t.state is DishState.GRIPPER)}
+        if grip.dish in changes and self._misses(context, grip.dish):
+            changes.discard(grip.dish)  # the fingers close beside it
         if not changes:
             return EventStatus.DidNothing()
         X_WG, X_WT = self._frames(context)

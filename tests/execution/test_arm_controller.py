@@ -7,7 +7,6 @@ faces them from y = 1.45.
 
 import dataclasses
 import functools
-import inspect
 import math
 import time
 from pathlib import Path
@@ -15,7 +14,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from pydrake.common.value import AbstractValue
-from pydrake.math import RigidTransform
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import (
@@ -27,19 +25,24 @@ from pydrake.systems.primitives import (
 )
 
 from s3o_drake.execution.arm.place import place_grasps
-from s3o_drake.execution.arm_controller import REACH_NOISE_STREAM, ArmController
+from s3o_drake.execution.arm_controller import GRIP_REPORT_TIMEOUT, ArmController
 from s3o_drake.execution.diagram import arm_params
 from s3o_drake.execution.messages import CommandState, PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.grasps import RIM_INSET
-from s3o_drake.feasibility.pickup_geometry import grasp_tolerance
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.builder import build_world_diagram
-from s3o_drake.world.dish_messages import DishPoses, DishState, GripEvent
+from s3o_drake.world.dish_messages import DishState
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import with_place_targets
+from s3o_drake.world.gripper import RIM_INSET, grasp_tolerance
 from s3o_drake.world.objects import PlaceSpot
 from s3o_drake.world.robot import load_robot
+from s3o_drake.world.robot_messages import (
+    GripEvent,
+    GripperStatus,
+    TargetRequest,
+    TargetSighting,
+)
 from s3o_drake.world.scenario import load_scenario
 
 UR5E = load_robot("ur5e")
@@ -148,21 +151,43 @@ def _grasp_point(arm, context, scene, base, dish):
     raise AssertionError("never held")
 
 
-def test_grasp_aims_at_where_the_dish_really_is(scenario, scene, checker):
+def test_grasp_aims_where_the_sensor_sees_the_dish(scenario, scene, checker):
     p_rim = np.array([1.85, 2.3 - DISH_SHAPES["plate"].radius + RIM_INSET])
     points = {}
     for shift in (0.0, 0.03):
         arm, context = _controller(scenario, scene, checker, noise=False)
         _fix_robot(arm, context)
-        poses = DishPoses(
-            (d.name, RigidTransform([d.position[0] + (shift if d.name == "plate_a" else 0),
-                                     d.position[1], 0.75])) for d in scenario.dishes)
-        arm.GetInputPort("dish_poses").FixValue(context, poses)
         arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="plate_a"))
+        # It asks the robot's sensor where the plate is, and aims at the answer.
+        assert arm.GetOutputPort("target_request").Eval(context) == TargetRequest(1, "plate_a")
+        arm.GetInputPort("target_sighting").FixValue(
+            context, TargetSighting(1, "plate_a", (1.85 + shift, 2.3)))
         points[shift] = _grasp_point(arm, context, scene, FRONT_OF_PLATE, "plate_a")
     # The near rim, pinched: the checker's IK is within 1 cm of its target.
     np.testing.assert_allclose(points[0.0][:2], p_rim, atol=0.01)
     np.testing.assert_allclose(points[0.03][:2] - points[0.0][:2], [0.03, 0.0], atol=0.01)
+
+
+def test_a_pickup_waits_for_the_answer_to_its_own_request(scenario, scene, checker):
+    arm, context = _controller(scenario, scene, checker, noise=False)
+    _fix_robot(arm, context)
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=2, dish="plate_a"))
+    # An answer to an earlier request is no answer: nothing starts.
+    arm.GetInputPort("target_sighting").FixValue(context,
+                                                  TargetSighting(1, "plate_a", (1.85, 2.3)))
+    _step(arm, context, 0.0)
+    assert _outputs(arm, context)[2] == Status()
+    arm.GetInputPort("target_sighting").FixValue(context,
+                                                  TargetSighting(2, "plate_a", (1.85, 2.3)))
+    _step(arm, context, 0.01)
+    assert _outputs(arm, context)[2] == Status(2, CommandState.RUNNING, sighted=True)
+    # A target the sensor does not see fails by name.
+    arm2, context2 = _controller(scenario, scene, checker, noise=False)
+    _fix_robot(arm2, context2)
+    arm2.GetInputPort("pick_command").FixValue(context2, PickCommand(id=3, dish="plate_a"))
+    arm2.GetInputPort("target_sighting").FixValue(context2, TargetSighting(3, "plate_a", None))
+    _step(arm2, context2, 0.0)
+    assert _outputs(arm2, context2)[2] == Status(3, CommandState.FAILED, "unknown_dish")
 
 
 def test_base_too_far_fails_with_a_reason(scenario, scene, checker):
@@ -189,39 +214,33 @@ def test_grasp_tolerances_follow_the_gripper_geometry():
     assert tolerance("bowl") < tolerance("plate")
 
 
-def test_large_reach_noise_misses_or_fails_without_raising(scenario, scene, checker):
-    noisy = dataclasses.replace(
-        scenario, uncertainty=dataclasses.replace(scenario.uncertainty, reach_std=0.2))
-    arm, context = _controller(noisy, scene, checker)
-    _fix_robot(arm, context)
-    t, outcomes = 0.0, []
-    for command_id in range(1, 6):
-        arm.GetInputPort("pick_command").FixValue(context, PickCommand(command_id, "plate_a"))
-        record = _play(arm, context, t, dt=0.25)
-        status = record[-1][3]
-        assert status.id == command_id and status.finished
-        if status.reason == "missed":
-            # A miss plays the motion without ever holding the dish.
-            assert len(record) > 1 and all(r[2].dish == "" for r in record)
-            assert "plate_a" not in record[-1][2].placed
-        outcomes.append(status)
-        t = record[-1][0] + 0.25
-    failed = [s for s in outcomes if s.state is CommandState.FAILED]
-    assert failed and all(s.reason in (*PLANNING_REASONS, "missed") for s in failed)
-    # Missed or not, each report says how far off the reach was drawn.
-    assert all(s.reach_noise is not None and len(s.reach_noise) == 2 for s in outcomes)
-    missed = [s for s in outcomes if s.reason == "missed"]
-    tolerance = grasp_tolerance("plate", robot=scene.robot)
-    assert all(np.hypot(*s.reach_noise) > tolerance for s in missed)
+def test_a_gripper_that_reports_no_object_is_a_miss(scenario, scene, checker):
+    """Whether the fingers hold the dish is the robot's to say, after they close: nothing
+    detected, the pickup fails "missed", the grip lets go, and nothing lands on the tray."""
+    outcomes = {}
+    for detected in (True, False):
+        arm, context = _controller(scenario, scene, checker, noise=False)
+        _fix_robot(arm, context)
+        arm.GetInputPort("pick_command").FixValue(context, PickCommand(1, "plate_a"))
+        arm.GetInputPort("gripper_status").FixValue(context, GripperStatus(detected))
+        record = _play(arm, context, 0.0, dt=0.02)
+        held = [r[2].dish for r in record]
+        outcomes[detected] = record[-1][3], record[-1][2], held
+    status, grip, held = outcomes[True]
+    assert status == Status(1, CommandState.DONE) and grip.placed == ("plate_a",)
+    status, grip, held = outcomes[False]
+    assert status == Status(1, CommandState.FAILED, "missed") and grip == GripEvent()
+    # It closed on the plate, and let go once the report came.
+    closed = [i for i, dish in enumerate(held) if dish == "plate_a"]
+    assert closed and held[closed[-1] + 1:] and not any(held[closed[-1] + 1:])
+    assert len(closed) * 0.02 <= GRIP_REPORT_TIMEOUT + 0.02
 
 
 def test_same_seed_and_id_give_the_same_pickup(scenario, scene, checker):
-    """The noise and the planner's seed come from the seed and the command id alone."""
-    noisy = dataclasses.replace(
-        scenario, uncertainty=dataclasses.replace(scenario.uncertainty, reach_std=0.05))
+    """The planner's seed comes from the seed and the command id alone."""
     runs = []
     for _ in range(2):
-        arm, context = _controller(noisy, scene, checker, seed=3)
+        arm, context = _controller(scenario, scene, checker, seed=3)
         _fix_robot(arm, context)
         arm.GetInputPort("pick_command").FixValue(context, PickCommand(7, "plate_a"))
         _step(arm, context, 0.0)
@@ -230,19 +249,6 @@ def test_same_seed_and_id_give_the_same_pickup(scenario, scene, checker):
         runs.append((status, desired.copy()))
     assert runs[0][0] == runs[1][0]
     np.testing.assert_array_equal(runs[0][1], runs[1][1])
-    # The status reports the reach error drawn (for the calibration of Fea^m): the
-    # command's own stream, scaled by the scenario's reach_std.
-    draw = np.random.default_rng([3, REACH_NOISE_STREAM, 7]).normal(0.0, 1.0, 2) * 0.05
-    assert runs[0][0].reach_noise == pytest.approx(tuple(draw))
-
-
-def test_no_reach_noise_is_reported_with_the_noise_off(scenario, scene, checker):
-    arm, context = _controller(scenario, scene, checker, noise=False)
-    _fix_robot(arm, context, base=FRONT_OF_PLATE - np.array([0.0, 1.3, 0.0]))
-    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=4, dish="plate_a"))
-    _step(arm, context, 0.0)
-    status = _outputs(arm, context)[2]
-    assert status.state is CommandState.FAILED and status.reach_noise is None
 
 
 # ------------------------------------------------------------------------ placing
@@ -346,9 +352,8 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     start = dataclasses.replace(scenario, robot=dataclasses.replace(
         scenario.robot, start=list(FRONT_OF_PLATE)))
     builder = DiagramBuilder()
-    tracked = "track_dishes" in inspect.signature(build_world_diagram).parameters
-    world = builder.AddNamedSystem(
-        "world", build_world_diagram(start, **({"track_dishes": True} if tracked else {})))
+    world = builder.AddNamedSystem("world", build_world_diagram(start, track_dishes=True,
+                                                                noise=False))
     arm = builder.AddNamedSystem("arm_controller", ArmController(
         robot=scene.robot,
         params=dataclasses.replace(arm_params(start, noise=False), motion="stop_and_go"),
@@ -360,13 +365,10 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     gain = builder.AddSystem(MatrixGain(_permutation()))
     builder.Connect(command.get_output_port(), arm.GetInputPort("pick_command"))
     builder.Connect(world.GetOutputPort("robot_state"), arm.GetInputPort("robot_state"))
-    if tracked:
-        builder.Connect(world.GetOutputPort("dish_poses"), arm.GetInputPort("dish_poses"))
-        builder.Connect(arm.GetOutputPort("grip"), world.GetInputPort("grip"))
-    else:
-        poses = DishPoses((d.name, RigidTransform([*d.position, 0.75])) for d in start.dishes)
-        dishes = builder.AddSystem(ConstantValueSource(AbstractValue.Make(poses)))
-        builder.Connect(dishes.get_output_port(), arm.GetInputPort("dish_poses"))
+    builder.Connect(world.GetOutputPort("target_sighting"), arm.GetInputPort("target_sighting"))
+    builder.Connect(arm.GetOutputPort("target_request"), world.GetInputPort("target_request"))
+    builder.Connect(world.GetOutputPort("gripper_status"), arm.GetInputPort("gripper_status"))
+    builder.Connect(arm.GetOutputPort("grip"), world.GetInputPort("grip"))
     builder.Connect(base.get_output_port(), mux.get_input_port(0))
     builder.Connect(arm.GetOutputPort("arm_desired_state"), mux.get_input_port(1))
     builder.Connect(mux.get_output_port(), gain.get_input_port())
@@ -383,7 +385,8 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     arm_context = arm.GetMyContextFromRoot(context)
     simulator.Initialize()
     simulator.AdvanceTo(0.05)  # plans at t = 0
-    assert arm.GetOutputPort("status").Eval(arm_context) == Status(1, CommandState.RUNNING)
+    assert arm.GetOutputPort("status").Eval(arm_context) == Status(1, CommandState.RUNNING,
+                                                                   sighted=True)
     wall = time.perf_counter()
     t_end = 0.05
     while not arm.GetOutputPort("status").Eval(arm_context).finished and t_end < 40.0:
@@ -392,7 +395,8 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     wall = time.perf_counter() - wall
     print(f"\nsimulated {t_end - 0.05:.2f} s in {wall:.2f} s: real-time rate "
           f"{(t_end - 0.05) / wall:.2f}")
-    assert arm.GetOutputPort("status").Eval(arm_context) == Status(1, CommandState.DONE)
+    assert arm.GetOutputPort("status").Eval(arm_context) == Status(1, CommandState.DONE,
+                                                                   sighted=True)
     assert arm.GetOutputPort("grip").Eval(arm_context).placed == ("plate_a",)
 
     desired = desired_log.FindLog(context).data()
@@ -418,9 +422,8 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
     # The base stays put while the arm works.
     base_drift = np.abs(state_log.FindLog(context).data()[:3] - FRONT_OF_PLATE[:, None]).max()
     assert base_drift < 0.01
-    if tracked:
-        states = world.GetOutputPort("dish_states").Eval(world.GetMyContextFromRoot(context))
-        assert states["plate_a"] is DishState.TRAY and states["cup_b"] is DishState.TABLE
+    states = world.GetOutputPort("dish_states").Eval(world.GetMyContextFromRoot(context))
+    assert states["plate_a"] is DishState.TRAY and states["cup_b"] is DishState.TABLE
 
 
 def test_an_object_to_place_is_picked_with_a_grasp_it_can_be_put_down_with():

@@ -154,10 +154,10 @@ class Run:
         return self.send(BaseFinished(self.t, self.pose.copy(), self.state.command_id, ok,
                                       reason, contact))
 
-    def arm(self, ok=True, reason="", noise=None):
+    def arm(self, ok=True, reason="", sighted=False):
         self.t += 1.0
         return self.send(ArmFinished(self.t, self.pose.copy(), self.state.command_id, ok,
-                                     reason, noise))
+                                     reason, sighted))
 
     def to_stop(self, pose=L1):
         """Sends the goto out and lands it at `pose`; returns the drive."""
@@ -232,7 +232,7 @@ def test_the_open_loop_walks_the_plan_one_command_at_a_time():
     pick = run.pick()
     assert pick == Pick(2, "plate", place=False, place_from=None)
     assert run.state.pick_pose == L1
-    decisions = run.arm(ok=True, noise=(0.01, -0.02))
+    decisions = run.arm(ok=True, sighted=True)
     assert decisions == (Finish(PLAN_ENDED),)
     progress = run.progress
     assert progress.finished and progress.step == progress.total == 2
@@ -242,7 +242,9 @@ def test_the_open_loop_walks_the_plan_one_command_at_a_time():
     assert (record.dish, record.kind, record.method, record.source) == (
         "plate", "plate", "M", "oracle")
     assert record.planned_pose == L1 and record.actual_pose == L1
-    assert record.outcome == "done" and record.reach_noise == (0.01, -0.02)
+    # The arm aimed with a sighting: its command is the record's, for the referee to join
+    # the sensing error to.
+    assert record.outcome == "done" and record.sighting == pick.id > 0
     assert record.predicted == record.planned == 0.9 and record.attempt == 1
     assert run.believed == []  # no localisation in open loop
 

@@ -275,7 +275,8 @@ def test_turns_to_face_each_further_dish_before_picking_it():
 def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenario):
     """Each finished pickup leaves a PickupRecord on `progress`: the plan's Fea^m and the
     stop it was predicted for, where the base really stood when the pick was sent, the
-    arm's outcome and reach noise."""
+    arm's outcome, and the arm command that aimed with a sighting (whose error the referee
+    joins to it)."""
     system = _executive(scenario, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
@@ -283,7 +284,7 @@ def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenari
     plan = system.GetOutputPort("plan").Eval(context)
     kinds = {d.name: d.kind for d in scenario.dishes}
     positions = {d.name: d.position for d in scenario.dishes}
-    expected, stop, landing = [], None, None
+    expected, sightings, stop, landing = [], [], None, None
     for i, action in enumerate(plan.actions):
         _step(system, context)
         if isinstance(action, Goto):
@@ -298,22 +299,23 @@ def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenari
             stop = action.pose
         else:
             command = system.GetOutputPort("pick_command").Eval(context)
-            noise = (0.001 * i, -0.002)
             failed = len(expected) == 0
             system.GetInputPort("arm_status").FixValue(context, Status(
                 command.id, "failed" if failed else "done", "no_ik" if failed else "",
-                reach_noise=noise))
+                sighted=True))
             expected.append(PickupRecord(
                 dish=action.dish, kind=kinds[action.dish], method="V-GROP*",
                 predicted=action.feasibility, source="oracle", planned_pose=stop,
                 actual_pose=landing, outcome="no_ik" if failed else "done",
-                reach_noise=noise, planned=action.feasibility))
+                planned=action.feasibility))
+            sightings.append(command.id)
         _step(system, context)
     records = system.GetOutputPort("progress").Eval(context).pickups
     assert len(records) == len(plan.pickups) >= 2
     for got, want in zip(records, expected, strict=True):
         assert got.actual_pose == pytest.approx(want.actual_pose)
         assert got == dataclasses.replace(want, actual_pose=got.actual_pose)
+    assert [r.sighting for r in records] == sightings
     assert [r.succeeded for r in records] == [False] + [True] * (len(records) - 1)
 
 

@@ -260,3 +260,24 @@ def test_a_status_carries_a_command_state_that_prints_as_its_word():
 def test_bad_arguments_are_refused():
     with pytest.raises(ValueError, match="settle_time"):
         TaskMonitor(settle_time=-1.0)
+
+
+def test_the_referee_joins_each_sightings_error_to_its_record():
+    """The controller's records name the arm command that aimed with a sighting; the
+    monitor, on the simulation's side, fills in that sighting's error, and leaves the
+    records that aimed with none."""
+    errors = {3: (0.004, -0.01), 5: (0.03, 0.02)}
+    aimed = (dataclasses.replace(RECORDS[0], reach_noise=None, sighting=3),
+             dataclasses.replace(RECORDS[1], reach_noise=None, sighting=5),
+             dataclasses.replace(RECORDS[1], reach_noise=None, outcome="turn blocked"))
+    monitor = TaskMonitor(sensing_error=errors.get)
+    context = monitor.CreateDefaultContext()
+    _fixed(monitor, context, dataclasses.replace(DONE, pickups=aimed))
+    pickups = monitor.GetOutputPort("report").Eval(context).pickups
+    assert [p.reach_noise for p in pickups] == [errors[3], errors[5], None]
+    # Exact sightings have no error.
+    monitor = TaskMonitor(sensing_error=lambda request: None)
+    context = monitor.CreateDefaultContext()
+    _fixed(monitor, context, dataclasses.replace(DONE, pickups=aimed))
+    assert all(p.reach_noise is None
+               for p in monitor.GetOutputPort("report").Eval(context).pickups)

@@ -8,7 +8,8 @@ import pytest
 
 from s3o_drake.commands.oracle_pinning import executed, sample_poses, summarize
 from s3o_drake.feasibility.heatmaps import make_oracle
-from s3o_drake.feasibility.pickup_geometry import catch_probability, grasp_tolerance
+from s3o_drake.feasibility.pickup_geometry import catch_probability
+from s3o_drake.world.gripper import grasp_tolerance
 from s3o_drake.world.robot import load_robot
 from s3o_drake.world.scenario import load_scenario
 

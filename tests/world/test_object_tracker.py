@@ -22,12 +22,15 @@ from s3o_drake.world.builder import (
     robot_hold_state,
 )
 from s3o_drake.world.camera import overhead_camera
-from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates, GripEvent
+from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import surface_below
+from s3o_drake.world.gripper import grasp_tolerance
 from s3o_drake.world.object_tracker import STANDING_TILT, AddObjectTracker
 from s3o_drake.world.objects import PlaceSpot
 from s3o_drake.world.robot import load_robot
+from s3o_drake.world.robot_messages import GripEvent, GripperStatus
+from s3o_drake.world.target_sensor import SensingError
 
 UR5E = load_robot("ur5e")
 
@@ -100,6 +103,9 @@ class _Driver:
     def states(self) -> DishStates:
         return self.tracker.GetOutputPort("dish_states").Eval(self.context)
 
+    def gripper(self) -> GripperStatus:
+        return self.tracker.GetOutputPort("gripper_status").Eval(self.context)
+
 
 def _assert_same_pose(X_actual: RigidTransform, X_expected: RigidTransform):
     np.testing.assert_allclose(X_actual.GetAsMatrix4(), X_expected.GetAsMatrix4(), atol=1e-9)
@@ -109,7 +115,8 @@ def test_ports_and_names(tracker_and_plant, scenario):
     tracker, _, _ = tracker_and_plant
     assert tracker.dish_names == ("plate_a", "cup_b")
     assert tracker.GetInputPort("robot_state").size() == 22
-    for name in ("grip", "robot_state", "geometry_pose", "dish_poses", "dish_states"):
+    for name in ("grip", "robot_state", "sensing_error", "geometry_pose", "dish_poses",
+                 "dish_states", "gripper_status"):
         assert tracker.HasInputPort(name) or tracker.HasOutputPort(name)
     assert len(set(tracker.labels.values())) == len(scenario.dishes)
 
@@ -170,6 +177,29 @@ def test_gripped_dish_follows_the_grasp_frame_then_lands_on_the_tray(tracker_and
     _assert_same_pose(driver.poses()["plate_a"], X_WT3 @ X_TD)
     driver.update()
     assert driver.states()["plate_a"] is DishState.TRAY
+
+
+def test_the_fingers_miss_a_dish_the_sighting_put_beyond_the_tolerance(tracker_and_plant):
+    """The grasp's rule is the world's: the fingers catch the dish they close on unless the
+    sighting the arm aimed with was off by more than the gripper's tolerance; the
+    gripper's report says whether they hold something."""
+    tracker, _, _ = tracker_and_plant
+    tolerance = grasp_tolerance("plate", robot=UR5E)
+    q = UR5E.positions(1.2, 2.0, 0.1, ARM_REACHING)
+    outcomes = {}
+    for name, error, target in (("beyond", (0.0, tolerance + 0.001), "plate_a"),
+                                ("within", (tolerance - 0.001, 0.0), "plate_a"),
+                                ("another target's", (0.0, tolerance + 0.001), "cup_b")):
+        driver = _Driver(tracker)
+        assert driver.gripper() == GripperStatus(False)
+        tracker.GetInputPort("sensing_error").FixValue(driver.context,
+                                                       SensingError(1, target, error))
+        driver.set(q, GripEvent(dish="plate_a"))
+        driver.update()
+        outcomes[name] = driver.states()["plate_a"], driver.gripper()
+    assert outcomes["beyond"] == (DishState.TABLE, GripperStatus(False))
+    assert outcomes["within"] == (DishState.GRIPPER, GripperStatus(True))
+    assert outcomes["another target's"] == (DishState.GRIPPER, GripperStatus(True))
 
 
 def test_a_cup_gripped_off_centre_is_pushed_between_the_fingers(tracker_and_plant):

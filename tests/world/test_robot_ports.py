@@ -24,11 +24,11 @@ from s3o_drake.world.directives import write_directives
 from s3o_drake.world.resources import RESTAURANT
 from s3o_drake.world.scenario import load_scenario
 
-#: The systems of the restaurant's world with tracked dishes, as they were before a robot
-#: could be of parts (same-runs identity: a single-instance robot's diagram is unchanged).
+#: The systems of the restaurant's world with tracked dishes for a single-instance robot:
+#: the robot's own ports are the plant's (same-runs identity: no system of ours between).
 SINGLE_INSTANCE_SYSTEMS = ["camera_scene_graph", "geometry_mirror", "gravity_compensation",
                            "gravity_to_actuators", "object_tracker", "overhead_camera", "plant",
-                           "scene_graph"]
+                           "scene_graph", "target_sensor"]
 
 
 @pytest.fixture(scope="module")
@@ -53,9 +53,10 @@ def test_a_single_instance_robots_world_keeps_the_plants_own_ports(restaurant):
     world = build_world_diagram(restaurant, track_dishes=True)
     assert sorted(s.get_name() for s in world.GetSystems()) == SINGLE_INSTANCE_SYSTEMS
     assert _port_names(world) == (
-        ["grip", "robot_desired_state"],
-        ["dish_poses", "dish_states", "robot_state", "overhead_color_image",
-         "overhead_depth_image", "overhead_label_image", "query_object", "body_poses"])
+        ["grip", "target_request", "robot_desired_state"],
+        ["target_sighting", "gripper_status", "dish_poses", "dish_states", "robot_state",
+         "overhead_color_image", "overhead_depth_image", "overhead_label_image",
+         "query_object", "body_poses"])
     plant = world.GetSubsystemByName("plant")
     robot = plant.GetModelInstanceByName("robot")
     context = world.CreateDefaultContext()
