@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from pydrake.common.value import AbstractValue
 from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.framework import DiagramBuilder, PortDataType
 from pydrake.systems.primitives import (
     ConstantValueSource,
     ConstantVectorSource,
@@ -31,7 +31,7 @@ from s3o_drake.execution.messages import CommandState, PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.builder import build_world_diagram
-from s3o_drake.world.dish_messages import DishState
+from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates
 from s3o_drake.world.furniture import DISH_SHAPES
 from s3o_drake.world.goals import with_place_targets
 from s3o_drake.world.gripper import RIM_INSET, grasp_tolerance
@@ -93,6 +93,20 @@ def _play(arm, context, t0, *, dt=0.05, limit=60.0):
 
 
 # ----------------------------------------------------------------------------- alone
+
+def test_the_controller_takes_no_truth_of_the_dishes(scenario, scene, checker):
+    """What the arm knows of a dish is the robot's sighting of it: no input carries the
+    simulation's dish poses or states."""
+    arm, _ = _controller(scenario, scene, checker)
+    names = [arm.get_input_port(i).get_name() for i in range(arm.num_input_ports())]
+    assert names == ["pick_command", "robot_state", "target_sighting", "gripper_status",
+                     "base_motion"]
+    for i in range(arm.num_input_ports()):
+        port = arm.get_input_port(i)
+        if port.get_data_type() == PortDataType.kAbstractValued:
+            value = port.Allocate().get_value()
+            assert not isinstance(value, DishPoses | DishStates), port.get_name()
+
 
 def test_ports_and_idle_hold(scenario, scene, checker):
     arm, context = _controller(scenario, scene, checker)
