@@ -263,13 +263,10 @@ class ArmController(LeafSystem):
             output.set_value(TargetRequest(command.id, activity.sighted)
                              if activity.sighted else TargetRequest())
             return
-        holding = activity.grip.dish if activity.held_grasp else ""
-        if (command.id == NO_COMMAND or command.prepare is not None or command.to_stow
-                or (not command.place and holding == command.dish)):
-            output.set_value(TargetRequest())
-            return
-        target = place_target_name(command.dish) if command.place else command.dish
-        output.set_value(TargetRequest(command.id, target))
+        reaches = (command.id != NO_COMMAND and command.prepare is None
+                   and not command.to_stow and not _releasing(command, _held(activity)))
+        output.set_value(TargetRequest(command.id, _target(command)) if reaches
+                         else TargetRequest())
 
     # ------------------------------------------------------------------------------ update
     def _update(self, context: Context, state: State) -> EventStatus:
@@ -335,7 +332,7 @@ class ArmController(LeafSystem):
                robot_state: np.ndarray) -> _Activity:
         """Plans `command`'s pickup; the motion plays from now, or the command fails; or,
         while the sensor has not answered the command's request, nothing yet."""
-        holding = activity.grip.dish if activity.held_grasp else ""
+        holding = _held(activity)
         taken = replace(activity, command=command.id, dish=command.dish, missed=False,
                         checked=False, sighted="")
 
@@ -353,7 +350,7 @@ class ArmController(LeafSystem):
                 return failed("unknown_dish")
             return self._reach(taken, command, context, q_now,
                                int(rng.integers(2**31 - 1)), failed)
-        name = place_target_name(command.dish) if command.place else command.dish
+        name = _target(command)
         dish = self._scene.dishes.get(name)
         if dish is None:
             return failed("unknown_dish")
@@ -363,7 +360,7 @@ class ArmController(LeafSystem):
             return failed("hand_full")
         rng.normal(0.0, 1.0, 2)  # the sensor's
         plan_seed = int(rng.integers(2**31 - 1))
-        releasing = not command.place and holding == command.dish
+        releasing = _releasing(command, holding)
         offset = np.zeros(2)
         if not releasing:
             sighting = self._sighting(context, command.id, name)
@@ -499,3 +496,19 @@ class ArmController(LeafSystem):
         return plan_place(self._scene, self._checker, q_now[:3], place_target_name(name),
                           grasp=grasp, q_start=q_now, reach_offset=offset, seed=seed,
                           time_limit=self._plan_time_limit)
+
+
+def _held(activity: _Activity) -> str:
+    """The object the gripper holds between motions ("": none)."""
+    return activity.grip.dish if activity.held_grasp else ""
+
+
+def _target(command: PickCommand) -> str:
+    """What a pick or a place reaches for: the dish, or the held object's place target."""
+    return place_target_name(command.dish) if command.place else command.dish
+
+
+def _releasing(command: PickCommand, held: str) -> bool:
+    """Whether `command` lets the `held` object go over the tray (its place failed for
+    good): it reaches for nothing."""
+    return not command.place and held == command.dish
