@@ -11,8 +11,9 @@ gripper's report (`gripper_status`) tells a caught dish from a miss.
 An object whose goal is place is picked the same way but kept in the gripper, held above
 the tray (`plan_pickup(..., hold=True)`), until a command with `place` puts it down at its
 place target (`arm.place.plan_place`: with the grasp it was picked with, where the sensor
-sees the place). The scene the controller checks in must hold the
-place targets (`goals.with_place_targets`).
+sees the place). The controller checks its motions in the world as the robot knows it
+(`known_scene`, the latest plan's: the map, the perceived chairs, the objects left and
+their place targets).
 
 With smooth motion (`ArmParams.motion`) the arm works while the base drives. A pickup
 onto the tray is reported done once the dish is lifted: the base may leave while the arm
@@ -38,6 +39,7 @@ from s3o_drake.execution.messages import (
     NO_COMMAND,
     ArmMotion,
     CommandState,
+    KnownScene,
     PickCommand,
     Status,
 )
@@ -141,6 +143,8 @@ class ArmController(LeafSystem):
             fingers hold what they close on.
         base_motion (optional): abstract, the navigator's motion (`desired(t)`, `id`,
             `end_time`), which a prepare is timed by and checked along.
+        known_scene: abstract KnownScene, the world as the robot knows it, which every
+            motion is planned and checked in; a command without one fails ("no_scene").
     Output ports:
         arm_desired_state: vector (2 (robot.num_positions - robot.num_base_joints)), the
             arm's and the fingers' positions, then their velocities (for the plant's desired
@@ -151,7 +155,7 @@ class ArmController(LeafSystem):
             gains it.
         status: abstract Status of the latest command taken: its CommandState idle,
             running, done or failed with reason "no_ik", "no_path", "base_collision",
-            "missed", "unknown_dish", "hand_full" (a pickup while an object to place is
+            "missed", "unknown_dish", "no_scene", "hand_full" (a pickup while an object to place is
             held) or "not_held" (a place of an object the gripper does not hold);
             `sighted`, whether it aimed where the sensor saw its target; `until`, when the
             command's motion ends.
@@ -169,19 +173,17 @@ class ArmController(LeafSystem):
     last motion ended (a failed plan leaves the arm where it is).
     """
 
-    def __init__(self, *, robot: Robot, params: ArmParams, scene: FeasibilityScene,
-                 checker: FeasibilityChecker, control_period: float = 0.01) -> None:
+    def __init__(self, *, robot: Robot, params: ArmParams,
+                 control_period: float = 0.01) -> None:
         super().__init__()
         if control_period <= 0:
             raise ValueError(f"control_period: expected a positive period, got {control_period}")
-        if scene.robot is not robot:
-            raise ValueError(f"scene: holds {scene.robot!r}, not the controller's {robot!r}")
         self._robot = robot
         # The arm's and the fingers' positions among the robot's (after the base's).
         self._arm_and_fingers = slice(robot.num_base_joints, robot.num_positions)
         self._num_arm_and_fingers = robot.num_positions - robot.num_base_joints
-        self._scene = scene
-        self._checker = checker
+        # A memo, not state: the known scene last seen, and the pickup checks in it.
+        self._checks: tuple[FeasibilityScene, FeasibilityChecker] | None = None
         self._seed = params.seed
         self._nav_std = None if params.nav_std is None else np.array(params.nav_std)
         self._to_place = params.to_place
@@ -197,6 +199,8 @@ class ArmController(LeafSystem):
             "gripper_status", AbstractValue.Make(GripperStatus()))
         self._base_motion_port = self.DeclareAbstractInputPort(
             "base_motion", AbstractValue.Make(object()))
+        self._scene_port = self.DeclareAbstractInputPort(
+            "known_scene", AbstractValue.Make(KnownScene()))
         self._smooth = params.motion == Motion.SMOOTH.value
         stowed = tuple(np.concatenate([robot.arm_stow, robot.gripper_open]))
         self._activity_index = self.DeclareAbstractState(
@@ -340,19 +344,25 @@ class ArmController(LeafSystem):
             return replace(taken, status=Status(command.id, CommandState.FAILED, reason,
                                                 sighted=bool(taken.sighted)))
 
+        known = self._known(context)
+        if known is None:
+            return failed("no_scene")
+        scene, checker = known
         q_now = np.asarray(robot_state[:self._robot.num_positions], dtype=float)
         # The command's own stream (robot_messages.REACH_STREAM): the sensor's error takes
         # its first two draws, the planner's seed the next; neither depends on what ran
         # before, and the seed is the same with the noise off.
         rng = np.random.default_rng([self._seed, REACH_STREAM, command.id])
         if command.prepare is not None or command.to_stow:
-            if command.prepare is not None and command.dish not in self._scene.dishes:
+            if command.prepare is not None and command.dish not in scene.dishes:
                 return failed("unknown_dish")
             return self._reach(taken, command, context, q_now,
-                               int(rng.integers(2**31 - 1)), failed)
+                               int(rng.integers(2**31 - 1)), failed, scene, checker)
         name = _target(command)
-        dish = self._scene.dishes.get(name)
-        if dish is None:
+        releasing = _releasing(command, holding)
+        # The held object is in the gripper, not in the known world: letting it go needs no
+        # target there.
+        if not releasing and name not in scene.dishes:
             return failed("unknown_dish")
         if command.place and holding != command.dish:
             return failed("not_held")
@@ -360,27 +370,29 @@ class ArmController(LeafSystem):
             return failed("hand_full")
         rng.normal(0.0, 1.0, 2)  # the sensor's
         plan_seed = int(rng.integers(2**31 - 1))
-        releasing = _releasing(command, holding)
         offset = np.zeros(2)
         if not releasing:
-            sighting = self._sighting(context, command.id, name)
+            sighting = self._sighting(context, command.id, name, scene)
             if sighting is None:
                 return activity  # asked; the answer comes at a later update
             if sighting.p_WT is None:
                 return failed("unknown_dish")
-            p_WT, _ = self._scene.dish_p_WD(name)
+            p_WT, _ = scene.dish_p_WD(name)
             offset = np.asarray(sighting.p_WT) - p_WT
             if self._sighting_port.HasValue(context):
                 taken = replace(taken, sighted=name)
         activity = taken
         try:
             if releasing:  # its place failed for good: let go over the tray
-                plan = plan_release(self._scene, q_now[:3], q_now, seed=plan_seed,
+                plan = plan_release(scene, q_now[:3], q_now, seed=plan_seed,
                                     time_limit=self._plan_time_limit)
             elif command.place:
-                plan = self._place(command.dish, activity.held_grasp, q_now, offset, plan_seed)
+                plan = plan_place(scene, checker, q_now[:3], place_target_name(command.dish),
+                                  grasp=activity.held_grasp, q_start=q_now,
+                                  reach_offset=offset, seed=plan_seed,
+                                  time_limit=self._plan_time_limit)
             else:
-                plan = self._pick(command, q_now, offset, plan_seed)
+                plan = self._pick(command, q_now, offset, plan_seed, scene, checker)
         except ValueError:
             # The arm's path planner refuses a start in collision (the arm pushed into
             # something, within the checker's padding): no path from here.
@@ -400,11 +412,26 @@ class ArmController(LeafSystem):
                        t_release=float(ends.get("release", math.inf)),
                        t_done=float(ends["lift"]) if self._smooth and onto_tray else math.inf)
 
-    def _sighting(self, context: Context, command: int, target: str) -> TargetSighting | None:
+    def _known(self, context: Context) -> tuple[FeasibilityScene, FeasibilityChecker] | None:
+        """The world as the robot knows it and the pickup checks in it; None: no scene."""
+        known: KnownScene | None = (self._scene_port.Eval(context)
+                                    if self._scene_port.HasValue(context) else None)
+        if known is None or known.scene is None:
+            return None
+        scene = known.scene
+        if scene.robot is not self._robot:
+            raise ValueError(f"known_scene: holds {scene.robot!r}, not the controller's "
+                             f"{self._robot!r}")
+        if self._checks is None or self._checks[0] is not scene:
+            self._checks = (scene, FeasibilityChecker(scene))
+        return self._checks
+
+    def _sighting(self, context: Context, command: int, target: str,
+                  scene: FeasibilityScene) -> TargetSighting | None:
         """The sensor's answer to command `command`'s request for `target`; None while it
-        has not come. Unconnected: the target where the scene (the briefing) has it."""
+        has not come. Unconnected: the target where `scene` (the briefing) has it."""
         if not self._sighting_port.HasValue(context):
-            p_WT, _ = self._scene.dish_p_WD(target)
+            p_WT, _ = scene.dish_p_WD(target)
             return TargetSighting(command, target, (float(p_WT[0]), float(p_WT[1])))
         sighting: TargetSighting = self._sighting_port.Eval(context)
         if sighting.id != command or sighting.target != target:
@@ -412,12 +439,13 @@ class ArmController(LeafSystem):
         return sighting
 
     def _reach(self, activity: _Activity, command: PickCommand, context: Context,
-               q_now: np.ndarray, seed: int, failed) -> _Activity:
+               q_now: np.ndarray, seed: int, failed, scene: FeasibilityScene,
+               checker: FeasibilityChecker) -> _Activity:
         """A prepare (to `command.dish`'s pre-grasp from `command.prepare`, timed by the
         base's motion) or a stow; the arm holds where it is when there is none."""
         base = command.prepare if command.prepare is not None else q_now[:3]
         target = command.dish if command.prepare is not None else None
-        plan = plan_reach(self._scene, self._checker, np.asarray(base), q_now,
+        plan = plan_reach(scene, checker, np.asarray(base), q_now,
                           None if target is None else target, seed=seed,
                           time_limit=self._plan_time_limit)
         if not plan.ok:
@@ -426,7 +454,7 @@ class ArmController(LeafSystem):
         t_start = context.get_time()
         if command.prepare is not None:
             t_start = self._prepare_start(self._base_motion(context, command), trajectory,
-                                          t_start)
+                                          t_start, scene)
             if t_start is None:
                 return failed("no_path")
         return replace(activity, status=Status(command.id, CommandState.RUNNING),
@@ -440,7 +468,8 @@ class ArmController(LeafSystem):
         motion = self._base_motion_port.Eval(context)
         return motion if getattr(motion, "id", NO_COMMAND) == command.base_id else None
 
-    def _prepare_start(self, motion, trajectory: Trajectory, now: float) -> float | None:
+    def _prepare_start(self, motion, trajectory: Trajectory, now: float,
+                       scene: FeasibilityScene) -> float | None:
         """When a prepare's `trajectory` starts: so that it ends as the base's `motion`
         does, or later by WAIT_STEP steps until the two motions are collision-free
         together; None when even after the base has stopped they are not."""
@@ -452,24 +481,24 @@ class ArmController(LeafSystem):
                 return trajectory.value(min(max(t - start, 0.0), duration)).ravel()[
                     self._arm_and_fingers]
 
-            if free_together(lambda t: self._scene.checker, motion.desired, arm_at, start,
+            if free_together(lambda t: scene.checker, motion.desired, arm_at, start,
                              start + duration, robot=self._robot):
                 return start
             if start >= arrival:
                 return None
             start = min(start + WAIT_STEP, arrival)
 
-    def _pick(self, command: PickCommand, q_now: np.ndarray, offset: np.ndarray,
-              seed: int) -> PickupPlan:
+    def _pick(self, command: PickCommand, q_now: np.ndarray, offset: np.ndarray, seed: int,
+              scene: FeasibilityScene, checker: FeasibilityChecker) -> PickupPlan:
         """The pickup of `command.dish` from where the robot stands, aimed `offset` (dx,
-        dy; m) from where the scene has it (an object to place is held, with a grasp it can
+        dy; m) from where `scene` has it (an object to place is held, with a grasp it can
         be put down with from `command.place_from` where one picks it)."""
         name = command.dish
 
         def pick(grasp: str | None) -> PickupPlan:
             # The checker's scene has the dish where the briefing put it: the offset
             # carries where the sensor sees it.
-            return plan_pickup(self._scene, self._checker, q_now[:3], name,
+            return plan_pickup(scene, checker, q_now[:3], name,
                                reach_offset=offset, q_start=q_now,
                                seed=seed, time_limit=self._plan_time_limit,
                                hold=name in self._to_place, grasp=grasp, stow=command.stow)
@@ -481,21 +510,13 @@ class ArmController(LeafSystem):
             if self._nav_std is not None:
                 rng = np.random.default_rng([self._seed, PLACE_GRASP_STREAM, command.id])
                 landing_noise = rng.normal(0.0, 1.0, (PLACE_LANDINGS, 3)) * self._nav_std
-            for grasp in place_grasps(self._scene, self._checker,
+            for grasp in place_grasps(scene, checker,
                                       np.asarray(command.place_from), place_target_name(name),
                                       landing_noise=landing_noise):
                 plan = pick(grasp)
                 if plan.ok:
                     return plan
         return pick(None)
-
-    def _place(self, name: str, grasp: str, q_now: np.ndarray, offset: np.ndarray,
-               seed: int) -> PickupPlan:
-        """Putting the held `name` down at its place target, aimed `offset` (dx, dy; m)
-        from where the scene has it."""
-        return plan_place(self._scene, self._checker, q_now[:3], place_target_name(name),
-                          grasp=grasp, q_start=q_now, reach_offset=offset, seed=seed,
-                          time_limit=self._plan_time_limit)
 
 
 def _held(activity: _Activity) -> str:

@@ -6,10 +6,10 @@ behind it), with a trapezoidal speed profile: cruise at the planner's
 speed v (or `max_yaw_rate` when turning), accelerate and brake at a fixed rate so that the
 PD-controlled plant can follow. The landing is the command's pose plus the navigation noise
 T^n, drawn from the command's own random stream so that a seed fixes every landing whatever
-else happens in the run. Before the motion starts its poses are checked against the true
-world; a base that would collide stops at the last free pose, as a local planner
-stops short. The motion and its escapes are `escape.plan_motion`'s, over this system's
-collision test on the true world.
+else happens in the run. Before the motion starts its poses are checked against what the
+robot knows (`known_scene`: its map and the chairs it perceived); a base that would collide
+stops at the last free pose, as a local planner stops short. The motion and its escapes are
+`escape.plan_motion`'s, over this system's collision test on that scene.
 """
 
 import dataclasses
@@ -34,11 +34,12 @@ from s3o_drake.execution.messages import (
     ArmMotion,
     BaseCommand,
     CommandState,
+    KnownScene,
     Status,
 )
 from s3o_drake.execution.together import WAIT_STEP, free_together
 from s3o_drake.feasibility import ik
-from s3o_drake.feasibility.landing import PaddedFree
+from s3o_drake.feasibility.landing import FINAL_APPROACH, PaddedFree
 from s3o_drake.feasibility.robot_checker import RobotChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.navigation.base_motion import SETTLE_TIME
@@ -83,6 +84,8 @@ class _Motion:
     turns: tuple[float, ...] = ()
     """Per segment, the whole turns (rad, multiples of 2π) added to its yaw (`yaw_turns`);
     empty: none."""
+    stopped: bool = False
+    """The robot's protective stop ended this command's motion."""
 
     def __deepcopy__(self, memo: dict) -> "_Motion":
         # Immutable all the way down: Drake clones abstract state on every update, and a
@@ -143,6 +146,12 @@ class BaseNavigator(LeafSystem):
         arm_motion (abstract `ArmMotion`, optional; read with smooth motion only): what the
             arm does; a motion is checked with the arm where its motion ends, and with the
             two together while it plays, and waits for the arm where they collide.
+        known_scene (abstract `KnownScene`, optional): the world as the robot knows it,
+            which motions are checked in; unconnected or empty, they are not checked.
+        bumper (vector 3, optional): the robot's protective stop: 1 while it holds the
+            base short of something, then where (x, y); a motion it stops ends there,
+            done within FINAL_APPROACH of its end (landed short), else failed "blocked"
+            with that `contact`.
     Output ports:
         base_desired_state (vector 6): x, y, yaw (m, rad) then their rates (m/s, rad/s).
         status (abstract `Status`): CommandState idle before any command, running while the
@@ -162,8 +171,8 @@ class BaseNavigator(LeafSystem):
 
     The landing is `command.pose` + (dx, dy, dyaw) with dx, dy ~ N(0, nav_xy_std^2) and
     dyaw ~ N(0, nav_yaw_std^2) from numpy.random.default_rng([seed, 1, command.id]) (the
-    `params`; exactly `command.pose` when both are 0). With a `scene` (the true world, of
-    `robot`), poses every
+    `params`; exactly `command.pose` when both are 0). With a `known_scene` (of `robot`),
+    poses every
     2 cm / 0.05 rad along the motion are checked (inside the room and collision-free, arm
     stowed); the motion is cut at the last free pose before the first collision. A
     collision within the last 0.5 m of driving or in the final turn ends the command done
@@ -179,16 +188,12 @@ class BaseNavigator(LeafSystem):
     """
 
     def __init__(self, *, robot: Robot, params: NavigatorParams,
-                 scene: FeasibilityScene | None, control_period: float = 0.01) -> None:
+                 control_period: float = 0.01) -> None:
         super().__init__()
-        if scene is not None and scene.robot is not robot:
-            raise ValueError(f"scene: holds {scene.robot!r}, not the navigator's {robot!r}")
         self._robot = robot
         self._params = params
-        self._scene = scene
-        # The same world without the padding: where a landing left the base inside it, the
-        # way out must not touch (`PaddedFree`).
-        self._untouched = None if scene is None else _unpadded(scene.checker)
+        # A memo, not state: the known scene last seen, and its checker without the padding.
+        self._unpadded: tuple[FeasibilityScene, RobotChecker] | None = None
         self._smooth = params.profile.smooth
 
         self._command_port = self.DeclareAbstractInputPort(
@@ -196,6 +201,9 @@ class BaseNavigator(LeafSystem):
         self._state_port = self.DeclareVectorInputPort("robot_state", 2 * robot.num_positions)
         self._arm_port = self.DeclareAbstractInputPort("arm_motion",
                                                        AbstractValue.Make(ArmMotion()))
+        self._scene_port = self.DeclareAbstractInputPort("known_scene",
+                                                         AbstractValue.Make(KnownScene()))
+        self._bumper_port = self.DeclareVectorInputPort("bumper", 3)
         # Until the initialization event reads robot_state, hold the scenario's start pose
         # (where the world puts the robot by default).
         start = tuple(float(v) for v in params.start)
@@ -230,7 +238,13 @@ class BaseNavigator(LeafSystem):
             base = self._state_port.Eval(context)[:3]
             motion = _Motion(id=NO_COMMAND, hold=tuple(map(float, base)), initialized=True)
         elif command.id == motion.id:
-            return EventStatus.DidNothing()
+            if not self._stopped(context, motion, t):
+                return EventStatus.DidNothing()
+            base = self._state_port.Eval(context)[:3]
+            bumper = self._bumper_port.Eval(context)
+            new = _stopped_at(motion, base, t, contact=(float(bumper[1]), float(bumper[2])))
+            state.get_mutable_abstract_state(self._motion_index).set_value(new)
+            return EventStatus.Succeeded()
         if command.id == NO_COMMAND:
             # Cancelled (or never started): stop where the motion is now.
             here = motion.desired(t)[:3]
@@ -240,9 +254,18 @@ class BaseNavigator(LeafSystem):
             base = self._state_port.Eval(context)[:3]
             arm = (self._arm_port.Eval(context) if self._smooth
                    and self._arm_port.HasValue(context) else None)
-            new = self._plan(command, base, t, motion.trail, arm)
+            known: KnownScene | None = (self._scene_port.Eval(context)
+                                        if self._scene_port.HasValue(context) else None)
+            new = self._plan(command, base, t, motion.trail, arm,
+                             None if known is None else known.scene)
         state.get_mutable_abstract_state(self._motion_index).set_value(new)
         return EventStatus.Succeeded()
+
+    def _stopped(self, context: Context, motion: _Motion, t: float) -> bool:
+        """Whether the robot's protective stop holds the base while `motion` plays."""
+        return (motion.id != NO_COMMAND and not motion.stopped and t < motion.end_time
+                and self._bumper_port.HasValue(context)
+                and self._bumper_port.Eval(context)[0] != 0.0)
 
     def _landing(self, command: BaseCommand) -> np.ndarray:
         """The pose (x, y, yaw) the command aims for: its pose plus the seeded noise T^n
@@ -260,20 +283,24 @@ class BaseNavigator(LeafSystem):
         return landing
 
     def _plan(self, command: BaseCommand, base: np.ndarray, t: float,
-              trail: tuple[BaseSegment, ...] = (), arm: ArmMotion | None = None) -> _Motion:
-        """The command's motion from `base` at time `t`: checked with the arm where it
-        will be once its motion (`arm`; None: stowed) ends, and, while that plays, with
-        the two together; where those collide it starts later (`together.WAIT_STEP`),
-        at the latest as the arm's motion ends."""
+              trail: tuple[BaseSegment, ...] = (), arm: ArmMotion | None = None,
+              scene: FeasibilityScene | None = None) -> _Motion:
+        """The command's motion from `base` at time `t`, checked in `scene` (None: not
+        checked): with the arm where it will be once its motion (`arm`; None: stowed)
+        ends, and, while that plays, with the two together; where those collide it starts
+        later (`together.WAIT_STEP`), at the latest as the arm's motion ends."""
+        if scene is not None and scene.robot is not self._robot:
+            raise ValueError(f"known_scene: holds {scene.robot!r}, not the navigator's "
+                             f"{self._robot!r}")
         posture = None if arm is None or not arm.hold else np.asarray(arm.final)
-        free = None if self._scene is None else PaddedFree(
-            partial(self._free, arm=posture),
-            partial(self._free, arm=posture, checker=self._untouched))
+        free = None if scene is None else PaddedFree(
+            partial(self._free, scene=scene, arm=posture),
+            partial(self._free, scene=scene, arm=posture, checker=self._untouched_in(scene)))
         cut = plan_motion(base, self._landing(command), path=command.path, stop=command.pose,
                           turn=command.turn, trail=trail, free=free,
                           profile=self._params.profile)
         # What blocked the base, where it touched: the bumper's reading on the status.
-        contact = (self._scene.clearance.contact(cut.hit)
+        contact = (scene.clearance.contact(cut.hit)
                    if cut.blocked and cut.hit is not None else None)
         motion = _Motion(id=command.id, t0=t, hold=tuple(float(v) for v in base[:3]),
                          segments=tuple(cut.segments),
@@ -281,7 +308,7 @@ class BaseNavigator(LeafSystem):
                          outcome=CommandState.FAILED if cut.blocked else CommandState.DONE,
                          reason="blocked" if cut.blocked else "", contact=contact,
                          trail=extend_trail(trail, cut.segments), initialized=True)
-        if arm is None or self._scene is None:
+        if arm is None or scene is None:
             return motion
         # The earliest start, every WAIT_STEP, at which the two motions are collision-free
         # together until the arm's ends (from there the check above holds). A base that
@@ -290,23 +317,25 @@ class BaseNavigator(LeafSystem):
         start = t
         while start < arm.end_time:
             moved = dataclasses.replace(motion, t0=start)
-            if free_together(partial(self._checker, arm), moved.desired, arm.arm_at, start,
+            if free_together(partial(_checker, scene, arm), moved.desired, arm.arm_at, start,
                              arm.end_time, robot=self._robot):
                 return moved
             start += WAIT_STEP
         return dataclasses.replace(motion, t0=max(t, arm.end_time))
 
-    def _checker(self, arm: ArmMotion, t: float):
-        """The world's checker at time `t`, letting the gripper touch the dish it picks."""
-        dish = arm.touching(t)
-        return ik.grasp_checker(self._scene, dish) if dish else self._scene.checker
+    def _untouched_in(self, scene: FeasibilityScene) -> RobotChecker:
+        """`scene`'s checker without its padding: where a landing left the base inside the
+        padding, the way out must not touch (`PaddedFree`)."""
+        if self._unpadded is None or self._unpadded[0] is not scene:
+            self._unpadded = (scene, _unpadded(scene.checker))
+        return self._unpadded[1]
 
-    def _free(self, poses: np.ndarray, arm: np.ndarray | None = None,
+    def _free(self, poses: np.ndarray, scene: FeasibilityScene, arm: np.ndarray | None = None,
               checker: RobotChecker | None = None) -> np.ndarray:
-        """bool (n,): base poses inside the room and collision-free with the arm and the
-        fingers at `arm` (default: stowed, open), by `checker` (default the scene's, with
-        its padding)."""
-        clearance = self._scene.clearance
+        """bool (n,): base poses inside the room and collision-free in `scene` with the arm
+        and the fingers at `arm` (default: stowed, open), by `checker` (default the
+        scene's, with its padding)."""
+        clearance = scene.clearance
         free = clearance.in_room(poses[:, :2])
         # Far from every obstacle needs no collision query (a sound shortcut).
         query = free & ~clearance.certainly_free(poses[:, :2])
@@ -319,7 +348,7 @@ class BaseNavigator(LeafSystem):
                 num_arm = robot.num_arm_joints
                 configs = [robot.positions(*p, arm=arm[:num_arm], gripper=arm[num_arm:])
                            for p in poses[query]]
-            checked = (checker or self._scene.checker).CheckConfigsCollisionFree(
+            checked = (checker or scene.checker).CheckConfigsCollisionFree(
                 configs, parallelize=drake_parallelism())
             free[query] = np.asarray(checked, dtype=bool)
         return free
@@ -339,6 +368,25 @@ class BaseNavigator(LeafSystem):
         else:
             output.set_value(Status(id=motion.id, state=motion.outcome, reason=motion.reason,
                                     contact=motion.contact))
+
+
+def _stopped_at(motion: _Motion, base: np.ndarray, t: float,
+                contact: tuple[float, float]) -> _Motion:
+    """`motion` ended at time `t` by the robot's protective stop, the base at `base` (as
+    robot_state has it): held there; landed short within FINAL_APPROACH of its end, else
+    blocked."""
+    left = float(np.linalg.norm(motion.end[:2] - motion.desired(t)[:2]))
+    short = left <= FINAL_APPROACH
+    return _Motion(id=motion.id, t0=t, hold=tuple(float(v) for v in base[:3]),
+                   outcome=CommandState.DONE if short else CommandState.FAILED,
+                   reason="" if short else "blocked", contact=None if short else contact,
+                   trail=motion.trail, initialized=True, stopped=True)
+
+
+def _checker(scene: FeasibilityScene, arm: ArmMotion, t: float) -> RobotChecker:
+    """`scene`'s checker at time `t`, letting the gripper touch the dish `arm` picks."""
+    dish = arm.touching(t)
+    return ik.grasp_checker(scene, dish) if dish else scene.checker
 
 
 def _unpadded(checker: RobotChecker) -> RobotChecker:

@@ -9,6 +9,7 @@
       dish_poses, dish_states ──> task_monitor (the referee)
     executive ── base_command ──> base_navigator ── status ──> executive
               ── pick_command ──> arm_controller ── status ──> executive
+              ── known_scene ──> base_navigator, arm_controller (what they check in)
               ── progress ──> task_monitor (ends the simulation)
     arm_controller ── grip ──> world (the tracker moves the held dish)
     base_navigator (6) + arm_controller (16 for the UR5e) ── desired_state_mux
@@ -44,12 +45,10 @@ from s3o_drake.execution.executive_system import (
     PlanFrom,
 )
 from s3o_drake.execution.task_monitor import TaskMonitor
-from s3o_drake.feasibility.check import FeasibilityChecker
-from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.builder import build_world_diagram, robot_render_labels
 from s3o_drake.world.choices import Recovery
 from s3o_drake.world.clearance_monitor import ClearanceMonitor, proximity_geometries
-from s3o_drake.world.goals import place_target_name, place_targets, with_place_targets
+from s3o_drake.world.goals import place_target_name, place_targets
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot
 from s3o_drake.world.scenario import Scenario
 
@@ -164,19 +163,16 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     world = builder.AddNamedSystem("world", build_world_diagram(
         scenario, meshcat=meshcat, track_dishes=True, show_collisions=show_collisions,
         seed=seed, noise=noise))
-    # The controllers act in the true world: their collision checks see every chair, and
-    # the arm's the place targets it puts objects down at.
-    truth = FeasibilityScene(with_place_targets(scenario).contents)
     executive = builder.AddNamedSystem("executive", make_executive_system(
         scenario, method=method, seed=seed, perceive=perceive, progress_bar=progress_bar,
         control_period=CONTROL_PERIOD, robot_labels=robot_render_labels(world, robot), noise=noise,
         plan_from=plan_from))
     navigator = builder.AddNamedSystem("base_navigator", BaseNavigator(
-        robot=robot, params=navigator_params(scenario, seed=seed, noise=noise), scene=truth,
+        robot=robot, params=navigator_params(scenario, seed=seed, noise=noise),
         control_period=CONTROL_PERIOD))
     arm = builder.AddNamedSystem("arm_controller", ArmController(
-        robot=robot, params=arm_params(scenario, seed=seed, noise=noise), scene=truth,
-        checker=FeasibilityChecker(truth), control_period=CONTROL_PERIOD))
+        robot=robot, params=arm_params(scenario, seed=seed, noise=noise),
+        control_period=CONTROL_PERIOD))
     monitor = builder.AddNamedSystem("task_monitor", TaskMonitor(
         period=CONTROL_PERIOD, settle_time=scenario.simulation.hold_time,
         time_limit=time_limit, places=place_targets(scenario),
@@ -213,6 +209,10 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     builder.Connect(executive.GetOutputPort("base_command"),
                     navigator.GetInputPort("base_command"))
     builder.Connect(executive.GetOutputPort("pick_command"), arm.GetInputPort("pick_command"))
+    # The controllers check their motions in what the robot knows, never in the true world.
+    for system in (navigator, arm):
+        builder.Connect(executive.GetOutputPort("known_scene"),
+                        system.GetInputPort("known_scene"))
     # What the robot did, for the run's timeline.
     states = builder.AddNamedSystem("robot_state_log", VectorLogSink(
         2 * robot.num_positions, publish_period=CONTROL_PERIOD))
@@ -227,6 +227,7 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     builder.Connect(clearance.GetOutputPort("closest_approach"),
                     monitor.GetInputPort("closest_approach"))
     builder.Connect(navigator.GetOutputPort("base_desired_state"), mux.get_input_port(0))
+    builder.Connect(world.GetOutputPort("base_bumper"), navigator.GetInputPort("bumper"))
     builder.Connect(arm.GetOutputPort("arm_desired_state"), mux.get_input_port(1))
     builder.Connect(mux.get_output_port(), permute.get_input_port())
     builder.Connect(permute.get_output_port(), world.GetInputPort("robot_desired_state"))

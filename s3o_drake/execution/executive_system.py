@@ -30,12 +30,14 @@ from s3o_drake.execution.executive import Executive, ExecutiveParams, ExecutiveS
 from s3o_drake.execution.messages import (
     BaseCommand,
     CommandState,
+    KnownScene,
     PickCommand,
     PlanProgress,
     PlanTime,
     Status,
 )
 from s3o_drake.execution.recovery import StopCheck, localise
+from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.planning.navigation.map import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import PlanningResult, plan_from
 from s3o_drake.world.choices import Recovery
@@ -44,6 +46,12 @@ from s3o_drake.world.robot import CONTROL_PERIOD, Robot
 from s3o_drake.world.settings import Uncertainty
 from s3o_drake.world.system_lifetime import weak_callback
 from s3o_drake.world.words import counted
+
+
+def _known_scene(memory: _Memory) -> KnownScene:
+    """The scene of what the robot knew at its latest plan (none before the first)."""
+    result = memory.executive.result
+    return KnownScene(None if result is None or result.scene is None else result.scene.scene)
 
 
 def _progress(memory: _Memory) -> PlanProgress:
@@ -109,6 +117,8 @@ class ExecutiveSystem(LeafSystem):
       plan (abstract TaskMotionPlan, or None before planning / when none could be made);
       planning_result (abstract PlanningResult, or None before planning: the latest plan
         and what it was made on, the KnownWorld, heatmaps, navigation map and state spaces);
+      known_scene (abstract KnownScene): the Drake scene of the KnownWorld the latest plan
+        was made on, which the controllers check their motions in;
       planning_time (1: wall time in s spent planning so far, all plans).
 
     `plan_from` makes each plan (default the planning pipeline's): another planner, or the
@@ -149,6 +159,7 @@ class ExecutiveSystem(LeafSystem):
                 ("pick_command", PickCommand, lambda m: m.pick_command),
                 ("plan", lambda: None, lambda m: m.executive.plan),
                 ("planning_result", lambda: None, lambda m: m.executive.result),
+                ("known_scene", KnownScene, _known_scene),
                 ("progress", PlanProgress, _progress)):
             self.DeclareAbstractOutputPort(
                 name, lambda make=make: AbstractValue.Make(make()),
@@ -274,6 +285,8 @@ class ExecutiveSystem(LeafSystem):
                                  drive_margin=TIGHT_DRIVE_MARGIN if ask.tight else DRIVE_MARGIN)
         if result.navigation is not None:
             result.navigation.seal()
+        if result.scene is None:  # a plan of nothing: the controllers check in it still
+            result = dataclasses.replace(result, scene=PlanningScene(result.known))
         took = PlanTime(result.planning_time, None if result.plan is None
                         else result.plan.timing.get("feasibility", 0.0), ask.budget)
         if result.plan is None:

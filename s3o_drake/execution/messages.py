@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
+from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.placing import PLACE_TOLERANCE, SURFACE_TOLERANCE
 
 NO_COMMAND = 0
@@ -49,6 +50,21 @@ class CommandState(str, Enum):
         # The word, not "CommandState.DONE": str() of a mixed-in Enum, and since Python 3.11
         # also format() and f-strings, would otherwise name the class and the member.
         return self.value
+
+
+@dataclass(frozen=True)
+class KnownScene:
+    """The Drake scene of what the robot knows (the latest plan's KnownWorld: its map, the
+    chairs it perceived, the objects left and their place targets): what the controllers
+    check their motions in. `scene` None: no plan yet."""
+
+    scene: FeasibilityScene | None = None
+
+    def __deepcopy__(self, memo: dict) -> "KnownScene":
+        # Shared, not copied: Drake deep-copies a port's Python value where it keeps one,
+        # and the scene (a plant and its collision checker) is the planner's own, never
+        # changed after it was built.
+        return self
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ planner's one scene per plan is `feasibility.planning_scene.PlanningScene`).
 
 from collections.abc import Iterator
 from contextlib import contextmanager
+from functools import cached_property
 
 import numpy as np
 from pydrake.math import RigidTransform
@@ -112,6 +113,25 @@ class FeasibilityScene:
         finally:
             for body in bodies:
                 self.checker.SetCollisionFilteredBetween(body, dish, False)
+
+    @cached_property
+    def standing_checker(self) -> RobotChecker:
+        """A clone of `checker` without the padding between the base and the world: for the
+        arm's motions while the base stands, which the base's own distance to the world
+        does not change. A base that stopped inside the padding (a protective stop, a
+        landing off by the localisation's error) may still move its arm."""
+        clone = self.checker.Clone()
+        base = self.robot_instances.body(self.robot.base_link)
+        for body in self.plant.GetBodiesWeldedTo(base):
+            clone.inner.SetPaddingOneRobotBodyAllEnvironmentPairs(body.index(), 0.0)
+        return clone
+
+    def arm_checker(self, q: np.ndarray) -> RobotChecker:
+        """The checker for the arm's motions from `q` with the base standing: `checker`,
+        or, where `q` is in collision only by the base's padding, `standing_checker`."""
+        if self.checker.CheckConfigCollisionFree(q):
+            return self.checker
+        return self.standing_checker
 
     def grasp_pose(self, q: np.ndarray) -> RigidTransform:
         """X_WG of the grasp frame at the robot positions q."""

@@ -43,15 +43,17 @@ from pydrake.visualization import ApplyVisualizationConfig
 
 from s3o_drake.world import furniture as fu
 from s3o_drake.world.camera import overhead_camera
+from s3o_drake.world.clearance_monitor import proximity_geometries
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.geometry_mirror import AddGeometryMirror
 from s3o_drake.world.goals import place_targets
 from s3o_drake.world.map import Chair, Room, Table
 from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
 from s3o_drake.world.objects import Dish, surface_height
+from s3o_drake.world.protective_stop import ProtectiveStop
 from s3o_drake.world.resources import make_parser, models_dir
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot, RobotInstances
-from s3o_drake.world.robot_ports import export_robot_desired_state, robot_state_output
+from s3o_drake.world.robot_ports import connect_robot_desired_state, robot_state_output
 from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.target_sensor import TargetSensor
 
@@ -309,9 +311,12 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     """The simulated restaurant as one named Diagram ("s3o_world").
 
     Input ports:  robot_desired_state (positions then velocities of the robot's joints,
-                  `Robot.joints` order, tracked by the joints' PD actuators)
-    Output ports: robot_state (the same order), overhead_color_image, overhead_depth_image,
-                  overhead_label_image, query_object, body_poses
+                  `Robot.joints` order, tracked by the joints' PD actuators; a
+                  ProtectiveStop ("protective_stop") holds the base short of what it would
+                  run into; unconnected: the robot holds where it stands)
+    Output ports: robot_state (the same order), base_bumper (the protective stop's
+                  report), overhead_color_image, overhead_depth_image, overhead_label_image,
+                  query_object, body_poses
 
     With `track_dishes`, the dishes are not welded into the plant: an ObjectTracker
     ("object_tracker") owns their geometry and moves them with the gripper and the tray by
@@ -346,8 +351,8 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     sensor = _add_overhead_camera(builder, plant, scene_graph, tracker, scenario)
     _add_gravity_compensation(builder, plant)
     # A single-instance robot's are the plant's own ports; a robot of parts', MatrixGains.
-    export_robot_desired_state(builder, models.robot, "robot_desired_state")
     builder.ExportOutput(robot_state_output(builder, models.robot), "robot_state")
+    _add_protective_stop(builder, plant, scene_graph, scenario, models.robot)
     builder.ExportOutput(sensor.color_image_output_port(), "overhead_color_image")
     builder.ExportOutput(sensor.depth_image_32F_output_port(), "overhead_depth_image")
     builder.ExportOutput(sensor.label_image_output_port(), "overhead_label_image")
@@ -366,6 +371,30 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     diagram = builder.Build()
     diagram.set_name("s3o_world")
     return diagram
+
+
+def _add_protective_stop(builder: DiagramBuilder, plant: MultibodyPlant,
+                         scene_graph: SceneGraph, scenario: Scenario,
+                         robot: RobotInstances) -> None:
+    """The base's protective stop between the exported robot_desired_state and the plant;
+    its report exported as base_bumper."""
+    # The robot's geometry but the hand's, which touches what it grasps.
+    hand = {robot.body(name).index() for name in robot.robot.gripper_bodies}
+    stop = builder.AddNamedSystem("protective_stop", ProtectiveStop(
+        base=proximity_geometries(plant, scene_graph, (), bodies=[
+            plant.get_body(b) for b in robot.body_indices() if b not in hand]),
+        world=proximity_geometries(
+            plant, scene_graph,
+            [plant.GetModelInstanceByName(f.name) for f in (*scenario.tables,
+                                                             *scenario.chairs)],
+            world_names=("wall",)),
+        num_positions=robot.robot.num_positions, num_base=robot.robot.num_base_joints,
+        period=CONTROL_PERIOD))
+    builder.Connect(robot_state_output(builder, robot), stop.GetInputPort("true_state"))
+    builder.Connect(scene_graph.get_query_output_port(), stop.GetInputPort("query_object"))
+    connect_robot_desired_state(builder, robot, stop.GetOutputPort("plant_desired_state"))
+    builder.ExportInput(stop.GetInputPort("desired_state"), "robot_desired_state")
+    builder.ExportOutput(stop.GetOutputPort("bumper"), "base_bumper")
 
 
 def overhead_images(world: Diagram, context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

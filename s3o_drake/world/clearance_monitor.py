@@ -28,7 +28,7 @@ from pydrake.geometry import (
     Sphere,
 )
 from pydrake.multibody.plant import MultibodyPlant
-from pydrake.multibody.tree import ModelInstanceIndex
+from pydrake.multibody.tree import ModelInstanceIndex, RigidBody
 from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
 
 from s3o_drake.world.system_lifetime import weak_callback
@@ -44,15 +44,15 @@ than REACH."""
 
 def proximity_geometries(plant: MultibodyPlant, scene_graph: SceneGraph,
                          instances: Iterable[ModelInstanceIndex], *,
-                         world_names: Iterable[str] = ()) -> frozenset[GeometryId]:
-    """The collision (proximity) geometries of the bodies of `instances`, and those of the
-    world body whose names start with one of `world_names` (the walls)."""
+                         world_names: Iterable[str] = (),
+                         bodies: Iterable[RigidBody] = ()) -> frozenset[GeometryId]:
+    """The collision (proximity) geometries of the bodies of `instances` and of `bodies`,
+    and those of the world body whose names start with one of `world_names` (the walls)."""
     inspector = scene_graph.model_inspector()
     ids: set[GeometryId] = set()
-    for instance in instances:
-        for body in plant.GetBodyIndices(instance):
-            ids.update(inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(body),
-                                               Role.kProximity))
+    indices = [b for instance in instances for b in plant.GetBodyIndices(instance)]
+    for body in [*indices, *(b.index() for b in bodies)]:
+        ids.update(inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(body), Role.kProximity))
     prefixes = tuple(world_names)
     if prefixes:
         frame = plant.GetBodyFrameIdOrThrow(plant.world_body().index())
@@ -79,10 +79,7 @@ class ClearanceMonitor(LeafSystem):
         super().__init__()
         if period <= 0:
             raise ValueError(f"period: expected a positive period, got {period}")
-        self._robot, self._world = frozenset(robot), frozenset(world)
-        self._ordered = (sorted(self._robot, key=GeometryId.get_value),
-                         sorted(self._world, key=GeometryId.get_value))
-        self._bound: _Shapes | None = None
+        self._near = NearPairs(robot=robot, world=world, reach=REACH)
         self._query_port = self.DeclareAbstractInputPort(
             "query_object", AbstractValue.Make(QueryObject()))
         self._closest = self.DeclareDiscreteState([REACH])
@@ -99,14 +96,27 @@ class ClearanceMonitor(LeafSystem):
         # same narrow phase: the same distances. A pair it leaves out (a filtered one) is
         # left out here too, and a pair whose distance is bounded above REACH would
         # measure more than REACH, which never lowers `closest` (at most REACH).
-        for a, b in self._near_pairs(query):
+        for a, b in self._near.pairs(query):
             closest = min(closest, float(
                 query.ComputeSignedDistancePairClosestPoints(a, b).distance))
         state.get_mutable_vector(self._closest).SetAtIndex(0, closest)
         return EventStatus.Succeeded()
 
-    def _near_pairs(self, query: QueryObject) -> list[tuple[GeometryId, GeometryId]]:
-        """The unfiltered (robot, world) pairs that may come within REACH, each in the
+
+class NearPairs:
+    """The pairs of a `robot` geometry and a `world` one that may come within `reach` (m)
+    of each other, found without Drake's pairwise query (which measures the robot's links
+    against each other too)."""
+
+    def __init__(self, *, robot: frozenset[GeometryId], world: frozenset[GeometryId],
+                 reach: float) -> None:
+        self._ordered = (sorted(robot, key=GeometryId.get_value),
+                         sorted(world, key=GeometryId.get_value))
+        self._reach = reach
+        self._bound: _Shapes | None = None
+
+    def pairs(self, query: QueryObject) -> list[tuple[GeometryId, GeometryId]]:
+        """The unfiltered (robot, world) pairs that may come within `reach`, each in the
         order of their ids (that of the pairwise query's narrow phase). A lower bound of a
         pair's distance: the distance from the robot geometry's bounding sphere to the
         world geometry's box (the walls, tables and chairs are boxes), else to its
@@ -131,7 +141,7 @@ class ClearanceMonitor(LeafSystem):
         gap = np.linalg.norm(np.maximum(np.abs(p_GC) - shapes.half, 0.0), axis=-1) \
             - shapes.extra - shapes.radius[:, None]
         pairs = []
-        for i, j in zip(*np.nonzero(~(gap > REACH + BOUND_MARGIN)), strict=True):
+        for i, j in zip(*np.nonzero(~(gap > self._reach + BOUND_MARGIN)), strict=True):
             a, b = robot[i], world[j]
             if b.get_value() < a.get_value():
                 a, b = b, a
@@ -140,7 +150,7 @@ class ClearanceMonitor(LeafSystem):
         return pairs
 
     def _shapes(self, inspector: SceneGraphInspector) -> "_Shapes":
-        """What `_near_pairs` needs of the geometries' shapes, made once: shapes and their
+        """What `pairs` needs of the geometries' shapes, made once: shapes and their
         poses in their frames do not change during a simulation."""
         if self._bound is None:
             self._bound = _Shapes.of(inspector, *self._ordered)

@@ -106,8 +106,8 @@ def place_target_dishes(scenario: Scenario) -> list[Dish]:
 
 
 def with_place_targets(scenario: Scenario) -> Scenario:
-    """`scenario` with its place targets among the dishes (`place_target_dishes`): what the
-    arm's checks of putting an object down are made in."""
+    """`scenario` with its place targets among the dishes (`place_target_dishes`): every
+    spot an object is put down at, with the objects."""
     return dataclasses.replace(scenario,
                                dishes=[*scenario.dishes, *place_target_dishes(scenario)])
 

@@ -33,23 +33,19 @@ def robot_state_output(builder: DiagramBuilder, robot: RobotInstances) -> Output
     return gain.get_output_port()
 
 
-def export_robot_desired_state(builder: DiagramBuilder, robot: RobotInstances,
-                               name: str = "robot_desired_state") -> None:
-    """Exports the robot's desired state [q_d; v_d] (`Robot.joints` order) as the input
-    `name` of the diagram `builder` builds: the plant's input of a single-instance robot,
-    else one input fanned out to a MatrixGain per instance with actuators, each feeding
-    that instance's desired-state input."""
+def connect_robot_desired_state(builder: DiagramBuilder, robot: RobotInstances,
+                                source: OutputPort) -> None:
+    """Connects `source`, the robot's desired state [q_d; v_d] (`Robot.joints` order), to
+    the plant in `builder`: to the plant's input of a single-instance robot, else to one
+    MatrixGain per instance with actuators, each feeding that instance's desired-state
+    input."""
     plant = robot.plant
     if robot.is_single:
-        builder.ExportInput(plant.get_desired_state_input_port(robot.instances[0]), name)
+        builder.Connect(source, plant.get_desired_state_input_port(robot.instances[0]))
         return
-    exported = None
     for instance, selector in robot.desired_state_selectors().items():
         gain = builder.AddNamedSystem(
             DESIRED_STATE_SELECTOR.format(instance=plant.GetModelInstanceName(instance)),
             MatrixGain(selector))
         builder.Connect(gain.get_output_port(), plant.get_desired_state_input_port(instance))
-        if exported is None:
-            exported = builder.ExportInput(gain.get_input_port(), name)
-        else:
-            builder.ConnectInput(exported, gain.get_input_port())
+        builder.Connect(source, gain.get_input_port())

@@ -27,7 +27,7 @@ from pydrake.systems.primitives import (
 from s3o_drake.execution.arm.place import place_grasps
 from s3o_drake.execution.arm_controller import GRIP_REPORT_TIMEOUT, ArmController
 from s3o_drake.execution.diagram import arm_params
-from s3o_drake.execution.messages import CommandState, PickCommand, Status
+from s3o_drake.execution.messages import CommandState, KnownScene, PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.builder import build_world_diagram
@@ -53,12 +53,14 @@ STOWED = np.concatenate([UR5E.arm_stow, UR5E.gripper_open])
 PLANNING_REASONS = ("no_ik", "no_path", "base_collision")
 
 
-def _controller(scenario, scene, checker, *, seed=None, noise=True, motion="stop_and_go"):
-    """The scenario's controller; stopping and going unless `motion` says (the pickup then
-    is done at its end)."""
+def _controller(scenario, scene, *, seed=None, noise=True, motion="stop_and_go"):
+    """The scenario's controller, knowing the world as `scene` holds it; stopping and going
+    unless `motion` says (the pickup then is done at its end)."""
     params = dataclasses.replace(arm_params(scenario, seed=seed, noise=noise), motion=motion)
-    arm = ArmController(robot=scene.robot, params=params, scene=scene, checker=checker)
-    return arm, arm.CreateDefaultContext()
+    arm = ArmController(robot=scene.robot, params=params)
+    context = arm.CreateDefaultContext()
+    arm.GetInputPort("known_scene").FixValue(context, AbstractValue.Make(KnownScene(scene)))
+    return arm, context
 
 
 def _fix_robot(arm, context, base=FRONT_OF_PLATE, arm_q=STOWED):
@@ -94,13 +96,13 @@ def _play(arm, context, t0, *, dt=0.05, limit=60.0):
 
 # ----------------------------------------------------------------------------- alone
 
-def test_the_controller_takes_no_truth_of_the_dishes(scenario, scene, checker):
+def test_the_controller_takes_no_truth_of_the_dishes(scenario, scene):
     """What the arm knows of a dish is the robot's sighting of it: no input carries the
     simulation's dish poses or states."""
-    arm, _ = _controller(scenario, scene, checker)
+    arm, _ = _controller(scenario, scene)
     names = [arm.get_input_port(i).get_name() for i in range(arm.num_input_ports())]
     assert names == ["pick_command", "robot_state", "target_sighting", "gripper_status",
-                     "base_motion"]
+                     "base_motion", "known_scene"]
     for i in range(arm.num_input_ports()):
         port = arm.get_input_port(i)
         if port.get_data_type() == PortDataType.kAbstractValued:
@@ -108,8 +110,8 @@ def test_the_controller_takes_no_truth_of_the_dishes(scenario, scene, checker):
             assert not isinstance(value, DishPoses | DishStates), port.get_name()
 
 
-def test_ports_and_idle_hold(scenario, scene, checker):
-    arm, context = _controller(scenario, scene, checker)
+def test_ports_and_idle_hold(scenario, scene):
+    arm, context = _controller(scenario, scene)
     assert arm.GetInputPort("robot_state").size() == 2 * UR5E.num_positions
     assert arm.GetOutputPort("arm_desired_state").size() == 16
     # Before any update: the scenario's start (stowed, open); no command: idle.
@@ -127,8 +129,8 @@ def test_ports_and_idle_hold(scenario, scene, checker):
         assert status.state is CommandState.IDLE
 
 
-def test_pickup_plays_grips_places_and_ends_done(scenario, scene, checker):
-    arm, context = _controller(scenario, scene, checker, noise=False)
+def test_pickup_plays_grips_places_and_ends_done(scenario, scene):
+    arm, context = _controller(scenario, scene, noise=False)
     _fix_robot(arm, context)
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="plate_a"))
     t0 = 0.5
@@ -165,11 +167,11 @@ def _grasp_point(arm, context, scene, base, dish):
     raise AssertionError("never held")
 
 
-def test_grasp_aims_where_the_sensor_sees_the_dish(scenario, scene, checker):
+def test_grasp_aims_where_the_sensor_sees_the_dish(scenario, scene):
     p_rim = np.array([1.85, 2.3 - DISH_SHAPES["plate"].radius + RIM_INSET])
     points = {}
     for shift in (0.0, 0.03):
-        arm, context = _controller(scenario, scene, checker, noise=False)
+        arm, context = _controller(scenario, scene, noise=False)
         _fix_robot(arm, context)
         arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="plate_a"))
         # It asks the robot's sensor where the plate is, and aims at the answer.
@@ -182,8 +184,8 @@ def test_grasp_aims_where_the_sensor_sees_the_dish(scenario, scene, checker):
     np.testing.assert_allclose(points[0.03][:2] - points[0.0][:2], [0.03, 0.0], atol=0.01)
 
 
-def test_a_pickup_waits_for_the_answer_to_its_own_request(scenario, scene, checker):
-    arm, context = _controller(scenario, scene, checker, noise=False)
+def test_a_pickup_waits_for_the_answer_to_its_own_request(scenario, scene):
+    arm, context = _controller(scenario, scene, noise=False)
     _fix_robot(arm, context)
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=2, dish="plate_a"))
     # An answer to an earlier request is no answer: nothing starts.
@@ -196,7 +198,7 @@ def test_a_pickup_waits_for_the_answer_to_its_own_request(scenario, scene, check
     _step(arm, context, 0.01)
     assert _outputs(arm, context)[2] == Status(2, CommandState.RUNNING, sighted=True)
     # A target the sensor does not see fails by name.
-    arm2, context2 = _controller(scenario, scene, checker, noise=False)
+    arm2, context2 = _controller(scenario, scene, noise=False)
     _fix_robot(arm2, context2)
     arm2.GetInputPort("pick_command").FixValue(context2, PickCommand(id=3, dish="plate_a"))
     arm2.GetInputPort("target_sighting").FixValue(context2, TargetSighting(3, "plate_a", None))
@@ -204,8 +206,8 @@ def test_a_pickup_waits_for_the_answer_to_its_own_request(scenario, scene, check
     assert _outputs(arm2, context2)[2] == Status(3, CommandState.FAILED, "unknown_dish")
 
 
-def test_base_too_far_fails_with_a_reason(scenario, scene, checker):
-    arm, context = _controller(scenario, scene, checker, noise=False)
+def test_base_too_far_fails_with_a_reason(scenario, scene):
+    arm, context = _controller(scenario, scene, noise=False)
     _fix_robot(arm, context, base=FRONT_OF_PLATE - np.array([0.0, 1.3, 0.0]))  # 2.15 m away
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=4, dish="plate_a"))
     _step(arm, context, 0.0)
@@ -220,6 +222,27 @@ def test_base_too_far_fails_with_a_reason(scenario, scene, checker):
     assert _outputs(arm, context)[2] == Status(5, CommandState.FAILED, "unknown_dish")
 
 
+def test_a_dish_the_robot_does_not_know_of_is_not_picked(scenario, scene):
+    """The arm plans in the world as the robot knows it: without a scene (no plan yet) a
+    command fails "no_scene"; a dish that is not in the scene fails "unknown_dish", though
+    the sensor would see it."""
+    params = dataclasses.replace(arm_params(scenario, noise=False), motion="stop_and_go")
+    arm = ArmController(robot=scene.robot, params=params)
+    context = arm.CreateDefaultContext()
+    _fix_robot(arm, context)
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="plate_a"))
+    arm.GetInputPort("target_sighting").FixValue(context,
+                                                 TargetSighting(1, "plate_a", (1.85, 2.3)))
+    _step(arm, context, 0.0)
+    assert _outputs(arm, context)[2] == Status(1, CommandState.FAILED, "no_scene")
+    without = FeasibilityScene(dataclasses.replace(scene.contents, dishes=tuple(
+        d for d in scene.contents.dishes if d.name != "plate_a")))
+    arm.GetInputPort("known_scene").FixValue(context, AbstractValue.Make(KnownScene(without)))
+    arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=2, dish="plate_a"))
+    _step(arm, context, 0.01)
+    assert _outputs(arm, context)[2] == Status(2, CommandState.FAILED, "unknown_dish")
+
+
 def test_grasp_tolerances_follow_the_gripper_geometry():
     tolerance = functools.partial(grasp_tolerance, robot=load_robot("ur5e"))
     assert tolerance("cup") == pytest.approx(0.07 - 0.045)
@@ -228,12 +251,12 @@ def test_grasp_tolerances_follow_the_gripper_geometry():
     assert tolerance("bowl") < tolerance("plate")
 
 
-def test_a_gripper_that_reports_no_object_is_a_miss(scenario, scene, checker):
+def test_a_gripper_that_reports_no_object_is_a_miss(scenario, scene):
     """Whether the fingers hold the dish is the robot's to say, after they close: nothing
     detected, the pickup fails "missed", the grip lets go, and nothing lands on the tray."""
     outcomes = {}
     for detected in (True, False):
-        arm, context = _controller(scenario, scene, checker, noise=False)
+        arm, context = _controller(scenario, scene, noise=False)
         _fix_robot(arm, context)
         arm.GetInputPort("pick_command").FixValue(context, PickCommand(1, "plate_a"))
         arm.GetInputPort("gripper_status").FixValue(context, GripperStatus(detected))
@@ -250,11 +273,11 @@ def test_a_gripper_that_reports_no_object_is_a_miss(scenario, scene, checker):
     assert len(closed) * 0.02 <= GRIP_REPORT_TIMEOUT + 0.02
 
 
-def test_same_seed_and_id_give_the_same_pickup(scenario, scene, checker):
+def test_same_seed_and_id_give_the_same_pickup(scenario, scene):
     """The planner's seed comes from the seed and the command id alone."""
     runs = []
     for _ in range(2):
-        arm, context = _controller(scenario, scene, checker, seed=3)
+        arm, context = _controller(scenario, scene, seed=3)
         _fix_robot(arm, context)
         arm.GetInputPort("pick_command").FixValue(context, PickCommand(7, "plate_a"))
         _step(arm, context, 0.0)
@@ -269,19 +292,18 @@ def test_same_seed_and_id_give_the_same_pickup(scenario, scene, checker):
 
 @pytest.fixture(scope="module")
 def tidy(scenario):
-    """two_dishes with the cup to put onto the plate, which stays; the scene and checker
-    hold the cup's place target (a cup standing on the plate)."""
+    """two_dishes with the cup to put onto the plate, which stays; the scene holds the
+    cup's place target (a cup standing on the plate)."""
     plate, cup = scenario.dishes
     scenario = dataclasses.replace(scenario, dishes=[
         dataclasses.replace(plate, goal="stay"),
         dataclasses.replace(cup, goal="place", place=PlaceSpot(onto="plate_a"))])
-    scene = FeasibilityScene(with_place_targets(scenario).contents)
-    return scenario, scene, FeasibilityChecker(scene)
+    return scenario, FeasibilityScene(with_place_targets(scenario).contents)
 
 
 def test_an_object_to_place_is_held_then_put_down_at_its_place(tidy):
-    scenario, scene, checker = tidy
-    arm, context = _controller(scenario, scene, checker, noise=False)
+    scenario, scene = tidy
+    arm, context = _controller(scenario, scene, noise=False)
     _fix_robot(arm, context)
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="cup_b"))
     record = _play(arm, context, 0.0)
@@ -329,8 +351,8 @@ def test_an_object_to_place_is_held_then_put_down_at_its_place(tidy):
 def test_an_object_to_place_whose_place_failed_is_let_go_over_the_tray(tidy):
     """Named again without `place` while held, the object is let go where the arm holds it,
     above the tray: it lands there, the fingers open and the gripper is free."""
-    scenario, scene, checker = tidy
-    arm, context = _controller(scenario, scene, checker, noise=False)
+    scenario, scene = tidy
+    arm, context = _controller(scenario, scene, noise=False)
     _fix_robot(arm, context)
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="cup_b"))
     t_end, last, grip, _ = _play(arm, context, 0.0)[-1]
@@ -362,7 +384,7 @@ def _permutation() -> np.ndarray:
     return P
 
 
-def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
+def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene):
     start = dataclasses.replace(scenario, robot=dataclasses.replace(
         scenario.robot, start=list(FRONT_OF_PLATE)))
     builder = DiagramBuilder()
@@ -370,14 +392,15 @@ def test_simulated_pickup_is_tracked_and_ends_done(scenario, scene, checker):
                                                                 noise=False))
     arm = builder.AddNamedSystem("arm_controller", ArmController(
         robot=scene.robot,
-        params=dataclasses.replace(arm_params(start, noise=False), motion="stop_and_go"),
-        scene=scene, checker=checker))
+        params=dataclasses.replace(arm_params(start, noise=False), motion="stop_and_go")))
+    known = builder.AddSystem(ConstantValueSource(AbstractValue.Make(KnownScene(scene))))
     command = builder.AddSystem(ConstantValueSource(
         AbstractValue.Make(PickCommand(id=1, dish="plate_a"))))
     base = builder.AddSystem(ConstantVectorSource(np.concatenate([FRONT_OF_PLATE, np.zeros(3)])))
     mux = builder.AddSystem(Multiplexer([6, 16]))
     gain = builder.AddSystem(MatrixGain(_permutation()))
     builder.Connect(command.get_output_port(), arm.GetInputPort("pick_command"))
+    builder.Connect(known.get_output_port(), arm.GetInputPort("known_scene"))
     builder.Connect(world.GetOutputPort("robot_state"), arm.GetInputPort("robot_state"))
     builder.Connect(world.GetOutputPort("target_sighting"), arm.GetInputPort("target_sighting"))
     builder.Connect(arm.GetOutputPort("target_request"), world.GetInputPort("target_request"))
@@ -453,7 +476,7 @@ def test_an_object_to_place_is_picked_with_a_grasp_it_can_be_put_down_with():
     assert place_grasps(scene, checker, np.array(place_at), "apple__place") == ["side"]
     for told, outcome in ((True, Status(2, CommandState.DONE)),
                           (False, Status(2, CommandState.FAILED, "no_ik"))):
-        arm, context = _controller(tidy, scene, checker, noise=False)
+        arm, context = _controller(tidy, scene, noise=False)
         _fix_robot(arm, context, base=pick_at)
         arm.GetInputPort("pick_command").FixValue(context, PickCommand(
             id=1, dish="apple", place_from=place_at if told else None))
@@ -495,10 +518,10 @@ class _BaseMotion:
         return np.array([*self.pose, 0.0, 0.0, 0.0])
 
 
-def test_smooth_a_pickup_is_done_once_lifted_and_its_motion_plays_on(scenario, scene, checker):
+def test_smooth_a_pickup_is_done_once_lifted_and_its_motion_plays_on(scenario, scene):
     """The base may leave once the plate is lifted: the status says done then, and when the
     arm's motion (to the tray, letting go, the stow) ends; `arm_motion` says the same."""
-    arm, context = _controller(scenario, scene, checker, noise=False, motion="smooth")
+    arm, context = _controller(scenario, scene, noise=False, motion="smooth")
     _fix_robot(arm, context)
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=1, dish="plate_a"))
     t_done, _, grip, status = _play(arm, context, 0.5)[-1]
@@ -513,11 +536,10 @@ def test_smooth_a_pickup_is_done_once_lifted_and_its_motion_plays_on(scenario, s
     np.testing.assert_allclose(desired[:8], STOWED, atol=1e-9)
 
 
-def test_smooth_a_pickup_another_follows_leaves_the_arm_over_the_tray(scenario, scene,
-                                                                       checker):
+def test_smooth_a_pickup_another_follows_leaves_the_arm_over_the_tray(scenario, scene):
     """Without the stow the arm ends over the tray, fingers open, and the next pickup
     starts from there."""
-    arm, context = _controller(scenario, scene, checker, noise=False, motion="smooth")
+    arm, context = _controller(scenario, scene, noise=False, motion="smooth")
     _fix_robot(arm, context)
     arm.GetInputPort("pick_command").FixValue(
         context, PickCommand(id=1, dish="plate_a", stow=False))
@@ -533,11 +555,11 @@ def test_smooth_a_pickup_another_follows_leaves_the_arm_over_the_tray(scenario, 
     assert _outputs(arm, context)[2].state is CommandState.RUNNING
 
 
-def test_smooth_a_prepare_reaches_the_pre_grasp_as_the_base_arrives(scenario, scene, checker):
+def test_smooth_a_prepare_reaches_the_pre_grasp_as_the_base_arrives(scenario, scene):
     """A prepare waits for the navigator to take its base command, then starts so that the
     arm reaches the plate's pre-grasp (the hand above the plate) as the base's motion ends,
     and holds there."""
-    arm, context = _controller(scenario, scene, checker, noise=False, motion="smooth")
+    arm, context = _controller(scenario, scene, noise=False, motion="smooth")
     _fix_robot(arm, context)
     command = PickCommand(id=3, dish="plate_a", prepare=tuple(FRONT_OF_PLATE), base_id=2)
     arm.GetInputPort("pick_command").FixValue(context, command)
@@ -558,8 +580,8 @@ def test_smooth_a_prepare_reaches_the_pre_grasp_as_the_base_arrives(scenario, sc
     assert np.linalg.norm(hand[:2] - [1.85, 2.3]) < 0.15 and hand[2] > 0.78  # at its rim
 
 
-def test_smooth_a_stow_command_stows(scenario, scene, checker):
-    arm, context = _controller(scenario, scene, checker, noise=False, motion="smooth")
+def test_smooth_a_stow_command_stows(scenario, scene):
+    arm, context = _controller(scenario, scene, noise=False, motion="smooth")
     bent = STOWED + np.array([0.3, -0.2, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
     _fix_robot(arm, context, arm_q=bent)
     arm.GetInputPort("pick_command").FixValue(context, PickCommand(id=4, to_stow=True))

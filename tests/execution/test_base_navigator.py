@@ -20,7 +20,13 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from s3o_drake.execution.base_navigator import BaseNavigator
 from s3o_drake.execution.diagram import navigator_params
-from s3o_drake.execution.messages import ArmMotion, BaseCommand, CommandState, Status
+from s3o_drake.execution.messages import (
+    ArmMotion,
+    BaseCommand,
+    CommandState,
+    KnownScene,
+    Status,
+)
 from s3o_drake.world.angles import wrap as wrap_angle
 from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.robot import load_robot
@@ -40,10 +46,13 @@ def _robot_state(x: float, y: float, yaw: float) -> np.ndarray:
 class _Alone:
     """A navigator with fixed inputs; `send` forces its update at `t`, `at` Evals."""
 
-    def __init__(self, navigator: BaseNavigator, base=(0.6, 0.6, 0.0)):
+    def __init__(self, navigator: BaseNavigator, base=(0.6, 0.6, 0.0), scene=None):
         self.navigator = navigator
         self.context = navigator.CreateDefaultContext()
         navigator.GetInputPort("robot_state").FixValue(self.context, _robot_state(*base))
+        if scene is not None:  # what the robot knows; else its motions are not checked
+            navigator.GetInputPort("known_scene").FixValue(
+                self.context, AbstractValue.Make(KnownScene(scene)))
         self.send(BaseCommand(), t=0.0)
 
     def send(self, command: BaseCommand, t: float = 0.0) -> None:
@@ -62,7 +71,7 @@ class _Alone:
         return self.at(1e3)
 
 
-def _navigator(scenario, scene=None, *, seed=None, noise=False, motion=None,
+def _navigator(scenario, *, seed=None, noise=False, motion=None,
                **changes) -> BaseNavigator:
     """A navigator of `scenario` (without noise unless asked; with its motion unless
     `motion` says), `changes` made to its params."""
@@ -70,7 +79,7 @@ def _navigator(scenario, scene=None, *, seed=None, noise=False, motion=None,
     if motion is not None:
         changes["profile"] = dataclasses.replace(params.profile, motion=motion)
     return BaseNavigator(robot=scenario.robot_value,
-                         params=dataclasses.replace(params, **changes), scene=scene)
+                         params=dataclasses.replace(params, **changes))
 
 
 def test_ports_and_no_feedthrough(scenario):
@@ -221,7 +230,7 @@ def test_a_landing_that_faces_a_point_keeps_only_the_heading_error(scenario):
 
 def test_a_path_through_the_table_fails_blocked_before_it(scenario, scene):
     # The table spans x 1.4..2.6, y 2.1..2.9; drive straight across it along y = 2.5.
-    alone = _Alone(_navigator(scenario, scene), base=(0.6, 2.5, 0.0))
+    alone = _Alone(_navigator(scenario), scene=scene, base=(0.6, 2.5, 0.0))
     alone.send(BaseCommand(id=3, path=((0.6, 2.5), (3.4, 2.5)), pose=(3.4, 2.5, 0.0)))
     final, status = alone.final()
     assert (status.id, status.state, status.reason) == (3, CommandState.FAILED, "blocked")
@@ -241,7 +250,7 @@ def test_a_path_through_the_table_fails_blocked_before_it(scenario, scene):
 
 def test_a_colliding_landing_ends_done_at_the_last_free_pose(scenario, scene):
     # Facing the table's south edge (y = 2.1) from 1.9 m: the base's front overlaps it.
-    alone = _Alone(_navigator(scenario, scene), base=(2.0, 0.8, math.pi / 2))
+    alone = _Alone(_navigator(scenario), scene=scene, base=(2.0, 0.8, math.pi / 2))
     alone.send(BaseCommand(id=5, path=((2.0, 0.8), (2.0, 1.9)), pose=(2.0, 1.9, math.pi / 2)))
     final, status = alone.final()
     assert status == Status(id=5, state=CommandState.DONE)
@@ -249,8 +258,58 @@ def test_a_colliding_landing_ends_done_at_the_last_free_pose(scenario, scene):
     assert scene.checker.CheckConfigCollisionFree(scene.q(final[:3]))
 
 
+def test_a_chair_the_robot_knows_of_stops_the_base_and_one_it_does_not_know_of_does_not(
+        scenario, scene):
+    """The navigator checks in the world as the robot knows it (`known_scene`), not in the
+    true one: a chair on the way that the robot perceived stops the drive; without it, the
+    same drive is driven through."""
+    from s3o_drake.feasibility.scene import FeasibilityScene
+    from s3o_drake.world.map import Chair
+
+    drive = BaseCommand(id=1, path=((0.6, 1.0), (3.0, 1.0)), pose=(3.0, 1.0, 0.0))
+    chair = Chair(name="perceived_0", pose=[1.8, 1.0, 0.0], mapped=False)
+    believed = FeasibilityScene(dataclasses.replace(
+        scene.contents, chairs=(*scene.contents.chairs, chair)))
+    finals = {}
+    for name, known in (("with the chair", believed), ("without", scene)):
+        alone = _Alone(_navigator(scenario, motion="stop_and_go"), scene=known,
+                       base=(0.6, 1.0, 0.0))
+        alone.send(drive)
+        finals[name] = alone.final()
+    (stopped, blocked), (driven, done) = finals["with the chair"], finals["without"]
+    assert blocked.state is CommandState.FAILED and blocked.reason == "blocked"
+    assert stopped[0] < 1.8 - 0.2
+    assert done == Status(id=1, state=CommandState.DONE)
+    np.testing.assert_allclose(driven[:3], [3.0, 1.0, 0.0], atol=1e-9)
+
+
+def test_a_protective_stop_ends_the_motion_where_the_robot_stands(scenario):
+    """The robot's protective stop holds the base: far from the end the command fails
+    "blocked", with where the robot stopped short of as the contact; within FINAL_APPROACH
+    of it, it is done (landed short). The base is held where the robot believes it
+    stands."""
+    drive = BaseCommand(id=1, path=((0.6, 1.0), (3.0, 1.0)), pose=(3.0, 1.0, 0.0))
+    for t_stop, base, outcome in ((2.0, (1.3, 1.0, 0.0), CommandState.FAILED),
+                                  (6.0, (2.7, 1.0, 0.0), CommandState.DONE)):
+        alone = _Alone(_navigator(scenario, motion="stop_and_go"), base=(0.6, 1.0, 0.0))
+        alone.navigator.GetInputPort("bumper").FixValue(alone.context, [0.0, np.nan, np.nan])
+        alone.send(drive)
+        alone.navigator.GetInputPort("bumper").FixValue(alone.context, [1.0, 1.6, 1.05])
+        alone.navigator.GetInputPort("robot_state").FixValue(alone.context, _robot_state(*base))
+        alone.context.SetTime(t_stop)
+        alone.navigator.CalcForcedUnrestrictedUpdate(alone.context,
+                                                     alone.context.get_mutable_state())
+        final, status = alone.final()
+        np.testing.assert_allclose(final[:3], base)
+        assert status.id == 1 and status.state is outcome
+        if outcome is CommandState.FAILED:
+            assert status.reason == "blocked" and status.contact == (1.6, 1.05)
+        else:
+            assert status.reason == "" and status.contact is None
+
+
 def test_free_path_with_scene_is_untouched(scenario, scene):
-    alone = _Alone(_navigator(scenario, scene))
+    alone = _Alone(_navigator(scenario), scene=scene)
     alone.send(BaseCommand(id=1, path=((0.6, 0.6), (3.0, 0.6)), pose=(3.0, 0.6, 0.0)))
     final, status = alone.final()
     np.testing.assert_allclose(final[:3], [3.0, 0.6, 0.0], atol=1e-9)
@@ -266,7 +325,7 @@ def test_backs_out_of_a_stop_too_tight_to_turn_in(scenario, scene):
     turned = lambda a: base + np.array([0.0, 0.0, a])  # noqa: E731
     assert not all(free(turned(-a)) for a in np.arange(0.05, math.pi / 2, 0.05))
     assert not all(free(turned(a)) for a in np.arange(0.05, 1.5 * math.pi, 0.05))
-    alone = _Alone(_navigator(scenario, scene), base=tuple(base))
+    alone = _Alone(_navigator(scenario), scene=scene, base=tuple(base))
     alone.send(BaseCommand(id=4, path=((1.4, 1.78), (3.2, 1.2)), pose=(3.2, 1.2, 0.0)))
     final, status = alone.final()
     assert status == Status(id=4, state=CommandState.DONE)
@@ -286,7 +345,7 @@ def test_drives_straight_on_out_of_a_stop_it_can_neither_turn_in_nor_back_out_of
     assert free(base) and not free(base + np.array([0.0, 0.02, 0.0]))
     assert not all(free(base + np.array([0, 0, a])) for a in np.arange(0.05, math.pi / 2, 0.05))
     assert not all(free(base - [0, 0, a]) for a in np.arange(0.05, 1.5 * math.pi, 0.05))
-    alone = _Alone(_navigator(scenario, scene), base=tuple(base))
+    alone = _Alone(_navigator(scenario), scene=scene, base=tuple(base))
     alone.send(BaseCommand(id=7, path=((1.3, 1.8), (3.2, 1.2)), pose=(3.2, 1.2, 0.0)))
     final, status = alone.final()
     assert status == Status(id=7, state=CommandState.DONE)
@@ -304,7 +363,7 @@ def test_a_stop_it_cannot_turn_in_is_driven_into_along_its_heading(scenario, sce
     free = lambda p: scene.checker.CheckConfigCollisionFree(scene.q(np.asarray(p, float)))  # noqa: E731
     assert free(stop) and not all(free(stop - [0, 0, a])
                                   for a in np.arange(0.05, math.pi / 2, 0.05))
-    alone = _Alone(_navigator(scenario, scene), base=(0.4, 1.78, 0.0))
+    alone = _Alone(_navigator(scenario), scene=scene, base=(0.4, 1.78, 0.0))
     alone.send(BaseCommand(id=6, path=((0.4, 1.78), (1.4, 1.78)), pose=tuple(stop)))
     final, status = alone.final()
     assert status == Status(id=6, state=CommandState.DONE)
@@ -338,7 +397,7 @@ def test_a_noisy_landing_is_reached_along_the_planned_leg(scenario, scene):
     params = navigator_params(scenario, noise=False)
     stop_and_go = dataclasses.replace(params, profile=dataclasses.replace(
         params.profile, motion="stop_and_go"))
-    alone = _Alone(Landing(robot=scene.robot, params=stop_and_go, scene=scene),
+    alone = _Alone(Landing(robot=scene.robot, params=stop_and_go), scene=scene,
                    base=(0.8, 1.72, 0.0))
     alone.send(BaseCommand(id=3, path=((0.8, 1.72), (1.6, 1.72), (3.4, 1.72)),
                            pose=(3.4, 1.72, 0.0)))
@@ -422,7 +481,7 @@ def test_a_turn_cut_a_hair_short_of_a_collision_stops_a_step_earlier(scenario, s
     x, y = 1.3452592452380063, 1.7807096953917887
     assert scene.checker.CheckConfigCollisionFree(scene.q([x, y, 0.81855]))
     assert not scene.checker.CheckConfigCollisionFree(scene.q([x, y, 0.81847]))
-    alone = _Alone(_navigator(scenario, scene), base=(x, y, 0.86765))
+    alone = _Alone(_navigator(scenario), scene=scene, base=(x, y, 0.86765))
     alone.send(BaseCommand(id=2, path=((x, y),), pose=(x, y, 0.573), turn=True))
     final, status = alone.final()
     assert status == Status(id=2, state=CommandState.DONE)
@@ -453,7 +512,7 @@ def test_a_base_that_cannot_leave_a_tight_spot_goes_back_the_way_it_came(dense):
     is blocked."""
     scenario, scene = dense
     leave = BaseCommand(id=2, path=((1.7, 0.45), (3.3, 1.3)), pose=(3.3, 1.3, 0.0))
-    alone = _Alone(_navigator(scenario, scene), base=(3.4, 0.45, math.pi))
+    alone = _Alone(_navigator(scenario), scene=scene, base=(3.4, 0.45, math.pi))
     alone.send(BaseCommand(id=1, path=((3.4, 0.45), (1.7, 0.45)), pose=(1.7, 0.45, math.pi)))
     stopped, status = alone.final()
     assert status.state is CommandState.DONE
@@ -466,7 +525,7 @@ def test_a_base_that_cannot_leave_a_tight_spot_goes_back_the_way_it_came(dense):
     assert alone.at(100.0 + 1.6 / V)[0][0] > 2.5
     assert wrap_angle(alone.at(100.5)[0][2] - math.pi) == pytest.approx(0.0, abs=1e-9)
 
-    stranger = _Alone(_navigator(scenario, scene), base=(1.7, 0.45, math.pi))
+    stranger = _Alone(_navigator(scenario), scene=scene, base=(1.7, 0.45, math.pi))
     stranger.send(leave, t=1.0)
     _, status = stranger.final()
     assert (status.state, status.reason) == (CommandState.FAILED, "blocked")
@@ -484,9 +543,11 @@ def _arm_out_of_the_table(base) -> ArmMotion:
     return ArmMotion(trajectory, 0.0, tuple(q0[3:]))
 
 
-def _played(navigator: BaseNavigator, base, arm: ArmMotion, command: BaseCommand):
-    """The motion `navigator` plays for `command` from `base`, the arm doing `arm`."""
+def _played(navigator: BaseNavigator, base, arm: ArmMotion, command: BaseCommand, scene):
+    """The motion `navigator` plays for `command` from `base`, the arm doing `arm`, in
+    `scene`."""
     context = navigator.CreateDefaultContext()
+    navigator.GetInputPort("known_scene").FixValue(context, AbstractValue.Make(KnownScene(scene)))
     navigator.GetInputPort("robot_state").FixValue(context, _robot_state(*base))
     navigator.GetInputPort("arm_motion").FixValue(context, AbstractValue.Make(arm))
     navigator.GetInputPort("base_command").FixValue(context, AbstractValue.Make(command))
@@ -505,7 +566,7 @@ def test_smooth_the_base_waits_where_the_arm_s_motion_and_its_own_collide(scenar
     turn = BaseCommand(id=1, path=(base[:2],), pose=(*base[:2], base[2] - 1.0), turn=True)
     starts = []
     for arm in (_arm_out_of_the_table(base), ArmMotion(hold=tuple(STOWED))):
-        played = _played(_navigator(scenario, scene, motion=motion), base, arm, turn)
+        played = _played(_navigator(scenario, motion=motion), base, arm, turn, scene)
         assert played.id == 1 and played.end_time == pytest.approx(played.t0 + played.duration)
         starts.append(played.t0)
     if motion == "smooth":
@@ -529,7 +590,7 @@ def test_smooth_a_turn_that_ends_before_the_arm_s_motion_is_checked_until_that_e
     arm = ArmMotion(PiecewisePolynomial.FirstOrderHold([0.0, 2.5, 4.0, 5.5], np.column_stack(q)),
                     0.0, tuple(q[0][3:]))
     turn = BaseCommand(id=1, path=(base[:2],), pose=(*base[:2], base[2] - 1.0), turn=True)
-    played = _played(_navigator(scenario, scene, motion="smooth"), base, arm, turn)
+    played = _played(_navigator(scenario, motion="smooth"), base, arm, turn, scene)
     assert played.id == 1 and played.duration < arm.end_time
     assert not free_together(lambda t: scene.checker, dataclasses.replace(played, t0=0.0).desired,
                              arm.arm_at, 0.0, arm.end_time,

@@ -233,6 +233,17 @@ def test_perception_decides_the_obstacles(scenario):
     known = system.GetOutputPort("planning_result").Eval(context).known
     assert known.perceived_chairs == ((1.0, 1.0, 0.0),)
     assert known.map.chairs == tuple(c for c in scenario.chairs if c.mapped)
+    # The controllers check their motions in the same belief: the perceived chair is in
+    # it, and no unmapped chair of the scenario's.
+    scene = system.GetOutputPort("known_scene").Eval(context).scene
+    assert scene.contents == known.contents
+    chairs = {c.name: tuple(c.pose) for c in scene.contents.chairs if not c.mapped}
+    assert chairs == {"perceived_0": (1.0, 1.0, 0.0)}
+
+
+def test_no_scene_before_the_first_plan(scenario):
+    system = _executive(scenario, method="V-GROP*", seed=0)
+    assert system.GetOutputPort("known_scene").Eval(system.CreateDefaultContext()).scene is None
 
 
 def test_turns_to_face_each_further_dish_before_picking_it():

@@ -121,7 +121,7 @@ def test_the_navigator_plays_the_profile_time(motion):
     scenario = with_overrides(load_scenario(REPO / "scenarios" / "small" / "two_dishes.yaml"),
                               (f"execution.motion={motion}",))
     navigator = BaseNavigator(robot=scenario.robot_value,
-                              params=navigator_params(scenario, noise=False), scene=None)
+                              params=navigator_params(scenario, noise=False))
     profile = BaseProfile(speed=scenario.planner.speed, motion=motion)
     rng = np.random.default_rng(5)
     for cid in range(1, 21):

@@ -113,7 +113,7 @@ def test_goto_times_are_the_navigators_motion(motion):
     nav = NavigationMap(_known(scenario, chairs).obstacles, robot=UR5E)
     profile = base_profile(scenario.planner, motion, robot=scenario.robot_value)
     navigator = BaseNavigator(robot=scenario.robot_value,
-                              params=navigator_params(scenario, noise=False), scene=None)
+                              params=navigator_params(scenario, noise=False))
     rng = np.random.default_rng(0)
     free = [p for p in rng.uniform([0.5, 0.5], [9.5, 7.5], (400, 2))
             if nav.clearance(p[None])[0] > 0.5][:60]

@@ -28,7 +28,7 @@ from s3o_drake.world.scenario import load_scenario
 #: the robot's own ports are the plant's (same-runs identity: no system of ours between).
 SINGLE_INSTANCE_SYSTEMS = ["camera_scene_graph", "geometry_mirror", "gravity_compensation",
                            "gravity_to_actuators", "object_tracker", "overhead_camera", "plant",
-                           "scene_graph", "target_sensor"]
+                           "protective_stop", "scene_graph", "target_sensor"]
 
 
 @pytest.fixture(scope="module")
@@ -55,8 +55,8 @@ def test_a_single_instance_robots_world_keeps_the_plants_own_ports(restaurant):
     assert _port_names(world) == (
         ["grip", "target_request", "robot_desired_state"],
         ["target_sighting", "gripper_status", "dish_poses", "dish_states", "robot_state",
-         "overhead_color_image", "overhead_depth_image", "overhead_label_image",
-         "query_object", "body_poses"])
+         "base_bumper", "overhead_color_image", "overhead_depth_image",
+         "overhead_label_image", "query_object", "body_poses"])
     plant = world.GetSubsystemByName("plant")
     robot = plant.GetModelInstanceByName("robot")
     context = world.CreateDefaultContext()

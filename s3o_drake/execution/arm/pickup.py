@@ -230,7 +230,7 @@ def plan_reach(scene: FeasibilityScene, checker: FeasibilityChecker, base: np.nd
     robot = scene.robot
     q0 = np.asarray(q_start, dtype=float).copy()
     q0[:3] = np.asarray(base, dtype=float).reshape(3)
-    free = scene.checker
+    free = scene.arm_checker(q0)
     if target is None:
         goal = with_gripper(scene.q(q0[:3]), q0[robot.gripper_positions], robot=robot)
     else:
@@ -257,7 +257,7 @@ def plan_release(scene: FeasibilityScene, base: np.ndarray, q_start: np.ndarray,
     robot = scene.robot
     q0 = np.asarray(q_start, dtype=float).copy()
     q0[:3] = np.asarray(base, dtype=float).reshape(3)
-    free = scene.checker
+    free = scene.arm_checker(q0)
     q_open = with_gripper(q0, robot.gripper_open, robot=robot)
     q_stow = with_gripper(scene.q(q0[:3]), robot.gripper_open, robot=robot)
     fail = PickupPlan(False, "no_path")
