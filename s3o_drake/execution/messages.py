@@ -18,10 +18,12 @@ place.
 import math
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.world.placing import PLACE_TOLERANCE, SURFACE_TOLERANCE
+
+if TYPE_CHECKING:  # the Executive, which reads these messages, imports no Drake
+    from s3o_drake.feasibility.scene import FeasibilityScene
 
 NO_COMMAND = 0
 
@@ -58,7 +60,7 @@ class KnownScene:
     chairs it perceived, the objects left and their place targets): what the controllers
     check their motions in. `scene` None: no plan yet."""
 
-    scene: FeasibilityScene | None = None
+    scene: "FeasibilityScene | None" = None
 
     def __deepcopy__(self, memo: dict) -> "KnownScene":
         # Shared, not copied: Drake deep-copies a port's Python value where it keeps one,
