@@ -1,0 +1,150 @@
+"""The simulated robot on an LCM bus: the world's diagram, publishing what a robot and its
+sensors publish and obeying the commands a robot obeys, on the channels of
+`robot_channels`.
+
+`add_robot_lcm` wires a world diagram (`builder.build_world_diagram`, with its dishes
+tracked) to Drake's LCM systems: publishers of the robot's joint state, the gripper's report,
+the sensor's sightings, the protective stop's report (every control period) and the overhead
+camera's images (every IMAGE_PERIOD); subscribers of the desired state, the grip and the
+sighting requests. A `CommandWatchdog` holds the robot where it stands until the first
+command, and whenever commands stop coming for COMMAND_TIMEOUT of the robot's time, as a
+robot's driver stops a robot whose controller went quiet.
+"""
+
+import numpy as np
+from drake import lcmt_image_array
+from pydrake.systems.framework import BasicVector, Context, Diagram, DiagramBuilder, LeafSystem
+from pydrake.systems.lcm import LcmInterfaceSystem, LcmPublisherSystem, LcmSubscriberSystem
+from pydrake.systems.primitives import MatrixGain
+from pydrake.systems.sensors import ImageToLcmImageArrayT
+
+from s3o_drake.world import robot_channels as ch
+from s3o_drake.world.lcmtypes.s3o_lcm import (
+    grip_t,
+    gripper_status_t,
+    protective_stop_t,
+    robot_command_t,
+    robot_state_t,
+    target_request_t,
+    target_sighting_t,
+)
+from s3o_drake.world.message_systems import FromMessage, ToMessage
+from s3o_drake.world.robot import CONTROL_PERIOD, Robot
+from s3o_drake.world.robot_messages import (
+    GripEvent,
+    GripperStatus,
+    TargetRequest,
+    TargetSighting,
+)
+from s3o_drake.world.system_lifetime import weak_callback
+
+COMMAND_TIMEOUT = 0.5
+"""How long (s of the robot's time) the robot goes on without a command before it holds."""
+
+
+class CommandWatchdog(LeafSystem):
+    """The robot's desired state: the last command's while commands come, else where it
+    stands.
+
+    Input ports:
+        desired_state: vector (2 num_positions), the last command's desired state.
+        command_time: vector 1, that command's time (s; negative: no command yet).
+        true_state: vector (2 num_positions), the robot's state.
+    Output ports:
+        desired_state: vector (2 num_positions): the command's, or, before the first
+            command and once none came for `timeout` s, the robot's positions with zero
+            velocities (it holds where it stands).
+    """
+
+    def __init__(self, *, num_positions: int, timeout: float = COMMAND_TIMEOUT) -> None:
+        super().__init__()
+        if timeout <= 0:
+            raise ValueError(f"timeout: expected a positive time, got {timeout}")
+        self._n, self._timeout = num_positions, timeout
+        self._desired = self.DeclareVectorInputPort("desired_state", 2 * num_positions)
+        self._time = self.DeclareVectorInputPort("command_time", 1)
+        self._true = self.DeclareVectorInputPort("true_state", 2 * num_positions)
+        self.DeclareVectorOutputPort("desired_state", 2 * num_positions,
+                                     weak_callback(self._calc_desired_state))
+
+    def commanded(self, context: Context) -> bool:
+        """Whether a command came within the timeout."""
+        sent = float(self._time.Eval(context)[0])
+        return sent >= 0.0 and context.get_time() - sent <= self._timeout
+
+    def _calc_desired_state(self, context: Context, output: BasicVector) -> None:
+        if self.commanded(context):
+            output.SetFromVector(self._desired.Eval(context))
+            return
+        held = np.array(self._true.Eval(context), dtype=float)
+        held[self._n:] = 0.0
+        output.SetFromVector(held)
+
+
+def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
+                  lcm: LcmInterfaceSystem, period: float = CONTROL_PERIOD) -> None:
+    """Wires `world` (in `builder`, with tracked dishes) to `lcm` (module docstring)."""
+    joints = tuple(robot.joints)
+    n = robot.num_positions
+
+    def publish(port, channel: str, message_type: type, encode, *, size=None, model=None,
+                every: float = period) -> None:
+        to = builder.AddNamedSystem(f"to_{channel.lower()}", ToMessage(
+            message_type=message_type, encode=encode, size=size, model=model))
+        publisher = builder.AddNamedSystem(f"publish_{channel.lower()}", LcmPublisherSystem.Make(
+            channel=channel, lcm_type=message_type, lcm=lcm, publish_period=every))
+        builder.Connect(port, to.get_input_port())
+        builder.Connect(to.get_output_port(), publisher.get_input_port())
+
+    subscribers = {}
+
+    def subscribe(channel: str, message_type: type, decode, *, initial, size=None,
+                  reading: str = ""):
+        if channel not in subscribers:
+            subscribers[channel] = builder.AddNamedSystem(
+                f"subscribe_{channel.lower()}",
+                LcmSubscriberSystem.Make(channel=channel, lcm_type=message_type, lcm=lcm))
+        reader = builder.AddNamedSystem(
+            f"from_{channel.lower()}{reading}",
+            FromMessage(message_type=message_type, decode=decode, initial=initial, size=size))
+        builder.Connect(subscribers[channel].get_output_port(), reader.get_input_port())
+        return reader.get_output_port()
+
+    # The joint state: positions only (the controllers read no velocities).
+    positions = builder.AddNamedSystem("robot_positions", MatrixGain(np.eye(n, 2 * n)))
+    builder.Connect(world.GetOutputPort("robot_state"), positions.get_input_port())
+    publish(positions.get_output_port(), ch.ROBOT_STATE, robot_state_t,
+            lambda q, t: ch.robot_state_message(q, joints=joints, t=t), size=n)
+    publish(world.GetOutputPort("gripper_status"), ch.GRIPPER_STATUS, gripper_status_t,
+            lambda s, t: ch.gripper_message(s, t=t), model=GripperStatus())
+    publish(world.GetOutputPort("target_sighting"), ch.TARGET_SIGHTING, target_sighting_t,
+            lambda s, t: ch.sighting_message(s, t=t), model=TargetSighting())
+    publish(world.GetOutputPort("base_bumper"), ch.PROTECTIVE_STOP, protective_stop_t,
+            lambda b, t: ch.stop_message(b, t=t), size=3)
+    images = builder.AddNamedSystem("overhead_images_to_lcm", ImageToLcmImageArrayT(
+        "overhead_color", "overhead_depth", "overhead_label"))
+    for kind in ("color", "depth", "label"):
+        builder.Connect(world.GetOutputPort(f"overhead_{kind}_image"),
+                        images.GetInputPort(f"overhead_{kind}"))
+    image_publisher = builder.AddNamedSystem("publish_overhead_images", LcmPublisherSystem.Make(
+        channel=ch.OVERHEAD_IMAGES, lcm_type=lcmt_image_array, lcm=lcm,
+        publish_period=ch.IMAGE_PERIOD, use_cpp_serializer=True))
+    builder.Connect(images.image_array_t_msg_output_port(), image_publisher.get_input_port())
+
+    desired = subscribe(ch.ROBOT_COMMAND, robot_command_t,
+                        lambda m: ch.desired_of(m, joints=joints) if m.num_positions else None,
+                        initial=np.zeros(2 * n), size=2 * n)
+    sent = subscribe(ch.ROBOT_COMMAND, robot_command_t,
+                     lambda m: [ch.seconds(m.utime)] if m.num_positions else None,
+                     initial=[-1.0], size=1, reading="_time")
+    watchdog = builder.AddNamedSystem("command_watchdog", CommandWatchdog(num_positions=n))
+    builder.Connect(desired, watchdog.GetInputPort("desired_state"))
+    builder.Connect(sent, watchdog.GetInputPort("command_time"))
+    builder.Connect(world.GetOutputPort("robot_state"), watchdog.GetInputPort("true_state"))
+    builder.Connect(watchdog.get_output_port(), world.GetInputPort("robot_desired_state"))
+    builder.Connect(subscribe(ch.GRIP, grip_t, ch.grip_of, initial=GripEvent()),
+                    world.GetInputPort("grip"))
+    builder.Connect(subscribe(ch.TARGET_REQUEST, target_request_t, ch.request_of,
+                              initial=TargetRequest()),
+                    world.GetInputPort("target_request"))
+
