@@ -30,13 +30,16 @@ from collections.abc import Sequence
 
 import numpy as np
 from pydrake.geometry import Meshcat
+from pydrake.lcm import DrakeLcm
 from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.lcm import LcmInterfaceSystem
 from pydrake.systems.primitives import MatrixGain, Multiplexer, VectorLogSink
 
 from s3o_drake.belief import Perceive, perceive_known_world
 from s3o_drake.belief.known_world import Briefing, KnownWorld
 from s3o_drake.execution.arm_controller import ArmController, ArmParams
 from s3o_drake.execution.base_navigator import BaseNavigator, NavigatorParams
+from s3o_drake.execution.controller_lcm import add_controller_lcm
 from s3o_drake.execution.escape import MotionProfile
 from s3o_drake.execution.executive import ExecutiveParams, TaskObject
 from s3o_drake.execution.executive_system import (
@@ -50,7 +53,14 @@ from s3o_drake.world.choices import Recovery
 from s3o_drake.world.clearance_monitor import ClearanceMonitor, proximity_geometries
 from s3o_drake.world.goals import place_target_name, place_targets
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot
+from s3o_drake.world.robot_lcm import add_robot_lcm
 from s3o_drake.world.scenario import Scenario
+
+ROBOT_READINGS = ("robot_state", "overhead_color_image", "overhead_depth_image",
+                  "overhead_label_image", "target_sighting", "gripper_status", "base_bumper")
+"""The world's outputs the controllers read: what a robot and its sensors report."""
+ROBOT_COMMANDS = ("robot_desired_state", "grip", "target_request")
+"""The world's inputs the controllers command: what a robot obeys."""
 
 TIME_LIMIT = 1800.0
 """Simulated seconds after which an execution is stopped whatever its state."""
@@ -147,13 +157,17 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
                             perceive: Perceive | None = None, noise: bool = True,
                             progress_bar: bool = False, time_limit: float = TIME_LIMIT,
                             show_collisions: bool = False,
-                            plan_from: PlanFrom | None = None) -> Diagram:
+                            plan_from: PlanFrom | None = None,
+                            bus: str | None = None) -> Diagram:
     """The whole system (see the module docstring), named "s3o_execution".
 
     `noise=False` turns off the simulated navigation, reaching and localisation noise (the
     planner still plans with the scenario's noise model). `perceive` replaces the
     executive's perception of the chairs.
     `show_collisions` adds Meshcat's (hidden) collision-geometry view, for live watching.
+    `bus` (an LCM URL, "memq://" in one process): the controllers and the robot talk over
+    it, by the robot's messages (`world.robot_lcm`, `controller_lcm`), rather than through
+    the world's ports; the referee still reads the simulation.
     The task monitor ends the simulation `scenario.simulation.hold_time` after the plan has
     ended, or at `time_limit` simulated seconds.
     """
@@ -196,16 +210,26 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     permute = builder.AddNamedSystem("desired_state_order",
                                      MatrixGain(desired_state_permutation(robot=robot)))
 
+    # What the controllers read of the robot and what they command it: the world's own
+    # ports, or, over a message bus, the robot's messages and theirs.
+    if bus is None:
+        reads = {name: world.GetOutputPort(name) for name in ROBOT_READINGS}
+        commands = {name: world.GetInputPort(name) for name in ROBOT_COMMANDS}
+    else:
+        lcm = builder.AddNamedSystem("lcm", LcmInterfaceSystem(DrakeLcm(bus)))
+        add_robot_lcm(builder, world, robot=robot, lcm=lcm)
+        ports = add_controller_lcm(builder, robot=robot, lcm=lcm, start=scenario.robot.start)
+        reads, commands = ports.reads, ports.commands
     for name in ("overhead_color_image", "overhead_depth_image", "overhead_label_image"):
-        builder.Connect(world.GetOutputPort(name), executive.GetInputPort(name))
+        builder.Connect(reads[name], executive.GetInputPort(name))
     for system in (executive, navigator, arm):
-        builder.Connect(world.GetOutputPort("robot_state"), system.GetInputPort("robot_state"))
-    builder.Connect(world.GetOutputPort("target_sighting"), arm.GetInputPort("target_sighting"))
-    builder.Connect(arm.GetOutputPort("target_request"), world.GetInputPort("target_request"))
-    builder.Connect(world.GetOutputPort("gripper_status"), arm.GetInputPort("gripper_status"))
+        builder.Connect(reads["robot_state"], system.GetInputPort("robot_state"))
+    builder.Connect(reads["target_sighting"], arm.GetInputPort("target_sighting"))
+    builder.Connect(arm.GetOutputPort("target_request"), commands["target_request"])
+    builder.Connect(reads["gripper_status"], arm.GetInputPort("gripper_status"))
     builder.Connect(world.GetOutputPort("dish_states"), monitor.GetInputPort("dish_states"))
     builder.Connect(world.GetOutputPort("dish_poses"), monitor.GetInputPort("dish_poses"))
-    builder.Connect(arm.GetOutputPort("grip"), world.GetInputPort("grip"))
+    builder.Connect(arm.GetOutputPort("grip"), commands["grip"])
     builder.Connect(executive.GetOutputPort("base_command"),
                     navigator.GetInputPort("base_command"))
     builder.Connect(executive.GetOutputPort("pick_command"), arm.GetInputPort("pick_command"))
@@ -227,10 +251,10 @@ def build_execution_diagram(scenario: Scenario, *, method: str | None = None,
     builder.Connect(clearance.GetOutputPort("closest_approach"),
                     monitor.GetInputPort("closest_approach"))
     builder.Connect(navigator.GetOutputPort("base_desired_state"), mux.get_input_port(0))
-    builder.Connect(world.GetOutputPort("base_bumper"), navigator.GetInputPort("bumper"))
+    builder.Connect(reads["base_bumper"], navigator.GetInputPort("bumper"))
     builder.Connect(arm.GetOutputPort("arm_desired_state"), mux.get_input_port(1))
     builder.Connect(mux.get_output_port(), permute.get_input_port())
-    builder.Connect(permute.get_output_port(), world.GetInputPort("robot_desired_state"))
+    builder.Connect(permute.get_output_port(), commands["robot_desired_state"])
     diagram = builder.Build()
     diagram.set_name("s3o_execution")
     return diagram

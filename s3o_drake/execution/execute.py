@@ -164,14 +164,15 @@ def _simulate(simulator: Simulator, plant) -> tuple[str | None, int]:
 def execute(scenario: Scenario, *, method: str | None = None, seed: int | None = None,
             meshcat: Meshcat | None, realtime: bool = False, noise: bool = True,
             progress: bool = True, perceive: Perceive | None = None,
-            plan_from: PlanFrom | None = None) -> Execution:
+            plan_from: PlanFrom | None = None, bus: str | None = None) -> Execution:
     """Builds the execution diagram, plans (at initialization) and simulates until the task
     monitor ends the run; records the playback in `meshcat` (none without one: the
     benchmark's runs). `perceive` replaces the executive's perception of the chairs (at
-    every plan and replan); `plan_from` what makes each plan (default the pipeline's)."""
+    every plan and replan); `plan_from` what makes each plan (default the pipeline's);
+    `bus` an LCM URL the controllers and the robot talk over (`build_execution_diagram`)."""
     diagram = build_execution_diagram(scenario, method=method, seed=seed, meshcat=meshcat,
                                       perceive=perceive, noise=noise, progress_bar=progress,
-                                      show_collisions=realtime, plan_from=plan_from)
+                                      show_collisions=realtime, plan_from=plan_from, bus=bus)
     if meshcat is not None:
         frame_room(meshcat, scenario)
     simulator = Simulator(diagram)

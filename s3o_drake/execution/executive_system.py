@@ -91,6 +91,8 @@ class _Memory:
     base_command: BaseCommand = field(default_factory=BaseCommand)
     pick_command: PickCommand = field(default_factory=PickCommand)
     replan_seen: float = 0.0
+    started: bool = False
+    """The walk has started: the first plan was asked for."""
     arm_done: bool = True
     """The arm's motion has ended: the run ends once the walk has and the arm has (a
     pickup is done before its dish is on the tray, with smooth motion)."""
@@ -181,14 +183,25 @@ class ExecutiveSystem(LeafSystem):
         return np.asarray(self._robot_state.Eval(context))[:3].copy()
 
     def _initialize(self, context: Context, state: State) -> None:
-        memory = self._run(context, _Memory(), ex.Start(context.get_time(), self._pose(context)))
+        memory = self._start(context, _Memory())
         if self._replan_port.HasValue(context):
             memory = dataclasses.replace(
                 memory, replan_seen=float(self._replan_port.Eval(context)[0]))
         state.get_mutable_abstract_state(int(self._state)).set_value(memory)
 
+    def _start(self, context: Context, memory: _Memory) -> _Memory:
+        """`memory` started (its first plan asked for), once the camera's images have come:
+        over a message bus they come after the start."""
+        if self._images[1].Eval(context).size() == 0:
+            return memory
+        return dataclasses.replace(
+            self._run(context, memory, ex.Start(context.get_time(), self._pose(context))),
+            started=True)
+
     def _step(self, context: Context, state: State) -> None:
         memory = self._memory(context)
+        if not memory.started:
+            memory = self._start(context, memory)
         if self._replan_port.HasValue(context):
             request = float(self._replan_port.Eval(context)[0])
             if request != memory.replan_seen:

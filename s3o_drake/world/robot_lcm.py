@@ -19,23 +19,10 @@ from pydrake.systems.primitives import MatrixGain
 from pydrake.systems.sensors import ImageToLcmImageArrayT
 
 from s3o_drake.world import robot_channels as ch
-from s3o_drake.world.lcmtypes.s3o_lcm import (
-    grip_t,
-    gripper_status_t,
-    protective_stop_t,
-    robot_command_t,
-    robot_state_t,
-    target_request_t,
-    target_sighting_t,
-)
+from s3o_drake.world.lcmtypes import s3o_lcm
 from s3o_drake.world.message_systems import FromMessage, ToMessage
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot
-from s3o_drake.world.robot_messages import (
-    GripEvent,
-    GripperStatus,
-    TargetRequest,
-    TargetSighting,
-)
+from s3o_drake.world.robot_messages import GripEvent, GripperStatus, TargetRequest, TargetSighting
 from s3o_drake.world.system_lifetime import weak_callback
 
 COMMAND_TIMEOUT = 0.5
@@ -113,13 +100,13 @@ def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
     # The joint state: positions only (the controllers read no velocities).
     positions = builder.AddNamedSystem("robot_positions", MatrixGain(np.eye(n, 2 * n)))
     builder.Connect(world.GetOutputPort("robot_state"), positions.get_input_port())
-    publish(positions.get_output_port(), ch.ROBOT_STATE, robot_state_t,
+    publish(positions.get_output_port(), ch.ROBOT_STATE, s3o_lcm.robot_state_t,
             lambda q, t: ch.robot_state_message(q, joints=joints, t=t), size=n)
-    publish(world.GetOutputPort("gripper_status"), ch.GRIPPER_STATUS, gripper_status_t,
+    publish(world.GetOutputPort("gripper_status"), ch.GRIPPER_STATUS, s3o_lcm.gripper_status_t,
             lambda s, t: ch.gripper_message(s, t=t), model=GripperStatus())
-    publish(world.GetOutputPort("target_sighting"), ch.TARGET_SIGHTING, target_sighting_t,
+    publish(world.GetOutputPort("target_sighting"), ch.TARGET_SIGHTING, s3o_lcm.target_sighting_t,
             lambda s, t: ch.sighting_message(s, t=t), model=TargetSighting())
-    publish(world.GetOutputPort("base_bumper"), ch.PROTECTIVE_STOP, protective_stop_t,
+    publish(world.GetOutputPort("base_bumper"), ch.PROTECTIVE_STOP, s3o_lcm.protective_stop_t,
             lambda b, t: ch.stop_message(b, t=t), size=3)
     images = builder.AddNamedSystem("overhead_images_to_lcm", ImageToLcmImageArrayT(
         "overhead_color", "overhead_depth", "overhead_label"))
@@ -131,10 +118,10 @@ def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
         publish_period=ch.IMAGE_PERIOD, use_cpp_serializer=True))
     builder.Connect(images.image_array_t_msg_output_port(), image_publisher.get_input_port())
 
-    desired = subscribe(ch.ROBOT_COMMAND, robot_command_t,
+    desired = subscribe(ch.ROBOT_COMMAND, s3o_lcm.robot_command_t,
                         lambda m: ch.desired_of(m, joints=joints) if m.num_positions else None,
                         initial=np.zeros(2 * n), size=2 * n)
-    sent = subscribe(ch.ROBOT_COMMAND, robot_command_t,
+    sent = subscribe(ch.ROBOT_COMMAND, s3o_lcm.robot_command_t,
                      lambda m: [ch.seconds(m.utime)] if m.num_positions else None,
                      initial=[-1.0], size=1, reading="_time")
     watchdog = builder.AddNamedSystem("command_watchdog", CommandWatchdog(num_positions=n))
@@ -142,9 +129,9 @@ def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
     builder.Connect(sent, watchdog.GetInputPort("command_time"))
     builder.Connect(world.GetOutputPort("robot_state"), watchdog.GetInputPort("true_state"))
     builder.Connect(watchdog.get_output_port(), world.GetInputPort("robot_desired_state"))
-    builder.Connect(subscribe(ch.GRIP, grip_t, ch.grip_of, initial=GripEvent()),
+    builder.Connect(subscribe(ch.GRIP, s3o_lcm.grip_t, ch.grip_of, initial=GripEvent()),
                     world.GetInputPort("grip"))
-    builder.Connect(subscribe(ch.TARGET_REQUEST, target_request_t, ch.request_of,
+    builder.Connect(subscribe(ch.TARGET_REQUEST, s3o_lcm.target_request_t, ch.request_of,
                               initial=TargetRequest()),
                     world.GetInputPort("target_request"))
 
