@@ -7,7 +7,8 @@ chair the camera missed is not in it. This system is that safety layer in the si
 world: every `period` it measures, in the simulation's SceneGraph, the distance between the
 robot's geometry (all but the hand's, which touches what it grasps) and the room's walls,
 tables and chairs, and where the base's commanded motion would bring it within
-PROTECTIVE_FIELD of one of them, moving towards it, it holds the base where it stands. It
+PROTECTIVE_FIELD of one of them, moving towards it (its commanded travel LOOK_AHEAD ahead,
+its turn as commanded), it holds the base where it stands. It
 judges the base's motion only: the arm's own motions are its controller's to check. It lets
 go once the command no longer moves the base towards what stopped it.
 """
@@ -28,8 +29,8 @@ PROTECTIVE_FIELD = 0.002
 padding the controllers keep from what they know (1 cm), so that a motion planned clear of
 the known world is never stopped by its own approach."""
 LOOK_AHEAD = 0.1
-"""How far ahead (s) of the commanded pose the base's motion is judged: the control
-period and the plant's lag behind its set point."""
+"""How far ahead (s) of the commanded position the base's travel is judged: the plant's lag
+behind its set point and the distance it takes to stop."""
 _REACH = 0.1  # pairs further apart than this (m) cannot come within the field in LOOK_AHEAD
 
 
@@ -81,7 +82,10 @@ class ProtectiveStop(LeafSystem):
         true = np.asarray(self._true_port.Eval(context))
         desired = np.asarray(self._desired_port.Eval(context))
         b, n = self._b, self._n
-        ahead = desired[:b] + LOOK_AHEAD * desired[n:n + b]
+        # Ahead along the commanded travel only: a turn's rate, carried on past the end of
+        # the turn, swung the base's corners into what a turn at a stop clears by 1 cm.
+        ahead = desired[:b].copy()
+        ahead[:2] += LOOK_AHEAD * desired[n:n + 2]
         hit = self._towards(self._query_port.Eval(context), true[:b], ahead)
         if hit is None:
             stop[0] = 0.0
