@@ -48,6 +48,7 @@ COMMANDS: tuple[Command, ...] = (
     _c("directives", "directives",
        "Write a scenario as Drake model directives, which Drake's own tools open."),
     _c("diagrams", "diagrams", "Regenerate the Graphviz pictures of the Drake diagrams."),
+    _c("sim", "sim", "The simulated robot alone on an LCM bus, for controllers elsewhere."),
     _c("build robot", "build_robot",
        "Build what a robot needs from its description: map, times, FCN, checks."),
     _c("build model", "build_model", "Build a robot's parts from their makers' files."),

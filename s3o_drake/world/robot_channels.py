@@ -52,6 +52,10 @@ GRIP = "S3O_GRIP"
 #: controllers -> robot, every control period: s3o_lcm.target_request_t.
 TARGET_REQUEST = "S3O_TARGET_REQUEST"
 
+LOCAL_BUS = "udpm://239.255.76.67:7667?ttl=0"
+"""The default bus between processes: UDP multicast that never leaves this machine (time to
+live 0)."""
+
 IMAGE_PERIOD = 0.5
 """How often (s) the robot publishes the overhead camera's images: the controllers read them
 only when they plan."""

@@ -13,16 +13,19 @@ robot's driver stops a robot whose controller went quiet.
 
 import numpy as np
 from drake import lcmt_image_array
+from pydrake.lcm import DrakeLcm
 from pydrake.systems.framework import BasicVector, Context, Diagram, DiagramBuilder, LeafSystem
 from pydrake.systems.lcm import LcmInterfaceSystem, LcmPublisherSystem, LcmSubscriberSystem
 from pydrake.systems.primitives import MatrixGain
 from pydrake.systems.sensors import ImageToLcmImageArrayT
 
 from s3o_drake.world import robot_channels as ch
+from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.lcmtypes import s3o_lcm
 from s3o_drake.world.message_systems import FromMessage, ToMessage
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot
 from s3o_drake.world.robot_messages import GripEvent, GripperStatus, TargetRequest, TargetSighting
+from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.system_lifetime import weak_callback
 
 COMMAND_TIMEOUT = 0.5
@@ -135,3 +138,18 @@ def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
                               initial=TargetRequest()),
                     world.GetInputPort("target_request"))
 
+
+
+def build_robot_diagram(scenario: Scenario, *, lcm: DrakeLcm, seed: int | None = None,
+                        noise: bool = True) -> Diagram:
+    """The simulated robot alone, on `lcm`: the world's diagram (the true chairs, the
+    dishes tracked, the overhead camera; the scenario's noise unless `noise` is off, drawn
+    from `seed`, default the scenario's) wired by `add_robot_lcm`. Named "s3o_robot"."""
+    builder = DiagramBuilder()
+    interface = builder.AddNamedSystem("lcm", LcmInterfaceSystem(lcm))
+    world = builder.AddNamedSystem("world", build_world_diagram(
+        scenario, track_dishes=True, seed=seed, noise=noise, show_collisions=False))
+    add_robot_lcm(builder, world, robot=scenario.robot_value, lcm=interface)
+    diagram = builder.Build()
+    diagram.set_name("s3o_robot")
+    return diagram
