@@ -9,12 +9,13 @@ the robot is where the briefing starts it; before the first images they are empt
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from drake import lcmt_image_array
 from pydrake.systems.framework import DiagramBuilder, InputPort, OutputPort
 from pydrake.systems.lcm import LcmInterfaceSystem, LcmPublisherSystem, LcmSubscriberSystem
-from pydrake.systems.sensors import LcmImageArrayToImages
+from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.world import robot_channels as ch
 from s3o_drake.world.lcmtypes import s3o_lcm
@@ -75,15 +76,22 @@ def add_controller_lcm(builder: DiagramBuilder, *, robot: Robot, lcm: LcmInterfa
          initial=GripperStatus())
     read("base_bumper", ch.PROTECTIVE_STOP, s3o_lcm.protective_stop_t, ch.bumper_of,
          initial=np.array([0.0, np.nan, np.nan]), size=3)
+    # Drake's LcmImageArrayToImages gave a depth image with zeros and other labels than
+    # were sent: the images are read here, by their frame names.
     images = builder.AddNamedSystem("subscribe_" + ch.OVERHEAD_IMAGES.lower(),
                                     LcmSubscriberSystem.Make(
                                         channel=ch.OVERHEAD_IMAGES, lcm_type=lcmt_image_array,
-                                        lcm=lcm, use_cpp_serializer=True))
-    to_images = builder.AddNamedSystem("overhead_images_from_lcm", LcmImageArrayToImages())
-    builder.Connect(images.get_output_port(), to_images.image_array_t_input_port())
-    reads["overhead_color_image"] = to_images.color_image_output_port()
-    reads["overhead_depth_image"] = to_images.depth_image_output_port()
-    reads["overhead_label_image"] = to_images.label_image_output_port()
+                                        lcm=lcm))
+    for frame, image_type, dtype, channels in zip(
+            ch.IMAGE_FRAMES, (ImageRgba8U, ImageDepth32F, ImageLabel16I),
+            (np.uint8, np.float32, np.int16), (4, 1, 1), strict=True):
+        reader = builder.AddNamedSystem(f"from_{frame}", FromMessage(
+            message_type=lcmt_image_array,
+            decode=partial(_image, frame=frame, image_type=image_type, dtype=dtype,
+                           channels=channels),
+            initial=image_type()))
+        builder.Connect(images.get_output_port(), reader.get_input_port())
+        reads[f"{frame}_image"] = reader.get_output_port()
 
     command("robot_desired_state", ch.ROBOT_COMMAND, s3o_lcm.robot_command_t,
             lambda x, t: ch.command_message(x, joints=joints, t=t), size=2 * n)
@@ -92,3 +100,15 @@ def add_controller_lcm(builder: DiagramBuilder, *, robot: Robot, lcm: LcmInterfa
     command("target_request", ch.TARGET_REQUEST, s3o_lcm.target_request_t,
             lambda r, t: ch.request_message(r, t=t), model=TargetRequest())
     return ControllerPorts(reads=reads, commands=commands)
+
+
+def _image(message, *, frame: str, image_type: type, dtype: type, channels: int):
+    """The image of `frame` in `message` as a Drake image of `image_type`; None before any
+    came."""
+    pixels = ch.image_of(message, frame, dtype=dtype, channels=channels)
+    if pixels is None:
+        return None
+    height, width = pixels.shape[:2]
+    image = image_type(width, height)
+    image.mutable_data[:] = pixels
+    return image

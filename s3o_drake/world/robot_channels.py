@@ -56,6 +56,10 @@ LOCAL_BUS = "udpm://239.255.76.67:7667?ttl=0"
 """The default bus between processes: UDP multicast that never leaves this machine (time to
 live 0)."""
 
+IMAGE_FRAMES = ("overhead_color", "overhead_depth", "overhead_label")
+"""The frame names of the overhead camera's images in their lcmt_image_array, in the order
+colour, depth, label."""
+
 IMAGE_PERIOD = 0.5
 """How often (s) the robot publishes the overhead camera's images: the controllers read them
 only when they plan."""
@@ -186,3 +190,23 @@ def bumper_of(message: protective_stop_t) -> np.ndarray:
     if not message.stopped:
         return np.array([0.0, np.nan, np.nan])
     return np.array([1.0, float(message.position[0]), float(message.position[1])])
+
+
+def image_of(message, frame: str, *, dtype: type, channels: int) -> np.ndarray | None:
+    """The uncompressed image of `frame` in an lcmt_image_array `message`, as an array
+    (height, width, channels) of `dtype`; None when the message has none of that frame (no
+    images came yet). ValueError when it is compressed or its size does not fit."""
+    for image in message.images:
+        if image.header.frame_name != frame:
+            continue
+        if image.compression_method != image.COMPRESSION_METHOD_NOT_COMPRESSED:
+            raise ValueError(f"{frame}: compression_method: expected none, got "
+                             f"{image.compression_method}")
+        item = np.dtype(dtype).itemsize
+        data = np.frombuffer(bytes(image.data), dtype=dtype)
+        if image.row_stride * image.height != data.size * item:
+            raise ValueError(f"{frame}: size: {data.size * item} bytes for {image.height} "
+                             f"rows of {image.row_stride}")
+        rows = data.reshape(image.height, image.row_stride // item)
+        return rows[:, :image.width * channels].reshape(image.height, image.width, channels)
+    return None

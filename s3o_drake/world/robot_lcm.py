@@ -111,11 +111,10 @@ def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
             lambda s, t: ch.sighting_message(s, t=t), model=TargetSighting())
     publish(world.GetOutputPort("base_bumper"), ch.PROTECTIVE_STOP, s3o_lcm.protective_stop_t,
             lambda b, t: ch.stop_message(b, t=t), size=3)
-    images = builder.AddNamedSystem("overhead_images_to_lcm", ImageToLcmImageArrayT(
-        "overhead_color", "overhead_depth", "overhead_label"))
-    for kind in ("color", "depth", "label"):
-        builder.Connect(world.GetOutputPort(f"overhead_{kind}_image"),
-                        images.GetInputPort(f"overhead_{kind}"))
+    images = builder.AddNamedSystem("overhead_images_to_lcm",
+                                    ImageToLcmImageArrayT(*ch.IMAGE_FRAMES))
+    for frame in ch.IMAGE_FRAMES:
+        builder.Connect(world.GetOutputPort(f"{frame}_image"), images.GetInputPort(frame))
     image_publisher = builder.AddNamedSystem("publish_overhead_images", LcmPublisherSystem.Make(
         channel=ch.OVERHEAD_IMAGES, lcm_type=lcmt_image_array, lcm=lcm,
         publish_period=ch.IMAGE_PERIOD, use_cpp_serializer=True))
