@@ -14,12 +14,12 @@ from functools import partial
 import numpy as np
 from drake import lcmt_image_array
 from pydrake.systems.framework import DiagramBuilder, InputPort, OutputPort
-from pydrake.systems.lcm import LcmInterfaceSystem, LcmPublisherSystem, LcmSubscriberSystem
+from pydrake.systems.lcm import LcmInterfaceSystem
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.world import robot_channels as ch
 from s3o_drake.world.lcmtypes import s3o_lcm
-from s3o_drake.world.message_systems import FromMessage, ToMessage
+from s3o_drake.world.message_systems import add_publisher, add_reader, add_subscriber
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot
 from s3o_drake.world.robot_messages import GripEvent, GripperStatus, TargetRequest, TargetSighting
 
@@ -44,25 +44,17 @@ def add_controller_lcm(builder: DiagramBuilder, *, robot: Robot, lcm: LcmInterfa
     commands: dict[str, InputPort] = {}
 
     def read(name: str, channel: str, message_type: type, decode, *, initial, size=None):
-        subscriber = builder.AddNamedSystem(f"subscribe_{channel.lower()}",
-                                            LcmSubscriberSystem.Make(
-                                                channel=channel, lcm_type=message_type,
-                                                lcm=lcm))
-        reader = builder.AddNamedSystem(f"from_{channel.lower()}", FromMessage(
-            message_type=message_type, decode=decode, initial=initial, size=size))
-        builder.Connect(subscriber.get_output_port(), reader.get_input_port())
-        reads[name] = reader.get_output_port()
+        reads[name] = add_reader(
+            builder, add_subscriber(builder, lcm=lcm, channel=channel,
+                                    message_type=message_type),
+            name=f"from_{channel.lower()}", message_type=message_type, decode=decode,
+            initial=initial, size=size)
 
     def command(name: str, channel: str, message_type: type, encode, *, size=None,
                 model=None):
-        writer = builder.AddNamedSystem(f"to_{channel.lower()}", ToMessage(
-            message_type=message_type, encode=encode, size=size, model=model))
-        publisher = builder.AddNamedSystem(f"publish_{channel.lower()}",
-                                           LcmPublisherSystem.Make(
-                                               channel=channel, lcm_type=message_type,
-                                               lcm=lcm, publish_period=period))
-        builder.Connect(writer.get_output_port(), publisher.get_input_port())
-        commands[name] = writer.get_input_port()
+        commands[name] = add_publisher(builder, lcm=lcm, channel=channel,
+                                       message_type=message_type, encode=encode,
+                                       period=period, size=size, model=model)
 
     # The robot's positions; no velocities come, and the controllers read none.
     at_start = np.concatenate([robot.positions(*start), np.zeros(n)])
@@ -78,20 +70,16 @@ def add_controller_lcm(builder: DiagramBuilder, *, robot: Robot, lcm: LcmInterfa
          initial=np.array([0.0, np.nan, np.nan]), size=3)
     # Drake's LcmImageArrayToImages gave a depth image with zeros and other labels than
     # were sent: the images are read here, by their frame names.
-    images = builder.AddNamedSystem("subscribe_" + ch.OVERHEAD_IMAGES.lower(),
-                                    LcmSubscriberSystem.Make(
-                                        channel=ch.OVERHEAD_IMAGES, lcm_type=lcmt_image_array,
-                                        lcm=lcm))
+    images = add_subscriber(builder, lcm=lcm, channel=ch.OVERHEAD_IMAGES,
+                            message_type=lcmt_image_array)
     for frame, image_type, dtype, channels in zip(
             ch.IMAGE_FRAMES, (ImageRgba8U, ImageDepth32F, ImageLabel16I),
             (np.uint8, np.float32, np.int16), (4, 1, 1), strict=True):
-        reader = builder.AddNamedSystem(f"from_{frame}", FromMessage(
-            message_type=lcmt_image_array,
+        reads[f"{frame}_image"] = add_reader(
+            builder, images, name=f"from_{frame}", message_type=lcmt_image_array,
             decode=partial(_image, frame=frame, image_type=image_type, dtype=dtype,
                            channels=channels),
-            initial=image_type()))
-        builder.Connect(images.get_output_port(), reader.get_input_port())
-        reads[f"{frame}_image"] = reader.get_output_port()
+            initial=image_type())
 
     command("robot_desired_state", ch.ROBOT_COMMAND, s3o_lcm.robot_command_t,
             lambda x, t: ch.command_message(x, joints=joints, t=t), size=2 * n)

@@ -1,13 +1,22 @@
 """Two small systems between a diagram's ports and Drake's LCM systems: `ToMessage` makes a
 port's value into an LCM message (for an `LcmPublisherSystem`), `FromMessage` reads one (from
 an `LcmSubscriberSystem`) back into a port's value. What a value's message is, and back, is
-a plain function (`robot_channels`)."""
+a plain function (`robot_channels`). `add_publisher`, `add_subscriber` and `add_reader` wire
+them, the same way on both sides of the boundary."""
 
 from collections.abc import Callable
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, Context, LeafSystem
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    DiagramBuilder,
+    InputPort,
+    LeafSystem,
+    OutputPort,
+)
+from pydrake.systems.lcm import LcmInterfaceSystem, LcmPublisherSystem, LcmSubscriberSystem
 
 from s3o_drake.world.system_lifetime import weak_callback
 
@@ -81,3 +90,33 @@ class FromMessage(LeafSystem):
 
     def _calc_abstract(self, context: Context, output: AbstractValue) -> None:
         output.set_value(self._value(context))
+
+
+def add_publisher(builder: DiagramBuilder, *, lcm: LcmInterfaceSystem, channel: str,
+                  message_type: type, encode: Callable[[object, float], object],
+                  period: float, size: int | None = None, model: object = None) -> InputPort:
+    """A `ToMessage` ("to_<channel>") and a publisher ("publish_<channel>") of `channel`
+    every `period` s; the port whose value is published."""
+    writer = builder.AddNamedSystem(f"to_{channel.lower()}", ToMessage(
+        message_type=message_type, encode=encode, size=size, model=model))
+    publisher = builder.AddNamedSystem(f"publish_{channel.lower()}", LcmPublisherSystem.Make(
+        channel=channel, lcm_type=message_type, lcm=lcm, publish_period=period))
+    builder.Connect(writer.get_output_port(), publisher.get_input_port())
+    return writer.get_input_port()
+
+
+def add_subscriber(builder: DiagramBuilder, *, lcm: LcmInterfaceSystem, channel: str,
+                   message_type: type) -> OutputPort:
+    """A subscriber of `channel` ("subscribe_<channel>"); its message's port."""
+    return builder.AddNamedSystem(f"subscribe_{channel.lower()}", LcmSubscriberSystem.Make(
+        channel=channel, lcm_type=message_type, lcm=lcm)).get_output_port()
+
+
+def add_reader(builder: DiagramBuilder, message: OutputPort, *, name: str,
+               message_type: type, decode: Callable[[object], object], initial: object,
+               size: int | None = None) -> OutputPort:
+    """A `FromMessage` named `name` on the subscriber's `message`; its value's port."""
+    reader = builder.AddNamedSystem(name, FromMessage(
+        message_type=message_type, decode=decode, initial=initial, size=size))
+    builder.Connect(message, reader.get_input_port())
+    return reader.get_output_port()

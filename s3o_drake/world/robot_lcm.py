@@ -15,14 +15,14 @@ import numpy as np
 from drake import lcmt_image_array
 from pydrake.lcm import DrakeLcm
 from pydrake.systems.framework import BasicVector, Context, Diagram, DiagramBuilder, LeafSystem
-from pydrake.systems.lcm import LcmInterfaceSystem, LcmPublisherSystem, LcmSubscriberSystem
+from pydrake.systems.lcm import LcmInterfaceSystem, LcmPublisherSystem
 from pydrake.systems.primitives import MatrixGain
 from pydrake.systems.sensors import ImageToLcmImageArrayT
 
 from s3o_drake.world import robot_channels as ch
 from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.lcmtypes import s3o_lcm
-from s3o_drake.world.message_systems import FromMessage, ToMessage
+from s3o_drake.world.message_systems import add_publisher, add_reader, add_subscriber
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot
 from s3o_drake.world.robot_messages import GripEvent, GripperStatus, TargetRequest, TargetSighting
 from s3o_drake.world.scenario import Scenario
@@ -77,28 +77,22 @@ def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
     joints = tuple(robot.joints)
     n = robot.num_positions
 
-    def publish(port, channel: str, message_type: type, encode, *, size=None, model=None,
-                every: float = period) -> None:
-        to = builder.AddNamedSystem(f"to_{channel.lower()}", ToMessage(
-            message_type=message_type, encode=encode, size=size, model=model))
-        publisher = builder.AddNamedSystem(f"publish_{channel.lower()}", LcmPublisherSystem.Make(
-            channel=channel, lcm_type=message_type, lcm=lcm, publish_period=every))
-        builder.Connect(port, to.get_input_port())
-        builder.Connect(to.get_output_port(), publisher.get_input_port())
+    def publish(port, channel: str, message_type: type, encode, *, size=None,
+                model=None) -> None:
+        builder.Connect(port, add_publisher(
+            builder, lcm=lcm, channel=channel, message_type=message_type, encode=encode,
+            period=period, size=size, model=model))
 
-    subscribers = {}
+    commands = add_subscriber(builder, lcm=lcm, channel=ch.ROBOT_COMMAND,
+                              message_type=s3o_lcm.robot_command_t)
 
     def subscribe(channel: str, message_type: type, decode, *, initial, size=None,
                   reading: str = ""):
-        if channel not in subscribers:
-            subscribers[channel] = builder.AddNamedSystem(
-                f"subscribe_{channel.lower()}",
-                LcmSubscriberSystem.Make(channel=channel, lcm_type=message_type, lcm=lcm))
-        reader = builder.AddNamedSystem(
-            f"from_{channel.lower()}{reading}",
-            FromMessage(message_type=message_type, decode=decode, initial=initial, size=size))
-        builder.Connect(subscribers[channel].get_output_port(), reader.get_input_port())
-        return reader.get_output_port()
+        message = (commands if channel == ch.ROBOT_COMMAND else add_subscriber(
+            builder, lcm=lcm, channel=channel, message_type=message_type))
+        return add_reader(builder, message, name=f"from_{channel.lower()}{reading}",
+                          message_type=message_type, decode=decode, initial=initial,
+                          size=size)
 
     # The joint state: positions only (the controllers read no velocities).
     positions = builder.AddNamedSystem("robot_positions", MatrixGain(np.eye(n, 2 * n)))
