@@ -15,21 +15,14 @@ import sys
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import command_parser, fail, read_scenario
-from s3o_drake.commands.options import add_overrides, add_seed, seconds, with_overrides_or_fail
+from s3o_drake.commands.options import (
+    add_overrides,
+    add_seed,
+    realtime_rate,
+    seconds,
+    with_overrides_or_fail,
+)
 from s3o_drake.world.robot_channels import LOCAL_BUS
-
-
-def _rate(text: str) -> float:
-    """A real-time rate: 0 (as fast as it can) or more."""
-    import argparse
-
-    try:
-        rate = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not rate >= 0.0:
-        raise argparse.ArgumentTypeError(f"expected 0 (as fast as it can) or more, got {text}")
-    return rate
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -37,7 +30,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("scenario", help="the scenario file (the room, the task, the robot)")
     parser.add_argument("--lcm", default=LOCAL_BUS, metavar="URL",
                         help=f"the LCM bus (default {LOCAL_BUS}: this machine only)")
-    parser.add_argument("--realtime-rate", type=_rate, default=1.0, metavar="R",
+    parser.add_argument("--realtime-rate", type=realtime_rate, default=1.0, metavar="R",
                         help="simulated seconds per second (default 1, as hardware; 0: as "
                              "fast as it can)")
     parser.add_argument("--time-limit", type=seconds, default=1800.0, metavar="S",

@@ -9,10 +9,15 @@ camera's images (every IMAGE_PERIOD); subscribers of the desired state, the grip
 sighting requests. A `CommandWatchdog` holds the robot where it stands until the first
 command, and whenever commands stop coming for COMMAND_TIMEOUT of the robot's time, as a
 robot's driver stops a robot whose controller went quiet.
+
+`add_referee_publisher` adds what no robot publishes: the simulation's truth about the
+dishes and the robot's clearance, on the referee's channel (`referee_channel`), so that a
+run whose controllers are in another process is judged as a run in one process is.
 """
 
 import numpy as np
 from drake import lcmt_image_array
+from pydrake.common.value import AbstractValue
 from pydrake.lcm import DrakeLcm
 from pydrake.systems.framework import BasicVector, Context, Diagram, DiagramBuilder, LeafSystem
 from pydrake.systems.lcm import LcmInterfaceSystem, LcmPublisherSystem
@@ -21,8 +26,11 @@ from pydrake.systems.sensors import ImageToLcmImageArrayT
 
 from s3o_drake.world import robot_channels as ch
 from s3o_drake.world.builder import build_world_diagram
+from s3o_drake.world.clearance_monitor import REACH, add_clearance_monitor
+from s3o_drake.world.dish_messages import DishPoses, DishStates
 from s3o_drake.world.lcmtypes import s3o_lcm
 from s3o_drake.world.message_systems import add_publisher, add_reader, add_subscriber
+from s3o_drake.world.referee_channel import REFEREE, RefereeView, referee_message
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot
 from s3o_drake.world.robot_messages import GripEvent, GripperStatus, TargetRequest, TargetSighting
 from s3o_drake.world.scenario import Scenario
@@ -69,6 +77,50 @@ class CommandWatchdog(LeafSystem):
         held = np.array(self._true.Eval(context), dtype=float)
         held[self._n:] = 0.0
         output.SetFromVector(held)
+
+
+class RefereeViewer(LeafSystem):
+    """The referee's view, one value of the simulation's three truths.
+
+    Input ports:
+        dish_states: abstract DishStates.
+        dish_poses: abstract DishPoses.
+        closest_approach: vector 1 (m).
+    Output ports:
+        view: abstract RefereeView.
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._states = self.DeclareAbstractInputPort("dish_states",
+                                                     AbstractValue.Make(DishStates()))
+        self._poses = self.DeclareAbstractInputPort("dish_poses", AbstractValue.Make(DishPoses()))
+        self._closest = self.DeclareVectorInputPort("closest_approach", 1)
+        self.DeclareAbstractOutputPort(
+            "view", lambda: AbstractValue.Make(RefereeView(DishStates(), DishPoses(), REACH)),
+            weak_callback(self._calc_view))
+
+    def _calc_view(self, context: Context, output: AbstractValue) -> None:
+        output.set_value(RefereeView(self._states.Eval(context), self._poses.Eval(context),
+                                     float(self._closest.Eval(context)[0])))
+
+
+def add_referee_publisher(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
+                          furniture: list[str], lcm: LcmInterfaceSystem,
+                          period: float = CONTROL_PERIOD) -> None:
+    """Publishes on REFEREE (`referee_channel`) what the simulation knows of the dishes and
+    of the robot's clearance to `furniture` and the walls, every `period`: for the report of
+    a run whose controllers are elsewhere; no robot publishes it."""
+    viewer = builder.AddNamedSystem("referee_view", RefereeViewer())
+    builder.Connect(world.GetOutputPort("dish_states"), viewer.GetInputPort("dish_states"))
+    builder.Connect(world.GetOutputPort("dish_poses"), viewer.GetInputPort("dish_poses"))
+    builder.Connect(add_clearance_monitor(builder, world, robot=robot, furniture=furniture,
+                                          period=period),
+                    viewer.GetInputPort("closest_approach"))
+    builder.Connect(viewer.get_output_port(), add_publisher(
+        builder, lcm=lcm, channel=REFEREE, message_type=s3o_lcm.referee_t,
+        encode=lambda view, t: referee_message(*view, t=t), period=period,
+        model=RefereeView(DishStates(), DishPoses(), REACH)))
 
 
 def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
@@ -137,12 +189,15 @@ def build_robot_diagram(scenario: Scenario, *, lcm: DrakeLcm, seed: int | None =
                         noise: bool = True) -> Diagram:
     """The simulated robot alone, on `lcm`: the world's diagram (the true chairs, the
     dishes tracked, the overhead camera; the scenario's noise unless `noise` is off, drawn
-    from `seed`, default the scenario's) wired by `add_robot_lcm`. Named "s3o_robot"."""
+    from `seed`, default the scenario's) wired by `add_robot_lcm`, and the referee's
+    channel (`add_referee_publisher`). Named "s3o_robot"."""
     builder = DiagramBuilder()
     interface = builder.AddNamedSystem("lcm", LcmInterfaceSystem(lcm))
     world = builder.AddNamedSystem("world", build_world_diagram(
         scenario, track_dishes=True, seed=seed, noise=noise, show_collisions=False))
     add_robot_lcm(builder, world, robot=scenario.robot_value, lcm=interface)
+    add_referee_publisher(builder, world, robot=scenario.robot_value, lcm=interface,
+                          furniture=[f.name for f in (*scenario.tables, *scenario.chairs)])
     diagram = builder.Build()
     diagram.set_name("s3o_robot")
     return diagram
