@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 import random
-import signal
 import subprocess
 import sys
 import threading
@@ -117,7 +116,8 @@ def _in_two_processes(path: Path, scenario: Scenario, *, overrides: Sequence[str
                       seed: int, realtime_rate: float, loss: float = 0.0) -> dict:
     """The run with `s3o sim` in a process of its own, on a bus of its own (with `loss`,
     the controllers on another, a `LossyRelay` between them)."""
-    ports = random.Random(f"{path}:{seed}").sample(range(20000, 60000), 2)
+    # Buses of their own: no other robot on this machine is heard.
+    ports = random.SystemRandom().sample(range(20000, 60000), 2)
     url = ch.local_bus(ports[0])
     controller_url = url if not loss else ch.local_bus(ports[1])
     robot = subprocess.Popen(
@@ -131,7 +131,7 @@ def _in_two_processes(path: Path, scenario: Scenario, *, overrides: Sequence[str
                              progress=False)
     finally:
         if robot.poll() is None:
-            robot.send_signal(signal.SIGINT)
+            robot.terminate()
         try:
             tray, said = robot.communicate(timeout=60)
         except subprocess.TimeoutExpired:
