@@ -8,12 +8,14 @@ channel (`world.referee_channel`; a real robot has no referee, and the report th
 what the controllers know: the outcomes, no dishes counted).
 
 `execute_on_bus(...)` runs it on the robot's clock (`RobotClock`):
-- it waits up to `wait` s for the robot's first state, and starts at the robot's time;
-- whenever the robot's state comes it advances to that state's time;
-- when the controllers fell behind the robot by more than CATCH_UP (a plan takes wall
-  time, during which the robot's clock runs on and the robot, without commands, holds
-  where it stands), the controllers' clock jumps to the robot's; the report counts that
-  time as `waited`, and its `execution_time` leaves it out, as a run in one process does;
+- it waits up to `wait` s for the robot's first state;
+- whenever the robot's state comes it advances to that state's time, less the time the
+  robot waited for the controllers: a plan (or an arm's motion planned) takes wall time,
+  during which the robot's clock runs on and the robot, without new commands, holds where
+  it stands. When the controllers fall behind by more than CATCH_UP, that time is added to
+  what the robot waited, and the controllers go on from where they stood, their motions
+  unbroken. The report's `execution_time` is on the controllers' clock, as a run in one
+  process is (its plans take no simulated time); `waited` is the rest of `robot_time`;
 - a watchdog: when no robot state came for STATE_TIMEOUT s, the controllers command the
   base to stop and the arm to hold where the robot was last heard of, and the run ends
   (reason ROBOT_SILENT).
@@ -31,7 +33,6 @@ import numpy as np
 from pydrake.lcm import DrakeLcm
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.analysis import (
-    InitializeParams,
     Simulator,
     SimulatorStatus,
 )
@@ -58,7 +59,8 @@ from s3o_drake.world.system_lifetime import release_diagram
 STATE_TIMEOUT = 0.5
 """How long (s) the controllers go on without the robot's state before they stop it."""
 CATCH_UP = 0.25
-"""The controllers' clock jumps to the robot's when it is behind by more than this (s)."""
+"""When the controllers are behind the robot by more than this (s), the robot is taken to
+have waited for them."""
 ROBOT_SILENT = "robot state lost"
 
 
@@ -180,7 +182,6 @@ def execute_on_bus(scenario: Scenario, *, lcm: DrakeLcm, method: str | None = No
     robot = scenario.robot_value
     joints = tuple(robot.joints)
     clock = RobotClock(lcm, joints=joints)
-    progress_show = progress
     if progress:
         print(f"waiting up to {wait:g} s for the robot's state on {ch.ROBOT_STATE}",
               file=sys.stderr, flush=True)
@@ -194,8 +195,6 @@ def execute_on_bus(scenario: Scenario, *, lcm: DrakeLcm, method: str | None = No
                                        plan_from=plan_from, time_limit=time_limit)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
-    heard_at = clock.time
-    context.SetTime(heard_at)
     executive = diagram.GetSubsystemByName("executive")
     progress_port = executive.GetOutputPort("progress")
     executive_context = executive.GetMyContextFromRoot(context)
@@ -203,14 +202,17 @@ def execute_on_bus(scenario: Scenario, *, lcm: DrakeLcm, method: str | None = No
     def planned() -> bool:
         return bool(progress_port.Eval(executive_context).plans)
 
+    # The controllers' clock is the robot's less the time the robot waited for them: it
+    # starts at 0 at the robot's first state and goes on from where it stood after a plan.
+    offset = clock.time
     simulator.Initialize()
-    if progress_show:
-        print(f"the robot answered at {heard_at:.2f} s of its clock", file=sys.stderr,
+    if progress:
+        print(f"the robot answered at {offset:.2f} s of its clock", file=sys.stderr,
               flush=True)
     # The run starts when the executive asks for its first plan (once the overhead images
     # came), as a run in one process starts at its first plan.
-    started_at = heard_at if planned() else None
-    waited, reason = 0.0, None
+    started_at, offset_at_start = (0.0, offset) if planned() else (None, None)
+    reason = None
     wall = time.perf_counter()
     while True:
         lcm.HandleSubscriptions(10)
@@ -220,32 +222,32 @@ def execute_on_bus(scenario: Scenario, *, lcm: DrakeLcm, method: str | None = No
                       f"{clock.time:.2f} s of the robot's clock")
             break
         now = context.get_time()
-        if clock.time - now > CATCH_UP:
-            waited += (clock.time - now) if started_at is not None else 0.0
-            context.SetTime(clock.time)
-            simulator.Initialize(InitializeParams(suppress_initialization_events=True))
+        behind = clock.time - offset - now
+        if behind > CATCH_UP:  # the robot waited for the controllers (a plan, mostly)
+            offset += behind
             continue
-        if clock.time <= now:
+        if behind <= 0.0:
             continue
         # Before the start, a period at a time: the start is known to the period.
-        status = simulator.AdvanceTo(clock.time if started_at is not None
-                                     else min(clock.time, now + CONTROL_PERIOD))
+        status = simulator.AdvanceTo(now + (behind if started_at is not None
+                                            else min(behind, CONTROL_PERIOD)))
         if started_at is None and planned():
-            started_at = now
+            started_at, offset_at_start = now, offset
         if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
             break
     if started_at is None:
-        started_at = context.get_time()
+        started_at, offset_at_start = context.get_time(), offset
     monitor = diagram.GetSubsystemByName("task_monitor")
     report = monitor.GetOutputPort("report").Eval(
         monitor.GetMyContextFromRoot(context)).to_dict()
     finished_at = report["execution_time"]
     wall = time.perf_counter() - wall
+    waited = offset - offset_at_start
     report.update(
         simulated_time=context.get_time() - started_at, wall_time=wall,
         realtime_rate=(context.get_time() - started_at) / wall if wall > 0 else float("inf"),
-        execution_time=finished_at - started_at - waited, robot_time=finished_at - started_at,
-        started_at=started_at, waited=waited,
+        execution_time=finished_at - started_at, robot_time=finished_at - started_at + waited,
+        started_at=started_at + offset_at_start, waited=waited,
         referee=bool(report["dishes"]),
         planning_time=float(executive.GetOutputPort("planning_time").Eval(
             executive_context)[0]))

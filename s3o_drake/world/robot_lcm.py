@@ -7,7 +7,7 @@ tracked) to Drake's LCM systems: publishers of the robot's joint state, the grip
 the sensor's sightings, the protective stop's report (every control period) and the overhead
 camera's images (every IMAGE_PERIOD); subscribers of the desired state, the grip and the
 sighting requests. A `CommandWatchdog` holds the robot where it stands until the first
-command, and whenever commands stop coming for COMMAND_TIMEOUT of the robot's time, as a
+command, and whenever no new command came for COMMAND_TIMEOUT of the robot's time, as a
 robot's driver stops a robot whose controller went quiet.
 
 `add_referee_publisher` adds what no robot publishes: the simulation's truth about the
@@ -19,7 +19,15 @@ import numpy as np
 from drake import lcmt_image_array
 from pydrake.common.value import AbstractValue
 from pydrake.lcm import DrakeLcm
-from pydrake.systems.framework import BasicVector, Context, Diagram, DiagramBuilder, LeafSystem
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    Diagram,
+    DiagramBuilder,
+    DiscreteValues,
+    EventStatus,
+    LeafSystem,
+)
 from pydrake.systems.lcm import LcmInterfaceSystem, LcmPublisherSystem
 from pydrake.systems.primitives import MatrixGain
 from pydrake.systems.sensors import ImageToLcmImageArrayT
@@ -44,31 +52,49 @@ class CommandWatchdog(LeafSystem):
     """The robot's desired state: the last command's while commands come, else where it
     stands.
 
+    A command is fresh for `timeout` s of the robot's time after it arrived, as a robot's
+    driver judges it: by when a new one came, not by the controllers' clock, which need not
+    be the robot's (its stamp only tells one command from the next).
+
     Input ports:
         desired_state: vector (2 num_positions), the last command's desired state.
-        command_time: vector 1, that command's time (s; negative: no command yet).
+        command_stamp: vector 1, that command's own stamp (s; negative: no command yet).
         true_state: vector (2 num_positions), the robot's state.
     Output ports:
         desired_state: vector (2 num_positions): the command's, or, before the first
             command and once none came for `timeout` s, the robot's positions with zero
             velocities (it holds where it stands).
+
+    State: the latest stamp seen and the robot's time it came (s), updated every `period`.
     """
 
-    def __init__(self, *, num_positions: int, timeout: float = COMMAND_TIMEOUT) -> None:
+    def __init__(self, *, num_positions: int, timeout: float = COMMAND_TIMEOUT,
+                 period: float = CONTROL_PERIOD) -> None:
         super().__init__()
         if timeout <= 0:
             raise ValueError(f"timeout: expected a positive time, got {timeout}")
         self._n, self._timeout = num_positions, timeout
         self._desired = self.DeclareVectorInputPort("desired_state", 2 * num_positions)
-        self._time = self.DeclareVectorInputPort("command_time", 1)
+        self._stamp = self.DeclareVectorInputPort("command_stamp", 1)
         self._true = self.DeclareVectorInputPort("true_state", 2 * num_positions)
+        self._seen = self.DeclareDiscreteState([-1.0, -np.inf])
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, weak_callback(self._hear))
+        self.DeclareForcedDiscreteUpdateEvent(weak_callback(self._hear))
         self.DeclareVectorOutputPort("desired_state", 2 * num_positions,
                                      weak_callback(self._calc_desired_state))
 
+    def _hear(self, context: Context, state: DiscreteValues) -> EventStatus:
+        stamp = float(self._stamp.Eval(context)[0])
+        seen = context.get_discrete_state(self._seen).get_value()
+        if stamp >= 0.0 and stamp != seen[0]:
+            state.get_mutable_vector(self._seen).SetFromVector([stamp, context.get_time()])
+            return EventStatus.Succeeded()
+        return EventStatus.DidNothing()
+
     def commanded(self, context: Context) -> bool:
         """Whether a command came within the timeout."""
-        sent = float(self._time.Eval(context)[0])
-        return sent >= 0.0 and context.get_time() - sent <= self._timeout
+        arrived = float(context.get_discrete_state(self._seen).GetAtIndex(1))
+        return context.get_time() - arrived <= self._timeout
 
     def _calc_desired_state(self, context: Context, output: BasicVector) -> None:
         if self.commanded(context):
@@ -169,12 +195,12 @@ def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
     desired = subscribe(ch.ROBOT_COMMAND, s3o_lcm.robot_command_t,
                         lambda m: ch.desired_of(m, joints=joints) if m.num_positions else None,
                         initial=np.zeros(2 * n), size=2 * n)
-    sent = subscribe(ch.ROBOT_COMMAND, s3o_lcm.robot_command_t,
-                     lambda m: [ch.seconds(m.utime)] if m.num_positions else None,
-                     initial=[-1.0], size=1, reading="_time")
+    stamp = subscribe(ch.ROBOT_COMMAND, s3o_lcm.robot_command_t,
+                      lambda m: [ch.seconds(m.utime)] if m.num_positions else None,
+                      initial=[-1.0], size=1, reading="_stamp")
     watchdog = builder.AddNamedSystem("command_watchdog", CommandWatchdog(num_positions=n))
     builder.Connect(desired, watchdog.GetInputPort("desired_state"))
-    builder.Connect(sent, watchdog.GetInputPort("command_time"))
+    builder.Connect(stamp, watchdog.GetInputPort("command_stamp"))
     builder.Connect(world.GetOutputPort("robot_state"), watchdog.GetInputPort("true_state"))
     builder.Connect(watchdog.get_output_port(), world.GetInputPort("robot_desired_state"))
     builder.Connect(subscribe(ch.GRIP, s3o_lcm.grip_t, ch.grip_of, initial=GripEvent()),
