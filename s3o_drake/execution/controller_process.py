@@ -161,6 +161,15 @@ class BusRun:
     activity: Activity | None
 
 
+def _drain(lcm: DrakeLcm, *, wait_ms: int = 10) -> None:
+    """Handles every message that came, waiting up to `wait_ms` for the first: one call
+    handles one message, and messages left waiting overflow the socket's buffer (the
+    images come in large ones), which loses the robot's state with them."""
+    if lcm.HandleSubscriptions(wait_ms):
+        while lcm.HandleSubscriptions(1):
+            pass
+
+
 def _hold(lcm: DrakeLcm, clock: RobotClock, *, joints: tuple[str, ...]) -> None:
     """Commands the robot to stand where it was last heard of: the base stopped, the arm
     held."""
@@ -187,7 +196,7 @@ def execute_on_bus(scenario: Scenario, *, lcm: DrakeLcm, method: str | None = No
               file=sys.stderr, flush=True)
     deadline = time.monotonic() + wait
     while clock.time is None and time.monotonic() < deadline:
-        lcm.HandleSubscriptions(50)
+        _drain(lcm, wait_ms=50)
     if clock.time is None:
         raise NoRobotError(f"no robot state on {ch.ROBOT_STATE} within {wait:g} s")
     diagram = build_controller_diagram(scenario, lcm=lcm, method=method, seed=seed,
@@ -215,7 +224,7 @@ def execute_on_bus(scenario: Scenario, *, lcm: DrakeLcm, method: str | None = No
     reason = None
     wall = time.perf_counter()
     while True:
-        lcm.HandleSubscriptions(10)
+        _drain(lcm)
         if clock.silent_for() > STATE_TIMEOUT:
             _hold(lcm, clock, joints=joints)
             reason = (f"{ROBOT_SILENT}: no state for {STATE_TIMEOUT:g} s after "
