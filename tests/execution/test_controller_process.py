@@ -87,3 +87,14 @@ def test_a_robot_that_falls_silent_is_stopped_and_the_run_ends_with_its_report()
     assert run.plan is not None
     # The last commands hold the robot still: where its last state put it.
     assert len(commands) > moving and np.allclose(commands[-1].velocity, 0.0)
+
+
+def test_the_command_without_a_robot_says_so_and_writes_nothing(tmp_path, capsys):
+    from s3o_drake.commands.run_scenario import main
+
+    out = tmp_path / "run"
+    assert main([SCENE, "--robot", "lcm", "--lcm", _bus(), "--wait", "0.5", "--out",
+                 str(out)]) == 1
+    err = capsys.readouterr().err
+    assert f"no robot state on {ch.ROBOT_STATE} within 0.5 s" in err and "s3o sim" in err
+    assert not out.exists()
