@@ -46,34 +46,41 @@ from s3o_drake.world.system_lifetime import weak_callback
 
 COMMAND_TIMEOUT = 0.5
 """How long (s of the robot's time) the robot goes on without a command before it holds."""
+COMMAND_FRESH = 2 * CONTROL_PERIOD
+"""How long (s) a command's velocities are followed: after that, until COMMAND_TIMEOUT, the
+robot goes to the command's positions and stops there, which the controllers checked, and
+does not run on along a motion that its controllers stopped following."""
 
 
 class CommandWatchdog(LeafSystem):
     """The robot's desired state: the last command's while commands come, else where it
     stands.
 
-    A command is fresh for `timeout` s of the robot's time after it arrived, as a robot's
+    A command counts for `timeout` s of the robot's time after it arrived, as a robot's
     driver judges it: by when a new one came, not by the controllers' clock, which need not
-    be the robot's (its stamp only tells one command from the next).
+    be the robot's (its stamp only tells one command from the next). Its velocities count
+    for `fresh` s only: a late command's positions are held, with zero velocities.
 
     Input ports:
         desired_state: vector (2 num_positions), the last command's desired state.
         command_stamp: vector 1, that command's own stamp (s; negative: no command yet).
         true_state: vector (2 num_positions), the robot's state.
     Output ports:
-        desired_state: vector (2 num_positions): the command's, or, before the first
-            command and once none came for `timeout` s, the robot's positions with zero
-            velocities (it holds where it stands).
+        desired_state: vector (2 num_positions): the command's; its positions with zero
+            velocities once it is older than `fresh` s; before the first command and once
+            none came for `timeout` s, the robot's positions with zero velocities (it
+            holds where it stands).
 
     State: the latest stamp seen and the robot's time it came (s), updated every `period`.
     """
 
     def __init__(self, *, num_positions: int, timeout: float = COMMAND_TIMEOUT,
-                 period: float = CONTROL_PERIOD) -> None:
+                 fresh: float = COMMAND_FRESH, period: float = CONTROL_PERIOD) -> None:
         super().__init__()
-        if timeout <= 0:
-            raise ValueError(f"timeout: expected a positive time, got {timeout}")
-        self._n, self._timeout = num_positions, timeout
+        if not 0 < fresh <= timeout:
+            raise ValueError(f"fresh, timeout: expected 0 < fresh <= timeout, got {fresh}, "
+                             f"{timeout}")
+        self._n, self._timeout, self._fresh = num_positions, timeout, fresh
         self._desired = self.DeclareVectorInputPort("desired_state", 2 * num_positions)
         self._stamp = self.DeclareVectorInputPort("command_stamp", 1)
         self._true = self.DeclareVectorInputPort("true_state", 2 * num_positions)
@@ -91,14 +98,23 @@ class CommandWatchdog(LeafSystem):
             return EventStatus.Succeeded()
         return EventStatus.DidNothing()
 
+    def _age(self, context: Context) -> float:
+        """How long ago (s) the latest command came (inf: none came)."""
+        return context.get_time() - float(context.get_discrete_state(self._seen).GetAtIndex(1))
+
     def commanded(self, context: Context) -> bool:
         """Whether a command came within the timeout."""
-        arrived = float(context.get_discrete_state(self._seen).GetAtIndex(1))
-        return context.get_time() - arrived <= self._timeout
+        return self._age(context) <= self._timeout
 
     def _calc_desired_state(self, context: Context, output: BasicVector) -> None:
-        if self.commanded(context):
+        age = self._age(context)
+        if age <= self._fresh:
             output.SetFromVector(self._desired.Eval(context))
+            return
+        if age <= self._timeout:
+            late = np.array(self._desired.Eval(context), dtype=float)
+            late[self._n:] = 0.0
+            output.SetFromVector(late)
             return
         held = np.array(self._true.Eval(context), dtype=float)
         held[self._n:] = 0.0

@@ -11,7 +11,12 @@ from pydrake.systems.lcm import LcmInterfaceSystem
 from s3o_drake.world import robot_channels as ch
 from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.lcmtypes.s3o_lcm import robot_state_t
-from s3o_drake.world.robot_lcm import COMMAND_TIMEOUT, CommandWatchdog, add_robot_lcm
+from s3o_drake.world.robot_lcm import (
+    COMMAND_FRESH,
+    COMMAND_TIMEOUT,
+    CommandWatchdog,
+    add_robot_lcm,
+)
 
 
 class _Bus:
@@ -83,11 +88,14 @@ def test_the_watchdog_alone(scenario):
     watchdog.GetInputPort("desired_state").FixValue(context, desired)
     watchdog.GetInputPort("true_state").FixValue(context, true)
     held = np.concatenate([true[:n], np.zeros(n)])
+    late = np.concatenate([desired[:n], np.zeros(n)])
     stamp = watchdog.GetInputPort("command_stamp")
-    for sent, until, expected in ((-1.0, 0.5, held),  # none yet
-                                  (0.7, 1.0, desired),  # one came
-                                  (0.7, 1.0 + COMMAND_TIMEOUT + 0.1, held),  # none since
-                                  (0.3, 2.0, desired)):  # a new one, stamped earlier
+    # The watchdog sees a new command at its next update (every 0.05 s), here 0.55 s.
+    for sent, until, expected in ((-1.0, 0.51, held),  # none yet
+                                  (0.7, 0.57, desired),  # one came
+                                  (0.7, 0.57 + COMMAND_FRESH, late),  # late: go there, stop
+                                  (0.7, 0.57 + COMMAND_TIMEOUT, held),  # none since
+                                  (0.3, 1.13, desired)):  # a new one, stamped earlier
         stamp.FixValue(context, [sent])
         simulator.AdvanceTo(until)
         np.testing.assert_array_equal(watchdog.get_output_port().Eval(context), expected)
