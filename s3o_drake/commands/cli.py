@@ -98,7 +98,7 @@ COMMANDS: tuple[Command, ...] = (
     _c("bench same-runs", "same_runs",
        "Whether two studies' runs did the same, the machine's timings aside."),
     _c("bench two-process", "two_process_benchmark",
-       "One process against two: the robot beside its controllers, or behind a bus."),
+       "One process against two: the robot beside its controllers, or on a bus."),
     _c("bench soak", "soak",
        "Plan and execute many random scenes: crashes, overruns, hangs, memory."),
 )

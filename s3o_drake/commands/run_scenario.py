@@ -2,12 +2,10 @@
 
     s3o run scenarios/restaurant.yaml        (the same: python -m s3o_drake.run ...)
 
-Perceives the unmapped chairs with the overhead camera, computes every dish's Fea^m, plans
-with the method and simulates the plan with navigation and reaching noise, recovering from
-failures as --recovery says. Writes report.json, plan.json, playback.html (open it in a
-browser) and pictures to out/<scenario file stem>/. With --robot lcm, only the controllers
-run here, driving the robot on a bus (`s3o sim`). Exit status: 0 when every dish was
-collected, 1 when not, 2 on bad input (one line on stderr; nothing is written).
+Perceives the unmapped chairs, computes every dish's Fea^m, plans and simulates the plan
+with noise, recovering as --recovery says; writes report.json, plan.json, playback.html and
+pictures to out/<scenario file stem>/ (--robot lcm: only the controllers run here, driving a
+robot on a bus). Exit status: 0 every dish collected, 1 not, 2 bad input (nothing written).
 """
 
 from __future__ import annotations
@@ -296,16 +294,13 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
                         help="what execution does when an action fails (default: the "
                              "scenario's execution.recovery, replan unless it says otherwise)")
     parser.add_argument("--no-noise", action="store_true",
-                        help="simulate without navigation and reaching noise (the plan keeps "
-                             "its noise model)")
+                        help="simulate without navigation and reaching noise")
     add_overrides(parser, "replace a field of the scenario, e.g. planner.top_k=8 or "
                           "uncertainty.nav_xy_std=0.2 (repeatable)")
     parser.add_argument("--robot", choices=("sim", "lcm"), default="sim",
-                        help="sim (default): the robot simulated here; lcm: drive the robot "
-                             "on --lcm (e.g. s3o sim)")
+                        help="sim (default): simulated here; lcm: the robot on --lcm (s3o sim)")
     parser.add_argument("--lcm", default=LOCAL_BUS, metavar="URL",
-                        help="with --robot lcm: the bus (default s3o sim's, on this machine "
-                             "only)")
+                        help="with --robot lcm: the bus (default s3o sim's, this machine's)")
     parser.add_argument("--wait", type=seconds, default=FIRST_STATE_WAIT, metavar="S",
                         help=f"with --robot lcm: seconds to wait for the robot (default "
                              f"{FIRST_STATE_WAIT:g})")

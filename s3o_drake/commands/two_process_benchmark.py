@@ -1,4 +1,4 @@
-"""One process against two: the robot beside its controllers, or behind a bus.
+"""One process against two: the robot beside its controllers, or on a bus.
 
     s3o bench two-process [--tasks PATH ...] [--count N] [--seed N] [--realtime-rate R]
                           [--loss P] [--set PATH=VALUE] [--json FILE]
