@@ -97,6 +97,8 @@ COMMANDS: tuple[Command, ...] = (
        "Each dish's best stop by Fea^m: the best odds of an open-loop plan."),
     _c("bench same-runs", "same_runs",
        "Whether two studies' runs did the same, the machine's timings aside."),
+    _c("bench two-process", "two_process_benchmark",
+       "One process against two: the robot beside its controllers, or on a bus."),
     _c("bench soak", "soak",
        "Plan and execute many random scenes: crashes, overruns, hangs, memory."),
 )

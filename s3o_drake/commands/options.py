@@ -107,6 +107,17 @@ def task_paths(args: argparse.Namespace) -> list[Path]:
     return paths if count is None else paths[:count]
 
 
+def realtime_rate(text: str) -> float:
+    """An argparse type: a real-time rate, 0 (as fast as it can) or more."""
+    try:
+        rate = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not rate >= 0.0:
+        raise argparse.ArgumentTypeError(f"expected 0 (as fast as it can) or more, got {text}")
+    return rate
+
+
 def add_seed(parser: argparse.ArgumentParser, default: int | None = 0,
              what: str = "random seed") -> None:
     """--seed N: one seed (None: the scenario's own)."""

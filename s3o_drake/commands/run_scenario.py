@@ -2,11 +2,10 @@
 
     s3o run scenarios/restaurant.yaml        (the same: python -m s3o_drake.run ...)
 
-Perceives the unmapped chairs with the overhead camera, computes every dish's Fea^m, plans
-with the method and simulates the plan with navigation and reaching noise, recovering from
-failures as --recovery says. Writes report.json, plan.json, playback.html (open it in a
-browser) and pictures to out/<scenario file stem>/. Exit status: 0 when every dish was
-collected, 1 when not, 2 on bad input (one line on stderr; nothing is written).
+Perceives the unmapped chairs, computes every dish's Fea^m, plans and simulates the plan
+with noise, recovering as --recovery says; writes report.json, plan.json, playback.html and
+pictures to out/<scenario file stem>/ (--robot lcm: only the controllers run here, driving a
+robot on a bus). Exit status: 0 every dish collected, 1 not, 2 bad input (nothing written).
 """
 
 from __future__ import annotations
@@ -31,15 +30,17 @@ from s3o_drake.commands.options import (
     add_overrides,
     add_seed,
     out_folder,
+    seconds,
     with_overrides_or_fail,
 )
-from s3o_drake.execution.messages import ran_to_end
-from s3o_drake.planning.plan import Goto, Place, TaskMotionPlan
 
 # Light imports only: --help and bad arguments answer before Drake, OpenCV, torch and
 # matplotlib load (main imports them once the arguments are parsed).
+from s3o_drake.execution.messages import ran_to_end
+from s3o_drake.planning.plan import Goto, Place, TaskMotionPlan
 from s3o_drake.world.choices import FEASIBILITY_SOURCES, RECOVERY_MODES
 from s3o_drake.world.files import write_atomically
+from s3o_drake.world.robot_channels import FIRST_STATE_WAIT, LOCAL_BUS
 from s3o_drake.world.words import counted
 
 if TYPE_CHECKING:
@@ -234,6 +235,45 @@ def latest_plan(run: Execution) -> TaskMotionPlan | None:
     return run.plan
 
 
+def _run_on_bus(args, scenario: Scenario, seed: int, out: Path) -> int:
+    """`s3o run --robot lcm`: the controllers here, the robot on the bus."""
+    from pydrake.lcm import DrakeLcm
+
+    from s3o_drake.execution.controller_process import NoRobotError, execute_on_bus
+
+    try:
+        lcm = DrakeLcm(args.lcm)
+    except RuntimeError as e:
+        fail(f"--lcm: {e}")
+    try:
+        run = execute_on_bus(scenario, lcm=lcm, method=args.method, seed=seed,
+                             wait=args.wait, noise=not args.no_noise)
+    except NoRobotError as e:
+        print(f"{e}: is `s3o sim` running on {args.lcm}?", file=sys.stderr)
+        return 1
+    out.mkdir(parents=True, exist_ok=True)
+    report = {"scenario": str(args.scenario), "method": args.method or scenario.planner.method,
+              "feasibility": scenario.planner.feasibility, "seed": seed,
+              "recovery": scenario.execution.recovery, "overrides": list(args.overrides),
+              "noise": not args.no_noise, "robot": "lcm", "lcm": args.lcm, **run.report}
+    write_atomically(out / "report.json", json.dumps(report, indent=1) + "\n")
+    written = [out / "report.json"]
+    plan = run.result.plan if run.result is not None and run.result.plan else run.plan
+    if plan is not None:
+        plan.write(out / "plan.json")
+        written.append(out / "plan.json")
+        print(describe_plan(plan))
+    if run.images is not None:
+        written += _write_pictures(scenario, run, plan, out)
+    print(describe_execution(report))
+    if not report["referee"]:
+        print("No referee on the bus: the dishes are not counted (the robot's own "
+              "simulation publishes them).")
+    for path in written:
+        print(f"  wrote {path}")
+    return 0 if report["referee"] and report["completed"] == report["dishes"] else 1
+
+
 def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     """`s3o run`; `prog` names the command in its messages (the card's address,
     `python -m s3o_drake.run`, says its own)."""
@@ -254,11 +294,22 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
                         help="what execution does when an action fails (default: the "
                              "scenario's execution.recovery, replan unless it says otherwise)")
     parser.add_argument("--no-noise", action="store_true",
-                        help="simulate without navigation and reaching noise (the planner "
-                             "still plans with the scenario's noise model)")
+                        help="simulate without navigation and reaching noise")
     add_overrides(parser, "replace a field of the scenario, e.g. planner.top_k=8 or "
                           "uncertainty.nav_xy_std=0.2 (repeatable)")
+    parser.add_argument("--robot", choices=("sim", "lcm"), default="sim",
+                        help="sim (default): simulated here; lcm: the robot on --lcm (s3o sim)")
+    parser.add_argument("--lcm", default=LOCAL_BUS, metavar="URL",
+                        help="with --robot lcm: the bus (default s3o sim's, this machine's)")
+    parser.add_argument("--wait", type=seconds, default=FIRST_STATE_WAIT, metavar="S",
+                        help=f"with --robot lcm: seconds to wait for the robot (default "
+                             f"{FIRST_STATE_WAIT:g})")
     args = parser.parse_args(argv)
+    if args.robot == "lcm" and not args.lcm.startswith("udpm://"):
+        fail(f"--lcm: expected a udpm:// URL, got {args.lcm!r} (memq:// stays inside one "
+             "process, and the robot runs in another)")
+    if args.robot == "lcm" and args.meshcat:
+        fail("--meshcat: with --robot lcm the world is the robot's, not this process's")
 
     from s3o_drake.world.scenario import scenario_stem
 
@@ -280,6 +331,9 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
     seed = scenario.seed if args.seed is None else args.seed
     out = out_folder(args.out or scenario.outputs.directory
                      or Path("out") / scenario_stem(args.scenario))
+
+    if args.robot == "lcm":
+        return _run_on_bus(args, scenario, seed, out)
 
     from s3o_drake.execution.execute import execute
 

@@ -6,30 +6,24 @@ The robot and the room, as a robot's controllers meet them: the plant with the t
 and the dishes, the overhead camera, the grasp's rules and the base's protective stop. It
 publishes what a robot and its sensors publish and obeys the commands a robot obeys, on the
 channels docs/hardware.md names; it holds where it stands until commands come, and when they
-stop for 0.5 s. Ctrl-C ends it; it then says what is on its tray.
+stop for 0.5 s. Ctrl-C (or `kill`) ends it; it then says what is on its tray.
 The bus stays on this machine unless --lcm says otherwise.
 Exit status: 0, 2 on bad input, 130 when interrupted.
 """
 
+import signal
 import sys
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import command_parser, fail, read_scenario
-from s3o_drake.commands.options import add_overrides, add_seed, seconds, with_overrides_or_fail
+from s3o_drake.commands.options import (
+    add_overrides,
+    add_seed,
+    realtime_rate,
+    seconds,
+    with_overrides_or_fail,
+)
 from s3o_drake.world.robot_channels import LOCAL_BUS
-
-
-def _rate(text: str) -> float:
-    """A real-time rate: 0 (as fast as it can) or more."""
-    import argparse
-
-    try:
-        rate = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not rate >= 0.0:
-        raise argparse.ArgumentTypeError(f"expected 0 (as fast as it can) or more, got {text}")
-    return rate
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -37,7 +31,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("scenario", help="the scenario file (the room, the task, the robot)")
     parser.add_argument("--lcm", default=LOCAL_BUS, metavar="URL",
                         help=f"the LCM bus (default {LOCAL_BUS}: this machine only)")
-    parser.add_argument("--realtime-rate", type=_rate, default=1.0, metavar="R",
+    parser.add_argument("--realtime-rate", type=realtime_rate, default=1.0, metavar="R",
                         help="simulated seconds per second (default 1, as hardware; 0: as "
                              "fast as it can)")
     parser.add_argument("--time-limit", type=seconds, default=1800.0, metavar="S",
@@ -69,11 +63,17 @@ def main(argv: list[str] | None = None) -> int:
           f"{ROBOT_COMMAND}; Ctrl-C ends it", file=sys.stderr, flush=True)
     context = simulator.get_context()
     code = 0
+    # Ctrl-C and `kill` end it alike, even where it was started with SIGINT ignored (as a
+    # shell's background jobs are): the robot then says what is on its tray.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
         while context.get_time() < args.time_limit:
             simulator.AdvanceTo(min(context.get_time() + 1.0, args.time_limit))
     except KeyboardInterrupt:
         code = 130
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     world = diagram.GetSubsystemByName("world")
     states = world.GetOutputPort("dish_states").Eval(world.GetMyContextFromRoot(context))
     tray = states.named(DishState.TRAY)

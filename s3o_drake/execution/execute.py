@@ -16,8 +16,9 @@ from tqdm import tqdm
 
 from s3o_drake.belief import Perceive
 from s3o_drake.execution.activity import Activity
-from s3o_drake.execution.diagram import TIME_LIMIT, build_execution_diagram
+from s3o_drake.execution.diagram import build_execution_diagram
 from s3o_drake.execution.executive_system import PlanFrom
+from s3o_drake.execution.task_monitor import TIME_LIMIT
 from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import TaskMotionPlan
 from s3o_drake.world.builder import ILLUSTRATION, overhead_images

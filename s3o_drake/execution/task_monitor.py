@@ -5,14 +5,25 @@ import math
 from collections.abc import Callable, Sequence
 
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
+from pydrake.systems.framework import (
+    Context,
+    DiagramBuilder,
+    DiscreteValues,
+    EventStatus,
+    LeafSystem,
+    OutputPort,
+)
 
 from s3o_drake.execution.messages import PickupRecord, Placement, PlanProgress, RunReport
 from s3o_drake.world.dish_messages import DishPoses, DishState, DishStates
-from s3o_drake.world.goals import PlaceTarget, place_target_name
+from s3o_drake.world.goals import PlaceTarget, place_target_name, place_targets
 from s3o_drake.world.object_tracker import STANDING_TILT, tilt
+from s3o_drake.world.robot import CONTROL_PERIOD
+from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.system_lifetime import weak_callback
 
+TIME_LIMIT = 1800.0
+"""Simulated seconds after which an execution is stopped whatever its state."""
 TIME_LIMIT_REASON = "time limit"
 #: The outcome of a put-down that left its object standing off its place (`_judged`).
 OFF_PLACE = "off_place"
@@ -137,6 +148,8 @@ class TaskMonitor(LeafSystem):
         poses: DishPoses = self._dish_poses_port.Eval(context)
         out = []
         for place in self._places:
+            if place.name not in poses:  # a referee on a bus that has not spoken yet
+                continue
             X_WD = poses[place.name]
             out.append(Placement(
                 object=place.name, target=(*place.position, place.surface),
@@ -162,3 +175,21 @@ def _judged(records: tuple[PickupRecord, ...],
         if last is not None:
             out[last] = dataclasses.replace(out[last], outcome=OFF_PLACE)
     return tuple(out)
+
+
+def add_task_monitor(builder: DiagramBuilder, scenario: Scenario, *, progress: OutputPort,
+                     dish_states: OutputPort, dish_poses: OutputPort,
+                     closest_approach: OutputPort, time_limit: float = TIME_LIMIT,
+                     sensing_error: Callable[[int], tuple[float, float] | None] | None = None
+                     ) -> TaskMonitor:
+    """The referee ("task_monitor") of `scenario`, in `builder`: the executive's `progress`
+    judged by the simulation's truth (`dish_states`, `dish_poses`, `closest_approach`)."""
+    monitor = builder.AddNamedSystem("task_monitor", TaskMonitor(
+        period=CONTROL_PERIOD, settle_time=scenario.simulation.hold_time,
+        time_limit=time_limit, places=place_targets(scenario),
+        fixtures=[d.name for d in scenario.dishes if d.goal == "stay"],
+        sensing_error=sensing_error))
+    for name, port in (("progress", progress), ("dish_states", dish_states),
+                       ("dish_poses", dish_poses), ("closest_approach", closest_approach)):
+        builder.Connect(port, monitor.GetInputPort(name))
+    return monitor

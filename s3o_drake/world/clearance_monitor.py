@@ -29,8 +29,17 @@ from pydrake.geometry import (
 )
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex, RigidBody
-from pydrake.systems.framework import Context, DiscreteValues, EventStatus, LeafSystem
+from pydrake.systems.framework import (
+    Context,
+    Diagram,
+    DiagramBuilder,
+    DiscreteValues,
+    EventStatus,
+    LeafSystem,
+    OutputPort,
+)
 
+from s3o_drake.world.robot import Robot
 from s3o_drake.world.system_lifetime import weak_callback
 
 REACH = 0.3
@@ -101,6 +110,24 @@ class ClearanceMonitor(LeafSystem):
                 query.ComputeSignedDistancePairClosestPoints(a, b).distance))
         state.get_mutable_vector(self._closest).SetAtIndex(0, closest)
         return EventStatus.Succeeded()
+
+
+def add_clearance_monitor(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
+                          furniture: Iterable[str], period: float) -> OutputPort:
+    """A ClearanceMonitor ("clearance_monitor") of `robot` against the walls and the
+    `furniture` (model instance names: the tables and the chairs) of `world` (a world
+    diagram, in `builder`); its closest_approach port."""
+    plant = world.GetSubsystemByName("plant")
+    scene_graph = world.GetSubsystemByName("scene_graph")
+    monitor = builder.AddNamedSystem("clearance_monitor", ClearanceMonitor(
+        robot=proximity_geometries(plant, scene_graph,
+                                   list(robot.instances_in(plant).instances)),
+        world=proximity_geometries(
+            plant, scene_graph, [plant.GetModelInstanceByName(name) for name in furniture],
+            world_names=("wall",)),
+        period=period))
+    builder.Connect(world.GetOutputPort("query_object"), monitor.GetInputPort("query_object"))
+    return monitor.GetOutputPort("closest_approach")
 
 
 class NearPairs:

@@ -52,9 +52,23 @@ GRIP = "S3O_GRIP"
 #: controllers -> robot, every control period: s3o_lcm.target_request_t.
 TARGET_REQUEST = "S3O_TARGET_REQUEST"
 
-LOCAL_BUS = "udpm://239.255.76.67:7667?ttl=0"
-"""The default bus between processes: UDP multicast that never leaves this machine (time to
-live 0)."""
+RECEIVE_BUFFER = 2 ** 21
+"""The socket's receive buffer (bytes) the bus asks for: an overhead image message is about
+340 kB, and the kernel's default (about 200 kB) drops its fragments and the messages around
+them. The kernel grants at most net.core.rmem_max (LCM warns when it gets less)."""
+
+
+def local_bus(port: int = 7667) -> str:
+    """A bus between processes that never leaves this machine: UDP multicast with a time to
+    live of 0, on `port`."""
+    return f"udpm://239.255.76.67:{port}?ttl=0&recv_buf_size={RECEIVE_BUFFER}"
+
+
+LOCAL_BUS = local_bus()
+"""The default bus between processes (`local_bus`)."""
+
+FIRST_STATE_WAIT = 30.0
+"""How long (s) the controllers wait for the robot's first state, by default."""
 
 IMAGE_FRAMES = ("overhead_color", "overhead_depth", "overhead_label")
 """The frame names of the overhead camera's images in their lcmt_image_array, in the order

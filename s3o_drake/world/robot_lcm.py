@@ -7,22 +7,38 @@ tracked) to Drake's LCM systems: publishers of the robot's joint state, the grip
 the sensor's sightings, the protective stop's report (every control period) and the overhead
 camera's images (every IMAGE_PERIOD); subscribers of the desired state, the grip and the
 sighting requests. A `CommandWatchdog` holds the robot where it stands until the first
-command, and whenever commands stop coming for COMMAND_TIMEOUT of the robot's time, as a
+command, and whenever no new command came for COMMAND_TIMEOUT of the robot's time, as a
 robot's driver stops a robot whose controller went quiet.
+
+`add_referee_publisher` adds what no robot publishes: the simulation's truth about the
+dishes and the robot's clearance, on the referee's channel (`referee_channel`), so that a
+run whose controllers are in another process is judged as a run in one process is.
 """
 
 import numpy as np
 from drake import lcmt_image_array
+from pydrake.common.value import AbstractValue
 from pydrake.lcm import DrakeLcm
-from pydrake.systems.framework import BasicVector, Context, Diagram, DiagramBuilder, LeafSystem
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    Diagram,
+    DiagramBuilder,
+    DiscreteValues,
+    EventStatus,
+    LeafSystem,
+)
 from pydrake.systems.lcm import LcmInterfaceSystem, LcmPublisherSystem
 from pydrake.systems.primitives import MatrixGain
 from pydrake.systems.sensors import ImageToLcmImageArrayT
 
 from s3o_drake.world import robot_channels as ch
 from s3o_drake.world.builder import build_world_diagram
+from s3o_drake.world.clearance_monitor import REACH, add_clearance_monitor
+from s3o_drake.world.dish_messages import DishPoses, DishStates
 from s3o_drake.world.lcmtypes import s3o_lcm
 from s3o_drake.world.message_systems import add_publisher, add_reader, add_subscriber
+from s3o_drake.world.referee_channel import REFEREE, RefereeView, referee_message
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot
 from s3o_drake.world.robot_messages import GripEvent, GripperStatus, TargetRequest, TargetSighting
 from s3o_drake.world.scenario import Scenario
@@ -30,45 +46,123 @@ from s3o_drake.world.system_lifetime import weak_callback
 
 COMMAND_TIMEOUT = 0.5
 """How long (s of the robot's time) the robot goes on without a command before it holds."""
+COMMAND_FRESH = 2 * CONTROL_PERIOD
+"""How long (s) a command's velocities are followed: after that, until COMMAND_TIMEOUT, the
+robot goes to the command's positions and stops there, which the controllers checked, and
+does not run on along a motion that its controllers stopped following."""
 
 
 class CommandWatchdog(LeafSystem):
     """The robot's desired state: the last command's while commands come, else where it
     stands.
 
+    A command counts for `timeout` s of the robot's time after it arrived, as a robot's
+    driver judges it: by when a new one came, not by the controllers' clock, which need not
+    be the robot's (its stamp only tells one command from the next). Its velocities count
+    for `fresh` s only: a late command's positions are held, with zero velocities.
+
     Input ports:
         desired_state: vector (2 num_positions), the last command's desired state.
-        command_time: vector 1, that command's time (s; negative: no command yet).
+        command_stamp: vector 1, that command's own stamp (s; negative: no command yet).
         true_state: vector (2 num_positions), the robot's state.
     Output ports:
-        desired_state: vector (2 num_positions): the command's, or, before the first
-            command and once none came for `timeout` s, the robot's positions with zero
-            velocities (it holds where it stands).
+        desired_state: vector (2 num_positions): the command's; its positions with zero
+            velocities once it is older than `fresh` s; before the first command and once
+            none came for `timeout` s, the robot's positions with zero velocities (it
+            holds where it stands).
+
+    State: the latest stamp seen and the robot's time it came (s), updated every `period`.
     """
 
-    def __init__(self, *, num_positions: int, timeout: float = COMMAND_TIMEOUT) -> None:
+    def __init__(self, *, num_positions: int, timeout: float = COMMAND_TIMEOUT,
+                 fresh: float = COMMAND_FRESH, period: float = CONTROL_PERIOD) -> None:
         super().__init__()
-        if timeout <= 0:
-            raise ValueError(f"timeout: expected a positive time, got {timeout}")
-        self._n, self._timeout = num_positions, timeout
+        if not 0 < fresh <= timeout:
+            raise ValueError(f"fresh, timeout: expected 0 < fresh <= timeout, got {fresh}, "
+                             f"{timeout}")
+        self._n, self._timeout, self._fresh = num_positions, timeout, fresh
         self._desired = self.DeclareVectorInputPort("desired_state", 2 * num_positions)
-        self._time = self.DeclareVectorInputPort("command_time", 1)
+        self._stamp = self.DeclareVectorInputPort("command_stamp", 1)
         self._true = self.DeclareVectorInputPort("true_state", 2 * num_positions)
+        self._seen = self.DeclareDiscreteState([-1.0, -np.inf])
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, weak_callback(self._hear))
+        self.DeclareForcedDiscreteUpdateEvent(weak_callback(self._hear))
         self.DeclareVectorOutputPort("desired_state", 2 * num_positions,
                                      weak_callback(self._calc_desired_state))
 
+    def _hear(self, context: Context, state: DiscreteValues) -> EventStatus:
+        stamp = float(self._stamp.Eval(context)[0])
+        seen = context.get_discrete_state(self._seen).get_value()
+        if stamp >= 0.0 and stamp != seen[0]:
+            state.get_mutable_vector(self._seen).SetFromVector([stamp, context.get_time()])
+            return EventStatus.Succeeded()
+        return EventStatus.DidNothing()
+
+    def _age(self, context: Context) -> float:
+        """How long ago (s) the latest command came (inf: none came)."""
+        return context.get_time() - float(context.get_discrete_state(self._seen).GetAtIndex(1))
+
     def commanded(self, context: Context) -> bool:
         """Whether a command came within the timeout."""
-        sent = float(self._time.Eval(context)[0])
-        return sent >= 0.0 and context.get_time() - sent <= self._timeout
+        return self._age(context) <= self._timeout
 
     def _calc_desired_state(self, context: Context, output: BasicVector) -> None:
-        if self.commanded(context):
+        age = self._age(context)
+        if age <= self._fresh:
             output.SetFromVector(self._desired.Eval(context))
+            return
+        if age <= self._timeout:
+            late = np.array(self._desired.Eval(context), dtype=float)
+            late[self._n:] = 0.0
+            output.SetFromVector(late)
             return
         held = np.array(self._true.Eval(context), dtype=float)
         held[self._n:] = 0.0
         output.SetFromVector(held)
+
+
+class RefereeViewer(LeafSystem):
+    """The referee's view, one value of the simulation's three truths.
+
+    Input ports:
+        dish_states: abstract DishStates.
+        dish_poses: abstract DishPoses.
+        closest_approach: vector 1 (m).
+    Output ports:
+        view: abstract RefereeView.
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._states = self.DeclareAbstractInputPort("dish_states",
+                                                     AbstractValue.Make(DishStates()))
+        self._poses = self.DeclareAbstractInputPort("dish_poses", AbstractValue.Make(DishPoses()))
+        self._closest = self.DeclareVectorInputPort("closest_approach", 1)
+        self.DeclareAbstractOutputPort(
+            "view", lambda: AbstractValue.Make(RefereeView(DishStates(), DishPoses(), REACH)),
+            weak_callback(self._calc_view))
+
+    def _calc_view(self, context: Context, output: AbstractValue) -> None:
+        output.set_value(RefereeView(self._states.Eval(context), self._poses.Eval(context),
+                                     float(self._closest.Eval(context)[0])))
+
+
+def add_referee_publisher(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
+                          furniture: list[str], lcm: LcmInterfaceSystem,
+                          period: float = CONTROL_PERIOD) -> None:
+    """Publishes on REFEREE (`referee_channel`) what the simulation knows of the dishes and
+    of the robot's clearance to `furniture` and the walls, every `period`: for the report of
+    a run whose controllers are elsewhere; no robot publishes it."""
+    viewer = builder.AddNamedSystem("referee_view", RefereeViewer())
+    builder.Connect(world.GetOutputPort("dish_states"), viewer.GetInputPort("dish_states"))
+    builder.Connect(world.GetOutputPort("dish_poses"), viewer.GetInputPort("dish_poses"))
+    builder.Connect(add_clearance_monitor(builder, world, robot=robot, furniture=furniture,
+                                          period=period),
+                    viewer.GetInputPort("closest_approach"))
+    builder.Connect(viewer.get_output_port(), add_publisher(
+        builder, lcm=lcm, channel=REFEREE, message_type=s3o_lcm.referee_t,
+        encode=lambda view, t: referee_message(*view, t=t), period=period,
+        model=RefereeView(DishStates(), DishPoses(), REACH)))
 
 
 def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
@@ -117,12 +211,12 @@ def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
     desired = subscribe(ch.ROBOT_COMMAND, s3o_lcm.robot_command_t,
                         lambda m: ch.desired_of(m, joints=joints) if m.num_positions else None,
                         initial=np.zeros(2 * n), size=2 * n)
-    sent = subscribe(ch.ROBOT_COMMAND, s3o_lcm.robot_command_t,
-                     lambda m: [ch.seconds(m.utime)] if m.num_positions else None,
-                     initial=[-1.0], size=1, reading="_time")
+    stamp = subscribe(ch.ROBOT_COMMAND, s3o_lcm.robot_command_t,
+                      lambda m: [ch.seconds(m.utime)] if m.num_positions else None,
+                      initial=[-1.0], size=1, reading="_stamp")
     watchdog = builder.AddNamedSystem("command_watchdog", CommandWatchdog(num_positions=n))
     builder.Connect(desired, watchdog.GetInputPort("desired_state"))
-    builder.Connect(sent, watchdog.GetInputPort("command_time"))
+    builder.Connect(stamp, watchdog.GetInputPort("command_stamp"))
     builder.Connect(world.GetOutputPort("robot_state"), watchdog.GetInputPort("true_state"))
     builder.Connect(watchdog.get_output_port(), world.GetInputPort("robot_desired_state"))
     builder.Connect(subscribe(ch.GRIP, s3o_lcm.grip_t, ch.grip_of, initial=GripEvent()),
@@ -137,12 +231,15 @@ def build_robot_diagram(scenario: Scenario, *, lcm: DrakeLcm, seed: int | None =
                         noise: bool = True) -> Diagram:
     """The simulated robot alone, on `lcm`: the world's diagram (the true chairs, the
     dishes tracked, the overhead camera; the scenario's noise unless `noise` is off, drawn
-    from `seed`, default the scenario's) wired by `add_robot_lcm`. Named "s3o_robot"."""
+    from `seed`, default the scenario's) wired by `add_robot_lcm`, and the referee's
+    channel (`add_referee_publisher`). Named "s3o_robot"."""
     builder = DiagramBuilder()
     interface = builder.AddNamedSystem("lcm", LcmInterfaceSystem(lcm))
     world = builder.AddNamedSystem("world", build_world_diagram(
         scenario, track_dishes=True, seed=seed, noise=noise, show_collisions=False))
     add_robot_lcm(builder, world, robot=scenario.robot_value, lcm=interface)
+    add_referee_publisher(builder, world, robot=scenario.robot_value, lcm=interface,
+                          furniture=[f.name for f in (*scenario.tables, *scenario.chairs)])
     diagram = builder.Build()
     diagram.set_name("s3o_robot")
     return diagram

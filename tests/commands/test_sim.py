@@ -29,7 +29,7 @@ def test_a_bus_of_one_process_or_a_bad_rate_is_refused_in_one_line(capsys):
 
 def test_the_robot_publishes_its_state_to_another_process():
     # A port of its own, so that no other run on this machine is heard.
-    url = f"udpm://239.255.76.67:{random.randint(20000, 60000)}?ttl=0"
+    url = ch.local_bus(random.randint(20000, 60000))
     lcm = DrakeLcm(url)
     states = []
     lcm.Subscribe(ch.ROBOT_STATE, lambda data: states.append(robot_state_t.decode(data)))

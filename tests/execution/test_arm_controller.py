@@ -26,7 +26,7 @@ from pydrake.systems.primitives import (
 
 from s3o_drake.execution.arm.place import place_grasps
 from s3o_drake.execution.arm_controller import GRIP_REPORT_TIMEOUT, ArmController
-from s3o_drake.execution.diagram import arm_params
+from s3o_drake.execution.controllers import arm_params
 from s3o_drake.execution.messages import CommandState, KnownScene, PickCommand, Status
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.scene import FeasibilityScene

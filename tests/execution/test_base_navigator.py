@@ -19,7 +19,7 @@ from pydrake.systems.primitives import (
 from pydrake.trajectories import PiecewisePolynomial
 
 from s3o_drake.execution.base_navigator import BaseNavigator
-from s3o_drake.execution.diagram import navigator_params
+from s3o_drake.execution.controllers import navigator_params
 from s3o_drake.execution.messages import (
     ArmMotion,
     BaseCommand,

@@ -15,7 +15,7 @@ from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource
 from pydrake.systems.sensors import ImageDepth32F, ImageLabel16I, ImageRgba8U
 
 from s3o_drake.belief import scenario_unmapped_chairs
-from s3o_drake.execution.diagram import make_executive_system
+from s3o_drake.execution.controllers import make_executive_system
 from s3o_drake.execution.messages import NO_COMMAND, PickupRecord, Status
 from s3o_drake.planning.plan import Goto, Pickup, Place
 from s3o_drake.world.robot import load_robot

@@ -12,7 +12,7 @@ from shapely.geometry import LineString, Point
 
 from s3o_drake.belief import scenario_unmapped_chairs
 from s3o_drake.belief.known_world import KnownWorld
-from s3o_drake.execution.diagram import make_executive_system
+from s3o_drake.execution.controllers import make_executive_system
 from s3o_drake.execution.execute import execute
 from s3o_drake.execution.messages import Status
 from s3o_drake.execution.recovery import StopCheck, localise

@@ -11,7 +11,7 @@ from pydrake.common.value import AbstractValue
 from shapely.geometry import LineString, Point
 
 from s3o_drake.execution.base_navigator import BaseNavigator
-from s3o_drake.execution.diagram import navigator_params
+from s3o_drake.execution.controllers import navigator_params
 from s3o_drake.execution.messages import BaseCommand, CommandState
 from s3o_drake.planning.navigation.base_motion import (
     CORNER_CUT,

@@ -18,7 +18,8 @@ from pydrake.systems.analysis import Simulator
 from s3o_drake.belief import scenario_unmapped_chairs
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.execution.base_navigator import BaseNavigator
-from s3o_drake.execution.diagram import build_execution_diagram, navigator_params
+from s3o_drake.execution.controllers import navigator_params
+from s3o_drake.execution.diagram import build_execution_diagram
 from s3o_drake.execution.execute import execute
 from s3o_drake.execution.messages import BaseCommand
 from s3o_drake.feasibility.heatmaps import compute_heatmaps

@@ -11,7 +11,12 @@ from pydrake.systems.lcm import LcmInterfaceSystem
 from s3o_drake.world import robot_channels as ch
 from s3o_drake.world.builder import build_world_diagram
 from s3o_drake.world.lcmtypes.s3o_lcm import robot_state_t
-from s3o_drake.world.robot_lcm import COMMAND_TIMEOUT, CommandWatchdog, add_robot_lcm
+from s3o_drake.world.robot_lcm import (
+    COMMAND_FRESH,
+    COMMAND_TIMEOUT,
+    CommandWatchdog,
+    add_robot_lcm,
+)
 
 
 class _Bus:
@@ -72,16 +77,25 @@ def test_the_robot_holds_where_it_stands_when_commands_stop(scenario):
 
 
 def test_the_watchdog_alone(scenario):
+    """A command is fresh for COMMAND_TIMEOUT after it came, whatever its stamp says: the
+    controllers' clock need not be the robot's."""
     n = scenario.robot_value.num_positions
     watchdog = CommandWatchdog(num_positions=n)
-    context = watchdog.CreateDefaultContext()
+    simulator = Simulator(watchdog)
+    context = simulator.get_mutable_context()
     true = np.arange(2 * n, dtype=float)
     desired = -np.arange(2 * n, dtype=float)
     watchdog.GetInputPort("desired_state").FixValue(context, desired)
     watchdog.GetInputPort("true_state").FixValue(context, true)
     held = np.concatenate([true[:n], np.zeros(n)])
-    for sent, now, expected in ((-1.0, 0.0, held), (1.0, 1.2, desired),
-                                (1.0, 1.0 + COMMAND_TIMEOUT + 0.01, held)):
-        watchdog.GetInputPort("command_time").FixValue(context, [sent])
-        context.SetTime(now)
+    late = np.concatenate([desired[:n], np.zeros(n)])
+    stamp = watchdog.GetInputPort("command_stamp")
+    # The watchdog sees a new command at its next update (every 0.05 s), here 0.55 s.
+    for sent, until, expected in ((-1.0, 0.51, held),  # none yet
+                                  (0.7, 0.57, desired),  # one came
+                                  (0.7, 0.57 + COMMAND_FRESH, late),  # late: go there, stop
+                                  (0.7, 0.57 + COMMAND_TIMEOUT, held),  # none since
+                                  (0.3, 1.13, desired)):  # a new one, stamped earlier
+        stamp.FixValue(context, [sent])
+        simulator.AdvanceTo(until)
         np.testing.assert_array_equal(watchdog.get_output_port().Eval(context), expected)

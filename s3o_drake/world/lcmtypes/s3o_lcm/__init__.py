@@ -11,3 +11,4 @@ from .target_request_t import target_request_t as target_request_t
 from .target_sighting_t import target_sighting_t as target_sighting_t
 from .gripper_status_t import gripper_status_t as gripper_status_t
 from .protective_stop_t import protective_stop_t as protective_stop_t
+from .referee_t import referee_t as referee_t
