@@ -74,6 +74,8 @@ def main(argv: list[str] | None = None) -> int:
         code = 130
     finally:
         signal.signal(signal.SIGTERM, previous)
+    # A second Ctrl-C must not cut short what the robot says it holds.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     world = diagram.GetSubsystemByName("world")
     states = world.GetOutputPort("dish_states").Eval(world.GetMyContextFromRoot(context))
     tray = states.named(DishState.TRAY)

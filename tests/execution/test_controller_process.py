@@ -59,14 +59,15 @@ def test_a_robot_that_falls_silent_is_stopped_and_the_run_ends_with_its_report()
     robot = subprocess.Popen(
         [sys.executable, "-m", "s3o_drake.commands", "sim", SCENE, "--lcm", url],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    commands = []
+    commands, ended = [], []
 
     def heard(data: bytes) -> None:
         command = robot_command_t.decode(data)
         commands.append(command)
         moving = sum(np.abs(c.velocity).max() > 0.0 for c in commands)
-        if moving == 20 and robot.poll() is None:
+        if moving == 20 and not ended:
             robot.send_signal(signal.SIGINT)  # the robot goes away mid-motion
+            ended.append(True)
 
     lcm.Subscribe(ch.ROBOT_COMMAND, heard)
     try:
@@ -76,7 +77,7 @@ def test_a_robot_that_falls_silent_is_stopped_and_the_run_ends_with_its_report()
         for _ in range(5):  # what the controllers published last, as the robot would hear it
             lcm.HandleSubscriptions(20)
     finally:
-        if robot.poll() is None:
+        if not ended:  # the run ended otherwise: end the robot all the same
             robot.send_signal(signal.SIGINT)
         _, err = robot.communicate(timeout=120)
     assert robot.returncode == 130, err
