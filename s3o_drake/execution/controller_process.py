@@ -36,7 +36,7 @@ from pydrake.systems.analysis import (
     Simulator,
     SimulatorStatus,
 )
-from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.framework import Context, Diagram, DiagramBuilder
 from pydrake.systems.lcm import LcmInterfaceSystem
 from pydrake.systems.primitives import VectorLogSink
 
@@ -181,6 +181,12 @@ def _hold(lcm: DrakeLcm, clock: RobotClock, *, joints: tuple[str, ...]) -> None:
         lcm.Publish(ch.ROBOT_COMMAND, message.encode())
 
 
+def _output(diagram: Diagram, context: Context, name: str) -> object:
+    """The value of the output port of `diagram`'s subsystem `name` (it has one)."""
+    system = diagram.GetSubsystemByName(name)
+    return system.get_output_port().Eval(system.GetMyContextFromRoot(context))
+
+
 def execute_on_bus(scenario: Scenario, *, lcm: DrakeLcm, method: str | None = None,
                    seed: int | None = None, wait: float = ch.FIRST_STATE_WAIT, noise: bool = True,
                    progress: bool = True, plan_from: PlanFrom | None = None,
@@ -262,10 +268,8 @@ def execute_on_bus(scenario: Scenario, *, lcm: DrakeLcm, method: str | None = No
             executive_context)[0]))
     if reason is not None:
         report.update(finished=False, reason=reason)
-    color = diagram.GetSubsystemByName("from_overhead_color").get_output_port().Eval(
-        diagram.GetSubsystemByName("from_overhead_color").GetMyContextFromRoot(context))
-    depth = diagram.GetSubsystemByName("from_overhead_depth").get_output_port().Eval(
-        diagram.GetSubsystemByName("from_overhead_depth").GetMyContextFromRoot(context))
+    color, depth = (_output(diagram, context, name)
+                    for name in ("from_overhead_color", "from_overhead_depth"))
     images = ((np.array(color.data)[:, :, :3], np.array(depth.data)[:, :, 0])
               if depth.size() else None)
     log = diagram.GetSubsystemByName("robot_command_log").FindLog(context)

@@ -282,24 +282,17 @@ def _command(tasks: Path, out: Path) -> list[str]:
 
 @pytest.fixture(scope="module")
 def local_study(tmp_path_factory) -> dict:
-    """Three small tasks, two methods, seed 0, on the local pool (2 processes), started in
-    a process of its own and killed (the whole process group, as a crash or a lost machine
-    would) after its first row, then resumed by the same command in this process. Its
-    tasks and folder, the rows it had when killed and what the resumed study printed."""
+    """Three small tasks, two methods, seed 0, on the local pool (2 processes): first the
+    cheapest task alone (`--count 1`), then all three by the same folder, which keeps the
+    first task's rows and runs only the others. (A study killed with its workers, and a
+    killed worker, are test_faults.py's: each costs a study of its own.) Its tasks and
+    folder, the rows of the first study and what the second printed."""
     root = tmp_path_factory.mktemp("local_study")
     tasks = _three_tasks(root / "tasks")
     out = root / "results"
-    process = subprocess.Popen([sys.executable, "-m", "s3o_drake.commands.evaluate",
-                                *_command(tasks, out)], cwd=REPO, start_new_session=True,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    results = out / "results.jsonl"
-    deadline = time.monotonic() + 240
-    while time.monotonic() < deadline and process.poll() is None and not (
-            results.exists() and results.read_text().count("\n") >= 1):
-        time.sleep(0.2)
-    os.killpg(process.pid, signal.SIGKILL)
-    process.wait()
-    before = results.read_text().splitlines()
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert evaluate([*_command(tasks, out), "--count", "1"]) == 0
+    before = (out / "results.jsonl").read_text().splitlines()
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
         status = evaluate(_command(tasks, out))
@@ -564,12 +557,11 @@ def test_placement_table_counts_objects_at_and_off_their_places():
 
 # --- the command ----------------------------------------------------------------------------
 
-def test_three_tasks_two_methods_end_to_end_then_resume_after_a_kill(local_study, tmp_path,
-                                                                     capsys):
+def test_three_tasks_two_methods_end_to_end_then_resumed(local_study, tmp_path, capsys):
     tasks, out, before = local_study["tasks"], local_study["out"], local_study["before"]
     results = out / "results.jsonl"
-    assert 1 <= len(before) < 6
-    # Resumed by the same command: the finished runs kept, not run again.
+    assert len(before) == 2 and {json.loads(r)["task"] for r in before} == {"a_one_cup"}
+    # Resumed on all the tasks: the finished runs kept, not run again.
     assert local_study["status"] == 0
     assert f"{len(before)} already finished" in local_study["printed"]
     after = results.read_text().splitlines()

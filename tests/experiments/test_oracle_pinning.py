@@ -23,12 +23,13 @@ def oracle():
 
 
 def test_feasible_by_the_oracle_is_executed_and_infeasible_fails(oracle):
-    """On 50 exact base poses around the dishes (no noise), 25 called feasible and 25
+    """On 24 exact base poses around the dishes (no noise), 12 called feasible and 12
     infeasible by the oracle, the pickup that the ArmController plans and plays
-    (`plan_pickup`: without noise its outcome is the plan's) agrees every time."""
-    poses = sample_poses(oracle, 50, np.random.default_rng(7))
-    assert len(poses) == 50
-    assert sum(feasible for _, _, feasible in poses) == 25
+    (`plan_pickup`: without noise its outcome is the plan's) agrees every time (`s3o bench
+    oracle-pinning` measures it on more)."""
+    poses = sample_poses(oracle, 24, np.random.default_rng(7))
+    assert len(poses) == 24
+    assert sum(feasible for _, _, feasible in poses) == 12
     rows = [{"dish": dish, "oracle": feasible, "executed": executed(oracle, dish, base, k)}
             for k, (dish, base, feasible) in enumerate(poses)]
     figures = summarize(rows, [])
