@@ -14,7 +14,7 @@ tree="$main/../study64-$commit"
 cd "$tree"
 export PYTHONPATH="$tree"  # this commit's package, not the editable install's
 difficulty() { case "$1" in dense_*) echo dense ;; *) echo spacious ;; esac; }
-studies=(same_runs_028cb79 same_runs_stop_and_go
+studies=(same_runs_028cb79 same_runs_stop_and_go time_noise_off_dense time_noise_off_spacious
          dense_open_loop dense_open_loop_stop_and_go spacious_open_loop spacious_open_loop_stop_and_go
          dense_recovery spacious_recovery dense_recovery_stop_and_go spacious_recovery_stop_and_go)
 for name in "${studies[@]}"; do
@@ -25,7 +25,7 @@ for name in "${studies[@]}"; do
     [ "$name" != same_runs_028cb79 ] || [ -f "out/$name/results.jsonl" ] ||
         tar -xJOf "$main/docs/studies/motion_ce2f701.tar.xz" \
             motion_ce2f701/same_runs_028cb79/results.jsonl > "out/$name/results.jsonl"
-    case "$name" in same_runs_*) ;; *)
+    case "$name" in same_runs_*|time_*) ;; *)
         [ -f "out/$name/difficulty.jsonl" ] ||
             tar -xJOf "$main/docs/studies/$(difficulty "$name")_open_loop_494b2e6.tar.xz" \
                 "$(difficulty "$name")_open_loop/difficulty.jsonl" > "out/$name/difficulty.jsonl" ;;
@@ -58,6 +58,13 @@ ev --tasks scenarios/generated_dense --count 20 --methods "S3O-GROP*" --seeds 3 
 ev --tasks scenarios/generated_dense --count 20 --methods "S3O-GROP*" --seeds 3 $SG --out out/dense_open_loop_stop_and_go
 ev --tasks scenarios/generated --count 20 --methods "S3O-GROP*" V-GROP* --seeds 1 $SG --out out/same_runs_stop_and_go
 s3o bench same-runs out/same_runs_028cb79 out/same_runs_stop_and_go > out/same_runs.txt || true
+# The time model without noise: the plan's prediction against the simulation, smooth, on
+# the first 20 tasks of each room (`s3o bench time`, its rows as it goes; it resumes).
+for room in dense spacious; do
+    tasks=scenarios/generated_dense; [ "$room" = spacious ] && tasks=scenarios/generated
+    s3o bench time --tasks $tasks --count 20 --noise off --workers 2 \
+        --json out/time_noise_off_$room/results.jsonl > out/time_noise_off_$room/summary.txt
+done
 for room in dense spacious; do
     tasks=scenarios/generated_dense; [ "$room" = spacious ] && tasks=scenarios/generated
     ev --tasks $tasks --methods "S3O-GROP*" --seeds 3 --out out/${room}_open_loop
