@@ -345,8 +345,7 @@ def _escaped(base: np.ndarray, target: np.ndarray, waypoints: list[np.ndarray],
         escapes = itertools.chain(
             [profile.segments(waypoints, yaw, float(target[2]), long_way=True)],
             (profile.segments(way, yaw, float(target[2])) for way in ways[1:]),
-            (profile.segments([waypoints[0], waypoints[0] + d * heading, *waypoints[1:]],
-                              yaw, float(target[2]))
+            (_straight_out(waypoints, yaw, d * heading, float(target[2]), profile)
              for step in ESCAPE_STEPS for d in (-step, step)),
             itertools.chain.from_iterable(
                 retrace(trail, base, way, float(target[2]), profile) for way in ways))
@@ -369,6 +368,23 @@ def _escaped(base: np.ndarray, target: np.ndarray, waypoints: list[np.ndarray],
             if not approached.blocked and facing(approached.segments, target[2]):
                 return approached
     return cut
+
+
+def _straight_out(waypoints: list[np.ndarray], yaw: float, move: np.ndarray,
+                  target_yaw: float, profile: MotionProfile) -> list[Segment]:
+    """The motion through `waypoints` that first moves the base straight by `move` (x, y)
+    along its heading `yaw`, backing or driving on. A smooth motion then leaves from there
+    as from a stop, its first leg backed where that turns the base less
+    (`base_motion.fewer_turns_backing`), as the plan's motion from a stop is: taken as
+    one more leg, the next leg was driven forwards whatever it cost, a turn round at each
+    of its ends where backing it turned a little once. Stop and go, the paper's motion,
+    takes the waypoints as they come."""
+    start = waypoints[0]
+    if not profile.smooth:
+        return profile.segments([start, start + move, *waypoints[1:]], yaw, target_yaw)
+    out = profile.stop_and_go().segment((*start, yaw), (*(start + move), yaw), turn=False,
+                                        length=float(np.linalg.norm(move)))
+    return [out, *profile.segments([start + move, *waypoints[1:]], yaw, target_yaw)]
 
 
 def shifted_lead(waypoints: list[np.ndarray], stop: Sequence[float],
