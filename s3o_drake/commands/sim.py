@@ -25,6 +25,9 @@ from s3o_drake.commands.options import (
 )
 from s3o_drake.world.robot_channels import LOCAL_BUS
 
+SIGNAL_STEP = 0.1
+"""How often (s of the robot's clock) the robot looks whether it was told to end."""
+
 
 def main(argv: list[str] | None = None) -> int:
     parser = command_parser("sim", __doc__)
@@ -62,18 +65,23 @@ def main(argv: list[str] | None = None) -> int:
     print(f"the robot is on {args.lcm}: publishing {ROBOT_STATE} and its sensors, obeying "
           f"{ROBOT_COMMAND}; Ctrl-C ends it", file=sys.stderr, flush=True)
     context = simulator.get_context()
-    code = 0
     # Ctrl-C and `kill` end it alike, even where it was started with SIGINT ignored (as a
-    # shell's background jobs are): the robot then says what is on its tray.
-    signal.signal(signal.SIGINT, signal.default_int_handler)
-    previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
+    # shell's background jobs are): the robot then says what is on its tray. The signal is
+    # noted and looked at between steps: raised as KeyboardInterrupt, it could land inside
+    # a message's Python decoding, called from the LCM handler, and be lost there.
+    signals: list[int] = []
+
+    def note(signum: int, _frame: object) -> None:
+        signals.append(signum)
+
+    signal.signal(signal.SIGINT, note)
+    previous = signal.signal(signal.SIGTERM, note)
     try:
-        while context.get_time() < args.time_limit:
-            simulator.AdvanceTo(min(context.get_time() + 1.0, args.time_limit))
-    except KeyboardInterrupt:
-        code = 130
+        while not signals and context.get_time() < args.time_limit:
+            simulator.AdvanceTo(min(context.get_time() + SIGNAL_STEP, args.time_limit))
     finally:
         signal.signal(signal.SIGTERM, previous)
+    code = 130 if signals else 0
     # A second Ctrl-C must not cut short what the robot says it holds.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     world = diagram.GetSubsystemByName("world")
