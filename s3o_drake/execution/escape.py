@@ -218,10 +218,24 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
     # anywhere.
     stop_and_go = functools.cache(
         lambda: _escaped(base, target, planned, stop, turn, trail, free, straight))
-    cut = next(_smooth_landings(base, target, planned, stop=stop, turn=turn, trail=trail,
-                                free=free, profile=profile), None)
+    cut = short = None
+    for tried, taken in _smooth_motions(base, target, planned, stop=stop, turn=turn,
+                                        trail=trail, free=free, profile=profile):
+        if taken:
+            cut = tried
+            break
+        short = short or tried
     if cut is None:
-        return stop_and_go()
+        # No smooth motion lands: the stop-and-go one, unless it does not land either (the
+        # turn to the stop's heading is blocked at the stop, whichever way the base came)
+        # and a smooth one that is not blocked ends as near: else a base that had to back
+        # out of a tight stop would drive its whole way stopping at every corner.
+        other = stop_and_go()
+        if (short is not None and not _lands(other, target, turn)
+                and (other.blocked or shortfall(short, base, target)
+                     <= shortfall(other, base, target) + CHECK_STEP_XY)):
+            return short
+        return other
     if turn or cut.hit is None:
         return cut
     # A smooth motion that lands short (its curve, or its lead in moved with the noise,
@@ -236,21 +250,30 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
     return cut
 
 
-def _smooth_landings(base: np.ndarray, target: np.ndarray, planned: list[np.ndarray], *,
-                     stop: Sequence[float], turn: bool, trail: tuple[BaseSegment, ...],
-                     free: FreeTest | None, profile: MotionProfile) -> Iterator[Cut]:
-    """The smooth motions that land (free, or short but facing the target), in the order
-    they are tried: the direct motion, the same with its first leg driven the other way
+def _lands(cut: Cut, target: np.ndarray, turn: bool) -> bool:
+    """Whether the motion `cut` lands: not blocked, and free or short but facing the
+    landing `target`'s heading (a turn in place: not blocked)."""
+    return not cut.blocked and (turn or cut.hit is None or facing(cut.segments, target[2]))
+
+
+def _smooth_motions(base: np.ndarray, target: np.ndarray, planned: list[np.ndarray], *,
+                    stop: Sequence[float], turn: bool, trail: tuple[BaseSegment, ...],
+                    free: FreeTest | None, profile: MotionProfile
+                    ) -> Iterator[tuple[Cut, bool]]:
+    """The smooth motions that are not blocked, in the order they are tried, each with
+    whether it is taken: the first that lands (`_lands`) is, and ends the search. Tried:
+    the direct motion, the same with its first leg driven the other way
     (`base_motion.fewer_turns_backing`), one that keeps to the planned last leg, one that
-    drives smoothly to APPROACH_STEPS before the stop, turns there to the stop's heading and
-    drives straight in; the escapes with the smooth motion; smooth to the path's last
-    corner, stopping there, and the stop-and-go motion from there."""
+    drives smoothly to APPROACH_STEPS before the stop, turns there to the stop's heading
+    and drives straight in; the escapes with the smooth motion; last, taken whenever it is
+    not blocked, smooth to the path's last corner, stopping there, and the stop-and-go
+    motion from there."""
     waypoints = planned if turn else shifted_lead(planned, stop, target)
     yaw, h = float(base[2]), np.array([math.cos(target[2]), math.sin(target[2])])
     straight = profile.stop_and_go()
 
     def lands(cut: Cut) -> bool:
-        return not cut.blocked and (turn or cut.hit is None or facing(cut.segments, target[2]))
+        return _lands(cut, target, turn)
 
     # Second: the first leg driven the other way (backed where the rule drives it
     # forwards, or the reverse), where the turn towards it is blocked.
@@ -267,12 +290,16 @@ def _smooth_landings(base: np.ndarray, target: np.ndarray, planned: list[np.ndar
     for segments in motions:
         cut = cut_at_collision(segments, free, profile)
         if cut.hit is None or lands(cut):
-            yield cut
+            yield cut, True
             return
+        if not cut.blocked:
+            yield cut, False
     cut = _escaped(base, target, waypoints, stop, turn, trail, free, profile)
     if lands(cut):
-        yield cut
+        yield cut, True
         return
+    if not cut.blocked:
+        yield cut, False
     if not turn and len(waypoints) > 2:
         corner = waypoints[-2]
         leg = waypoints[-1] - corner
@@ -282,7 +309,7 @@ def _smooth_landings(base: np.ndarray, target: np.ndarray, planned: list[np.ndar
                                path=[corner, target[:2]], stop=stop, turn=False,
                                trail=(), free=free, profile=straight)
             if not rest.blocked:
-                yield Cut([*prefix, *rest.segments], hit=rest.hit)
+                yield Cut([*prefix, *rest.segments], hit=rest.hit), True
 
 
 def shortfall(cut: Cut, base: np.ndarray, target: np.ndarray) -> float:
@@ -318,8 +345,7 @@ def _escaped(base: np.ndarray, target: np.ndarray, waypoints: list[np.ndarray],
         escapes = itertools.chain(
             [profile.segments(waypoints, yaw, float(target[2]), long_way=True)],
             (profile.segments(way, yaw, float(target[2])) for way in ways[1:]),
-            (profile.segments([waypoints[0], waypoints[0] + d * heading, *waypoints[1:]],
-                              yaw, float(target[2]))
+            (_straight_out(waypoints, yaw, d * heading, float(target[2]), profile)
              for step in ESCAPE_STEPS for d in (-step, step)),
             itertools.chain.from_iterable(
                 retrace(trail, base, way, float(target[2]), profile) for way in ways))
@@ -342,6 +368,23 @@ def _escaped(base: np.ndarray, target: np.ndarray, waypoints: list[np.ndarray],
             if not approached.blocked and facing(approached.segments, target[2]):
                 return approached
     return cut
+
+
+def _straight_out(waypoints: list[np.ndarray], yaw: float, move: np.ndarray,
+                  target_yaw: float, profile: MotionProfile) -> list[Segment]:
+    """The motion through `waypoints` that first moves the base straight by `move` (x, y)
+    along its heading `yaw`, backing or driving on. A smooth motion then leaves from there
+    as from a stop, its first leg backed where that turns the base less
+    (`base_motion.fewer_turns_backing`), as the plan's motion from a stop is: taken as
+    one more leg, the next leg was driven forwards whatever it cost, a turn round at each
+    of its ends where backing it turned a little once. Stop and go, the paper's motion,
+    takes the waypoints as they come."""
+    start = waypoints[0]
+    if not profile.smooth:
+        return profile.segments([start, start + move, *waypoints[1:]], yaw, target_yaw)
+    out = profile.stop_and_go().segment((*start, yaw), (*(start + move), yaw), turn=False,
+                                        length=float(np.linalg.norm(move)))
+    return [out, *profile.segments([start + move, *waypoints[1:]], yaw, target_yaw)]
 
 
 def shifted_lead(waypoints: list[np.ndarray], stop: Sequence[float],

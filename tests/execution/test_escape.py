@@ -244,3 +244,62 @@ def test_a_smooth_motion_whose_moved_lead_in_is_blocked_keeps_to_the_planned_leg
                       trail=(), free=free, profile=smooth)
     assert not cut.blocked and cut.hit is None and _all_free(cut, free)
     np.testing.assert_allclose(_end(cut), target, atol=1e-9)
+
+
+def test_a_smooth_motion_out_of_a_tight_stop_is_kept_where_no_motion_can_face_the_next():
+    """The base stands where it can turn only after backing out 5 cm, and at the next stop
+    the turn to its heading is blocked whichever way the base comes. No motion lands facing
+    it; the smooth one backed out of the first stop ends where the stop-and-go one does,
+    so the base drives its path smoothly, not stopping at every corner."""
+    def free(poses):
+        x, y, yaw = poses.T
+        pocket = (y < 0.04) & (np.abs(wrap(yaw + math.pi / 2)) > 0.05)
+        at_stop = (y > 1.8) & (x > 0.4) & (np.abs(wrap(yaw - math.pi / 2)) > 0.1)
+        return ~(pocket | at_stop)
+
+    smooth = MotionProfile(speed=0.4, motion="smooth")
+    base, target = np.array([0.0, 0.0, -math.pi / 2]), np.array([0.6, 2.0, 0.0])
+    path = ((0.0, 0.0), (0.05, 0.6), (0.6, 1.2), (0.6, 2.0))
+    cuts = [plan_motion(base, target, path=path, stop=target[:2], turn=False, trail=(),
+                        free=free, profile=profile)
+            for profile in (smooth, smooth.stop_and_go())]
+    for cut in cuts:
+        assert not cut.blocked and not facing(cut.segments, target[2])
+        assert _all_free(cut, free)
+    moving, stopping = cuts
+    np.testing.assert_allclose(_end(moving)[:2], _end(stopping)[:2], atol=1e-9)
+    assert not all(isinstance(seg, BaseSegment) for seg in moving.segments)
+    assert (sum(seg.duration for seg in moving.segments)
+            < sum(seg.duration for seg in stopping.segments) - 2.0)
+
+
+def test_a_smooth_base_backed_out_of_a_tight_stop_backs_its_next_leg_where_that_turns_less():
+    """The base cannot turn where it stands; its next stop is 12 cm away, through a way out
+    0.6 m behind it. Backed 5 cm out, the smooth motion goes on as from a stop: it backs the
+    leg to the way out (a small turn) instead of turning round to drive it, and round again
+    at its end. The paper's stop-and-go motion takes the waypoints as they come."""
+    yaw = 2.4
+
+    def free(poses):
+        x, y, heading = poses.T
+        return ~((np.hypot(x, y) < 0.04) & (np.abs(wrap(heading - yaw)) > 0.05))
+
+    smooth = MotionProfile(speed=0.4, motion="smooth")
+    base, target = np.array([0.0, 0.0, yaw]), np.array([-0.02, -0.12, 1.64])
+    path = ((0.0, 0.0), (0.62, -0.11), (-0.02, -0.12))
+
+    def turned(cut) -> float:
+        return sum(seg.length for seg in cut.segments if isinstance(seg, BaseSegment)
+                   and seg.turn)
+
+    moving, stopping = (plan_motion(base, target, path=path, stop=target[:2], turn=False,
+                                    trail=(), free=free, profile=profile)
+                        for profile in (smooth, smooth.stop_and_go()))
+    for cut in (moving, stopping):
+        assert not cut.blocked and cut.hit is None and _all_free(cut, free)
+        np.testing.assert_allclose(_end(cut)[:2], target[:2], atol=1e-9)
+    out = moving.segments[0]
+    assert not out.turn and out.length == pytest.approx(ESCAPE_STEPS[0])
+    assert turned(moving) < 2.5 < 6.0 < turned(stopping)
+    assert (sum(seg.duration for seg in moving.segments)
+            < sum(seg.duration for seg in stopping.segments) - 4.0)
