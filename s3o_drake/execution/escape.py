@@ -244,7 +244,7 @@ def plan_motion(base: np.ndarray, target: np.ndarray, *, path: Sequence[Sequence
     # short along the planned approach (`landing.stop_short`), and a base 0.4 m short
     # reaches nothing.
     other = stop_and_go()
-    if (not other.blocked and (other.hit is None or facing(other.segments, target[2]))
+    if (_lands(other, target, turn)
             and shortfall(other, base, target) < shortfall(cut, base, target) - CHECK_STEP_XY):
         return other
     return cut
@@ -272,9 +272,6 @@ def _smooth_motions(base: np.ndarray, target: np.ndarray, planned: list[np.ndarr
     yaw, h = float(base[2]), np.array([math.cos(target[2]), math.sin(target[2])])
     straight = profile.stop_and_go()
 
-    def lands(cut: Cut) -> bool:
-        return _lands(cut, target, turn)
-
     # Second: the first leg driven the other way (backed where the rule drives it
     # forwards, or the reverse), where the turn towards it is blocked.
     motions = itertools.chain(
@@ -289,13 +286,13 @@ def _smooth_motions(base: np.ndarray, target: np.ndarray, planned: list[np.ndarr
             for d in APPROACH_STEPS)))
     for segments in motions:
         cut = cut_at_collision(segments, free, profile)
-        if cut.hit is None or lands(cut):
+        if cut.hit is None or _lands(cut, target, turn):
             yield cut, True
             return
         if not cut.blocked:
             yield cut, False
     cut = _escaped(base, target, waypoints, stop, turn, trail, free, profile)
-    if lands(cut):
+    if _lands(cut, target, turn):
         yield cut, True
         return
     if not cut.blocked:
