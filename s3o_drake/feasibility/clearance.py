@@ -34,6 +34,8 @@ from s3o_drake.world.robot import RobotInstances
 FIELD_RESOLUTION = 0.02
 #: Extra distance (m) on top of radius and padding, for rounding in the shapes' poses.
 SAFETY_MARGIN = 0.01
+#: The signs (8, 3) of a box's corners about its centre.
+BOX_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
 
 
 def _shape_half_extents(shape) -> np.ndarray:
@@ -49,13 +51,13 @@ def _shape_half_extents(shape) -> np.ndarray:
     raise TypeError(f"no bounding box for a {type(shape).__name__} collision shape")
 
 
-def _shape_corners(shape, signs: np.ndarray) -> np.ndarray:
-    """Points (k, 3) in a shape's frame whose hull holds it: its bounding box's corners
-    (`signs` (8, 3) of ±1), or a mesh's convex hull's vertices (a maker's arm is meshes)."""
+def shape_corners(shape) -> np.ndarray:
+    """Points (k, 3) in a shape's frame whose hull holds it: its bounding box's corners,
+    or a mesh's convex hull's vertices (a maker's arm is meshes)."""
     if isinstance(shape, Mesh | Convex):
         hull = shape.GetConvexHull()
         return np.array([hull.vertex(i) for i in range(hull.num_vertices())])
-    return signs * _shape_half_extents(shape)
+    return BOX_SIGNS * _shape_half_extents(shape)
 
 
 def robot_plan_extent(plant, scene_graph_inspector, placed: RobotInstances,
@@ -66,7 +68,6 @@ def robot_plan_extent(plant, scene_graph_inspector, placed: RobotInstances,
     robot = placed.robot
     placed.set_positions(context, robot.positions(
         0.0, 0.0, 0.0, arm=robot.arm_stow, gripper=robot.gripper_open))
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     corners = []
     for body_index in placed.body_indices():
         body = plant.get_body(body_index)
@@ -74,7 +75,7 @@ def robot_plan_extent(plant, scene_graph_inspector, placed: RobotInstances,
         frame_id = plant.GetBodyFrameIdOrThrow(body_index)
         for geometry in scene_graph_inspector.GetGeometries(frame_id, Role.kProximity):
             X_BG = scene_graph_inspector.GetPoseInFrame(geometry)
-            corners_G = _shape_corners(scene_graph_inspector.GetShape(geometry), signs)
+            corners_G = shape_corners(scene_graph_inspector.GetShape(geometry))
             corners.append((X_WB @ X_BG).multiply(corners_G.T).T[:, :2])
     xy = np.vstack(corners)
     return np.array([xy[:, 0].min(), xy[:, 0].max(), xy[:, 1].min(), xy[:, 1].max()])
