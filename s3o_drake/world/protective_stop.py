@@ -8,7 +8,7 @@ world: every `period` it measures, in the simulation's SceneGraph, the distance 
 robot's geometry (all but the hand's, which touches what it grasps) and the room's walls,
 tables and chairs, and where the base's commanded motion would bring it within
 PROTECTIVE_FIELD of one of them, moving towards it (its commanded travel LOOK_AHEAD ahead,
-its turn as commanded), it holds the base where it stands. It
+its turn its period and TURN_STOP_TIME ahead), it holds the base where it stands. It
 judges the base's motion only: the arm's own motions are its controller's to check. It lets
 go once the command no longer moves the base towards what stopped it.
 """
@@ -31,6 +31,14 @@ the known world is never stopped by its own approach."""
 LOOK_AHEAD = 0.1
 """How far ahead (s) of the commanded position the base's travel is judged: the plant's lag
 behind its set point and the distance it takes to stop."""
+TURN_STOP_TIME = 0.02
+"""How long (s) the base takes to stop turning once held (from 0.8 rad/s: 0.03 s, most of the
+angle in the first 0.02 s). A turn is judged this much and the watch's period ahead of the
+commanded yaw: between two watches 0.05 s apart the corners of a base turning at 0.8 rad/s
+swing 1.8 cm. It is shorter than LOOK_AHEAD because the commanded rate, carried on past the
+end of a turn at a stop, swings the corners into what the turn clears: a turn decelerating
+at 2 rad/s² is carried at most 0.005 rad past its end this way, 2 mm at the corners, inside
+the controllers' 1 cm padding less PROTECTIVE_FIELD."""
 _REACH = 0.1  # pairs further apart than this (m) cannot come within the field in LOOK_AHEAD
 
 
@@ -62,6 +70,7 @@ class ProtectiveStop(LeafSystem):
         self._base = frozenset(base)
         self._near = NearPairs(robot=self._base, world=frozenset(world), reach=_REACH)
         self._n, self._b = num_positions, num_base
+        self._turn_ahead = period + TURN_STOP_TIME
         self._query_port = self.DeclareAbstractInputPort(
             "query_object", AbstractValue.Make(QueryObject()))
         self._desired_port = self.DeclareVectorInputPort("desired_state", 2 * num_positions)
@@ -82,10 +91,9 @@ class ProtectiveStop(LeafSystem):
         true = np.asarray(self._true_port.Eval(context))
         desired = np.asarray(self._desired_port.Eval(context))
         b, n = self._b, self._n
-        # Ahead along the commanded travel only: a turn's rate, carried on past the end of
-        # the turn, swung the base's corners into what a turn at a stop clears by 1 cm.
         ahead = desired[:b].copy()
         ahead[:2] += LOOK_AHEAD * desired[n:n + 2]
+        ahead[2] += self._turn_ahead * desired[n + 2]
         hit = self._towards(self._query_port.Eval(context), true[:b], ahead)
         if hit is None:
             stop[0] = 0.0

@@ -10,6 +10,8 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from s3o_drake.execution.escape import BaseSegment
+from s3o_drake.planning.navigation.base_motion import YAW_ACCELERATION, YAW_RATE
 from s3o_drake.world.builder import build_world_diagram, robot_hold_state
 from s3o_drake.world.clearance_monitor import proximity_geometries
 from s3o_drake.world.map import Chair
@@ -21,14 +23,21 @@ V = 0.4  # m/s, the planner's default speed
 def _drive(scenario, xs, times):
     """The world with the base commanded along x (`xs` at `times`, y and yaw held), exact
     localisation; the simulator, advanced to the last time, and the world."""
+    start = scenario.robot.start
+    return _command(scenario, [(x, start[1], start[2]) for x in xs], times)
+
+
+def _command(scenario, poses, times):
+    """The world with the base commanded through `poses` (x, y, yaw) at `times`, exact
+    localisation; the simulator and the world."""
     hold = robot_hold_state(scenario)
     n = len(hold) // 2
     states = []
-    for i, x in enumerate(xs):
+    for i, pose in enumerate(poses):
         state = hold.copy()
-        state[0] = x
-        if i + 1 < len(xs):
-            state[n] = (xs[i + 1] - x) / (times[i + 1] - times[i])
+        state[:3] = pose
+        if i + 1 < len(poses):
+            state[n:n + 3] = (np.subtract(poses[i + 1], pose)) / (times[i + 1] - times[i])
         states.append(state)
     builder = DiagramBuilder()
     world = builder.AddNamedSystem("world", build_world_diagram(scenario, noise=False))
@@ -37,6 +46,22 @@ def _drive(scenario, xs, times):
     builder.Connect(source.get_output_port(), world.GetInputPort("robot_desired_state"))
     simulator = Simulator(builder.Build())
     return simulator, world
+
+
+def _closest(scenario, simulator, world, chair: str, times) -> list[float]:
+    """The robot's distance (m) to `chair` at each of `times`, advancing `simulator`."""
+    context = world.GetMyContextFromRoot(simulator.get_context())
+    plant, scene_graph = world.GetSubsystemByName("plant"), world.GetSubsystemByName("scene_graph")
+    robot = proximity_geometries(plant, scene_graph,
+                                 scenario.robot_value.instances_in(plant).instances)
+    seat = proximity_geometries(plant, scene_graph, [plant.GetModelInstanceByName(chair)])
+    closest = []
+    for t in times:
+        simulator.AdvanceTo(t)
+        query = world.GetOutputPort("query_object").Eval(context)
+        closest.append(min(query.ComputeSignedDistancePairClosestPoints(a, b).distance
+                           for a in robot for b in seat))
+    return closest
 
 
 def test_a_base_driven_into_a_chair_stops_short_and_reports_it_then_backs_away(scenario):
@@ -53,16 +78,7 @@ def test_a_base_driven_into_a_chair_stops_short_and_reports_it_then_backs_away(s
     xs[back] = 1.3 - V * (times[back] - 5.0)  # then back, from behind where it stopped
     simulator, world = _drive(world_scenario, xs, times)
     context = world.GetMyContextFromRoot(simulator.get_context())
-    plant, scene_graph = world.GetSubsystemByName("plant"), world.GetSubsystemByName("scene_graph")
-    robot = proximity_geometries(plant, scene_graph,
-                                 scenario.robot_value.instances_in(plant).instances)
-    seat = proximity_geometries(plant, scene_graph, [plant.GetModelInstanceByName("chair_ahead")])
-    closest = []
-    for t in np.arange(0.5, 4.95, 0.05):
-        simulator.AdvanceTo(t)
-        query = world.GetOutputPort("query_object").Eval(context)
-        closest.append(min(query.ComputeSignedDistancePairClosestPoints(a, b).distance
-                           for a in robot for b in seat))
+    closest = _closest(scenario, simulator, world, "chair_ahead", np.arange(0.5, 4.95, 0.05))
     assert min(closest) > 0.0  # never touched
     bumper = world.GetOutputPort("base_bumper").Eval(context)
     stopped_x = float(world.GetOutputPort("robot_state").Eval(context)[0])
@@ -73,6 +89,27 @@ def test_a_base_driven_into_a_chair_stops_short_and_reports_it_then_backs_away(s
     simulator.AdvanceTo(6.0)
     assert world.GetOutputPort("base_bumper").Eval(context)[0] == 0.0  # backing away
     assert float(world.GetOutputPort("robot_state").Eval(context)[0]) < stopped_x - 0.1
+
+
+def test_a_base_turned_into_a_chair_stops_short(scenario):
+    """A chair on no map beside the base; the base turns in place at the navigator's rate
+    and acceleration, its corner into the chair's leg. The stop looks ahead along the
+    turn: the base stops clear of the leg (judged at the commanded yaw alone, it touched
+    it, -0.17 cm) and stays held."""
+    start = (0.6, 1.0, 0.0)
+    chair = Chair(name="chair_beside", pose=[0.6, 1.55, -np.pi / 2], mapped=False)
+    world_scenario = dataclasses.replace(
+        scenario, chairs=[chair],
+        robot=dataclasses.replace(scenario.robot, start=list(start)))
+    turn = BaseSegment.make(start, (*start[:2], 0.5), turn=True, length=0.5,
+                            max_speed=YAW_RATE, accel=YAW_ACCELERATION)
+    times = np.arange(0.0, 2.0, 0.01)
+    simulator, world = _command(world_scenario, [turn.state(t)[:3] for t in times], times)
+    closest = _closest(scenario, simulator, world, "chair_beside", times[1:])
+    context = world.GetMyContextFromRoot(simulator.get_context())
+    assert min(closest) > 0.0
+    assert world.GetOutputPort("base_bumper").Eval(context)[0] == 1.0
+    assert float(world.GetOutputPort("robot_state").Eval(context)[2]) < 0.4  # held short
 
 
 def test_a_base_driven_clear_of_everything_is_not_stopped(scenario):
