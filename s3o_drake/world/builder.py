@@ -50,7 +50,7 @@ from s3o_drake.world.goals import place_targets
 from s3o_drake.world.map import Chair, Room, Table
 from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
 from s3o_drake.world.objects import Dish, surface_height
-from s3o_drake.world.protective_stop import ProtectiveStop
+from s3o_drake.world.protective_stop import WATCH_PERIOD, ProtectiveStop
 from s3o_drake.world.resources import make_parser, models_dir
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot, RobotInstances
 from s3o_drake.world.robot_ports import connect_robot_desired_state, robot_state_output
@@ -389,7 +389,7 @@ def _add_protective_stop(builder: DiagramBuilder, plant: MultibodyPlant,
                                                              *scenario.chairs)],
             world_names=("wall",)),
         num_positions=robot.robot.num_positions, num_base=robot.robot.num_base_joints,
-        period=CONTROL_PERIOD))
+        period=WATCH_PERIOD))
     builder.Connect(robot_state_output(builder, robot), stop.GetInputPort("true_state"))
     builder.Connect(scene_graph.get_query_output_port(), stop.GetInputPort("query_object"))
     connect_robot_desired_state(builder, robot, stop.GetOutputPort("plant_desired_state"))

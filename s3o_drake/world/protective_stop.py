@@ -34,11 +34,16 @@ behind its set point and the distance it takes to stop."""
 TURN_STOP_TIME = 0.02
 """How long (s) the base takes to stop turning once held (from 0.8 rad/s: 0.03 s, most of the
 angle in the first 0.02 s). A turn is judged this much and the watch's period ahead of the
-commanded yaw: between two watches 0.05 s apart the corners of a base turning at 0.8 rad/s
-swing 1.8 cm. It is shorter than LOOK_AHEAD because the commanded rate, carried on past the
-end of a turn at a stop, swings the corners into what the turn clears: a turn decelerating
-at 2 rad/s² is carried at most 0.005 rad past its end this way, 2 mm at the corners, inside
-the controllers' 1 cm padding less PROTECTIVE_FIELD."""
+commanded yaw. Shorter than LOOK_AHEAD: the corners of a turning base move across what they
+pass, and a turn looked far ahead swings them into what its path clears by 1 cm."""
+WATCH_PERIOD = 0.01
+"""The watch's period (s), a safety scanner's cycle: between two watches the corners of a base
+turning at 0.8 rad/s swing 4 mm. At 0.05 s they swung 1.8 cm, and a turn looked ahead far
+enough to cover that held moving turns that pass a table by 1 cm."""
+REST_OFFSET = 0.01
+"""A base commanded to stay (no velocity) within this (m, and rad for its yaw) of where it
+stands is not judged: held there, it moves towards nothing its command does not, and the arm's
+swings push it a few millimetres about its set point."""
 _REACH = 0.1  # pairs further apart than this (m) cannot come within the field in LOOK_AHEAD
 
 
@@ -91,6 +96,9 @@ class ProtectiveStop(LeafSystem):
         true = np.asarray(self._true_port.Eval(context))
         desired = np.asarray(self._desired_port.Eval(context))
         b, n = self._b, self._n
+        if (stop[0] == 0.0 and not desired[n:n + b].any()
+                and np.abs(desired[:b] - true[:b]).max() < REST_OFFSET):
+            return
         ahead = desired[:b].copy()
         ahead[:2] += LOOK_AHEAD * desired[n:n + 2]
         ahead[2] += self._turn_ahead * desired[n + 2]
