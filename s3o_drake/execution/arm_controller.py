@@ -101,6 +101,8 @@ class _Activity:
     checked: bool = False
     missed: bool = False
     t_done: float = math.inf
+    along: object = None
+    """The navigator's motion a prepare playing was checked along (None: none)."""
 
     def __deepcopy__(self, memo: dict) -> "_Activity":
         # Shared, not copied: every field is an immutable value, and the trajectory, the one
@@ -156,7 +158,9 @@ class ArmController(LeafSystem):
         status: abstract Status of the latest command taken: its CommandState idle,
             running, done or failed with reason "no_ik", "no_path", "base_collision",
             "missed", "unknown_dish", "no_scene", "hand_full" (a pickup while an object to place is
-            held) or "not_held" (a place of an object the gripper does not hold);
+            held), "not_held" (a place of an object the gripper does not hold) or
+            "base_moved" (a prepare stopped: the base no longer drives as it was checked
+            along);
             `sighted`, whether it aimed where the sensor saw its target; `until`, when the
             command's motion ends.
         target_request: abstract TargetRequest, where the sensor is asked to look: the
@@ -283,6 +287,8 @@ class ArmController(LeafSystem):
             gripper = (self._gripper_port.Eval(context)
                        if self._gripper_port.HasValue(context) else None)
             activity = self._advance(activity, context.get_time(), gripper)
+        if activity.trajectory is not None and activity.along is not None:
+            activity = self._still_along(activity, context)
         command = self._command_port.Eval(context)
         if (activity.trajectory is None and command.id != NO_COMMAND
                 and command.id != activity.command
@@ -330,7 +336,34 @@ class ArmController(LeafSystem):
         # The object still in the gripper (a pick that holds it) is held with its grasp.
         keeps = held and math.isinf(activity.t_release)
         return replace(activity, hold=tuple(end), trajectory=None,
-                       held_grasp=activity.grasp if keeps else "")
+                       held_grasp=activity.grasp if keeps else "", along=None)
+
+    def _still_along(self, activity: _Activity, context: Context) -> _Activity:
+        """A prepare playing along a base motion that the navigator no longer plays (the
+        robot's protective stop held the base short of its stop, or the navigator ended
+        the motion): its rest is checked along the base's motion as it is now, and where
+        the two collide the arm stops where it is and the prepare fails ("base_moved").
+        Planned for the base at its stop, the arm would otherwise reach out from where
+        the base stands instead."""
+        motion = (self._base_motion_port.Eval(context)
+                  if self._base_motion_port.HasValue(context) else None)
+        if motion is None or motion is activity.along:
+            return activity
+        now = context.get_time()
+        trajectory, start = activity.trajectory, activity.t_start
+        duration = float(trajectory.end_time())
+
+        def arm_at(t: float) -> np.ndarray:
+            return trajectory.value(min(max(t - start, 0.0), duration)).ravel()[
+                self._arm_and_fingers]
+
+        known = self._known(context)
+        if known is not None and free_together(lambda t: known[0].checker, motion.desired,
+                                               arm_at, now, start + duration,
+                                               robot=self._robot):
+            return replace(activity, along=motion)
+        return replace(activity, trajectory=None, hold=tuple(arm_at(now)), along=None,
+                       status=Status(activity.command, CommandState.FAILED, "base_moved"))
 
     def _start(self, activity: _Activity, command: PickCommand, context: Context,
                robot_state: np.ndarray) -> _Activity:
@@ -338,7 +371,7 @@ class ArmController(LeafSystem):
         while the sensor has not answered the command's request, nothing yet."""
         holding = _held(activity)
         taken = replace(activity, command=command.id, dish=command.dish, missed=False,
-                        checked=False, sighted="")
+                        checked=False, sighted="", along=None)
 
         def failed(reason: str) -> _Activity:
             return replace(taken, status=Status(command.id, CommandState.FAILED, reason,
@@ -451,15 +484,15 @@ class ArmController(LeafSystem):
         if not plan.ok:
             return failed(plan.reason)
         trajectory = plan.trajectory()
-        t_start = context.get_time()
+        t_start, along = context.get_time(), None
         if command.prepare is not None:
-            t_start = self._prepare_start(self._base_motion(context, command), trajectory,
-                                          t_start, scene)
+            along = self._base_motion(context, command)
+            t_start = self._prepare_start(along, trajectory, t_start, scene)
             if t_start is None:
                 return failed("no_path")
         return replace(activity, status=Status(command.id, CommandState.RUNNING),
                        trajectory=trajectory, t_start=t_start, putting=False, grasp="",
-                       t_grasp=math.inf, t_release=math.inf, t_done=math.inf)
+                       t_grasp=math.inf, t_release=math.inf, t_done=math.inf, along=along)
 
     def _base_motion(self, context: Context, command: PickCommand):
         """The navigator's motion of `command.base_id`, once the navigator has taken it."""

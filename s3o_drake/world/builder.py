@@ -43,7 +43,7 @@ from pydrake.visualization import ApplyVisualizationConfig
 
 from s3o_drake.world import furniture as fu
 from s3o_drake.world.camera import overhead_camera
-from s3o_drake.world.clearance_monitor import proximity_geometries
+from s3o_drake.world.clearance_monitor import proximity_geometries, room_geometries
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.geometry_mirror import AddGeometryMirror
 from s3o_drake.world.goals import place_targets
@@ -383,11 +383,8 @@ def _add_protective_stop(builder: DiagramBuilder, plant: MultibodyPlant,
     stop = builder.AddNamedSystem("protective_stop", ProtectiveStop(
         base=proximity_geometries(plant, scene_graph, (), bodies=[
             plant.get_body(b) for b in robot.body_indices() if b not in hand]),
-        world=proximity_geometries(
-            plant, scene_graph,
-            [plant.GetModelInstanceByName(f.name) for f in (*scenario.tables,
-                                                             *scenario.chairs)],
-            world_names=("wall",)),
+        world=room_geometries(plant, scene_graph,
+                              [f.name for f in (*scenario.tables, *scenario.chairs)]),
         num_positions=robot.robot.num_positions, num_base=robot.robot.num_base_joints,
         period=WATCH_PERIOD))
     builder.Connect(robot_state_output(builder, robot), stop.GetInputPort("true_state"))

@@ -70,6 +70,20 @@ def proximity_geometries(plant: MultibodyPlant, scene_graph: SceneGraph,
     return frozenset(ids)
 
 
+def room_geometries(plant: MultibodyPlant, scene_graph: SceneGraph,
+                    furniture: Iterable[str]) -> frozenset[GeometryId]:
+    """The collision geometries of the room's walls and of the `furniture` (model instance
+    names: the tables and the chairs), which are fixed in the world (`NearPairs` reads their
+    poses once). ValueError naming a piece of furniture that could move."""
+    instances = [plant.GetModelInstanceByName(name) for name in furniture]
+    for instance in instances:
+        for index in plant.GetBodyIndices(instance):
+            if not plant.IsAnchored(plant.get_body(index)):
+                raise ValueError(f"{plant.GetModelInstanceName(instance)}: furniture must be "
+                                 f"welded to the world")
+    return proximity_geometries(plant, scene_graph, instances, world_names=("wall",))
+
+
 class ClearanceMonitor(LeafSystem):
     """Keeps the smallest signed distance (m) between two sets of geometries.
 
@@ -122,9 +136,7 @@ def add_clearance_monitor(builder: DiagramBuilder, world: Diagram, *, robot: Rob
     monitor = builder.AddNamedSystem("clearance_monitor", ClearanceMonitor(
         robot=proximity_geometries(plant, scene_graph,
                                    list(robot.instances_in(plant).instances)),
-        world=proximity_geometries(
-            plant, scene_graph, [plant.GetModelInstanceByName(name) for name in furniture],
-            world_names=("wall",)),
+        world=room_geometries(plant, scene_graph, furniture),
         period=period))
     builder.Connect(world.GetOutputPort("query_object"), monitor.GetInputPort("query_object"))
     return monitor.GetOutputPort("closest_approach")
@@ -133,7 +145,8 @@ def add_clearance_monitor(builder: DiagramBuilder, world: Diagram, *, robot: Rob
 class NearPairs:
     """The pairs of a `robot` geometry and a `world` one that may come within `reach` (m)
     of each other, found without Drake's pairwise query (which measures the robot's links
-    against each other too)."""
+    against each other too). The `world` geometries are fixed (`room_geometries`): their
+    poses, and which pairs are filtered, are read at the first call."""
 
     def __init__(self, *, robot: frozenset[GeometryId], world: frozenset[GeometryId],
                  reach: float) -> None:
@@ -141,6 +154,7 @@ class NearPairs:
                          sorted(world, key=GeometryId.get_value))
         self._reach = reach
         self._bound: _Shapes | None = None
+        self._room: _Room | None = None
 
     def pairs(self, query: QueryObject) -> list[tuple[GeometryId, GeometryId]]:
         """The unfiltered (robot, world) pairs that may come within `reach`, each in the
@@ -151,9 +165,9 @@ class NearPairs:
         robot, world = self._ordered
         if not robot or not world:
             return []
-        inspector = query.inspector()
-        shapes = self._shapes(inspector)
-        # One pose per frame (a link holds several geometries; the furniture is on few).
+        shapes = self._shapes(query.inspector())
+        room = self._room_in(query)
+        # One pose per frame (a link holds several geometries).
         R_WF, p_WF = [], []
         for frame in shapes.frames:
             X_WF = query.GetPoseInWorld(frame)
@@ -162,19 +176,11 @@ class NearPairs:
         R_WF, p_WF = np.array(R_WF), np.array(p_WF)
         f = shapes.frame_of
         p_WG = np.einsum("gkl,gl->gk", R_WF[f], shapes.p_FG) + p_WF[f]
-        n = len(robot)
-        R_WG = R_WF[f[n:]] @ shapes.R_FG[n:]
-        p_GC = np.einsum("rwk,wkl->rwl", p_WG[:n, None] - p_WG[None, n:], R_WG)
+        p_GC = np.einsum("rwk,wkl->rwl", p_WG[:, None] - room.p_WG[None], room.R_WG)
         gap = np.linalg.norm(np.maximum(np.abs(p_GC) - shapes.half, 0.0), axis=-1) \
             - shapes.extra - shapes.radius[:, None]
-        pairs = []
-        for i, j in zip(*np.nonzero(~(gap > self._reach + BOUND_MARGIN)), strict=True):
-            a, b = robot[i], world[j]
-            if b.get_value() < a.get_value():
-                a, b = b, a
-            if not inspector.CollisionFiltered(a, b):
-                pairs.append((a, b))
-        return pairs
+        near = ~(gap > self._reach + BOUND_MARGIN) & room.measured
+        return [room.pairs[i][j] for i, j in zip(*np.nonzero(near), strict=True)]
 
     def _shapes(self, inspector: SceneGraphInspector) -> "_Shapes":
         """What `pairs` needs of the geometries' shapes, made once: shapes and their
@@ -183,14 +189,42 @@ class NearPairs:
             self._bound = _Shapes.of(inspector, *self._ordered)
         return self._bound
 
+    def _room_in(self, query: QueryObject) -> "_Room":
+        """The world geometries' poses and the pairs' order and filtering, read once: the
+        room does not move and its filters do not change."""
+        if self._room is None:
+            robot, world = self._ordered
+            inspector = query.inspector()
+            X_WG = [query.GetPoseInWorld(g) for g in world]
+            pairs = [[(a, b) if a.get_value() < b.get_value() else (b, a) for b in world]
+                     for a in robot]
+            self._room = _Room(
+                p_WG=np.array([X.translation() for X in X_WG]),
+                R_WG=np.array([X.rotation().matrix() for X in X_WG]),
+                pairs=pairs,
+                measured=np.array([[not inspector.CollisionFiltered(a, b) for a, b in row]
+                                   for row in pairs], dtype=bool))
+        return self._room
+
+
+@dataclass(frozen=True)
+class _Room:
+    """The world geometries' poses in W, and per (robot, world) geometry the pair in the
+    order of their ids (that of the pairwise query's narrow phase) and whether it is
+    measured (not filtered)."""
+
+    p_WG: np.ndarray  # noqa: N815 (monogram notation)
+    R_WG: np.ndarray
+    pairs: list[list[tuple[GeometryId, GeometryId]]]
+    measured: np.ndarray
+
 
 @dataclass(frozen=True)
 class _Shapes:
-    """The robot's geometries, then the world's: their frames and poses in them, the
-    robot geometries' bounding radii about their origins (m), the world geometries' half
-    sizes (a box's, else 0) and what their distance falls short of their surface's (0
-    for a box, else the bounding radius). inf for a shape of no known bound: its pairs
-    are always measured."""
+    """The robot's geometries' frames and poses in them, and their bounding radii about
+    their origins (m); the world geometries' half sizes (a box's, else 0) and what their
+    distance falls short of their surface's (0 for a box, else the bounding radius). inf
+    for a shape of no known bound: its pairs are always measured."""
 
     frames: list[FrameId]
     frame_of: np.ndarray
@@ -203,11 +237,9 @@ class _Shapes:
     @classmethod
     def of(cls, inspector: SceneGraphInspector, robot: list[GeometryId],
            world: list[GeometryId]) -> "_Shapes":
-        geometries = [*robot, *world]
         frames: dict[FrameId, int] = {}
-        frame_of = [frames.setdefault(inspector.GetFrameId(g), len(frames))
-                    for g in geometries]
-        X_FG = [inspector.GetPoseInFrame(g) for g in geometries]
+        frame_of = [frames.setdefault(inspector.GetFrameId(g), len(frames)) for g in robot]
+        X_FG = [inspector.GetPoseInFrame(g) for g in robot]
         shapes = [inspector.GetShape(g) for g in world]
         return cls(
             frames=list(frames), frame_of=np.array(frame_of),

@@ -580,6 +580,40 @@ def test_smooth_a_prepare_reaches_the_pre_grasp_as_the_base_arrives(scenario, sc
     assert np.linalg.norm(hand[:2] - [1.85, 2.3]) < 0.15 and hand[2] > 0.78  # at its rim
 
 
+@pytest.mark.parametrize("held_at, plays_on", [
+    ((1.85, 1.62, math.pi / 2), False),  # 17 cm nearer the table: the reach runs into it
+    ((1.85, 1.45, math.pi / 2 - 0.8), True)])  # turned from it: the reach is clear
+def test_smooth_a_prepare_whose_base_is_held_short_stops_where_it_would_collide(
+        scenario, scene, held_at, plays_on):
+    """Halfway through a prepare the navigator's motion changes (the robot's protective stop
+    held the base short of its stop). The rest of the prepare is checked with the base
+    where it now stands: where the two collide the arm stops where it is and the prepare
+    fails ("base_moved"); where they do not, it plays on to its end."""
+    arm, context = _controller(scenario, scene, noise=False, motion="smooth")
+    _fix_robot(arm, context)
+    arm.GetInputPort("pick_command").FixValue(
+        context, PickCommand(id=3, dish="plate_a", prepare=tuple(FRONT_OF_PLATE), base_id=2))
+    port = arm.GetInputPort("base_motion")
+    port.FixValue(context, AbstractValue.Make(_BaseMotion(id=2, end_time=4.0)))
+    _step(arm, context, 0.05)
+    planned = arm.GetOutputPort("arm_motion").Eval(context)
+    halfway = (planned.t_start + planned.end_time) / 2
+    _step(arm, context, halfway)
+    port.FixValue(context, AbstractValue.Make(_BaseMotion(id=2, end_time=4.0, pose=held_at)))
+    _step(arm, context, halfway + 0.05)
+    status = _outputs(arm, context)[2]
+    if plays_on:
+        assert status == Status(3, CommandState.RUNNING)
+        _step(arm, context, 4.0)
+        assert _outputs(arm, context)[2].state is CommandState.DONE
+        return
+    assert status == Status(3, CommandState.FAILED, "base_moved")
+    stopped = _outputs(arm, context)[0][:8].copy()
+    np.testing.assert_allclose(stopped, planned.arm_at(halfway + 0.05), atol=1e-9)
+    _step(arm, context, 4.0)
+    np.testing.assert_allclose(_outputs(arm, context)[0][:8], stopped, atol=1e-9)  # held
+
+
 def test_smooth_a_stow_command_stows(scenario, scene):
     arm, context = _controller(scenario, scene, noise=False, motion="smooth")
     bent = STOWED + np.array([0.3, -0.2, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0])

@@ -85,3 +85,28 @@ def test_keeps_the_smallest_distance_of_a_simulation(scenario):
     reading = _reading(diagram, monitor, simulator.get_context())
     initial = _measured(scenario, start)
     assert initial - 0.01 < reading <= initial
+
+
+def test_the_room_is_furniture_welded_to_the_world():
+    """The monitor reads the room's poses once: a piece of furniture that could move is
+    refused, by name."""
+    from pydrake.geometry import Box
+    from pydrake.math import RigidTransform
+    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, CoulombFriction
+    from pydrake.multibody.tree import SpatialInertia
+
+    from s3o_drake.world.clearance_monitor import room_geometries
+
+    plant, scene_graph = AddMultibodyPlantSceneGraph(DiagramBuilder(), 0.0)
+    for name in ("welded", "loose"):
+        instance = plant.AddModelInstance(name)
+        body = plant.AddRigidBody("leg", instance, SpatialInertia.SolidBoxWithMass(
+            1.0, 0.1, 0.1, 0.1))
+        plant.RegisterCollisionGeometry(body, RigidTransform(), Box(0.1, 0.1, 0.1), "leg",
+                                        CoulombFriction(0.5, 0.5))
+        if name == "welded":
+            plant.WeldFrames(plant.world_frame(), body.body_frame())
+    plant.Finalize()
+    assert len(room_geometries(plant, scene_graph, ["welded"])) == 1
+    with pytest.raises(ValueError, match=r"^loose: furniture must be welded to the world$"):
+        room_geometries(plant, scene_graph, ["welded", "loose"])
