@@ -155,6 +155,7 @@ class NearPairs:
         self._reach = reach
         self._bound: _Shapes | None = None
         self._room: _Room | None = None
+        self._far: np.ndarray | None = None
 
     def pairs(self, query: QueryObject) -> list[tuple[GeometryId, GeometryId]]:
         """The unfiltered (robot, world) pairs that may come within `reach`, each in the
@@ -168,19 +169,28 @@ class NearPairs:
         shapes = self._shapes(query.inspector())
         room = self._room_in(query)
         # One pose per frame (a link holds several geometries).
-        R_WF, p_WF = [], []
-        for frame in shapes.frames:
-            X_WF = query.GetPoseInWorld(frame)
-            R_WF.append(X_WF.rotation().matrix())
-            p_WF.append(X_WF.translation())
-        R_WF, p_WF = np.array(R_WF), np.array(p_WF)
+        X_WF = [query.GetPoseInWorld(frame) for frame in shapes.frames]
+        R_WF = np.array([X.rotation().matrix() for X in X_WF])
+        p_WF = np.array([X.translation() for X in X_WF])
         f = shapes.frame_of
-        p_WG = np.einsum("gkl,gl->gk", R_WF[f], shapes.p_FG) + p_WF[f]
-        p_GC = np.einsum("rwk,wkl->rwl", p_WG[:, None] - room.p_WG[None], room.R_WG)
-        gap = np.linalg.norm(np.maximum(np.abs(p_GC) - shapes.half, 0.0), axis=-1) \
-            - shapes.extra - shapes.radius[:, None]
-        near = ~(gap > self._reach + BOUND_MARGIN) & room.measured
+        p_WG = np.matmul(R_WF[f], shapes.p_FG[:, :, None])[:, :, 0] + p_WF[f]
+        # Each robot geometry's origin in each world geometry's frame, by one product:
+        # (p_WG - p_Ww) R_Ww = p_WG R_Ww - p_Ww R_Ww.
+        p_wG = (p_WG @ room.R_W_all).reshape(len(p_WG), *room.p_w_W.shape) - room.p_w_W
+        outside = np.abs(p_wG)
+        outside -= shapes.half
+        np.maximum(outside, 0.0, out=outside)
+        box_gap = np.sqrt(np.einsum("rwk,rwk->rw", outside, outside))
+        near = ~(box_gap > self._limit(shapes)) & room.measured
         return [room.pairs[i][j] for i, j in zip(*np.nonzero(near), strict=True)]
+
+    def _limit(self, shapes: "_Shapes") -> np.ndarray:
+        """Per (robot, world) geometry, the distance from the robot geometry's origin to
+        the world geometry's box beyond which the pair cannot come within `reach`: the
+        reach, the margin and both bounds' slack (the robot's radius, the world's extra)."""
+        if self._far is None:
+            self._far = shapes.radius[:, None] + (self._reach + BOUND_MARGIN + shapes.extra)
+        return self._far
 
     def _shapes(self, inspector: SceneGraphInspector) -> "_Shapes":
         """What `pairs` needs of the geometries' shapes, made once: shapes and their
@@ -198,9 +208,11 @@ class NearPairs:
             X_WG = [query.GetPoseInWorld(g) for g in world]
             pairs = [[(a, b) if a.get_value() < b.get_value() else (b, a) for b in world]
                      for a in robot]
+            p_WG = np.array([X.translation() for X in X_WG])
+            R_WG = np.array([X.rotation().matrix() for X in X_WG])
             self._room = _Room(
-                p_WG=np.array([X.translation() for X in X_WG]),
-                R_WG=np.array([X.rotation().matrix() for X in X_WG]),
+                R_W_all=R_WG.transpose(1, 0, 2).reshape(3, 3 * len(R_WG)),
+                p_w_W=np.einsum("wk,wkl->wl", p_WG, R_WG),
                 pairs=pairs,
                 measured=np.array([[not inspector.CollisionFiltered(a, b) for a, b in row]
                                    for row in pairs], dtype=bool))
@@ -209,12 +221,13 @@ class NearPairs:
 
 @dataclass(frozen=True)
 class _Room:
-    """The world geometries' poses in W, and per (robot, world) geometry the pair in the
-    order of their ids (that of the pairwise query's narrow phase) and whether it is
-    measured (not filtered)."""
+    """The world geometries' rotations in W side by side (3 x 3 per geometry: a point's
+    row vector times them is the point in each geometry's axes), and their positions so
+    rotated; and per (robot, world) geometry the pair in the order of their ids (that of
+    the pairwise query's narrow phase) and whether it is measured (not filtered)."""
 
-    p_WG: np.ndarray  # noqa: N815 (monogram notation)
-    R_WG: np.ndarray
+    R_W_all: np.ndarray
+    p_w_W: np.ndarray  # noqa: N815 (monogram notation)
     pairs: list[list[tuple[GeometryId, GeometryId]]]
     measured: np.ndarray
 
