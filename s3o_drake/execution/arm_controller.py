@@ -26,6 +26,7 @@ with the base at rest.
 """
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -352,11 +353,7 @@ class ArmController(LeafSystem):
         now = context.get_time()
         trajectory, start = activity.trajectory, activity.t_start
         duration = float(trajectory.end_time())
-
-        def arm_at(t: float) -> np.ndarray:
-            return trajectory.value(min(max(t - start, 0.0), duration)).ravel()[
-                self._arm_and_fingers]
-
+        arm_at = self._arm_along(trajectory, start)
         known = self._known(context)
         if known is not None and free_together(lambda t: known[0].checker, motion.desired,
                                                arm_at, now, start + duration,
@@ -510,16 +507,25 @@ class ArmController(LeafSystem):
         duration = float(trajectory.end_time())
         start = max(now, arrival - duration)
         while True:
-            def arm_at(t: float, start: float = start) -> np.ndarray:
-                return trajectory.value(min(max(t - start, 0.0), duration)).ravel()[
-                    self._arm_and_fingers]
-
-            if free_together(lambda t: scene.checker, motion.desired, arm_at, start,
-                             start + duration, robot=self._robot):
+            if free_together(lambda t: scene.checker, motion.desired,
+                             self._arm_along(trajectory, start), start, start + duration,
+                             robot=self._robot):
                 return start
             if start >= arrival:
                 return None
             start = min(start + WAIT_STEP, arrival)
+
+    def _arm_along(self, trajectory: Trajectory, start: float
+                   ) -> Callable[[float], np.ndarray]:
+        """The arm's and fingers' positions at time t of `trajectory` played from `start`
+        (held at its ends before and after)."""
+        duration = float(trajectory.end_time())
+
+        def arm_at(t: float) -> np.ndarray:
+            return trajectory.value(min(max(t - start, 0.0), duration)).ravel()[
+                self._arm_and_fingers]
+
+        return arm_at
 
     def _pick(self, command: PickCommand, q_now: np.ndarray, offset: np.ndarray, seed: int,
               scene: FeasibilityScene, checker: FeasibilityChecker) -> PickupPlan:
