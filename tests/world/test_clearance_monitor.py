@@ -110,3 +110,46 @@ def test_the_room_is_furniture_welded_to_the_world():
     assert len(room_geometries(plant, scene_graph, ["welded"])) == 1
     with pytest.raises(ValueError, match=r"^loose: furniture must be welded to the world$"):
         room_geometries(plant, scene_graph, ["welded", "loose"])
+
+
+def test_near_pairs_keep_every_pair_that_comes_within_reach():
+    """NearPairs leaves out only what cannot come within its reach: in the dense
+    restaurant, at random base poses by its tables and random arm configurations, every
+    (robot, room) pair that Drake's pairwise query measures within the reach is among its
+    pairs, and most pairs are left out."""
+    import numpy as np
+
+    from s3o_drake.world.clearance_monitor import NearPairs, room_geometries
+    from s3o_drake.world.resources import REPO_DIR
+    from s3o_drake.world.scenario import load_scenario
+
+    scenario = load_scenario(REPO_DIR / "scenarios" / "restaurant_dense.yaml")
+    world = build_world_diagram(scenario, noise=False)
+    context = world.CreateDefaultContext()
+    plant, scene_graph = (world.GetSubsystemByName(n) for n in ("plant", "scene_graph"))
+    robot = proximity_geometries(plant, scene_graph,
+                                 [plant.GetModelInstanceByName(ROBOT_INSTANCE)])
+    room = room_geometries(plant, scene_graph,
+                           [f.name for f in (*scenario.tables, *scenario.chairs)])
+    plant_context = world.GetMutableSubsystemContext(plant, context)
+    lower, upper = plant.GetPositionLowerLimits(), plant.GetPositionUpperLimits()
+    rng = np.random.default_rng(0)
+    for reach in (0.1, REACH):
+        near = NearPairs(robot=robot, world=room, reach=reach)
+        measured = 0
+        for _ in range(40):
+            q = plant.GetPositions(plant_context)
+            table = scenario.tables[rng.integers(len(scenario.tables))]
+            q[:2] = np.asarray(table.center) + rng.normal(0.0, 0.6, 2)
+            q[2] = rng.uniform(-math.pi, math.pi)
+            q[3:] = rng.uniform(np.maximum(lower[3:], -math.pi), np.minimum(upper[3:], math.pi))
+            plant.SetPositions(plant_context, q)
+            query = world.GetOutputPort("query_object").Eval(context)
+            found = set(near.pairs(query))
+            within = {(p.id_A, p.id_B)
+                      for p in query.ComputeSignedDistancePairwiseClosestPoints(reach)
+                      if {p.id_A, p.id_B} & robot and {p.id_A, p.id_B} & room}
+            assert within <= found
+            assert len(found) < len(robot) * len(room) / 4
+            measured += len(within)
+        assert measured > 0  # the poses came near the tables
