@@ -155,7 +155,10 @@ class NearPairs:
         self._reach = reach
         self._bound: _Shapes | None = None
         self._room: _Room | None = None
-        self._far: np.ndarray | None = None
+        # Per (robot, world) geometry, the distance from the robot geometry's origin to the
+        # world geometry's box beyond which the pair cannot come within `reach`: the reach,
+        # the margin and both bounds' slack (the robot's radius, the world's extra).
+        self._far = np.empty((0, 0))
 
     def pairs(self, query: QueryObject) -> list[tuple[GeometryId, GeometryId]]:
         """The unfiltered (robot, world) pairs that may come within `reach`, each in the
@@ -181,22 +184,17 @@ class NearPairs:
         outside -= shapes.half
         np.maximum(outside, 0.0, out=outside)
         box_gap = np.sqrt(np.einsum("rwk,rwk->rw", outside, outside))
-        near = ~(box_gap > self._limit(shapes)) & room.measured
+        near = ~(box_gap > self._far) & room.measured
         return [room.pairs[i][j] for i, j in zip(*np.nonzero(near), strict=True)]
 
-    def _limit(self, shapes: "_Shapes") -> np.ndarray:
-        """Per (robot, world) geometry, the distance from the robot geometry's origin to
-        the world geometry's box beyond which the pair cannot come within `reach`: the
-        reach, the margin and both bounds' slack (the robot's radius, the world's extra)."""
-        if self._far is None:
-            self._far = shapes.radius[:, None] + (self._reach + BOUND_MARGIN + shapes.extra)
-        return self._far
-
     def _shapes(self, inspector: SceneGraphInspector) -> "_Shapes":
-        """What `pairs` needs of the geometries' shapes, made once: shapes and their
-        poses in their frames do not change during a simulation."""
+        """What `pairs` needs of the geometries' shapes, and the distances beyond which a
+        pair is far, made once: shapes and their poses in their frames do not change during
+        a simulation."""
         if self._bound is None:
             self._bound = _Shapes.of(inspector, *self._ordered)
+            self._far = self._bound.radius[:, None] + (
+                self._reach + BOUND_MARGIN + self._bound.extra)
         return self._bound
 
     def _room_in(self, query: QueryObject) -> "_Room":
