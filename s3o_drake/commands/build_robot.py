@@ -14,10 +14,12 @@ own, in order:
   oracle-pinning  s3o bench oracle-pinning --robot NAME -> models/NAME/oracle_pinning.json
 
 and records each finished step in models/NAME/build.json: its command, the checksums of
-what it read and wrote, its time. Run again, it resumes: a step whose command (whatever its
---workers), inputs and outputs are as recorded is skipped (the data step also keeps the
-scenes it has). Each step reads what the ones before it wrote where the robot's files are
-(models/NAME/), so the build replaces them as it goes.
+what it read and wrote, its time (wall and CPU seconds, summed over the runs it took). Run
+again, it resumes: a step whose command (whatever its --workers), inputs and outputs are as
+recorded is skipped (the data step also keeps the scenes it has), and a step cut off
+counts its time on from out/NAME/build_time.json, written every minute. Each step reads
+what the ones before it wrote where the robot's files are (models/NAME/), so the build
+replaces them as it goes.
 """
 
 import contextlib
@@ -26,10 +28,12 @@ import fcntl
 import hashlib
 import json
 import re
+import resource
 import subprocess
 import sys
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import yaml
@@ -54,6 +58,11 @@ from s3o_drake.world.resources import (
 
 MANIFEST = "build.json"
 """The record of a robot's build, in its folder (or the quick build's)."""
+TIME_SO_FAR = "build_time.json"
+"""The time of the steps not finished yet, in out/NAME/: a step cut off (the machine shut
+down, the build killed) counts on from it when it runs again with the same command."""
+CHECKPOINT = 60.0
+"""How often (s) a running step's time so far is written down."""
 DATA_SEED = 1000
 """The training scenes' generator seed (the benchmark tasks use 0)."""
 
@@ -138,13 +147,25 @@ def checksum(path: Path) -> str:
     return digest.hexdigest()
 
 
-def _record(step: Step, seconds: float | None = None) -> dict:
+@dataclass(frozen=True)
+class StepTime:
+    """What a step has taken so far, over the runs it took: wall seconds, the CPU seconds
+    of its processes (the step's and every process it started), and how many runs."""
+
+    seconds: float = 0.0
+    cpu_seconds: float = 0.0
+    runs: int = 0
+
+
+def _record(step: Step, spent: StepTime | None = None) -> dict:
     record = {"command": "s3o " + " ".join(repo_path(a) if "/" in a else a
                                            for a in step.argv),
               "reads": {repo_path(p): checksum(p) for p in step.reads},
               "writes": {repo_path(p): checksum(p) for p in step.writes}}
-    if seconds is not None:
-        record["seconds"] = round(seconds, 1)
+    if spent is not None:
+        record["seconds"] = round(spent.seconds, 1)
+        record["cpu_seconds"] = round(spent.cpu_seconds, 1)
+        record["runs"] = spent.runs
         record["finished"] = datetime.datetime.now().isoformat(timespec="seconds")
     return record
 
@@ -168,15 +189,81 @@ def is_done(step: Step, manifest: dict) -> bool:
             and all(now["writes"].values()))
 
 
-def run_step(step: Step) -> float:
-    """Runs one step (its arguments name the robot); returns its seconds. A failed step
-    is one line and exit status 2."""
-    start = time.perf_counter()
-    status = subprocess.call([sys.executable, "-m", "s3o_drake.commands", *step.argv],
-                             cwd=REPO_DIR)
+def run_step(step: Step, *, so_far: StepTime,
+             checkpoint: Callable[[StepTime], None]) -> StepTime:
+    """Runs one step (its arguments name the robot) and returns its time, `so_far` and this
+    run's; hands `checkpoint` the time so far every CHECKPOINT seconds. A failed step is
+    one line and exit status 2."""
+    import psutil
+
+    start, cpu_before = time.perf_counter(), _children_cpu()
+    process = subprocess.Popen([sys.executable, "-m", "s3o_drake.commands", *step.argv],
+                               cwd=REPO_DIR)
+    cpu = 0.0
+    while True:
+        try:
+            status = process.wait(timeout=CHECKPOINT)
+            break
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(psutil.Error):
+                cpu = max(cpu, _tree_cpu(psutil.Process(process.pid)))
+            checkpoint(_plus(so_far, time.perf_counter() - start, cpu))
+    # Every process the step started has been waited for by now: the children's count.
+    cpu = max(cpu, _children_cpu() - cpu_before)
+    spent = _plus(so_far, time.perf_counter() - start, cpu)
     if status != 0:
+        checkpoint(spent)
         fail(f"step {step.name} failed (exit status {status}): s3o {' '.join(step.argv)}")
-    return time.perf_counter() - start
+    return spent
+
+
+def _plus(so_far: StepTime, seconds: float, cpu_seconds: float) -> StepTime:
+    """`so_far` and one more run, of these seconds (a run counts from its start)."""
+    return StepTime(so_far.seconds + seconds, so_far.cpu_seconds + cpu_seconds,
+                    so_far.runs + 1)
+
+
+def _children_cpu() -> float:
+    """CPU seconds of this process's children that have ended and been waited for."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _tree_cpu(process) -> float:
+    """CPU seconds of a running process and its descendants, those living and those they
+    waited for (`psutil.Process`)."""
+    import psutil
+
+    total = 0.0
+    for p in (process, *process.children(recursive=True)):
+        with contextlib.suppress(psutil.Error):
+            t = p.cpu_times()
+            total += t.user + t.system + t.children_user + t.children_system
+    return total
+
+
+def _time_so_far(path: Path, step: Step) -> StepTime:
+    """The recorded time of `step` cut off before with this command, else none."""
+    try:
+        entry = json.loads(path.read_text())[step.name]
+        if what_it_makes(entry["command"]) == what_it_makes(_record(step)["command"]):
+            return StepTime(**{k: entry[k] for k in asdict(StepTime())})
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
+    return StepTime()
+
+
+def _keep_time(path: Path, step: Step, spent: StepTime | None) -> None:
+    """Writes `step`'s time so far into `path`, or with None drops it (the step is done)."""
+    try:
+        entries = json.loads(path.read_text())
+    except (OSError, ValueError):
+        entries = {}
+    entries.pop(step.name, None)
+    if spent is not None:
+        entries[step.name] = {"command": _record(step)["command"], **asdict(spent)}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_atomically(path, json.dumps(entries, indent=1) + "\n")
 
 
 @contextlib.contextmanager
@@ -217,6 +304,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _build(args) -> int:
     manifest_path = robot_dir(args.name) / MANIFEST
+    time_path = REPO_DIR / "out" / args.name / TIME_SO_FAR
     manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
     manifest.setdefault("robot", args.name)
     manifest.setdefault("steps", {})
@@ -229,10 +317,17 @@ def _build(args) -> int:
                   f"{repo_path(manifest_path)}", flush=True)
             continue
         print(f"[{i}/{len(steps)}] {step.name}: s3o {' '.join(step.argv)}", flush=True)
-        seconds = run_step(step)
-        manifest["steps"][step.name] = _record(step, seconds)
+        so_far = _time_so_far(time_path, step)
+        if so_far.runs:
+            print(f"[{i}/{len(steps)}] {step.name}: {so_far.seconds:.0f} s spent on it in "
+                  f"{so_far.runs} run(s) before, counted on", flush=True)
+        spent = run_step(step, so_far=so_far,
+                         checkpoint=lambda t, step=step: _keep_time(time_path, step, t))
+        manifest["steps"][step.name] = _record(step, spent)
         write_atomically(manifest_path, json.dumps(manifest, indent=1) + "\n")
-        print(f"[{i}/{len(steps)}] {step.name}: {seconds:.0f} s", flush=True)
+        _keep_time(time_path, step, None)
+        print(f"[{i}/{len(steps)}] {step.name}: {spent.seconds:.0f} s, {spent.cpu_seconds:.0f}"
+              f" s of CPU", flush=True)
     print(f"{args.name}: every step done; the record is {repo_path(manifest_path)}")
     return 0
 

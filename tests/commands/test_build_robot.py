@@ -30,7 +30,7 @@ def ran(monkeypatch):
     """The steps run, by name; each writes its outputs (the same bytes every time)."""
     names = []
 
-    def run_step(step):
+    def run_step(step, *, so_far, checkpoint):
         names.append(step.name)
         for path in step.writes:
             if path.suffix:
@@ -39,7 +39,8 @@ def ran(monkeypatch):
             else:
                 path.mkdir(parents=True, exist_ok=True)
                 (path / "part.npz").write_text(step.name)
-        return 1.0
+        return build_robot.StepTime(so_far.seconds + 1.0, so_far.cpu_seconds + 2.0,
+                                    so_far.runs + 1)
 
     monkeypatch.setattr(build_robot, "run_step", run_step)
     return names
@@ -121,3 +122,40 @@ def test_a_build_resumed_on_other_workers_keeps_its_finished_steps(robot_folder,
         for s in plan_steps(name, workers=workers)])
     assert build_robot.main(["ur5e", "--steps", "reachability"]) == 0
     assert ran == ["reachability"]
+
+
+def test_a_step_cut_off_counts_its_time_on_when_the_build_runs_again(robot_folder, ran,
+                                                                     monkeypatch, tmp_path):
+    # The data step is cut off (the machine shut down) after its first checkpoint: its
+    # time so far is on disk, and the build run again adds it to the step's record.
+    finished = build_robot.run_step
+
+    def cut_off(step, *, so_far, checkpoint):
+        if step.name != "fcn-data":
+            return finished(step, so_far=so_far, checkpoint=checkpoint)
+        checkpoint(build_robot.StepTime(so_far.seconds + 600.0, so_far.cpu_seconds + 1100.0,
+                                        so_far.runs + 1))
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(build_robot, "run_step", cut_off)
+    with pytest.raises(KeyboardInterrupt):
+        build_robot.main(["ur5e"])
+    monkeypatch.setattr(build_robot, "run_step", finished)
+    assert build_robot.main(["ur5e"]) == 0
+    steps = json.loads((robot_folder / build_robot.MANIFEST).read_text())["steps"]
+    assert (steps["fcn-data"]["seconds"], steps["fcn-data"]["cpu_seconds"],
+            steps["fcn-data"]["runs"]) == (601.0, 1102.0, 2)
+    assert (steps["reachability"]["seconds"], steps["reachability"]["runs"]) == (1.0, 1)
+    # Once a step is recorded, its time so far is gone.
+    assert json.loads((tmp_path / "out" / "ur5e" / build_robot.TIME_SO_FAR).read_text()) == {}
+
+
+def test_a_step_s_process_is_timed_with_the_cpu_of_what_it_starts(tmp_path, monkeypatch):
+    monkeypatch.setattr(build_robot, "CHECKPOINT", 0.05)
+    seen = []
+    step = build_robot.Step("help", ("build", "robot", "--help"), (), ())
+    spent = build_robot.run_step(step, so_far=build_robot.StepTime(10.0, 20.0, 1),
+                                 checkpoint=seen.append)
+    assert spent.runs == 2 and spent.seconds > 10.0 and spent.cpu_seconds > 20.0
+    # While it ran, its time so far was handed on, never more than at its end.
+    assert seen and all(t.runs == 2 and t.seconds <= spent.seconds for t in seen)
