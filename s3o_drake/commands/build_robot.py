@@ -157,9 +157,13 @@ class StepTime:
     runs: int = 0
 
 
+def _command(step: Step) -> str:
+    """The step's command as recorded: its paths from the repository's root."""
+    return "s3o " + " ".join(repo_path(a) if "/" in a else a for a in step.argv)
+
+
 def _record(step: Step, spent: StepTime | None = None) -> dict:
-    record = {"command": "s3o " + " ".join(repo_path(a) if "/" in a else a
-                                           for a in step.argv),
+    record = {"command": _command(step),
               "reads": {repo_path(p): checksum(p) for p in step.reads},
               "writes": {repo_path(p): checksum(p) for p in step.writes}}
     if spent is not None:
@@ -246,7 +250,7 @@ def _time_so_far(path: Path, step: Step) -> StepTime:
     """The recorded time of `step` cut off before with this command, else none."""
     try:
         entry = json.loads(path.read_text())[step.name]
-        if what_it_makes(entry["command"]) == what_it_makes(_record(step)["command"]):
+        if what_it_makes(entry["command"]) == what_it_makes(_command(step)):
             return StepTime(**{k: entry[k] for k in asdict(StepTime())})
     except (OSError, ValueError, KeyError, TypeError):
         pass
@@ -261,7 +265,7 @@ def _keep_time(path: Path, step: Step, spent: StepTime | None) -> None:
         entries = {}
     entries.pop(step.name, None)
     if spent is not None:
-        entries[step.name] = {"command": _record(step)["command"], **asdict(spent)}
+        entries[step.name] = {"command": _command(step), **asdict(spent)}
     path.parent.mkdir(parents=True, exist_ok=True)
     write_atomically(path, json.dumps(entries, indent=1) + "\n")
 
