@@ -11,8 +11,10 @@ The bus stays on this machine unless --lcm says otherwise.
 Exit status: 0, 2 on bad input, 130 when interrupted.
 """
 
+import argparse
 import signal
 import sys
+from typing import TYPE_CHECKING
 
 # Light imports only: the heavy ones come after the arguments are parsed.
 from s3o_drake.commands.common import command_parser, fail, read_scenario
@@ -24,6 +26,9 @@ from s3o_drake.commands.options import (
     with_overrides_or_fail,
 )
 from s3o_drake.world.robot_channels import LOCAL_BUS
+
+if TYPE_CHECKING:
+    from s3o_drake.world.scenario import Scenario
 
 SIGNAL_STEP = 0.1
 """How often (s of the robot's clock) the robot looks whether it was told to end."""
@@ -46,29 +51,11 @@ def main(argv: list[str] | None = None) -> int:
         fail(f"--lcm: expected a udpm:// URL, got {args.lcm!r} (memq:// stays inside one "
              "process; the controllers run in another)")
     scenario = with_overrides_or_fail(read_scenario(args.scenario), args.overrides)
-
-    from pydrake.lcm import DrakeLcm
-    from pydrake.systems.analysis import Simulator
-
-    from s3o_drake.world.dish_messages import DishState
-    from s3o_drake.world.robot_channels import ROBOT_COMMAND, ROBOT_STATE
-    from s3o_drake.world.robot_lcm import build_robot_diagram
-
-    try:
-        lcm = DrakeLcm(args.lcm)
-    except RuntimeError as e:
-        fail(f"--lcm: {e}")
-    diagram = build_robot_diagram(scenario, lcm=lcm, seed=args.seed)
-    simulator = Simulator(diagram)
-    simulator.set_target_realtime_rate(args.realtime_rate)
-    simulator.Initialize()
-    print(f"the robot is on {args.lcm}: publishing {ROBOT_STATE} and its sensors, obeying "
-          f"{ROBOT_COMMAND}; Ctrl-C ends it", file=sys.stderr, flush=True)
-    context = simulator.get_context()
     # Ctrl-C and `kill` end it alike, even where it was started with SIGINT ignored (as a
     # shell's background jobs are): the robot then says what is on its tray. The signal is
-    # noted and looked at between steps: raised as KeyboardInterrupt, it could land inside
-    # a message's Python decoding, called from the LCM handler, and be lost there.
+    # noted, from before the robot is built, and looked at between steps: raised as
+    # KeyboardInterrupt, it could land inside a Python callback that Drake calls (a
+    # message's decoding, a system's output) and be lost there, and the robot run on.
     signals: list[int] = []
 
     def note(signum: int, _frame: object) -> None:
@@ -77,10 +64,35 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, note)
     previous = signal.signal(signal.SIGTERM, note)
     try:
-        while not signals and context.get_time() < args.time_limit:
-            simulator.AdvanceTo(min(context.get_time() + SIGNAL_STEP, args.time_limit))
+        return _run(args, scenario, signals)
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def _run(args: argparse.Namespace, scenario: "Scenario", signals: list[int]) -> int:
+    """Builds the robot, runs it until a signal is noted in `signals` or the time limit,
+    and says what is on its tray."""
+    from pydrake.lcm import DrakeLcm
+    from pydrake.systems.analysis import Simulator
+
+    from s3o_drake.world.dish_messages import DishState
+    from s3o_drake.world.robot_channels import ROBOT_COMMAND, ROBOT_STATE
+    from s3o_drake.world.robot_lcm import build_robot_diagram, render_once
+
+    try:
+        lcm = DrakeLcm(args.lcm)
+    except RuntimeError as e:
+        fail(f"--lcm: {e}")
+    diagram = build_robot_diagram(scenario, lcm=lcm, seed=args.seed)
+    simulator = Simulator(diagram)
+    simulator.set_target_realtime_rate(args.realtime_rate)
+    render_once(diagram, simulator.get_context())
+    simulator.Initialize()
+    print(f"the robot is on {args.lcm}: publishing {ROBOT_STATE} and its sensors, obeying "
+          f"{ROBOT_COMMAND}; Ctrl-C ends it", file=sys.stderr, flush=True)
+    context = simulator.get_context()
+    while not signals and context.get_time() < args.time_limit:
+        simulator.AdvanceTo(min(context.get_time() + SIGNAL_STEP, args.time_limit))
     code = 130 if signals else 0
     # A second Ctrl-C must not cut short what the robot says it holds.
     signal.signal(signal.SIGINT, signal.SIG_IGN)

@@ -227,6 +227,17 @@ def add_robot_lcm(builder: DiagramBuilder, world: Diagram, *, robot: Robot,
 
 
 
+def render_once(diagram: Diagram, context: Context) -> None:
+    """Renders the overhead camera's images of `diagram` (`build_robot_diagram`) once, in
+    its root `context`. Before the simulator's initialisation: it publishes the robot's
+    first state and then renders, and a renderer's first frame (its GL context, the
+    meshes) can take longer than the controllers wait between two states."""
+    world = diagram.GetSubsystemByName("world")
+    world_context = world.GetMyContextFromRoot(context)
+    for frame in ch.IMAGE_FRAMES:
+        world.GetOutputPort(f"{frame}_image").Eval(world_context)
+
+
 def build_robot_diagram(scenario: Scenario, *, lcm: DrakeLcm, seed: int | None = None,
                         noise: bool = True) -> Diagram:
     """The simulated robot alone, on `lcm`: the world's diagram (the true chairs, the

@@ -2,6 +2,7 @@
 whoever listens in another process; bad input is one line and status 2."""
 
 import random
+import signal
 import subprocess
 import sys
 import time
@@ -49,3 +50,23 @@ def test_the_robot_publishes_its_state_to_another_process():
                                                                           abs=1e-3)
     assert "publishing S3O_ROBOT_STATE" in err
     assert out.strip() == "ended at 3.00 s: on the tray nothing"
+
+
+def test_ctrl_c_as_its_first_state_is_heard_ends_it_and_it_says_what_it_holds():
+    """The first state comes while the simulator starts: a Ctrl-C then is not lost, as a
+    Ctrl-C at any time is not."""
+    url = ch.local_bus(random.randint(20000, 60000))
+    lcm = DrakeLcm(url)
+    states = []
+    lcm.Subscribe(ch.ROBOT_STATE, lambda data: states.append(data))
+    process = subprocess.Popen(
+        [sys.executable, "-m", "s3o_drake.commands", "sim", SCENE, "--lcm", url],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not states and time.monotonic() < deadline and process.poll() is None:
+        lcm.HandleSubscriptions(5)
+    process.send_signal(signal.SIGINT)
+    out, err = process.communicate(timeout=60)
+    assert states, "no robot state heard"
+    assert process.returncode == 130, err
+    assert out.startswith("ended at 0.") and out.strip().endswith("on the tray nothing")

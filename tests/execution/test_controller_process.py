@@ -43,6 +43,17 @@ def test_the_robot_knows_its_own_pixels_as_the_simulation_labels_them():
     assert mine == {int(b) for b in scenario.robot_value.instances_in(plant).body_indices()}
 
 
+def _ended(robot: subprocess.Popen, *, timeout: float) -> str:
+    """The robot's stderr once it ended; a robot that does not end is aborted, and the
+    failure shows each of its threads' stacks."""
+    try:
+        return robot.communicate(timeout=timeout)[1]
+    except subprocess.TimeoutExpired:
+        robot.send_signal(signal.SIGABRT)
+        _, err = robot.communicate(timeout=30)
+        pytest.fail(f"the robot did not end within {timeout:g} s of its signal:\n{err}")
+
+
 def test_without_a_robot_the_controllers_say_so_after_the_wait():
     start = time.monotonic()
     with pytest.raises(NoRobotError, match=ch.ROBOT_STATE):
@@ -57,7 +68,9 @@ def test_a_robot_that_falls_silent_is_stopped_and_the_run_ends_with_its_report()
     url = _bus()
     lcm = DrakeLcm(url)
     robot = subprocess.Popen(
-        [sys.executable, "-m", "s3o_drake.commands", "sim", SCENE, "--lcm", url],
+        # faulthandler: should it hang, SIGABRT shows where (below).
+        [sys.executable, "-X", "faulthandler", "-m", "s3o_drake.commands", "sim", SCENE,
+         "--lcm", url],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     commands, ended = [], []
 
@@ -79,7 +92,7 @@ def test_a_robot_that_falls_silent_is_stopped_and_the_run_ends_with_its_report()
     finally:
         if not ended:  # the run ended otherwise: end the robot all the same
             robot.send_signal(signal.SIGINT)
-        _, err = robot.communicate(timeout=120)
+        err = _ended(robot, timeout=120)
     assert robot.returncode == 130, err
     report = run.report
     assert report["reason"].startswith(ROBOT_SILENT) and not report["finished"]
