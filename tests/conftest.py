@@ -108,6 +108,21 @@ def checker(scene: FeasibilityScene) -> FeasibilityChecker:
     return FeasibilityChecker(scene)
 
 
+PLATE = "  - {name: plate_a, table: table, position: [1.85, 2.3], kind: plate}\n"
+CUP = "  - {name: cup_b, table: table, position: [2.15, 2.3], kind: cup}\n"
+BOWL_NORTH = "  - {name: bowl_north, table: long_table, position: [2.5, 2.35], kind: bowl}\n"
+
+
+def one_dish(scene: str, left_out: str) -> str:
+    """scenarios/small/`scene`.yaml without the dish line `left_out`: a task of one dish,
+    for a test that is not about how many (the oracle's map of each dish is most of a
+    task's difficulty, and its drive and pickup most of a run: a second dish costs about
+    twice both)."""
+    one = (TWO_DISHES.parent / f"{scene}.yaml").read_text().replace(left_out, "")
+    assert one.count("kind:") == 1
+    return one
+
+
 def cups_along_edges(scenario: Scenario, count: int) -> list[tuple[Dish, np.ndarray]]:
     """`count` cups 0.22 m apart along the long edges of the scenario's tables, 0.1 m in
     from each edge, each with the unit vector out of its table (a crowded task at scale)."""

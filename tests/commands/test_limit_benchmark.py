@@ -3,7 +3,6 @@ resumed; the summary names each configuration's gap to the reference."""
 
 import json
 import math
-import shutil
 
 import pytest
 
@@ -15,13 +14,13 @@ from s3o_drake.experiments.limit_study import (
     same_plan,
     summary_lines,
 )
-from tests.conftest import TWO_DISHES, refused
+from tests.conftest import CUP, one_dish, refused
 
 
 def test_rows_for_the_bound_and_each_plan_then_a_rerun_makes_none(tmp_path, capsys):
     tasks = tmp_path / "tasks"
     tasks.mkdir()
-    shutil.copy(TWO_DISHES, tasks)
+    (tasks / "one_plate.yaml").write_text(one_dish("two_dishes", CUP))
     rows = tmp_path / "limit.jsonl"
     argv = ["--tasks", str(tasks), "--configurations", "default", "all_candidates",
             "--execute-seeds", "1", "--json", str(rows)]
@@ -36,7 +35,7 @@ def test_rows_for_the_bound_and_each_plan_then_a_rerun_makes_none(tmp_path, caps
     # The default plan itself was executed (open loop, noise on): its prediction is the
     # plan's, and a complete run is no faster than the bound.
     assert executed["predicted_time"] == default["predicted_time"]
-    assert executed["dishes"] == 2 and executed["execution_time"] > 0.0
+    assert executed["dishes"] == 1 and executed["execution_time"] > 0.0
     assert not executed["complete"] or executed["execution_time"] >= bound["bound_s"]
     written = rows.read_text()
     capsys.readouterr()

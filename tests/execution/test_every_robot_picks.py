@@ -3,6 +3,7 @@ stops, and from one of them the pickup the ArmController runs is planned (grasp,
 lift, tray; RRT-Connect paths timed by TOPPRA) within the robot's own limits."""
 
 import dataclasses
+import functools
 
 import numpy as np
 import pytest
@@ -18,18 +19,38 @@ from s3o_drake.world.robot import load_robot
 from s3o_drake.world.robot_description import robot_names
 from s3o_drake.world.scenario import load_scenario
 
+SMALL = SCENARIOS_DIR / "small" / "two_dishes.yaml"
+
+
+@pytest.fixture(scope="module")
+def checkers():
+    """`checkers(name, method="map")`: robot `name`'s feasibility check in the small scene,
+    each scene and check made once for the module's tests (the Gen3's scene serves three:
+    building one is much of a test's time)."""
+    contents = load_scenario(SMALL).contents
+
+    @functools.cache
+    def scene(name: str) -> FeasibilityScene:
+        return FeasibilityScene(dataclasses.replace(contents, robot=load_robot(name)))
+
+    @functools.cache
+    def checker(name: str, method: str = "map") -> FeasibilityChecker:
+        return FeasibilityChecker(scene(name), method=method)
+
+    return checker
+
 
 # The Gen3 is not offered to scenarios yet (its description's `missing:`): its value is
 # put into the small scene's contents directly, as every robot's is here.
 @pytest.mark.parametrize("name", [*robot_names(), "gen3"])
-def test_every_robot_picks_a_plate_and_a_cup_within_its_limits(name):
+def test_every_robot_picks_a_plate_and_a_cup_within_its_limits(name, checkers):
     """The Gen3's 2F-85 pinches both at the rim: its pads swing out as they close, and its
     fingers' whole linkage may touch the dish."""
     robot = load_robot(name)
-    scenario = load_scenario(SCENARIOS_DIR / "small" / "two_dishes.yaml")
-    scene = FeasibilityScene(dataclasses.replace(scenario.contents, robot=robot))
+    scenario = load_scenario(SMALL)
+    checker = checkers(name)
+    scene = checker.scene
     assert scene.robot is robot
-    checker = FeasibilityChecker(scene)
     arm = arm_kinematics(robot)  # the model's limits
     for dish in scenario.dishes:
         p = np.asarray(dish.position, dtype=float)
@@ -56,12 +77,9 @@ def test_every_robot_picks_a_plate_and_a_cup_within_its_limits(name):
 GEN3_MAP = load_robot("gen3").files.reachability_map
 
 
-def _gen3_stops(method: str, radii: tuple[float, ...], bearings: int):
-    robot = load_robot("gen3")
-    scenario = load_scenario(SCENARIOS_DIR / "small" / "two_dishes.yaml")
-    scene = FeasibilityScene(dataclasses.replace(scenario.contents, robot=robot))
-    checker = FeasibilityChecker(scene, method=method)
-    dish = scenario.dishes[0]  # the plate
+def _gen3_stops(checker: FeasibilityChecker, radii: tuple[float, ...], bearings: int):
+    scene = checker.scene
+    dish = load_scenario(SMALL).dishes[0]  # the plate
     p = np.asarray(dish.position, dtype=float)
     angles = np.linspace(-np.pi, np.pi, bearings, endpoint=False)
     xy = np.concatenate([p + r * np.column_stack([np.cos(angles), np.sin(angles)])
@@ -76,8 +94,9 @@ def _gen3_stops(method: str, radii: tuple[float, ...], bearings: int):
     pytest.param("map", (0.75,), 24, marks=pytest.mark.skipif(
         not GEN3_MAP.exists(), reason=f"the Gen3's reachability map is not built ({GEN3_MAP})")),
 ])
-def test_the_gen3_finds_stops_for_a_dish(method, radii, bearings):
-    scene, checker, dish, bases, feasible = _gen3_stops(method, radii, bearings)
+def test_the_gen3_finds_stops_for_a_dish(method, radii, bearings, checkers):
+    scene, checker, dish, bases, feasible = _gen3_stops(checkers("gen3", method), radii,
+                                                        bearings)
     assert feasible.size > 0
     result = checker.check(bases[feasible[0]], dish)
     assert result.feasible and result.q.shape == (scene.robot.num_positions,) == (11,)

@@ -81,18 +81,36 @@ def _step(system, context):
 
 @pytest.fixture(scope="module")
 def planned(scenario):
-    # The coarse maps that tests/execution/test_recovery.py plans this scene on too: the
-    # test is about planning at initialization, not the maps' accuracy, and the full maps
-    # were most of this file's time.
-    system = _executive(scenario, method="V-GROP*", seed=0,
-                        perceive=scenario_unmapped_chairs(scenario))
+    """The system planned at initialization (V-GROP*), with what its `plan_from` was asked
+    then. Each test reads or walks a copy of its context (`_copy`): the system keeps all
+    it knows there, and one plan serves them all.
+
+    On the coarse maps that tests/execution/test_recovery.py plans this scene on too: the
+    tests are about planning at initialization and walking the plan, not the maps'
+    accuracy, and the full maps were most of this file's time."""
+    asked = []
+
+    def plan_from(known, **kwargs):
+        asked.append(known)
+        return ORACLE_MAPS_ONCE(known, **kwargs)
+
+    system = make_executive_system(scenario, method="V-GROP*", seed=0, plan_from=plan_from,
+                                   perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
-    return system, context
+    return system, context, tuple(asked)
+
+
+def _copy(planned):
+    """The planned system and a copy of its context, to walk without changing the
+    original. (A context copies its computed outputs too, and a PlanningResult cannot be
+    copied: the original's outputs are never evaluated.)"""
+    system, context = planned[:2]
+    return system, context.Clone()
 
 
 def test_plans_at_initialization(planned, scenario):
-    system, context = planned
+    system, context = _copy(planned)
     plan = system.GetOutputPort("plan").Eval(context)
     assert plan is not None and plan.method == "V-GROP*"
     assert {a.dish for a in plan.pickups} == {d.name for d in scenario.dishes}
@@ -104,22 +122,13 @@ def test_plans_at_initialization(planned, scenario):
     assert result.plan is plan and result.navigation is not None and result.heatmaps
 
 
-def test_plans_with_the_plan_from_it_is_given(scenario):
+def test_plans_with_the_plan_from_it_is_given(planned, scenario):
     """Another planner plugs in as `plan_from`: it is asked once, at initialization, with
     what the robot knows (a KnownWorld: the perceived chairs, not the true ones)."""
     from s3o_drake.belief.known_world import KnownWorld
 
-    asked = []
-
-    def plan_from(known, **kwargs):
-        asked.append(known)
-        return ORACLE_MAPS_ONCE(known, **kwargs)
-
-    system = make_executive_system(scenario, method="V-GROP*", seed=0, plan_from=plan_from,
-                                   perceive=scenario_unmapped_chairs(scenario))
-    context = _context(system, scenario)
-    system.ExecuteInitializationEvents(context)
-    (known,) = asked
+    system, context = _copy(planned)
+    (known,) = planned[2]
     assert isinstance(known, KnownWorld)
     assert {d.name for d in known.dishes} == {d.name for d in scenario.dishes}
     assert system.GetOutputPort("plan").Eval(context).method == "V-GROP*"
@@ -163,11 +172,8 @@ def test_in_a_short_simulation_it_plans_then_sends_the_first_drive(scenario, mot
             plan.actions[0].pose) and pick.dish == plan.actions[1].dish
 
 
-def test_walks_the_plan_on_the_controllers_reports(scenario):
-    system = _executive(scenario, method="V-GROP*", seed=0,
-                        perceive=scenario_unmapped_chairs(scenario))
-    context = _context(system, scenario)
-    system.ExecuteInitializationEvents(context)
+def test_walks_the_plan_on_the_controllers_reports(planned):
+    system, context = _copy(planned)
     plan = system.GetOutputPort("plan").Eval(context)
     base_status = system.GetInputPort("base_status")
     arm_status = system.GetInputPort("arm_status")
@@ -202,11 +208,8 @@ def test_walks_the_plan_on_the_controllers_reports(scenario):
     assert outcomes.count("failed: missed") == 1 and len(outcomes) == len(plan.actions)
 
 
-def test_a_failed_goto_ends_the_execution(scenario):
-    system = _executive(scenario, method="V-GROP*", seed=0,
-                        perceive=scenario_unmapped_chairs(scenario))
-    context = _context(system, scenario)
-    system.ExecuteInitializationEvents(context)
+def test_a_failed_goto_ends_the_execution(planned):
+    system, context = _copy(planned)
     _step(system, context)
     command = system.GetOutputPort("base_command").Eval(context)
     system.GetInputPort("base_status").FixValue(
@@ -220,6 +223,9 @@ def test_a_failed_goto_ends_the_execution(scenario):
 
 def test_perception_decides_the_obstacles(scenario):
     """The planner plans around what perception reports, not the scenario's chairs."""
+    # One bowl: the perceived chair makes a world of its own, whose Fea^m the planner
+    # computes for each dish.
+    scenario = dataclasses.replace(scenario, dishes=scenario.dishes[:1])
     seen = []
 
     def perceive(color, depth, label):
@@ -246,14 +252,23 @@ def test_no_scene_before_the_first_plan(scenario):
     assert system.GetOutputPort("known_scene").Eval(system.CreateDefaultContext()).scene is None
 
 
-def test_turns_to_face_each_further_dish_before_picking_it():
-    """Fea^m assumed the base faces the dish it picks: at a stop that serves two dishes,
-    the second pickup is preceded by a turn in place (no navigation noise), then picked."""
+@pytest.fixture(scope="module")
+def one_stop():
+    """two_dishes (`_one_stop_for_both`) planned with S3O-GROP*: the scenario, the system
+    and its context, which each test walks a copy of."""
     scenario = _one_stop_for_both(_with_oracle(load_scenario("scenarios/small/two_dishes.yaml")))
     system = _executive(scenario, method="S3O-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(scenario))
     context = _context(system, scenario)
     system.ExecuteInitializationEvents(context)
+    return scenario, system, context
+
+
+def test_turns_to_face_each_further_dish_before_picking_it(one_stop):
+    """Fea^m assumed the base faces the dish it picks: at a stop that serves two dishes,
+    the second pickup is preceded by a turn in place (no navigation noise), then picked."""
+    scenario = one_stop[0]
+    system, context = _copy(one_stop[1:])
     plan = system.GetOutputPort("plan").Eval(context)
     assert len(plan.gotos) == 1 and len(plan.pickups) == 2
     goto, first, second = plan.actions
@@ -283,15 +298,12 @@ def test_turns_to_face_each_further_dish_before_picking_it():
     assert pick2.dish == second.dish and pick2.id > turn.id
 
 
-def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenario):
+def test_records_every_finished_pickup_with_its_prediction_and_real_stop(planned, scenario):
     """Each finished pickup leaves a PickupRecord on `progress`: the plan's Fea^m and the
     stop it was predicted for, where the base really stood when the pick was sent, the
     arm's outcome, and the arm command that aimed with a sighting (whose error the referee
     joins to it)."""
-    system = _executive(scenario, method="V-GROP*", seed=0,
-                        perceive=scenario_unmapped_chairs(scenario))
-    context = _context(system, scenario)
-    system.ExecuteInitializationEvents(context)
+    system, context = _copy(planned)
     plan = system.GetOutputPort("plan").Eval(context)
     kinds = {d.name: d.kind for d in scenario.dishes}
     positions = {d.name: d.position for d in scenario.dishes}
@@ -330,12 +342,8 @@ def test_records_every_finished_pickup_with_its_prediction_and_real_stop(scenari
     assert [r.succeeded for r in records] == [False] + [True] * (len(records) - 1)
 
 
-def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
-    scenario = _one_stop_for_both(_with_oracle(load_scenario("scenarios/small/two_dishes.yaml")))
-    system = _executive(scenario, method="S3O-GROP*", seed=0,
-                        perceive=scenario_unmapped_chairs(scenario))
-    context = _context(system, scenario)
-    system.ExecuteInitializationEvents(context)
+def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped(one_stop):
+    system, context = _copy(one_stop[1:])
     goto, first, second = system.GetOutputPort("plan").Eval(context).actions
     _step(system, context)
     command = system.GetOutputPort("base_command").Eval(context)
@@ -367,23 +375,33 @@ def test_a_pickup_whose_turn_fails_is_recorded_where_the_base_stopped():
     assert blocked.predicted == second.feasibility
 
 
-def _tidy_planner():
-    """An ExecutiveSystem of tidy_home (V-GROP*, open loop) that has planned: with its context
-    and plan."""
+@pytest.fixture(scope="module")
+def tidy():
+    """An ExecutiveSystem of tidy_home (V-GROP*, open loop) that has planned, and its
+    context. One can on the coffee table beside the apple, not the paper's two: each
+    object costs the plan its Fea^m map, and one can picked before the apple shows what
+    two do."""
     tidy = _with_oracle(load_scenario("scenarios/tidy_home.yaml"))
+    tidy = dataclasses.replace(tidy, dishes=[d for d in tidy.dishes if d.name != "can_2"])
     system = _executive(tidy, method="V-GROP*", seed=0,
                         perceive=scenario_unmapped_chairs(tidy))
     context = _context(system, tidy)
     system.GetInputPort("replan_request").FixValue(context, [0.0])
     system.ExecuteInitializationEvents(context)
+    return system, context
+
+
+def _tidy_planner(tidy):
+    """The planned tidy_home system, a copy of its context to walk, and its plan."""
+    system, context = _copy(tidy)
     return system, context, system.GetOutputPort("plan").Eval(context)
 
 
-def test_a_replan_while_an_object_to_place_is_held_puts_it_down_first():
+def test_a_replan_while_an_object_to_place_is_held_puts_it_down_first(tidy):
     """tidy_home: the apple is picked (held, not on the tray); a replan then plans the
     apple's place without picking it again, before the can that remains (the gripper is
     busy until then). The place is sent to the arm as a PickCommand with `place`."""
-    system, context, plan = _tidy_planner()
+    system, context, plan = _tidy_planner(tidy)
     apple = plan.actions.index(next(a for a in plan.pickups if a.dish == "apple"))
     put = next(k for k, a in enumerate(plan.actions) if isinstance(a, Place))
     place_stop = next(a.pose for a in reversed(plan.actions[:put]) if isinstance(a, Goto))
@@ -419,11 +437,11 @@ def test_a_replan_while_an_object_to_place_is_held_puts_it_down_first():
     assert command.dish == "apple" and command.place
 
 
-def test_an_object_whose_place_fails_is_let_go_over_the_tray_then_the_plan_goes_on():
+def test_an_object_whose_place_fails_is_let_go_over_the_tray_then_the_plan_goes_on(tidy):
     """tidy_home, open loop: the apple's place fails (no_ik), so the gripper would hold it
     for good and every later pickup fail hand_full. The planner has the arm let it go over
     the tray (a PickCommand naming the held apple, without `place`), then goes on."""
-    system, context, plan = _tidy_planner()
+    system, context, plan = _tidy_planner(tidy)
     put = next(k for k, a in enumerate(plan.actions) if isinstance(a, Place))
     for action in plan.actions[:put + 1]:
         _step(system, context)

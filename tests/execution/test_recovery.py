@@ -18,6 +18,7 @@ from s3o_drake.execution.messages import Status
 from s3o_drake.execution.recovery import StopCheck, localise
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.planning.navigation.map import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
+from s3o_drake.planning.pipeline import PlanningResult
 from s3o_drake.planning.plan import Goto, Pickup
 from s3o_drake.world.angles import facing_yaw
 from s3o_drake.world.obstacles import CONTACT_RADIUS
@@ -146,6 +147,20 @@ def _planner(scenario, plan_from=ORACLE_MAPS_ONCE, **changes):
     return system, context
 
 
+@pytest.fixture(scope="module")
+def replanning(scenario):
+    """`_planner` of the scenario's own settings (recovery by replanning), planned once for
+    the tests that walk it: each walks a copy of its context (`_copy`)."""
+    return _planner(scenario)
+
+
+def _copy(planned):
+    """The planned system and a copy of its context (whose outputs are never evaluated: a
+    context copies its computed outputs too, and a PlanningResult cannot be copied)."""
+    system, context = planned
+    return system, context.Clone()
+
+
 def _land(system, context, pose):
     system.GetInputPort("robot_state").FixValue(
         context, UR5E.desired_state(UR5E.positions(*pose)))
@@ -165,8 +180,8 @@ def _first_stop(system, context):
     return goto, pickup, system.GetOutputPort("base_command").Eval(context)
 
 
-def test_a_landing_out_of_reach_gets_a_corrective_move_then_the_pick(scenario):
-    system, context = _planner(scenario)
+def test_a_landing_out_of_reach_gets_a_corrective_move_then_the_pick(scenario, replanning):
+    system, context = _copy(replanning)
     goto, pickup, command = _first_stop(system, context)
     dish = next(d for d in scenario.dishes if d.name == pickup.dish).position
     away = np.asarray(goto.pose[:2]) - dish
@@ -234,9 +249,11 @@ def test_a_dish_whose_replan_finds_no_plan_is_left_and_the_old_plan_goes_on(scen
     plans_found = [True]
 
     def plan_from(known, **kwargs):
-        result = ORACLE_MAPS_ONCE(known, **kwargs)
-        return result if plans_found[0] else dataclasses.replace(
-            result, plan=None, error="no plan: none valid (test)")
+        if plans_found[0]:
+            return ORACLE_MAPS_ONCE(known, **kwargs)
+        # The pipeline's answer when it finds no plan; no search needed to give it.
+        return PlanningResult(known=known, method=kwargs["method"], seed=kwargs["seed"],
+                              plan=None, error="no plan: none valid (test)")
 
     system, context = _planner(scenario, plan_from, recovery="replan", max_tries=1)
     plan = system.GetOutputPort("plan").Eval(context)
@@ -315,8 +332,8 @@ def test_a_dish_left_out_unchecked_is_planned_for_again_at_the_plan_s_end(scenar
     assert len(progress.plans) == 2
 
 
-def test_a_blocked_drive_is_replanned_from_where_the_robot_stands(scenario):
-    system, context = _planner(scenario)
+def test_a_blocked_drive_is_replanned_from_where_the_robot_stands(scenario, replanning):
+    system, context = _copy(replanning)
     _goto, _, command = _first_stop(system, context)
     stopped = (1.2, 0.8, 0.3)
     _land(system, context, stopped)
@@ -367,16 +384,35 @@ def _run(path, recovery, **kwargs):
         uncertainty=uncertainty or scenario.uncertainty)
     scenario = dataclasses.replace(scenario, simulation=dataclasses.replace(
         scenario.simulation, publish_period=1.0))
-    return execute(scenario, meshcat=None, progress=False, plan_from=ORACLE_MAPS_ONCE,
-                   **kwargs).report
+    kwargs.setdefault("plan_from", ORACLE_MAPS_ONCE)
+    return execute(scenario, meshcat=None, progress=False, **kwargs).report
+
+
+def _ending_with_pickup_of(dish):
+    """The planner (`plan_from`), its plans cut after `dish`'s pickup, the dishes after it
+    left out: a run that has nothing to show after that pickup ends there."""
+
+    def plan_from(known, **kwargs):
+        result = ORACLE_MAPS_ONCE(known, **kwargs)
+        actions = result.plan.actions
+        end = next(k for k, a in enumerate(actions)
+                   if isinstance(a, Pickup) and a.dish == dish) + 1
+        rest = tuple(a.dish for a in actions[end:] if isinstance(a, Pickup))
+        return dataclasses.replace(result, plan=dataclasses.replace(
+            result.plan, actions=actions[:end], unreachable=result.plan.unreachable + rest))
+
+    return plan_from
 
 
 def test_in_simulation_a_landing_out_of_reach_is_corrected():
     """Seed 2 with 35 cm landing noise: the open loop lands out of the arm's reach of the
     south bowl and fails it (no_ik); with recovery the stop is corrected and both are
-    collected. (The seed's landings are those of the stop-and-go plan.)"""
+    collected. (The seed's landings are those of the stop-and-go plan.) The open loop runs
+    its plan up to that pickup: the same drives and the same seeded landings, and nothing
+    after can change how the pickup ends."""
     noisy = Uncertainty(nav_xy_std=0.35)
-    open_loop = _run(SCENE, "none", seed=2, uncertainty=noisy, motion="stop_and_go")
+    open_loop = _run(SCENE, "none", seed=2, uncertainty=noisy, motion="stop_and_go",
+                     plan_from=_ending_with_pickup_of("bowl_south"))
     assert ["pickup", "bowl_south", "failed: no_ik"] in open_loop["outcomes"]
     recovered = _run(SCENE, "replan", seed=2, uncertainty=noisy, motion="stop_and_go")
     assert recovered["collected"] == 2

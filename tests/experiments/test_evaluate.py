@@ -38,6 +38,7 @@ from s3o_drake.experiments.summary import (
     write_outputs,
 )
 from s3o_drake.world.scenario import load_scenario
+from tests.conftest import BOWL_NORTH, CUP, PLATE, one_dish
 
 REPO = Path(__file__).resolve().parents[2]
 SMALL = REPO / "scenarios" / "small"
@@ -259,19 +260,13 @@ def _two_dishes_task(tmp_path):
 
 
 def _three_tasks(folder: Path) -> Path:
-    """Two scenes of one dish each, and two dishes at one stop (the oracle's map of each
-    dish is most of the difficulty's time). The cheapest task sorts first: a study with
-    `--count 1` runs it alone."""
+    """Three scenes of one dish each, in two rooms: three pickable areas, a difficulty
+    group each. The cheapest task sorts first: a study with `--count 1` runs it alone."""
     folder.mkdir()
-    shutil.copy(SMALL / "two_dishes.yaml", folder / "c_two_dishes.yaml")
-    for name, scene, dish in (
-            ("b_one_bowl", "opposite_sides",
-             "  - {name: bowl_south, table: long_table, position: [2.5, 1.65], kind: bowl}\n"),
-            ("a_one_cup", "two_dishes",
-             "  - {name: plate_a, table: table, position: [1.85, 2.3], kind: plate}\n")):
-        one = (SMALL / f"{scene}.yaml").read_text().replace(dish, "")
-        assert one.count("kind:") == 1
-        (folder / f"{name}.yaml").write_text(one)
+    for name, scene, left_out in (("a_one_plate", "two_dishes", CUP),
+                                  ("b_one_bowl", "opposite_sides", BOWL_NORTH),
+                                  ("c_one_cup", "two_dishes", PLATE)):
+        (folder / f"{name}.yaml").write_text(one_dish(scene, left_out))
     return folder
 
 
@@ -334,7 +329,7 @@ def test_a_dask_cluster_started_as_documented_runs_what_the_local_pool_runs(
     local, dask = (ResultStore(f / "results.jsonl", read_only=True).rows()
                    for f in (local, tmp_path / "dask"))
     assert run_differences(local, dask) == (1, [])
-    run = next(r for r in dask if r["task"] == "a_one_cup" and r["method"] == "S3O-GROP*")
+    run = next(r for r in dask if r["task"] == "a_one_plate" and r["method"] == "S3O-GROP*")
     # The run went to its end; whether its pickup succeeds depends on the plan and the seed's
     # noise draws (about 0.97 per pickup), not on the scheduler.
     assert run["dishes"] == 1 and run["finished"]
@@ -561,7 +556,7 @@ def test_placement_table_counts_objects_at_and_off_their_places():
 def test_three_tasks_two_methods_end_to_end_then_resumed(local_study, tmp_path, capsys):
     tasks, out, before = local_study["tasks"], local_study["out"], local_study["before"]
     results = out / "results.jsonl"
-    assert len(before) == 2 and {json.loads(r)["task"] for r in before} == {"a_one_cup"}
+    assert len(before) == 2 and {json.loads(r)["task"] for r in before} == {"a_one_plate"}
     # Resumed on all the tasks: the finished runs kept, not run again.
     assert local_study["status"] == 0
     assert f"{len(before)} already finished" in local_study["printed"]

@@ -9,6 +9,7 @@ import pytest
 from s3o_drake.commands.evaluate import main as evaluate
 from s3o_drake.commands.evaluate import study_jobs
 from s3o_drake.experiments.again import chosen, comparison
+from tests.conftest import CUP, one_dish
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -41,16 +42,16 @@ def test_the_runs_chosen_are_those_that_did_not_complete_or_that_ended_so(tmp_pa
 def test_again_runs_only_the_chosen_runs_and_sets_them_beside_their_twins(tmp_path, capsys):
     tasks = tmp_path / "tasks"
     tasks.mkdir()
-    shutil.copy(REPO / "scenarios/small/two_dishes.yaml", tasks / "two_dishes.yaml")
+    (tasks / "one_plate.yaml").write_text(one_dish("two_dishes", CUP))
     difficulty, jobs = study_jobs(sorted(tasks.glob("*.yaml")), ["V-GROP"], 2)
     earlier = tmp_path / "earlier"
     earlier.mkdir()
-    measured = {"key": difficulty[0].key, "task": "two_dishes", "area": 3.0,
-                "areas": {"plate_a": 1.5, "cup_b": 1.5}, "dishes": 2}
+    measured = {"key": difficulty[0].key, "task": "one_plate", "area": 3.0,
+                "areas": {"plate_a": 3.0}, "dishes": 1}
     (earlier / "difficulty.jsonl").write_text(json.dumps(measured) + "\n")
     (earlier / "results.jsonl").write_text("".join(json.dumps(r) + "\n" for r in [
-        _row(jobs[0], complete=True, collected=2, reason="plan ended"),
-        _row(jobs[1], complete=False, collected=0, reason="goto l0 failed: blocked")]))
+        _row(jobs[0], dishes=1, complete=True, collected=1, reason="plan ended"),
+        _row(jobs[1], dishes=1, complete=False, collected=0, reason="goto l0 failed: blocked")]))
     out = tmp_path / "again"
     assert evaluate(["--tasks", str(tasks), "--methods", "V-GROP", "--seeds", "2",
                      "--out", str(out), "--again", str(earlier), "--ended", "blocked",
@@ -61,7 +62,7 @@ def test_again_runs_only_the_chosen_runs_and_sets_them_beside_their_twins(tmp_pa
     # The task's difficulty is read from the earlier study, not measured again.
     assert json.loads((out / "difficulty.jsonl").read_text())["area"] == 3.0
     again = (out / "again.md").read_text()
-    line = f"| V-GROP | 1 | 0 -> {int(rows[0]['complete'])} | 0 -> {rows[0]['collected']} of 2 |"
+    line = f"| V-GROP | 1 | 0 -> {int(rows[0]['complete'])} | 0 -> {rows[0]['collected']} of 1 |"
     assert line in again and line in capsys.readouterr().out
 
 

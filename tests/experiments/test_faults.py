@@ -21,9 +21,11 @@ import psutil
 import pytest
 
 from s3o_drake.commands.evaluate import main as evaluate
+from s3o_drake.commands.evaluate import study_jobs
 from s3o_drake.experiments.jobs import RUN, Job
 from s3o_drake.experiments.scheduler import run_jobs
 from s3o_drake.experiments.store import ResultStore
+from tests.conftest import CUP, one_dish
 from tests.experiments.test_evaluate import _toy_job, toy_work
 
 REPO = Path(__file__).resolve().parents[2]
@@ -73,33 +75,27 @@ def _workers(study: subprocess.Popen) -> list[psutil.Process]:
 def test_a_killed_worker_and_a_killed_study_lose_and_repeat_nothing(tmp_path):
     tasks = tmp_path / "tasks"
     tasks.mkdir()
-    shutil.copy(TWO_DISHES, tasks)
+    task = tasks / "one_plate.yaml"
+    task.write_text(one_dish("two_dishes", CUP))
     out = tmp_path / "results"
     command = ["--tasks", str(tasks), "--methods", "V-PETLON", "--seeds", "2", "--workers",
                "1", "--out", str(out), "--quiet"]
+    # The task's difficulty measured already, as a study killed during its runs has it: the
+    # study's one pool is the runs', and the worker killed below holds a run.
+    (difficulty,), _ = study_jobs([task], ["V-PETLON"], 2)
+    out.mkdir()
+    (out / "difficulty.jsonl").write_text(json.dumps(
+        {"key": difficulty.key, "task": task.stem, "area": 2.9, "areas": {"plate_a": 2.9},
+         "dishes": 1}) + "\n")
     study = subprocess.Popen([sys.executable, "-m", "s3o_drake.commands.evaluate", *command],
                              cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                              text=True)
     try:
         # A worker dies (SIGKILL: out of memory, a crash in native code) while it holds the
-        # first run: the study replaces it and runs that run again. The difficulty's pool
-        # ends when it is measured; the runs get a pool of their own.
-        difficulty_workers: set[int] = set()
-
-        def measured() -> bool:
-            if _lines(out / "difficulty.jsonl"):
-                return True
-            difficulty_workers.update(p.pid for p in _workers(study))
-            return False
-
-        def run_workers() -> list[psutil.Process]:
-            return [p for p in _workers(study) if p.pid not in difficulty_workers]
-
-        _wait_for(measured, "difficulty", process=study)
-        assert difficulty_workers
-        _wait_for(run_workers, "run worker", process=study)
-        (worker,) = run_workers()
-        time.sleep(3.0)  # into the run: planning
+        # first run: the study replaces it and runs that run again.
+        _wait_for(lambda: _workers(study), "run worker", process=study)
+        (worker,) = _workers(study)
+        time.sleep(1.0)  # into the run (about 2 s of a core): planning
         worker.kill()
         # Then the study is stopped as `kill PID` stops it, after its first row.
         _wait_for(lambda: _lines(out / "results.jsonl"), "finished run", process=study)
@@ -290,7 +286,12 @@ def test_a_failing_solver_is_reported_and_the_outputs_are_written(tmp_path, monk
 
     monkeypatch.setattr(execute_module, "Simulator", _FailingSimulator)
     out = tmp_path / "out"
-    status = run_main([str(TWO_DISHES), "--out", str(out), "--feasibility", "fcn"])
+    # The outputs below, not the pictures of what the plan was made on (about a second
+    # each).
+    unchecked = [item for field in ("overhead", "feasibility", "state_space")
+                 for item in ("--set", f"outputs.{field}=false")]
+    status = run_main([str(TWO_DISHES), "--out", str(out), "--feasibility", "fcn",
+                       *unchecked])
     assert status == 1  # the task was not completed; not a crash
     report = json.loads((out / "report.json").read_text())
     reason = "the simulation failed at t = 8.00 s: SAP solver failed to converge"

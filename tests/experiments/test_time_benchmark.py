@@ -11,23 +11,25 @@ import pytest
 from s3o_drake.commands import time_benchmark
 from s3o_drake.commands.time_benchmark import main, summarize
 from s3o_drake.world.robot import load_robot
+from tests.conftest import CUP, one_dish
 
 REPO = Path(__file__).resolve().parents[2]
-SMALL = REPO / "scenarios" / "small" / "two_dishes.yaml"
 
 
 def test_runs_writes_a_line_per_run_and_resumes(tmp_path, capsys, monkeypatch):
+    task = tmp_path / "one_plate.yaml"
+    task.write_text(one_dish("two_dishes", CUP))
     out = tmp_path / "times.jsonl"
-    assert main(["--tasks", str(SMALL), "--noise", "off", "--json", str(out)]) == 0
+    assert main(["--tasks", str(task), "--noise", "off", "--json", str(out)]) == 0
     (row,) = [json.loads(line) for line in out.read_text().splitlines()]
-    assert row["task"] == "two_dishes" and row["noise"] is False
+    assert row["task"] == "one_plate" and row["noise"] is False
     assert row["cost_profile"] == "robot" and row["method"] == "S3O-GROP*"
     assert row["rel_error"] == pytest.approx(
         (row["predicted_time"] - row["execution_time"]) / row["execution_time"])
     assert row["time_model"] == time_benchmark.model_version(
         load_robot("ur5e").files.time_model)
     printed = capsys.readouterr().out
-    assert "two_dishes" in printed and "noise off      all:   1 runs" in printed
+    assert "one_plate" in printed and "noise off      all:   1 runs" in printed
 
     # The same command again runs nothing: the row comes from the file.
     class NoRuns:  # the worker pool, asked for no run
@@ -42,7 +44,7 @@ def test_runs_writes_a_line_per_run_and_resumes(tmp_path, capsys, monkeypatch):
             return iter(())
 
     monkeypatch.setattr(time_benchmark, "local_pool", lambda workers: NoRuns())
-    assert main(["--tasks", str(SMALL), "--noise", "off", "--json", str(out)]) == 0
+    assert main(["--tasks", str(task), "--noise", "off", "--json", str(out)]) == 0
     assert len(out.read_text().splitlines()) == 1
     assert f"{100 * abs(row['rel_error']):.2f} %" in capsys.readouterr().out
 

@@ -80,7 +80,7 @@ def test_noise_lowers_the_probability_next_to_an_obstacle_not_in_the_open(rmap):
             assert p_noisy >= 0.9
 
 
-def test_heatmap_is_a_probability_map_around_the_dish(rmap, monkeypatch):
+def test_heatmap_is_a_probability_map_around_the_dish(rmap):
     scenario = load_scenario(SMALL)
     oracle = _oracle(scenario, rmap)
     heatmap = oracle.heatmap("plate_a")
@@ -93,16 +93,15 @@ def test_heatmap_is_a_probability_map_around_the_dish(rmap, monkeypatch):
     dish = np.array(scenario.dishes[0].position)
     far = np.linalg.norm(heatmap.centers() - dish, axis=-1) > 1.35 + 3 * 0.1
     assert heatmap.values[far].max() < 2e-3
-    # An expectation, not a sample: the same every time (computed again, not read back).
-    monkeypatch.delenv(CACHE_VARIABLE, raising=False)
-    again = oracle.heatmap("plate_a")
-    np.testing.assert_array_equal(heatmap.values, again.values)
 
 
 def test_heatmaps_do_not_depend_on_the_worker_count(monkeypatch):
+    """An expectation, not a sample: a map computed again, in the process that computed
+    another map first or in a worker of its own, is the same bit for bit. Coarse maps: the
+    computation is the full-resolution one's on a coarser grid."""
     monkeypatch.delenv(CACHE_VARIABLE, raising=False)  # both computed, neither read back
     scenario = load_scenario(SMALL)
-    kwargs = {"cells": 16, "fine_cell": 0.125, "progress": False}
+    kwargs = {"cells": 16, "fine_cell": 0.25, "progress": False}
     one = compute_heatmaps(scenario, workers=1, **kwargs)
     two = compute_heatmaps(scenario, workers=2, **kwargs)
     assert [h.dish for h in one] == ["plate_a", "cup_b"]
@@ -146,7 +145,9 @@ def test_a_place_targets_heatmap_is_its_monte_carlo_expectation(rmap):
     place's reach noise and the object's offset in the hand drawn)."""
     tidy = with_place_targets(load_scenario(REPO / "scenarios" / "tidy_home.yaml"))
     oracle = _oracle(tidy, rmap)
-    heatmap = oracle.heatmap("apple__place", cells=32)
+    # The crop the network is compared on (test_fcn.py): computed once for both, the second
+    # read from the oracle's cache.
+    heatmap = oracle.heatmap("apple__place")
     best = heatmap.centers()[np.unravel_index(np.argmax(heatmap.values), heatmap.values.shape)]
     assert heatmap.values.max() <= place_probability("apple", tidy.uncertainty.reach_std,
                                                      robot=tidy.robot_value)

@@ -18,7 +18,7 @@ from s3o_drake.world.map import Chair
 from s3o_drake.world.robot import RobotFiles, load_robot
 from s3o_drake.world.settings import Uncertainty
 
-CHEAP = {"cells": 8, "fine_cell": 0.25}  # a coarse map: the cache, not the map, is tested
+CHEAP = {"cells": 8, "fine_cell": 0.5}  # a coarse map: the cache, not the map, is tested
 
 
 @pytest.fixture
@@ -83,7 +83,7 @@ def test_what_a_map_is_made_of_decides_whether_it_is_read(folder, computed, scen
     oracle = FeasibilityOracle(checker, Uncertainty())
     oracle.heatmap("plate_a", **CHEAP)
     oracle.heatmap("cup_b", **CHEAP)  # another dish
-    oracle.heatmap("plate_a", cells=8, fine_cell=0.125)  # another grid
+    oracle.heatmap("plate_a", cells=8, fine_cell=0.25)  # another grid
     FeasibilityOracle(checker, Uncertainty(nav_xy_std=0.2)).heatmap("plate_a", **CHEAP)
     chair = Chair(name="chair_x", pose=[2.0, 1.6, 0.0])
     other = FeasibilityScene(dataclasses.replace(scenario.contents, chairs=(chair,)))

@@ -11,6 +11,7 @@ from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.experiments.plan_checks import plan_faults, ring_heatmaps
 from s3o_drake.feasibility.check import FeasibilityChecker
 from s3o_drake.feasibility.oracle import Heatmap
+from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.methods import plan_task
 from s3o_drake.planning.motion.free_positions import RADIUS, with_free_stops
@@ -86,10 +87,12 @@ def test_soak_scene_33_plans_free_stops(monkeypatch):
     scene = random_scene(0, 33, SceneShape(max_dishes=30),
                          planner=PlanningSettings(time_budget=5.0, workers=1))
     known = KnownWorld.perfect(scene)
-    checker = FeasibilityChecker(FeasibilityScene(known.contents))
+    # The execution's base check, which needs no reachability map ("ik" loads none).
+    checker = FeasibilityChecker(FeasibilityScene(known.contents), method="ik")
     heatmaps: list[Heatmap] = ring_heatmaps(known)
+    planning = PlanningScene(known)  # one belief, planned by both methods
     for method in ("S3O-GROP", "V-GROP"):
         # The plan an idle machine makes within the budget (2.5 s of 5 s), on any machine.
         plan = plan_task(known, method=method, heatmaps=heatmaps, seed=scene.seed,
-                         time_budget=5.0, clock=still_clock).plan
+                         scene=planning, time_budget=5.0, clock=still_clock).plan
         assert plan_faults(known, plan, checker.base_free) == [], method

@@ -44,6 +44,13 @@ def scenes():
 
 
 @pytest.fixture(scope="module")
+def planning_scenes(scenes):
+    """Per scene, the Drake scene of the world the planner knows: one belief planned by
+    every method, as `plan_and_check` plans it."""
+    return {name: PlanningScene(_known(sc, chairs)) for name, (sc, _, chairs) in scenes.items()}
+
+
+@pytest.fixture(scope="module")
 def known_checkers(scenes):
     """Per scene, the execution's base check on the world the planner knows."""
     return {name: FeasibilityChecker(FeasibilityScene(_known(sc, chairs).contents))
@@ -55,19 +62,23 @@ def _known(scenario, perceived_chairs) -> KnownWorld:
     return KnownWorld.of(scenario, perceived_chairs=perceived_chairs)
 
 
-def plan(scenario, *, perceived_chairs, **kwargs) -> TaskMotionPlan:
+def plan(scenario, *, perceived_chairs, scene: PlanningScene | None = None,
+         **kwargs) -> TaskMotionPlan:
     """The plan of `scenario` from its start with these perceived chairs: the planner's own
-    call, `plan_task`, which raises when no plan can be made. Its Drake scene is built
-    first, as the pipeline builds it, outside the planning budget."""
+    call, `plan_task`, which raises when no plan can be made. Its Drake scene (`scene`, one
+    of the same belief, or built here) is built first, as the pipeline builds it, outside
+    the planning budget."""
     known = _known(scenario, perceived_chairs)
-    return plan_task(known, scene=PlanningScene(known), **kwargs).plan
+    scene = PlanningScene(known) if scene is None else scene
+    return plan_task(known, scene=scene, **kwargs).plan
 
 
 @pytest.fixture(scope="module")
-def plans(scenes):
+def plans(scenes, planning_scenes):
     """Every method's plan of every scene (seed 0)."""
     return {(scene, method): plan(scenes[scene][0], method=method, heatmaps=scenes[scene][1],
-                                  perceived_chairs=scenes[scene][2], seed=0)
+                                  perceived_chairs=scenes[scene][2], seed=0,
+                                  scene=planning_scenes[scene])
             for scene in SCENES for method in METHODS}
 
 
@@ -144,17 +155,19 @@ def test_opposite_sides_need_two_stops(plans, method):
     assert len(plans["opposite_sides", method].gotos) == 2
 
 
-def test_the_papers_random_ablation_plans_on_one_drawn_state_space(scenes):
+def test_the_papers_random_ablation_plans_on_one_drawn_state_space(scenes, planning_scenes,
+                                                                   plans):
     """S3O-Random-Paper draws one state space uniformly among all candidates and searches
     it alone: every plan keeps the groups of a candidate, and on opposite_sides (two bowls
-    across a table, whose cells border) the draws are both of its candidates, the merged
-    one that one stop cannot serve and the two locations S3O-GROP* chooses."""
+    across a table, whose cells border) the draws of five seeds are both of its candidates,
+    the merged one that one stop cannot serve and the two locations S3O-GROP* chooses."""
     scenario, heatmaps, chairs = scenes["opposite_sides"]
-    drawn = {plan(scenario, method="S3O-Random-Paper", heatmaps=heatmaps,
-                  perceived_chairs=chairs, seed=seed).groups for seed in range(8)}
+    drawn = {plans["opposite_sides", "S3O-Random-Paper"].groups}  # seed 0
+    drawn |= {plan(scenario, method="S3O-Random-Paper", heatmaps=heatmaps,
+                   perceived_chairs=chairs, seed=seed,
+                   scene=planning_scenes["opposite_sides"]).groups for seed in range(1, 5)}
     assert drawn == {(("bowl_north", "bowl_south"),), (("bowl_north",), ("bowl_south",))}
-    best = plan(scenario, method="S3O-GROP*", heatmaps=heatmaps, perceived_chairs=chairs,
-                seed=0)
+    best = plans["opposite_sides", "S3O-GROP*"]  # seed 0
     assert best.groups == (("bowl_north",), ("bowl_south",))
 
 
@@ -331,15 +344,23 @@ def _thirty_dishes():
     return parse_scenario(dump_scenario(dataclasses.replace(scenario, dishes=cups)))
 
 
+@pytest.fixture(scope="module")
+def thirty_dishes():
+    """What the planner knows of the 30-dish task, its Drake scene and a ring Fea^m: the
+    same belief for both budget tests, whose subject is the search, not the scene."""
+    scenario = _thirty_dishes()
+    known = _known(scenario, [c.pose for c in scenario.chairs if not c.mapped])
+    return known, PlanningScene(known), _ring_heatmaps(scenario)
+
+
 @pytest.mark.parametrize("workers", [1, 2])
-def test_budget_holds_on_a_30_dish_task(monkeypatch, workers):
+def test_budget_holds_on_a_30_dish_task(monkeypatch, thirty_dishes, workers):
     """On 30 dishes, in one process or with search workers, a budget that expires in the
     middle of the searches holds: it is counted in the searches' generations (the same on
     any machine; the workers read the same clock), 110 of the full plan's 360."""
     import s3o_drake.planning.methods as methods
 
-    scenario = _thirty_dishes()
-    chairs = [c.pose for c in scenario.chairs if not c.mapped]
+    known, scene, heatmaps = thirty_dishes
     budget = 110.0
     # clingo's own limits are wall time, and what this budget holds is the searches' work:
     # its cap per state space (2 s once ordered none of the 30 plain Voronoi locations on
@@ -347,8 +368,6 @@ def test_budget_holds_on_a_30_dish_task(monkeypatch, workers):
     # before either.
     monkeypatch.setattr(methods, "TASK_TIME_LIMIT", 60.0)
     clingo_proves(monkeypatch)
-    known = _known(scenario, chairs)
-    scene, heatmaps = PlanningScene(known), _ring_heatmaps(scenario)
     clock = StepClock()
     _count_generations(monkeypatch, clock)
     p = plan_task(known, scene=scene, method="S3O-GROP*", heatmaps=heatmaps, seed=0,
@@ -363,12 +382,11 @@ def test_budget_holds_on_a_30_dish_task(monkeypatch, workers):
     assert p.order.optimal and p.order.found == p.order.asked == 3
 
 
-def test_workers_give_the_same_plan(scenes):
+def test_workers_give_the_same_plan(scenes, planning_scenes, plans):
     scenario, heatmaps, chairs = scenes["opposite_sides"]
-    one = plan(scenario, method="S3O-GROP*", heatmaps=heatmaps, perceived_chairs=chairs, seed=0,
-               workers=1)
+    one = plans["opposite_sides", "S3O-GROP*"]  # seed 0, one process
     two = plan(scenario, method="S3O-GROP*", heatmaps=heatmaps, perceived_chairs=chairs, seed=0,
-               workers=2)
+               workers=2, scene=planning_scenes["opposite_sides"])
     assert one.actions == two.actions and one.utility == two.utility
     assert one.searches == two.searches
 

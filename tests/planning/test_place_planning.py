@@ -8,6 +8,7 @@ import pytest
 from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.experiments.plan_checks import plan_faults, ring_heatmaps
 from s3o_drake.feasibility.check import FeasibilityChecker
+from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.feasibility.scene import FeasibilityScene
 from s3o_drake.planning.methods import plan_task
 from s3o_drake.planning.plan import Goto, Pickup, Place, TaskMotionPlan
@@ -23,6 +24,35 @@ def known() -> KnownWorld:
     return KnownWorld.perfect(load_scenario(TIDY))
 
 
+@pytest.fixture(scope="module")
+def few_spaces() -> tuple[KnownWorld, PlanningScene]:
+    """tidy_home with each method searching K = 2 state spaces (iterations) instead of 5,
+    and its Drake scene, shared by the methods: each iteration plans the put-down as the
+    others do, and what is asserted holds for any plan a method returns."""
+    known = KnownWorld.perfect(with_overrides(load_scenario(TIDY), ["planner.top_k=2"]))
+    return known, PlanningScene(known)
+
+
+@pytest.fixture(scope="module")
+def base_free(known):
+    """The execution's own base check of the known world: a check that asks nothing else
+    needs no reachability map ("ik" loads none)."""
+    return FeasibilityChecker(FeasibilityScene(known.contents), method="ik").base_free
+
+
+def _plan(overrides: list[str]):
+    """S3O-GROP*'s plan of tidy_home with these overrides, on a budget that never runs out."""
+    known = KnownWorld.perfect(with_overrides(load_scenario(TIDY), overrides))
+    return plan_task(known, method="S3O-GROP*", heatmaps=ring_heatmaps(known), seed=0,
+                     time_budget=10.0, clock=still_clock).plan
+
+
+@pytest.fixture(scope="module")
+def stop_and_go_plan():
+    """The paper's motion's plan: the demonstration's, and the smooth plan's comparison."""
+    return _plan(["execution.motion=stop_and_go"])
+
+
 def test_the_known_world_plans_for_objects_and_place_targets(known):
     """The plate stays: an obstacle, no target. The apple is picked, and its place target
     (an apple standing on the plate's top) is planned for like a dish."""
@@ -36,11 +66,12 @@ def test_the_known_world_plans_for_objects_and_place_targets(known):
 
 
 @pytest.mark.parametrize("method", METHODS)
-def test_every_method_picks_the_apple_then_puts_it_down_on_the_plate(known, method):
+def test_every_method_picks_the_apple_then_puts_it_down_on_the_plate(few_spaces, base_free,
+                                                                     method):
+    known, scene = few_spaces
     plan = plan_task(known, method=method, heatmaps=ring_heatmaps(known), seed=0,
-                     time_budget=10.0, clock=still_clock).plan
-    checker = FeasibilityChecker(FeasibilityScene(known.contents))
-    assert plan_faults(known, plan, checker.base_free) == []
+                     scene=scene, time_budget=10.0, clock=still_clock).plan
+    assert plan_faults(known, plan, base_free) == []
     (place,) = plan.places
     # (V-PETLON draws its stops at random in the location's region: Fea^m may be 0 there.)
     assert place.dish == "apple" and 0.0 <= place.feasibility <= 1.0
@@ -56,15 +87,12 @@ def test_every_method_picks_the_apple_then_puts_it_down_on_the_plate(known, meth
     assert TaskMotionPlan.from_json(plan.to_json()) == plan
 
 
-def test_s3o_plans_the_demonstrations_stops():
+def test_s3o_plans_the_demonstrations_stops(stop_and_go_plan):
     """The paper's demonstration, with the paper's motion: two cans and the apple at the
     first stop, the apple put down at the second, the last can at the third. (A smooth
     drive makes a stop cheaper, and S3O then serves the first can from a stop of its own:
     the next test.)"""
-    known = KnownWorld.perfect(with_overrides(load_scenario(TIDY),
-                                              ["execution.motion=stop_and_go"]))
-    plan = plan_task(known, method="S3O-GROP*", heatmaps=ring_heatmaps(known), seed=0,
-                     time_budget=10.0, clock=still_clock).plan
+    plan = stop_and_go_plan
     kinds = [(type(a).__name__, getattr(a, "dish", "")) for a in plan.actions]
     assert kinds == [("Goto", ""), ("Pickup", "can_1"), ("Pickup", "can_2"),
                      ("Pickup", "apple"), ("Goto", ""), ("Place", "apple"), ("Goto", ""),
@@ -73,18 +101,13 @@ def test_s3o_plans_the_demonstrations_stops():
     assert all(a.feasibility > 0.5 for a in plan.pickups)
 
 
-def test_with_smooth_motion_a_stop_still_holds_a_pick_and_the_apple():
+def test_with_smooth_motion_a_stop_still_holds_a_pick_and_the_apple(stop_and_go_plan):
     """With the default smooth motion a stop costs less: the first can gets a stop of its
     own, and one stop still picks a can and the apple, which is put down at a later stop;
     the plan is predicted faster than the paper's motion's."""
-    def plan_for(overrides):
-        known = KnownWorld.perfect(with_overrides(load_scenario(TIDY), overrides))
-        return plan_task(known, method="S3O-GROP*", heatmaps=ring_heatmaps(known), seed=0,
-                         time_budget=10.0, clock=still_clock).plan
-
-    plan = plan_for([])
+    plan = _plan([])
     kinds = [(type(a).__name__, getattr(a, "dish", "")) for a in plan.actions]
     assert kinds == [("Goto", ""), ("Pickup", "can_1"), ("Goto", ""), ("Pickup", "can_2"),
                      ("Pickup", "apple"), ("Goto", ""), ("Place", "apple"), ("Goto", ""),
                      ("Pickup", "can_3")]
-    assert plan.predicted_time < plan_for(["execution.motion=stop_and_go"]).predicted_time
+    assert plan.predicted_time < stop_and_go_plan.predicted_time

@@ -40,7 +40,8 @@ BUDGET = 2.0
 
 def _check(scene, budget: float = BUDGET) -> dict[str, dict]:
     known = KnownWorld.perfect(scene)
-    checker = FeasibilityChecker(FeasibilityScene(known.contents))
+    # The execution's base check, which needs no reachability map ("ik" loads none).
+    checker = FeasibilityChecker(FeasibilityScene(known.contents), method="ik")
     rows = plan_and_check(known, heatmaps=ring_heatmaps(known), budget=budget,
                           base_free=checker.base_free, clock=time.process_time)
     for method, row in rows.items():
@@ -81,7 +82,7 @@ def test_petlon_keeps_a_small_budget_in_a_crowded_scene():
     deadline (3.5 s for a 0.5 s budget): the draws now stop at the deadline."""
     scene = random_scene(0, 0, SHAPE, planner=CHEAP)
     known = KnownWorld.perfect(scene)
-    checker = FeasibilityChecker(FeasibilityScene(known.contents))
+    checker = FeasibilityChecker(FeasibilityScene(known.contents), method="ik")
     heatmaps = ring_heatmaps(known)
     # Warm: the free-stop checker is built once.
     plan_and_check(known, heatmaps=heatmaps, budget=1.0, base_free=checker.base_free,
