@@ -130,6 +130,12 @@ class ChairModel:
                              fu.CHAIR_SEAT_HEIGHT)
         return z
 
+    def corners(self) -> np.ndarray:
+        """The corners (8, 2) of the seat's and the backrest's rectangles (chair frame): the
+        top view's extreme points."""
+        return np.array([(x, y) for x0, x1, y0, y1 in (self.seat, self.back)
+                         for x in (x0, x1) for y in (y0, y1)])
+
     def samples(self, spacing: float) -> np.ndarray:
         """Points (n, 2) on a lattice covering the top view, in the chair frame."""
         points = []
@@ -139,6 +145,17 @@ class ChairModel:
             gx, gy = np.meshgrid(xs, ys)
             points.append(np.stack([gx.ravel(), gy.ravel()], axis=1))
         return np.concatenate(points)
+
+
+def placement_error(true_pose: Sequence[float], found_pose: Sequence[float],
+                    model: ChairModel | None = None) -> float:
+    """The most (m) any point of a chair's top view lies from where it truly is, the chair
+    perceived at `found_pose` (x, y, yaw) instead of `true_pose`: a planar motion moves
+    the points of a polygon furthest at one of its corners."""
+    corners = (model or ChairModel.from_furniture()).corners()
+    return float(np.max(np.linalg.norm(
+        _to_world(corners, np.asarray(found_pose, dtype=float))
+        - _to_world(corners, np.asarray(true_pose, dtype=float)), axis=1)))
 
 
 def _rect_distance(p: np.ndarray, rect: tuple[float, float, float, float]) -> np.ndarray:

@@ -73,11 +73,29 @@ class FeasibilityScene:
         self.robot_radius = robot_horizontal_radius(extent)
         """Horizontal reach (m) of the robot's collision geometry with the arm stowed."""
         self.padding = padding
+        self._keep_from_unmapped_chairs(padding + contents.unmapped_chairs_margin)
         self.obstacles = Obstacles.of_contents(contents) if obstacles is None else obstacles
         self.clearance = BaseClearance(self.obstacles, robot_extent=extent, padding=padding)
         self.collision = CertainCollision.of_scene(self.plant, inspector,
                                                    self.robot_instances, context)
         """Base positions that need no collision query (see `clearance`)."""
+
+    def _keep_from_unmapped_chairs(self, padding: float) -> None:
+        """The arm's and the gripper's padding against the chairs not on the map, where
+        their placement is uncertain. The base's stays: its clearance is the footprint's
+        (`clearance`), the same in every direction, and its protective stop watches what
+        it drives past."""
+        if padding == self.padding:
+            return
+        base = self.robot_instances.body(self.robot.base_link)
+        on_base = {b.index() for b in self.plant.GetBodiesWeldedTo(base)}
+        arm = [self.plant.get_body(i) for i in self.robot_instances.body_indices()
+               if i not in on_base]
+        chairs = [self.plant.GetBodyByName("chair", self.models.chairs[c.name])
+                  for c in self.contents.chairs if not c.mapped]
+        for body in arm:
+            for chair in chairs:
+                self.checker.inner.SetPaddingBetween(body, chair, padding)
 
     def q(self, base: np.ndarray, arm: np.ndarray | None = None,
           gripper: np.ndarray | None = None) -> np.ndarray:

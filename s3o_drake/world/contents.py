@@ -24,3 +24,7 @@ class SceneContents:
     """The robot in the room."""
     floor_margin: float = 0.0
     """How far (m) the visible floor reaches beyond the room (the camera's margin)."""
+    unmapped_chairs_margin: float = 0.0
+    """How much further (m) than the scene's padding the arm keeps from the chairs not on
+    the map: a belief's chairs are where perception placed them, and may be this far off
+    (`belief.known_world.PLACEMENT_ERROR`); the true world's are where they are (0)."""

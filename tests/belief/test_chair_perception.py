@@ -127,3 +127,14 @@ def test_draws_the_chairs_on_the_overhead_image(two_dishes):
     picture = draw_chairs(camera, color, true_chairs(scenario))
     assert picture.shape == (*color.shape[:2], 3) and picture.dtype == np.uint8
     assert np.any(np.all(picture == (0, 200, 0), axis=2))
+
+
+def test_the_placement_error_is_the_most_any_point_of_the_chair_moves():
+    from s3o_drake.belief.chair_perception import ChairModel, placement_error
+
+    pose = [2.0, 1.0, 0.4]
+    assert placement_error(pose, pose) == 0.0
+    assert placement_error(pose, [2.003, 0.996, 0.4]) == pytest.approx(0.005)
+    # Turned about its centre, its corner furthest from the centre moves most.
+    radius = np.linalg.norm(ChairModel.from_furniture().corners(), axis=1).max()
+    assert placement_error(pose, [2.0, 1.0, 0.42]) == pytest.approx(2 * radius * math.sin(0.01))
