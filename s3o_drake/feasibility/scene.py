@@ -15,6 +15,7 @@ from functools import cached_property
 
 import numpy as np
 from pydrake.math import RigidTransform
+from pydrake.multibody.tree import RigidBody
 from pydrake.planning import RobotDiagramBuilder, SceneGraphCollisionChecker
 
 from s3o_drake.feasibility.clearance import (
@@ -87,8 +88,7 @@ class FeasibilityScene:
         it drives past."""
         if padding == self.padding:
             return
-        base = self.robot_instances.body(self.robot.base_link)
-        on_base = {b.index() for b in self.plant.GetBodiesWeldedTo(base)}
+        on_base = {b.index() for b in self.base_bodies}
         arm = [self.plant.get_body(i) for i in self.robot_instances.body_indices()
                if i not in on_base]
         chairs = [self.plant.GetBodyByName("chair", self.models.chairs[c.name])
@@ -133,14 +133,19 @@ class FeasibilityScene:
                 self.checker.SetCollisionFilteredBetween(body, dish, False)
 
     @cached_property
+    def base_bodies(self) -> list[RigidBody]:
+        """The robot's bodies welded to its base link: they move only as the base moves."""
+        base = self.robot_instances.body(self.robot.base_link)
+        return list(self.plant.GetBodiesWeldedTo(base))
+
+    @cached_property
     def standing_checker(self) -> RobotChecker:
         """A clone of `checker` without the padding between the base and the world: for the
         arm's motions while the base stands, which the base's own distance to the world
         does not change. A base that stopped inside the padding (a protective stop, a
         landing off by the localisation's error) may still move its arm."""
         clone = self.checker.Clone()
-        base = self.robot_instances.body(self.robot.base_link)
-        for body in self.plant.GetBodiesWeldedTo(base):
+        for body in self.base_bodies:
             clone.inner.SetPaddingOneRobotBodyAllEnvironmentPairs(body.index(), 0.0)
         return clone
 

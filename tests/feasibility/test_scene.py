@@ -1,6 +1,7 @@
 """The feasibility scene keeps the arm further from the chairs perception placed than from
 what the map gives: a perceived chair may lie a little off, and an arm that passed it by
-its padding alone touched it. The base's clearance does not change."""
+its padding alone touched it. The base's clearance does not change. A base that stands
+within its padding may still move its arm."""
 
 import dataclasses
 
@@ -13,15 +14,13 @@ from s3o_drake.feasibility.scene import FeasibilityScene
 MARGIN = 0.03
 
 
-def _near_the_chair(scene: FeasibilityScene, *, count: int = 4000):
-    """Configurations, free in `scene`, in which the arm (first) or the base (second) comes
-    within 1.5-3 cm of the chair and the other part stays 5 cm off."""
+def _chair_configurations(scene: FeasibilityScene, *, count: int = 4000):
+    """Random configurations around the chair, each with the arm's and the base's distance
+    to it (m)."""
     robot, plant = scene.robot, scene.plant
     chair = plant.GetBodyByName("chair", scene.models.chairs["chair"]).index()
-    base = scene.robot_instances.body(robot.base_link)
-    on_base = {b.index() for b in plant.GetBodiesWeldedTo(base)}
+    on_base = {b.index() for b in scene.base_bodies}
     rng = np.random.default_rng(0)
-    found: dict[str, np.ndarray] = {}
     for _ in range(count):
         # The chair stands at (2.0, 3.35); the robot east of it, any way round.
         pose = rng.uniform([2.4, 3.0, -np.pi], [3.0, 3.7, np.pi])
@@ -34,10 +33,18 @@ def _near_the_chair(scene: FeasibilityScene, *, count: int = 4000):
                                   clearance.distances(), strict=True):
             if other == chair:
                 near[body in on_base] = min(near[body in on_base], d + scene.padding)
+        yield q, near[False], near[True]
+
+
+@pytest.fixture(scope="module")
+def near_the_chair(scene):
+    """Configurations, free in `scene`, in which the arm (first) or the base (second) comes
+    within 1.5-3 cm of the chair and the other part stays 5 cm off."""
+    found: dict[str, np.ndarray] = {}
+    for q, arm, base in _chair_configurations(scene):
         if not scene.checker.CheckConfigCollisionFree(q):
             continue
-        for part, mine, other in (("arm", near[False], near[True]),
-                                  ("base", near[True], near[False])):
+        for part, mine, other in (("arm", arm, base), ("base", base, arm)):
             if part not in found and 0.015 < mine < MARGIN and other > 0.05:
                 found[part] = q
         if len(found) == 2:
@@ -45,9 +52,23 @@ def _near_the_chair(scene: FeasibilityScene, *, count: int = 4000):
     pytest.fail("no configuration near the chair")
 
 
-@pytest.fixture(scope="module")
-def near_the_chair(scene):
-    return _near_the_chair(scene)
+def test_an_arm_may_move_while_its_base_stands_within_its_padding(scene):
+    on_base = {b.index() for b in scene.base_bodies}
+
+    def base_within_padding_alone(q):
+        """Whether the base alone comes within its padding of the world (and not into it)."""
+        clearance = scene.checker.inner.CalcRobotClearance(scene.positions.to_plant(q), 0.1)
+        within = [(body in on_base, d) for body, d in
+                  zip(clearance.robot_indices(), clearance.distances(), strict=True) if d < 0]
+        return bool(within) and all(base and d > 0.002 - scene.padding for base, d in within)
+
+    standing = next((q for q, arm, base in _chair_configurations(scene)
+                     if base < scene.padding and arm > 0.05 and base_within_padding_alone(q)),
+                    None)
+    assert standing is not None, "no configuration with the base within its padding"
+    assert not scene.checker.CheckConfigCollisionFree(standing)
+    assert scene.standing_checker.CheckConfigCollisionFree(standing)
+    assert scene.arm_checker(standing) is scene.standing_checker
 
 
 def test_the_arm_keeps_the_margin_from_a_chair_not_on_the_map(scenario, scene, near_the_chair):
