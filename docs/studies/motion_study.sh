@@ -17,10 +17,10 @@ difficulty() { case "$1" in dense_*) echo dense ;; *) echo spacious ;; esac; }
 studies=(same_runs_028cb79 same_runs_stop_and_go time_noise_off_dense time_noise_off_spacious
          dense_open_loop dense_open_loop_stop_and_go spacious_open_loop spacious_open_loop_stop_and_go
          dense_recovery spacious_recovery dense_recovery_stop_and_go spacious_recovery_stop_and_go)
+# shellcheck source=docs/studies/rows.sh
+. "$main/docs/studies/rows.sh"
+restore_rows "$here" "${studies[@]}"
 for name in "${studies[@]}"; do
-    mkdir -p "out/$name"
-    rows="$here/$name/results.jsonl"
-    [ -f "out/$name/results.jsonl" ] || { [ -f "$rows" ] && cp "$rows" "out/$name/"; } || true
     # 028cb79's own rows, the paper's motion before the smooth one existed.
     [ "$name" != same_runs_028cb79 ] || [ -f "out/$name/results.jsonl" ] ||
         tar -xJOf "$main/docs/studies/motion_ce2f701.tar.xz" \
@@ -31,18 +31,8 @@ for name in "${studies[@]}"; do
                 "$(difficulty "$name")_open_loop/difficulty.jsonl" > "out/$name/difficulty.jsonl" ;;
     esac
 done
-# Hourly: the rows back into the main checkout, as one data: commit (errexit off: a
-# study folder without rows yet is no error here).
-(set +e; while sleep 3600; do
-    counts=""
-    for name in "${studies[@]}"; do
-        [ "$name" != same_runs_028cb79 ] && [ -s "out/$name/results.jsonl" ] || continue
-        mkdir -p "$here/$name" && cp "out/$name/results.jsonl" "$here/$name/"
-        counts="$counts$name $(wc -l < "out/$name/results.jsonl"), "
-    done
-    git -C "$main" add "$here"
-    git -C "$main" commit -q -m "data: the motion studies at $commit: ${counts%, } rows" -- "$here"
-done) &
+# Hourly: the rows back into the main checkout (028cb79's own are not this study's).
+keep_rows_hourly "$main" "$here" "the motion studies at $commit" "${studies[@]:1}"
 SG="--set execution.motion=stop_and_go"
 # Exit status 1: some run ended in an error, which its row records; go on.
 ev() { s3o evaluate --quiet --workers 2 "$@" || [ $? -eq 1 ]; }

@@ -17,24 +17,10 @@ tree="$main/../calibration-$name-$commit"
 cd "$tree"
 export PYTHONPATH="$tree"  # this commit's package, not the editable install's
 studies=(spacious_open_loop dense_open_loop spacious_recovery dense_recovery)
-for study in "${studies[@]}"; do
-    mkdir -p "out/$study"
-    if [ -f "$here/$study/results.jsonl" ] && [ ! -f "out/$study/results.jsonl" ]; then
-        cp "$here/$study/results.jsonl" "out/$study/"
-    fi
-done
-(set +e; while sleep 3600; do
-    counts=""
-    for study in "${studies[@]}"; do
-        [ -s "out/$study/results.jsonl" ] || continue
-        mkdir -p "$here/$study" && cp "out/$study/results.jsonl" "$here/$study/"
-        counts="$counts$study $(wc -l < "out/$study/results.jsonl"), "
-    done
-    git -C "$main" add "$here"
-    git -C "$main" commit -q -m "data: $name's calibration at $commit: ${counts%, } rows" -- "$here"
-done) &
-keeper=$!
-trap 'kill $keeper 2>/dev/null' EXIT
+# shellcheck source=docs/studies/rows.sh
+. "$main/docs/studies/rows.sh"
+restore_rows "$here" "${studies[@]}"
+keep_rows_hourly "$main" "$here" "$name's calibration at $commit" "${studies[@]}"
 # Exit status 1: some run ended in an error, which its row records; go on.
 ev() { s3o evaluate --quiet --workers 2 --methods "S3O-GROP*" --count 20 --seeds 3 \
            --set robot.name="$name" "$@" || [ $? -eq 1 ]; }
