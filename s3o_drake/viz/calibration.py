@@ -5,7 +5,7 @@ from __future__ import annotations
 import io
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import matplotlib
 
@@ -15,11 +15,32 @@ import numpy as np
 
 from s3o_drake.world.files import write_atomically
 
-if TYPE_CHECKING:
-    from s3o_drake.experiments.calibration import Calibration
+
+class ReliabilityBin(Protocol):
+    """What the diagram reads of one bin of predicted Fea^m."""
+
+    low: float
+    high: float
+    count: int
+    mean_predicted: float
+    interval: tuple[float, float] | None
+    """None for an empty bin, which the diagram leaves out."""
+
+    @property
+    def observed(self) -> float: ...
 
 
-def reliability_figure(figures: Mapping[str, Calibration], path: Path, *,
+class ReliabilityCurve(Protocol):
+    """What the diagram reads of one group's pickups (`s3o calibrate` makes them:
+    `experiments.calibration.Calibration`)."""
+
+    count: int
+    ece: float
+    brier: float
+    bins: tuple[ReliabilityBin, ...]
+
+
+def reliability_figure(figures: Mapping[str, ReliabilityCurve], path: Path, *,
                        title: str) -> None:
     """The reliability diagram of each group in `figures` (one curve each, all binned
     alike) above the pickups per bin, as a PNG at `path`."""

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import matplotlib
 import matplotlib.figure
@@ -15,11 +15,21 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-if TYPE_CHECKING:
-    from s3o_drake.experiments.summary import Cell
+
+class GroupResult(Protocol):
+    """What the figure reads of one method in one difficulty group (a study's summary
+    makes them: `experiments.summary.Cell`)."""
+
+    group: str
+    method: str
+    runs: int
+    completion: float
+    completion_std: float
+    execution_time: float
+    execution_time_std: float
 
 
-def plot_figure_five(cells: Sequence[Cell], methods: Sequence[str], groups: Sequence[str],
+def plot_figure_five(cells: Sequence[GroupResult], methods: Sequence[str], groups: Sequence[str],
                      path: Path) -> None:
     """Writes `figure_five` to `path`."""
     fig = figure_five(cells, methods, groups)
@@ -27,16 +37,15 @@ def plot_figure_five(cells: Sequence[Cell], methods: Sequence[str], groups: Sequ
     plt.close(fig)
 
 
-def figure_five(cells: Sequence[Cell], methods: Sequence[str], groups: Sequence[str]
+def figure_five(cells: Sequence[GroupResult], methods: Sequence[str], groups: Sequence[str]
                 ) -> matplotlib.figure.Figure:
     """The paper's Fig. 5: completion rate and execution time per difficulty group (in the
     order given) and method, bars with the spread over seeds as error bars. A group without
     runs keeps its place, its bars replaced by the words "no runs"."""
-    GROUPS = groups
     at = {(c.group, c.method): c for c in cells}
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     width = 0.8 / len(methods)
-    x = np.arange(len(GROUPS))
+    x = np.arange(len(groups))
     colours = plt.get_cmap("tab10")
     for ax, (label, value, spread) in zip(axes, (
             ("task completion rate", "completion", "completion_std"),
@@ -44,7 +53,7 @@ def figure_five(cells: Sequence[Cell], methods: Sequence[str], groups: Sequence[
             strict=True):
         for i, method in enumerate(methods):
             offset = x + (i - (len(methods) - 1) / 2) * width
-            for k, g in enumerate(GROUPS):
+            for k, g in enumerate(groups):
                 cell = at[(g, method)]
                 mean = getattr(cell, value)
                 if math.isnan(mean):  # no runs (or none with a time): no bar, a word
@@ -57,8 +66,8 @@ def figure_five(cells: Sequence[Cell], methods: Sequence[str], groups: Sequence[
                 if mean == 0:  # a real 0 would be an invisible bar
                     ax.plot([offset[k] - width / 2, offset[k] + width / 2], [0, 0],
                             color=colours(i), linewidth=3)
-        ax.set_xticks(x, [g.capitalize() for g in GROUPS])
-        ax.set_xlim(-0.5, len(GROUPS) - 0.5)  # every group, with bars or not
+        ax.set_xticks(x, [g.capitalize() for g in groups])
+        ax.set_xlim(-0.5, len(groups) - 0.5)  # every group, with bars or not
         ax.set_ylabel(label)
         ax.grid(axis="y", alpha=0.3)
     axes[0].set_ylim(0, 1.05)
@@ -66,7 +75,7 @@ def figure_five(cells: Sequence[Cell], methods: Sequence[str], groups: Sequence[
     # Below the axes: a legend inside them covers bars.
     fig.legend(handles, methods, loc="lower center", ncol=min(len(methods), 7), fontsize=8,
                frameon=False)
-    runs = sum(at[(g, methods[0])].runs for g in GROUPS)
+    runs = sum(at[(g, methods[0])].runs for g in groups)
     fig.suptitle(f"Completion and execution time by task difficulty ({runs} runs per method; "
                  "error bars: standard deviation over seeds; times: runs with a plan)")
     fig.tight_layout(rect=(0, 0.07, 1, 1))
