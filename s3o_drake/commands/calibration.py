@@ -15,10 +15,10 @@ import json
 import sys
 
 from s3o_drake.commands.common import command_parser, fail
-from s3o_drake.commands.options import add_out, at_least, out_folder
+from s3o_drake.commands.options import add_out, add_pickup_methods, at_least, out_folder
 
 # Light imports only: the heavy ones come after the arguments are parsed.
-from s3o_drake.world.choices import CALIBRATION_GROUPINGS, METHODS
+from s3o_drake.world.choices import CALIBRATION_GROUPINGS
 from s3o_drake.world.files import write_atomically
 
 
@@ -28,8 +28,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                         help="results.jsonl, a folder holding one or run outputs, or "
                              "report.json files")
     add_out(parser, file=False, default="out/calibration")
-    parser.add_argument("--methods", nargs="+", metavar="NAME",
-                        help=f"only these methods' pickups, some of: {', '.join(METHODS)}")
+    add_pickup_methods(parser)
     parser.add_argument("--by", choices=CALIBRATION_GROUPINGS, default="all",
                         help="the diagram's curves: all pickups (default), per method, "
                              "source of Fea^m, action, dishes served by the stop, those "
@@ -42,9 +41,6 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    unknown = [m for m in args.methods or () if m not in METHODS]
-    if unknown:
-        fail(f"--methods: unknown method {unknown[0]!r} (choose from {', '.join(METHODS)})")
     out = out_folder(args.out)
     from s3o_drake.experiments.calibration import (
         RecordsError,

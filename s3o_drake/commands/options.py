@@ -64,6 +64,12 @@ def method(text: str) -> str:
     return text
 
 
+def add_pickup_methods(parser: argparse.ArgumentParser) -> None:
+    """--methods NAME ...: only these methods' executed pickups (None: every method's)."""
+    parser.add_argument("--methods", nargs="+", type=method, metavar="NAME",
+                        help=f"only these methods' pickups, some of: {', '.join(METHODS)}")
+
+
 def add_tasks(parser: argparse.ArgumentParser, *, default: Sequence[Path] = (TASKS_DIR,),
               count: int | None = None, required: str = "required") -> None:
     """--tasks PATH ... and --count N; `task_paths` reads them. `count`: how many of the

@@ -19,8 +19,13 @@ import sys
 from pathlib import Path
 
 from s3o_drake.commands.common import command_parser, fail
-from s3o_drake.commands.options import add_json, add_quiet, at_least, json_store
-from s3o_drake.world.choices import METHODS
+from s3o_drake.commands.options import (
+    add_json,
+    add_pickup_methods,
+    add_quiet,
+    at_least,
+    json_store,
+)
 from s3o_drake.world.resources import REPO_DIR
 
 
@@ -37,8 +42,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--per-group", type=at_least(1), default=100, metavar="N",
                         help="with --by stop or distance: pickups drawn per group "
                              "(default 100)")
-    parser.add_argument("--methods", nargs="+", metavar="NAME",
-                        help=f"only these methods' pickups, some of: {', '.join(METHODS)}")
+    add_pickup_methods(parser)
     parser.add_argument("--samples", type=at_least(1), default=100, metavar="N",
                         help="Monte-Carlo landings per pickup (default 100)")
     parser.add_argument("--seed", type=at_least(0), default=0, metavar="N",
@@ -50,9 +54,6 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    unknown = [m for m in args.methods or () if m not in METHODS]
-    if unknown:
-        fail(f"--methods: unknown method {unknown[0]!r} (choose from {', '.join(METHODS)})")
     results = Path(args.study) / "results.jsonl"
     if not results.is_file():
         fail(f"STUDY: no results.jsonl in {args.study}")
