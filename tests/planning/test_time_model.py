@@ -292,6 +292,27 @@ def test_the_command_fits_every_form_of_the_model_in_its_order():
     assert tuple(FORMS) == PICKUP_FORMS
 
 
+def test_a_robot_being_built_is_timed_on_plans_that_need_no_recorded_shares(
+        monkeypatch, tmp_path):
+    """The time model's runs plan before the robot's calibration records its shared-stop
+    shares (which need this model): a robot without them is timed on plans that rate shared
+    stops as the paper does; one with them, on the plans it executes."""
+    from s3o_drake.abstraction.shared_stop import uses_recorded_shares
+    from s3o_drake.commands import derive_times
+    from s3o_drake.experiments.jobs import as_benchmarked
+    from s3o_drake.world import robot as robot_module
+
+    files = robot_module.RobotFiles(tmp_path)
+    monkeypatch.setattr(robot_module, "load_robot",
+                        lambda name: dataclasses.replace(UR5E, files=files))
+    task = load_scenario(REPO / "scenarios" / "generated" / "task_000.yaml")
+    assert uses_recorded_shares(as_benchmarked(task).settings)  # measured open loop
+    being_built = as_benchmarked(with_overrides(task, derive_times.unmeasured_ratings("ur5e")))
+    assert not uses_recorded_shares(being_built.settings)
+    files.shared_stop.write_text("")
+    assert derive_times.unmeasured_ratings("ur5e") == ()
+
+
 # ------------------------------------------------------------------------- smooth motion
 def test_smooth_terms_of_a_merged_stop():
     """With smooth motion a stop's first pickup is the grasp alone (the arm came to the
