@@ -114,8 +114,8 @@ def plan_steps(name: str, *, workers: int) -> list[Step]:
                      "--seed", "0", "--epochs", str(EPOCHS), "--quiet"), (spacious, dense),
              (fcn,)),
         # The time model's measured runs plan as the robot plans, with its network.
-        Step("time-model", ("build", "time-model", *robot, "--out", str(times), "--seed", "0"),
-             (*model, reach_map, fcn), (times,)),
+        Step("time-model", ("build", "time-model", *robot, "--out", str(times), "--seed", "0",
+                            "--workers", w), (*model, reach_map, fcn), (times,)),
         Step("oracle-pinning", ("bench", "oracle-pinning", *robot, "--json", str(pinning),
                                 "--count", str(PINNING_TASKS)), (*model, reach_map),
              (pinning,)),
