@@ -383,16 +383,28 @@ class RobotInstances:
 
     def position_indices(self) -> np.ndarray:
         """Where the robot's positions (`Robot.joints` order) are among the plant's."""
-        return np.array([self.joint(j).position_start() for j in self.robot.joints])
+        return self._position_indices
 
     def velocity_indices(self) -> np.ndarray:
         """... and its velocities among the plant's."""
-        return np.array([self.joint(j).velocity_start() for j in self.robot.joints])
+        return self._velocity_indices
 
-    def _followers(self) -> list[tuple[int, int, float, float]]:
+    # Found once per robot in a plant: a simulation reads and sets the robot's positions
+    # at every step, and the lookups by name (and the URDF's mimic tags) cost more than
+    # the step's own arithmetic.
+    @functools.cached_property
+    def _position_indices(self) -> np.ndarray:
+        return _read_only([self.joint(j).position_start() for j in self.robot.joints])
+
+    @functools.cached_property
+    def _velocity_indices(self) -> np.ndarray:
+        return _read_only([self.joint(j).velocity_start() for j in self.robot.joints])
+
+    @functools.cached_property
+    def _followers(self) -> tuple[tuple[int, int, float, float], ...]:
         """(follower's position index, leader's, multiplier, offset) of the mimic joints."""
-        return [(self.joint(f).position_start(), self.joint(leader).position_start(), m, b)
-                for f, leader, m, b in mimic_joints(self.robot.description)]
+        return tuple((self.joint(f).position_start(), self.joint(leader).position_start(),
+                      m, b) for f, leader, m, b in mimic_joints(self.robot.description))
 
     def set_positions(self, context, q: np.ndarray) -> None:
         """Sets the robot's positions (`Robot.joints` order) in a plant context, and its
@@ -402,7 +414,7 @@ class RobotInstances:
             self.plant.SetPositions(context, self.instances[0], q)
             return
         self.plant.SetPositions(context, _lifted(self.plant.GetPositions(context), q,
-                                                 self.position_indices(), self._followers()))
+                                                 self.position_indices(), self._followers))
 
     def get_positions(self, context) -> np.ndarray:
         if self.is_single:
@@ -436,10 +448,8 @@ class RobotInstances:
         rest = plant.GetPositions(plant.CreateDefaultContext()).copy()
         identity = (plant.num_positions() == self.robot.num_positions
                     and np.array_equal(indices, np.arange(self.robot.num_positions)))
-        indices = np.array(indices, dtype=int)
-        indices.flags.writeable = False
         return PositionMap(num_plant=plant.num_positions(), indices=indices,
-                           followers=tuple(self._followers()), rest=_frozen(rest),
+                           followers=self._followers, rest=_frozen(rest),
                            is_identity=identity)
 
     def state_selector(self) -> np.ndarray:
@@ -469,6 +479,13 @@ class RobotInstances:
             S[len(rows) + np.arange(len(rows)), n + np.array(rows)] = 1.0
             selectors[instance] = S
         return selectors
+
+
+def _read_only(values: Sequence[int]) -> np.ndarray:
+    """An index array that may be handed out and kept: it cannot be changed."""
+    array = np.array(values, dtype=int)
+    array.flags.writeable = False
+    return array
 
 
 def _lifted(plant_q: np.ndarray, q: np.ndarray, indices: np.ndarray,
