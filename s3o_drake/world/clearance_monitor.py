@@ -17,10 +17,12 @@ from pydrake.common.value import AbstractValue
 from pydrake.geometry import (
     Box,
     Capsule,
+    Convex,
     Cylinder,
     Ellipsoid,
     FrameId,
     GeometryId,
+    Mesh,
     QueryObject,
     Role,
     SceneGraph,
@@ -275,4 +277,13 @@ def _bounding_radius(shape: object) -> float:
         return shape.radius() + shape.length() / 2
     if isinstance(shape, Ellipsoid):
         return max(shape.a(), shape.b(), shape.c())
+    if isinstance(shape, (Mesh, Convex)):
+        # The farthest vertex of its convex hull (scaled), which holds the mesh and is what
+        # the distance queries measure for it.
+        try:
+            hull = shape.GetConvexHull()
+        except RuntimeError:  # a file Drake cannot make a hull of
+            return math.inf
+        return max(math.sqrt(sum(c * c for c in hull.vertex(i)))
+                   for i in range(hull.num_vertices()))
     return math.inf

@@ -112,23 +112,26 @@ def test_the_room_is_furniture_welded_to_the_world():
         room_geometries(plant, scene_graph, ["welded", "loose"])
 
 
-def test_near_pairs_keep_every_pair_that_comes_within_reach():
+@pytest.mark.parametrize("robot_name", ["ur5e", "gen3"])
+def test_near_pairs_keep_every_pair_that_comes_within_reach(robot_name):
     """NearPairs leaves out only what cannot come within its reach: in the dense
     restaurant, at random base poses by its tables and random arm configurations, every
     (robot, room) pair that Drake's pairwise query measures within the reach is among its
-    pairs, and most pairs are left out."""
+    pairs, and most pairs are left out: for a robot of primitives (the UR5e) and one of
+    its makers' meshes (the Gen3), whose bounds are their convex hulls'."""
     import numpy as np
 
     from s3o_drake.world.clearance_monitor import NearPairs, room_geometries
     from s3o_drake.world.resources import REPO_DIR
     from s3o_drake.world.scenario import load_scenario
 
-    scenario = load_scenario(REPO_DIR / "scenarios" / "restaurant_dense.yaml")
+    scenario = with_overrides(load_scenario(REPO_DIR / "scenarios" / "restaurant_dense.yaml"),
+                              (f"robot.name={robot_name}",))
     world = build_world_diagram(scenario, noise=False)
     context = world.CreateDefaultContext()
     plant, scene_graph = (world.GetSubsystemByName(n) for n in ("plant", "scene_graph"))
-    robot = proximity_geometries(plant, scene_graph,
-                                 [plant.GetModelInstanceByName(ROBOT_INSTANCE)])
+    robot = proximity_geometries(plant, scene_graph, list(
+        load_robot(robot_name).instances_in(plant).instances))
     room = room_geometries(plant, scene_graph,
                            [f.name for f in (*scenario.tables, *scenario.chairs)])
     plant_context = world.GetMutableSubsystemContext(plant, context)
