@@ -40,9 +40,8 @@ def checkers():
     return checker
 
 
-# The Gen3 is not offered to scenarios yet (its description's `missing:`): its value is
-# put into the small scene's contents directly, as every robot's is here.
-@pytest.mark.parametrize("name", [*robot_names(), "gen3"])
+# Each robot's value is put into the small scene's contents directly.
+@pytest.mark.parametrize("name", robot_names())
 def test_every_robot_picks_a_plate_and_a_cup_within_its_limits(name, checkers):
     """The Gen3's 2F-85 pinches both at the rim: its pads swing out as they close, and its
     fingers' whole linkage may touch the dish."""

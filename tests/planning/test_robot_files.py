@@ -41,3 +41,13 @@ def test_each_missing_file_is_named_with_its_setting_and_its_command(tmp_path):
     assert robot_files.missing_robot_files(_settings("oracle", "paper", "replan"), robot) == []
     assert robot_files.missing_robot_files(_settings("oracle", "execution", "none", "paper"),
                                            robot) == []
+
+
+def test_a_robot_still_being_built_is_told_what_it_lacks_in_one_line():
+    # Its description says what it lacks (`missing`) until its build is done: the commands
+    # that plan and execute refuse it with that, whatever files its folder holds so far.
+    description = dataclasses.replace(UR5E.description, missing="its network and\n  its price")
+    robot = dataclasses.replace(UR5E, description=description)
+    assert robot_files.missing_robot_files(_settings("fcn", "execution", "replan"), robot) == [
+        "robot.name: 'ur5e' is not ready to plan and execute; it lacks its network and its "
+        "price"]

@@ -23,7 +23,7 @@ from s3o_drake.world.maker_models import (
     expand_xacro,
     ros_packages,
 )
-from s3o_drake.world.resources import MODELS_DIR, RESTAURANT, robot_dir
+from s3o_drake.world.resources import MODELS_DIR, robot_dir
 from s3o_drake.world.robot import load_robot
 from s3o_drake.world.robot_description import (
     RobotDescriptionError,
@@ -48,23 +48,16 @@ def _plant(robot, time_step=1e-3):
     return builder, plant, scene_graph, placed
 
 
-def test_gen3_loads_but_is_not_offered_to_run(gen3, capsys):
-    # It lacks what planning needs (its description's `missing`): it is not offered, and
-    # the commands that plan and execute refuse it in one line saying what it lacks. It
-    # loads by name, checked against its parts, and a scenario may name it: its build's
-    # steps run scenarios with it.
-    from s3o_drake.commands.run_scenario import main as run_main
+def test_gen3_is_built_and_offered(gen3):
+    # Built (`s3o build robot gen3`): its description lacks nothing, it is offered beside
+    # the others, it loads by name, checked against its parts, and a scenario may name it.
     from s3o_drake.world.scenario import parse_scenario
 
-    assert gen3.is_of_parts and gen3.description.missing
-    assert "gen3" not in robot_names() and {"ur5e", "panda"} <= set(robot_names())
+    assert gen3.is_of_parts and not gen3.description.missing
+    assert {"ur5e", "panda", "gen3"} <= set(robot_names())
     assert parse_scenario("robot: {name: gen3}").robot_value is gen3
-    with pytest.raises(SystemExit) as info:
-        run_main([str(RESTAURANT), "--set",
-                  "robot.name=gen3"])
-    err = capsys.readouterr().err
-    assert info.value.code == 2 and err.count("\n") == 1
-    assert "robot.name: 'gen3' is not ready to plan and execute; it lacks " in err
+    for built in (gen3.files.reachability_map, gen3.files.time_model, gen3.files.fcn_weights):
+        assert built.is_file()
     assert gen3.joints == ("base_x", "base_y", "base_yaw", *(f"joint_{i}" for i in range(1, 8)),
                            "robotiq_85_left_knuckle_joint")
     assert [p.name for p in gen3.description.parts] == ["base", "arm", "gripper"]
@@ -185,10 +178,8 @@ def test_build_part_from_a_xacro(tmp_path):
 def test_model_or_parts(change, path):
     text = (MODELS_DIR / "gen3" / "robot.yaml").read_text()
     if change.startswith("parts"):
-        text = text.replace("parts:\n", "old_parts:\n", 1)
-        text = "\n".join(line for line in text.splitlines() if not line.startswith("old_parts"))
-        # Without parts (and without a model) the description names no model.
-        text = text.split("\nframes:")[0] + "\nbase:" + text.split("\nbase:")[1]
+        # Without parts and their frames (and without a model) it names no model.
+        text = text.split("\nparts:\n")[0] + "\nbase:" + text.split("\nbase:")[1]
     else:
         text = change + text
     with pytest.raises(RobotDescriptionError, match=path):
