@@ -50,6 +50,12 @@ def test_the_relay_forwards_each_side_s_channels_and_loses_its_share():
             listen()
     finally:
         relay.stop()
+    # What the relay passed last arrives after it: on a loaded machine (beside a study) its
+    # thread may forward the last messages well after they were sent. Heard within 10 s.
+    deadline = time.monotonic() + 10.0
+    while (len(heard["controllers"]) + len(heard["robot"]) < relay.passed
+           and time.monotonic() < deadline):
+        listen()
     seen = relay.passed + relay.dropped
     assert seen >= 950
     assert relay.dropped / seen == pytest.approx(0.2, abs=0.05)
