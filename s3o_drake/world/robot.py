@@ -63,8 +63,9 @@ from s3o_drake.world.robot_description import (
 )
 
 
-def _frozen(values) -> np.ndarray:
-    array = np.array(values, dtype=float)
+def _frozen(values, dtype: type = float) -> np.ndarray:
+    """An array that may be handed out and kept: it cannot be changed."""
+    array = np.array(values, dtype=dtype)
     array.flags.writeable = False
     return array
 
@@ -394,11 +395,11 @@ class RobotInstances:
     # the step's own arithmetic.
     @functools.cached_property
     def _position_indices(self) -> np.ndarray:
-        return _read_only([self.joint(j).position_start() for j in self.robot.joints])
+        return _frozen([self.joint(j).position_start() for j in self.robot.joints], int)
 
     @functools.cached_property
     def _velocity_indices(self) -> np.ndarray:
-        return _read_only([self.joint(j).velocity_start() for j in self.robot.joints])
+        return _frozen([self.joint(j).velocity_start() for j in self.robot.joints], int)
 
     @functools.cached_property
     def _followers(self) -> tuple[tuple[int, int, float, float], ...]:
@@ -479,13 +480,6 @@ class RobotInstances:
             S[len(rows) + np.arange(len(rows)), n + np.array(rows)] = 1.0
             selectors[instance] = S
         return selectors
-
-
-def _read_only(values: Sequence[int]) -> np.ndarray:
-    """An index array that may be handed out and kept: it cannot be changed."""
-    array = np.array(values, dtype=int)
-    array.flags.writeable = False
-    return array
 
 
 def _lifted(plant_q: np.ndarray, q: np.ndarray, indices: np.ndarray,
