@@ -128,10 +128,12 @@ class StopPickup:
 
 
 def derive_shares(records: Iterable[StopPickup], *, resamples: int = 2000,
-                  seed: int = 0) -> dict[str, dict[str, float]]:
+                  seed: int = 0, partial: bool = False) -> dict[str, dict[str, float]]:
     """Per key of SIZES, and for one-dish stops ("1", which the planner keeps at 1, as a
     check of Fea^m's calibration): s_k with a 95 % bootstrap interval over its pickups,
-    their count, successes and summed Fea^m."""
+    their count, successes and summed Fea^m. A size without pickups rated above 0 is an
+    error, or with `partial` (one study of several, whose sizes the others may hold) left
+    out."""
     data = np.array([(r.predicted, float(r.succeeded), r.stop_size) for r in records],
                     dtype=float).reshape(-1, 3)
     rng = np.random.default_rng(seed)
@@ -140,6 +142,8 @@ def derive_shares(records: Iterable[StopPickup], *, resamples: int = 2000,
         rows = data[[(size_key(int(s)) or "1") == key for s in data[:, 2]]]
         predicted = np.clip(rows[:, 0], 0.0, 1.0)
         if len(rows) == 0 or predicted.sum() <= 0:
+            if partial:
+                continue
             raise ValueError(f"no pickups with Fea^m > 0 at stops serving {key} "
                              f"dish{'es' if key != '1' else ''}")
         picks = rng.integers(0, len(rows), (resamples, len(rows)))

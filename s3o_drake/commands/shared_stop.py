@@ -4,8 +4,9 @@
 
 DIR: open-loop studies (`s3o evaluate`, recovery none). The share of a stop size is
 s_k = sum of successes / sum of Fea^m over the first attempts of the pickups at stops
-serving k dishes (2, and 3 or more); printed with a 95 % bootstrap interval per study and
-over all, beside one-dish stops as a check of Fea^m's calibration, and written to --out.
+serving k dishes (2, and 3 or more); printed with a 95 % bootstrap interval per study (which
+may lack a size that the others hold) and over all, beside one-dish stops as a check of
+Fea^m's calibration, and written to --out.
 The planner rates such pickups at s_k Fea^m with `planner.shared_stop: execution`.
 """
 
@@ -34,9 +35,12 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     return parser.parse_args(argv)
 
 
+def _what(key: str) -> str:
+    return "stops serving " + ("1 dish" if key == "1" else f"{key} dishes")
+
+
 def _line(key: str, found: dict[str, float]) -> str:
-    what = "1 dish" if key == "1" else f"{key} dishes"
-    return (f"  stops serving {what}: {found['share']:.3f} [{found['low']:.3f}, "
+    return (f"  {_what(key)}: {found['share']:.3f} [{found['low']:.3f}, "
             f"{found['high']:.3f}] ({found['pickups']} pickups, {found['successes']} picked, "
             f"Fea^m summed {found['predicted']:.1f})")
 
@@ -71,15 +75,17 @@ def main(argv: list[str] | None = None) -> int:
         found = [StopPickup(p.predicted, p.succeeded, size)
                  for p, size in zip(records.pickups, records.stops, strict=True)
                  if p.attempt == 1]
-        try:
-            per_study[str(folder)] = derive_shares(found)
-        except ValueError as e:
-            fail(f"DIR: {folder}: {e}")
+        # A small study may have made no stop of some size; the studies together must.
+        per_study[str(folder)] = derive_shares(found, partial=True)
         everything += found
         print(f"{folder}:")
-        for key, value in per_study[str(folder)].items():
-            print(_line(key, value))
-    total = derive_shares(everything)
+        for key in ("1", *SIZES):
+            value = per_study[str(folder)].get(key)
+            print(_line(key, value) if value else f"  {_what(key)}: none")
+    try:
+        total = derive_shares(everything)
+    except ValueError as e:
+        fail(f"DIR: the studies together have {e}")
     shares = StopShares({k: total[k]["share"] for k in SIZES}, {
         "command": "s3o shared-stop " + " ".join(sys.argv[1:] if argv is None else argv),
         "intervals": {k: [round(total[k]["low"], 4), round(total[k]["high"], 4)]

@@ -99,6 +99,33 @@ def test_the_command_derives_and_records_the_shares(tmp_path, capsys):
     assert "stops serving 2 dishes: 0.556" in capsys.readouterr().out
 
 
+def test_a_study_without_some_stop_size_counts_in_the_total(tmp_path, capsys):
+    """A small study may make no stop of three dishes in one room: the shares come from
+    the studies together, and only when none has such a stop is that refused."""
+    shared, alone = [1.0, 1.0, 0.0], [3.0, 1.0, 0.0]
+    pairs = _row("p", [_pickup("a", shared, "done"), _pickup("b", shared, "no_ik"),
+                       _pickup("c", alone, "done")])
+    threes = _row("t", [_pickup(d, shared, "done") for d in "abc"])
+    for name, rows in (("pairs", [pairs]), ("threes", [pairs, threes])):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "results.jsonl").write_text(
+            "".join(json.dumps(r) + "\n" for r in rows))
+    out = tmp_path / "shares.yaml"
+    assert shared_stop([str(tmp_path / "pairs"), str(tmp_path / "threes"),
+                        "--out", str(out)]) == 0
+    recorded = StopShares.from_dict(yaml.safe_load(out.read_text()))
+    assert recorded.of(3) == pytest.approx(3 / 2.7)
+    assert recorded.of(2) == pytest.approx(2 / 3.6)
+    assert "3+" not in recorded.provenance["studies"][str(tmp_path / "pairs")]
+    assert "stops serving 3+ dishes: none" in capsys.readouterr().out
+    out.unlink()
+    with pytest.raises(SystemExit) as e:
+        shared_stop([str(tmp_path / "pairs"), "--out", str(out)])
+    assert e.value.code == 2 and not out.exists()
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "DIR" in err and "3+" in err
+
+
 def test_runs_with_recovery_are_refused_in_one_line(tmp_path, capsys):
     study = tmp_path / "recovered"
     study.mkdir()
