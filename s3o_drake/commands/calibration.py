@@ -1,7 +1,7 @@
 """Calibration of Fea^m against executed pickups: reliability, ECE, Brier.
 
     s3o calibrate RESULTS [RESULTS ...] [--out DIR] [--methods NAME ...]
-                  [--by all|method|source|action|stop|facing|order|distance] [--bins N]
+                  [--by all|method|source|action|stop|facing|turn|order|distance] [--bins N]
 
 Is a pickup rated p picked a share p of the time? RESULTS: a study's results.jsonl (or its
 folder), or the report.json files of `s3o run`. Prints the pickups, their observed success,
@@ -32,8 +32,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--by", choices=CALIBRATION_GROUPINGS, default="all",
                         help="the diagram's curves: all pickups (default), per method, "
                              "source of Fea^m, action, dishes served by the stop, those "
-                             "and whether the base faced the dish, the pickup's place "
-                             "at its stop, or the stop's distance to the dish")
+                             "and whether the base faced the dish, how far it was "
+                             "turned from it, the pickup's place at its stop, or the "
+                             "stop's distance to the dish")
     parser.add_argument("--bins", type=at_least(1), default=10, metavar="N",
                         help="equal-width bins of the predictions (default 10)")
     return parser.parse_args(argv)

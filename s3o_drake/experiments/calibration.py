@@ -48,6 +48,9 @@ TURNED_AWAY = 0.15
 """Angle (rad) between the base's yaw and the bearing to its dish beyond which a pickup was
 made turned away from the dish. The execution turns to face the dish exactly (half the
 study pickups within 0.001 rad), so a larger angle is a turn in place cut short."""
+TURN_EDGES = (TURNED_AWAY, 1.0)
+"""Edges (rad) of the groups by "turn": facing the dish, turned a little, turned beside or
+behind it."""
 STOP_SIZES = ("1 dish", "2 dishes", "3+ dishes")
 """The groups by "stop": how many dishes a pickup's stop served (`stop_size_group`)."""
 DISTANCE_EDGES = (0.8, 0.9, 0.95, 1.0)
@@ -372,19 +375,20 @@ def grouped(records: Sequence[PickupRecord], by: str, *,
     """The records by "method", "source", "action" (`action_of`), "stop" (how many dishes
     the record's stop served, `stops[i]` for `records[i]`: "1 dish", "2 dishes", "3+
     dishes"), "facing" (that, and whether the base faced the dish, `facing[i]` within
-    TURNED_AWAY: "1 dish, facing", "1 dish, turned away", "..., position unknown") or
-    "order" (the record's place at its stop, `orders[i]`: "1st at its stop", "2nd at its
-    stop", "3rd+ at its stop") or "distance" (from the planned stop to the dish,
-    `distances[i]`, between DISTANCE_EDGES: "0.00-0.80 m", ..., "1.00 m or more", "position
-    unknown"), keys sorted; or all under "all" (by "all")."""
+    TURNED_AWAY: "1 dish, facing", "1 dish, turned away", "..., position unknown"), "turn"
+    (that angle alone, between TURN_EDGES: "0.00-0.15 rad", ..., "1.00 rad or more",
+    "position unknown") or "order" (the record's place at its stop, `orders[i]`:
+    "1st at its stop", "2nd at its stop", "3rd+ at its stop") or "distance" (from the
+    planned stop to the dish, `distances[i]`, between DISTANCE_EDGES: "0.00-0.80 m", ...,
+    "1.00 m or more", "position unknown"), keys sorted; or all under "all" (by "all")."""
     if by == "all":
         return {"all": list(records)}
     if by not in CALIBRATION_GROUPINGS:
         raise ValueError(f"by: expected one of {', '.join(CALIBRATION_GROUPINGS)}, got {by!r}")
     if by in ("stop", "facing") and (stops is None or len(stops) != len(records)):
         raise ValueError(f"by {by}: needs how many dishes each record's stop served")
-    if by == "facing" and (facing is None or len(facing) != len(records)):
-        raise ValueError("by facing: needs each record's angle to its dish")
+    if by in ("facing", "turn") and (facing is None or len(facing) != len(records)):
+        raise ValueError(f"by {by}: needs each record's angle to its dish")
     if by == "order" and (orders is None or len(orders) != len(records)):
         raise ValueError("by order: needs each record's place at its stop")
     if by == "distance" and (distances is None or len(distances) != len(records)):
@@ -400,6 +404,8 @@ def grouped(records: Sequence[PickupRecord], by: str, *,
             key = ("1st", "2nd", "3rd+")[min(orders[i], 3) - 1] + " at its stop"
         elif by == "distance":
             key = distance_group(distances[i])
+        elif by == "turn":
+            key = binned(facing[i], TURN_EDGES, "rad")
         else:
             key = action_of(record) if by == "action" else getattr(record, by)
         groups.setdefault(key, []).append(record)
@@ -413,13 +419,19 @@ def stop_size_group(size: int) -> str:
 
 def distance_group(distance: float | None) -> str:
     """The name of the group (by "distance") of a stop `distance` (m) from its dish."""
-    if distance is None:
+    return binned(distance, DISTANCE_EDGES, "m")
+
+
+def binned(value: float | None, edges: Sequence[float], unit: str) -> str:
+    """The name of the bin between `edges` (from 0) that holds `value`: "0.00-0.80 m", ...,
+    "1.00 m or more"; "position unknown" for None."""
+    if value is None:
         return "position unknown"
-    edges = (0.0, *DISTANCE_EDGES)
-    k = int(np.searchsorted(DISTANCE_EDGES, distance, side="right"))
-    if k == len(DISTANCE_EDGES):
-        return f"{DISTANCE_EDGES[-1]:.2f} m or more"
-    return f"{edges[k]:.2f}-{edges[k + 1]:.2f} m"
+    k = int(np.searchsorted(edges, value, side="right"))
+    if k == len(edges):
+        return f"{edges[-1]:.2f} {unit} or more"
+    low = 0.0 if k == 0 else edges[k - 1]
+    return f"{low:.2f}-{edges[k]:.2f} {unit}"
 
 
 def figures_table(figures: Mapping[str, Calibration]) -> str:

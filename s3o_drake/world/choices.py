@@ -94,12 +94,14 @@ class Goal(str, Enum):
 
 GOALS = tuple(g.value for g in Goal)
 
-CALIBRATION_GROUPINGS = ("all", "method", "source", "action", "stop", "facing", "order",
-                         "distance")
+CALIBRATION_GROUPINGS = ("all", "method", "source", "action", "stop", "facing", "turn",
+                         "order", "distance")
 """How the calibration of Fea^m groups executed records: all together, by method, by the
 model's source (fcn, oracle), by action (a pickup, or the putting down of an object at
 its place), by how many dishes the stop served (a merged location's stop serves
 several), or by that and whether the base faced its dish when the arm reached (Fea^m
 assumes it does; a turn in place that a chair cuts short leaves it turned away), or by
-the pickup's place at its stop (the first is made as the base arrives, the others after a
-turn in place), or by the planned stop's distance to its dish (towards the edge of reach)."""
+how far it was turned away (a base turned far from its dish needs an arm that reaches
+beside or behind it), or by the pickup's place at its stop (the first is made as the base
+arrives, the others after a turn in place), or by the planned stop's distance to its dish
+(towards the edge of reach)."""

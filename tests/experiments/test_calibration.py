@@ -225,7 +225,8 @@ def test_pickups_are_grouped_by_whether_the_base_faced_its_dish(tmp_path, capsys
     # plate_a at (1.85, 2.3), cup_b at (2.15, 2.3): from (2.0, 1.6) bearings of about
     # π/2 + 0.21 and π/2 - 0.21.
     bearing = math.atan2(0.7, -0.15)
-    run = [at("plate_a", bearing), at("cup_b", bearing, "no_ik"), at("ghost", 0.0)]
+    run = [at("plate_a", bearing), at("cup_b", bearing, "no_ik"), at("ghost", 0.0),
+           at("cup_b", bearing + math.pi, "no_ik")]
     task = "scenarios/small/two_dishes.yaml"
     results = _write_results(tmp_path / "s" / "results.jsonl",
                              [_row("run/t/S3O-GROP*/0", run, path=task)])
@@ -233,14 +234,24 @@ def test_pickups_are_grouped_by_whether_the_base_faced_its_dish(tmp_path, capsys
     assert read.facing[0] == pytest.approx(0.0, abs=1e-9)
     assert read.facing[1] == pytest.approx(2 * math.atan2(0.15, 0.7))
     assert read.facing[2] is None  # no such dish in the task
+    assert read.facing[3] == pytest.approx(math.pi - read.facing[1])  # the dish behind it
     by = grouped(read.pickups, "facing", stops=read.stops, facing=read.facing)
     assert {k: [r.dish for r in v] for k, v in by.items()} == {
         "3+ dishes, facing": ["plate_a"], "3+ dishes, position unknown": ["ghost"],
-        "3+ dishes, turned away": ["cup_b"]}
+        "3+ dishes, turned away": ["cup_b", "cup_b"]}
     with pytest.raises(ValueError, match="facing"):
         grouped(read.pickups, "facing", stops=read.stops)
-    assert main([str(results), "--out", str(tmp_path / "out"), "--by", "facing"]) == 0
-    assert "facing 3+ dishes, turned away" in capsys.readouterr().out
+    # How far: a little (0.42 rad), or with the dish behind the base.
+    by = grouped(read.pickups, "turn", facing=read.facing)
+    assert {k: len(v) for k, v in by.items()} == {
+        "0.00-0.15 rad": 1, "0.15-1.00 rad": 1, "1.00 rad or more": 1, "position unknown": 1}
+    with pytest.raises(ValueError, match="turn"):
+        grouped(read.pickups, "turn")
+    for by in ("facing", "turn"):
+        assert main([str(results), "--out", str(tmp_path / by), "--by", by]) == 0
+    printed = capsys.readouterr().out
+    assert "facing 3+ dishes, turned away" in printed
+    assert "turn 1.00 rad or more" in printed
     assert facing_error((0.0, 0.0, math.pi), (-1.0, 0.0)) == pytest.approx(0.0)
     assert facing_error((0.0, 0.0, -math.pi / 2), (1.0, 0.0)) == pytest.approx(math.pi / 2)
 
