@@ -190,10 +190,11 @@ def _output(diagram: Diagram, context: Context, name: str) -> object:
 def execute_on_bus(scenario: Scenario, *, lcm: DrakeLcm, method: str | None = None,
                    seed: int | None = None, wait: float = ch.FIRST_STATE_WAIT, noise: bool = True,
                    progress: bool = True, plan_from: PlanFrom | None = None,
-                   time_limit: float = TIME_LIMIT) -> BusRun:
+                   time_limit: float = TIME_LIMIT,
+                   state_timeout: float = STATE_TIMEOUT) -> BusRun:
     """Runs the controllers of `scenario` against the robot on `lcm`, on its clock (module
-    docstring), until the referee ends the run or the robot falls silent. NoRobotError when no
-    robot state came within `wait` s."""
+    docstring), until the referee ends the run or the robot falls silent: no state for
+    `state_timeout` wall seconds. NoRobotError when no robot state came within `wait` s."""
     robot = scenario.robot_value
     joints = tuple(robot.joints)
     clock = RobotClock(lcm, joints=joints)
@@ -231,9 +232,9 @@ def execute_on_bus(scenario: Scenario, *, lcm: DrakeLcm, method: str | None = No
     wall = time.perf_counter()
     while True:
         _drain(lcm)
-        if clock.silent_for() > STATE_TIMEOUT:
+        if clock.silent_for() > state_timeout:
             _hold(lcm, clock, joints=joints)
-            reason = (f"{ROBOT_SILENT}: no state for {STATE_TIMEOUT:g} s after "
+            reason = (f"{ROBOT_SILENT}: no state for {state_timeout:g} s after "
                       f"{clock.time:.2f} s of the robot's clock")
             break
         now = context.get_time()
