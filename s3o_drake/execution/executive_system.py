@@ -36,7 +36,7 @@ from s3o_drake.execution.messages import (
     PlanTime,
     Status,
 )
-from s3o_drake.execution.recovery import StopCheck, localise
+from s3o_drake.execution.recovery import StopCheck, localiser
 from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.planning.navigation.map import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import PlanningResult, plan_from
@@ -136,11 +136,8 @@ class ExecutiveSystem(LeafSystem):
         self._plan_from = plan_from
         self._progress_bar = progress_bar
 
-        def believe(pose: np.ndarray, command_id: int) -> np.ndarray:
-            return localise(pose, uncertainty=params.uncertainty, seed=params.seed,
-                            command_id=command_id, noise=params.noise)
-
-        self._executive = Executive(params.executive, localise=believe)
+        self._executive = Executive(params.executive, localise=localiser(
+            uncertainty=params.uncertainty, seed=params.seed, noise=params.noise))
         self._images = [self.DeclareAbstractInputPort(f"overhead_{name}_image",
                                                       AbstractValue.Make(image()))
                         for name, image in (("color", ImageRgba8U), ("depth", ImageDepth32F),

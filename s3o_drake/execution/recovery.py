@@ -32,6 +32,8 @@ plant and collision checker), and only when the robot has to judge a stop.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from s3o_drake.belief.known_world import KnownWorld
@@ -41,6 +43,7 @@ from s3o_drake.feasibility.planning_scene import PlanningScene
 from s3o_drake.planning.navigation.map import NavigationMap
 from s3o_drake.planning.time_model import base_profile
 from s3o_drake.world.angles import facing_yaw
+from s3o_drake.world.choices import Localization
 from s3o_drake.world.settings import Uncertainty
 
 #: Stream tag of the localisation noise in `numpy.random.default_rng([seed, tag, command
@@ -64,6 +67,17 @@ def localise(pose: np.ndarray, *, uncertainty: Uncertainty, seed: int, command_i
     return pose + rng.normal(0.0, 1.0, 3) * [uncertainty.localization_xy_std,
                                              uncertainty.localization_xy_std,
                                              uncertainty.localization_yaw_std]
+
+
+def localiser(*, uncertainty: Uncertainty, seed: int,
+              noise: bool = True) -> Callable[[np.ndarray, int], np.ndarray]:
+    """The robot's belief of where it stands, as a function of the pose the robot reports
+    after command `command_id`: with `uncertainty.localization` "reported" the report
+    itself (the robot's localisation already erred), else `localise`'s."""
+    if uncertainty.localization == Localization.REPORTED:
+        return lambda pose, command_id: np.asarray(pose, dtype=float)[:3].copy()
+    return lambda pose, command_id: localise(pose, uncertainty=uncertainty, seed=seed,
+                                             command_id=command_id, noise=noise)
 
 
 class StopCheck:

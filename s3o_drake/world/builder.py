@@ -43,10 +43,12 @@ from pydrake.visualization import ApplyVisualizationConfig
 
 from s3o_drake.world import furniture as fu
 from s3o_drake.world.camera import overhead_camera
+from s3o_drake.world.choices import Localization
 from s3o_drake.world.clearance_monitor import proximity_geometries, room_geometries
 from s3o_drake.world.contents import SceneContents
 from s3o_drake.world.geometry_mirror import AddGeometryMirror
 from s3o_drake.world.goals import place_targets
+from s3o_drake.world.localisation import Localisation, LocalisationError
 from s3o_drake.world.map import Chair, Room, Table
 from s3o_drake.world.object_tracker import AddObjectTracker, ObjectTracker
 from s3o_drake.world.objects import Dish, surface_height
@@ -250,12 +252,19 @@ def _add_overhead_camera(builder: DiagramBuilder, plant: MultibodyPlant,
 
 def _add_object_tracker(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
                         scenario: Scenario, robot: RobotInstances, *, seed: int,
-                        reach_std: float) -> ObjectTracker:
+                        reach_std: float, localisation: Localisation | None) -> ObjectTracker:
     tracker = AddObjectTracker(builder, scenario=scenario, plant=plant, robot=robot,
                                scene_graph=scene_graph, period=CONTROL_PERIOD)
     sensor = builder.AddNamedSystem("target_sensor", TargetSensor(
         places={t.target: t.position for t in place_targets(scenario)}, seed=seed,
         reach_std=reach_std))
+    if localisation is not None:  # the sensor sees from the base, placed as localised
+        n = robot.robot.num_positions
+        base_pose = builder.AddNamedSystem("true_base_pose", MatrixGain(np.eye(3, 2 * n)))
+        builder.Connect(robot_state_output(builder, robot), base_pose.get_input_port())
+        builder.Connect(base_pose.get_output_port(), sensor.GetInputPort("base_pose"))
+        builder.Connect(localisation.GetOutputPort("error"),
+                        sensor.GetInputPort("localisation_error"))
     builder.Connect(tracker.GetOutputPort("dish_poses"), sensor.GetInputPort("dish_poses"))
     builder.Connect(sensor.GetOutputPort("sensing_error"), tracker.GetInputPort("sensing_error"))
     builder.ExportInput(tracker.GetInputPort("grip"), "grip")
@@ -318,6 +327,12 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
                   report), overhead_color_image, overhead_depth_image, overhead_label_image,
                   query_object, body_poses
 
+    Where the robot reports its pose as localised (`uncertainty.localization`
+    "reported"), a Localisation ("localisation", world/localisation.py) stands between
+    these ports and the plant: robot_state's base pose is the localisation's, and the
+    base drives to robot_desired_state's as it estimates it. Its error is drawn from
+    `seed`, and is none without `noise`.
+
     With `track_dishes`, the dishes are not welded into the plant: an ObjectTracker
     ("object_tracker") owns their geometry and moves them with the gripper and the tray by
     its grasp rules, a TargetSensor ("target_sensor") sees what the arm reaches for with
@@ -341,18 +356,21 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     models = populate_plant(plant, scene_graph, scenario.contents, dishes=not track_dishes)
     plant.Finalize()
     _anchor_fixed_geometry(plant, scene_graph, models)
+    seed = scenario.seed if seed is None else int(seed)
+    localisation = _add_localisation(builder, scenario, models.robot, seed=seed, noise=noise)
     tracker = None
     if track_dishes:
         tracker = _add_object_tracker(
-            builder, plant, scene_graph, scenario, models.robot,
-            seed=scenario.seed if seed is None else int(seed),
-            reach_std=scenario.uncertainty.reach_std if noise else 0.0)
+            builder, plant, scene_graph, scenario, models.robot, seed=seed,
+            reach_std=scenario.uncertainty.reach_std if noise else 0.0,
+            localisation=localisation)
 
     sensor = _add_overhead_camera(builder, plant, scene_graph, tracker, scenario)
     _add_gravity_compensation(builder, plant)
     # A single-instance robot's are the plant's own ports; a robot of parts', MatrixGains.
-    builder.ExportOutput(robot_state_output(builder, models.robot), "robot_state")
-    _add_protective_stop(builder, plant, scene_graph, scenario, models.robot)
+    builder.ExportOutput(robot_state_output(builder, models.robot) if localisation is None
+                         else localisation.GetOutputPort("reported_state"), "robot_state")
+    _add_protective_stop(builder, plant, scene_graph, scenario, models.robot, localisation)
     builder.ExportOutput(sensor.color_image_output_port(), "overhead_color_image")
     builder.ExportOutput(sensor.depth_image_32F_output_port(), "overhead_depth_image")
     builder.ExportOutput(sensor.label_image_output_port(), "overhead_label_image")
@@ -373,11 +391,29 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
     return diagram
 
 
+def _add_localisation(builder: DiagramBuilder, scenario: Scenario, robot: RobotInstances, *,
+                      seed: int, noise: bool) -> Localisation | None:
+    """The robot's localisation ("localisation"), fed the plant's true state, when the
+    robot reports its pose as localised (`uncertainty.localization`); its error is none
+    without `noise`."""
+    u = scenario.uncertainty
+    if u.localization != Localization.REPORTED:
+        return None
+    localisation = builder.AddNamedSystem("localisation", Localisation(
+        num_positions=robot.robot.num_positions, num_base=robot.robot.num_base_joints,
+        error=LocalisationError(u.localization_xy_std if noise else 0.0,
+                                u.localization_yaw_std if noise else 0.0),
+        seed=seed, period=CONTROL_PERIOD))
+    builder.Connect(robot_state_output(builder, robot), localisation.GetInputPort("true_state"))
+    return localisation
+
+
 def _add_protective_stop(builder: DiagramBuilder, plant: MultibodyPlant,
                          scene_graph: SceneGraph, scenario: Scenario,
-                         robot: RobotInstances) -> None:
-    """The base's protective stop between the exported robot_desired_state and the plant;
-    its report exported as base_bumper."""
+                         robot: RobotInstances, localisation: Localisation | None) -> None:
+    """The base's protective stop between the exported robot_desired_state (through the
+    robot's `localisation`, where it has one) and the plant; its report exported as
+    base_bumper."""
     # The robot's geometry but the hand's, which touches what it grasps.
     hand = {robot.body(name).index() for name in robot.robot.gripper_bodies}
     stop = builder.AddNamedSystem("protective_stop", ProtectiveStop(
@@ -390,7 +426,12 @@ def _add_protective_stop(builder: DiagramBuilder, plant: MultibodyPlant,
     builder.Connect(robot_state_output(builder, robot), stop.GetInputPort("true_state"))
     builder.Connect(scene_graph.get_query_output_port(), stop.GetInputPort("query_object"))
     connect_robot_desired_state(builder, robot, stop.GetOutputPort("plant_desired_state"))
-    builder.ExportInput(stop.GetInputPort("desired_state"), "robot_desired_state")
+    if localisation is None:
+        builder.ExportInput(stop.GetInputPort("desired_state"), "robot_desired_state")
+    else:
+        builder.Connect(localisation.GetOutputPort("plant_desired_state"),
+                        stop.GetInputPort("desired_state"))
+        builder.ExportInput(localisation.GetInputPort("desired_state"), "robot_desired_state")
     builder.ExportOutput(stop.GetOutputPort("bumper"), "base_bumper")
 
 

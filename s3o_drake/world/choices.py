@@ -81,6 +81,21 @@ class Motion(str, Enum):
 MOTIONS = tuple(m.value for m in Motion)
 
 
+class Localization(str, Enum):
+    """Where the error of the robot's localisation enters a run (the field
+    `uncertainty.localization` holds the value)."""
+
+    AT_STOPS = "at_stops"
+    """The paper's model: the robot reports its true pose, and the executive adds the error
+    where it judges a stop."""
+    REPORTED = "reported"
+    """The robot reports its pose as its localisation estimates it, with an error that
+    drifts as it travels (world/localisation.py), and its controllers act on that report."""
+
+
+LOCALIZATIONS = tuple(m.value for m in Localization)
+
+
 class Goal(str, Enum):
     """What the task wants done with an object (the field `dishes[i].goal` holds the value)."""
 

@@ -21,6 +21,7 @@ from s3o_drake.world.choices import (
     FEASIBILITY_SOURCES,
     GOALS,
     GROUP_POSITIONS,
+    LOCALIZATIONS,
     LOCATION_PRICES,
     METHODS,
     MOTIONS,
@@ -298,6 +299,7 @@ def _validate_settings(scenario: Scenario) -> None:
     for name in ("nav_xy_std", "nav_yaw_std", "reach_std", "localization_xy_std",
                  "localization_yaw_std"):
         _at_least(getattr(u, name), 0.0, f"uncertainty.{name}")
+    _choice(u.localization, LOCALIZATIONS, "uncertainty.localization", "localization")
 
     e = scenario.execution
     _choice(e.recovery, RECOVERY_MODES, "execution.recovery", "mode")

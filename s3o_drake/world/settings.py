@@ -108,6 +108,10 @@ class Uncertainty:
     what the recovery's stop check believes (execution.recovery)."""
     localization_yaw_std: float = 0.02
     """The same for the heading (rad)."""
+    localization: str = "at_stops"
+    """Where that error enters the run (`choices.Localization`): "at_stops", the executive
+    adds it where it judges a stop; "reported", the robot reports its pose with it, and the
+    controllers drive by that report (not yet safe: docs/execution.md)."""
 
 
 @dataclass

@@ -6,6 +6,11 @@ simulated world: asked for a target (`TargetRequest`), it answers with the targe
 position plus the sensing error T^m, `reach_std` per axis, drawn from the reach command's
 own stream (`robot_messages.REACH_STREAM`): a seed fixes each sighting, whatever ran before.
 
+The sensor sees the target from the robot's base: where the robot's localisation is off
+(`localisation_error` connected), it places what it sees where that error puts it
+(`localisation.sighting_as_believed`), so that an arm that reaches from the base as
+localised reaches the target as sensed.
+
 The error belongs to the simulation. The controllers see only the sighting; the grasp
 rules (`ObjectTracker`: whether the fingers catch the dish) and the run's referee (the
 report's pickups, for the calibration of Fea^m) read the error itself (`error`).
@@ -19,6 +24,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import Context, LeafSystem
 
 from s3o_drake.world.dish_messages import DishPoses
+from s3o_drake.world.localisation import sighting_as_believed
 from s3o_drake.world.robot_messages import REACH_STREAM, TargetRequest, TargetSighting
 from s3o_drake.world.system_lifetime import weak_callback
 
@@ -50,6 +56,10 @@ class TargetSensor(LeafSystem):
     Input ports:
         target_request: abstract TargetRequest.
         dish_poses: abstract DishPoses, X_WD of each dish where it really is.
+        base_pose: vector (3, optional with the next), X_WB (x, y, yaw) where the base
+            really stands.
+        localisation_error: vector (3, optional: unconnected, the localisation is exact),
+            the error of the robot's localisation (`Localisation`'s).
     Output ports:
         target_sighting: abstract TargetSighting, the answer to the request: where the
             sensor sees the target (None for a target it does not know).
@@ -69,6 +79,8 @@ class TargetSensor(LeafSystem):
             "target_request", AbstractValue.Make(TargetRequest()))
         self._dish_poses_port = self.DeclareAbstractInputPort(
             "dish_poses", AbstractValue.Make(DishPoses()))
+        self._base_pose_port = self.DeclareVectorInputPort("base_pose", 3)
+        self._localisation_port = self.DeclareVectorInputPort("localisation_error", 3)
         self.DeclareAbstractOutputPort(
             "target_sighting", lambda: AbstractValue.Make(TargetSighting()),
             weak_callback(self._calc_sighting))
@@ -104,6 +116,9 @@ class TargetSensor(LeafSystem):
             error = self.error(request.id)
             if error is not None:
                 p_WT = p_WT + error
+            if self._localisation_port.HasValue(context):
+                p_WT = sighting_as_believed(p_WT, X_WB=self._base_pose_port.Eval(context),
+                                            e=self._localisation_port.Eval(context))
         output.set_value(TargetSighting(request.id, request.target,
                                         None if p_WT is None else (float(p_WT[0]),
                                                                    float(p_WT[1]))))

@@ -15,7 +15,7 @@ from s3o_drake.belief.known_world import KnownWorld
 from s3o_drake.execution.controllers import make_executive_system
 from s3o_drake.execution.execute import execute
 from s3o_drake.execution.messages import Status
-from s3o_drake.execution.recovery import StopCheck, localise
+from s3o_drake.execution.recovery import StopCheck, localise, localiser
 from s3o_drake.feasibility.heatmaps import make_oracle
 from s3o_drake.planning.navigation.map import DRIVE_MARGIN, TIGHT_DRIVE_MARGIN
 from s3o_drake.planning.pipeline import PlanningResult
@@ -62,6 +62,16 @@ def test_localisation_is_seeded_per_landing_and_exact_without_noise():
     many = np.array([localise(pose, uncertainty=noise, seed=3, command_id=i)
                      for i in range(400)])
     assert np.std(many[:, 0]) == pytest.approx(0.02, rel=0.2)
+
+
+def test_a_robot_that_reports_its_localised_pose_is_believed_as_it_reports():
+    pose = np.array([1.0, 2.0, 0.5, 0.7])
+    at_stops = Uncertainty(localization_xy_std=0.02, localization_yaw_std=0.02)
+    believe = localiser(uncertainty=at_stops, seed=3)
+    assert np.array_equal(believe(pose, 7), localise(pose, uncertainty=at_stops, seed=3,
+                                                     command_id=7))
+    reported = dataclasses.replace(at_stops, localization="reported")
+    assert np.array_equal(localiser(uncertainty=reported, seed=3)(pose, 7), pose[:3])
 
 
 def test_a_stop_out_of_reach_is_corrected_to_a_feasible_one_nearby(scenario, check):
