@@ -70,12 +70,13 @@ def test_the_relay_forwards_each_side_s_channels_and_loses_its_share():
     finally:
         relay.stop()
     seen = relay.passed + relay.dropped
-    # Nearly all: UDP on a loaded machine loses a few before the relay (948 of 1000 beside
-    # a study, with the relay's thread starved), which are not the relay's to count.
+    # Nearly all: UDP on a loaded machine loses a few before the relay and after it (948
+    # of 1000 reached a starved relay beside a study, and 782 of its 786 the listeners),
+    # which are not the relay's losses.
     assert seen >= 900
     assert relay.dropped / seen == pytest.approx(0.2, abs=0.05)
     # Each side hears the other's messages that passed, and never its own come back.
-    assert len(heard["controllers"]) + len(heard["robot"]) == relay.passed
+    assert 0.98 * relay.passed <= len(heard["controllers"]) + len(heard["robot"]) <= relay.passed
     assert all(d.startswith(b"s") for d in heard["controllers"])
     assert all(d.startswith(b"c") for d in heard["robot"])
 
