@@ -42,6 +42,12 @@ from pydrake.systems.sensors import RgbdSensor
 from pydrake.visualization import ApplyVisualizationConfig
 
 from s3o_drake.world import furniture as fu
+from s3o_drake.world.base_scanner import (
+    SCAN_RANGE,
+    BaseScanner,
+    scanner_info,
+    scanner_mounts,
+)
 from s3o_drake.world.camera import overhead_camera
 from s3o_drake.world.choices import Localization
 from s3o_drake.world.clearance_monitor import proximity_geometries, room_geometries
@@ -109,8 +115,7 @@ def chair_sdf(chair: Chair, rgba: str = "0.55 0.16 0.12 1") -> str:
         back_x=back_x, back_z=fu.CHAIR_SEAT_HEIGHT + back_z, back_pitch=-fu.CHAIR_BACK_TILT,
         back_t=fu.CHAIR_BACK_THICKNESS, back_w=fu.CHAIR_BACK_WIDTH, back_h=fu.CHAIR_BACK_HEIGHT,
         leg_w=fu.CHAIR_LEG_WIDTH, leg_len=leg_len, leg_z=leg_len / 2,
-        leg_dx=fu.CHAIR_SEAT_DEPTH / 2 - fu.CHAIR_LEG_WIDTH,
-        leg_dy=fu.CHAIR_SEAT_WIDTH / 2 - fu.CHAIR_LEG_WIDTH)
+        leg_dx=fu.chair_leg_offsets()[-1][0], leg_dy=fu.chair_leg_offsets()[-1][1])
 
 
 def dish_sdf(dish: Dish) -> str:
@@ -250,6 +255,30 @@ def _add_overhead_camera(builder: DiagramBuilder, plant: MultibodyPlant,
     return sensor
 
 
+def _add_base_scanner(builder: DiagramBuilder, plant: MultibodyPlant,
+                      robot: RobotInstances) -> BaseScanner:
+    """The base's scanner ("base_scanner", world/base_scanner.py): its cameras ride the
+    base's twin in the overhead camera's mirror; its scan exported as base_scan."""
+    camera_scene_graph = builder.GetSubsystemByName("camera_scene_graph")
+    mirror = builder.GetSubsystemByName("geometry_mirror")
+    base = mirror.twin(plant.GetBodyFrameIdOrThrow(robot.body(robot.robot.base_link).index()))
+    r = robot.robot
+    mounts = scanner_mounts(base_length=r.base_length, base_width=r.base_width)
+    info = scanner_info()
+    core = RenderCameraCore(RENDERER, info, ClippingRange(*SCAN_RANGE), RigidTransform())
+    scanner = builder.AddNamedSystem("base_scanner", BaseScanner(mounts=mounts, info=info))
+    for i, X_BC in enumerate(mounts):
+        camera = builder.AddNamedSystem(f"base_scanner_{i}", RgbdSensor(
+            parent_id=base, X_PB=X_BC, depth_camera=DepthRenderCamera(core, DepthRange(
+                *SCAN_RANGE))))
+        builder.Connect(camera_scene_graph.get_query_output_port(),
+                        camera.query_object_input_port())
+        builder.Connect(camera.depth_image_32F_output_port(),
+                        scanner.GetInputPort(f"depth_{i}"))
+    builder.ExportOutput(scanner.GetOutputPort("base_scan"), "base_scan")
+    return scanner
+
+
 def _add_object_tracker(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
                         scenario: Scenario, robot: RobotInstances, *, seed: int,
                         reach_std: float, localisation: Localisation | None) -> ObjectTracker:
@@ -366,6 +395,8 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
             localisation=localisation)
 
     sensor = _add_overhead_camera(builder, plant, scene_graph, tracker, scenario)
+    if localisation is not None:  # what the controllers localise by
+        _add_base_scanner(builder, plant, models.robot)
     _add_gravity_compensation(builder, plant)
     # A single-instance robot's are the plant's own ports; a robot of parts', MatrixGains.
     builder.ExportOutput(robot_state_output(builder, models.robot) if localisation is None

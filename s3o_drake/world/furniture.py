@@ -7,6 +7,7 @@ collides with.
 """
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -81,6 +82,31 @@ def table_leg_offsets(size: list[float]) -> list[tuple[float, float]]:
     dx = size[0] / 2 - TABLE_LEG_INSET
     dy = size[1] / 2 - TABLE_LEG_INSET
     return [(sx * dx, sy * dy) for sx in (-1, 1) for sy in (-1, 1)]
+
+
+def chair_leg_offsets() -> list[tuple[float, float]]:
+    """Leg centres in the chair frame."""
+    dx = CHAIR_SEAT_DEPTH / 2 - CHAIR_LEG_WIDTH
+    dy = CHAIR_SEAT_WIDTH / 2 - CHAIR_LEG_WIDTH
+    return [(sx * dx, sy * dy) for sx in (-1, 1) for sy in (-1, 1)]
+
+
+def legs_section(tables: Iterable, chair_poses: Iterable[Sequence[float]]) -> Polygon:
+    """What stands on the floor of the tables and chairs below their tops and seats: the
+    outlines of their legs, in the world (a scan at a leg's height sees these)."""
+    posts = []
+    for table in tables:
+        leg = box(-TABLE_LEG_WIDTH / 2, -TABLE_LEG_WIDTH / 2, TABLE_LEG_WIDTH / 2,
+                  TABLE_LEG_WIDTH / 2)
+        for dx, dy in table_leg_offsets(table.size):
+            posts.append(_place(affinity.translate(leg, dx, dy), table.center[0],
+                                table.center[1], table.yaw))
+    leg = box(-CHAIR_LEG_WIDTH / 2, -CHAIR_LEG_WIDTH / 2, CHAIR_LEG_WIDTH / 2,
+              CHAIR_LEG_WIDTH / 2)
+    for x, y, yaw in chair_poses:
+        for dx, dy in chair_leg_offsets():
+            posts.append(_place(affinity.translate(leg, dx, dy), x, y, yaw))
+    return unary_union(posts)
 
 
 def chair_back_offset() -> tuple[float, float]:

@@ -99,6 +99,15 @@ class GeometryMirror(LeafSystem):
         """The twins' source in the copy."""
         return self._source_id
 
+    def twin(self, frame: FrameId) -> FrameId:
+        """The copy's frame that follows the original's `frame` (one with perception
+        geometry); KeyError for another."""
+        for _, pairs in self._twins:
+            for original, twin in pairs:
+                if original == frame:
+                    return twin
+        raise KeyError(f"frame {frame} has no twin: it holds no perception geometry")
+
     def _calc_geometry_pose(self, context: Context, output: AbstractValue) -> None:
         poses = FramePoseVector()
         for port, pairs in self._twins:

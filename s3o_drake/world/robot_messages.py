@@ -58,3 +58,12 @@ class GripperStatus:
     the fingers stopped on something as they closed (they hold an object)."""
 
     object_detected: bool = False
+
+
+@dataclass(frozen=True)
+class BaseScan:
+    """The base's planar scanner's returns (`base_scanner`): where it saw the walls and
+    the legs of what stands on the floor, as points (x, y) in the base's frame (m), at its
+    height; nothing where it saw nothing within its range."""
+
+    points_B: tuple[tuple[float, float], ...] = ()  # noqa: N815 (monogram notation)
