@@ -62,6 +62,7 @@ from s3o_drake.world.protective_stop import WATCH_PERIOD, ProtectiveStop
 from s3o_drake.world.resources import make_parser, models_dir
 from s3o_drake.world.robot import CONTROL_PERIOD, Robot, RobotInstances
 from s3o_drake.world.robot_ports import connect_robot_desired_state, robot_state_output
+from s3o_drake.world.scan_matching import RoomSection
 from s3o_drake.world.scenario import Scenario
 from s3o_drake.world.target_sensor import TargetSensor
 
@@ -395,8 +396,10 @@ def build_world_diagram(scenario: Scenario, *, meshcat: Meshcat | None = None,
             localisation=localisation)
 
     sensor = _add_overhead_camera(builder, plant, scene_graph, tracker, scenario)
-    if localisation is not None:  # what the controllers localise by
-        _add_base_scanner(builder, plant, models.robot)
+    if localisation is not None:  # what the robot localises by
+        scanner = _add_base_scanner(builder, plant, models.robot)
+        builder.Connect(scanner.GetOutputPort("base_scan"),
+                        localisation.GetInputPort("base_scan"))
     _add_gravity_compensation(builder, plant)
     # A single-instance robot's are the plant's own ports; a robot of parts', MatrixGains.
     builder.ExportOutput(robot_state_output(builder, models.robot) if localisation is None
@@ -432,9 +435,12 @@ def _add_localisation(builder: DiagramBuilder, scenario: Scenario, robot: RobotI
         return None
     localisation = builder.AddNamedSystem("localisation", Localisation(
         num_positions=robot.robot.num_positions, num_base=robot.robot.num_base_joints,
-        error=LocalisationError(u.localization_xy_std if noise else 0.0,
-                                u.localization_yaw_std if noise else 0.0),
-        seed=seed, period=CONTROL_PERIOD))
+        error=(LocalisationError(u.localization_xy_std, u.localization_yaw_std) if noise
+               else LocalisationError.exact()),
+        seed=seed, period=CONTROL_PERIOD,
+        # What the robot was given of the room: no unmapped chair.
+        section=RoomSection(scenario.room, scenario.tables,
+                            [c.pose for c in scenario.chairs if c.mapped])))
     builder.Connect(robot_state_output(builder, robot), localisation.GetInputPort("true_state"))
     return localisation
 

@@ -89,8 +89,9 @@ class Localization(str, Enum):
     """The paper's model: the robot reports its true pose, and the executive adds the error
     where it judges a stop."""
     REPORTED = "reported"
-    """The robot reports its pose as its localisation estimates it, with an error that
-    drifts as it travels (world/localisation.py), and its controllers act on that report."""
+    """The robot reports its pose as its localisation estimates it (odometry corrected by
+    scans matched to its map: world/localisation.py), and its controllers act on that
+    report."""
 
 
 LOCALIZATIONS = tuple(m.value for m in Localization)

@@ -109,9 +109,11 @@ class Uncertainty:
     localization_yaw_std: float = 0.02
     """The same for the heading (rad)."""
     localization: str = "at_stops"
-    """Where that error enters the run (`choices.Localization`): "at_stops", the executive
-    adds it where it judges a stop; "reported", the robot reports its pose with it, and the
-    controllers drive by that report (not yet safe: docs/execution.md)."""
+    """Where the localisation's error enters the run (`choices.Localization`): "at_stops",
+    the executive adds the error above where it judges a stop; "reported", the robot
+    localises on its own side (odometry corrected by its scanner's scans matched to its
+    map; the error above only at the start), reports its pose with what error remains, and
+    the controllers drive by that report (docs/execution.md)."""
 
 
 @dataclass

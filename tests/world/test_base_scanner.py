@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 from pydrake.systems.sensors import ImageDepth32F
 
-from s3o_drake.belief.scan_matching import RoomSection, match_scan
 from s3o_drake.world.base_scanner import (
     SCAN_FOV,
     SCAN_HEIGHT,
@@ -17,6 +16,7 @@ from s3o_drake.world.base_scanner import (
     scanner_mounts,
 )
 from s3o_drake.world.builder import build_world_diagram, robot_hold_state
+from s3o_drake.world.scan_matching import RoomSection, match_scan
 from s3o_drake.world.scenario import load_scenario, with_overrides
 from tests.conftest import TWO_DISHES
 

@@ -13,42 +13,45 @@ from pydrake.systems.primitives import ConstantVectorSource, Integrator
 from s3o_drake.world.builder import build_world_diagram, robot_hold_state
 from s3o_drake.world.dish_messages import DishPoses
 from s3o_drake.world.localisation import (
-    DRIFT_DISTANCE,
     MIN_TRAVEL,
+    ODOMETRY_XY_DRIFT,
+    ODOMETRY_YAW_DRIFT,
     TURN_TRAVEL,
     Localisation,
     LocalisationError,
     believed,
-    drift,
+    corrected,
     initial_error,
+    odometry_drift,
     sighting_as_believed,
     travel,
     true_goal,
 )
-from s3o_drake.world.robot_messages import TargetRequest
+from s3o_drake.world.robot_messages import BaseScan, TargetRequest
+from s3o_drake.world.scan_matching import RoomSection, range_points
 from s3o_drake.world.scenario import parse_scenario, with_overrides
 from s3o_drake.world.scenario_checks import ScenarioError
 from s3o_drake.world.target_sensor import TargetSensor
+from tests.world.test_scan_matching import BEARINGS, CHAIR, MAX_RANGE, ROOM, TABLES, TRUE
+from tests.world.test_scan_matching import _scan as ray_cast
 
 ERROR = LocalisationError(0.02, 0.02)
 N = 4  # a base (x, y, yaw) and one arm joint
 
 
-def test_the_error_keeps_its_spread_as_it_drifts_and_forgets_itself_with_travel():
-    errors = np.array([initial_error(ERROR, seed=s) for s in range(4000)])
-    np.testing.assert_allclose(errors.std(axis=0), ERROR.std, rtol=0.05)
-    moved = np.array([drift(e, error=ERROR, travelled=0.5, seed=s, step=1)
-                      for s, e in enumerate(errors)])
-    np.testing.assert_allclose(moved.std(axis=0), ERROR.std, rtol=0.05)
-    # After half a DRIFT_DISTANCE it keeps exp(-1/2) of itself: their correlation.
-    for axis in range(3):
-        r = np.corrcoef(errors[:, axis], moved[:, axis])[0, 1]
-        assert r == pytest.approx(math.exp(-0.5 / DRIFT_DISTANCE), abs=0.03)
-    # The same seed and step, the same draw; no error to draw, none.
-    assert np.array_equal(drift(errors[0], error=ERROR, travelled=0.5, seed=0, step=1),
-                          moved[0])
-    zero = LocalisationError(0.0, 0.0)
-    assert not drift(np.zeros(3), error=zero, travelled=3.0, seed=0, step=1).any()
+def test_odometry_walks_off_with_the_square_root_of_the_travel():
+    starts = np.array([initial_error(ERROR, seed=s) for s in range(4000)])
+    np.testing.assert_allclose(starts.std(axis=0), ERROR.std, rtol=0.05)
+    for metres in (1.0, 4.0):
+        walked = np.array([odometry_drift(np.zeros(3), error=ERROR, travelled=metres, seed=s,
+                                          step=1) for s in range(4000)])
+        np.testing.assert_allclose(walked.std(axis=0), math.sqrt(metres) * np.array(
+            [ODOMETRY_XY_DRIFT, ODOMETRY_XY_DRIFT, ODOMETRY_YAW_DRIFT]), rtol=0.05)
+    # The same seed and step, the same draw; an exact localisation, none.
+    assert np.array_equal(odometry_drift(starts[0], error=ERROR, travelled=0.5, seed=0, step=1),
+                          odometry_drift(starts[0], error=ERROR, travelled=0.5, seed=0, step=1))
+    assert not odometry_drift(np.zeros(3), error=LocalisationError.exact(), travelled=3.0,
+                              seed=0, step=1).any()
     with pytest.raises(ValueError, match="xy_std"):
         LocalisationError(-0.01, 0.0)
 
@@ -127,9 +130,9 @@ def test_in_a_simulation_the_error_stays_at_rest_and_drifts_as_the_base_drives()
     np.testing.assert_allclose(at_rest[0], initial_error(ERROR, seed=5))
     driving = _drive(0.5)
     steps = np.abs(np.diff(driving, axis=0)).max(axis=1)
-    assert (steps > 0).all()  # every quarter second, 12.5 cm: it drifts
-    # Slowly: a quarter of a DRIFT_DISTANCE moves it by a fraction of its spread.
-    assert steps.max() < 2.0 * ERROR.xy_std
+    assert (steps > 0).all()  # every quarter second, 12.5 cm: odometry drifts
+    # Slowly: over 12.5 cm, by a few millimetres.
+    assert steps.max() < 4.0 * ODOMETRY_XY_DRIFT * math.sqrt(0.125)
     assert MIN_TRAVEL < 0.5 * 0.01 * 2  # the drive's travel over two periods counts
 
 
@@ -157,26 +160,32 @@ def test_the_sensor_places_what_it_sees_as_the_localisation_does():
 
 def test_in_the_world_the_robot_reports_its_localised_pose_and_drives_by_it(scenario):
     """The simulated world with `uncertainty.localization: reported`: robot_state's base
-    pose is the true one off by the localisation's error, and a base commanded to hold the
-    pose it reports stands still; the default world reports the truth."""
+    pose is the true one off by the localisation's error, which a scan of the room matched
+    to the map has brought to within millimetres of the truth, and a base commanded to
+    hold the pose it reports stands still; the default world reports the truth."""
     reported = with_overrides(scenario, ["uncertainty.localization=reported"])
     world = build_world_diagram(reported, seed=3)
     plant, localisation = (world.GetSubsystemByName(n) for n in ("plant", "localisation"))
     simulator = Simulator(world)
     context = simulator.get_mutable_context()
+    world.GetInputPort("robot_desired_state").FixValue(context, robot_hold_state(scenario))
+    simulator.Initialize()
+    error = localisation.GetOutputPort("error").Eval(localisation.GetMyContextFromRoot(context))
+    drawn = initial_error(LocalisationError(reported.uncertainty.localization_xy_std,
+                                            reported.uncertainty.localization_yaw_std), seed=3)
+    assert np.abs(drawn[:2]).max() > 0.005  # what the scan corrected
+    assert np.abs(error).max() < 0.002
     true_start = np.array(scenario.robot.start)
-    e = initial_error(LocalisationError(reported.uncertainty.localization_xy_std,
-                                        reported.uncertainty.localization_yaw_std), seed=3)
     hold = robot_hold_state(scenario)
-    hold[:3] = true_start + e  # where it believes it stands
+    hold[:3] = true_start + error  # where it believes it stands
     world.GetInputPort("robot_desired_state").FixValue(context, hold)
     simulator.AdvanceTo(0.5)
     true = plant.GetPositions(plant.GetMyContextFromRoot(context))[:3]
     np.testing.assert_allclose(true, true_start, atol=1e-3)
-    error = localisation.GetOutputPort("error").Eval(localisation.GetMyContextFromRoot(context))
-    np.testing.assert_allclose(error, e)  # it stood: the error stayed
     state = world.GetOutputPort("robot_state").Eval(context)
-    np.testing.assert_allclose(state[:3], true + e, atol=1e-12)
+    now = localisation.GetOutputPort("error").Eval(localisation.GetMyContextFromRoot(context))
+    np.testing.assert_allclose(state[:3], true + now, atol=1e-12)
+    assert np.abs(now).max() < 0.002
     assert not build_world_diagram(scenario).HasSubsystemNamed("localisation")
 
 
@@ -186,3 +195,14 @@ def test_an_unknown_localization_is_refused_by_name():
     assert parse_scenario("").uncertainty.localization == "at_stops"  # the paper's
     with pytest.raises(ScenarioError, match=r"uncertainty\.localization.*at_stops, reported"):
         parse_scenario("uncertainty: {localization: amcl}")
+
+
+def test_a_scan_matched_to_the_map_takes_the_error_down_to_the_match():
+    section = RoomSection(ROOM, TABLES, [CHAIR])
+    scan = BaseScan(tuple(map(tuple, range_points(ray_cast(TRUE, [CHAIR]), BEARINGS,
+                                                  max_range=MAX_RANGE))))
+    e = np.array([0.03, -0.02, 0.02])
+    np.testing.assert_allclose(corrected(e, X_WB=TRUE, section=section, scan=scan), 0.0,
+                               atol=1e-3)
+    # A scan that sees too little leaves the estimate as odometry has it.
+    assert np.array_equal(corrected(e, X_WB=TRUE, section=section, scan=BaseScan()), e)

@@ -65,7 +65,7 @@ class RoomSection:
             np.asarray(p_W, dtype=float).reshape(-1, 2)))
 
 
-def scan_points(ranges: np.ndarray, bearings: np.ndarray, *, max_range: float,
+def range_points(ranges: np.ndarray, bearings: np.ndarray, *, max_range: float,
                 p_BS: Sequence[float] = (0.0, 0.0)) -> np.ndarray:
     """The scan's returns as points (x, y) in the base's frame: range r at bearing b from a
     scanner at `p_BS`; returns at or beyond `max_range` (nothing seen) are left out."""

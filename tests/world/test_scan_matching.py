@@ -8,14 +8,14 @@ import pytest
 from shapely.geometry import LineString, box
 from shapely.ops import unary_union
 
-from s3o_drake.belief.scan_matching import (
+from s3o_drake.world.furniture import legs_section
+from s3o_drake.world.map import Room, Table
+from s3o_drake.world.scan_matching import (
     MIN_POINTS,
     RoomSection,
     match_scan,
-    scan_points,
+    range_points,
 )
-from s3o_drake.world.furniture import legs_section
-from s3o_drake.world.map import Room, Table
 
 ROOM = Room(bounds=[0.0, 0.0, 6.0, 5.0])
 TABLES = (Table("long", center=[2.0, 3.5], yaw=0.0, size=[1.6, 0.8, 0.04]),
@@ -47,7 +47,7 @@ PRIOR = TRUE + np.array([0.03, -0.02, 0.02])  # the localisation's report: a few
 
 def test_a_scan_of_what_the_robot_knows_places_the_base_to_a_millimetre():
     section = RoomSection(ROOM, TABLES, [CHAIR])
-    p_B = scan_points(_scan(TRUE, [CHAIR]), BEARINGS, max_range=MAX_RANGE)
+    p_B = range_points(_scan(TRUE, [CHAIR]), BEARINGS, max_range=MAX_RANGE)
     found = match_scan(section, p_B, prior=PRIOR)
     assert found is not None
     np.testing.assert_allclose(found.X_WB[:2], TRUE[:2], atol=0.001)
@@ -60,7 +60,7 @@ def test_a_chair_the_robot_does_not_know_weighs_little():
     returns fall on nothing the robot knows, and the robust loss discounts them."""
     unknown = (3.6, 2.8, 0.0)
     section = RoomSection(ROOM, TABLES, [CHAIR])
-    p_B = scan_points(_scan(TRUE, [CHAIR, unknown]), BEARINGS, max_range=MAX_RANGE)
+    p_B = range_points(_scan(TRUE, [CHAIR, unknown]), BEARINGS, max_range=MAX_RANGE)
     found = match_scan(section, p_B, prior=PRIOR)
     assert found is not None
     np.testing.assert_allclose(found.X_WB[:2], TRUE[:2], atol=0.002)
@@ -73,11 +73,11 @@ def test_a_scan_that_sees_too_little_gives_no_pose():
     ranges = _scan(TRUE, [CHAIR])
     few = np.full_like(ranges, MAX_RANGE)  # nothing within range ...
     few[:MIN_POINTS - 1] = ranges[:MIN_POINTS - 1]  # ... but a few returns
-    assert match_scan(section, scan_points(few, BEARINGS, max_range=MAX_RANGE),
+    assert match_scan(section, range_points(few, BEARINGS, max_range=MAX_RANGE),
                       prior=PRIOR) is None
 
 
 def test_scan_points_are_the_returns_in_the_base_frame():
-    p = scan_points([1.0, MAX_RANGE, 2.0, np.inf], [0.0, 0.5, math.pi / 2, 1.0],
+    p = range_points([1.0, MAX_RANGE, 2.0, np.inf], [0.0, 0.5, math.pi / 2, 1.0],
                     max_range=MAX_RANGE, p_BS=(0.1, 0.0))
     np.testing.assert_allclose(p, [[1.1, 0.0], [0.1, 2.0]], atol=1e-12)
