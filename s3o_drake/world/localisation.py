@@ -81,6 +81,11 @@ class LocalisationError:
     def std(self) -> np.ndarray:
         return np.array([self.xy_std, self.xy_std, self.yaw_std])
 
+    @property
+    def is_exact(self) -> bool:
+        """It reports the truth: no error to start with, no drift, nothing to correct."""
+        return not (self.xy_std or self.yaw_std or self.odometry_xy or self.odometry_yaw)
+
 
 def travel(before: np.ndarray, after: np.ndarray) -> float:
     """How far (m) the base travelled from pose `before` to `after` (x, y, yaw), its turn
@@ -193,7 +198,8 @@ class Localisation(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, weak_callback(self._update))
 
     def _corrected(self, context: Context, e: np.ndarray, pose: np.ndarray) -> np.ndarray:
-        if self._section is None or not self._scan.HasValue(context):
+        # An exact localisation stays exact: a match would leave its own sub-millimetre.
+        if self._section is None or self._error.is_exact or not self._scan.HasValue(context):
             return e
         return corrected(e, X_WB=pose, section=self._section, scan=self._scan.Eval(context))
 

@@ -52,6 +52,7 @@ def test_odometry_walks_off_with_the_square_root_of_the_travel():
                           odometry_drift(starts[0], error=ERROR, travelled=0.5, seed=0, step=1))
     assert not odometry_drift(np.zeros(3), error=LocalisationError.exact(), travelled=3.0,
                               seed=0, step=1).any()
+    assert LocalisationError.exact().is_exact and not ERROR.is_exact
     with pytest.raises(ValueError, match="xy_std"):
         LocalisationError(-0.01, 0.0)
 
@@ -187,6 +188,14 @@ def test_in_the_world_the_robot_reports_its_localised_pose_and_drives_by_it(scen
     np.testing.assert_allclose(state[:3], true + now, atol=1e-12)
     assert np.abs(now).max() < 0.002
     assert not build_world_diagram(scenario).HasSubsystemNamed("localisation")
+    # Without noise the robot knows where it stands, exactly.
+    exact = build_world_diagram(reported, noise=False)
+    context = exact.CreateDefaultContext()
+    exact.GetInputPort("robot_desired_state").FixValue(context, robot_hold_state(scenario))
+    exact.ExecuteInitializationEvents(context)
+    localisation = exact.GetSubsystemByName("localisation")
+    assert not localisation.GetOutputPort("error").Eval(
+        localisation.GetMyContextFromRoot(context)).any()
 
 
 def test_an_unknown_localization_is_refused_by_name():
