@@ -11,6 +11,7 @@ points in the base's frame; `BaseScanner` is its adapter.
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -18,7 +19,6 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import Context, LeafSystem
 from pydrake.systems.sensors import CameraInfo, ImageDepth32F
 
-from s3o_drake.world.robot_messages import BaseScan
 from s3o_drake.world.system_lifetime import weak_callback
 
 SCAN_HEIGHT = 0.2
@@ -33,6 +33,15 @@ SCAN_RANGE = (0.05, 10.0)
 SIDE_OFFSET = 0.02
 """How far outside the footprint's sides (m) the cameras sit: they see the room, not the
 base."""
+
+
+@dataclass(frozen=True)
+class BaseScan:
+    """The scanner's returns: where it saw the walls and the legs of what stands on the
+    floor, as points (x, y) in the base's frame (m), at SCAN_HEIGHT; nothing where it saw
+    nothing within SCAN_RANGE. Immutable: Drake copies port values."""
+
+    points_B: tuple[tuple[float, float], ...] = ()  # noqa: N815 (monogram notation)
 
 
 def scanner_mounts(*, base_length: float, base_width: float) -> list[RigidTransform]:

@@ -30,7 +30,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
-from s3o_drake.world.robot_messages import BaseScan
+from s3o_drake.world.base_scanner import BaseScan
 from s3o_drake.world.scan_matching import RoomSection, match_scan
 from s3o_drake.world.system_lifetime import weak_callback
 

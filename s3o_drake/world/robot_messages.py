@@ -59,11 +59,3 @@ class GripperStatus:
 
     object_detected: bool = False
 
-
-@dataclass(frozen=True)
-class BaseScan:
-    """The base's planar scanner's returns (`base_scanner`): where it saw the walls and
-    the legs of what stands on the floor, as points (x, y) in the base's frame (m), at its
-    height; nothing where it saw nothing within its range."""
-
-    points_B: tuple[tuple[float, float], ...] = ()  # noqa: N815 (monogram notation)

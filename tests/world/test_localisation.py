@@ -10,6 +10,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, Integrator
 
+from s3o_drake.world.base_scanner import BaseScan
 from s3o_drake.world.builder import build_world_diagram, robot_hold_state
 from s3o_drake.world.dish_messages import DishPoses
 from s3o_drake.world.localisation import (
@@ -27,7 +28,7 @@ from s3o_drake.world.localisation import (
     travel,
     true_goal,
 )
-from s3o_drake.world.robot_messages import BaseScan, TargetRequest
+from s3o_drake.world.robot_messages import TargetRequest
 from s3o_drake.world.scan_matching import RoomSection, range_points
 from s3o_drake.world.scenario import parse_scenario, with_overrides
 from s3o_drake.world.scenario_checks import ScenarioError
