@@ -6,7 +6,9 @@ The robot and the room, as a robot's controllers meet them: the plant with the t
 and the dishes, the overhead camera, the grasp's rules and the base's protective stop. It
 publishes what a robot and its sensors publish and obeys the commands a robot obeys, on the
 channels docs/hardware.md names; it holds where it stands until commands come, and when they
-stop for 0.5 s. Ctrl-C (or `kill`) ends it; it then says what is on its tray.
+stop for 0.5 s. With --set uncertainty.localization=reported it localises on its own side
+(odometry and a planar scan matched to its map) and publishes its pose as it estimates it.
+Ctrl-C (or `kill`) ends it; it then says what is on its tray.
 The bus stays on this machine unless --lcm says otherwise.
 Exit status: 0, 2 on bad input, 130 when interrupted.
 """
