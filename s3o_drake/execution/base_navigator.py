@@ -384,9 +384,12 @@ def _stopped_at(motion: _Motion, base: np.ndarray, t: float,
 
 
 def _checker(scene: FeasibilityScene, arm: ArmMotion, t: float) -> RobotChecker:
-    """`scene`'s checker at time `t`, letting the gripper touch the dish `arm` picks."""
+    """`scene`'s checker at time `t`, letting the gripper touch the dish `arm` picks.
+
+    A replan's scene holds only the dishes that remain: the one the arm still carries to
+    the tray is not in it, and there is nothing of it for the gripper to touch."""
     dish = arm.touching(t)
-    return ik.grasp_checker(scene, dish) if dish else scene.checker
+    return ik.grasp_checker(scene, dish) if dish in scene.dishes else scene.checker
 
 
 def _unpadded(checker: RobotChecker) -> RobotChecker:

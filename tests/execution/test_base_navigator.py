@@ -624,3 +624,19 @@ def test_a_motion_that_writes_its_heading_a_turn_round_is_played_from_the_joint_
     # A motion written from the joint's own yaw, as a stop-and-go one is, is played as is.
     assert yaw_turns(yaw, [profile.segment((0, 0, yaw), (1, 0, yaw), turn=False,
                                            length=1.0)]) == (0.0,)
+
+
+def test_an_arm_still_carrying_a_dish_a_replan_left_out_is_checked_without_it(scene):
+    """After a replan the scene holds only the dishes that remain; the arm may still be
+    carrying the one it picked to the tray. The navigator's check of the two motions
+    together lets the gripper touch a dish the scene has, and checks without one it has
+    not (it raised KeyError on it: five smooth dense runs with recovery at 6d93e51)."""
+    from s3o_drake.execution.base_navigator import _checker
+    from s3o_drake.feasibility import ik
+
+    present = next(iter(scene.dishes))
+    holding = ArmMotion(dish=present, release_time=math.inf)
+    assert _checker(scene, holding, 1.0) is ik.grasp_checker(scene, present)
+    carried = ArmMotion(dish="cup_gone", release_time=math.inf)
+    assert _checker(scene, carried, 1.0) is scene.checker
+    assert _checker(scene, ArmMotion(dish=present, release_time=0.5), 1.0) is scene.checker
