@@ -82,10 +82,16 @@ def main(argv: list[str] | None = None) -> int:
         for key in ("1", *SIZES):
             value = per_study[str(folder)].get(key)
             print(_line(key, value) if value else f"  {_what(key)}: none")
+    # The pooled shares are a measurement even where they cannot make a model: printed
+    # first, so that a study without large stops still reads.
+    pooled = derive_shares(everything, partial=True)
+    print("all:")
+    for key in ("1", *SIZES):
+        print(_line(key, pooled[key]) if key in pooled else f"  {_what(key)}: none")
     try:
         total = derive_shares(everything)
     except ValueError as e:
-        fail(f"DIR: the studies together have {e}")
+        fail(f"DIR: the studies together have {e}; nothing written")
     shares = StopShares({k: total[k]["share"] for k in SIZES}, {
         "command": "s3o shared-stop " + " ".join(sys.argv[1:] if argv is None else argv),
         "intervals": {k: [round(total[k]["low"], 4), round(total[k]["high"], 4)]
@@ -99,9 +105,6 @@ def main(argv: list[str] | None = None) -> int:
               "# share s_k), abstraction/shared_stop.py. Written by the command below; do not\n"
               "# edit.\n")
     write_record(out, header, shares.to_dict())
-    print("all:")
-    for key, value in total.items():
-        print(_line(key, value))
     print(f"wrote {out}")
     return 0
 
