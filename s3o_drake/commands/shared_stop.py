@@ -88,10 +88,11 @@ def main(argv: list[str] | None = None) -> int:
     print("all:")
     for key in ("1", *SIZES):
         print(_line(key, pooled[key]) if key in pooled else f"  {_what(key)}: none")
-    try:
-        total = derive_shares(everything)
-    except ValueError as e:
-        fail(f"DIR: the studies together have {e}; nothing written")
+    missing = [key for key in ("1", *SIZES) if key not in pooled]
+    if missing:
+        fail(f"DIR: the studies together have no pickups with Fea^m > 0 at "
+             f"{_what(missing[0])}; nothing written")
+    total = pooled
     shares = StopShares({k: total[k]["share"] for k in SIZES}, {
         "command": "s3o shared-stop " + " ".join(sys.argv[1:] if argv is None else argv),
         "intervals": {k: [round(total[k]["low"], 4), round(total[k]["high"], 4)]
