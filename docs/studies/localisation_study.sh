@@ -5,22 +5,18 @@
 # It makes the worktree ../localisation-COMMIT at COMMIT, restores the rows already committed
 # under docs/studies/localisation_COMMIT/ into its out/ folders, and resumes: `s3o evaluate`
 # skips the runs that have a row. Every hour it copies the rows back and commits them as
-# `data:`. The default's rows are the motion study's at 6d93e51 (smooth, S3O-GROP*), where
-# COMMIT repeats them: `same_runs` checks that on the dense room's first 20 tasks.
+# `data:`. The default's rows are the motion study's (smooth, S3O-GROP*, docs/studies/
+# motion_COMMIT/): where COMMIT is another commit, `same_runs` checks on the dense room's
+# first 20 tasks that COMMIT repeats them.
 set -euo pipefail
 main="$(git rev-parse --show-toplevel)"
 commit="${1:?usage: localisation_study.sh COMMIT}"
 here="$main/docs/studies/localisation_$commit"
-mkdir -p "$here"
-tree="$main/../localisation-$commit"
-[ -d "$tree" ] || git -C "$main" worktree add --detach "$tree" "$commit"
-cd "$tree"
-export PYTHONPATH="$tree"  # this commit's package, not the editable install's
 studies=(same_runs dense_open_loop spacious_open_loop dense_recovery spacious_recovery
          two_process)
 # shellcheck source=docs/studies/rows.sh
 . "$main/docs/studies/rows.sh"
-restore_rows "$here" "${studies[@]}"
+enter_study "$main" "$here" "$main/../localisation-$commit" "$commit" "${studies[@]}"
 for name in "${studies[@]:0:5}"; do
     room=${name%%_*}; [ "$room" = same ] && room=dense
     [ -f "out/$name/difficulty.jsonl" ] ||

@@ -12,14 +12,10 @@ main="$(git rev-parse --show-toplevel)"
 name="${1:?usage: robot_calibration.sh NAME COMMIT}"
 commit="${2:?usage: robot_calibration.sh NAME COMMIT}"
 here="$main/docs/studies/calibration_${name}_$commit"
-tree="$main/../calibration-$name-$commit"
-[ -d "$tree" ] || git -C "$main" worktree add --detach "$tree" "$commit"
-cd "$tree"
-export PYTHONPATH="$tree"  # this commit's package, not the editable install's
 studies=(spacious_open_loop dense_open_loop spacious_recovery dense_recovery)
 # shellcheck source=docs/studies/rows.sh
 . "$main/docs/studies/rows.sh"
-restore_rows "$here" "${studies[@]}"
+enter_study "$main" "$here" "$main/../calibration-$name-$commit" "$commit" "${studies[@]}"
 keep_rows_hourly "$main" "$here" "$name's calibration at $commit" "${studies[@]}"
 # Exit status 1: some run ended in an error, which its row records; go on.
 ev() { s3o evaluate --quiet --workers 2 --methods "S3O-GROP*" --count 20 --seeds 3 \

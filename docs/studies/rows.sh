@@ -2,6 +2,8 @@
 # restore_rows HERE NAME...: each out/NAME/results.jsonl that is missing, from HERE/NAME/.
 # keep_rows_hourly MAIN HERE LABEL NAME...: every hour, the rows back into HERE and one
 #   `data:` commit in the checkout MAIN; it runs in the background until the script exits.
+# enter_study MAIN HERE TREE COMMIT NAME...: into the worktree TREE at COMMIT (made if it is
+#   missing), with that commit's package on the path, and the rows kept in HERE restored.
 restore_rows() {
     local here="$1" name; shift
     for name in "$@"; do
@@ -10,6 +12,14 @@ restore_rows() {
             cp "$here/$name/results.jsonl" "out/$name/"
         fi
     done
+}
+enter_study() {
+    local main="$1" here="$2" tree="$3" commit="$4"; shift 4
+    mkdir -p "$here"
+    [ -d "$tree" ] || git -C "$main" worktree add --detach "$tree" "$commit"
+    cd "$tree"
+    export PYTHONPATH="$tree"  # this commit's package, not the editable install's
+    restore_rows "$here" "$@"
 }
 keep_rows_hourly() {
     local main="$1" here="$2" label="$3"; shift 3
