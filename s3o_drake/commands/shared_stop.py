@@ -45,6 +45,11 @@ def _line(key: str, found: dict[str, float]) -> str:
             f"Fea^m summed {found['predicted']:.1f})")
 
 
+def _print_shares(shares: dict[str, dict[str, float]], keys: tuple[str, ...]) -> None:
+    for key in keys:
+        print(_line(key, shares[key]) if key in shares else f"  {_what(key)}: none")
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     folders = study_folders(args)
@@ -57,6 +62,8 @@ def main(argv: list[str] | None = None) -> int:
     from s3o_drake.experiments.calibration import RecordsError, read_records
     from s3o_drake.experiments.store import ResultStore
     from s3o_drake.world.robot import load_robot
+
+    keys = ("1", *SIZES)  # the one-dish stops, then the shared ones
 
     out = out_file(args.out) if args.out else load_robot(study_robot(folders)).files.shared_stop
     everything, per_study, codes = [], {}, Counter()
@@ -79,26 +86,22 @@ def main(argv: list[str] | None = None) -> int:
         per_study[str(folder)] = derive_shares(found, partial=True)
         everything += found
         print(f"{folder}:")
-        for key in ("1", *SIZES):
-            value = per_study[str(folder)].get(key)
-            print(_line(key, value) if value else f"  {_what(key)}: none")
+        _print_shares(per_study[str(folder)], keys)
     # The pooled shares are a measurement even where they cannot make a model: printed
     # first, so that a study without large stops still reads.
     pooled = derive_shares(everything, partial=True)
     print("all:")
-    for key in ("1", *SIZES):
-        print(_line(key, pooled[key]) if key in pooled else f"  {_what(key)}: none")
-    missing = [key for key in ("1", *SIZES) if key not in pooled]
+    _print_shares(pooled, keys)
+    missing = [key for key in keys if key not in pooled]
     if missing:
         fail(f"DIR: the studies together have no pickups with Fea^m > 0 at "
              f"{_what(missing[0])}; nothing written")
-    total = pooled
-    shares = StopShares({k: total[k]["share"] for k in SIZES}, {
+    shares = StopShares({k: pooled[k]["share"] for k in SIZES}, {
         "command": "s3o shared-stop " + " ".join(sys.argv[1:] if argv is None else argv),
-        "intervals": {k: [round(total[k]["low"], 4), round(total[k]["high"], 4)]
+        "intervals": {k: [round(pooled[k]["low"], 4), round(pooled[k]["high"], 4)]
                       for k in SIZES},
-        "pickups": {k: total[k]["pickups"] for k in total},
-        "one_dish_check": round(total["1"]["share"], 4),
+        "pickups": {k: pooled[k]["pickups"] for k in pooled},
+        "one_dish_check": round(pooled["1"]["share"], 4),
         "studies": {study: {k: round(v["share"], 4) for k, v in found.items()}
                     for study, found in per_study.items()},
         "code": dict(codes)})
