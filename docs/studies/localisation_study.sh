@@ -6,8 +6,8 @@
 # under docs/studies/localisation_COMMIT/ into its out/ folders, and resumes: `s3o evaluate`
 # skips the runs that have a row. Every hour it copies the rows back and commits them as
 # `data:`. The default's rows are the motion study's (smooth, S3O-GROP*, docs/studies/
-# motion_COMMIT/): where COMMIT is another commit, `same_runs` checks on the dense room's
-# first 20 tasks that COMMIT repeats them.
+# motion_COMMIT.tar.xz): where COMMIT is another commit, `same_runs` checks on the dense
+# room's first 20 tasks that COMMIT repeats them.
 set -euo pipefail
 main="$(git rev-parse --show-toplevel)"
 commit="${1:?usage: localisation_study.sh COMMIT}"

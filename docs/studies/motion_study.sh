@@ -1,25 +1,23 @@
 #!/usr/bin/env bash
 # The smooth motion's studies at one commit (docs/results.md, "The smooth motion's studies").
 # Run from the repository's main checkout:  bash docs/studies/motion_study.sh COMMIT
-# It makes the worktree ../study64-COMMIT at COMMIT, restores the rows already committed
-# under docs/studies/motion_COMMIT/ into its out/ folders, and resumes: `s3o evaluate` skips
-# the runs that have a row. Every hour it copies the rows back and commits them as `data:`.
+# It makes the worktree ../study64-COMMIT at COMMIT, restores the rows already kept, in
+# docs/studies/motion_COMMIT/ while the study runs or in docs/studies/motion_COMMIT.tar.xz
+# once it has shipped, into its out/ folders, and resumes: `s3o evaluate` skips the runs that
+# have a row. Every hour it copies the rows back and commits them as `data:`.
 set -euo pipefail
 main="$(git rev-parse --show-toplevel)"
 commit="${1:?usage: motion_study.sh COMMIT}"
 here="$main/docs/studies/motion_$commit"
-mkdir -p "$here"
-tree="$main/../study64-$commit"
-[ -d "$tree" ] || git -C "$main" worktree add --detach "$tree" "$commit"
-cd "$tree"
-export PYTHONPATH="$tree"  # this commit's package, not the editable install's
 difficulty() { case "$1" in dense_*) echo dense ;; *) echo spacious ;; esac; }
 studies=(same_runs_028cb79 same_runs_stop_and_go time_noise_off_dense time_noise_off_spacious
          dense_open_loop dense_open_loop_stop_and_go spacious_open_loop spacious_open_loop_stop_and_go
          dense_recovery spacious_recovery dense_recovery_stop_and_go spacious_recovery_stop_and_go)
 # shellcheck source=docs/studies/rows.sh
 . "$main/docs/studies/rows.sh"
-restore_rows "$here" "${studies[@]}"
+enter_study "$main" "$here" "$main/../study64-$commit" "$commit" "${studies[@]}"
+# A shipped study: its rows, one folder per cell, from the archive.
+[ ! -f "$here.tar.xz" ] || tar -xJf "$here.tar.xz" -C out --strip-components=1 --skip-old-files
 for name in "${studies[@]}"; do
     # 028cb79's own rows, the paper's motion before the smooth one existed.
     [ "$name" != same_runs_028cb79 ] || [ -f "out/$name/results.jsonl" ] ||
