@@ -14,6 +14,7 @@ import dataclasses
 import json
 import logging
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -85,11 +86,13 @@ def describe_plan(p: TaskMotionPlan) -> str:
 
 
 def execution_time_line(predicted: float, simulated: float, *, first: str = "",
-                        actions: int = 1, expected: float | None = None) -> str:
+                        actions: int = 1, expected: float | None = None,
+                        recoveries: Sequence[float] = ()) -> str:
     """The predicted execution time against the simulated one, said so that the sign cannot
     be misread: how much longer (or shorter) the simulation took than the plan said; with
     `expected` (the plan's expected time with the noise, for a run with the noise on),
-    against that."""
+    against that. `recoveries`: what each recovery of the run cost (s), which no prediction
+    holds, so that a run with recoveries is not read as the time model's error."""
     if not actions:
         return "Execution time: nothing to execute (the plan has no actions)."
     if expected is not None:
@@ -97,6 +100,10 @@ def execution_time_line(predicted: float, simulated: float, *, first: str = "",
                                      "on average, every action done")
     else:
         what = "the prediction is the plan as planned: exact landings, every action done"
+    if recoveries:
+        n = len(recoveries)
+        what += (f"; {n} {'recovery' if n == 1 else 'recoveries'}, which it leaves out, "
+                 f"took {sum(recoveries):.1f} s")
     gap = simulated - predicted
     share = f" ({100 * abs(gap) / predicted:.1f} % of the prediction)" if predicted > 0 else ""
     return (f"Execution time: predicted {predicted:.1f} s{first}, simulated {simulated:.1f} s: "
@@ -374,7 +381,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         first = f" by the first of {plans} plans" if plans > 1 else ""
         print(execution_time_line(predicted, simulated, first=first,
                                   actions=len(run.plan.actions),
-                                  expected=run.plan.expected_time if report["noise"] else None))
+                                  expected=run.plan.expected_time if report["noise"] else None,
+                                  recoveries=[r["cost"] for r in report.get("recoveries", [])]))
     for path in written:
         print(f"  wrote {path}")
     if args.meshcat and sys.stdin.isatty():

@@ -549,3 +549,8 @@ def test_the_execution_time_line_says_which_way_the_prediction_was_off():
     line = execution_time_line(120.0, 130.0, expected=128.0)
     assert line.startswith("Execution time: predicted 128.0 s, simulated 130.0 s: the "
                            "simulation took 2.0 s") and "what the noise adds" in line
+    # A run's recoveries are no part of any prediction: their time is said beside the gap.
+    line = execution_time_line(93.8, 124.6, expected=93.8, recoveries=[12.0, 9.1, 11.3])
+    assert "took 30.8 s (32.8 % of the prediction) longer" in line
+    assert line.endswith("; 3 recoveries, which it leaves out, took 32.4 s).")
+    assert "recover" not in execution_time_line(93.8, 124.6, expected=93.8)
