@@ -368,7 +368,8 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         written.append(out / "playback.html")
     written += _write_pictures(scenario, run, plan, out)
 
-    plans = 1 + sum(r["kind"] == "replan" for r in report.get("recoveries", []))
+    recoveries = report.get("recoveries", [])
+    plans = 1 + sum(r["kind"] == "replan" for r in recoveries)
     if plan is not None:
         if plans > 1:
             print(f"The latest of {plans} plans (plan.json; the execution below lists the "
@@ -382,7 +383,7 @@ def main(argv: list[str] | None = None, prog: str | None = None) -> int:
         print(execution_time_line(predicted, simulated, first=first,
                                   actions=len(run.plan.actions),
                                   expected=run.plan.expected_time if report["noise"] else None,
-                                  recoveries=[r["cost"] for r in report.get("recoveries", [])]))
+                                  recoveries=[r["cost"] for r in recoveries]))
     for path in written:
         print(f"  wrote {path}")
     if args.meshcat and sys.stdin.isatty():
